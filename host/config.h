@@ -1,0 +1,55 @@
+// config.h -- every hyperparameter of one LSNIF model (paper sections 3 and 5.1). Stored in the
+// .lsnif header; the CPU reference, the trainer and the shaders all derive their layouts from it.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "../shaders/host_device.h"
+#include "status.h"
+
+namespace lsnif {
+
+enum class HitParam : uint32_t {
+  AabbInterval = LSNIF_HIT_PARAM_AABB_INTERVAL,    // paper: t as a fraction of the ray/AABB interval
+  VoxelSegments = LSNIF_HIT_PARAM_VOXEL_SEGMENTS,  // ours: t as a position among the crossed segments
+};
+const char* to_string(HitParam p);
+
+struct Config {
+  uint32_t voxel_resolution = 32;  // V: voxels per axis over the padded object AABB
+  uint32_t max_points = 18;        // H: boundary points fed to the network (zero-filled after)
+  uint32_t grid_levels = 2;        // L: hash-grid levels
+  uint32_t grid_resolution[LSNIF_MAX_LEVELS] = {64, 128, 0, 0};  // per level; multiples of V
+  uint32_t log2_table_size = 17;   // M: 2^M entries per level
+  uint32_t features = 3;           // F: features per entry
+  uint32_t hidden_width = 128;     // W
+  uint32_t hidden_layers = 2;
+  uint32_t material_count = 1;     // Nmat
+  HitParam hit_param = HitParam::VoxelSegments;
+  float leaky_slope = 0.01f;       // leaky ReLU negative slope
+
+  uint32_t table_size() const { return 1u << log2_table_size; }
+  uint32_t input_dim() const { return max_points * grid_levels * features; }
+  uint32_t output_dim() const { return LSNIF_OUT_FIXED + material_count; }
+  uint64_t voxel_count() const {
+    return uint64_t(voxel_resolution) * voxel_resolution * voxel_resolution;
+  }
+  // Number of MLP parameters (weights and biases of all layers).
+  uint64_t mlp_parameter_count() const;
+  // Number of hash-grid parameters (L * 2^M * F).
+  uint64_t grid_parameter_count() const {
+    return uint64_t(grid_levels) * table_size() * features;
+  }
+
+  // Checks ranges and consistency (for example every grid resolution a multiple of V so that voxel
+  // faces lie on grid planes). The message names the offending field.
+  Status validate() const;
+  // One-line human-readable summary ("V=32 H=18 L=2 res=64,128 M=17 F=3 W=128x2 Nmat=1 ...").
+  std::string describe() const;
+};
+
+// Fills grid_resolution[0..L) geometrically from `coarsest` to `finest` (which should be multiples
+// of V); the levels in between are rounded to the nearest multiple of V.
+void set_grid_resolutions(Config& config, uint32_t coarsest, uint32_t finest);
+
+}  // namespace lsnif

@@ -1,0 +1,42 @@
+// loss.h -- LSNIF training losses (paper 5.3) for one ray, with their gradients w.r.t. the raw MLP
+// outputs: binary cross-entropy on occlusion; mean absolute error on the distance output s (in the
+// unit of the chosen hit parametrization, head.h); 1 - cosine similarity on the normal; relative L2
+// on albedo (denominator treated as a constant, as in Noise2Noise); cross-entropy on the material.
+// Every loss but occlusion is zero where the reference misses.
+#pragma once
+#include <cstdint>
+
+#include <glm/glm.hpp>
+
+#include "config.h"
+
+namespace lsnif {
+
+struct LossTarget {
+  bool hit = false;
+  float s = 0.0f;          // distance target in [0,1] (unit_from_distance)
+  glm::vec3 normal{0.0f};  // non-zero when hit
+  glm::vec3 albedo{0.0f};
+  uint32_t material = 0;
+};
+
+struct LossWeights {
+  float occlusion = 1.0f, distance = 1.0f, normal = 1.0f, albedo = 1.0f, material = 1.0f;
+};
+
+struct LossTerms {
+  double occlusion = 0, distance = 0, normal = 0, albedo = 0, material = 0;
+  double total() const { return occlusion + distance + normal + albedo + material; }
+  LossTerms& operator+=(const LossTerms& o) {
+    occlusion += o.occlusion; distance += o.distance; normal += o.normal;
+    albedo += o.albedo; material += o.material;
+    return *this;
+  }
+};
+
+// Loss of one ray (weighted, unscaled) and d(scale * weighted loss)/d(raw) written to d_raw
+// (config.output_dim() floats, overwritten). `scale` is normally 1 / batch size.
+LossTerms ray_loss(const Config& config, const float* raw, const LossTarget& target,
+                   const LossWeights& weights, float scale, float* d_raw);
+
+}  // namespace lsnif

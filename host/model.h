@@ -1,0 +1,53 @@
+// model.h -- one trained LSNIF object in memory: its config, padded AABB, material table, voxel
+// occupancy, hash tables and MLP parameters. Parameters are kept as float but, once a model has
+// been quantized (after training, or when loaded), every value is exactly an fp16 value: the
+// .lsnif file and the GPU store them as fp16.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "config.h"
+#include "status.h"
+#include "voxel_grid.h"
+
+namespace lsnif {
+
+struct ModelMaterial {
+  std::string name;               // at most 63 bytes in the file
+  glm::vec3 base_color{1.0f};     // linear RGB, informative (the network predicts albedo)
+};
+
+struct Model {
+  Config config;
+  VoxelGrid voxels;               // resolution == config.voxel_resolution; bounds = object AABB
+  std::vector<ModelMaterial> materials;  // size == config.material_count
+  std::vector<float> grid;        // config.grid_parameter_count() values, hash_grid.h layout
+  // MLP parameters, config.mlp_parameter_count() values. For each layer in order (hidden layers,
+  // then the output layer): the weight matrix row-major [out][in], then the bias [out].
+  std::vector<float> mlp;
+
+  const Aabb& bounds() const { return voxels.bounds; }
+  // Consistency of sizes with the config; the message names the mismatch.
+  Status validate() const;
+  // Rounds grid and mlp to fp16 precision in place.
+  void quantize();
+};
+
+struct MemoryBreakdown {
+  uint64_t voxel_bytes = 0, grid_bytes = 0, mlp_bytes = 0, header_bytes = 0;
+  uint64_t total() const { return voxel_bytes + grid_bytes + mlp_bytes + header_bytes; }
+};
+// Bytes the model's parts take in the .lsnif file (= on the GPU, fp16 parameters, 1 bit/voxel).
+MemoryBreakdown memory_breakdown(const Model& model);
+
+// .lsnif files: versioned little-endian binary (see model_file.cpp for the exact layout) with a
+// CRC-32 over everything before it. Loading validates every field and never trusts a size it has
+// not checked against the file's length: truncated, corrupted, wrong-version or inconsistent
+// files return an error that names the problem.
+Status save_model(const Model& model, const std::string& path);
+Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes);
+Status load_model(const std::string& path, Model& model);
+Status load_model_from_memory(const uint8_t* data, size_t size, Model& model);
+
+}  // namespace lsnif

@@ -1,0 +1,417 @@
+// model_file.cpp -- reading and writing .lsnif files. The byte layout is specified in
+// docs/model-format.md; in short (all little-endian, packed byte by byte, no struct copies):
+//
+//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1)
+//   12   u32 header size (168)              16  u64 total file size
+//   24   Config (13 x u32, leaky slope f32) 80  AABB lo.xyz, hi.xyz (6 x f32)
+//   104  section table: {u64 offset, u64 size} for materials, voxels, grid, mlp
+//   168  zero padding to 176, then the four sections in that order, each at a 16-byte aligned
+//        offset with zero padding between them, then (16-byte aligned) u32 CRC-32 of all bytes before.
+//
+// The loader trusts nothing: every size is compared with the file length before it is used, and
+// memory is allocated only once the whole layout has been checked against the validated config.
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+
+#include "crc32.h"
+#include "half.h"
+#include "model.h"
+
+namespace lsnif {
+
+namespace {
+
+constexpr uint8_t kMagic[8] = {'L', 'S', 'N', 'I', 'F', 0x00, '\r', '\n'};
+constexpr uint32_t kFormatVersion = 1;
+constexpr uint32_t kHeaderSize = 168;
+constexpr uint64_t kNameBytes = 64;
+constexpr uint64_t kMaterialRecordSize = kNameBytes + 3 * 4;  // name + base_color[3]
+constexpr uint64_t kAlignment = 16;
+constexpr uint64_t kCrcSize = 4;
+
+// Header field offsets.
+constexpr size_t kOffVersion = 8, kOffHeaderSize = 12, kOffFileSize = 16, kOffConfig = 24,
+                 kOffAabb = 80, kOffSections = 104;
+
+enum Section { kMaterials = 0, kVoxels, kGrid, kMlp, kSectionCount };
+constexpr const char* kSectionName[kSectionCount] = {"materials", "voxels", "grid", "mlp"};
+
+uint64_t align16(uint64_t n) { return (n + kAlignment - 1) & ~(kAlignment - 1); }
+
+// Where everything lives in the file of a model with this (valid) config.
+struct Layout {
+  uint64_t offset[kSectionCount] = {};
+  uint64_t size[kSectionCount] = {};
+  uint64_t crc_offset = 0, file_size = 0;
+};
+
+Layout layout_of(const Config& c) {
+  Layout l;
+  l.size[kMaterials] = kMaterialRecordSize * c.material_count;
+  l.size[kVoxels] = 4u * ((c.voxel_count() + 31u) / 32u);
+  l.size[kGrid] = 2u * c.grid_parameter_count();
+  l.size[kMlp] = 2u * c.mlp_parameter_count();
+  uint64_t end = kHeaderSize;
+  for (int s = 0; s < kSectionCount; ++s) {
+    l.offset[s] = align16(end);
+    end = l.offset[s] + l.size[s];
+  }
+  l.crc_offset = align16(end);
+  l.file_size = l.crc_offset + kCrcSize;
+  return l;
+}
+
+// The largest file any valid config implies (every limit at its maximum): a cheap bound that keeps
+// load_model from reading an arbitrarily large file into memory.
+uint64_t max_file_size() {
+  Config c;
+  c.voxel_resolution = 256;
+  c.max_points = LSNIF_MAX_POINTS;
+  c.grid_levels = LSNIF_MAX_LEVELS;
+  c.log2_table_size = 24;
+  c.features = LSNIF_MAX_FEATURES;
+  c.hidden_width = LSNIF_MAX_HIDDEN_WIDTH;
+  c.hidden_layers = LSNIF_MAX_HIDDEN_LAYERS;
+  c.material_count = LSNIF_MAX_MATERIALS;
+  return layout_of(c).file_size;
+}
+
+// ---- little-endian packing ----------------------------------------------------------------------
+
+void put_u16(uint8_t* p, uint16_t v) {
+  p[0] = static_cast<uint8_t>(v);
+  p[1] = static_cast<uint8_t>(v >> 8);
+}
+void put_u32(uint8_t* p, uint32_t v) {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+void put_u64(uint8_t* p, uint64_t v) {
+  for (int i = 0; i < 8; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+void put_f32(uint8_t* p, float f) {
+  uint32_t v;
+  std::memcpy(&v, &f, 4);
+  put_u32(p, v);
+}
+uint16_t get_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
+uint32_t get_u32(const uint8_t* p) {
+  uint32_t v = 0;
+  for (int i = 3; i >= 0; --i) v = (v << 8) | p[i];
+  return v;
+}
+uint64_t get_u64(const uint8_t* p) {
+  uint64_t v = 0;
+  for (int i = 7; i >= 0; --i) v = (v << 8) | p[i];
+  return v;
+}
+float get_f32(const uint8_t* p) {
+  uint32_t v = get_u32(p);
+  float f;
+  std::memcpy(&f, &v, 4);
+  return f;
+}
+
+unsigned long long ull(uint64_t v) { return static_cast<unsigned long long>(v); }
+
+bool half_is_finite(uint16_t h) { return (h & 0x7c00u) != 0x7c00u; }
+const char* half_non_finite_kind(uint16_t h) { return (h & 0x3ffu) ? "NaN" : "infinite"; }
+
+bool aabb_usable(const Aabb& b) {
+  for (int a = 0; a < 3; ++a)
+    if (!std::isfinite(b.lo[a]) || !std::isfinite(b.hi[a]) || !(b.lo[a] < b.hi[a])) return false;
+  return true;
+}
+
+// Config fields in file order (docs/model-format.md, offsets 24..79).
+void write_config(uint8_t* p, const Config& c) {
+  const uint32_t fields[13] = {c.voxel_resolution, c.max_points,        c.grid_levels,
+                               c.grid_resolution[0], c.grid_resolution[1], c.grid_resolution[2],
+                               c.grid_resolution[3], c.log2_table_size,   c.features,
+                               c.hidden_width,      c.hidden_layers,     c.material_count,
+                               static_cast<uint32_t>(c.hit_param)};
+  for (int i = 0; i < 13; ++i) put_u32(p + 4 * i, fields[i]);
+  put_f32(p + 52, c.leaky_slope);
+}
+
+Config read_config(const uint8_t* p) {
+  Config c;
+  c.voxel_resolution = get_u32(p + 0);
+  c.max_points = get_u32(p + 4);
+  c.grid_levels = get_u32(p + 8);
+  for (int l = 0; l < 4; ++l) c.grid_resolution[l] = get_u32(p + 12 + 4 * l);
+  c.log2_table_size = get_u32(p + 28);
+  c.features = get_u32(p + 32);
+  c.hidden_width = get_u32(p + 36);
+  c.hidden_layers = get_u32(p + 40);
+  c.material_count = get_u32(p + 44);
+  c.hit_param = static_cast<HitParam>(get_u32(p + 48));  // fixed uint32_t underlying type: any value ok
+  c.leaky_slope = get_f32(p + 52);
+  return c;
+}
+
+// Converts parameters to fp16 and stores them; fails on values fp16 cannot hold.
+Status write_halves(uint8_t* p, const std::vector<float>& values, const char* section) {
+  for (size_t i = 0; i < values.size(); ++i) {
+    const uint16_t h = float_to_half(values[i]);
+    if (!half_is_finite(h))
+      return Status::error("%s value %zu is %g, which is not a finite fp16 value", section, i,
+                           double(values[i]));
+    put_u16(p + 2 * i, h);
+  }
+  return Status::ok();
+}
+
+// Reads `count` fp16 values, rejecting NaN and infinity.
+Status read_halves(const uint8_t* p, uint64_t count, const char* section, std::vector<float>& out) {
+  for (uint64_t i = 0; i < count; ++i) {
+    const uint16_t h = get_u16(p + 2 * i);
+    if (!half_is_finite(h))
+      return Status::error("%s section value %llu (of %llu) is %s (fp16 bits 0x%04x)", section, ull(i),
+                           ull(count), half_non_finite_kind(h), h);
+  }
+  out.resize(count);
+  for (uint64_t i = 0; i < count; ++i) out[i] = half_to_float(get_u16(p + 2 * i));
+  return Status::ok();
+}
+
+// Checks of the fixed header that need neither the CRC nor the config: magic, version, header
+// size, and the declared total size against the actual one.
+Status check_preamble(const uint8_t* data, size_t size) {
+  if (size == 0) return Status::error("file is empty (0 bytes)");
+  const size_t magic_bytes = size < sizeof(kMagic) ? size : sizeof(kMagic);
+  if (std::memcmp(data, kMagic, magic_bytes) != 0)
+    return Status::error("bad magic: not an .lsnif file (the first 8 bytes must be \"LSNIF\\0\\r\\n\")");
+  if (size < kOffFileSize + 8)
+    return Status::error("truncated: %zu bytes, the .lsnif header alone is %u bytes", size, kHeaderSize);
+  const uint32_t version = get_u32(data + kOffVersion);
+  if (version != kFormatVersion)
+    return Status::error("unsupported format version %u (this build supports version %u)", version,
+                         kFormatVersion);
+  const uint32_t header_size = get_u32(data + kOffHeaderSize);
+  if (header_size != kHeaderSize)
+    return Status::error("header size %u is wrong: format version %u has a %u-byte header", header_size,
+                         kFormatVersion, kHeaderSize);
+  const uint64_t declared = get_u64(data + kOffFileSize);
+  if (size < declared)
+    return Status::error("truncated: expected %llu bytes (from the header), got %zu", ull(declared), size);
+  if (size > declared)
+    return Status::error("trailing data: the header says the file has %llu bytes, got %zu", ull(declared),
+                         size);
+  if (declared < kHeaderSize + kCrcSize)
+    return Status::error("truncated: the header declares %llu bytes, less than the %llu-byte header and checksum",
+                         ull(declared), ull(kHeaderSize + kCrcSize));
+  return Status::ok();
+}
+
+// Every byte in [begin, end) must be zero padding.
+Status check_padding(const uint8_t* data, uint64_t begin, uint64_t end) {
+  for (uint64_t i = begin; i < end; ++i)
+    if (data[i] != 0) return Status::error("padding byte at offset %llu is 0x%02x, not zero", ull(i), data[i]);
+  return Status::ok();
+}
+
+Status parse_model(const uint8_t* data, size_t size, Model& model) {
+  if (Status s = check_preamble(data, size); !s) return s;
+  const uint64_t crc_offset = size - kCrcSize;
+  const uint32_t stored_crc = get_u32(data + crc_offset), actual_crc = crc32(data, crc_offset);
+  if (stored_crc != actual_crc)
+    return Status::error("checksum mismatch: stored CRC-32 0x%08x, computed 0x%08x (file corrupted)",
+                         stored_crc, actual_crc);
+
+  Model m;
+  m.config = read_config(data + kOffConfig);
+  if (Status s = m.config.validate(); !s) return s.context("invalid config in header");
+  const Config& c = m.config;
+
+  Aabb& box = m.voxels.bounds;
+  box.lo = {get_f32(data + kOffAabb), get_f32(data + kOffAabb + 4), get_f32(data + kOffAabb + 8)};
+  box.hi = {get_f32(data + kOffAabb + 12), get_f32(data + kOffAabb + 16), get_f32(data + kOffAabb + 20)};
+  if (!aabb_usable(box))
+    return Status::error("object AABB lo=(%g, %g, %g) hi=(%g, %g, %g) is not finite or is empty",
+                         double(box.lo.x), double(box.lo.y), double(box.lo.z), double(box.hi.x),
+                         double(box.hi.y), double(box.hi.z));
+
+  // Section table: inside the file, then exactly the sizes and offsets the config implies.
+  const Layout expected = layout_of(c);
+  for (int s = 0; s < kSectionCount; ++s) {
+    const uint64_t offset = get_u64(data + kOffSections + 16 * s);
+    const uint64_t bytes = get_u64(data + kOffSections + 16 * s + 8);
+    if (offset < kHeaderSize || offset > crc_offset || bytes > crc_offset - offset)
+      return Status::error("section %s [offset %llu, size %llu] lies outside the file's data bytes [%u, %llu)",
+                           kSectionName[s], ull(offset), ull(bytes), kHeaderSize, ull(crc_offset));
+    if (bytes != expected.size[s])
+      return Status::error("section %s has size %llu bytes, the config implies %llu", kSectionName[s],
+                           ull(bytes), ull(expected.size[s]));
+    if (offset != expected.offset[s])
+      return Status::error("section %s is at offset %llu, expected %llu (sections follow the header in order, "
+                           "16-byte aligned)",
+                           kSectionName[s], ull(offset), ull(expected.offset[s]));
+  }
+  if (expected.file_size != size)
+    return Status::error("file size %zu does not match the %llu bytes the config implies", size,
+                         ull(expected.file_size));
+
+  // Padding between header, sections and checksum.
+  uint64_t end = kHeaderSize;
+  for (int s = 0; s < kSectionCount; ++s) {
+    if (Status st = check_padding(data, end, expected.offset[s]); !st) return st;
+    end = expected.offset[s] + expected.size[s];
+  }
+  if (Status st = check_padding(data, end, expected.crc_offset); !st) return st;
+
+  // Materials.
+  const uint8_t* p = data + expected.offset[kMaterials];
+  m.materials.resize(c.material_count);
+  for (uint32_t i = 0; i < c.material_count; ++i, p += kMaterialRecordSize) {
+    const void* nul = std::memchr(p, 0, kNameBytes);
+    if (!nul) return Status::error("material %u name is not NUL-terminated within %llu bytes", i, ull(kNameBytes));
+    const size_t length = static_cast<size_t>(static_cast<const uint8_t*>(nul) - p);
+    for (size_t k = length; k < kNameBytes; ++k)
+      if (p[k] != 0) return Status::error("material %u name has non-zero bytes after its NUL terminator", i);
+    m.materials[i].name.assign(reinterpret_cast<const char*>(p), length);
+    for (int k = 0; k < 3; ++k) {
+      const float v = get_f32(p + kNameBytes + 4 * k);
+      if (!std::isfinite(v)) return Status::error("material %u base color component %d is not finite", i, k);
+      m.materials[i].base_color[k] = v;
+    }
+  }
+
+  // Voxels.
+  m.voxels.resolution = c.voxel_resolution;
+  const uint64_t words = expected.size[kVoxels] / 4u;
+  p = data + expected.offset[kVoxels];
+  m.voxels.bits.resize(words);
+  for (uint64_t w = 0; w < words; ++w) m.voxels.bits[w] = get_u32(p + 4 * w);
+  const uint32_t used_bits = static_cast<uint32_t>(c.voxel_count() % 32u);
+  if (used_bits != 0 && (m.voxels.bits.back() >> used_bits) != 0)
+    return Status::error("voxels section has bits set beyond voxel %llu (V^3 = %u^3)", ull(c.voxel_count()),
+                         c.voxel_resolution);
+
+  // Parameters.
+  if (Status s = read_halves(data + expected.offset[kGrid], c.grid_parameter_count(), "grid", m.grid); !s)
+    return s;
+  if (Status s = read_halves(data + expected.offset[kMlp], c.mlp_parameter_count(), "mlp", m.mlp); !s) return s;
+
+  if (Status s = m.validate(); !s) return s.context("internal error: loaded model is inconsistent");
+  model = std::move(m);
+  return Status::ok();
+}
+
+}  // namespace
+
+Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes) {
+  if (Status s = model.validate(); !s) return s.context("cannot save model");
+  const Config& c = model.config;
+  const Aabb& box = model.bounds();
+  if (!aabb_usable(box)) return Status::error("cannot save model: its AABB is not finite or is empty");
+  for (size_t i = 0; i < model.materials.size(); ++i) {
+    const ModelMaterial& mat = model.materials[i];
+    if (mat.name.size() >= kNameBytes)
+      return Status::error("cannot save model: material %zu name \"%s\" is %zu bytes, at most %llu allowed", i,
+                           mat.name.c_str(), mat.name.size(), ull(kNameBytes - 1));
+    if (mat.name.find('\0') != std::string::npos)
+      return Status::error("cannot save model: material %zu name contains a NUL byte", i);
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(mat.base_color[k]))
+        return Status::error("cannot save model: material %zu base color is not finite", i);
+  }
+
+  const Layout l = layout_of(c);
+  std::vector<uint8_t> out(l.file_size, 0);  // zero-filled: all padding is already in place
+  uint8_t* d = out.data();
+  std::memcpy(d, kMagic, sizeof(kMagic));
+  put_u32(d + kOffVersion, kFormatVersion);
+  put_u32(d + kOffHeaderSize, kHeaderSize);
+  put_u64(d + kOffFileSize, l.file_size);
+  write_config(d + kOffConfig, c);
+  for (int a = 0; a < 3; ++a) {
+    put_f32(d + kOffAabb + 4 * a, box.lo[a]);
+    put_f32(d + kOffAabb + 12 + 4 * a, box.hi[a]);
+  }
+  for (int s = 0; s < kSectionCount; ++s) {
+    put_u64(d + kOffSections + 16 * s, l.offset[s]);
+    put_u64(d + kOffSections + 16 * s + 8, l.size[s]);
+  }
+
+  uint8_t* p = d + l.offset[kMaterials];
+  for (const ModelMaterial& mat : model.materials) {
+    std::memcpy(p, mat.name.data(), mat.name.size());
+    for (int k = 0; k < 3; ++k) put_f32(p + kNameBytes + 4 * k, mat.base_color[k]);
+    p += kMaterialRecordSize;
+  }
+  p = d + l.offset[kVoxels];
+  for (size_t w = 0; w < model.voxels.bits.size(); ++w) put_u32(p + 4 * w, model.voxels.bits[w]);
+  if (Status s = write_halves(d + l.offset[kGrid], model.grid, "grid"); !s) return s.context("cannot save model");
+  if (Status s = write_halves(d + l.offset[kMlp], model.mlp, "mlp"); !s) return s.context("cannot save model");
+
+  put_u32(d + l.crc_offset, crc32(d, l.crc_offset));
+  bytes = std::move(out);
+  return Status::ok();
+}
+
+Status save_model(const Model& model, const std::string& path) {
+  std::vector<uint8_t> bytes;
+  if (Status s = save_model_to_memory(model, bytes); !s) return s.context("saving " + path);
+  // Write a temporary file next to the target and rename it, so a failed write never leaves a
+  // half-written model under the target name.
+  const std::string temp = path + ".tmp";
+  std::FILE* f = std::fopen(temp.c_str(), "wb");
+  if (!f) return Status::error("saving %s: cannot open %s for writing: %s", path.c_str(), temp.c_str(),
+                               std::strerror(errno));
+  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
+  const int write_errno = errno;
+  const bool closed = std::fclose(f) == 0;
+  if (!written || !closed) {
+    std::remove(temp.c_str());
+    return Status::error("saving %s: writing %zu bytes failed: %s", path.c_str(), bytes.size(),
+                         std::strerror(written ? errno : write_errno));
+  }
+  std::error_code ec;
+  std::filesystem::rename(temp, path, ec);
+  if (ec) {
+    std::remove(temp.c_str());
+    return Status::error("saving %s: cannot rename %s to it: %s", path.c_str(), temp.c_str(), ec.message().c_str());
+  }
+  return Status::ok();
+}
+
+Status load_model_from_memory(const uint8_t* data, size_t size, Model& model) {
+  if (!data && size != 0) return Status::error("no data (null pointer with size %zu)", size);
+  if (size == 0) return Status::error("file is empty (0 bytes)");
+  return parse_model(data, size, model);
+}
+
+Status load_model(const std::string& path, Model& model) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (st.type() == fs::file_type::not_found) return Status::error("loading %s: no such file", path.c_str());
+  if (ec) return Status::error("loading %s: cannot access: %s", path.c_str(), ec.message().c_str());
+  if (fs::is_directory(st)) return Status::error("loading %s: is a directory, not an .lsnif file", path.c_str());
+  if (!fs::is_regular_file(st)) return Status::error("loading %s: not a regular file", path.c_str());
+  const uintmax_t size = fs::file_size(path, ec);
+  if (ec) return Status::error("loading %s: cannot read its size: %s", path.c_str(), ec.message().c_str());
+  if (size > max_file_size())
+    return Status::error("loading %s: %llu bytes is larger than any valid .lsnif file (at most %llu bytes)",
+                         path.c_str(), static_cast<unsigned long long>(size), ull(max_file_size()));
+
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return Status::error("loading %s: cannot open: %s", path.c_str(), std::strerror(errno));
+  std::vector<uint8_t> bytes(static_cast<size_t>(size));
+  const size_t got = bytes.empty() ? 0 : std::fread(bytes.data(), 1, bytes.size(), f);
+  // One more byte must not be there: the file may have grown since its size was taken.
+  uint8_t extra;
+  const bool longer = std::fread(&extra, 1, 1, f) == 1;
+  const bool read_error = std::ferror(f) != 0;
+  std::fclose(f);
+  if (read_error) return Status::error("loading %s: read error", path.c_str());
+  if (got != bytes.size() || longer)
+    return Status::error("loading %s: the file changed size while it was read", path.c_str());
+  return load_model_from_memory(bytes.data(), bytes.size(), model).context("loading " + path);
+}
+
+}  // namespace lsnif

@@ -1,0 +1,671 @@
+// model_file_test.cpp -- .lsnif files (host/model_file.cpp, docs/model-format.md), CRC-32
+// (host/crc32.h) and the Model helpers (host/model.cpp). Layout expectations are the offsets of the
+// format document, written out by hand; the CRC is checked against a bit-by-bit implementation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "crc32.h"
+#include "half.h"
+#include "model.h"
+#include "rng.h"
+
+namespace lsnif {
+namespace {
+
+namespace fs = std::filesystem;
+using Bytes = std::vector<uint8_t>;
+
+// ---- independent helpers -------------------------------------------------------------------------
+
+// CRC-32 one bit at a time, straight from the definition (reflected 0xEDB88320).
+uint32_t crc32_bitwise(const uint8_t* p, size_t n) {
+  uint32_t r = 0xffffffffu;
+  for (size_t i = 0; i < n; ++i) {
+    r ^= p[i];
+    for (int k = 0; k < 8; ++k) r = (r >> 1) ^ (0xEDB88320u & (0u - (r & 1u)));
+  }
+  return ~r;
+}
+
+uint32_t rd32(const Bytes& b, size_t off) {
+  return uint32_t(b[off]) | uint32_t(b[off + 1]) << 8 | uint32_t(b[off + 2]) << 16 | uint32_t(b[off + 3]) << 24;
+}
+uint64_t rd64(const Bytes& b, size_t off) { return uint64_t(rd32(b, off)) | uint64_t(rd32(b, off + 4)) << 32; }
+void wr32(Bytes& b, size_t off, uint32_t v) {
+  for (int i = 0; i < 4; ++i) b[off + i] = uint8_t(v >> (8 * i));
+}
+void wr64(Bytes& b, size_t off, uint64_t v) {
+  wr32(b, off, uint32_t(v));
+  wr32(b, off + 4, uint32_t(v >> 32));
+}
+void wrf32(Bytes& b, size_t off, float f) {
+  uint32_t v;
+  std::memcpy(&v, &f, 4);
+  wr32(b, off, v);
+}
+// Recomputes the trailer so that only the structural checks can catch a change.
+void fix_crc(Bytes& b) { wr32(b, b.size() - 4, crc32_bitwise(b.data(), b.size() - 4)); }
+
+// Documented offsets (docs/model-format.md).
+constexpr size_t kVersionAt = 8, kHeaderSizeAt = 12, kFileSizeAt = 16, kVAt = 24, kGridResAt = 36,
+                 kMatCountAt = 68, kHitParamAt = 72, kLeakyAt = 76, kAabbAt = 80, kSectionsAt = 104;
+enum { kMaterials = 0, kVoxels = 1, kGrid = 2, kMlp = 3 };
+uint64_t section_offset(const Bytes& b, int s) { return rd64(b, kSectionsAt + 16 * s); }
+uint64_t section_size(const Bytes& b, int s) { return rd64(b, kSectionsAt + 16 * s + 8); }
+
+Config random_config(Rng& rng, uint32_t levels, uint32_t materials) {
+  Config c;
+  c.voxel_resolution = 1 + rng.next_u32() % 12u;
+  c.max_points = 1 + rng.next_u32() % LSNIF_MAX_POINTS;
+  c.grid_levels = levels;
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l)
+    c.grid_resolution[l] = l < levels ? c.voxel_resolution * (1 + rng.next_u32() % 8u) : 0u;
+  c.log2_table_size = 4 + rng.next_u32() % 7u;
+  c.features = 1 + rng.next_u32() % LSNIF_MAX_FEATURES;
+  c.hidden_width = 1 + rng.next_u32() % 40u;
+  c.hidden_layers = 1 + rng.next_u32() % LSNIF_MAX_HIDDEN_LAYERS;
+  c.material_count = materials;
+  c.hit_param = (rng.next_u32() & 1u) ? HitParam::AabbInterval : HitParam::VoxelSegments;
+  c.leaky_slope = rng.next_float() * 0.5f;
+  return c;
+}
+
+// A model of random content that satisfies every rule of the format.
+Model random_model(const Config& c, Rng& rng) {
+  Model m;
+  m.config = c;
+  m.voxels.resolution = c.voxel_resolution;
+  const glm::vec3 lo(rng.next_float() * 10 - 5, rng.next_float() * 10 - 5, rng.next_float() * 10 - 5);
+  m.voxels.bounds.lo = lo;
+  m.voxels.bounds.hi = lo + glm::vec3(0.1f + rng.next_float(), 0.1f + rng.next_float(), 0.1f + rng.next_float());
+  m.voxels.bits.assign((c.voxel_count() + 31) / 32, 0u);
+  for (uint32_t k = 0; k < c.voxel_resolution; ++k)
+    for (uint32_t j = 0; j < c.voxel_resolution; ++j)
+      for (uint32_t i = 0; i < c.voxel_resolution; ++i)
+        if (rng.next_u32() % 3u == 0) m.voxels.set(i, j, k);
+  m.materials.resize(c.material_count);
+  for (uint32_t i = 0; i < c.material_count; ++i) {
+    const size_t length = i == 0 ? 63 : rng.next_u32() % 64u;  // the longest allowed name included
+    for (size_t k = 0; k < length; ++k) m.materials[i].name += char('a' + rng.next_u32() % 26u);
+    m.materials[i].base_color = glm::vec3(rng.next_float(), rng.next_float(), rng.next_float());
+  }
+  auto value = [&rng] {
+    const float u = rng.next_float() * 2.0f - 1.0f;
+    return std::ldexp(u, int(rng.next_u32() % 20u) - 16);  // magnitudes down to fp16 subnormals
+  };
+  m.grid.resize(c.grid_parameter_count());
+  for (float& v : m.grid) v = value();
+  m.mlp.resize(c.mlp_parameter_count());
+  for (float& v : m.mlp) v = value();
+  return m;
+}
+
+Model small_model(uint64_t seed = 1) {
+  Rng rng(seed, 0, 0);
+  return random_model(random_config(rng, 2, 2), rng);
+}
+
+void expect_same_bits(const std::vector<float>& a, const std::vector<float>& b, const char* what) {
+  ASSERT_EQ(a.size(), b.size()) << what;
+  for (size_t i = 0; i < a.size(); ++i) ASSERT_EQ(std::memcmp(&a[i], &b[i], 4), 0) << what << " " << i;
+}
+
+void expect_equal(const Model& a, const Model& b) {
+  EXPECT_EQ(a.config.describe(), b.config.describe());
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) EXPECT_EQ(a.config.grid_resolution[l], b.config.grid_resolution[l]);
+  EXPECT_EQ(a.config.leaky_slope, b.config.leaky_slope);
+  EXPECT_EQ(a.voxels.resolution, b.voxels.resolution);
+  EXPECT_EQ(a.voxels.bounds.lo, b.voxels.bounds.lo);
+  EXPECT_EQ(a.voxels.bounds.hi, b.voxels.bounds.hi);
+  EXPECT_EQ(a.voxels.bits, b.voxels.bits);
+  ASSERT_EQ(a.materials.size(), b.materials.size());
+  for (size_t i = 0; i < a.materials.size(); ++i) {
+    EXPECT_EQ(a.materials[i].name, b.materials[i].name);
+    EXPECT_EQ(a.materials[i].base_color, b.materials[i].base_color);
+  }
+  expect_same_bits(a.grid, b.grid, "grid");
+  expect_same_bits(a.mlp, b.mlp, "mlp");
+}
+
+Bytes saved(const Model& m) {
+  Bytes b;
+  Status s = save_model_to_memory(m, b);
+  EXPECT_TRUE(s) << s.message();
+  return b;
+}
+
+// Loads `b`, expects failure with a message containing every key word; the target model must stay
+// untouched.
+void expect_load_error(const Bytes& b, std::initializer_list<const char*> keywords) {
+  Model m = small_model(77);
+  const Bytes before = saved(m);
+  Status s = load_model_from_memory(b.data(), b.size(), m);
+  ASSERT_FALSE(s) << "loaded a bad file of " << b.size() << " bytes";
+  EXPECT_FALSE(s.message().empty());
+  for (const char* k : keywords) EXPECT_NE(s.message().find(k), std::string::npos) << "message: " << s.message();
+  EXPECT_EQ(saved(m), before) << "a failed load modified the model";
+}
+
+class TempDir {
+ public:
+  TempDir() {
+    path_ = fs::temp_directory_path() / ("lsnif_model_file_test_" + std::to_string(::getpid()));
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  fs::path path_;
+};
+
+// ---- CRC-32 -----------------------------------------------------------------------------------------
+
+TEST(Crc32, StandardCheckValueAndBitwiseReference) {
+  const char* check = "123456789";
+  EXPECT_EQ(crc32(reinterpret_cast<const uint8_t*>(check), 9), 0xCBF43926u);
+  EXPECT_EQ(crc32(nullptr, 0), 0u);
+  const uint8_t zero = 0;
+  EXPECT_EQ(crc32(&zero, 1), 0xD202EF8Du);
+  Rng rng(5, 0, 0);
+  for (int t = 0; t < 200; ++t) {
+    Bytes b(rng.next_u32() % 300u);
+    for (uint8_t& x : b) x = uint8_t(rng.next_u32());
+    ASSERT_EQ(crc32(b.data(), b.size()), crc32_bitwise(b.data(), b.size()));
+    const size_t cut = b.empty() ? 0 : rng.next_u32() % b.size();
+    ASSERT_EQ(crc32(b.data() + cut, b.size() - cut, crc32(b.data(), cut)), crc32_bitwise(b.data(), b.size()));
+  }
+}
+
+// ---- Model helpers ------------------------------------------------------------------------------------
+
+TEST(Model, ValidateFlagsEverySizeMismatch) {
+  const Model good = small_model();
+  EXPECT_TRUE(good.validate()) << good.validate().message();
+  auto expect_invalid = [](const Model& m, const char* keyword) {
+    Status s = m.validate();
+    ASSERT_FALSE(s);
+    EXPECT_NE(s.message().find(keyword), std::string::npos) << s.message();
+  };
+  Model m = good;
+  m.config.voxel_resolution = 0;
+  expect_invalid(m, "voxel resolution");
+  m = good;
+  m.voxels.resolution += 1;
+  expect_invalid(m, "resolution");
+  m = good;
+  m.voxels.bits.push_back(0);
+  expect_invalid(m, "words");
+  m = good;
+  m.materials.pop_back();
+  expect_invalid(m, "materials");
+  m = good;
+  m.grid.pop_back();
+  expect_invalid(m, "hash grid");
+  m = good;
+  m.mlp.push_back(0.0f);
+  expect_invalid(m, "MLP");
+  m = good;  // V=5: 125 voxels, bits 125..127 of the last word must stay clear
+  m.config.voxel_resolution = 5;
+  for (uint32_t l = 0; l < m.config.grid_levels; ++l) m.config.grid_resolution[l] = 5u * (l + 1);
+  m.voxels.resolution = 5;
+  m.voxels.bits.assign(4, 0u);
+  EXPECT_TRUE(m.validate()) << m.validate().message();
+  m.voxels.bits[3] = 1u << 29;
+  expect_invalid(m, "beyond");
+}
+
+TEST(Model, QuantizeRoundsToNearestHalf) {
+  Model m = small_model();
+  m.grid[0] = 1.0f + 0x1.0p-11f;        // tie -> 1
+  m.grid[1] = 1.0f + 0x1.8p-11f;        // -> 1 + 2^-10
+  m.mlp[0] = 0.1f;
+  const Model before = m;
+  m.quantize();
+  EXPECT_EQ(m.grid[0], 1.0f);
+  EXPECT_EQ(m.grid[1], 1.0f + 0x1.0p-10f);
+  for (size_t i = 0; i < m.mlp.size(); ++i) {
+    // nearest: no half value lies strictly closer (checked against the neighbouring halves)
+    const float q = m.mlp[i], x = before.mlp[i];
+    const uint16_t h = float_to_half(q);
+    ASSERT_EQ(half_to_float(h), q);
+    const float up = half_to_float(uint16_t(h + 1)), down = half_to_float(uint16_t(h - 1));
+    if (std::isfinite(up)) {
+      ASSERT_LE(std::fabs(q - x), std::fabs(up - x));
+    }
+    if (std::isfinite(down)) {
+      ASSERT_LE(std::fabs(q - x), std::fabs(down - x));
+    }
+  }
+  Model again = m;
+  again.quantize();
+  expect_same_bits(again.grid, m.grid, "grid");
+  expect_same_bits(again.mlp, m.mlp, "mlp");
+}
+
+// ---- Layout of the paper's default model (docs/model-format.md example) ---------------------------
+
+TEST(ModelFile, DefaultModelLayoutMatchesTheDocument) {
+  Model m;
+  m.voxels.resolution = 32;
+  m.voxels.bounds.lo = glm::vec3(-1.0f, -2.0f, -3.0f);
+  m.voxels.bounds.hi = glm::vec3(1.0f, 2.0f, 3.0f);
+  m.voxels.bits.assign(32 * 32 * 32 / 32, 0u);
+  m.voxels.set(1, 0, 0);   // index 1 -> word 0 bit 1
+  m.voxels.set(0, 1, 0);   // index 32 -> word 1 bit 0
+  m.materials.resize(1);
+  m.materials[0].name = "bunny";
+  m.materials[0].base_color = glm::vec3(0.25f, 0.5f, 0.75f);
+  EXPECT_EQ(m.config.mlp_parameter_count(), 108u * 128 + 128 + 128 * 128 + 128 + 128 * 9 + 9);
+  EXPECT_EQ(m.config.mlp_parameter_count(), 31625u);
+  m.grid.assign(m.config.grid_parameter_count(), 0.0f);
+  m.mlp.assign(m.config.mlp_parameter_count(), 0.0f);
+  m.grid[5] = 1.5f;        // fp16 0x3e00
+  m.mlp[0] = -2.0f;        // fp16 0xc000
+  m.mlp.back() = 65504.0f; // fp16 0x7bff
+
+  const MemoryBreakdown mb = memory_breakdown(m);
+  EXPECT_EQ(mb.voxel_bytes, 4096u);
+  EXPECT_EQ(mb.grid_bytes, 1572864u);  // 1536 KiB
+  EXPECT_EQ(mb.mlp_bytes, 63250u);
+  EXPECT_EQ(mb.header_bytes, 274u);    // 168 header + 8 pad + 76 material + 4 pad + 14 pad + 4 CRC
+  EXPECT_EQ(mb.total(), 1640484u);
+  EXPECT_NEAR(double(mb.total()) / (1024.0 * 1024.0), 1.56, 0.01);  // paper: "about 1.56 MB"
+
+  const Bytes b = saved(m);
+  ASSERT_EQ(b.size(), 1640484u);
+  const uint8_t magic[8] = {'L', 'S', 'N', 'I', 'F', 0, '\r', '\n'};
+  EXPECT_EQ(std::memcmp(b.data(), magic, 8), 0);
+  EXPECT_EQ(rd32(b, kVersionAt), 1u);
+  EXPECT_EQ(rd32(b, kHeaderSizeAt), 168u);
+  EXPECT_EQ(rd64(b, kFileSizeAt), 1640484u);
+  const uint32_t config_fields[13] = {32, 18, 2, 64, 128, 0, 0, 17, 3, 128, 2, 1, LSNIF_HIT_PARAM_VOXEL_SEGMENTS};
+  for (int i = 0; i < 13; ++i) EXPECT_EQ(rd32(b, kVAt + 4 * i), config_fields[i]) << "config field " << i;
+  const float leaky = 0.01f;
+  uint32_t leaky_bits;
+  std::memcpy(&leaky_bits, &leaky, 4);
+  EXPECT_EQ(rd32(b, kLeakyAt), leaky_bits);
+  const float aabb[6] = {-1, -2, -3, 1, 2, 3};
+  for (int i = 0; i < 6; ++i) {
+    uint32_t bits;
+    std::memcpy(&bits, &aabb[i], 4);
+    EXPECT_EQ(rd32(b, kAabbAt + 4 * i), bits);
+  }
+  const uint64_t sections[4][2] = {{176, 76}, {256, 4096}, {4352, 1572864}, {1577216, 63250}};
+  for (int s = 0; s < 4; ++s) {
+    EXPECT_EQ(section_offset(b, s), sections[s][0]) << "section " << s;
+    EXPECT_EQ(section_size(b, s), sections[s][1]) << "section " << s;
+  }
+  EXPECT_EQ(std::string(reinterpret_cast<const char*>(&b[176])), "bunny");
+  for (size_t i = 176 + 5; i < 176 + 64; ++i) EXPECT_EQ(b[i], 0u);
+  EXPECT_EQ(rd32(b, 176 + 64), 0x3e800000u);  // 0.25f
+  EXPECT_EQ(rd32(b, 176 + 72), 0x3f400000u);  // 0.75f
+  EXPECT_EQ(rd32(b, 256), 2u);
+  EXPECT_EQ(rd32(b, 260), 1u);
+  EXPECT_EQ(b[4352 + 10], 0x00u);
+  EXPECT_EQ(b[4352 + 11], 0x3eu);
+  EXPECT_EQ(b[1577216], 0x00u);
+  EXPECT_EQ(b[1577217], 0xc0u);
+  EXPECT_EQ(b[1577216 + 63248], 0xffu);
+  EXPECT_EQ(b[1577216 + 63249], 0x7bu);
+  for (size_t i = 1577216 + 63250; i < 1640480; ++i) EXPECT_EQ(b[i], 0u) << "padding at " << i;
+  EXPECT_EQ(rd32(b, 1640480), crc32_bitwise(b.data(), 1640480));
+
+  Model back;
+  Status s = load_model_from_memory(b.data(), b.size(), back);
+  ASSERT_TRUE(s) << s.message();
+  expect_equal(back, m);
+}
+
+// ---- Round trips ------------------------------------------------------------------------------------
+
+TEST(ModelFile, RoundTripOfRandomConfigs) {
+  Rng rng(2024, 0, 0);
+  int variants = 0;
+  for (uint32_t levels = 1; levels <= 4; ++levels) {
+    for (uint32_t materials = 1; materials <= 5; ++materials) {
+      for (int rep = 0; rep < 2; ++rep, ++variants) {
+        Config c = random_config(rng, levels, materials);
+        c.hit_param = rep == 0 ? HitParam::AabbInterval : HitParam::VoxelSegments;
+        ASSERT_TRUE(c.validate()) << c.validate().message();
+        const Model original = random_model(c, rng);
+        Model quantized = original;
+        quantized.quantize();
+
+        const Bytes b = saved(original);  // saving rounds to fp16 itself
+        EXPECT_EQ(b.size(), memory_breakdown(original).total()) << c.describe();
+        const MemoryBreakdown mb = memory_breakdown(original);
+        EXPECT_EQ(mb.grid_bytes, 2 * c.grid_parameter_count());
+        EXPECT_EQ(mb.mlp_bytes, 2 * c.mlp_parameter_count());
+        EXPECT_EQ(mb.voxel_bytes, 4 * ((c.voxel_count() + 31) / 32));
+        EXPECT_EQ(saved(quantized), b);
+
+        Model loaded;
+        Status s = load_model_from_memory(b.data(), b.size(), loaded);
+        ASSERT_TRUE(s) << c.describe() << ": " << s.message();
+        ASSERT_TRUE(loaded.validate());
+        expect_equal(loaded, quantized);
+        EXPECT_EQ(saved(loaded), b) << "load then save must reproduce the file";
+      }
+    }
+  }
+  EXPECT_EQ(variants, 40);
+}
+
+TEST(ModelFile, SaveAndLoadThroughAFile) {
+  TempDir dir;
+  Model m = small_model(3);
+  m.quantize();
+  const std::string path = dir.file("object.lsnif");
+  Status s = save_model(m, path);
+  ASSERT_TRUE(s) << s.message();
+  EXPECT_EQ(fs::file_size(path), memory_breakdown(m).total());
+  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  Model back;
+  s = load_model(path, back);
+  ASSERT_TRUE(s) << s.message();
+  expect_equal(back, m);
+  // Overwriting an existing file works too.
+  Model other = small_model(4);
+  other.quantize();
+  ASSERT_TRUE(save_model(other, path));
+  ASSERT_TRUE(load_model(path, back));
+  expect_equal(back, other);
+}
+
+// ---- Errors -------------------------------------------------------------------------------------------
+
+TEST(ModelFileErrors, EmptyInput) {
+  expect_load_error({}, {"empty"});
+  Model m;
+  Status s = load_model_from_memory(nullptr, 0, m);
+  EXPECT_FALSE(s);
+  EXPECT_NE(s.message().find("empty"), std::string::npos);
+  s = load_model_from_memory(nullptr, 10, m);
+  EXPECT_FALSE(s);
+  TempDir dir;
+  std::ofstream(dir.file("empty.lsnif")).close();
+  s = load_model(dir.file("empty.lsnif"), m);
+  EXPECT_FALSE(s);
+  EXPECT_NE(s.message().find("empty"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("empty.lsnif"), std::string::npos) << s.message();
+}
+
+TEST(ModelFileErrors, TruncatedAtEveryBoundaryAndRandomLengths) {
+  const Bytes b = saved(small_model());
+  std::vector<size_t> cuts = {1, 7, 8, 12, 16, 23, 24, 80, 104, 167, 168, 176, b.size() - 4, b.size() - 1};
+  for (int s = 0; s < 4; ++s) {
+    cuts.push_back(section_offset(b, s));
+    cuts.push_back(section_offset(b, s) + 1);
+    cuts.push_back(section_offset(b, s) + section_size(b, s));
+  }
+  Rng rng(11, 0, 0);
+  for (int i = 0; i < 200; ++i) cuts.push_back(1 + rng.next_u32() % (b.size() - 1));
+  for (size_t cut : cuts) {
+    ASSERT_LT(cut, b.size());
+    const Bytes t(b.begin(), b.begin() + long(cut));
+    if (cut >= 24) {
+      // the message gives both the expected and the actual size
+      expect_load_error(t, {"truncated", std::to_string(b.size()).c_str(), std::to_string(cut).c_str()});
+    } else {
+      expect_load_error(t, {"truncated"});
+    }
+  }
+}
+
+TEST(ModelFileErrors, TrailingBytes) {
+  Bytes b = saved(small_model());
+  b.push_back(0);
+  expect_load_error(b, {"trailing"});
+}
+
+TEST(ModelFileErrors, WrongMagic) {
+  const Bytes good = saved(small_model());
+  for (size_t i = 0; i < 8; ++i) {
+    Bytes b = good;
+    b[i] ^= 0x20;
+    expect_load_error(b, {"magic"});
+  }
+  // A text-mode copy that turned "\r\n" into "\n".
+  Bytes b = good;
+  b.erase(b.begin() + 6);
+  expect_load_error(b, {"magic"});
+  expect_load_error(Bytes{'P', 'K'}, {"magic"});
+}
+
+TEST(ModelFileErrors, FutureVersion) {
+  Bytes b = saved(small_model());
+  wr32(b, kVersionAt, 2);
+  expect_load_error(b, {"version 2", "version 1"});  // reported before the checksum
+  fix_crc(b);
+  expect_load_error(b, {"version 2", "version 1"});
+}
+
+TEST(ModelFileErrors, WrongHeaderSize) {
+  Bytes b = saved(small_model());
+  wr32(b, kHeaderSizeAt, 176);
+  fix_crc(b);
+  expect_load_error(b, {"header size", "176", "168"});
+}
+
+TEST(ModelFileErrors, ChecksumMismatch) {
+  const Bytes good = saved(small_model());
+  Bytes b = good;
+  b[b.size() - 2] ^= 1;  // the stored CRC itself
+  expect_load_error(b, {"checksum mismatch"});
+  Rng rng(9, 0, 0);
+  for (int i = 0; i < 50; ++i) {  // any flipped bit in the header (past the checks before the CRC) or data
+    b = good;
+    const size_t at = 24 + rng.next_u32() % (b.size() - 28);
+    b[at] ^= uint8_t(1u << (rng.next_u32() % 8u));
+    expect_load_error(b, {"checksum mismatch"});
+  }
+}
+
+// Changes one field, recomputes the CRC and expects the structural checks to catch it.
+struct FieldCase {
+  const char* name;
+  std::function<void(Bytes&)> change;
+  std::vector<const char*> keywords;
+};
+
+TEST(ModelFileErrors, StructuralChecksBehindTheChecksum) {
+  const Model model = small_model();
+  const Bytes good = saved(model);
+  const uint32_t V = model.config.voxel_resolution;
+  const std::vector<FieldCase> cases = {
+      {"V=0", [](Bytes& b) { wr32(b, kVAt, 0); }, {"voxel resolution"}},
+      {"V too large", [](Bytes& b) { wr32(b, kVAt, 100000); }, {"voxel resolution"}},
+      {"grid res not multiple", [V](Bytes& b) { wr32(b, kGridResAt, V * 2 + 1); }, {"multiple"}},
+      {"unused level non-zero", [](Bytes& b) { wr32(b, kGridResAt + 12, 64); }, {"unused level"}},
+      {"M huge", [](Bytes& b) { wr32(b, 52, 31); }, {"hash table size"}},
+      {"material count 0", [](Bytes& b) { wr32(b, kMatCountAt, 0); }, {"material count"}},
+      {"material count 3", [](Bytes& b) { wr32(b, kMatCountAt, 3); }, {"section materials", "size"}},
+      {"hit param", [](Bytes& b) { wr32(b, kHitParamAt, 7); }, {"hit"}},
+      {"leaky NaN", [](Bytes& b) { wrf32(b, kLeakyAt, std::nanf("")); }, {"leaky"}},
+      {"AABB NaN", [](Bytes& b) { wrf32(b, kAabbAt, std::nanf("")); }, {"AABB"}},
+      {"AABB inf", [](Bytes& b) { wrf32(b, kAabbAt + 16, std::numeric_limits<float>::infinity()); }, {"AABB"}},
+      {"AABB empty", [](Bytes& b) { wrf32(b, kAabbAt, 100.0f); }, {"AABB"}},
+      {"grid size", [](Bytes& b) { wr64(b, kSectionsAt + 16 * kGrid + 8, section_size(b, kGrid) - 2); },
+       {"section grid", "size"}},
+      {"mlp size huge", [](Bytes& b) { wr64(b, kSectionsAt + 16 * kMlp + 8, ~uint64_t(0) - 7); },
+       {"section mlp", "outside"}},
+      {"voxel offset huge", [](Bytes& b) { wr64(b, kSectionsAt + 16 * kVoxels, ~uint64_t(0)); },
+       {"section voxels", "outside"}},
+      {"grid offset shifted", [](Bytes& b) { wr64(b, kSectionsAt + 16 * kGrid, section_offset(b, kGrid) + 16); },
+       {"section grid", "offset"}},
+      {"materials inside header", [](Bytes& b) { wr64(b, kSectionsAt, 100); }, {"section materials", "outside"}},
+      {"NaN weight", [](Bytes& b) { b[section_offset(b, kMlp) + 14] = 0x00; b[section_offset(b, kMlp) + 15] = 0x7e; },
+       {"mlp", "NaN", "value 7 "}},
+      {"Inf in grid", [](Bytes& b) { b[section_offset(b, kGrid) + 2 * 3] = 0x00; b[section_offset(b, kGrid) + 2 * 3 + 1] = 0xfc; },
+       {"grid", "infinite", "value 3 "}},
+      {"name without NUL", [](Bytes& b) { std::memset(&b[section_offset(b, kMaterials)], 'x', 64); },
+       {"material 0", "NUL"}},
+      {"bytes after NUL", [](Bytes& b) { const size_t at = section_offset(b, kMaterials) + 76; b[at] = 0; b[at + 5] = 'q'; },
+       {"material 1", "NUL"}},
+      {"color NaN", [](Bytes& b) { wrf32(b, section_offset(b, kMaterials) + 64, std::nanf("")); }, {"material 0", "color"}},
+      {"header padding", [](Bytes& b) { b[170] = 1; }, {"padding", "170"}},
+  };
+  for (const FieldCase& fc : cases) {
+    SCOPED_TRACE(fc.name);
+    Bytes b = good;
+    fc.change(b);
+    ASSERT_NE(b, good);
+    fix_crc(b);
+    Model m = model;
+    Status s = load_model_from_memory(b.data(), b.size(), m);
+    ASSERT_FALSE(s);
+    for (const char* k : fc.keywords) EXPECT_NE(s.message().find(k), std::string::npos) << s.message();
+  }
+}
+
+TEST(ModelFileErrors, NonZeroPaddingInEveryGap) {
+  // Gaps: header end .. materials, between sections, mlp end .. CRC. Test the first and last byte
+  // of each; the small model's 2 materials (152 bytes) guarantee a gap before the voxels.
+  const Bytes good = saved(small_model());
+  std::vector<uint64_t> positions;
+  uint64_t end = 168;
+  for (int s = 0; s <= 4; ++s) {
+    const uint64_t next = s < 4 ? section_offset(good, s) : good.size() - 4;
+    if (next > end) {
+      positions.push_back(end);
+      positions.push_back(next - 1);
+    }
+    if (s < 4) end = section_offset(good, s) + section_size(good, s);
+  }
+  ASSERT_GE(positions.size(), 4u);
+  for (uint64_t at : positions) {
+    ASSERT_EQ(good[at], 0u);
+    Bytes b = good;
+    b[at] = 0x80;
+    fix_crc(b);
+    expect_load_error(b, {"padding", std::to_string(at).c_str()});
+  }
+}
+
+TEST(ModelFileErrors, DeclaredSizeMatchingAResizedFile) {
+  // Cut the file inside the mlp section and make the header and CRC agree with the cut: the
+  // section table must catch it.
+  const Bytes good = saved(small_model());
+  Bytes b(good.begin(), good.begin() + long(section_offset(good, kMlp) + 6));
+  b.resize(b.size() + 4);
+  wr64(b, kFileSizeAt, b.size());
+  fix_crc(b);
+  expect_load_error(b, {"section mlp", "outside"});
+  // Extra zero bytes before the CRC: every section is where the config puts it, but the file is
+  // longer than the config implies.
+  Bytes longer(good.begin(), good.end() - 4);
+  longer.resize(longer.size() + 16 + 4, 0);
+  wr64(longer, kFileSizeAt, longer.size());
+  fix_crc(longer);
+  expect_load_error(longer, {"file size", std::to_string(longer.size()).c_str(), std::to_string(good.size()).c_str()});
+  // A declared size below the header itself.
+  Bytes tiny(good.begin(), good.begin() + 100);
+  wr64(tiny, kFileSizeAt, tiny.size());
+  expect_load_error(tiny, {"truncated"});
+}
+
+TEST(ModelFileErrors, VoxelBitsBeyondTheGrid) {
+  Model m = small_model();
+  m.config.voxel_resolution = 5;
+  for (uint32_t l = 0; l < m.config.grid_levels; ++l) m.config.grid_resolution[l] = 5u * (l + 1);
+  m.voxels.resolution = 5;
+  m.voxels.bits.assign(4, 0xffffffffu);
+  m.voxels.bits[3] = 0x1fffffffu;  // voxels 96..124
+  Bytes b = saved(m);
+  Model back;
+  ASSERT_TRUE(load_model_from_memory(b.data(), b.size(), back));
+  EXPECT_EQ(back.voxels.bits, m.voxels.bits);
+  b[section_offset(b, kVoxels) + 15] |= 0x20;  // bit 125
+  fix_crc(b);
+  expect_load_error(b, {"beyond"});
+}
+
+TEST(ModelFileErrors, Paths) {
+  Model m;
+  Status s = load_model("/nonexistent/dir/object.lsnif", m);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("no such file"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("/nonexistent/dir/object.lsnif"), std::string::npos);
+
+  TempDir dir;
+  const std::string folder = dir.file("folder.lsnif");
+  fs::create_directories(folder);
+  s = load_model(folder, m);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("directory"), std::string::npos) << s.message();
+
+  const Model good = small_model();
+  s = save_model(good, folder);  // cannot replace a directory
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find(folder), std::string::npos) << s.message();
+  EXPECT_FALSE(fs::exists(folder + ".tmp"));
+  s = save_model(good, "/nonexistent/dir/object.lsnif");
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("cannot open"), std::string::npos) << s.message();
+
+  // A (sparse) file larger than any valid model is refused before it is read.
+  const std::string huge = dir.file("huge.lsnif");
+  std::ofstream(huge).close();
+  std::error_code ec;
+  fs::resize_file(huge, uint64_t(1) << 32, ec);
+  if (!ec) {
+    s = load_model(huge, m);
+    ASSERT_FALSE(s);
+    EXPECT_NE(s.message().find("larger than"), std::string::npos) << s.message();
+  }
+}
+
+TEST(ModelFileErrors, SaveRefusesWhatTheLoaderWouldReject) {
+  const Model good = small_model();
+  Bytes b;
+  auto expect_save_error = [&b](const Model& m, const char* keyword) {
+    Status s = save_model_to_memory(m, b);
+    ASSERT_FALSE(s);
+    EXPECT_NE(s.message().find(keyword), std::string::npos) << s.message();
+  };
+  Model m = good;
+  m.grid.pop_back();
+  expect_save_error(m, "hash grid");
+  m = good;
+  m.materials[0].name = std::string(64, 'n');
+  expect_save_error(m, "material 0 name");
+  m = good;
+  m.materials[1].name = std::string("a\0b", 3);
+  expect_save_error(m, "NUL");
+  m = good;
+  m.materials[0].base_color.y = std::numeric_limits<float>::infinity();
+  expect_save_error(m, "color");
+  m = good;
+  m.mlp[4] = 1e6f;  // overflows fp16
+  expect_save_error(m, "fp16");
+  m = good;
+  m.grid[2] = std::nanf("");
+  expect_save_error(m, "grid value 2");
+  m = good;
+  m.voxels.bounds = Aabb();
+  expect_save_error(m, "AABB");
+  m = good;
+  m.materials[0].name = std::string(63, 'n');
+  EXPECT_TRUE(save_model_to_memory(m, b));
+  m.mlp[4] = 65504.0f;
+  EXPECT_TRUE(save_model_to_memory(m, b));
+}
+
+}  // namespace
+}  // namespace lsnif

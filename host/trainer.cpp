@@ -1,0 +1,232 @@
+#include "trainer.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <random>
+
+#include "ground_truth.h"
+#include "hash_grid.h"
+#include "head.h"
+#include "network.h"
+#include "progress.h"
+
+namespace lsnif {
+
+std::string TrainSettings::describe() const {
+  return format("%s | steps=%u batch=%u seed=%llu | %s", config.describe().c_str(), steps, batch_size,
+                (unsigned long long)seed, adam.describe().c_str());
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Per ray and input slot (point j, level l): the 4 table entries and weights of its face cell.
+struct BatchCorners {
+  std::vector<uint32_t> entry;  // B * H * L * 4
+  std::vector<float> weight;
+};
+
+// Encodes a batch into X (input_dim x B) and remembers the corners for the backward pass.
+void encode_batch(const Config& config, const float* table, const std::vector<RayWalk>& walks,
+                  Matrix& X, BatchCorners& corners) {
+  const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
+  const long B = long(walks.size());
+  const size_t per_ray = size_t(H) * L * 4;
+  corners.entry.assign(size_t(B) * per_ray, 0u);
+  corners.weight.assign(size_t(B) * per_ray, 0.0f);
+  X.setZero(config.input_dim(), B);
+#pragma omp parallel for schedule(static)
+  for (long r = 0; r < B; ++r) {
+    const RayWalk& w = walks[size_t(r)];
+    float* x = X.data() + size_t(r) * config.input_dim();
+    uint32_t* ce = corners.entry.data() + size_t(r) * per_ray;
+    float* cw = corners.weight.data() + size_t(r) * per_ray;
+    const uint32_t n = std::min(w.count, H);
+    FaceCorners fc;
+    for (uint32_t j = 0; j < n; ++j)
+      for (uint32_t l = 0; l < L; ++l) {
+        face_corners(config, l, w.p[j], w.axis[j], fc);
+        const size_t slot = size_t(j) * L + l;
+        for (uint32_t k = 0; k < 4; ++k) {
+          ce[slot * 4 + k] = fc.entry[k];
+          cw[slot * 4 + k] = fc.weight[k];
+          const float* t = table + size_t(fc.entry[k]) * F;
+          for (uint32_t f = 0; f < F; ++f) x[slot * F + f] += fc.weight[k] * t[f];
+        }
+      }
+  }
+}
+
+// Scatters dX into d_table. Each thread owns a contiguous range of table entries and scans all
+// lookups in batch order, so sums are race-free and bit-identical for any thread count.
+void encode_batch_backward(const Config& config, const std::vector<RayWalk>& walks,
+                           const BatchCorners& corners, const Matrix& dX, std::vector<float>& d_table) {
+  const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
+  const size_t per_ray = size_t(H) * L * 4;
+  const size_t entries = d_table.size() / F;
+  std::fill(d_table.begin(), d_table.end(), 0.0f);
+#pragma omp parallel
+  {
+    const size_t nt = size_t(omp_get_num_threads()), t = size_t(omp_get_thread_num());
+    const uint32_t lo = uint32_t(entries * t / nt), hi = uint32_t(entries * (t + 1) / nt);
+    for (size_t r = 0; r < walks.size(); ++r) {
+      const uint32_t n = std::min(walks[r].count, H);
+      const uint32_t* ce = corners.entry.data() + r * per_ray;
+      const float* cw = corners.weight.data() + r * per_ray;
+      const float* dx = dX.data() + r * config.input_dim();
+      for (uint32_t s = 0; s < n * L; ++s)
+        for (uint32_t k = 0; k < 4; ++k) {
+          const uint32_t e = ce[s * 4 + k];
+          if (e < lo || e >= hi) continue;
+          const float w = cw[s * 4 + k];
+          float* d = d_table.data() + size_t(e) * F;
+          for (uint32_t f = 0; f < F; ++f) d[f] += w * dx[s * F + f];
+        }
+    }
+  }
+}
+
+}  // namespace
+
+Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model, TrainReport* report,
+                   const TrainCallback& callback) {
+  Config config = settings.config;
+  if (mesh.materials.empty()) return Status::error("mesh has no material table");
+  if (mesh.materials.size() > LSNIF_MAX_MATERIALS)
+    return Status::error("mesh has %zu materials; an LSNIF model supports at most %u",
+                         mesh.materials.size(), LSNIF_MAX_MATERIALS);
+  config.material_count = uint32_t(mesh.materials.size());
+  if (Status s = config.validate(); !s) return s.context("training config");
+  if (settings.batch_size < 1 || settings.steps < 1)
+    return Status::error("steps (%u) and batch size (%u) must be at least 1", settings.steps,
+                         settings.batch_size);
+
+  model = Model();
+  model.config = config;
+  model.voxels = voxelize(mesh, config.voxel_resolution, pad_aabb(mesh.bounds()));
+  const uint32_t occupied = model.voxels.count_occupied();
+  if (occupied == 0) return Status::error("voxelization produced no occupied voxel");
+  for (const Material& m : mesh.materials) model.materials.push_back({m.name, m.base_color});
+
+  GroundTruth truth;
+  if (Status s = truth.build(mesh); !s) return s.context("building the Embree reference");
+  RaySampler sampler(mesh, truth, model.voxels, config.max_points, settings.sampler);
+
+  // Parameters.
+  model.grid.resize(config.grid_parameter_count());
+  {
+    std::mt19937_64 rng(settings.seed ^ 0x9e3779b97f4a7c15ull);
+    std::uniform_real_distribution<float> u(-settings.grid_init_range, settings.grid_init_range);
+    for (float& g : model.grid) g = u(rng);
+  }
+  model.mlp.resize(config.mlp_parameter_count());
+  mlp_init_kaiming(config, settings.seed, model.mlp.data());
+  std::vector<float> d_grid(model.grid.size()), d_mlp(model.mlp.size());
+  Adam grid_adam(model.grid.size(), settings.adam), mlp_adam(model.mlp.size(), settings.adam);
+
+  std::unique_ptr<FILE, int (*)(FILE*)> csv(nullptr, &std::fclose);
+  if (!settings.loss_csv.empty()) {
+    csv.reset(std::fopen(settings.loss_csv.c_str(), "w"));
+    if (!csv) return Status::error("cannot write loss curve '%s'", settings.loss_csv.c_str());
+    std::fprintf(csv.get(), "step,seconds,total,occlusion,distance,normal,albedo,material\n");
+  }
+
+  TrainReport rep;
+  rep.occupied_voxels = occupied;
+  const uint32_t B = settings.batch_size, out_dim = config.output_dim();
+  std::vector<Sample> samples;
+  std::vector<RayWalk> walks;
+  Matrix X, O, dO, dX;
+  MlpTrace trace;
+  BatchCorners corners;
+  ProgressBar bar("train", settings.steps, settings.progress);
+  const uint32_t tail_start = settings.steps - std::max(1u, settings.steps / 10);
+  uint32_t tail_steps = 0;
+  LossTerms tail;
+  const auto t_start = Clock::now();
+
+  for (uint32_t step = 1; step <= settings.steps; ++step) {
+    auto t0 = Clock::now();
+    sampler.generate(settings.seed, step, B, samples, walks);
+    rep.seconds_sampling += since(t0);
+    if (samples.size() != B)
+      return Status::error("the ray sampler found only %zu of %u rays crossing an occupied voxel "
+                           "(is the mesh degenerate?)", samples.size(), B);
+
+    t0 = Clock::now();
+    encode_batch(config, model.grid.data(), walks, X, corners);
+    rep.seconds_encoding += since(t0);
+
+    t0 = Clock::now();
+    mlp_forward(config, model.mlp.data(), X, O, &trace);
+    rep.seconds_mlp += since(t0);
+
+    t0 = Clock::now();
+    dO.resize(out_dim, B);
+    const float scale = 1.0f / float(B);
+    double lo = 0, ld = 0, ln = 0, la = 0, lm = 0;
+#pragma omp parallel for schedule(static) reduction(+ : lo, ld, ln, la, lm)
+    for (long r = 0; r < long(B); ++r) {
+      const Sample& smp = samples[size_t(r)];
+      LossTarget target;
+      target.hit = smp.reference.hit;
+      if (target.hit) {
+        target.s = unit_from_distance(config, walks[size_t(r)], smp.reference.t);
+        target.normal = smp.reference.normal;
+        target.albedo = smp.reference.albedo;
+        target.material = smp.reference.material;
+      }
+      LossTerms t = ray_loss(config, O.data() + size_t(r) * out_dim, target, settings.loss_weights,
+                             scale, dO.data() + size_t(r) * out_dim);
+      lo += t.occlusion; ld += t.distance; ln += t.normal; la += t.albedo; lm += t.material;
+    }
+    LossTerms mean;
+    mean.occlusion = lo / B; mean.distance = ld / B; mean.normal = ln / B;
+    mean.albedo = la / B; mean.material = lm / B;
+    rep.seconds_loss += since(t0);
+
+    t0 = Clock::now();
+    std::fill(d_mlp.begin(), d_mlp.end(), 0.0f);
+    mlp_backward(config, model.mlp.data(), trace, dO, d_mlp.data(), &dX);
+    rep.seconds_mlp += since(t0);
+
+    t0 = Clock::now();
+    encode_batch_backward(config, walks, corners, dX, d_grid);
+    rep.seconds_encoding += since(t0);
+
+    t0 = Clock::now();
+    mlp_adam.step(model.mlp.data(), d_mlp.data());
+    grid_adam.step(model.grid.data(), d_grid.data());
+    rep.seconds_optimizer += since(t0);
+
+    rep.rays += B;
+    if (step > tail_start) {
+      tail += mean;
+      ++tail_steps;
+    }
+    if (csv)
+      std::fprintf(csv.get(), "%u,%.3f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", step, since(t_start),
+                   mean.total(), mean.occlusion, mean.distance, mean.normal, mean.albedo, mean.material);
+    bar.update(step, format("loss %.4f", mean.total()));
+    if (callback && !callback(step, mean, model)) break;
+  }
+  rep.seconds = since(t_start);
+  bar.finish(format("%.0f rays/s", rep.rays_per_second()));
+  if (tail_steps) {
+    const double k = 1.0 / tail_steps;
+    rep.final_loss.occlusion = tail.occlusion * k; rep.final_loss.distance = tail.distance * k;
+    rep.final_loss.normal = tail.normal * k; rep.final_loss.albedo = tail.albedo * k;
+    rep.final_loss.material = tail.material * k;
+  }
+  model.quantize();
+  if (report) *report = rep;
+  return model.validate();
+}
+
+}  // namespace lsnif

@@ -1,0 +1,51 @@
+// trainer.h -- offline training of one LSNIF object (paper 5.2): fresh rays every step from the ray
+// sampler, ground truth from Embree, sparse hash grid and MLP optimized jointly with Adam.
+// Deterministic for a given seed and thread count.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "config.h"
+#include "loss.h"
+#include "mesh.h"
+#include "model.h"
+#include "optimizer.h"
+#include "ray_sampler.h"
+
+namespace lsnif {
+
+struct TrainSettings {
+  Config config;
+  uint32_t steps = 2000;
+  uint32_t batch_size = 1u << 14;  // paper: 2^18 on a GPU; 2^14 is faster per second on 2 CPU cores
+  uint64_t seed = 1;
+  AdamSettings adam;
+  LossWeights loss_weights;
+  SamplerSettings sampler;
+  float grid_init_range = 1e-4f;   // hash-table entries start in U(-range, range) (paper)
+  bool progress = true;            // progress bar on stderr
+  std::string loss_csv;            // if set, the loss curve is written there (one row per step)
+  std::string describe() const;
+};
+
+struct TrainReport {
+  double seconds = 0;             // wall time of the training loop
+  double seconds_sampling = 0, seconds_encoding = 0, seconds_mlp = 0, seconds_loss = 0,
+         seconds_optimizer = 0;
+  uint64_t rays = 0;              // training rays used
+  uint32_t occupied_voxels = 0;
+  LossTerms final_loss;           // mean over the last 10% of steps
+  double rays_per_second() const { return seconds > 0 ? double(rays) / seconds : 0.0; }
+};
+
+// Called after each step with (step index from 1, mean loss terms of that step, the model being
+// trained: fp32 parameters, not yet quantized); return false to stop early.
+using TrainCallback = std::function<bool(uint32_t, const LossTerms&, const Model&)>;
+
+// Voxelizes `mesh`, trains, and fills `model` (quantized to fp16, ready to save). The material
+// table comes from the mesh (config.material_count is set from it).
+Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model,
+                   TrainReport* report = nullptr, const TrainCallback& callback = nullptr);
+
+}  // namespace lsnif

@@ -1,0 +1,146 @@
+#include "args.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+namespace lsnif::cli {
+
+void Args::alias(const std::string& short_name, const std::string& long_name) {
+  aliases_.push_back({short_name, long_name});
+}
+
+void Args::positional(const std::string& name, const std::string& help, std::string* out, bool required) {
+  pos_.push_back({name, help, out, required});
+}
+
+void Args::option(const std::string& name, const std::string& help, std::string* out) {
+  opts_.push_back({name, help, "TEXT", out->empty() ? "" : *out, false, [out](const std::string& v) {
+                     *out = v;
+                     return true;
+                   }});
+}
+
+void Args::option(const std::string& name, const std::string& help, uint32_t* out) {
+  opts_.push_back({name, help, "N", std::to_string(*out), false, [out](const std::string& v) {
+                     errno = 0;
+                     char* end = nullptr;
+                     unsigned long long x = std::strtoull(v.c_str(), &end, 0);
+                     if (errno || end == v.c_str() || *end || x > 0xffffffffull || v[0] == '-') return false;
+                     *out = uint32_t(x);
+                     return true;
+                   }});
+}
+
+void Args::option(const std::string& name, const std::string& help, uint64_t* out) {
+  opts_.push_back({name, help, "N", std::to_string(*out), false, [out](const std::string& v) {
+                     errno = 0;
+                     char* end = nullptr;
+                     unsigned long long x = std::strtoull(v.c_str(), &end, 0);
+                     if (errno || end == v.c_str() || *end || v[0] == '-') return false;
+                     *out = uint64_t(x);
+                     return true;
+                   }});
+}
+
+void Args::option(const std::string& name, const std::string& help, float* out) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", double(*out));
+  opts_.push_back({name, help, "X", buf, false, [out](const std::string& v) {
+                     char* end = nullptr;
+                     float x = std::strtof(v.c_str(), &end);
+                     if (end == v.c_str() || *end || !std::isfinite(x)) return false;
+                     *out = x;
+                     return true;
+                   }});
+}
+
+void Args::flag(const std::string& name, const std::string& help, bool* out) {
+  opts_.push_back({name, help, "", "", true, [out](const std::string&) {
+                     *out = true;
+                     return true;
+                   }});
+}
+
+std::string Args::help() const {
+  std::string s = "usage: lsnif " + command_;
+  for (const Pos& p : pos_) s += p.required ? " " + p.name : " [" + p.name + "]";
+  s += " [options]\n\n" + summary_ + "\n";
+  if (!pos_.empty()) s += "\narguments:\n";
+  for (const Pos& p : pos_) s += "  " + p.name + std::string(p.name.size() < 22 ? 22 - p.name.size() : 1, ' ') + p.help + "\n";
+  s += "\noptions:\n";
+  for (const Opt& o : opts_) {
+    std::string left = "--" + o.name + (o.is_flag ? "" : " " + o.value_name);
+    for (const auto& [short_name, long_name] : aliases_)
+      if (long_name == o.name) left = short_name + ", " + left;
+    s += "  " + left + std::string(left.size() < 22 ? 22 - left.size() : 1, ' ') + o.help;
+    if (!o.is_flag && !o.default_text.empty()) s += " (default " + o.default_text + ")";
+    s += "\n";
+  }
+  s += "  --help                show this help\n";
+  return s;
+}
+
+int Args::parse(int argc, char** argv) {
+  size_t next_pos = 0;
+  for (int i = 0; i < argc; ++i) {
+    std::string a = argv[i];
+    for (const auto& [short_name, long_name] : aliases_)
+      if (a == short_name) a = "--" + long_name;
+    if (a == "--help" || a == "-h") {
+      std::fputs(help().c_str(), stdout);
+      return 1;
+    }
+    if (a.size() > 2 && a.compare(0, 2, "--") == 0) {
+      std::string name = a.substr(2), value;
+      bool has_value = false;
+      if (size_t eq = name.find('='); eq != std::string::npos) {
+        value = name.substr(eq + 1);
+        name = name.substr(0, eq);
+        has_value = true;
+      }
+      const Opt* opt = nullptr;
+      for (const Opt& o : opts_)
+        if (o.name == name) opt = &o;
+      if (!opt) {
+        std::fprintf(stderr, "lsnif %s: unknown option --%s (see --help)\n", command_.c_str(), name.c_str());
+        return 2;
+      }
+      if (opt->is_flag) {
+        if (has_value) {
+          std::fprintf(stderr, "lsnif %s: --%s takes no value\n", command_.c_str(), name.c_str());
+          return 2;
+        }
+        opt->set("");
+        continue;
+      }
+      if (!has_value) {
+        if (i + 1 >= argc) {
+          std::fprintf(stderr, "lsnif %s: --%s needs a value\n", command_.c_str(), name.c_str());
+          return 2;
+        }
+        value = argv[++i];
+      }
+      if (!opt->set(value)) {
+        std::fprintf(stderr, "lsnif %s: invalid value '%s' for --%s (%s expected)\n", command_.c_str(),
+                     value.c_str(), name.c_str(), opt->value_name.c_str());
+        return 2;
+      }
+      continue;
+    }
+    if (next_pos >= pos_.size()) {
+      std::fprintf(stderr, "lsnif %s: unexpected argument '%s' (see --help)\n", command_.c_str(), a.c_str());
+      return 2;
+    }
+    *pos_[next_pos++].out = a;
+  }
+  for (size_t p = next_pos; p < pos_.size(); ++p)
+    if (pos_[p].required) {
+      std::fprintf(stderr, "lsnif %s: missing argument %s (see --help)\n", command_.c_str(), pos_[p].name.c_str());
+      return 2;
+    }
+  return 0;
+}
+
+}  // namespace lsnif::cli

@@ -1,0 +1,47 @@
+// args.h -- a tiny argument parser for the lsnif subcommands: --name value / --name=value options,
+// boolean flags and positionals, with generated --help text. Errors name the bad option.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace lsnif::cli {
+
+class Args {
+ public:
+  Args(std::string command, std::string summary) : command_(std::move(command)), summary_(std::move(summary)) {}
+
+  void positional(const std::string& name, const std::string& help, std::string* out, bool required = true);
+  void option(const std::string& name, const std::string& help, std::string* out);
+  void option(const std::string& name, const std::string& help, uint32_t* out);
+  void option(const std::string& name, const std::string& help, uint64_t* out);
+  void option(const std::string& name, const std::string& help, float* out);
+  void flag(const std::string& name, const std::string& help, bool* out);
+  // A short spelling ("-o") for a long option ("output").
+  void alias(const std::string& short_name, const std::string& long_name);
+
+  // Parses argv (after the subcommand). Returns 0 to continue, 1 after printing --help (exit 0),
+  // 2 on error (message already printed to stderr).
+  int parse(int argc, char** argv);
+  std::string help() const;
+
+ private:
+  struct Opt {
+    std::string name, help, value_name, default_text;
+    bool is_flag = false;
+    std::function<bool(const std::string&)> set;
+  };
+  struct Pos {
+    std::string name, help;
+    std::string* out;
+    bool required;
+  };
+  std::string command_, summary_;
+  std::vector<Opt> opts_;
+  std::vector<Pos> pos_;
+  std::vector<std::pair<std::string, std::string>> aliases_;
+};
+
+}  // namespace lsnif::cli

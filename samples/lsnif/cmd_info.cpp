@@ -1,0 +1,57 @@
+// lsnif info MODEL: configuration and memory breakdown of a model file.
+#include <cstdio>
+#include <string>
+
+#include "args.h"
+#include "commands.h"
+#include "model.h"
+
+namespace lsnif::cli {
+
+int cmd_info(int argc, char** argv) {
+  std::string path;
+  bool json = false;
+  Args args("info", "Prints the configuration, bounds, materials and memory breakdown of an .lsnif model.");
+  args.positional("MODEL", "model file (.lsnif)", &path);
+  args.flag("json", "print JSON instead of text", &json);
+  if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
+  Model model;
+  if (Status s = load_model(path, model); !s) {
+    std::fprintf(stderr, "lsnif info: %s\n", s.message().c_str());
+    return 1;
+  }
+  const MemoryBreakdown m = memory_breakdown(model);
+  const Config& c = model.config;
+  const Aabb& b = model.bounds();
+  if (json) {
+    std::printf("{\"config\": \"%s\", \"voxel_resolution\": %u, \"max_points\": %u, \"grid_levels\": %u, "
+                "\"log2_table_size\": %u, \"features\": %u, \"hidden_width\": %u, \"hidden_layers\": %u, "
+                "\"material_count\": %u, \"hit_param\": \"%s\", \"occupied_voxels\": %u, "
+                "\"bytes\": {\"voxels\": %llu, \"grid\": %llu, \"mlp\": %llu, \"header\": %llu, \"total\": %llu}}\n",
+                c.describe().c_str(), c.voxel_resolution, c.max_points, c.grid_levels, c.log2_table_size,
+                c.features, c.hidden_width, c.hidden_layers, c.material_count, to_string(c.hit_param),
+                model.voxels.count_occupied(), (unsigned long long)m.voxel_bytes,
+                (unsigned long long)m.grid_bytes, (unsigned long long)m.mlp_bytes,
+                (unsigned long long)m.header_bytes, (unsigned long long)m.total());
+    return 0;
+  }
+  std::printf("model      %s\n", path.c_str());
+  std::printf("config     %s\n", c.describe().c_str());
+  std::printf("bounds     [%g %g %g] - [%g %g %g]\n", double(b.lo.x), double(b.lo.y), double(b.lo.z),
+              double(b.hi.x), double(b.hi.y), double(b.hi.z));
+  std::printf("voxels     %u^3, %u occupied\n", c.voxel_resolution, model.voxels.count_occupied());
+  for (size_t i = 0; i < model.materials.size(); ++i)
+    std::printf("material   %zu: %s (base color %.3f %.3f %.3f)\n", i, model.materials[i].name.c_str(),
+                double(model.materials[i].base_color.r), double(model.materials[i].base_color.g),
+                double(model.materials[i].base_color.b));
+  std::printf("memory     voxels %8.1f KB\n", double(m.voxel_bytes) / 1024.0);
+  std::printf("           grid   %8.1f KB (%u levels x 2^%u entries x %u features, fp16)\n",
+              double(m.grid_bytes) / 1024.0, c.grid_levels, c.log2_table_size, c.features);
+  std::printf("           mlp    %8.1f KB (%llu parameters, fp16)\n", double(m.mlp_bytes) / 1024.0,
+              (unsigned long long)c.mlp_parameter_count());
+  std::printf("           header %8.1f KB\n", double(m.header_bytes) / 1024.0);
+  std::printf("           total  %8.1f KB (%.3f MiB)\n", double(m.total()) / 1024.0, double(m.total()) / 1048576.0);
+  return 0;
+}
+
+}  // namespace lsnif::cli

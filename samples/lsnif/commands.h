@@ -1,0 +1,10 @@
+// commands.h -- the lsnif subcommands; each takes the arguments after its name and returns the
+// process exit code (0 ok, 1 failure, 2 usage error).
+#pragma once
+
+namespace lsnif::cli {
+int cmd_train(int argc, char** argv);
+int cmd_eval(int argc, char** argv);
+int cmd_info(int argc, char** argv);
+int cmd_demo(int argc, char** argv);
+}  // namespace lsnif::cli

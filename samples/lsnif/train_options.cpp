@@ -1,0 +1,128 @@
+#include "train_options.h"
+
+#include <omp.h>
+
+#include <cstdio>
+
+#include "mesh.h"
+
+namespace lsnif::cli {
+
+void TrainOptions::add_to(Args& args) {
+  args.alias("-o", "output");
+  args.option("output", "output model file (.lsnif)", &output);
+  args.option("voxels", "voxel resolution V", &voxels);
+  args.option("points", "max boundary points H", &points);
+  args.option("levels", "hash-grid levels L", &levels);
+  args.option("res-min", "coarsest grid resolution", &res_min);
+  args.option("res-max", "finest grid resolution", &res_max);
+  args.option("table-log2", "log2 hash-table entries per level M", &table_log2);
+  args.option("features", "features per entry F", &features);
+  args.option("width", "hidden layer width W", &width);
+  args.option("layers", "hidden layers", &layers);
+  args.option("steps", "training steps", &steps);
+  args.option("batch", "rays per step", &batch);
+  args.option("seed", "random seed", &seed);
+  args.option("lr", "Adam learning rate", &lr);
+  args.option("hit", "hit distance parametrization: segments (ours) or aabb (paper)", &hit);
+  args.option("threads", "worker threads (0 = all cores)", &threads);
+  args.option("csv", "loss curve CSV (default: MODEL.csv)", &csv);
+  args.option("w-occlusion", "loss weight of occlusion", &loss.occlusion);
+  args.option("w-distance", "loss weight of hit distance", &loss.distance);
+  args.option("w-normal", "loss weight of the normal", &loss.normal);
+  args.option("w-albedo", "loss weight of albedo", &loss.albedo);
+  args.option("w-material", "loss weight of the material", &loss.material);
+  args.flag("paper", "paper settings: batch 2^18, hit=aabb (slow on a CPU)", &paper);
+  args.flag("quiet", "no progress bar", &quiet);
+}
+
+bool TrainOptions::to_settings(TrainSettings& s) const {
+  Config& c = s.config;
+  c.voxel_resolution = voxels;
+  c.max_points = points;
+  c.grid_levels = levels;
+  if (levels < 1 || levels > LSNIF_MAX_LEVELS) {
+    std::fprintf(stderr, "lsnif: --levels %u out of range [1, %u]\n", levels, LSNIF_MAX_LEVELS);
+    return false;
+  }
+  if (res_min < 1 || res_max < res_min) {
+    std::fprintf(stderr, "lsnif: need 1 <= --res-min <= --res-max (got %u, %u)\n", res_min, res_max);
+    return false;
+  }
+  if (res_min % voxels || res_max % voxels) {
+    std::fprintf(stderr,
+                 "lsnif: --res-min %u and --res-max %u must each be a multiple of the voxel resolution %u "
+                 "(voxel faces must lie on grid planes)\n", res_min, res_max, voxels);
+    return false;
+  }
+  set_grid_resolutions(c, res_min, res_max);
+  c.log2_table_size = table_log2;
+  c.features = features;
+  c.hidden_width = width;
+  c.hidden_layers = layers;
+  if (hit == "segments") {
+    c.hit_param = HitParam::VoxelSegments;
+  } else if (hit == "aabb") {
+    c.hit_param = HitParam::AabbInterval;
+  } else {
+    std::fprintf(stderr, "lsnif: --hit must be 'segments' or 'aabb' (got '%s')\n", hit.c_str());
+    return false;
+  }
+  s.steps = steps;
+  s.batch_size = batch;
+  if (paper) {
+    s.batch_size = 1u << 18;
+    c.hit_param = HitParam::AabbInterval;
+  }
+  s.seed = seed;
+  s.loss_weights = loss;
+  s.adam.learning_rate = lr;
+  s.progress = !quiet;
+  s.loss_csv = csv.empty() ? output + ".csv" : csv;
+  if (Status st = c.validate(); !st) {
+    std::fprintf(stderr, "lsnif: invalid model settings: %s\n", st.message().c_str());
+    return false;
+  }
+  return true;
+}
+
+int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* trained) {
+  TrainSettings settings;
+  if (!opts.to_settings(settings)) return 2;
+  if (opts.threads) omp_set_num_threads(int(opts.threads));
+  Mesh mesh;
+  MeshImportReport import;
+  if (Status s = load_mesh(mesh_path, mesh, &import); !s) {
+    std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
+    return 1;
+  }
+  for (const std::string& w : import.warnings) std::fprintf(stderr, "lsnif: warning: %s\n", w.c_str());
+  std::printf("mesh      %s: %zu triangles, %zu materials\n", mesh_path.c_str(), mesh.triangles.size(),
+              mesh.materials.size());
+  std::printf("settings  %s (%d threads)\n", settings.describe().c_str(), omp_get_max_threads());
+  std::fflush(stdout);
+  Model model;
+  TrainReport rep;
+  if (Status s = train_model(mesh, settings, model, &rep); !s) {
+    std::fprintf(stderr, "lsnif: training failed: %s\n", s.message().c_str());
+    return 1;
+  }
+  if (Status s = save_model(model, opts.output); !s) {
+    std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
+    return 1;
+  }
+  const MemoryBreakdown mem = memory_breakdown(model);
+  std::printf("trained   %u steps x %u rays in %.1f s (%.0f rays/s): sampling %.1f s, encoding %.1f s, "
+              "MLP %.1f s, loss %.1f s, Adam %.1f s\n",
+              settings.steps, settings.batch_size, rep.seconds, rep.rays_per_second(), rep.seconds_sampling,
+              rep.seconds_encoding, rep.seconds_mlp, rep.seconds_loss, rep.seconds_optimizer);
+  std::printf("loss      final %.4f (occlusion %.4f distance %.4f normal %.4f albedo %.4f material %.4f)\n",
+              rep.final_loss.total(), rep.final_loss.occlusion, rep.final_loss.distance, rep.final_loss.normal,
+              rep.final_loss.albedo, rep.final_loss.material);
+  std::printf("wrote     %s (%.3f MiB, %u occupied voxels) and %s\n", opts.output.c_str(), double(mem.total()) / 1048576.0,
+              rep.occupied_voxels, settings.loss_csv.c_str());
+  if (trained) *trained = std::move(model);
+  return 0;
+}
+
+}  // namespace lsnif::cli

@@ -1,0 +1,32 @@
+// train_options.h -- the training options shared by `lsnif train` and `lsnif demo` (one Settings
+// struct, as in gltfpack), and the run that loads the mesh, trains, saves and summarizes.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "args.h"
+#include "model.h"
+#include "trainer.h"
+
+namespace lsnif::cli {
+
+struct TrainOptions {
+  std::string output;
+  uint32_t voxels = 32, points = 18, levels = 2, res_min = 64, res_max = 128, table_log2 = 17,
+           features = 3, width = 128, layers = 2, steps = 2000, batch = 1u << 14, threads = 0;
+  uint64_t seed = 1;
+  float lr = 0.01f;
+  std::string hit = "segments";
+  std::string csv;
+  LossWeights loss;
+  bool paper = false, quiet = false;
+
+  void add_to(Args& args);
+  // Builds trainer settings; returns false (message printed) on an invalid combination.
+  bool to_settings(TrainSettings& settings) const;
+};
+
+// Loads the mesh, trains, writes the model (+ CSV) and prints a summary. Returns the exit code.
+int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* trained);
+
+}  // namespace lsnif::cli

@@ -1,0 +1,118 @@
+#!/usr/bin/env bash
+# One-time, idempotent setup for a fresh Debian 12 (bookworm): installs every Debian package the
+# project uses (toolchain, CPU training/reference stack, Vulkan stack with Mesa 25 lavapipe from
+# bookworm-backports) and fetches the real test meshes into data/ (ignored by git).
+# Run as root, or as a user with sudo. Safe to run again: it only does what is missing.
+set -euo pipefail
+
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+data_dir="${LSNIF_DATA_DIR:-$here/data}"
+
+if [ "$(id -u)" -ne 0 ]; then
+  if command -v sudo >/dev/null 2>&1; then exec sudo -E LSNIF_DATA_DIR="$data_dir" bash "$0" "$@"; fi
+  echo "setup.sh: must run as root (or with sudo available)" >&2; exit 1
+fi
+export DEBIAN_FRONTEND=noninteractive
+
+. /etc/os-release
+if [ "${VERSION_CODENAME:-}" != "bookworm" ]; then
+  echo "setup.sh: expected Debian 12 (bookworm), found '${PRETTY_NAME:-unknown}'" >&2; exit 1
+fi
+
+# --- 1. bookworm-backports, copied from the machine's own Debian entry (no host name written here).
+bp_file=/etc/apt/sources.list.d/lsnif-bookworm-backports.sources
+if ! grep -rqs 'bookworm-backports' /etc/apt/sources.list /etc/apt/sources.list.d/; then
+  uris="" signed=""
+  for f in /etc/apt/sources.list.d/*.sources; do
+    [ -f "$f" ] || continue
+    # Walk deb822 stanzas; take the first one whose Suites has plain 'bookworm' and whose URIs is not a security mirror.
+    read -r uris signed < <(awk '
+      BEGIN { RS=""; FS="\n" }
+      {
+        u=""; s=""; su=""; t="";
+        for (i=1;i<=NF;i++) {
+          if ($i ~ /^URIs:/)      { u=$i; sub(/^URIs:[ \t]*/,"",u) }
+          if ($i ~ /^Signed-By:/) { s=$i; sub(/^Signed-By:[ \t]*/,"",s) }
+          if ($i ~ /^Suites:/)    { su=" " $i " " }
+          if ($i ~ /^Types:/)     { t=$i }
+        }
+        if (t ~ /deb( |$)/ && su ~ / bookworm / && u !~ /security/ && u != "") { print u, s; exit }
+      }' "$f") || true
+    [ -n "$uris" ] && break
+  done
+  if [ -z "$uris" ] && [ -f /etc/apt/sources.list ]; then
+    # One-line format: deb [signed-by=...] URI bookworm main
+    line=$(grep -E '^deb(\s|\s\[)[^#]*\sbookworm\s' /etc/apt/sources.list | grep -v security | head -n1 || true)
+    if [ -n "$line" ]; then
+      signed=$(sed -n 's/.*signed-by=\([^] ]*\).*/\1/p' <<<"$line")
+      uris=$(sed -E 's/^deb\s+(\[[^]]*\]\s+)?//' <<<"$line" | awk '{print $1}')
+    fi
+  fi
+  if [ -z "$uris" ]; then
+    echo "setup.sh: found no Debian 'bookworm' apt entry to copy for bookworm-backports" >&2; exit 1
+  fi
+  [ -n "$signed" ] || signed=/usr/share/keyrings/debian-archive-keyring.gpg
+  printf 'Types: deb\nURIs: %s\nSuites: bookworm-backports\nComponents: main\nSigned-By: %s\n' \
+    "$uris" "$signed" > "$bp_file"
+  echo "setup.sh: enabled bookworm-backports from $uris"
+fi
+
+# --- 2. packages
+packages=(
+  build-essential cmake ninja-build pkg-config git ca-certificates xz-utils
+  libgtest-dev libgmock-dev
+  libembree-dev libeigen3-dev
+  libtinygltf-dev nlohmann-json3-dev libstb-dev libglm-dev
+  glslang-tools glslang-dev spirv-tools
+  libvulkan-dev libvulkan-volk-dev vulkan-validationlayers vulkan-tools
+  libglfw3-dev libopenimageio-dev openimageio-tools
+  xvfb
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+done
+mesa_ok=0
+v=$(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || true)
+if [ -n "$v" ] && dpkg --compare-versions "$v" ge 25; then mesa_ok=1; fi
+if [ ${#missing[@]} -gt 0 ] || [ $mesa_ok -eq 0 ]; then
+  apt-get update -q
+  [ ${#missing[@]} -gt 0 ] && apt-get install -y -q --no-install-recommends "${missing[@]}"
+  if [ $mesa_ok -eq 0 ]; then
+    apt-get install -y -q --no-install-recommends -t bookworm-backports mesa-vulkan-drivers
+  fi
+fi
+
+# --- 3. test data from Debian packages (extracted, not installed)
+fetch_deb() {  # fetch_deb PACKAGE WORKDIR -> extracts the package's files into WORKDIR/root
+  local pkg=$1 work=$2
+  mkdir -p "$work/root"
+  (cd "$work" && apt-get download -q "$pkg" >/dev/null)
+  dpkg-deb -x "$work"/"$pkg"_*.deb "$work/root"
+}
+mkdir -p "$data_dir/meshes" "$data_dir/gltf" "$data_dir/hdr"
+if [ ! -f "$data_dir/meshes/bunny00.off" ] || [ ! -f "$data_dir/meshes/armadillo.off" ] \
+   || [ ! -f "$data_dir/meshes/ChineseDragon-10kv.off" ]; then
+  tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+  fetch_deb libcgal-demo "$tmp"
+  tarball=$(find "$tmp/root" -name data.tar.gz | head -n1)
+  [ -n "$tarball" ] || { echo "setup.sh: libcgal-demo has no data.tar.gz" >&2; exit 1; }
+  mkdir -p "$tmp/cgal" && tar -xzf "$tarball" -C "$tmp/cgal"
+  for m in bunny00.off armadillo.off ChineseDragon-10kv.off elephant.off; do
+    src=$(find "$tmp/cgal" -name "$m" | head -n1)
+    [ -n "$src" ] || { echo "setup.sh: $m not found in libcgal-demo data" >&2; exit 1; }
+    cp "$src" "$data_dir/meshes/$m"
+  done
+  rm -rf "$tmp"; trap - EXIT
+fi
+if [ ! -f "$data_dir/gltf/.fetched" ]; then
+  tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+  fetch_deb assimp-testmodels "$tmp"
+  gl=$(find "$tmp/root" -type d -name glTF2 | head -n1)
+  [ -n "$gl" ] || { echo "setup.sh: assimp-testmodels has no glTF2 folder" >&2; exit 1; }
+  cp -r "$gl"/. "$data_dir/gltf/"
+  touch "$data_dir/gltf/.fetched"
+  rm -rf "$tmp"; trap - EXIT
+fi
+chmod -R a+rX "$data_dir" 2>/dev/null || true
+echo "setup.sh: ready (packages installed, data in $data_dir)"

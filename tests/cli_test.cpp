@@ -1,0 +1,114 @@
+// The `lsnif` program as a user runs it: --help everywhere, a small train/info/eval round trip,
+// and clear errors with the right exit codes for bad input.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
+
+struct CliResult {
+  int code = -1;
+  std::string out;  // stdout and stderr together
+};
+
+CliResult run_cli(const std::string& args) {
+  CliResult r;
+  std::string cmd = std::string(LSNIF_CLI) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+fs::path temp_dir() {
+  fs::path d = fs::temp_directory_path() / ("lsnif_cli_test_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d;
+}
+
+TEST(Cli, HelpForEveryCommand) {
+  CliResult top = run_cli("--help");
+  EXPECT_EQ(top.code, 0);
+  for (const char* cmd : {"demo", "train", "eval", "info"}) {
+    EXPECT_NE(top.out.find(cmd), std::string::npos) << cmd;
+    CliResult r = run_cli(std::string(cmd) + " --help");
+    EXPECT_EQ(r.code, 0) << cmd;
+    EXPECT_NE(r.out.find(std::string("usage: lsnif ") + cmd), std::string::npos) << r.out;
+  }
+}
+
+TEST(Cli, UsageErrors) {
+  CliResult r = run_cli("frobnicate");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("unknown command"), std::string::npos);
+  r = run_cli("train mesh.off -o x.lsnif --no-such-option");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--no-such-option"), std::string::npos);
+  r = run_cli("train mesh.off -o x.lsnif --steps many");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--steps"), std::string::npos);
+  r = run_cli("train mesh.off");
+  EXPECT_EQ(r.code, 2);
+  r = run_cli("train mesh.off -o x.lsnif --voxels 32 --res-min 40 --res-max 40");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("multiple of the voxel resolution"), std::string::npos) << r.out;
+}
+
+TEST(Cli, BadInputFiles) {
+  fs::path d = temp_dir();
+  CliResult r = run_cli("train " + (d / "missing.off").string() + " -o " + (d / "m.lsnif").string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("missing.off"), std::string::npos) << r.out;
+  std::ofstream(d / "garbage.lsnif") << "this is not a model";
+  r = run_cli("info " + (d / "garbage.lsnif").string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("garbage.lsnif"), std::string::npos) << r.out;
+  fs::remove_all(d);
+}
+
+TEST(Cli, TrainInfoEvalRoundTrip) {
+  if (!fs::exists(kElephant)) GTEST_SKIP() << kElephant << " missing: run scripts/setup.sh";
+  fs::path d = temp_dir();
+  const std::string model = (d / "elephant.lsnif").string();
+  CliResult r = run_cli("train " + kElephant + " -o " + model +
+              " --voxels 16 --res-min 32 --res-max 64 --table-log2 12 --width 32 --steps 30 --batch 1024 --quiet");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(model));
+  EXPECT_TRUE(fs::exists(model + ".csv"));
+  {
+    std::ifstream csv(model + ".csv");
+    std::string header, line;
+    std::getline(csv, header);
+    EXPECT_NE(header.find("occlusion"), std::string::npos);
+    int rows = 0;
+    while (std::getline(csv, line)) ++rows;
+    EXPECT_EQ(rows, 30);
+  }
+  r = run_cli("info " + model);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("V=16"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("total"), std::string::npos);
+  r = run_cli("info --json " + model);
+  EXPECT_EQ(r.code, 0);
+  EXPECT_EQ(r.out.front(), '{');
+  r = run_cli("eval " + model + " " + kElephant + " --rays 2000 --json");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("\"voxel_baseline\""), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\"accuracy\""), std::string::npos);
+  fs::remove_all(d);
+}
+
+}  // namespace
