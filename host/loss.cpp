@@ -4,11 +4,19 @@
 #include <cmath>
 
 #include "head.h"
+#include "status.h"
 
 namespace lsnif {
 
+const char* to_string(NormalLoss l) { return l == NormalLoss::Cosine ? "cosine" : "angle"; }
+
+std::string LossSettings::describe() const {
+  return format("loss weights occ=%g dist=%g normal=%g albedo=%g mat=%g, normal loss %s", double(occlusion),
+                double(distance), double(normal), double(albedo), double(material), to_string(normal_loss));
+}
+
 LossTerms ray_loss(const Config& config, const float* raw, const LossTarget& target,
-                   const LossWeights& weights, float scale, float* d_raw) {
+                   const LossSettings& weights, float scale, float* d_raw) {
   LossTerms terms;
   std::fill(d_raw, d_raw + config.output_dim(), 0.0f);
 
@@ -30,8 +38,17 @@ LossTerms ray_loss(const Config& config, const float* raw, const LossTarget& tar
   const float len = std::max(glm::length(n), 1e-8f);
   const glm::vec3 nt = glm::normalize(target.normal);
   const float cosine = glm::dot(n, nt) / len;
-  terms.normal = weights.normal * (1.0f - cosine);
-  const glm::vec3 dn = -(nt - cosine * n / len) / len;
+  // d(cos)/dn = (nt - cos n/|n|) / |n|
+  glm::vec3 dn = (nt - cosine * n / len) / len;
+  if (weights.normal_loss == NormalLoss::Cosine) {
+    terms.normal = weights.normal * (1.0f - cosine);
+    dn = -dn;
+  } else {
+    // theta = acos(cos); clamped away from +-1 where d(theta)/d(cos) is infinite.
+    const float cc = std::clamp(cosine, -0.999999f, 0.999999f);
+    terms.normal = weights.normal * std::acos(cc);
+    dn *= -1.0f / std::sqrt(1.0f - cc * cc);
+  }
   for (int c = 0; c < 3; ++c) d_raw[LSNIF_OUT_NORMAL + c] = scale * weights.normal * dn[c];
 
   // Albedo: relative L2, mean over channels, denominator (a^2 + 0.01) held constant.

@@ -17,7 +17,7 @@ Config config_with_materials(uint32_t n) {
   return c;
 }
 
-void check_gradient(const Config& c, const LossTarget& target, const LossWeights& w, std::vector<float> raw) {
+void check_gradient(const Config& c, const LossTarget& target, const LossSettings& w, std::vector<float> raw) {
   std::vector<float> grad(c.output_dim());
   ray_loss(c, raw.data(), target, w, 1.0f, grad.data());
   std::vector<float> scratch(c.output_dim());
@@ -67,9 +67,10 @@ TEST(Loss, GradientsMatchFiniteDifferences) {
       t.normal = glm::vec3(u(rng), u(rng), u(rng));
       t.albedo = glm::vec3(u01(rng), u01(rng), u01(rng));
       t.material = uint32_t(trial) % nmat;
-      LossWeights w;
+      LossSettings w;
       w.distance = 0.7f;
       w.normal = 1.3f;
+      w.normal_loss = trial % 2 ? NormalLoss::Angle : NormalLoss::Cosine;
       check_gradient(c, t, w, raw);
     }
   }
@@ -79,7 +80,7 @@ TEST(Loss, MissesOnlyTrainOcclusion) {
   Config c = config_with_materials(3);
   std::vector<float> raw(c.output_dim(), 0.3f), grad(c.output_dim());
   LossTarget miss;  // hit = false
-  LossTerms t = ray_loss(c, raw.data(), miss, LossWeights(), 1.0f, grad.data());
+  LossTerms t = ray_loss(c, raw.data(), miss, LossSettings(), 1.0f, grad.data());
   EXPECT_GT(t.occlusion, 0.0);
   EXPECT_EQ(t.distance + t.normal + t.albedo + t.material, 0.0);
   for (uint32_t i = 1; i < c.output_dim(); ++i) EXPECT_EQ(grad[i], 0.0f);
@@ -95,10 +96,15 @@ TEST(Loss, KnownValues) {
   t.normal = glm::vec3(0, 0, 1);
   t.albedo = glm::vec3(0.5f);    // sigmoid(0) = 0.5 -> rel L2 0
   t.material = 1;                // two equal logits -> CE log 2
-  LossTerms l = ray_loss(c, raw.data(), t, LossWeights(), 1.0f, grad.data());
+  LossSettings cosine;
+  cosine.normal_loss = NormalLoss::Cosine;
+  LossTerms l = ray_loss(c, raw.data(), t, cosine, 1.0f, grad.data());
   EXPECT_NEAR(l.occlusion, std::log(2.0), 1e-6);
   EXPECT_NEAR(l.distance, 0.25, 1e-6);
   EXPECT_NEAR(l.normal, 1.0, 1e-6);
+  LossSettings angle;
+  angle.normal_loss = NormalLoss::Angle;
+  EXPECT_NEAR(ray_loss(c, raw.data(), t, angle, 1.0f, grad.data()).normal, 3.14159265 / 2, 1e-5);
   EXPECT_NEAR(l.albedo, 0.0, 1e-9);
   EXPECT_NEAR(l.material, std::log(2.0), 1e-6);
 }

@@ -97,6 +97,15 @@ void leaky_backward(float* __restrict dz, const float* __restrict dx, const floa
     dz[i] = dx[i] * gain;
   }
 }
+// out[r] = sum over columns c of m(r, c), summed in column order for every r. Eigen's
+// rowwise().sum() treats an alignment-dependent head and tail of rows with another summation
+// order, which made gradients depend on where the heap put the buffers (caught by the
+// determinism test); this loop vectorizes across rows without changing any row's order.
+void sum_columns(float* __restrict out, const float* __restrict m, Eigen::Index rows, Eigen::Index cols) {
+  for (Eigen::Index r = 0; r < rows; ++r) out[r] = 0.0f;
+  for (Eigen::Index c = 0; c < cols; ++c)
+    for (Eigen::Index r = 0; r < rows; ++r) out[r] += m[c * rows + r];
+}
 }  // namespace
 
 void mlp_backward(const Config& config, const float* params, const MlpTrace& trace,
@@ -125,9 +134,8 @@ void mlp_backward(const Config& config, const float* params, const MlpTrace& tra
         Eigen::Map<const Matrix> delta(delta_ptr, v.out, n);
         Eigen::Map<const Matrix> x(trace.layer_input[li].data() + c0 * v.in, v.in, n);
         RowMajorMapMut dW(dp + v.weight_offset, v.out, v.in);
-        Eigen::Map<Eigen::VectorXf> db(dp + v.bias_offset, v.out);
         dW.noalias() = delta * x.transpose();
-        db = delta.rowwise().sum();
+        sum_columns(dp + v.bias_offset, delta_ptr, v.out, n);
         if (li == 0 && !d_input) break;
         RowMajorMap W(params + v.weight_offset, v.out, v.in);
         if (li == 0) {

@@ -16,7 +16,7 @@ namespace {
 constexpr uint32_t kSurfaceAttempts = 16;
 // Candidates per parallel block (bounds the memory of one block; the output does not depend on it).
 constexpr size_t kMinBlock = 1024;
-constexpr size_t kMaxBlock = 16384;
+constexpr size_t kMaxBlock = 65536;
 
 // Ray from a uniform point on the sphere (centre, radius), cosine-weighted about the direction
 // toward the centre.
@@ -47,11 +47,16 @@ RaySampler::RaySampler(const Mesh& mesh, const GroundTruth& truth, const VoxelGr
 // samples.size().
 void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vector<Sample>& samples,
                           std::vector<RayWalk>& walks) const {
-  samples.clear();
-  walks.clear();
-  if (count == 0 || max_points_ == 0 || grid_.resolution == 0 || grid_.count_occupied() == 0) return;
-  samples.reserve(count);
-  walks.reserve(count);
+  if (count == 0 || max_points_ == 0 || grid_.resolution == 0 || grid_.count_occupied() == 0) {
+    samples.clear();
+    walks.clear();
+    return;
+  }
+  // Sized once (a caller that reuses its vectors pays no construction), shrunk at the end to what
+  // was found.
+  samples.resize(count);
+  walks.resize(count);
+  size_t filled = 0;
 
   const glm::vec3 centre = grid_.bounds.center();
   const float diagonal = grid_.bounds.diagonal();
@@ -92,10 +97,15 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   std::vector<Sample> block_samples;
   std::vector<RayWalk> block_walks;
   std::vector<uint8_t> block_keep;
-  uint64_t next = 0;
-  while (samples.size() < count && next < max_candidates) {
-    const size_t remaining = count - samples.size();
-    const size_t block = std::clamp(2 * remaining, kMinBlock, kMaxBlock);
+  std::vector<size_t> slot;
+  uint64_t next = 0, tried = 0, kept = 0;
+  while (filled < count && next < max_candidates) {
+    // Size the block from the keep rate seen so far (a guess of 1/2 at first) so that one or two
+    // blocks usually suffice. The samples kept are always the first `count` kept candidates in
+    // index order, whatever the block sizes, so the result does not depend on this heuristic.
+    const size_t remaining = count - filled;
+    const double rate = tried ? std::max(double(kept) / double(tried), 0.02) : keep_rate_;
+    const size_t block = std::clamp(size_t(double(remaining) / rate * 1.05) + 64, kMinBlock, kMaxBlock);
     block_samples.resize(block);
     block_walks.resize(block);
     block_keep.assign(block, 0);
@@ -104,13 +114,25 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     for (int64_t j = 0; j < n; ++j)
       block_keep[size_t(j)] = make_candidate(next + uint64_t(j), block_samples[size_t(j)],
                                              block_walks[size_t(j)]) ? 1 : 0;
-    for (size_t j = 0; j < block && samples.size() < count; ++j) {
-      if (!block_keep[j]) continue;
-      samples.push_back(block_samples[j]);
-      walks.push_back(block_walks[j]);
+    // Compact the kept candidates in order (positions serially, copies in parallel).
+    slot.assign(block, SIZE_MAX);
+    for (size_t j = 0; j < block; ++j) {
+      kept += block_keep[j];
+      if (block_keep[j] && filled < count) slot[j] = filled++;
+    }
+    tried += block;
+#pragma omp parallel for schedule(static)
+    for (int64_t j = 0; j < n; ++j) {
+      const size_t at = slot[size_t(j)];
+      if (at == SIZE_MAX) continue;
+      samples[at] = block_samples[size_t(j)];
+      walks[at] = block_walks[size_t(j)];
     }
     next += block;
   }
+  if (tried) keep_rate_ = std::max(double(kept) / double(tried), 0.02);
+  samples.resize(filled);
+  walks.resize(filled);
 }
 
 }  // namespace lsnif

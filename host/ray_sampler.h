@@ -40,6 +40,9 @@ class RaySampler {
   const VoxelGrid& grid_;
   uint32_t max_points_;
   SamplerSettings settings_;
+  // Fraction of candidates kept so far, to size the next call's first block (a performance hint
+  // only: which samples come out never depends on it).
+  mutable double keep_rate_ = 0.5;
 };
 
 }  // namespace lsnif

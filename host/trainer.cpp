@@ -17,8 +17,9 @@
 namespace lsnif {
 
 std::string TrainSettings::describe() const {
-  return format("%s | steps=%u batch=%u seed=%llu | %s", config.describe().c_str(), steps, batch_size,
-                (unsigned long long)seed, adam.describe().c_str());
+  return format("%s | steps=%u batch=%u ray_reuse=%u seed=%llu | %s | %s", config.describe().c_str(), steps,
+                batch_size, ray_reuse, (unsigned long long)seed, adam.describe().c_str(),
+                loss_settings.describe().c_str());
 }
 
 namespace {
@@ -38,13 +39,15 @@ void encode_batch(const Config& config, const float* table, const std::vector<Ra
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
   const long B = long(walks.size());
   const size_t per_ray = size_t(H) * L * 4;
-  corners.entry.assign(size_t(B) * per_ray, 0u);
-  corners.weight.assign(size_t(B) * per_ray, 0.0f);
-  X.setZero(config.input_dim(), B);
+  // Only the slots of recorded points are written (and later read); X is zeroed per column.
+  corners.entry.resize(size_t(B) * per_ray);
+  corners.weight.resize(size_t(B) * per_ray);
+  X.resize(config.input_dim(), B);
 #pragma omp parallel for schedule(static)
   for (long r = 0; r < B; ++r) {
     const RayWalk& w = walks[size_t(r)];
     float* x = X.data() + size_t(r) * config.input_dim();
+    std::fill(x, x + config.input_dim(), 0.0f);
     uint32_t* ce = corners.entry.data() + size_t(r) * per_ray;
     float* cw = corners.weight.data() + size_t(r) * per_ray;
     const uint32_t n = std::min(w.count, H);
@@ -75,19 +78,28 @@ void encode_batch_backward(const Config& config, const std::vector<RayWalk>& wal
   {
     const size_t nt = size_t(omp_get_num_threads()), t = size_t(omp_get_thread_num());
     const uint32_t lo = uint32_t(entries * t / nt), hi = uint32_t(entries * (t + 1) / nt);
-    for (size_t r = 0; r < walks.size(); ++r) {
-      const uint32_t n = std::min(walks[r].count, H);
-      const uint32_t* ce = corners.entry.data() + r * per_ray;
-      const float* cw = corners.weight.data() + r * per_ray;
-      const float* dx = dX.data() + r * config.input_dim();
-      for (uint32_t s = 0; s < n * L; ++s)
-        for (uint32_t k = 0; k < 4; ++k) {
-          const uint32_t e = ce[s * 4 + k];
-          if (e < lo || e >= hi) continue;
-          const float w = cw[s * 4 + k];
-          float* d = d_table.data() + size_t(e) * F;
-          for (uint32_t f = 0; f < F; ++f) d[f] += w * dx[s * F + f];
-        }
+    // Levels whose entries overlap [lo, hi): with as many threads as levels (the default 2 and 2),
+    // each thread owns exactly one level and the range test below never fails.
+    const uint32_t T = config.table_size();
+    const uint32_t l_first = lo / T, l_last = std::min(L - 1, (hi - 1) / T);
+    if (lo < hi) {
+      for (size_t r = 0; r < walks.size(); ++r) {
+        const uint32_t n = std::min(walks[r].count, H);
+        const uint32_t* ce = corners.entry.data() + r * per_ray;
+        const float* cw = corners.weight.data() + r * per_ray;
+        const float* dx = dX.data() + r * config.input_dim();
+        for (uint32_t j = 0; j < n; ++j)
+          for (uint32_t l = l_first; l <= l_last; ++l) {
+            const uint32_t s = j * L + l;
+            for (uint32_t k = 0; k < 4; ++k) {
+              const uint32_t e = ce[s * 4 + k];
+              if (e < lo || e >= hi) continue;
+              const float w = cw[s * 4 + k];
+              float* d = d_table.data() + size_t(e) * F;
+              for (uint32_t f = 0; f < F; ++f) d[f] += w * dx[s * F + f];
+            }
+          }
+      }
     }
   }
 }
@@ -105,6 +117,9 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   if (Status s = config.validate(); !s) return s.context("training config");
   if (settings.batch_size < 1 || settings.steps < 1)
     return Status::error("steps (%u) and batch size (%u) must be at least 1", settings.steps,
+                         settings.batch_size);
+  if (settings.ray_reuse < 1 || settings.ray_reuse > settings.batch_size)
+    return Status::error("ray reuse %u must be in [1, batch size %u]", settings.ray_reuse,
                          settings.batch_size);
 
   model = Model();
@@ -140,8 +155,8 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   TrainReport rep;
   rep.occupied_voxels = occupied;
   const uint32_t B = settings.batch_size, out_dim = config.output_dim();
-  std::vector<Sample> samples;
-  std::vector<RayWalk> walks;
+  std::vector<Sample> samples, fresh_samples;
+  std::vector<RayWalk> walks, fresh_walks;
   Matrix X, O, dO, dX;
   MlpTrace trace;
   BatchCorners corners;
@@ -153,11 +168,25 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
 
   for (uint32_t step = 1; step <= settings.steps; ++step) {
     auto t0 = Clock::now();
-    sampler.generate(settings.seed, step, B, samples, walks);
+    // Fresh rays: the whole batch on the first step, then one part of it per step (round robin),
+    // so that each ray serves ray_reuse consecutive steps.
+    const uint32_t parts = settings.ray_reuse, part = step == 1 ? 0 : (step - 2) % parts;
+    const size_t first = step == 1 ? 0 : size_t(B) * part / parts;
+    const size_t last = step == 1 ? B : size_t(B) * (part + 1) / parts;
+    sampler.generate(settings.seed, step, last - first, fresh_samples, fresh_walks);
     rep.seconds_sampling += since(t0);
-    if (samples.size() != B)
-      return Status::error("the ray sampler found only %zu of %u rays crossing an occupied voxel "
-                           "(is the mesh degenerate?)", samples.size(), B);
+    if (fresh_samples.size() != last - first)
+      return Status::error("the ray sampler found only %zu of %zu rays crossing an occupied voxel "
+                           "(is the mesh degenerate?)", fresh_samples.size(), last - first);
+    if (first == 0 && last == B) {
+      samples.swap(fresh_samples);
+      walks.swap(fresh_walks);
+    } else {
+      samples.resize(B);
+      walks.resize(B);
+      std::copy(fresh_samples.begin(), fresh_samples.end(), samples.begin() + long(first));
+      std::copy(fresh_walks.begin(), fresh_walks.end(), walks.begin() + long(first));
+    }
 
     t0 = Clock::now();
     encode_batch(config, model.grid.data(), walks, X, corners);
@@ -182,7 +211,7 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
         target.albedo = smp.reference.albedo;
         target.material = smp.reference.material;
       }
-      LossTerms t = ray_loss(config, O.data() + size_t(r) * out_dim, target, settings.loss_weights,
+      LossTerms t = ray_loss(config, O.data() + size_t(r) * out_dim, target, settings.loss_settings,
                              scale, dO.data() + size_t(r) * out_dim);
       lo += t.occlusion; ld += t.distance; ln += t.normal; la += t.albedo; lm += t.material;
     }

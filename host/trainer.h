@@ -20,8 +20,13 @@ struct TrainSettings {
   uint32_t steps = 2000;
   uint32_t batch_size = 1u << 14;  // paper: 2^18 on a GPU; 2^14 is faster per second on 2 CPU cores
   uint64_t seed = 1;
+  // Each training ray is used in this many consecutive steps: every step replaces 1/ray_reuse of
+  // the batch with fresh rays (round robin). 1 = fresh rays every step (default: on the bunny, 2
+  // saved ~10% of the training time but raised the median normal error from 5.2 to 6.5 degrees
+  // and the t error from 0.39% to 0.57%).
+  uint32_t ray_reuse = 1;
   AdamSettings adam;
-  LossWeights loss_weights;
+  LossSettings loss_settings;
   SamplerSettings sampler;
   float grid_init_range = 1e-4f;   // hash-table entries start in U(-range, range) (paper)
   bool progress = true;            // progress bar on stderr

@@ -25,6 +25,8 @@ void TrainOptions::add_to(Args& args) {
   args.option("seed", "random seed", &seed);
   args.option("lr", "Adam learning rate", &lr);
   args.option("hit", "hit distance parametrization: segments (ours) or aabb (paper)", &hit);
+  args.option("ray-reuse", "steps each training ray is used in (1 = fresh rays every step)", &ray_reuse);
+  args.option("normal-loss", "normal loss: angle (ours) or cosine (paper)", &normal_loss);
   args.option("threads", "worker threads (0 = all cores)", &threads);
   args.option("csv", "loss curve CSV (default: MODEL.csv)", &csv);
   args.option("w-occlusion", "loss weight of occlusion", &loss.occlusion);
@@ -32,7 +34,8 @@ void TrainOptions::add_to(Args& args) {
   args.option("w-normal", "loss weight of the normal", &loss.normal);
   args.option("w-albedo", "loss weight of albedo", &loss.albedo);
   args.option("w-material", "loss weight of the material", &loss.material);
-  args.flag("paper", "paper settings: batch 2^18, hit=aabb (slow on a CPU)", &paper);
+  args.flag("paper", "paper settings: batch 2^18, hit=aabb, normal-loss=cosine, ray-reuse=1 (slow on a CPU)",
+            &paper);
   args.flag("quiet", "no progress bar", &quiet);
 }
 
@@ -75,7 +78,7 @@ bool TrainOptions::to_settings(TrainSettings& s) const {
     c.hit_param = HitParam::AabbInterval;
   }
   s.seed = seed;
-  s.loss_weights = loss;
+  s.loss_settings = loss;
   s.adam.learning_rate = lr;
   s.progress = !quiet;
   s.loss_csv = csv.empty() ? output + ".csv" : csv;

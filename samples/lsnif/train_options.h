@@ -15,10 +15,12 @@ struct TrainOptions {
   uint32_t voxels = 32, points = 18, levels = 2, res_min = 64, res_max = 128, table_log2 = 17,
            features = 3, width = 128, layers = 2, steps = 2000, batch = 1u << 14, threads = 0;
   uint64_t seed = 1;
+  uint32_t ray_reuse = 1;
+  std::string normal_loss = "angle";
   float lr = 0.01f;
   std::string hit = "segments";
   std::string csv;
-  LossWeights loss;
+  LossSettings loss;
   bool paper = false, quiet = false;
 
   void add_to(Args& args);
