@@ -94,12 +94,21 @@ std::string metrics_text(const char* name, const EvalMetrics& m, bool albedo) {
 std::string EvalReport::to_text() const {
   return format("held-out rays crossing an occupied voxel: %llu (reference hits %.1f%%)\n",
                 (unsigned long long)model.rays, 100 * reference_hit_fraction) +
-         metrics_text("model", model, true) + "\n" + metrics_text("baseline", baseline, false) + "\n";
+         metrics_text("model", model, true) + "\n" + metrics_text("baseline", baseline, false) + "\n" +
+         format("walks truncated at H: %.2f%% of rays; reference hit beyond the last point: %.3f%%\n",
+                100 * truncated_fraction, 100 * hit_beyond_walk_fraction) +
+         format("by origin: %llu rays from outside, %llu from the surface\n", (unsigned long long)model_outer.rays,
+                (unsigned long long)model_surface.rays) +
+         metrics_text(" outside", model_outer, false) + "\n" + metrics_text(" surface", model_surface, false) + "\n";
 }
 
 std::string EvalReport::to_json() const {
-  return format("{\"reference_hit_fraction\": %.6f, \"seconds\": %.3f, \"model\": %s, \"voxel_baseline\": %s}",
-                reference_hit_fraction, seconds, metrics_json(model).c_str(), metrics_json(baseline).c_str());
+  return format("{\"reference_hit_fraction\": %.6f, \"truncated_fraction\": %.6f, "
+                "\"hit_beyond_walk_fraction\": %.6f, \"seconds\": %.3f, \"model\": %s, \"voxel_baseline\": %s, "
+                "\"model_from_outside\": %s, \"model_from_surface\": %s}",
+                reference_hit_fraction, truncated_fraction, hit_beyond_walk_fraction, seconds,
+                metrics_json(model).c_str(), metrics_json(baseline).c_str(),
+                metrics_json(model_outer).c_str(), metrics_json(model_surface).c_str());
 }
 
 Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& settings,
@@ -123,21 +132,30 @@ Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& 
   if (Status s = intersect(model, Transform3x4(), rays.data(), rays.size(), hits.data()); !s) return s;
 
   const float diag = model.bounds().diagonal();
-  Accumulator acc_model, acc_base;
-  uint64_t ref_hits = 0;
+  Accumulator acc_model, acc_base, acc_outer, acc_surface;
+  uint64_t ref_hits = 0, truncated = 0, beyond = 0;
   for (size_t i = 0; i < samples.size(); ++i) {
     const ReferenceHit& ref = samples[i].reference;
     ref_hits += ref.hit;
+    truncated += walks[i].truncated;
+    beyond += ref.hit && walks[i].count > 0 && ref.t > walks[i].t[walks[i].count - 1];
     const LsnifHit& h = hits[i];
     acc_model.add(ref.hit, h.hit, ref.t, h.t, ref.normal, h.normal, ref.albedo, h.albedo, ref.material,
                   h.material, diag, true);
+    (samples[i].from_surface ? acc_surface : acc_outer)
+        .add(ref.hit, h.hit, ref.t, h.t, ref.normal, h.normal, ref.albedo, h.albedo, ref.material, h.material,
+             diag, true);
     const BaselineHit b = voxel_baseline(model.voxels, rays[i], walks[i]);
     acc_base.add(ref.hit, b.hit, ref.t, b.t, ref.normal, b.normal, ref.albedo, glm::vec3(0.0f), 0, 0,
                  diag, false);
   }
   report.model = acc_model.finish(true);
   report.baseline = acc_base.finish(false);
+  report.model_outer = acc_outer.finish(true);
+  report.model_surface = acc_surface.finish(true);
   report.reference_hit_fraction = double(ref_hits) / double(samples.size());
+  report.truncated_fraction = double(truncated) / double(samples.size());
+  report.hit_beyond_walk_fraction = double(beyond) / double(samples.size());
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return Status::ok();
 }

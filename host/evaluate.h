@@ -30,7 +30,10 @@ struct EvalMetrics {
 
 struct EvalReport {
   EvalMetrics model, baseline;
+  EvalMetrics model_outer, model_surface;  // the model on rays from the outer sphere / the surface
   double reference_hit_fraction = 0;  // among the evaluated rays
+  double truncated_fraction = 0;      // walks with more than H boundary points
+  double hit_beyond_walk_fraction = 0;  // reference hits past the last recorded point (unreachable)
   double seconds = 0;
   std::string to_text() const;
   std::string to_json() const;

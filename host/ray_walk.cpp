@@ -1,6 +1,6 @@
 // ray_walk.cpp -- the LSNIF ray walk (paper 3.1): AABB clipping and a 3D DDA through the voxel
 // grid, collecting the points where the ray crosses a face of an occupied voxel. This is the CPU
-// reference; shaders/ray_walk.glsl copies it line by line, hence float math only, rolled loops with
+// reference; shaders/lsnif_walk.glsl copies it line by line, hence float math only, rolled loops with
 // fixed bounds, no recursion and few branches.
 //
 // Conventions that ray_walk.h leaves open, fixed here:

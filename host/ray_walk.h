@@ -2,7 +2,7 @@
 // voxels with a 3D DDA, and collect, front to back, the points where the ray crosses a boundary
 // of an occupied voxel. These boundary points are the network's input (after encoding).
 //
-// Definition (the CPU reference; shaders/ray_walk.glsl follows it line by line):
+// Definition (the CPU reference; shaders/lsnif_walk.glsl follows it line by line):
 //  * Everything happens in the grid's unit cube (VoxelGrid::to_unit); t is the ray's own parameter
 //    (unchanged by the affine map), so t values are object-space ray parameters.
 //  * [t_enter, t_exit] = [max(tmin, t_near), min(tmax, t_far)] of the ray/AABB slab test; empty ->

@@ -34,4 +34,67 @@
 /* Occlusion threshold on sigmoid(logit): a hit when the probability is >= 0.5 (logit >= 0). */
 #define LSNIF_OCCLUSION_THRESHOLD 0.5
 
+/* ---- GPU model layout (plugin/gpu_model.cpp packs it, shaders/lsnif_model.glsl reads it) ----
+ * One model is one 4-byte-aligned block of 32-bit words, addressed on the device by its buffer
+ * device address. It starts with LsnifGpuModelHeader; every *_offset is in words from the start of
+ * the block. Sections:
+ *  voxels: V^3 occupancy bits exactly as VoxelGrid::bits (voxel i + V*(j + V*k), bit idx & 31 of
+ *          word idx >> 5).
+ *  grid:   the hash tables as fp16, two per word (element e in word e >> 1, low half when e is even:
+ *          unpackHalf2x16), element order of hash_grid.h: e = (level * 2^M + entry) * F + feature.
+ *  mlp:    per layer (hidden layers, then output) with in/out as in network.h: out rows of
+ *          LSNIF_GPU_ROW_WORDS(in) words (row r holds W[r][0..in) as fp16 pairs, the last high half
+ *          zero when in is odd), then the bias as LSNIF_GPU_ROW_WORDS(out) words of fp16 pairs.
+ * All fields are 32-bit uint or float, so the struct has identical std430 layout in C++ and GLSL. */
+#define LSNIF_GPU_MAGIC 0x4647534Cu /* "LSGF" little-endian */
+#define LSNIF_GPU_VERSION 1u
+#define LSNIF_GPU_ROW_WORDS(n) (((n) + 1u) >> 1)
+
+#ifdef __cplusplus
+#include <cstdint>
+typedef uint32_t lsnif_uint;
+#else
+#define lsnif_uint uint
+#endif
+
+struct LsnifGpuModelHeader {
+  lsnif_uint magic;            /* LSNIF_GPU_MAGIC */
+  lsnif_uint version;          /* LSNIF_GPU_VERSION */
+  lsnif_uint total_words;      /* size of the whole block in words */
+  lsnif_uint voxel_resolution; /* V */
+  lsnif_uint max_points;       /* H */
+  lsnif_uint grid_levels;      /* L */
+  lsnif_uint grid_resolution0, grid_resolution1, grid_resolution2, grid_resolution3; /* R_l, 0 unused */
+  lsnif_uint log2_table_size;  /* M */
+  lsnif_uint features;         /* F */
+  lsnif_uint hidden_width;     /* W */
+  lsnif_uint hidden_layers;
+  lsnif_uint material_count;   /* Nmat */
+  lsnif_uint hit_param;        /* LSNIF_HIT_PARAM_* */
+  float leaky_slope;
+  float bounds_lo_x, bounds_lo_y, bounds_lo_z; /* padded object AABB (VoxelGrid::bounds) */
+  float bounds_hi_x, bounds_hi_y, bounds_hi_z;
+  lsnif_uint voxel_offset;     /* words */
+  lsnif_uint grid_offset;      /* words */
+  lsnif_uint mlp_offset;       /* words */
+  lsnif_uint reserved0, reserved1, reserved2, reserved3, reserved4, reserved5; /* zero; 32 words */
+};
+#define LSNIF_GPU_HEADER_WORDS 32u
+
+/* Test interface of tests/gpu/lsnif_reference.comp: one world-space ray in, one result out. */
+struct LsnifReferenceRay {
+  float origin_x, origin_y, origin_z, tmin;
+  float direction_x, direction_y, direction_z, tmax;
+};
+struct LsnifReferenceHit {
+  lsnif_uint hit;       /* 1 when accepted (occlusion >= 0.5 and tmin <= t <= tmax) */
+  lsnif_uint points;    /* boundary points of the walk (0: the network was not evaluated) */
+  float occlusion_logit; /* raw occlusion output (0 when points == 0) */
+  float t;              /* ray parameter, also when not accepted */
+  float normal_x, normal_y, normal_z; /* world space, normalized */
+  lsnif_uint material;
+  float albedo_x, albedo_y, albedo_z;
+  lsnif_uint reserved;
+};
+
 #endif

@@ -79,6 +79,27 @@ TEST(Cli, BadInputFiles) {
   fs::remove_all(d);
 }
 
+TEST(Cli, TrainingOptionsReachTheTrainer) {
+  // Each option must show up in the settings line the trainer reports (a parsed but dropped
+  // option once went unnoticed).
+  if (!fs::exists(kElephant)) GTEST_SKIP() << kElephant << " missing: run scripts/setup.sh";
+  fs::path d = temp_dir();
+  const std::string base = "train " + kElephant + " -o " + (d / "o.lsnif").string() +
+                           " --voxels 16 --res-min 32 --res-max 64 --table-log2 12 --width 16 --steps 1 --quiet";
+  CliResult r = run_cli(base + " --batch 256 --normal-loss cosine --ray-reuse 2 --hit aabb --seed 7 --lr 0.003");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* want : {"normal loss cosine", "ray_reuse=2", "hit=aabb", "seed=7", "lr=0.003", "batch=256", "V=16"})
+    EXPECT_NE(r.out.find(want), std::string::npos) << want << " missing in:\n" << r.out;
+  r = run_cli(base + " --batch 256");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* want : {"normal loss angle", "ray_reuse=1", "hit=segments"})
+    EXPECT_NE(r.out.find(want), std::string::npos) << want << " missing in:\n" << r.out;
+  r = run_cli(base + " --normal-loss sideways");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--normal-loss"), std::string::npos) << r.out;
+  fs::remove_all(d);
+}
+
 TEST(Cli, TrainInfoEvalRoundTrip) {
   if (!fs::exists(kElephant)) GTEST_SKIP() << kElephant << " missing: run scripts/setup.sh";
   fs::path d = temp_dir();

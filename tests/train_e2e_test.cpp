@@ -12,6 +12,7 @@
 #include "evaluate.h"
 #include "intersector.h"
 #include "mesh.h"
+#include "test_support.h"
 #include "trainer.h"
 
 namespace lsnif {
@@ -20,16 +21,9 @@ namespace {
 const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
 
 TrainSettings tiny_settings() {
-  TrainSettings s;
-  s.config.voxel_resolution = 16;
-  s.config.max_points = 12;
-  set_grid_resolutions(s.config, 32, 64);
-  s.config.log2_table_size = 14;
-  s.config.hidden_width = 64;
+  TrainSettings s = test::tiny_train_settings();
   s.steps = 600;
-  s.batch_size = 2048;
   s.seed = 3;
-  s.progress = false;
   return s;
 }
 
@@ -69,6 +63,12 @@ TEST_F(TinyTraining, BeatsVoxelBaselineOnHeldOutRays) {
   EXPECT_LT(r.model.t_error_median, 0.4 * r.baseline.t_error_median);
   EXPECT_LT(r.model.normal_error_median, 0.7 * r.baseline.normal_error_median);
   EXPECT_LT(r.model.normal_error_p90, r.baseline.normal_error_p90);
+  // The per-origin breakdown partitions the same rays; hits past the H-th point are rare.
+  EXPECT_EQ(r.model_outer.rays + r.model_surface.rays, r.model.rays);
+  EXPECT_EQ(r.model_outer.true_hits + r.model_surface.true_hits, r.model.true_hits);
+  EXPECT_GT(r.model_outer.rays, 0u);
+  EXPECT_GT(r.model_surface.rays, 0u);
+  EXPECT_LE(r.hit_beyond_walk_fraction, r.truncated_fraction);
 }
 
 TEST_F(TinyTraining, FileRoundTripGivesIdenticalHits) {
@@ -100,15 +100,9 @@ TEST_F(TinyTraining, FileRoundTripGivesIdenticalHits) {
 TEST_F(TinyTraining, InstanceTransformMatchesObjectSpace) {
   // World = R * S * object + T (rotation, non-uniform scale, translation): transformed rays must
   // give the same hits, t (ray parameter) and world normals = inverse-transpose of object normals.
-  const glm::mat3 R = glm::mat3(glm::vec3(0.36f, 0.48f, -0.8f), glm::vec3(-0.8f, 0.6f, 0.0f),
-                                glm::vec3(0.48f, 0.64f, 0.6f));
-  const glm::mat3 A = R * glm::mat3(glm::vec3(2, 0, 0), glm::vec3(0, 0.5f, 0), glm::vec3(0, 0, 1.3f));
-  const glm::vec3 T(3, -1, 7);
-  Transform3x4 xf;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) xf.m[r][c] = A[c][r];
-    xf.m[r][3] = T[r];
-  }
+  const glm::mat3 A = test::skewed_linear();
+  const glm::vec3 T = test::skewed_translation();
+  const Transform3x4 xf = test::skewed_instance();
   std::mt19937 rng(6);
   std::uniform_real_distribution<float> u(-1, 1);
   const Aabb& b = model_.bounds();

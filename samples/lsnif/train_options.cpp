@@ -73,12 +73,27 @@ bool TrainOptions::to_settings(TrainSettings& s) const {
   }
   s.steps = steps;
   s.batch_size = batch;
+  s.ray_reuse = ray_reuse;
+  s.seed = seed;
+  s.loss_settings = loss;
+  if (normal_loss == "angle") {
+    s.loss_settings.normal_loss = NormalLoss::Angle;
+  } else if (normal_loss == "cosine") {
+    s.loss_settings.normal_loss = NormalLoss::Cosine;
+  } else {
+    std::fprintf(stderr, "lsnif: --normal-loss must be 'angle' or 'cosine' (got '%s')\n", normal_loss.c_str());
+    return false;
+  }
   if (paper) {
     s.batch_size = 1u << 18;
     c.hit_param = HitParam::AabbInterval;
+    s.loss_settings.normal_loss = NormalLoss::Cosine;
+    s.ray_reuse = 1;
   }
-  s.seed = seed;
-  s.loss_settings = loss;
+  if (s.ray_reuse < 1 || s.ray_reuse > s.batch_size) {
+    std::fprintf(stderr, "lsnif: --ray-reuse %u must be in [1, --batch %u]\n", s.ray_reuse, s.batch_size);
+    return false;
+  }
   s.adam.learning_rate = lr;
   s.progress = !quiet;
   s.loss_csv = csv.empty() ? output + ".csv" : csv;

@@ -1,0 +1,34 @@
+// gpu_model.h -- packs a host Model into the GPU block layout of shaders/host_device.h
+// (LsnifGpuModelHeader, then voxel bits, fp16 hash tables and fp16 MLP rows) that
+// shaders/lsnif_model.glsl reads through a buffer device address. No Vulkan here: the block is a
+// plain vector of 32-bit words that the caller uploads.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "host_device.h"
+#include "model.h"
+#include "status.h"
+
+namespace lsnif {
+
+// Word offsets of one MLP layer inside the mlp section (relative to header.mlp_offset).
+struct GpuLayerLayout {
+  uint32_t in = 0, out = 0;
+  uint32_t weight_word = 0;  // first word of row 0
+  uint32_t row_words = 0;    // LSNIF_GPU_ROW_WORDS(in)
+  uint32_t bias_word = 0;    // first word of the bias
+  uint32_t end_word = 0;     // one past the layer
+};
+// The layers in order (hidden, then output), as the shader walks them.
+std::vector<GpuLayerLayout> gpu_layer_layout(const Config& config);
+
+// Packs `model` into `words` (replaced). Fails, naming the problem, if the model is inconsistent
+// (Model::validate), if a grid or MLP value is not exactly an fp16 value (the model was not
+// quantized: the GPU would silently round it), or if the block would exceed 2^32 - 1 words.
+Status pack_gpu_model(const Model& model, std::vector<uint32_t>& words);
+
+// The header at the start of a packed block (words.size() >= LSNIF_GPU_HEADER_WORDS).
+LsnifGpuModelHeader gpu_model_header(const std::vector<uint32_t>& words);
+
+}  // namespace lsnif

@@ -1,0 +1,62 @@
+// lsnif_model.glsl -- device access to one packed LSNIF model (layout: shaders/host_device.h,
+// packer: plugin/gpu_model.cpp). A model is addressed by its buffer device address; its header is
+// read once per ray into LsnifModel, every other access is a 32-bit word load.
+// Needs (declared here, so include this file before any declaration): GL_EXT_buffer_reference,
+// GL_EXT_shader_explicit_arithmetic_types_int64 (device features bufferDeviceAddress, shaderInt64).
+#ifndef LSNIF_MODEL_GLSL
+#define LSNIF_MODEL_GLSL
+
+#extension GL_EXT_buffer_reference : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+
+#include "host_device.h"
+
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer LsnifHeaderRef {
+  LsnifGpuModelHeader header;
+};
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer LsnifWordsRef {
+  uint w[];
+};
+
+struct LsnifModel {
+  LsnifGpuModelHeader h;
+  LsnifWordsRef words;  // the whole block; header.*_offset index into it
+};
+
+// The model packed at device address `address` (4-byte aligned).
+LsnifModel lsnif_load_model(uint64_t address) {
+  LsnifModel m;
+  m.h = LsnifHeaderRef(address).header;
+  m.words = LsnifWordsRef(address);
+  return m;
+}
+
+// VoxelGrid::occupied: false outside [0, V)^3.
+bool lsnif_occupied(LsnifModel m, int i, int j, int k) {
+  const int V = int(m.h.voxel_resolution);
+  if (i < 0 || j < 0 || k < 0 || i >= V || j >= V || k >= V) return false;
+  const uint idx = uint(i) + m.h.voxel_resolution * (uint(j) + m.h.voxel_resolution * uint(k));
+  return ((m.words.w[m.h.voxel_offset + (idx >> 5)] >> (idx & 31u)) & 1u) != 0u;
+}
+
+// Element e of an fp16 array packed two per word starting at word `base`.
+float lsnif_half(LsnifModel m, uint base, uint e) {
+  const vec2 pair = unpackHalf2x16(m.words.w[base + (e >> 1)]);
+  return (e & 1u) != 0u ? pair.y : pair.x;
+}
+
+// Config::grid_resolution[level].
+uint lsnif_grid_resolution(LsnifModel m, uint level) {
+  return level == 0u ? m.h.grid_resolution0
+       : level == 1u ? m.h.grid_resolution1
+       : level == 2u ? m.h.grid_resolution2
+                     : m.h.grid_resolution3;
+}
+
+uint lsnif_input_dim(LsnifModel m) { return m.h.max_points * m.h.grid_levels * m.h.features; }
+uint lsnif_output_dim(LsnifModel m) { return LSNIF_OUT_FIXED + m.h.material_count; }
+
+vec3 lsnif_bounds_lo(LsnifModel m) { return vec3(m.h.bounds_lo_x, m.h.bounds_lo_y, m.h.bounds_lo_z); }
+vec3 lsnif_bounds_hi(LsnifModel m) { return vec3(m.h.bounds_hi_x, m.h.bounds_hi_y, m.h.bounds_hi_z); }
+
+#endif

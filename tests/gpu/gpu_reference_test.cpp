@@ -1,0 +1,524 @@
+// The device LSNIF math (shaders/lsnif_*.glsl, run as tests/gpu/lsnif_reference.comp through Vulkan
+// compute, lavapipe on machines without a GPU) against the CPU reference intersector
+// (host/intersector.cpp), ray by ray, on tiny models trained in-process for both hit
+// parametrizations and on a random model with odd layer sizes, with an identity and a
+// rotated/non-uniformly scaled/translated instance. Also checks the GPU block packing
+// (plugin/gpu_model.cpp) value by value, and that the validation layer reported nothing.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <random>
+#include <vector>
+
+#include "gpu_model.h"
+#include "test_support.h"
+#include "half.h"
+#include "intersector.h"
+#include "mesh.h"
+#include "network.h"
+#include "ray_walk.h"
+#include "trainer.h"
+#include "vk_compute.h"
+
+namespace lsnif {
+namespace {
+
+const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
+
+// The push constant block of lsnif_reference.comp (std430: 128 bytes).
+struct Push {
+  uint64_t model = 0, rays = 0, hits = 0;
+  uint32_t ray_count = 0, pad = 0;
+  float object_to_world[3][4] = {};
+  float world_to_object[3][4] = {};
+};
+static_assert(sizeof(Push) == 128, "push constant layout");
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+TrainSettings tiny_settings(HitParam param) {
+  TrainSettings s = test::tiny_train_settings();
+  s.config.hit_param = param;
+  s.steps = 200;
+  s.seed = 7;
+  return s;
+}
+
+// A model with random (fp16) parameters and odd sizes everywhere: input 3*1*3 = 9, W = 5, output 10.
+Model random_odd_model() {
+  Model m;
+  Config& c = m.config;
+  c.voxel_resolution = 5;
+  c.max_points = 3;
+  c.grid_levels = 1;
+  c.grid_resolution[0] = 15;
+  c.grid_resolution[1] = 0;
+  c.log2_table_size = 5;
+  c.features = 3;
+  c.hidden_width = 5;
+  c.hidden_layers = 3;
+  c.material_count = 2;
+  c.hit_param = HitParam::VoxelSegments;
+  c.leaky_slope = 0.05f;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  m.voxels.resolution = c.voxel_resolution;
+  m.voxels.bounds.lo = glm::vec3(-1.0f, 0.5f, 2.0f);
+  m.voxels.bounds.hi = glm::vec3(2.0f, 1.5f, 4.0f);
+  m.voxels.bits.assign(size_t((c.voxel_count() + 31) / 32), 0u);
+  for (uint32_t k = 0; k < 5; ++k)
+    for (uint32_t j = 0; j < 5; ++j)
+      for (uint32_t i = 0; i < 5; ++i)
+        if (u(rng) > 0.4f) m.voxels.set(i, j, k);
+  m.materials.resize(c.material_count);
+  m.grid.resize(size_t(c.grid_parameter_count()));
+  for (float& v : m.grid) v = u(rng);
+  m.mlp.resize(size_t(c.mlp_parameter_count()));
+  mlp_init_kaiming(c, 5, m.mlp.data());
+  for (const LayerView& v : mlp_layers(c))
+    for (uint32_t i = 0; i < v.out; ++i) m.mlp[v.bias_offset + i] = 0.3f * u(rng);
+  m.quantize();
+  return m;
+}
+
+// Object-to-world of the transformed instance: rotation * non-uniform scale, then translation.
+Transform3x4 skewed_instance() { return test::skewed_instance(); }
+
+struct Instance {
+  glm::mat3 A, A_inv;  // A_inv exactly as host/intersector.cpp computes it
+  glm::vec3 T;
+};
+Instance instance_of(const Transform3x4& xf) {
+  Instance in;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) in.A[c][r] = xf.m[r][c];
+    in.T[r] = xf.m[r][3];
+  }
+  in.A_inv = glm::inverse(in.A);
+  return in;
+}
+
+enum RayKind { kOutside, kInside, kInOccupied, kAnywhere, kKinds };
+const char* kKindNames[kKinds] = {"from outside through the AABB", "from inside the AABB",
+                                  "from inside occupied voxels", "anywhere (many miss the AABB)"};
+
+// Object-space rays of every kind (round robin), with a varied [tmin, tmax], mapped to world space.
+std::vector<Ray> make_world_rays(const Model& model, const Instance& in, size_t count, uint32_t seed,
+                                 std::vector<int>& kinds) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const Aabb& b = model.bounds();
+  const glm::vec3 ext = b.extent();
+  const float diag = b.diagonal();
+  const uint32_t V = model.voxels.resolution;
+  std::vector<glm::uvec3> occupied;
+  for (uint32_t k = 0; k < V; ++k)
+    for (uint32_t j = 0; j < V; ++j)
+      for (uint32_t i = 0; i < V; ++i)
+        if (model.voxels.occupied(int(i), int(j), int(k))) occupied.emplace_back(i, j, k);
+  auto unit_vector = [&] {
+    for (;;) {
+      glm::vec3 v(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
+      float l = glm::length(v);
+      if (l > 0.05f && l <= 1.0f) return v / l;
+    }
+  };
+  auto in_box = [&] { return b.lo + ext * glm::vec3(u(rng), u(rng), u(rng)); };
+  std::vector<Ray> rays(count);
+  kinds.resize(count);
+  for (size_t i = 0; i < count; ++i) {
+    const int kind = int(i % kKinds);
+    Ray r;
+    switch (kind) {
+      case kOutside:
+        r.origin = b.center() + diag * (0.8f + 0.7f * u(rng)) * unit_vector();
+        r.direction = in_box() - r.origin;
+        break;
+      case kInside:
+        r.origin = in_box();
+        r.direction = unit_vector();
+        break;
+      case kInOccupied: {
+        const glm::uvec3 v = occupied[size_t(u(rng) * float(occupied.size())) % occupied.size()];
+        r.origin = b.lo + ext * (glm::vec3(v) + glm::vec3(u(rng), u(rng), u(rng))) / float(V);
+        r.direction = unit_vector();
+        break;
+      }
+      default:
+        r.origin = b.center() + 1.5f * ext * glm::vec3(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
+        r.direction = unit_vector();
+        break;
+    }
+    r.direction *= 0.5f + u(rng);  // unnormalized: t is in the direction's units
+    const float span = diag / glm::length(r.direction);
+    const float pick = u(rng);
+    if (pick < 0.15f) {
+      r.tmax = 2.0f * span * u(rng);  // cuts some predicted hits
+    } else if (pick < 0.25f) {
+      r.tmin = 0.5f * span * u(rng);  // skips some
+    }
+    // World space.
+    Ray w = r;
+    w.origin = in.A * r.origin + in.T;
+    w.direction = in.A * r.direction;
+    rays[i] = w;
+    kinds[i] = kind;
+  }
+  return rays;
+}
+
+struct Comparison {
+  size_t rays = 0, walk_mismatch = 0, cpu_hits = 0, gpu_hits = 0, hit_agree = 0;
+  size_t flips_threshold = 0, flips_interval = 0, flips_walk = 0, flips_other = 0;
+  size_t both_hit = 0, material_mismatch = 0, hits_per_kind[kKinds] = {};
+  double t_err_max = 0, t_err_sum = 0, normal_deg_max = 0, normal_deg_sum = 0, albedo_max = 0;
+  double occlusion_max = 0;  // |sigmoid(gpu logit) - cpu occlusion| where both walks match
+};
+
+// A flip (hit on one side only) is "threshold" when the occlusion logit is within kLogitEps of 0,
+// "interval" when t is within kIntervalEps (of the ray's diagonal span) of tmin or tmax, "walk"
+// when the walks differ (a ray grazing a voxel face or edge: the object-space ray differs in the last
+// bit between the compilers' float contraction choices).
+constexpr float kLogitEps = 1e-3f;
+constexpr double kIntervalEps = 1e-4;
+
+Comparison compare(const Model& model, const Instance& in, const std::vector<Ray>& world,
+                   const std::vector<int>& kinds, const std::vector<LsnifHit>& cpu,
+                   const std::vector<LsnifReferenceHit>& gpu) {
+  Comparison c;
+  c.rays = world.size();
+  const float diag = model.bounds().diagonal();
+  for (size_t i = 0; i < world.size(); ++i) {
+    Ray o;
+    o.origin = in.A_inv * (world[i].origin - in.T);
+    o.direction = in.A_inv * world[i].direction;
+    o.tmin = world[i].tmin;
+    o.tmax = std::numeric_limits<float>::infinity();
+    RayWalk walk;
+    walk_ray(model.voxels, o, model.config.max_points, walk);
+    const double span = double(diag) / double(glm::length(o.direction));  // t units per diagonal
+    const LsnifHit& h = cpu[i];
+    const LsnifReferenceHit& g = gpu[i];
+    const bool walk_same = walk.count == g.points;
+    c.walk_mismatch += !walk_same;
+    c.cpu_hits += h.hit;
+    c.gpu_hits += g.hit != 0;
+    if (walk_same && walk.count > 0) {
+      const double occ = 1.0 / (1.0 + std::exp(-double(g.occlusion_logit)));
+      c.occlusion_max = std::max(c.occlusion_max, std::fabs(occ - double(h.occlusion)));
+    }
+    if (h.hit == (g.hit != 0)) {
+      ++c.hit_agree;
+    } else if (!walk_same) {
+      ++c.flips_walk;
+    } else if (std::fabs(g.occlusion_logit) < kLogitEps) {
+      ++c.flips_threshold;
+    } else if (std::fabs(double(g.t) - double(world[i].tmin)) < kIntervalEps * span ||
+               std::fabs(double(g.t) - double(world[i].tmax)) < kIntervalEps * span) {
+      ++c.flips_interval;
+    } else {
+      ++c.flips_other;
+      if (c.flips_other <= 5)
+        std::printf("unexplained flip: ray %zu cpu hit %d occ %.6f t %.7g | gpu hit %u logit %.6g t %.7g\n", i,
+                    int(h.hit), double(h.occlusion), double(h.t), g.hit, double(g.occlusion_logit),
+                    double(g.t));
+    }
+    if (!(h.hit && g.hit && walk_same)) continue;
+    ++c.both_hit;
+    ++c.hits_per_kind[kinds[i]];
+    const double t_err = std::fabs(double(g.t) - double(h.t)) / span;
+    c.t_err_max = std::max(c.t_err_max, t_err);
+    c.t_err_sum += t_err;
+    const glm::dvec3 gn(g.normal_x, g.normal_y, g.normal_z), hn(h.normal);
+    const double cosang = std::clamp(glm::dot(gn, hn), -1.0, 1.0);
+    const double deg = std::acos(cosang) * 180.0 / M_PI;
+    c.normal_deg_max = std::max(c.normal_deg_max, deg);
+    c.normal_deg_sum += deg;
+    const glm::vec3 ga(g.albedo_x, g.albedo_y, g.albedo_z);
+    for (int k = 0; k < 3; ++k) c.albedo_max = std::max(c.albedo_max, double(std::fabs(ga[k] - h.albedo[k])));
+    c.material_mismatch += g.material != h.material;
+  }
+  return c;
+}
+
+void print(const char* name, const Comparison& c) {
+  std::printf(
+      "%s: %zu rays, cpu hits %zu, gpu hits %zu, hit agreement %.4f%% (flips: %zu threshold, %zu interval, "
+      "%zu walk, %zu other), walk mismatches %zu\n"
+      "  both hit %zu (per kind %zu/%zu/%zu/%zu): t error / diagonal max %.3g mean %.3g, normal angle max "
+      "%.3g deg mean %.3g deg, albedo max %.3g, material mismatches %zu, occlusion max diff %.3g\n",
+      name, c.rays, c.cpu_hits, c.gpu_hits, 100.0 * double(c.hit_agree) / double(c.rays), c.flips_threshold,
+      c.flips_interval, c.flips_walk, c.flips_other, c.walk_mismatch, c.both_hit, c.hits_per_kind[0],
+      c.hits_per_kind[1], c.hits_per_kind[2], c.hits_per_kind[3], c.t_err_max,
+      c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, c.normal_deg_max,
+      c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, c.albedo_max, c.material_mismatch,
+      c.occlusion_max);
+}
+
+class GpuReference : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    vk_status_ = vk_.init();
+    if (vk_status_) {
+      std::printf("Vulkan device: %s\n", vk_.device_name().c_str());
+      vk_status_ = vk_.create_pipeline(LSNIF_REFERENCE_SPV, sizeof(Push), pipeline_);
+      // lavapipe compiles the shader with LLVM at the first dispatch (unless MESA_SHADER_CACHE_DIR
+      // has it): an empty dispatch (ray_count 0, no memory touched) measures that alone.
+      const auto t1 = std::chrono::steady_clock::now();
+      Push empty;
+      if (vk_status_) vk_status_ = vk_.dispatch(pipeline_, &empty, 1);
+      std::printf("lsnif_reference.comp: vkCreateComputePipelines %.3f s, first (empty) dispatch %.3f s\n",
+                  pipeline_.create_seconds, seconds_since(t1));
+    }
+    if (!std::filesystem::exists(kElephant)) {
+      train_status_ = Status::error("%s missing: run scripts/setup.sh", kElephant.c_str());
+      return;
+    }
+    Mesh mesh;
+    if (!load_mesh(kElephant, mesh)) {
+      train_status_ = Status::error("cannot load %s", kElephant.c_str());
+      return;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    train_status_ = train_model(mesh, tiny_settings(HitParam::AabbInterval), aabb_model_);
+    if (train_status_) train_status_ = train_model(mesh, tiny_settings(HitParam::VoxelSegments), segment_model_);
+    std::printf("trained 2 tiny models in %.2f s\n", seconds_since(t0));
+  }
+  static void TearDownTestSuite() { vk_.destroy_pipeline(pipeline_); }
+
+  // Runs `world` rays through the GPU and the CPU reference for one instance and compares.
+  static Comparison run(const Model& model, const Transform3x4& xf, size_t count, uint32_t seed,
+                        const char* name) {
+    const Instance in = instance_of(xf);
+    std::vector<int> kinds;
+    const std::vector<Ray> world = make_world_rays(model, in, count, seed, kinds);
+    std::vector<LsnifHit> cpu(count);
+    auto t0 = std::chrono::steady_clock::now();
+    Status s = intersect(model, xf, world.data(), count, cpu.data());
+    EXPECT_TRUE(s) << s.message();
+    const double cpu_seconds = seconds_since(t0);
+
+    std::vector<uint32_t> words;
+    s = pack_gpu_model(model, words);
+    EXPECT_TRUE(s) << s.message();
+    vk::Buffer model_buf, ray_buf, hit_buf;
+    EXPECT_TRUE(vk_.create_buffer(words.size() * 4, model_buf));
+    EXPECT_TRUE(vk_.create_buffer(count * sizeof(LsnifReferenceRay), ray_buf));
+    EXPECT_TRUE(vk_.create_buffer(count * sizeof(LsnifReferenceHit), hit_buf));
+    std::memcpy(model_buf.mapped, words.data(), words.size() * 4);
+    auto* rays = static_cast<LsnifReferenceRay*>(ray_buf.mapped);
+    for (size_t i = 0; i < count; ++i) {
+      const Ray& r = world[i];
+      rays[i] = {r.origin.x, r.origin.y, r.origin.z, r.tmin, r.direction.x, r.direction.y, r.direction.z, r.tmax};
+    }
+    Push push;
+    push.model = model_buf.address;
+    push.rays = ray_buf.address;
+    push.hits = hit_buf.address;
+    push.ray_count = uint32_t(count);
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 4; ++c) push.object_to_world[r][c] = xf.m[r][c];
+      for (int c = 0; c < 3; ++c) push.world_to_object[r][c] = in.A_inv[c][r];
+    }
+    t0 = std::chrono::steady_clock::now();
+    s = vk_.dispatch(pipeline_, &push, uint32_t((count + 63) / 64));
+    EXPECT_TRUE(s) << s.message();
+    const double gpu_seconds = seconds_since(t0);
+    const auto* hits = static_cast<const LsnifReferenceHit*>(hit_buf.mapped);
+    const std::vector<LsnifReferenceHit> gpu(hits, hits + count);
+    vk_.destroy_buffer(model_buf);
+    vk_.destroy_buffer(ray_buf);
+    vk_.destroy_buffer(hit_buf);
+
+    const Comparison c = compare(model, in, world, kinds, cpu, gpu);
+    std::printf("[%s] GPU %.3f s (%.0f rays/s), CPU reference %.3f s\n", name, gpu_seconds,
+                double(count) / gpu_seconds, cpu_seconds);
+    print(name, c);
+    return c;
+  }
+
+  // Agreement bounds (justified below).
+  static void expect_agreement(const Comparison& c) {
+    // Hits: >= 99.9% agree; every flip must be explained (threshold / interval / walk), and those
+    // are rare: a logit within 1e-3 of 0, or t within 1e-4 diagonals of tmin/tmax, or a walk that
+    // differs (< 0.05% of the rays).
+    EXPECT_GE(double(c.hit_agree), 0.999 * double(c.rays));
+    EXPECT_EQ(c.flips_other, 0u);
+    EXPECT_LE(double(c.walk_mismatch), 5e-4 * double(c.rays));
+    // Both sides use the same fp16 parameters in fp32; differences come from the summation order,
+    // exp rounding and, through an instance, the last bit of the object-space ray (A^-1 (o - T)
+    // with or without fused multiply-adds). The hash grid's slope (R = 64 cells per unit, features
+    // of order 1) amplifies a 1e-7 position change to ~1e-5 in the features, so measured maxima
+    // are ~1e-5 diagonals in t and ~0.03 deg in the normal (means 100x lower); the bounds leave
+    // ~10x for other ray sets and drivers while still catching any formula or layout error (those
+    // give errors of percent and degrees).
+    EXPECT_LT(c.t_err_max, 2e-4);
+    EXPECT_LT(c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, 2e-6);
+    EXPECT_LT(c.normal_deg_max, 0.3);
+    EXPECT_LT(c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, 0.03);
+    EXPECT_LT(c.albedo_max, 1e-4);
+    EXPECT_LT(c.occlusion_max, 5e-4);
+    EXPECT_EQ(c.material_mismatch, 0u);
+  }
+
+  void SetUp() override {
+    ASSERT_TRUE(vk_status_) << "no usable Vulkan device: " << vk_status_.message();
+  }
+  void TearDown() override {
+    EXPECT_EQ(vk_.validation_errors(), 0u) << "Vulkan validation errors (printed above)";
+    EXPECT_EQ(vk_.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
+  }
+
+  static vk::ComputeContext vk_;
+  static vk::Pipeline pipeline_;
+  static Status vk_status_, train_status_;
+  static Model aabb_model_, segment_model_;
+};
+vk::ComputeContext GpuReference::vk_;
+vk::Pipeline GpuReference::pipeline_;
+Status GpuReference::vk_status_, GpuReference::train_status_;
+Model GpuReference::aabb_model_, GpuReference::segment_model_;
+
+constexpr size_t kRaysPerInstance = 5000;  // x 2 instances x 2 models = 20k trained-model rays
+
+TEST_F(GpuReference, AabbIntervalModelMatchesCpu) {
+  ASSERT_TRUE(train_status_) << train_status_.message();
+  const Comparison a = run(aabb_model_, Transform3x4(), kRaysPerInstance, 1, "AABB interval, identity");
+  const Comparison b = run(aabb_model_, skewed_instance(), kRaysPerInstance, 2, "AABB interval, skewed instance");
+  for (const Comparison* c : {&a, &b}) {
+    expect_agreement(*c);
+    EXPECT_GT(c->cpu_hits, kRaysPerInstance / 5);  // the comparison is not vacuous
+    for (size_t k = 0; k < kKinds; ++k) EXPECT_GT(c->hits_per_kind[k], 20u) << kKindNames[k];
+  }
+}
+
+TEST_F(GpuReference, VoxelSegmentsModelMatchesCpu) {
+  ASSERT_TRUE(train_status_) << train_status_.message();
+  const Comparison a = run(segment_model_, Transform3x4(), kRaysPerInstance, 3, "voxel segments, identity");
+  const Comparison b = run(segment_model_, skewed_instance(), kRaysPerInstance, 4, "voxel segments, skewed instance");
+  for (const Comparison* c : {&a, &b}) {
+    expect_agreement(*c);
+    EXPECT_GT(c->cpu_hits, kRaysPerInstance / 5);
+    for (size_t k = 0; k < kKinds; ++k) EXPECT_GT(c->hits_per_kind[k], 20u) << kKindNames[k];
+  }
+}
+
+// Random fp16 weights and odd sizes (input 9, width 5, 3 hidden layers, 2 materials, V = 5, R = 15):
+// exercises the half-pair padding of every row and bias, the ping-pong between layers and the
+// material argmax. Random logits are larger than trained ones, hence the same relative bounds.
+TEST_F(GpuReference, RandomOddSizedModelMatchesCpu) {
+  Model model = random_odd_model();
+  // Calibrate the occlusion bias on the CPU so that about half of the rays crossing an occupied
+  // voxel are predicted hits (random weights alone put nearly all logits on one side).
+  const Instance in = instance_of(skewed_instance());
+  std::vector<int> kinds;
+  const std::vector<Ray> world = make_world_rays(model, in, 4000, 5, kinds);
+  std::vector<LsnifHit> cpu(world.size());
+  ASSERT_TRUE(intersect(model, skewed_instance(), world.data(), world.size(), cpu.data()));
+  std::vector<float> logits;
+  for (const LsnifHit& h : cpu)
+    if (h.occlusion > 0.0f && h.occlusion < 1.0f) logits.push_back(std::log(h.occlusion / (1.0f - h.occlusion)));
+  ASSERT_GT(logits.size(), 1000u);
+  std::nth_element(logits.begin(), logits.begin() + long(logits.size() / 2), logits.end());
+  model.mlp[mlp_layers(model.config).back().bias_offset + LSNIF_OUT_OCCLUSION] -= logits[logits.size() / 2];
+  model.quantize();
+  const Comparison c = run(model, skewed_instance(), 4000, 5, "random odd-sized model, skewed instance");
+  expect_agreement(c);
+  EXPECT_GT(c.cpu_hits, 400u);
+  EXPECT_LT(c.cpu_hits, 3600u);
+}
+
+// The zero-message assertions above mean something only if the messenger sees errors: provoke one
+// (a buffer without usage bits, VUID-VkBufferCreateInfo-usage-requiredbitmask) and see it counted.
+TEST_F(GpuReference, ValidationMessengerCountsErrors) {
+  const uint32_t before = vk_.validation_errors();
+  VkBufferCreateInfo bci{};
+  bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+  bci.size = 64;
+  bci.usage = 0;
+  std::printf("(one validation error is expected next)\n");
+  std::fflush(stdout);
+  VkBuffer buffer = VK_NULL_HANDLE;
+  vkCreateBuffer(vk_.device(), &bci, nullptr, &buffer);
+  if (buffer) vkDestroyBuffer(vk_.device(), buffer, nullptr);
+  EXPECT_GT(vk_.validation_errors(), before);
+  vk_.reset_validation_counts();
+}
+
+TEST(GpuModelPacking, EveryValueAtItsDocumentedPlace) {
+  const Model model = random_odd_model();
+  std::vector<uint32_t> words;
+  ASSERT_TRUE(pack_gpu_model(model, words));
+  const LsnifGpuModelHeader h = gpu_model_header(words);
+  EXPECT_EQ(h.magic, LSNIF_GPU_MAGIC);
+  EXPECT_EQ(h.version, LSNIF_GPU_VERSION);
+  EXPECT_EQ(h.total_words, words.size());
+  EXPECT_EQ(h.voxel_resolution, 5u);
+  EXPECT_EQ(h.max_points, 3u);
+  EXPECT_EQ(h.grid_resolution0, 15u);
+  EXPECT_EQ(h.hidden_layers, 3u);
+  EXPECT_EQ(h.material_count, 2u);
+  EXPECT_EQ(h.hit_param, LSNIF_HIT_PARAM_VOXEL_SEGMENTS);
+  EXPECT_EQ(h.leaky_slope, 0.05f);
+  EXPECT_EQ(h.bounds_lo_y, 0.5f);
+  EXPECT_EQ(h.bounds_hi_z, 4.0f);
+  EXPECT_EQ(h.voxel_offset, LSNIF_GPU_HEADER_WORDS);
+  auto half_at = [&](uint32_t base, uint64_t e) {
+    return half_to_float(uint16_t(words[base + (e >> 1)] >> ((e & 1u) * 16u)));
+  };
+  for (uint32_t k = 0; k < 5; ++k)
+    for (uint32_t j = 0; j < 5; ++j)
+      for (uint32_t i = 0; i < 5; ++i) {
+        const uint32_t idx = i + 5 * (j + 5 * k);
+        EXPECT_EQ(((words[h.voxel_offset + idx / 32] >> (idx % 32)) & 1u) != 0,
+                  model.voxels.occupied(int(i), int(j), int(k)));
+      }
+  for (size_t e = 0; e < model.grid.size(); ++e) ASSERT_EQ(half_at(h.grid_offset, e), model.grid[e]) << e;
+  const std::vector<LayerView> views = mlp_layers(model.config);
+  const std::vector<GpuLayerLayout> layers = gpu_layer_layout(model.config);
+  ASSERT_EQ(layers.size(), 4u);
+  EXPECT_EQ(layers[0].in, 9u);
+  EXPECT_EQ(layers[0].row_words, 5u);
+  EXPECT_EQ(layers[3].out, 10u);
+  uint32_t expect_word = 0;
+  for (size_t l = 0; l < layers.size(); ++l) {
+    const GpuLayerLayout& g = layers[l];
+    EXPECT_EQ(g.weight_word, expect_word);
+    for (uint32_t r = 0; r < g.out; ++r) {
+      const uint32_t row = h.mlp_offset + g.weight_word + r * g.row_words;
+      for (uint32_t i = 0; i < g.in; ++i)
+        ASSERT_EQ(half_at(row, i), model.mlp[views[l].weight_offset + size_t(r) * g.in + i]) << l << " " << r;
+      if (g.in % 2) {
+        EXPECT_EQ(words[row + g.row_words - 1] >> 16, 0u);  // pad half
+      }
+      ASSERT_EQ(half_at(h.mlp_offset + g.bias_word, r), model.mlp[views[l].bias_offset + r]);
+    }
+    expect_word = g.end_word;
+  }
+  EXPECT_EQ(h.mlp_offset + expect_word, h.total_words);
+}
+
+TEST(GpuModelPacking, RejectsUnquantizedAndInconsistentModels) {
+  Model model = random_odd_model();
+  model.mlp[7] = 0.1f;  // not an fp16 value
+  std::vector<uint32_t> words(3, 1u);
+  Status s = pack_gpu_model(model, words);
+  EXPECT_FALSE(s);
+  EXPECT_NE(s.message().find("not an fp16 value"), std::string::npos) << s.message();
+  EXPECT_TRUE(words.empty());
+  model = random_odd_model();
+  model.grid.pop_back();
+  s = pack_gpu_model(model, words);
+  EXPECT_FALSE(s);
+  EXPECT_NE(s.message().find("hash grid"), std::string::npos) << s.message();
+}
+
+}  // namespace
+}  // namespace lsnif

@@ -1,0 +1,301 @@
+// vk_compute.cpp -- the harness of vk_compute.h.
+#include "vk_compute.h"
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <vector>
+
+namespace lsnif::vk {
+
+namespace {
+
+constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
+
+#define LSNIF_VK_CHECK(call)                                                          \
+  do {                                                                                \
+    const VkResult result_ = (call);                                                  \
+    if (result_ != VK_SUCCESS) return Status::error("%s failed (VkResult %d)", #call, \
+                                                    static_cast<int>(result_));      \
+  } while (0)
+
+}  // namespace
+
+VKAPI_ATTR VkBool32 VKAPI_CALL ComputeContext::on_message(
+    VkDebugUtilsMessageSeverityFlagBitsEXT severity, VkDebugUtilsMessageTypeFlagsEXT,
+    const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
+  auto* self = static_cast<ComputeContext*>(user);
+  const bool error = severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  if (error) ++self->errors_;
+  else ++self->warnings_;
+  std::fprintf(stderr, "[vulkan validation %s] %s\n", error ? "error" : "warning",
+               data && data->pMessage ? data->pMessage : "(no message)");
+  return VK_FALSE;
+}
+
+ComputeContext::~ComputeContext() {
+  if (device_) {
+    vkDeviceWaitIdle(device_);
+    if (fence_) vkDestroyFence(device_, fence_, nullptr);
+    if (pool_) vkDestroyCommandPool(device_, pool_, nullptr);
+    vkDestroyDevice(device_, nullptr);
+  }
+  if (messenger_) vkDestroyDebugUtilsMessengerEXT(instance_, messenger_, nullptr);
+  if (instance_) vkDestroyInstance(instance_, nullptr);
+}
+
+Status ComputeContext::init() {
+  if (volkInitialize() != VK_SUCCESS) return Status::error("no Vulkan loader (libvulkan.so.1) found");
+
+  uint32_t layer_count = 0;
+  vkEnumerateInstanceLayerProperties(&layer_count, nullptr);
+  std::vector<VkLayerProperties> layers(layer_count);
+  vkEnumerateInstanceLayerProperties(&layer_count, layers.data());
+  bool has_validation = false;
+  for (const VkLayerProperties& l : layers) has_validation |= std::strcmp(l.layerName, kValidationLayer) == 0;
+  if (!has_validation)
+    return Status::error("Vulkan layer %s is not installed (package vulkan-validationlayers)", kValidationLayer);
+
+  VkDebugUtilsMessengerCreateInfoEXT messenger_info{};
+  messenger_info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
+  messenger_info.messageSeverity =
+      VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  messenger_info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
+                               VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                               VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+  messenger_info.pfnUserCallback = &ComputeContext::on_message;
+  messenger_info.pUserData = this;
+
+  VkApplicationInfo app{};
+  app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+  app.pApplicationName = "lsnif gpu tests";
+  app.apiVersion = VK_API_VERSION_1_2;
+  const char* extensions[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
+  VkInstanceCreateInfo ici{};
+  ici.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+  ici.pNext = &messenger_info;  // also report problems of instance creation itself
+  ici.pApplicationInfo = &app;
+  ici.enabledLayerCount = 1;
+  ici.ppEnabledLayerNames = &kValidationLayer;
+  ici.enabledExtensionCount = 1;
+  ici.ppEnabledExtensionNames = extensions;
+  LSNIF_VK_CHECK(vkCreateInstance(&ici, nullptr, &instance_));
+  volkLoadInstance(instance_);
+  LSNIF_VK_CHECK(vkCreateDebugUtilsMessengerEXT(instance_, &messenger_info, nullptr, &messenger_));
+
+  uint32_t count = 0;
+  vkEnumeratePhysicalDevices(instance_, &count, nullptr);
+  if (count == 0) return Status::error("no Vulkan physical device (is mesa-vulkan-drivers installed?)");
+  std::vector<VkPhysicalDevice> devices(count);
+  vkEnumeratePhysicalDevices(instance_, &count, devices.data());
+  // lavapipe first (the tests' reference platform), then any other device with a compute queue.
+  int best_rank = -1;
+  for (VkPhysicalDevice d : devices) {
+    VkPhysicalDeviceProperties props;
+    vkGetPhysicalDeviceProperties(d, &props);
+    uint32_t qcount = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(d, &qcount, nullptr);
+    std::vector<VkQueueFamilyProperties> qs(qcount);
+    vkGetPhysicalDeviceQueueFamilyProperties(d, &qcount, qs.data());
+    for (uint32_t q = 0; q < qcount; ++q) {
+      if (!(qs[q].queueFlags & VK_QUEUE_COMPUTE_BIT)) continue;
+      const int rank = props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 1 : 0;
+      if (rank > best_rank) {
+        best_rank = rank;
+        physical_ = d;
+        queue_family_ = q;
+        device_name_ = props.deviceName;
+      }
+      break;
+    }
+  }
+  if (!physical_) return Status::error("no Vulkan device with a compute queue among %u devices", count);
+
+  VkPhysicalDeviceVulkan12Features f12{};
+  f12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+  VkPhysicalDeviceFeatures2 f2{};
+  f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  f2.pNext = &f12;
+  vkGetPhysicalDeviceFeatures2(physical_, &f2);
+  if (!f12.bufferDeviceAddress) return Status::error("device %s lacks bufferDeviceAddress", device_name_.c_str());
+  if (!f2.features.shaderInt64) return Status::error("device %s lacks shaderInt64", device_name_.c_str());
+
+  VkPhysicalDeviceVulkan12Features e12{};
+  e12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+  e12.bufferDeviceAddress = VK_TRUE;
+  VkPhysicalDeviceFeatures2 e2{};
+  e2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  e2.pNext = &e12;
+  e2.features.shaderInt64 = VK_TRUE;
+  const float priority = 1.0f;
+  VkDeviceQueueCreateInfo qci{};
+  qci.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+  qci.queueFamilyIndex = queue_family_;
+  qci.queueCount = 1;
+  qci.pQueuePriorities = &priority;
+  VkDeviceCreateInfo dci{};
+  dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  dci.pNext = &e2;
+  dci.queueCreateInfoCount = 1;
+  dci.pQueueCreateInfos = &qci;
+  LSNIF_VK_CHECK(vkCreateDevice(physical_, &dci, nullptr, &device_));
+  volkLoadDevice(device_);
+  vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
+
+  VkCommandPoolCreateInfo pci{};
+  pci.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pci.queueFamilyIndex = queue_family_;
+  LSNIF_VK_CHECK(vkCreateCommandPool(device_, &pci, nullptr, &pool_));
+  VkFenceCreateInfo fci{};
+  fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+  LSNIF_VK_CHECK(vkCreateFence(device_, &fci, nullptr, &fence_));
+  return Status::ok();
+}
+
+Status ComputeContext::create_buffer(size_t bytes, Buffer& out) {
+  out = Buffer();
+  if (!device_) return Status::error("create_buffer: context not initialized");
+  VkBufferCreateInfo bci{};
+  bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+  bci.size = bytes > 0 ? bytes : 4;
+  bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
+  bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  LSNIF_VK_CHECK(vkCreateBuffer(device_, &bci, nullptr, &out.buffer));
+  VkMemoryRequirements req;
+  vkGetBufferMemoryRequirements(device_, out.buffer, &req);
+  VkPhysicalDeviceMemoryProperties mem;
+  vkGetPhysicalDeviceMemoryProperties(physical_, &mem);
+  const VkMemoryPropertyFlags want = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  uint32_t type = UINT32_MAX;
+  for (uint32_t i = 0; i < mem.memoryTypeCount && type == UINT32_MAX; ++i)
+    if ((req.memoryTypeBits & (1u << i)) && (mem.memoryTypes[i].propertyFlags & want) == want) type = i;
+  if (type == UINT32_MAX) {
+    destroy_buffer(out);
+    return Status::error("no host-visible coherent memory type for a %zu-byte buffer", bytes);
+  }
+  VkMemoryAllocateFlagsInfo flags{};
+  flags.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO;
+  flags.flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT;
+  VkMemoryAllocateInfo mai{};
+  mai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+  mai.pNext = &flags;
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = type;
+  LSNIF_VK_CHECK(vkAllocateMemory(device_, &mai, nullptr, &out.memory));
+  LSNIF_VK_CHECK(vkBindBufferMemory(device_, out.buffer, out.memory, 0));
+  LSNIF_VK_CHECK(vkMapMemory(device_, out.memory, 0, VK_WHOLE_SIZE, 0, &out.mapped));
+  std::memset(out.mapped, 0, bci.size);
+  out.size = bci.size;
+  VkBufferDeviceAddressInfo ai{};
+  ai.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO;
+  ai.buffer = out.buffer;
+  out.address = vkGetBufferDeviceAddress(device_, &ai);
+  return Status::ok();
+}
+
+void ComputeContext::destroy_buffer(Buffer& buffer) {
+  if (device_) {
+    if (buffer.buffer) vkDestroyBuffer(device_, buffer.buffer, nullptr);
+    if (buffer.memory) vkFreeMemory(device_, buffer.memory, nullptr);  // also unmaps
+  }
+  buffer = Buffer();
+}
+
+Status ComputeContext::create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out) {
+  out = Pipeline();
+  if (!device_) return Status::error("create_pipeline: context not initialized");
+  std::ifstream file(spirv_path, std::ios::binary | std::ios::ate);
+  if (!file) return Status::error("cannot open SPIR-V file %s", spirv_path.c_str());
+  const std::streamsize size = file.tellg();
+  if (size <= 0 || size % 4 != 0)
+    return Status::error("SPIR-V file %s has %lld bytes (not a positive multiple of 4)", spirv_path.c_str(),
+                         static_cast<long long>(size));
+  std::vector<uint32_t> code(size_t(size) / 4);
+  file.seekg(0);
+  if (!file.read(reinterpret_cast<char*>(code.data()), size))
+    return Status::error("cannot read SPIR-V file %s", spirv_path.c_str());
+
+  VkShaderModuleCreateInfo smi{};
+  smi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+  smi.codeSize = size_t(size);
+  smi.pCode = code.data();
+  VkShaderModule module;
+  LSNIF_VK_CHECK(vkCreateShaderModule(device_, &smi, nullptr, &module));
+
+  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, push_size};
+  VkPipelineLayoutCreateInfo lci{};
+  lci.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+  lci.pushConstantRangeCount = push_size > 0 ? 1 : 0;
+  lci.pPushConstantRanges = &range;
+  VkResult r = vkCreatePipelineLayout(device_, &lci, nullptr, &out.layout);
+  if (r != VK_SUCCESS) {
+    vkDestroyShaderModule(device_, module, nullptr);
+    return Status::error("vkCreatePipelineLayout failed (VkResult %d)", static_cast<int>(r));
+  }
+  VkComputePipelineCreateInfo cpi{};
+  cpi.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+  cpi.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  cpi.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  cpi.stage.module = module;
+  cpi.stage.pName = "main";
+  cpi.layout = out.layout;
+  const auto t0 = std::chrono::steady_clock::now();
+  r = vkCreateComputePipelines(device_, VK_NULL_HANDLE, 1, &cpi, nullptr, &out.pipeline);
+  out.create_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  vkDestroyShaderModule(device_, module, nullptr);
+  if (r != VK_SUCCESS) {
+    destroy_pipeline(out);
+    return Status::error("vkCreateComputePipelines(%s) failed (VkResult %d)", spirv_path.c_str(),
+                         static_cast<int>(r));
+  }
+  out.push_size = push_size;
+  return Status::ok();
+}
+
+void ComputeContext::destroy_pipeline(Pipeline& pipeline) {
+  if (device_) {
+    if (pipeline.pipeline) vkDestroyPipeline(device_, pipeline.pipeline, nullptr);
+    if (pipeline.layout) vkDestroyPipelineLayout(device_, pipeline.layout, nullptr);
+  }
+  pipeline = Pipeline();
+}
+
+Status ComputeContext::dispatch(const Pipeline& pipeline, const void* push, uint32_t groups_x) {
+  if (!device_ || !pipeline.pipeline) return Status::error("dispatch: no device or pipeline");
+  VkCommandBufferAllocateInfo cai{};
+  cai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+  cai.commandPool = pool_;
+  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cai.commandBufferCount = 1;
+  VkCommandBuffer cmd;
+  LSNIF_VK_CHECK(vkAllocateCommandBuffers(device_, &cai, &cmd));
+  VkCommandBufferBeginInfo bi{};
+  bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  vkBeginCommandBuffer(cmd, &bi);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
+  if (pipeline.push_size > 0)
+    vkCmdPushConstants(cmd, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pipeline.push_size, push);
+  vkCmdDispatch(cmd, groups_x, 1, 1);
+  VkMemoryBarrier barrier{};
+  barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+  barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier,
+                       0, nullptr, 0, nullptr);
+  vkEndCommandBuffer(cmd);
+  VkSubmitInfo si{};
+  si.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+  si.commandBufferCount = 1;
+  si.pCommandBuffers = &cmd;
+  VkResult r = vkQueueSubmit(queue_, 1, &si, fence_);
+  if (r == VK_SUCCESS) r = vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX);
+  if (r == VK_SUCCESS) r = vkResetFences(device_, 1, &fence_);
+  vkFreeCommandBuffers(device_, pool_, 1, &cmd);
+  if (r != VK_SUCCESS) return Status::error("dispatch of %u groups failed (VkResult %d)", groups_x, static_cast<int>(r));
+  return Status::ok();
+}
+
+}  // namespace lsnif::vk

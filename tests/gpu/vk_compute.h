@@ -1,0 +1,76 @@
+// vk_compute.h -- a minimal headless Vulkan compute harness for the GPU tests (volk): an instance
+// with the Khronos validation layer and a debug-utils messenger that counts (and prints) every
+// warning and error, a device (lavapipe preferred, else the first with a compute queue) with
+// bufferDeviceAddress and shaderInt64, host-visible buffers addressed by device address, one
+// compute pipeline from a SPIR-V file with a push-constant range, dispatch and wait.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include <volk.h>
+
+#include "status.h"
+
+namespace lsnif::vk {
+
+struct Buffer {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  void* mapped = nullptr;         // persistently mapped, host-coherent
+  VkDeviceSize size = 0;
+  VkDeviceAddress address = 0;    // vkGetBufferDeviceAddress
+};
+
+struct Pipeline {
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  uint32_t push_size = 0;
+  double create_seconds = 0;      // vkCreateComputePipelines wall time (lavapipe compiles here)
+};
+
+class ComputeContext {
+ public:
+  ComputeContext() = default;
+  ComputeContext(const ComputeContext&) = delete;
+  ComputeContext& operator=(const ComputeContext&) = delete;
+  ~ComputeContext();
+
+  // Creates instance (validation layer required: an error when it is missing), messenger and
+  // device. Errors name the missing piece (no Vulkan loader, no device, no compute queue, ...).
+  Status init();
+  // A host-visible storage buffer of `bytes` with a device address (contents zeroed).
+  Status create_buffer(size_t bytes, Buffer& out);
+  void destroy_buffer(Buffer& buffer);
+  // A compute pipeline (entry "main", no descriptor sets) from a SPIR-V file.
+  Status create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out);
+  void destroy_pipeline(Pipeline& pipeline);
+  // Records push constants + vkCmdDispatch(groups_x, 1, 1), submits, waits; shader writes are
+  // made visible to the host before it returns.
+  Status dispatch(const Pipeline& pipeline, const void* push, uint32_t groups_x);
+
+  const std::string& device_name() const { return device_name_; }
+  // Validation messages of severity warning / error seen so far.
+  uint32_t validation_warnings() const { return warnings_; }
+  uint32_t validation_errors() const { return errors_; }
+  void reset_validation_counts() { warnings_ = errors_ = 0; }
+  VkDevice device() const { return device_; }
+
+ private:
+  static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                    VkDebugUtilsMessageTypeFlagsEXT types,
+                                                    const VkDebugUtilsMessengerCallbackDataEXT* data,
+                                                    void* user);
+  VkInstance instance_ = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
+  VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkQueue queue_ = VK_NULL_HANDLE;
+  uint32_t queue_family_ = 0;
+  VkCommandPool pool_ = VK_NULL_HANDLE;
+  VkFence fence_ = VK_NULL_HANDLE;
+  std::string device_name_;
+  uint32_t warnings_ = 0, errors_ = 0;
+};
+
+}  // namespace lsnif::vk
