@@ -93,7 +93,7 @@ fetch_deb() {  # fetch_deb PACKAGE WORKDIR -> extracts the package's files into 
 mkdir -p "$data_dir/meshes" "$data_dir/gltf" "$data_dir/hdr"
 if [ ! -f "$data_dir/meshes/bunny00.off" ] || [ ! -f "$data_dir/meshes/armadillo.off" ] \
    || [ ! -f "$data_dir/meshes/ChineseDragon-10kv.off" ]; then
-  tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+  tmp=$(mktemp -d); chmod 755 "$tmp"; chown _apt "$tmp" 2>/dev/null || true; trap 'rm -rf "$tmp"' EXIT
   fetch_deb libcgal-demo "$tmp"
   tarball=$(find "$tmp/root" -name data.tar.gz | head -n1)
   [ -n "$tarball" ] || { echo "setup.sh: libcgal-demo has no data.tar.gz" >&2; exit 1; }
@@ -106,7 +106,7 @@ if [ ! -f "$data_dir/meshes/bunny00.off" ] || [ ! -f "$data_dir/meshes/armadillo
   rm -rf "$tmp"; trap - EXIT
 fi
 if [ ! -f "$data_dir/gltf/.fetched" ]; then
-  tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+  tmp=$(mktemp -d); chmod 755 "$tmp"; chown _apt "$tmp" 2>/dev/null || true; trap 'rm -rf "$tmp"' EXIT
   fetch_deb assimp-testmodels "$tmp"
   gl=$(find "$tmp/root" -type d -name glTF2 | head -n1)
   [ -n "$gl" ] || { echo "setup.sh: assimp-testmodels has no glTF2 folder" >&2; exit 1; }
