@@ -97,4 +97,33 @@ struct LsnifReferenceHit {
   lsnif_uint reserved;
 };
 
+/* ---- Ray tracing binding convention (shaders/lsnif.rint, shaders/lsnif_hit.glsl) ----
+ * Every LSNIF object is one instance of a BLAS holding one AABB geometry (VK_GEOMETRY_TYPE_AABBS_KHR,
+ * flag OPAQUE) whose box is the model's object-space AABB (LsnifGpuModelHeader bounds, may be padded:
+ * the intersection shader clips to the model's own bounds) and whose hit group is
+ * (lsnif.rint, the application's closest-hit shader).
+ * Model lookup: the push constant block of the pipeline starts (offset 0, 8 bytes) with the buffer
+ * device address of the instance model table, an array of uint64 model block addresses
+ * (LsnifGpuModelHeader blocks, 4-byte aligned) indexed by the instance's custom index
+ * (VkAccelerationStructureInstanceKHR::instanceCustomIndex = gl_InstanceCustomIndexEXT). The push
+ * constant range must include VK_SHADER_STAGE_INTERSECTION_BIT_KHR; the application's own push
+ * constants follow at offset >= LSNIF_RT_PUSH_APP_OFFSET. */
+#define LSNIF_RT_PUSH_MODEL_TABLE_OFFSET 0u
+#define LSNIF_RT_PUSH_APP_OFFSET 8u
+
+/* Hit attributes that lsnif.rint reports (24 bytes <= maxRayHitAttributeSize 32); decode them in a
+ * closest-hit shader with lsnif_hit.glsl. The hit distance is gl_HitTEXT (world = object ray
+ * parameter), the instance gl_InstanceID / gl_InstanceCustomIndexEXT, the model the table entry.
+ *  normal_*:      object-space unit normal as predicted (fp32); world normal = normalize(A^-T n)
+ *  albedo_rg:     packUnorm2x16(albedo.r, albedo.g)
+ *  albedo_b_material_points: bits 0-15 albedo.b as unorm16, bits 16-23 material index (< 256,
+ *                 LSNIF_MAX_MATERIALS <= 64), bits 24-31 boundary points of the walk (<= 32)
+ *  occlusion_logit: raw occlusion output (>= 0 for every reported hit) */
+struct LsnifHitAttributes {
+  float normal_x, normal_y, normal_z;
+  lsnif_uint albedo_rg;
+  lsnif_uint albedo_b_material_points;
+  float occlusion_logit;
+};
+
 #endif

@@ -45,7 +45,7 @@ ComputeContext::~ComputeContext() {
   if (instance_) vkDestroyInstance(instance_, nullptr);
 }
 
-Status ComputeContext::init() {
+Status ComputeContext::init(bool ray_tracing) {
   if (volkInitialize() != VK_SUCCESS) return Status::error("no Vulkan loader (libvulkan.so.1) found");
 
   uint32_t layer_count = 0;
@@ -121,8 +121,45 @@ Status ComputeContext::init() {
   if (!f12.bufferDeviceAddress) return Status::error("device %s lacks bufferDeviceAddress", device_name_.c_str());
   if (!f2.features.shaderInt64) return Status::error("device %s lacks shaderInt64", device_name_.c_str());
 
+  std::vector<const char*> device_extensions;
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR as_features{};
+  as_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt_features{};
+  rt_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+  if (ray_tracing) {
+    uint32_t ext_count = 0;
+    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &ext_count, nullptr);
+    std::vector<VkExtensionProperties> available(ext_count);
+    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &ext_count, available.data());
+    // Vulkan 1.2 covers descriptor indexing, buffer device address and float controls.
+    for (const char* name : {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME, VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME,
+                             VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME, VK_KHR_SPIRV_1_4_EXTENSION_NAME}) {
+      bool found = false;
+      for (const VkExtensionProperties& e : available) found |= std::strcmp(e.extensionName, name) == 0;
+      if (!found) return Status::error("device %s lacks the extension %s", device_name_.c_str(), name);
+      device_extensions.push_back(name);
+    }
+    as_features.pNext = &rt_features;
+    VkPhysicalDeviceFeatures2 q2{};
+    q2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+    q2.pNext = &as_features;
+    vkGetPhysicalDeviceFeatures2(physical_, &q2);
+    if (!as_features.accelerationStructure)
+      return Status::error("device %s lacks the feature accelerationStructure", device_name_.c_str());
+    if (!rt_features.rayTracingPipeline)
+      return Status::error("device %s lacks the feature rayTracingPipeline", device_name_.c_str());
+    as_features = VkPhysicalDeviceAccelerationStructureFeaturesKHR{};
+    as_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+    as_features.accelerationStructure = VK_TRUE;
+    rt_features = VkPhysicalDeviceRayTracingPipelineFeaturesKHR{};
+    rt_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+    rt_features.rayTracingPipeline = VK_TRUE;
+    as_features.pNext = &rt_features;
+  }
+
   VkPhysicalDeviceVulkan12Features e12{};
   e12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+  e12.pNext = ray_tracing ? &as_features : nullptr;
   e12.bufferDeviceAddress = VK_TRUE;
   VkPhysicalDeviceFeatures2 e2{};
   e2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
@@ -139,6 +176,8 @@ Status ComputeContext::init() {
   dci.pNext = &e2;
   dci.queueCreateInfoCount = 1;
   dci.pQueueCreateInfos = &qci;
+  dci.enabledExtensionCount = uint32_t(device_extensions.size());
+  dci.ppEnabledExtensionNames = device_extensions.empty() ? nullptr : device_extensions.data();
   LSNIF_VK_CHECK(vkCreateDevice(physical_, &dci, nullptr, &device_));
   volkLoadDevice(device_);
   vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
@@ -154,13 +193,13 @@ Status ComputeContext::init() {
   return Status::ok();
 }
 
-Status ComputeContext::create_buffer(size_t bytes, Buffer& out) {
+Status ComputeContext::create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage) {
   out = Buffer();
   if (!device_) return Status::error("create_buffer: context not initialized");
   VkBufferCreateInfo bci{};
   bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
   bci.size = bytes > 0 ? bytes : 4;
-  bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
+  bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT | extra_usage;
   bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   LSNIF_VK_CHECK(vkCreateBuffer(device_, &bci, nullptr, &out.buffer));
   VkMemoryRequirements req;
@@ -264,6 +303,22 @@ void ComputeContext::destroy_pipeline(Pipeline& pipeline) {
 
 Status ComputeContext::dispatch(const Pipeline& pipeline, const void* push, uint32_t groups_x) {
   if (!device_ || !pipeline.pipeline) return Status::error("dispatch: no device or pipeline");
+  return submit("compute dispatch", [&](VkCommandBuffer cmd) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
+    if (pipeline.push_size > 0)
+      vkCmdPushConstants(cmd, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pipeline.push_size, push);
+    vkCmdDispatch(cmd, groups_x, 1, 1);
+    VkMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier,
+                         0, nullptr, 0, nullptr);
+  });
+}
+
+Status ComputeContext::submit(const char* what, const std::function<void(VkCommandBuffer)>& record) {
+  if (!device_) return Status::error("%s: context not initialized", what);
   VkCommandBufferAllocateInfo cai{};
   cai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
   cai.commandPool = pool_;
@@ -275,16 +330,7 @@ Status ComputeContext::dispatch(const Pipeline& pipeline, const void* push, uint
   bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   vkBeginCommandBuffer(cmd, &bi);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
-  if (pipeline.push_size > 0)
-    vkCmdPushConstants(cmd, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pipeline.push_size, push);
-  vkCmdDispatch(cmd, groups_x, 1, 1);
-  VkMemoryBarrier barrier{};
-  barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-  barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-  barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier,
-                       0, nullptr, 0, nullptr);
+  record(cmd);
   vkEndCommandBuffer(cmd);
   VkSubmitInfo si{};
   si.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
@@ -294,7 +340,7 @@ Status ComputeContext::dispatch(const Pipeline& pipeline, const void* push, uint
   if (r == VK_SUCCESS) r = vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX);
   if (r == VK_SUCCESS) r = vkResetFences(device_, 1, &fence_);
   vkFreeCommandBuffers(device_, pool_, 1, &cmd);
-  if (r != VK_SUCCESS) return Status::error("dispatch of %u groups failed (VkResult %d)", groups_x, static_cast<int>(r));
+  if (r != VK_SUCCESS) return Status::error("%s failed (VkResult %d)", what, static_cast<int>(r));
   return Status::ok();
 }
 

@@ -2,11 +2,15 @@
 // with the Khronos validation layer and a debug-utils messenger that counts (and prints) every
 // warning and error, a device (lavapipe preferred, else the first with a compute queue) with
 // bufferDeviceAddress and shaderInt64, host-visible buffers addressed by device address, one
-// compute pipeline from a SPIR-V file with a push-constant range, dispatch and wait.
+// compute pipeline from a SPIR-V file with a push-constant range, dispatch and wait. Optionally
+// (init(true)) the device also has the ray-tracing extensions and features that
+// tests/gpu/vk_raytracing.h uses.
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <vector>
 
 #include <volk.h>
 
@@ -38,9 +42,13 @@ class ComputeContext {
 
   // Creates instance (validation layer required: an error when it is missing), messenger and
   // device. Errors name the missing piece (no Vulkan loader, no device, no compute queue, ...).
-  Status init();
-  // A host-visible storage buffer of `bytes` with a device address (contents zeroed).
-  Status create_buffer(size_t bytes, Buffer& out);
+  // With `ray_tracing`, the device must offer VK_KHR_acceleration_structure,
+  // VK_KHR_ray_tracing_pipeline (and their dependencies) and they are enabled with the features
+  // accelerationStructure and rayTracingPipeline; an error names what is missing.
+  Status init(bool ray_tracing = false);
+  // A host-visible storage buffer of `bytes` with a device address (contents zeroed), with the
+  // usage bits `extra_usage` added (e.g. acceleration-structure storage, shader binding table).
+  Status create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage = 0);
   void destroy_buffer(Buffer& buffer);
   // A compute pipeline (entry "main", no descriptor sets) from a SPIR-V file.
   Status create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out);
@@ -48,6 +56,9 @@ class ComputeContext {
   // Records push constants + vkCmdDispatch(groups_x, 1, 1), submits, waits; shader writes are
   // made visible to the host before it returns.
   Status dispatch(const Pipeline& pipeline, const void* push, uint32_t groups_x);
+  // Records `record` into a one-time command buffer, submits it and waits for it (`what` names the
+  // work in an error message).
+  Status submit(const char* what, const std::function<void(VkCommandBuffer)>& record);
 
   const std::string& device_name() const { return device_name_; }
   // Validation messages of severity warning / error seen so far.
@@ -55,6 +66,7 @@ class ComputeContext {
   uint32_t validation_errors() const { return errors_; }
   void reset_validation_counts() { warnings_ = errors_ = 0; }
   VkDevice device() const { return device_; }
+  VkPhysicalDevice physical_device() const { return physical_; }
 
  private:
   static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,

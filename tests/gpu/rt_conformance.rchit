@@ -1,0 +1,26 @@
+// rt_conformance.rchit -- the closest hit of an LSNIF object, decoded with shaders/lsnif_hit.glsl
+// as an application would: world normal, albedo, material; plus t, the walk's points, the logit
+// and the instance (reserved = gl_InstanceID | gl_InstanceCustomIndexEXT << 16).
+#version 460
+#extension GL_EXT_ray_tracing : require
+#extension GL_GOOGLE_include_directive : require
+#include "lsnif_hit.glsl"
+
+layout(location = 0) rayPayloadInEXT LsnifReferenceHit payload;
+hitAttributeEXT LsnifHitAttributes attributes;
+
+void main() {
+  const LsnifSurface s = lsnif_surface(attributes);
+  payload.hit = 1u;
+  payload.points = s.points;
+  payload.occlusion_logit = s.occlusion_logit;
+  payload.t = gl_HitTEXT;
+  payload.normal_x = s.normal.x;
+  payload.normal_y = s.normal.y;
+  payload.normal_z = s.normal.z;
+  payload.material = s.material;
+  payload.albedo_x = s.albedo.x;
+  payload.albedo_y = s.albedo.y;
+  payload.albedo_z = s.albedo.z;
+  payload.reserved = uint(gl_InstanceID) | (uint(gl_InstanceCustomIndexEXT) << 16);
+}
