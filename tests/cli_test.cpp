@@ -20,9 +20,10 @@ struct CliResult {
   std::string out;  // stdout and stderr together
 };
 
-CliResult run_cli(const std::string& args) {
+// `env` (e.g. "VAR=value ") is put before the program on the shell command line.
+CliResult run_cli(const std::string& args, const std::string& env = "") {
   CliResult r;
-  std::string cmd = std::string(LSNIF_CLI) + " " + args + " 2>&1";
+  std::string cmd = env + std::string(LSNIF_CLI) + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
   std::array<char, 4096> buf;
@@ -42,12 +43,47 @@ fs::path temp_dir() {
 TEST(Cli, HelpForEveryCommand) {
   CliResult top = run_cli("--help");
   EXPECT_EQ(top.code, 0);
-  for (const char* cmd : {"demo", "train", "eval", "info"}) {
+  for (const char* cmd : {"demo", "train", "eval", "info", "devices"}) {
     EXPECT_NE(top.out.find(cmd), std::string::npos) << cmd;
     CliResult r = run_cli(std::string(cmd) + " --help");
     EXPECT_EQ(r.code, 0) << cmd;
     EXPECT_NE(r.out.find(std::string("usage: lsnif ") + cmd), std::string::npos) << r.out;
   }
+}
+
+// `lsnif devices` on this machine (lavapipe with ray tracing): llvmpipe is listed and supports
+// the ray-tracing pipeline, in text and JSON; with the Vulkan driver hidden it fails with exit
+// code 1 and says why.
+TEST(Cli, DevicesListsLavapipeWithRayTracing) {
+  CliResult r = run_cli("devices");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const size_t at = r.out.find("llvmpipe");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const size_t rt = r.out.find("ray-tracing pipeline", at);
+  ASSERT_NE(rt, std::string::npos) << r.out;
+  EXPECT_EQ(r.out.compare(r.out.find_first_not_of(' ', rt + 20), 3, "yes"), 0) << r.out;
+  for (const char* line : {"ray query", "NV cooperative matrix", "KHR cooperative matrix", "NV cooperative vector",
+                           "driver", "Vulkan"})
+    EXPECT_NE(r.out.find(line, at), std::string::npos) << line << "\n" << r.out;
+
+  r = run_cli("devices --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.front(), '{') << r.out;
+  const size_t name = r.out.find("\"name\": \"llvmpipe");
+  ASSERT_NE(name, std::string::npos) << r.out;
+  const size_t end = r.out.find('}', name);
+  const std::string device = r.out.substr(name, end - name);
+  EXPECT_NE(device.find("\"ray_tracing_pipeline\": true"), std::string::npos) << device;
+  EXPECT_NE(device.find("\"ray_tracing_pipeline_missing\": []"), std::string::npos) << device;
+  EXPECT_NE(device.find("\"ray_query\": "), std::string::npos) << device;
+  EXPECT_NE(device.find("\"nv_cooperative_vector\": "), std::string::npos) << device;
+
+  r = run_cli("devices", "VK_DRIVER_FILES=/nonexistent/icd.json VK_ICD_FILENAMES=/nonexistent/icd.json ");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("no Vulkan driver"), std::string::npos) << r.out;
+
+  r = run_cli("devices --frobnicate");
+  EXPECT_EQ(r.code, 2) << r.out;
 }
 
 TEST(Cli, UsageErrors) {

@@ -7,4 +7,5 @@ int cmd_train(int argc, char** argv);
 int cmd_eval(int argc, char** argv);
 int cmd_info(int argc, char** argv);
 int cmd_demo(int argc, char** argv);
+int cmd_devices(int argc, char** argv);
 }  // namespace lsnif::cli

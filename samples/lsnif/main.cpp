@@ -16,6 +16,7 @@ const Command kCommands[] = {
     {"train", lsnif::cli::cmd_train, "train an LSNIF model of a mesh (.off .obj .ply .gltf .glb)"},
     {"eval", lsnif::cli::cmd_eval, "measure a model against exact ray casting on held-out rays"},
     {"info", lsnif::cli::cmd_info, "print a model's configuration and memory breakdown"},
+    {"devices", lsnif::cli::cmd_devices, "list the Vulkan devices and the LSNIF paths each supports"},
 };
 
 void usage(FILE* out) {

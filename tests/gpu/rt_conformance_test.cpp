@@ -4,7 +4,10 @@
 // both hit parametrizations trained in-process as in gpu_reference_test, one instance (identity,
 // then rotated / non-uniformly scaled / translated), two instances of one model in one TLAS (the
 // closer one must be reported, with its instance id), and shadow rays (TerminateOnFirstHit |
-// SkipClosestHitShader) whose visibility must match. The validation layer must report nothing.
+// SkipClosestHitShader) whose visibility must match; and a mixed TLAS (an LSNIF instance beside a
+// triangle BLAS of the elephant mesh, a triangle hit group at SBT offset 1) whose closest hits and
+// shadow visibility must match the closer of the CPU reference and Embree. The validation layer must
+// report nothing.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -18,8 +21,9 @@
 #include <random>
 #include <vector>
 
-#include "gpu_model.h"
+#include "ground_truth.h"
 #include "intersector.h"
+#include "lsnif_vk.h"
 #include "mesh.h"
 #include "ray_walk.h"
 #include "test_support.h"
@@ -301,15 +305,22 @@ class RtConformance : public ::testing::Test {
     if (vk_status_)
       vk_status_ = tracer_.create_pipeline(kShaderDir + "/rt_conformance.rgen.spv",
                                            kShaderDir + "/rt_conformance.rmiss.spv",
-                                           kShaderDir + "/rt_conformance.rchit.spv", kShaderDir + "/lsnif.rint.spv",
+                                           kShaderDir + "/rt_conformance.rchit.spv",
+                                           plugin::intersection_shader_spirv_path(),
                                            sizeof(RtPush), pipeline_);
     if (vk_status_) std::printf("vkCreateRayTracingPipelinesKHR %.3f s\n", pipeline_.create_seconds);
+    if (vk_status_)
+      vk_status_ = tracer_.create_pipeline(kShaderDir + "/rt_conformance.rgen.spv",
+                                           kShaderDir + "/rt_conformance.rmiss.spv",
+                                           kShaderDir + "/rt_conformance.rchit.spv",
+                                           plugin::intersection_shader_spirv_path(), sizeof(RtPush),
+                                           mixed_pipeline_, kShaderDir + "/rt_mixed_triangle.rchit.spv");
 
     if (!std::filesystem::exists(kElephant)) {
       train_status_ = Status::error("%s missing: run scripts/setup.sh", kElephant.c_str());
       return;
     }
-    Mesh mesh;
+    Mesh& mesh = mesh_;
     if (!load_mesh(kElephant, mesh)) {
       train_status_ = Status::error("cannot load %s", kElephant.c_str());
       return;
@@ -320,35 +331,28 @@ class RtConformance : public ::testing::Test {
     std::printf("trained 2 tiny models in %.2f s\n", seconds_since(t0));
     if (!train_status_ || !vk_status_) return;
 
-    // Model blocks, the model table (custom index -> model address) and one AABB BLAS per model.
-    uint64_t addresses[2] = {};
-    for (uint32_t m = 0; m < 2 && train_status_; ++m) {
-      std::vector<uint32_t> words;
-      train_status_ = pack_gpu_model(models_[m], words);
-      if (train_status_) train_status_ = vk_.create_buffer(words.size() * 4, model_bufs_[m]);
-      if (!train_status_) break;
-      std::memcpy(model_bufs_[m].mapped, words.data(), words.size() * 4);
-      addresses[m] = model_bufs_[m].address;
-      // The BLAS box: the model's padded AABB, grown by 1e-4 of its diagonal so the driver's box
-      // test (with its own rounding) never culls a ray the shader would hit at the box's face;
-      // the shader clips to the model's bounds itself.
-      const Aabb& b = models_[m].bounds();
-      const float grow = 1e-4f * b.diagonal();
-      const float lo[3] = {b.lo.x - grow, b.lo.y - grow, b.lo.z - grow};
-      const float hi[3] = {b.hi.x + grow, b.hi.y + grow, b.hi.z + grow};
-      train_status_ = tracer_.build_aabb_blas(lo, hi, blas_[m]);
-    }
-    if (train_status_) train_status_ = vk_.create_buffer(sizeof(addresses), table_);
-    if (train_status_) std::memcpy(table_.mapped, addresses, sizeof(addresses));
+    // Through the plugin, on the harness's device: model blocks and one AABB BLAS per model, and
+    // the model table (custom index -> model address).
+    plugin::DeviceHandles handles;
+    handles.instance = vk_.instance();
+    handles.physical = vk_.physical_device();
+    handles.device = vk_.device();
+    handles.queue_family = vk_.queue_family();
+    handles.queue = vk_.queue();
+    train_status_ = plugin::create_context(handles, plugin_);
+    for (uint32_t m = 0; m < 2 && train_status_; ++m) train_status_ = plugin_.upload_model(models_[m], handles_[m]);
+    std::vector<uint64_t> addresses;
+    if (train_status_) train_status_ = plugin_.model_table({handles_[0], handles_[1]}, addresses);
+    if (train_status_) train_status_ = vk_.create_buffer(addresses.size() * sizeof(uint64_t), table_);
+    if (train_status_) std::memcpy(table_.mapped, addresses.data(), addresses.size() * sizeof(uint64_t));
   }
 
   static void TearDownTestSuite() {
-    for (int m = 0; m < 2; ++m) {
-      tracer_.destroy(blas_[m]);
-      vk_.destroy_buffer(model_bufs_[m]);
-    }
+    for (int m = 0; m < 2; ++m) plugin_.release_model(handles_[m]);
+    plugin_.destroy();
     vk_.destroy_buffer(table_);
     tracer_.destroy(pipeline_);
+    tracer_.destroy(mixed_pipeline_);
   }
 
   // Traces `world` through a TLAS of instances `xfs` of model `index` (custom index = index) in
@@ -365,17 +369,14 @@ class RtConformance : public ::testing::Test {
     }
     const double cpu_seconds = seconds_since(t0);
 
-    std::vector<vk::TlasInstance> instances(xfs.size());
-    for (size_t k = 0; k < xfs.size(); ++k) {
-      std::memcpy(instances[k].object_to_world, xfs[k].m, sizeof(xfs[k].m));
-      instances[k].custom_index = index;
-      instances[k].blas = &blas_[index];
-    }
+    std::vector<VkAccelerationStructureInstanceKHR> instances(xfs.size());
+    Status s = Status::ok();
+    for (size_t k = 0; k < xfs.size() && s; ++k) s = plugin_.make_instance(handles_[index], xfs[k], index, 0xFF, 0, instances[k]);
     vk::AccelerationStructure tlas;
     vk::Buffer ray_buf, hit_buf;
     std::vector<LsnifReferenceHit> gpu(count);
     double gpu_seconds = 0;
-    Status s = tracer_.build_tlas(instances, tlas);
+    if (s) s = tracer_.build_tlas(instances, tlas);
     if (s) s = vk_.create_buffer(count * sizeof(LsnifReferenceRay), ray_buf);
     if (s) s = vk_.create_buffer(count * sizeof(LsnifReferenceHit), hit_buf);
     if (s) {
@@ -451,19 +452,23 @@ class RtConformance : public ::testing::Test {
 
   static vk::ComputeContext vk_;
   static vk::RayTracer tracer_;
-  static vk::RtPipeline pipeline_;
+  static vk::RtPipeline pipeline_, mixed_pipeline_;
+  static Mesh mesh_;
   static Status vk_status_, train_status_;
   static Model models_[2];
-  static vk::Buffer model_bufs_[2], table_;
-  static vk::AccelerationStructure blas_[2];
+  static plugin::Context plugin_;
+  static plugin::ModelHandle handles_[2];
+  static vk::Buffer table_;
 };
 vk::ComputeContext RtConformance::vk_;
 vk::RayTracer RtConformance::tracer_(RtConformance::vk_);
-vk::RtPipeline RtConformance::pipeline_;
+vk::RtPipeline RtConformance::pipeline_, RtConformance::mixed_pipeline_;
+Mesh RtConformance::mesh_;
 Status RtConformance::vk_status_, RtConformance::train_status_;
 Model RtConformance::models_[2];
-vk::Buffer RtConformance::model_bufs_[2], RtConformance::table_;
-vk::AccelerationStructure RtConformance::blas_[2];
+plugin::Context RtConformance::plugin_;
+plugin::ModelHandle RtConformance::handles_[2];
+vk::Buffer RtConformance::table_;
 
 constexpr size_t kRays = 5000;  // per model and instance: 20k rays for the single-instance tests
 
@@ -537,6 +542,178 @@ TEST_F(RtConformance, ShadowRaysMatchCpuVisibility) {
     EXPECT_GT(c->cpu_hits, kRays / 5);
     EXPECT_LT(c->cpu_hits, kRays - kRays / 5);
   }
+}
+
+// A mixed TLAS: the voxel-segments model as an identity LSNIF instance (custom index 1, hit group 0)
+// beside a triangle instance of the elephant mesh (rotated 90 degrees about y, scaled 0.8, shifted
+// by 55% of the model's x extent so the boxes overlap; custom index kTriangleIndex, hit group 1).
+// Truth per ray: the closer of lsnif::intersect and Embree (lsnif::GroundTruth on the mesh moved to
+// world space). Rays from every direction around the pair and from inside their boxes.
+constexpr uint32_t kTriangleIndex = 5;
+
+struct MixedComparison {
+  size_t rays = 0, cpu_hits = 0, gpu_hits = 0, hit_agree = 0, kind_mismatch = 0, ties = 0;
+  size_t lsnif_closest = 0, triangle_closest = 0, both_kinds_hit = 0, closest_hit_ran = 0;
+  size_t lsnif_compared = 0, triangle_compared = 0, triangle_index_mismatch = 0;
+  double lsnif_t_err_max = 0, lsnif_normal_deg_max = 0, triangle_t_err_max = 0;
+};
+
+TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
+  const Model& model = models_[kSegmentIndex];
+  const Aabb& b = model.bounds();
+  const glm::vec3 ext = b.extent();
+  const float diag = b.diagonal();
+  // Triangle instance: world = M p + T with M = 0.8 * rotation about y by 90 degrees.
+  const glm::mat3 M = 0.8f * glm::mat3(glm::vec3(0, 0, -1), glm::vec3(0, 1, 0), glm::vec3(1, 0, 0));
+  const glm::vec3 T = b.center() + glm::vec3(0.55f * ext.x, 0, 0) - M * mesh_.bounds().center();
+  Mesh world_mesh = mesh_;
+  for (glm::vec3& p : world_mesh.positions) p = M * p + T;
+  GroundTruth truth;
+  ASSERT_TRUE(truth.build(world_mesh));
+
+  std::vector<float> positions;
+  std::vector<uint32_t> indices;
+  for (const glm::vec3& p : mesh_.positions) positions.insert(positions.end(), {p.x, p.y, p.z});
+  for (const glm::uvec3& t : mesh_.triangles) indices.insert(indices.end(), {t.x, t.y, t.z});
+  vk::AccelerationStructure tri_blas, tlas;
+  ASSERT_TRUE(tracer_.build_triangle_blas(positions, indices, tri_blas));
+  std::vector<VkAccelerationStructureInstanceKHR> records(2);
+  ASSERT_TRUE(plugin_.make_instance(handles_[kSegmentIndex], Transform3x4(), kSegmentIndex, 0xFF, 0, records[0]));
+  VkAccelerationStructureInstanceKHR& tri = records[1];
+  tri = VkAccelerationStructureInstanceKHR{};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) tri.transform.matrix[r][c] = M[c][r];
+    tri.transform.matrix[r][3] = T[r];
+  }
+  tri.instanceCustomIndex = kTriangleIndex;
+  tri.mask = 0xFF;
+  tri.instanceShaderBindingTableRecordOffset = 1;
+  tri.accelerationStructureReference = tri_blas.address;
+  ASSERT_TRUE(tracer_.build_tlas(records, tlas));
+
+  Aabb scene = world_mesh.bounds();
+  scene.lo = glm::min(scene.lo, b.lo);
+  scene.hi = glm::max(scene.hi, b.hi);
+  const glm::vec3 center = scene.center(), sext = scene.extent();
+  const float sdiag = scene.diagonal();
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  auto unit_vector = [&] {
+    for (;;) {
+      const glm::vec3 v(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
+      const float l = glm::length(v);
+      if (l > 0.05f && l <= 1.0f) return v / l;
+    }
+  };
+  constexpr size_t kMixedRays = 6000;
+  for (const uint32_t mode : {kModeClosest, kModeShadow}) {
+    std::vector<Ray> world(kMixedRays);
+    for (size_t i = 0; i < kMixedRays; ++i) {
+      Ray& r = world[i];
+      if (i % 3 == 2) {  // from inside the pair's box, any direction
+        r.origin = scene.lo + sext * glm::vec3(u(rng), u(rng), u(rng));
+        r.direction = (0.5f + u(rng)) * unit_vector();
+      } else {  // from a sphere around the pair towards a point of its box (or of the LSNIF box)
+        r.origin = center + sdiag * (0.8f + 0.7f * u(rng)) * unit_vector();
+        const glm::vec3 target = i % 3 == 0 ? scene.lo + sext * glm::vec3(u(rng), u(rng), u(rng))
+                                            : b.lo + ext * glm::vec3(u(rng), u(rng), u(rng));
+        r.direction = target - r.origin;
+      }
+      // Shadow rays end before, in or behind the objects: from outside at 0.6..1.4 of the way to
+      // the target, from inside after 5%..55% of the pair's diagonal.
+      if (mode == kModeShadow)
+        r.tmax = i % 3 == 2 ? (0.05f + 0.5f * u(rng)) * sdiag / glm::length(r.direction) : 0.6f + 0.8f * u(rng);
+    }
+    std::vector<LsnifHit> lsnif_hits(kMixedRays);
+    ASSERT_TRUE(intersect(model, Transform3x4(), world.data(), kMixedRays, lsnif_hits.data()));
+
+    vk::Buffer ray_buf, hit_buf;
+    ASSERT_TRUE(vk_.create_buffer(kMixedRays * sizeof(LsnifReferenceRay), ray_buf));
+    ASSERT_TRUE(vk_.create_buffer(kMixedRays * sizeof(LsnifReferenceHit), hit_buf));
+    auto* rays = static_cast<LsnifReferenceRay*>(ray_buf.mapped);
+    for (size_t i = 0; i < kMixedRays; ++i) {
+      const Ray& r = world[i];
+      rays[i] = {r.origin.x, r.origin.y, r.origin.z, r.tmin, r.direction.x, r.direction.y, r.direction.z, r.tmax};
+    }
+    RtPush push;
+    push.model_table = table_.address;
+    push.rays = ray_buf.address;
+    push.hits = hit_buf.address;
+    push.ray_count = uint32_t(kMixedRays);
+    push.mode = mode;
+    const auto t0 = std::chrono::steady_clock::now();
+    const Status s = tracer_.trace(mixed_pipeline_, tlas, &push, uint32_t(kMixedRays));
+    const double gpu_seconds = seconds_since(t0);
+    EXPECT_TRUE(s) << s.message();
+    const auto* hits = static_cast<const LsnifReferenceHit*>(hit_buf.mapped);
+    std::vector<LsnifReferenceHit> gpu(hits, hits + kMixedRays);
+    vk_.destroy_buffer(ray_buf);
+    vk_.destroy_buffer(hit_buf);
+
+    MixedComparison c;
+    c.rays = kMixedRays;
+    for (size_t i = 0; i < kMixedRays; ++i) {
+      const LsnifHit& l = lsnif_hits[i];
+      const ReferenceHit e = truth.trace(world[i]);
+      const LsnifReferenceHit& g = gpu[i];
+      const bool cpu_hit = l.hit || e.hit;
+      const bool lsnif_first = l.hit && (!e.hit || l.t < e.t);
+      c.cpu_hits += cpu_hit;
+      c.gpu_hits += g.hit != 0;
+      c.closest_hit_ran += g.reserved != 0xffffffffu;
+      c.both_kinds_hit += l.hit && e.hit;
+      if (g.hit != 0 && cpu_hit) ++c.hit_agree;
+      else if (g.hit == 0 && !cpu_hit) ++c.hit_agree;
+      if (mode != kModeClosest || !cpu_hit || !g.hit) continue;
+      lsnif_first ? ++c.lsnif_closest : ++c.triangle_closest;
+      const bool gpu_triangle = (g.reserved >> 16) == kTriangleIndex;
+      const double span = double(diag) / double(glm::length(world[i].direction));
+      if (gpu_triangle == lsnif_first) {
+        // Either kind may be reported when both hits lie within kIntervalEps diagonals.
+        if (l.hit && e.hit && std::fabs(double(l.t) - double(e.t)) < kIntervalEps * span) ++c.ties;
+        else ++c.kind_mismatch;
+        continue;
+      }
+      if (gpu_triangle) {
+        ++c.triangle_compared;
+        c.triangle_t_err_max = std::max(c.triangle_t_err_max, std::fabs(double(g.t) - double(e.t)) / span);
+        c.triangle_index_mismatch += g.material != e.triangle;
+      } else {
+        ++c.lsnif_compared;
+        EXPECT_EQ(g.reserved >> 16, kSegmentIndex);
+        c.lsnif_t_err_max = std::max(c.lsnif_t_err_max, std::fabs(double(g.t) - double(l.t)) / span);
+        const glm::dvec3 gn(g.normal_x, g.normal_y, g.normal_z), hn(l.normal);
+        c.lsnif_normal_deg_max =
+            std::max(c.lsnif_normal_deg_max, std::acos(std::clamp(glm::dot(gn, hn), -1.0, 1.0)) * 180.0 / M_PI);
+      }
+    }
+    std::printf("[mixed TLAS, %s] trace %.3f s: %zu rays, cpu hits %zu, gpu hits %zu, hit agreement %.4f%%, "
+                "closest LSNIF %zu / triangles %zu, both kinds hit %zu, kind mismatches %zu (ties %zu); LSNIF: %zu "
+                "compared, t error / diagonal max %.3g, normal max %.3g deg; triangles: %zu compared, t error / "
+                "diagonal max %.3g, triangle index mismatches %zu\n",
+                mode == kModeClosest ? "closest" : "shadow", gpu_seconds, c.rays, c.cpu_hits, c.gpu_hits,
+                100.0 * double(c.hit_agree) / double(c.rays), c.lsnif_closest, c.triangle_closest, c.both_kinds_hit,
+                c.kind_mismatch, c.ties, c.lsnif_compared, c.lsnif_t_err_max, c.lsnif_normal_deg_max,
+                c.triangle_compared, c.triangle_t_err_max, c.triangle_index_mismatch);
+    EXPECT_GE(double(c.hit_agree), 0.999 * double(c.rays));
+    if (mode == kModeShadow) {
+      EXPECT_EQ(c.closest_hit_ran, 0u);
+      EXPECT_GT(c.cpu_hits, kMixedRays / 5);
+      EXPECT_LT(c.cpu_hits, kMixedRays - kMixedRays / 5);
+      continue;
+    }
+    EXPECT_EQ(c.closest_hit_ran, c.gpu_hits);
+    EXPECT_GT(c.both_kinds_hit, kMixedRays / 50);  // rays that must pick the closer kind
+    EXPECT_LE(double(c.kind_mismatch), 1e-3 * double(c.rays));
+    EXPECT_GT(c.lsnif_closest, kMixedRays / 20);
+    EXPECT_GT(c.triangle_closest, kMixedRays / 20);
+    EXPECT_LT(c.lsnif_t_err_max, 2e-4);
+    EXPECT_LT(c.lsnif_normal_deg_max, 0.3);
+    EXPECT_LT(c.triangle_t_err_max, 1e-5);
+    EXPECT_LE(double(c.triangle_index_mismatch), 1e-3 * double(c.triangle_compared));
+  }
+  tracer_.destroy(tlas);
+  tracer_.destroy(tri_blas);
 }
 
 // The zero-message assertions mean something only if this device's messenger counts errors.

@@ -34,13 +34,21 @@ VKAPI_ATTR VkBool32 VKAPI_CALL ComputeContext::on_message(
   return VK_FALSE;
 }
 
-ComputeContext::~ComputeContext() {
+void ComputeContext::destroy_device() {
   if (device_) {
     vkDeviceWaitIdle(device_);
     if (fence_) vkDestroyFence(device_, fence_, nullptr);
     if (pool_) vkDestroyCommandPool(device_, pool_, nullptr);
     vkDestroyDevice(device_, nullptr);
   }
+  fence_ = VK_NULL_HANDLE;
+  pool_ = VK_NULL_HANDLE;
+  queue_ = VK_NULL_HANDLE;
+  device_ = VK_NULL_HANDLE;
+}
+
+ComputeContext::~ComputeContext() {
+  destroy_device();
   if (messenger_) vkDestroyDebugUtilsMessengerEXT(instance_, messenger_, nullptr);
   if (instance_) vkDestroyInstance(instance_, nullptr);
 }

@@ -66,6 +66,13 @@ class ComputeContext {
   uint32_t validation_errors() const { return errors_; }
   void reset_validation_counts() { warnings_ = errors_ = 0; }
   VkDevice device() const { return device_; }
+  VkInstance instance() const { return instance_; }
+  VkQueue queue() const { return queue_; }
+  uint32_t queue_family() const { return queue_family_; }
+  // Destroys the device (after waiting for it), keeping the instance and the messenger, so that
+  // what validation reports at vkDestroyDevice (leaked objects) is counted. init() is not
+  // possible afterwards; everything created on the device must be released before.
+  void destroy_device();
   VkPhysicalDevice physical_device() const { return physical_; }
 
  private:

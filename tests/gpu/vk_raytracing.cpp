@@ -2,7 +2,6 @@
 #include "vk_raytracing.h"
 
 #include <chrono>
-#include <cmath>
 #include <cstring>
 #include <fstream>
 
@@ -105,45 +104,46 @@ Status RayTracer::build(VkAccelerationStructureTypeKHR type, const VkAcceleratio
   return s;
 }
 
-Status RayTracer::build_aabb_blas(const float lo[3], const float hi[3], AccelerationStructure& out) {
-  for (int a = 0; a < 3; ++a)
-    if (!std::isfinite(lo[a]) || !std::isfinite(hi[a]) || !(lo[a] <= hi[a]))
-      return Status::error("build_aabb_blas: box axis %d [%g, %g] is not a finite non-empty interval", a,
-                           double(lo[a]), double(hi[a]));
-  Buffer input;
-  Status s = ctx_.create_buffer(sizeof(VkAabbPositionsKHR), input,
-                                VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR);
-  if (!s) return s;
-  const VkAabbPositionsKHR box{lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
-  std::memcpy(input.mapped, &box, sizeof(box));
-  VkAccelerationStructureGeometryKHR geometry{};
-  geometry.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR;
-  geometry.geometryType = VK_GEOMETRY_TYPE_AABBS_KHR;
-  geometry.flags = VK_GEOMETRY_OPAQUE_BIT_KHR;
-  geometry.geometry.aabbs.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_AABBS_DATA_KHR;
-  geometry.geometry.aabbs.data.deviceAddress = input.address;
-  geometry.geometry.aabbs.stride = sizeof(VkAabbPositionsKHR);
-  s = build(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, geometry, 1, out);
-  ctx_.destroy_buffer(input);
+Status RayTracer::build_triangle_blas(const std::vector<float>& positions, const std::vector<uint32_t>& indices,
+                                      AccelerationStructure& out) {
+  const size_t vertices = positions.size() / 3;
+  if (vertices == 0 || positions.size() % 3 != 0 || indices.empty() || indices.size() % 3 != 0)
+    return Status::error("build_triangle_blas: %zu position floats / %zu indices do not form a mesh",
+                         positions.size(), indices.size());
+  for (size_t i = 0; i < indices.size(); ++i)
+    if (indices[i] >= vertices)
+      return Status::error("build_triangle_blas: index %zu = %u >= %zu vertices", i, indices[i], vertices);
+  Buffer vbuf, ibuf;
+  const VkBufferUsageFlags usage = VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR;
+  Status s = ctx_.create_buffer(positions.size() * sizeof(float), vbuf, usage);
+  if (s) s = ctx_.create_buffer(indices.size() * sizeof(uint32_t), ibuf, usage);
+  if (s) {
+    std::memcpy(vbuf.mapped, positions.data(), positions.size() * sizeof(float));
+    std::memcpy(ibuf.mapped, indices.data(), indices.size() * sizeof(uint32_t));
+    VkAccelerationStructureGeometryKHR geometry{};
+    geometry.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR;
+    geometry.geometryType = VK_GEOMETRY_TYPE_TRIANGLES_KHR;
+    geometry.flags = VK_GEOMETRY_OPAQUE_BIT_KHR;
+    VkAccelerationStructureGeometryTrianglesDataKHR& t = geometry.geometry.triangles;
+    t.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_TRIANGLES_DATA_KHR;
+    t.vertexFormat = VK_FORMAT_R32G32B32_SFLOAT;
+    t.vertexData.deviceAddress = vbuf.address;
+    t.vertexStride = 3 * sizeof(float);
+    t.maxVertex = uint32_t(vertices - 1);
+    t.indexType = VK_INDEX_TYPE_UINT32;
+    t.indexData.deviceAddress = ibuf.address;
+    s = build(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, geometry, uint32_t(indices.size() / 3), out);
+  }
+  ctx_.destroy_buffer(vbuf);
+  ctx_.destroy_buffer(ibuf);
   return s;
 }
 
-Status RayTracer::build_tlas(const std::vector<TlasInstance>& instances, AccelerationStructure& out) {
-  if (instances.empty()) return Status::error("build_tlas: no instances");
-  std::vector<VkAccelerationStructureInstanceKHR> records(instances.size());
-  for (size_t i = 0; i < instances.size(); ++i) {
-    const TlasInstance& in = instances[i];
-    if (!in.blas || !in.blas->address) return Status::error("build_tlas: instance %zu has no BLAS", i);
-    if (in.custom_index >= (1u << 24))
-      return Status::error("build_tlas: instance %zu custom index %u does not fit 24 bits", i, in.custom_index);
-    VkAccelerationStructureInstanceKHR& r = records[i];
-    std::memcpy(r.transform.matrix, in.object_to_world, sizeof(r.transform.matrix));
-    r.instanceCustomIndex = in.custom_index & 0xFFFFFFu;
-    r.mask = 0xFFu;
-    r.instanceShaderBindingTableRecordOffset = 0u;
-    r.flags = 0u;
-    r.accelerationStructureReference = in.blas->address;
-  }
+Status RayTracer::build_tlas(const std::vector<VkAccelerationStructureInstanceKHR>& records,
+                             AccelerationStructure& out) {
+  if (records.empty()) return Status::error("build_tlas: no instances");
+  for (size_t i = 0; i < records.size(); ++i)
+    if (!records[i].accelerationStructureReference) return Status::error("build_tlas: instance %zu has no BLAS", i);
   Buffer input;
   Status s = ctx_.create_buffer(records.size() * sizeof(VkAccelerationStructureInstanceKHR), input,
                                 VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR);
@@ -187,17 +187,20 @@ Status RayTracer::load_module(const std::string& path, VkShaderModule& out) {
 
 Status RayTracer::create_pipeline(const std::string& raygen, const std::string& miss,
                                   const std::string& closest_hit, const std::string& intersection,
-                                  uint32_t push_size, RtPipeline& out) {
+                                  uint32_t push_size, RtPipeline& out, const std::string& triangle_closest_hit) {
   out = RtPipeline();
   if (!ctx_.device() || props_.shaderGroupHandleSize == 0)
     return Status::error("create_pipeline: RayTracer not initialized");
-  const std::string* paths[4] = {&raygen, &miss, &closest_hit, &intersection};
-  const VkShaderStageFlagBits stages[4] = {VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
+  const bool triangles = !triangle_closest_hit.empty();
+  const uint32_t stage_count = triangles ? 5 : 4, group_count = triangles ? 4 : 3;
+  const std::string* paths[5] = {&raygen, &miss, &closest_hit, &intersection, &triangle_closest_hit};
+  const VkShaderStageFlagBits stages[5] = {VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
                                            VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR,
-                                           VK_SHADER_STAGE_INTERSECTION_BIT_KHR};
-  VkShaderModule modules[4] = {};
+                                           VK_SHADER_STAGE_INTERSECTION_BIT_KHR,
+                                           VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR};
+  VkShaderModule modules[5] = {};
   Status s = Status::ok();
-  for (int i = 0; i < 4 && s; ++i) s = load_module(*paths[i], modules[i]);
+  for (uint32_t i = 0; i < stage_count && s; ++i) s = load_module(*paths[i], modules[i]);
   auto release_modules = [&] {
     for (VkShaderModule m : modules)
       if (m) vkDestroyShaderModule(ctx_.device(), m, nullptr);
@@ -248,14 +251,14 @@ Status RayTracer::create_pipeline(const std::string& raygen, const std::string& 
     return Status::error("descriptor set / pipeline layout creation failed (VkResult %d)", static_cast<int>(r));
   }
 
-  VkPipelineShaderStageCreateInfo stage_info[4] = {};
-  for (int i = 0; i < 4; ++i) {
+  VkPipelineShaderStageCreateInfo stage_info[5] = {};
+  for (uint32_t i = 0; i < stage_count; ++i) {
     stage_info[i].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
     stage_info[i].stage = stages[i];
     stage_info[i].module = modules[i];
     stage_info[i].pName = "main";
   }
-  VkRayTracingShaderGroupCreateInfoKHR groups[3] = {};
+  VkRayTracingShaderGroupCreateInfoKHR groups[4] = {};
   for (VkRayTracingShaderGroupCreateInfoKHR& g : groups) {
     g.sType = VK_STRUCTURE_TYPE_RAY_TRACING_SHADER_GROUP_CREATE_INFO_KHR;
     g.generalShader = g.closestHitShader = g.anyHitShader = g.intersectionShader = VK_SHADER_UNUSED_KHR;
@@ -267,11 +270,13 @@ Status RayTracer::create_pipeline(const std::string& raygen, const std::string& 
   groups[2].type = VK_RAY_TRACING_SHADER_GROUP_TYPE_PROCEDURAL_HIT_GROUP_KHR;
   groups[2].closestHitShader = 2;
   groups[2].intersectionShader = 3;
+  groups[3].type = VK_RAY_TRACING_SHADER_GROUP_TYPE_TRIANGLES_HIT_GROUP_KHR;
+  groups[3].closestHitShader = 4;
   VkRayTracingPipelineCreateInfoKHR pci{};
   pci.sType = VK_STRUCTURE_TYPE_RAY_TRACING_PIPELINE_CREATE_INFO_KHR;
-  pci.stageCount = 4;
+  pci.stageCount = stage_count;
   pci.pStages = stage_info;
-  pci.groupCount = 3;
+  pci.groupCount = group_count;
   pci.pGroups = groups;
   pci.maxPipelineRayRecursionDepth = 1;
   pci.layout = out.layout;
@@ -290,8 +295,9 @@ Status RayTracer::create_pipeline(const std::string& raygen, const std::string& 
   // Shader binding table: one record per group; each region starts at shaderGroupBaseAlignment,
   // records are handle-aligned; the raygen region's size equals its stride (a spec requirement).
   const uint32_t handle_size = props_.shaderGroupHandleSize;
-  std::vector<uint8_t> handles(size_t(3) * handle_size);
-  r = vkGetRayTracingShaderGroupHandlesKHR(ctx_.device(), out.pipeline, 0, 3, handles.size(), handles.data());
+  std::vector<uint8_t> handles(size_t(group_count) * handle_size);
+  r = vkGetRayTracingShaderGroupHandlesKHR(ctx_.device(), out.pipeline, 0, group_count, handles.size(),
+                                           handles.data());
   if (r != VK_SUCCESS) {
     destroy(out);
     return Status::error("vkGetRayTracingShaderGroupHandlesKHR failed (VkResult %d)", static_cast<int>(r));
@@ -299,7 +305,7 @@ Status RayTracer::create_pipeline(const std::string& raygen, const std::string& 
   const VkDeviceSize base_align = props_.shaderGroupBaseAlignment;
   const VkDeviceSize record_stride = align_up(handle_size, props_.shaderGroupHandleAlignment);
   const VkDeviceSize region = align_up(record_stride, base_align);
-  s = ctx_.create_buffer(size_t(3 * region + base_align), out.sbt,
+  s = ctx_.create_buffer(size_t(4 * region + base_align), out.sbt,
                          VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR);
   if (!s) {
     destroy(out);
@@ -308,9 +314,12 @@ Status RayTracer::create_pipeline(const std::string& raygen, const std::string& 
   const VkDeviceAddress base = align_up(out.sbt.address, base_align);
   auto* bytes = static_cast<uint8_t*>(out.sbt.mapped) + (base - out.sbt.address);
   for (size_t g = 0; g < 3; ++g) std::memcpy(bytes + g * region, handles.data() + g * handle_size, handle_size);
+  // The hit region holds the hit groups back to back, record_stride apart.
+  if (triangles)
+    std::memcpy(bytes + 2 * region + record_stride, handles.data() + 3 * handle_size, handle_size);
   out.raygen_region = {base, region, region};
   out.miss_region = {base + region, record_stride, record_stride};
-  out.hit_region = {base + 2 * region, record_stride, record_stride};
+  out.hit_region = {base + 2 * region, record_stride, record_stride * (group_count - 2)};
   out.callable_region = {0, 0, 0};
   return Status::ok();
 }

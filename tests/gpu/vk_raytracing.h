@@ -1,7 +1,8 @@
 // vk_raytracing.h -- a minimal Vulkan ray-tracing harness for the GPU tests, on top of
-// ComputeContext (initialized with init(true)): acceleration structures built on the device
-// (one AABB geometry per BLAS, a TLAS of instances), a ray-tracing pipeline of raygen, miss and one
-// procedural hit group (closest hit + intersection) with the TLAS at set 0 binding 0 (raygen) and
+// ComputeContext (initialized with init(true)): a TLAS of instance records built on the device
+// (the LSNIF BLASes and instance records come from the plugin, plugin/lsnif_vk.h), a triangle BLAS
+// (for mixed scenes), a ray-tracing pipeline of raygen, miss and one
+// procedural hit group (closest hit + intersection) and optionally a triangle hit group with the TLAS at set 0 binding 0 (raygen) and
 // one push-constant range visible to every stage, its shader binding table, and vkCmdTraceRaysKHR.
 #pragma once
 #include <cstdint>
@@ -16,14 +17,6 @@ struct AccelerationStructure {
   VkAccelerationStructureKHR handle = VK_NULL_HANDLE;
   Buffer storage;
   VkDeviceAddress address = 0;  // vkGetAccelerationStructureDeviceAddressKHR
-};
-
-// One TLAS instance: row-major 3x4 object-to-world (VkTransformMatrixKHR), custom index
-// (gl_InstanceCustomIndexEXT, < 2^24), mask 0xFF, SBT record offset 0, the BLAS.
-struct TlasInstance {
-  float object_to_world[3][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
-  uint32_t custom_index = 0;
-  const AccelerationStructure* blas = nullptr;
 };
 
 struct RtPipeline {
@@ -45,16 +38,21 @@ class RayTracer {
   // Reads the device's ray-tracing properties; fails if the context has no device.
   Status init();
 
-  // A BLAS with one AABB geometry [lo, hi] flagged OPAQUE, built on the device. Fails on a box
-  // with non-finite or inverted bounds.
-  Status build_aabb_blas(const float lo[3], const float hi[3], AccelerationStructure& out);
-  // A TLAS of `instances` (at least one; each with a BLAS), built on the device.
-  Status build_tlas(const std::vector<TlasInstance>& instances, AccelerationStructure& out);
+  // A BLAS with one OPAQUE triangle geometry (float3 positions, uint32 indices, 3 per triangle),
+  // built on the device. Fails on an empty mesh or an index out of range.
+  Status build_triangle_blas(const std::vector<float>& positions, const std::vector<uint32_t>& indices,
+                             AccelerationStructure& out);
+  // A TLAS of instance records (at least one; each with a BLAS address), built on the device.
+  Status build_tlas(const std::vector<VkAccelerationStructureInstanceKHR>& instances, AccelerationStructure& out);
   void destroy(AccelerationStructure& as);
 
-  // The pipeline from SPIR-V files (entry "main"); max recursion depth 1.
+  // The pipeline from SPIR-V files (entry "main"); max recursion depth 1. Hit group 0 (SBT record
+  // offset 0) is the procedural one (closest_hit + intersection); with a non-empty
+  // `triangle_closest_hit`, hit group 1 (SBT record offset 1) is a triangle hit group of that
+  // closest-hit shader.
   Status create_pipeline(const std::string& raygen, const std::string& miss, const std::string& closest_hit,
-                         const std::string& intersection, uint32_t push_size, RtPipeline& out);
+                         const std::string& intersection, uint32_t push_size, RtPipeline& out,
+                         const std::string& triangle_closest_hit = "");
   void destroy(RtPipeline& pipeline);
   // Binds `tlas` to set 0 binding 0, pushes `push`, traces width x 1 x 1 rays and waits; shader
   // writes are visible to the host when it returns.

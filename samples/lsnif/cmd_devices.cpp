@@ -1,0 +1,166 @@
+// lsnif devices: the Vulkan devices of this machine and which LSNIF paths each one supports. The
+// CLI creates its own instance here (an application's instance is not involved); the per-device
+// check is the plugin's (plugin/device_support.h).
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <volk.h>
+
+#include "args.h"
+#include "commands.h"
+#include "device_support.h"
+
+namespace lsnif::cli {
+
+namespace {
+
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (const char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof(buf), "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+const char* type_name(VkPhysicalDeviceType type) {
+  switch (type) {
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "CPU";
+    default: return "other";
+  }
+}
+
+struct DeviceReport {
+  plugin::DeviceSupport support;
+  std::string type, driver, driver_info;
+  std::vector<std::string> missing;
+};
+
+DeviceReport report(VkPhysicalDevice physical) {
+  DeviceReport r;
+  r.support = plugin::query_device_support(physical);
+  VkPhysicalDeviceProperties props;
+  vkGetPhysicalDeviceProperties(physical, &props);
+  r.type = type_name(props.deviceType);
+  if (VK_API_VERSION_MAJOR(props.apiVersion) > 1 || VK_API_VERSION_MINOR(props.apiVersion) >= 2) {
+    VkPhysicalDeviceDriverProperties driver{};
+    driver.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES;
+    VkPhysicalDeviceProperties2 p2{};
+    p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    p2.pNext = &driver;
+    vkGetPhysicalDeviceProperties2(physical, &p2);
+    r.driver = driver.driverName;
+    r.driver_info = driver.driverInfo;
+  } else {
+    r.driver = "driver version " + std::to_string(props.driverVersion);
+  }
+  r.missing = plugin::missing_for_ray_tracing(r.support);
+  return r;
+}
+
+std::string joined(const std::vector<std::string>& items) {
+  std::string s;
+  for (const std::string& i : items) s += (s.empty() ? "" : ", ") + i;
+  return s;
+}
+
+}  // namespace
+
+int cmd_devices(int argc, char** argv) {
+  bool json = false;
+  Args args("devices",
+            "Lists the Vulkan devices and which LSNIF paths each supports: the ray-tracing pipeline (with what is "
+            "missing), ray query, NV / KHR cooperative matrix and NV cooperative vector. Exit code 1 when there "
+            "is no Vulkan driver or no device.");
+  args.flag("json", "print JSON instead of text", &json);
+  if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
+
+  if (volkInitialize() != VK_SUCCESS) {
+    std::fprintf(stderr, "lsnif devices: no Vulkan loader (libvulkan.so.1) found; install a Vulkan driver\n");
+    return 1;
+  }
+  uint32_t loader_version = VK_API_VERSION_1_0;
+  if (vkEnumerateInstanceVersion) vkEnumerateInstanceVersion(&loader_version);
+  VkApplicationInfo app{};
+  app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+  app.pApplicationName = "lsnif devices";
+  app.apiVersion = loader_version;
+  VkInstanceCreateInfo ici{};
+  ici.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+  ici.pApplicationInfo = &app;
+  VkInstance instance = VK_NULL_HANDLE;
+  const VkResult created = vkCreateInstance(&ici, nullptr, &instance);
+  if (created != VK_SUCCESS) {
+    std::fprintf(stderr, "lsnif devices: cannot create a Vulkan instance (VkResult %d%s)\n", static_cast<int>(created),
+                 created == VK_ERROR_INCOMPATIBLE_DRIVER ? ": no Vulkan driver installed" : "");
+    return 1;
+  }
+  volkLoadInstanceOnly(instance);
+  uint32_t count = 0;
+  vkEnumeratePhysicalDevices(instance, &count, nullptr);
+  std::vector<VkPhysicalDevice> physicals(count);
+  if (count > 0) vkEnumeratePhysicalDevices(instance, &count, physicals.data());
+  std::vector<DeviceReport> reports;
+  for (VkPhysicalDevice p : physicals) reports.push_back(report(p));
+  vkDestroyInstance(instance, nullptr);
+  if (reports.empty()) {
+    std::fprintf(stderr, "lsnif devices: the Vulkan loader found no physical device (is a driver such as "
+                         "mesa-vulkan-drivers installed?)\n");
+    return 1;
+  }
+
+  if (json) {
+    std::printf("{\"loader_api_version\": \"%s\", \"devices\": [", plugin::api_version_string(loader_version).c_str());
+    for (size_t i = 0; i < reports.size(); ++i) {
+      const DeviceReport& r = reports[i];
+      const plugin::DeviceSupport& s = r.support;
+      std::string missing = "[";
+      for (size_t k = 0; k < r.missing.size(); ++k) missing += (k ? ", " : "") + json_string(r.missing[k]);
+      missing += "]";
+      std::printf("%s\n  {\"index\": %zu, \"name\": %s, \"type\": %s, \"driver\": %s, \"driver_info\": %s, "
+                  "\"api_version\": \"%s\", \"ray_tracing_pipeline\": %s, \"ray_tracing_pipeline_missing\": %s, "
+                  "\"ray_query\": %s, \"nv_cooperative_matrix\": %s, \"khr_cooperative_matrix\": %s, "
+                  "\"nv_cooperative_vector\": %s}",
+                  i ? "," : "", i, json_string(s.name).c_str(), json_string(r.type).c_str(),
+                  json_string(r.driver).c_str(), json_string(r.driver_info).c_str(),
+                  plugin::api_version_string(s.api_version).c_str(), r.missing.empty() ? "true" : "false",
+                  missing.c_str(), s.ext_ray_query ? "true" : "false", s.ext_nv_cooperative_matrix ? "true" : "false",
+                  s.ext_khr_cooperative_matrix ? "true" : "false", s.ext_nv_cooperative_vector ? "true" : "false");
+    }
+    std::printf("\n]}\n");
+    return 0;
+  }
+  auto yes_no = [](bool b) { return b ? "yes" : "no"; };
+  for (size_t i = 0; i < reports.size(); ++i) {
+    const DeviceReport& r = reports[i];
+    const plugin::DeviceSupport& s = r.support;
+    std::printf("device %zu: %s\n", i, s.name.c_str());
+    std::printf("  type                    %s\n", r.type.c_str());
+    std::printf("  driver                  %s%s%s\n", r.driver.c_str(), r.driver_info.empty() ? "" : " ",
+                r.driver_info.c_str());
+    std::printf("  Vulkan                  %s\n", plugin::api_version_string(s.api_version).c_str());
+    if (r.missing.empty())
+      std::printf("  ray-tracing pipeline    yes\n");
+    else
+      std::printf("  ray-tracing pipeline    no (missing: %s)\n", joined(r.missing).c_str());
+    std::printf("  ray query               %s\n", yes_no(s.ext_ray_query));
+    std::printf("  NV cooperative matrix   %s\n", yes_no(s.ext_nv_cooperative_matrix));
+    std::printf("  KHR cooperative matrix  %s\n", yes_no(s.ext_khr_cooperative_matrix));
+    std::printf("  NV cooperative vector   %s\n", yes_no(s.ext_nv_cooperative_vector));
+  }
+  return 0;
+}
+
+}  // namespace lsnif::cli
