@@ -250,9 +250,8 @@ void ComputeContext::destroy_buffer(Buffer& buffer) {
   buffer = Buffer();
 }
 
-Status ComputeContext::create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out) {
-  out = Pipeline();
-  if (!device_) return Status::error("create_pipeline: context not initialized");
+Status ComputeContext::load_shader_module(const std::string& spirv_path, VkShaderModule& out) {
+  if (!device_) return Status::error("load_shader_module: context not initialized");
   std::ifstream file(spirv_path, std::ios::binary | std::ios::ate);
   if (!file) return Status::error("cannot open SPIR-V file %s", spirv_path.c_str());
   const std::streamsize size = file.tellg();
@@ -263,13 +262,19 @@ Status ComputeContext::create_pipeline(const std::string& spirv_path, uint32_t p
   file.seekg(0);
   if (!file.read(reinterpret_cast<char*>(code.data()), size))
     return Status::error("cannot read SPIR-V file %s", spirv_path.c_str());
-
   VkShaderModuleCreateInfo smi{};
   smi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
   smi.codeSize = size_t(size);
   smi.pCode = code.data();
+  LSNIF_VK_CHECK(vkCreateShaderModule(device_, &smi, nullptr, &out));
+  return Status::ok();
+}
+
+Status ComputeContext::create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out) {
+  out = Pipeline();
+  if (!device_) return Status::error("create_pipeline: context not initialized");
   VkShaderModule module;
-  LSNIF_VK_CHECK(vkCreateShaderModule(device_, &smi, nullptr, &module));
+  if (Status st = load_shader_module(spirv_path, module); !st) return st;
 
   VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, push_size};
   VkPipelineLayoutCreateInfo lci{};

@@ -51,6 +51,8 @@ class ComputeContext {
   Status create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage = 0);
   void destroy_buffer(Buffer& buffer);
   // A compute pipeline (entry "main", no descriptor sets) from a SPIR-V file.
+  // Reads a SPIR-V file and creates a shader module on this context's device (caller destroys it).
+  Status load_shader_module(const std::string& spirv_path, VkShaderModule& out);
   Status create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out);
   void destroy_pipeline(Pipeline& pipeline);
   // Records push constants + vkCmdDispatch(groups_x, 1, 1), submits, waits; shader writes are

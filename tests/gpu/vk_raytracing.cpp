@@ -3,7 +3,6 @@
 
 #include <chrono>
 #include <cstring>
-#include <fstream>
 
 namespace lsnif::vk {
 
@@ -167,22 +166,7 @@ void RayTracer::destroy(AccelerationStructure& as) {
 }
 
 Status RayTracer::load_module(const std::string& path, VkShaderModule& out) {
-  std::ifstream file(path, std::ios::binary | std::ios::ate);
-  if (!file) return Status::error("cannot open SPIR-V file %s", path.c_str());
-  const std::streamsize size = file.tellg();
-  if (size <= 0 || size % 4 != 0)
-    return Status::error("SPIR-V file %s has %lld bytes (not a positive multiple of 4)", path.c_str(),
-                         static_cast<long long>(size));
-  std::vector<uint32_t> code(size_t(size) / 4);
-  file.seekg(0);
-  if (!file.read(reinterpret_cast<char*>(code.data()), size))
-    return Status::error("cannot read SPIR-V file %s", path.c_str());
-  VkShaderModuleCreateInfo smi{};
-  smi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
-  smi.codeSize = size_t(size);
-  smi.pCode = code.data();
-  LSNIF_VK_CHECK(vkCreateShaderModule(ctx_.device(), &smi, nullptr, &out));
-  return Status::ok();
+  return ctx_.load_shader_module(path, out);
 }
 
 Status RayTracer::create_pipeline(const std::string& raygen, const std::string& miss,
