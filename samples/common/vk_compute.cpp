@@ -53,17 +53,19 @@ ComputeContext::~ComputeContext() {
   if (instance_) vkDestroyInstance(instance_, nullptr);
 }
 
-Status ComputeContext::init(bool ray_tracing) {
+Status ComputeContext::init(bool ray_tracing, bool validation) {
   if (volkInitialize() != VK_SUCCESS) return Status::error("no Vulkan loader (libvulkan.so.1) found");
 
-  uint32_t layer_count = 0;
-  vkEnumerateInstanceLayerProperties(&layer_count, nullptr);
-  std::vector<VkLayerProperties> layers(layer_count);
-  vkEnumerateInstanceLayerProperties(&layer_count, layers.data());
-  bool has_validation = false;
-  for (const VkLayerProperties& l : layers) has_validation |= std::strcmp(l.layerName, kValidationLayer) == 0;
-  if (!has_validation)
-    return Status::error("Vulkan layer %s is not installed (package vulkan-validationlayers)", kValidationLayer);
+  if (validation) {
+    uint32_t layer_count = 0;
+    vkEnumerateInstanceLayerProperties(&layer_count, nullptr);
+    std::vector<VkLayerProperties> layers(layer_count);
+    vkEnumerateInstanceLayerProperties(&layer_count, layers.data());
+    bool has_validation = false;
+    for (const VkLayerProperties& l : layers) has_validation |= std::strcmp(l.layerName, kValidationLayer) == 0;
+    if (!has_validation)
+      return Status::error("Vulkan layer %s is not installed (package vulkan-validationlayers)", kValidationLayer);
+  }
 
   VkDebugUtilsMessengerCreateInfoEXT messenger_info{};
   messenger_info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
@@ -77,20 +79,21 @@ Status ComputeContext::init(bool ray_tracing) {
 
   VkApplicationInfo app{};
   app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
-  app.pApplicationName = "lsnif gpu tests";
+  app.pApplicationName = "lsnif";
   app.apiVersion = VK_API_VERSION_1_2;
   const char* extensions[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
   VkInstanceCreateInfo ici{};
   ici.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
-  ici.pNext = &messenger_info;  // also report problems of instance creation itself
+  ici.pNext = validation ? &messenger_info : nullptr;  // also report problems of instance creation
   ici.pApplicationInfo = &app;
-  ici.enabledLayerCount = 1;
-  ici.ppEnabledLayerNames = &kValidationLayer;
-  ici.enabledExtensionCount = 1;
-  ici.ppEnabledExtensionNames = extensions;
+  ici.enabledLayerCount = validation ? 1 : 0;
+  ici.ppEnabledLayerNames = validation ? &kValidationLayer : nullptr;
+  ici.enabledExtensionCount = validation ? 1 : 0;
+  ici.ppEnabledExtensionNames = validation ? extensions : nullptr;
   LSNIF_VK_CHECK(vkCreateInstance(&ici, nullptr, &instance_));
   volkLoadInstance(instance_);
-  LSNIF_VK_CHECK(vkCreateDebugUtilsMessengerEXT(instance_, &messenger_info, nullptr, &messenger_));
+  if (validation)
+    LSNIF_VK_CHECK(vkCreateDebugUtilsMessengerEXT(instance_, &messenger_info, nullptr, &messenger_));
 
   uint32_t count = 0;
   vkEnumeratePhysicalDevices(instance_, &count, nullptr);

@@ -1,4 +1,4 @@
-// vk_raytracing.h -- a minimal Vulkan ray-tracing harness for the GPU tests, on top of
+// vk_raytracing.h -- a minimal Vulkan ray-tracing harness for the GPU tests and benchmarks, on top of
 // ComputeContext (initialized with init(true)): a TLAS of instance records built on the device
 // (the LSNIF BLASes and instance records come from the plugin, plugin/lsnif_vk.h), a triangle BLAS
 // (for mixed scenes), a ray-tracing pipeline of raygen, miss and one

@@ -1,10 +1,10 @@
-// vk_compute.h -- a minimal headless Vulkan compute harness for the GPU tests (volk): an instance
-// with the Khronos validation layer and a debug-utils messenger that counts (and prints) every
-// warning and error, a device (lavapipe preferred, else the first with a compute queue) with
+// vk_compute.h -- a minimal headless Vulkan compute harness for the GPU tests, the benchmarks and
+// the samples (volk): an instance, with the Khronos validation layer and a debug-utils messenger
+// that counts (and prints) every warning and error unless validation is turned off, a device (lavapipe preferred, else the first with a compute queue) with
 // bufferDeviceAddress and shaderInt64, host-visible buffers addressed by device address, one
 // compute pipeline from a SPIR-V file with a push-constant range, dispatch and wait. Optionally
 // (init(true)) the device also has the ray-tracing extensions and features that
-// tests/gpu/vk_raytracing.h uses.
+// samples/common/vk_raytracing.h uses.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -40,12 +40,15 @@ class ComputeContext {
   ComputeContext& operator=(const ComputeContext&) = delete;
   ~ComputeContext();
 
-  // Creates instance (validation layer required: an error when it is missing), messenger and
+  // Creates instance (validation layer required with `validation`: an error when it is missing),
+  // messenger and
   // device. Errors name the missing piece (no Vulkan loader, no device, no compute queue, ...).
   // With `ray_tracing`, the device must offer VK_KHR_acceleration_structure,
   // VK_KHR_ray_tracing_pipeline (and their dependencies) and they are enabled with the features
   // accelerationStructure and rayTracingPipeline; an error names what is missing.
-  Status init(bool ray_tracing = false);
+  // With `validation` false (benchmarks, samples), no layer and no messenger are used and the
+  // validation counts stay 0.
+  Status init(bool ray_tracing = false, bool validation = true);
   // A host-visible storage buffer of `bytes` with a device address (contents zeroed), with the
   // usage bits `extra_usage` added (e.g. acceleration-structure storage, shader binding table).
   Status create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage = 0);
