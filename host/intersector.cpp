@@ -5,6 +5,7 @@
 
 #include "hash_grid.h"
 #include "head.h"
+#include "host_device.h"
 #include "network.h"
 #include "ray_walk.h"
 
@@ -12,13 +13,9 @@ namespace lsnif {
 
 namespace {
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-}  // namespace
 
-Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, size_t count,
-                 LsnifHit* hits) {
-  if (Status s = model.validate(); !s) return s.context("intersect");
-  glm::mat3 A;
-  glm::vec3 T;
+// The linear part A and translation T of `xf`, and A^-1; fails on a non-finite or singular transform.
+Status split_transform(const Transform3x4& xf, glm::mat3& A, glm::vec3& T, glm::mat3& A_inv) {
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) {
       if (!std::isfinite(xf.m[r][c])) return Status::error("instance transform has a non-finite entry");
@@ -29,7 +26,34 @@ Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, si
   }
   const float det = glm::determinant(A);
   if (!(std::fabs(det) > 1e-20f)) return Status::error("instance transform is singular (det %g)", double(det));
-  const glm::mat3 A_inv = glm::inverse(A);
+  A_inv = glm::inverse(A);
+  return Status::ok();
+}
+
+bool facing_culled(const glm::vec3& object_normal, const glm::vec3& object_direction, uint32_t ray_flags) {
+  const float facing = glm::dot(object_normal, object_direction);
+  return ((ray_flags & LSNIF_RAY_FLAG_CULL_BACK_FACING) && facing > 0.0f) ||
+         ((ray_flags & LSNIF_RAY_FLAG_CULL_FRONT_FACING) && facing < 0.0f);
+}
+
+}  // namespace
+
+float leaving_tmin(const Model& model, const Transform3x4& xf, glm::vec3 world_direction) {
+  glm::mat3 A, A_inv;
+  glm::vec3 T;
+  if (!split_transform(xf, A, T, A_inv) || !finite(world_direction)) return 0.0f;
+  const float len = glm::length(A_inv * world_direction);
+  if (!(len > 0.0f) || model.config.voxel_resolution == 0) return 0.0f;
+  const float edge = model.voxels.bounds.diagonal() / (float(model.config.voxel_resolution) * std::sqrt(3.0f));
+  return float(LSNIF_LEAVING_TMIN_VOXELS) * edge / len;
+}
+
+Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, size_t count,
+                 LsnifHit* hits, uint32_t ray_flags) {
+  if (Status s = model.validate(); !s) return s.context("intersect");
+  glm::mat3 A, A_inv;
+  glm::vec3 T;
+  if (Status s = split_transform(xf, A, T, A_inv); !s) return s;
   const glm::mat3 normal_to_world = glm::transpose(A_inv);
 
   const Config& config = model.config;
@@ -68,6 +92,7 @@ Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, si
     LsnifHit& h = hits[i];
     h.occlusion = p.occlusion;
     if (!p.hit || !(p.t >= rays[i].tmin && p.t <= rays[i].tmax)) continue;
+    if (ray_flags && facing_culled(p.normal, A_inv * rays[i].direction, ray_flags)) continue;
     h.hit = true;
     h.t = p.t;
     const glm::vec3 nw = normal_to_world * p.normal;

@@ -29,8 +29,16 @@ struct Transform3x4 {
 
 // Intersects `count` world-space rays with the instance. Fails (hits untouched) if the transform
 // has a non-finite entry or is singular, or if the model is inconsistent. Rays with non-finite
-// origin or direction, or a zero direction, are misses. Uses OpenMP and Eigen for the batch.
+// origin or direction, or a zero direction, are misses. `ray_flags` (LSNIF_RAY_FLAG_CULL_*_FACING
+// of shaders/host_device.h, for every ray) rejects hits by the facing of the predicted normal, as
+// the intersection shader does with the ray's flags. Uses OpenMP and Eigen for the batch.
 Status intersect(const Model& model, const Transform3x4& object_to_world, const Ray* rays,
-                 size_t count, LsnifHit* hits);
+                 size_t count, LsnifHit* hits, uint32_t ray_flags = 0);
+
+// The self-intersection rule (shaders/host_device.h, LSNIF_LEAVING_TMIN_VOXELS): tmin of a ray
+// leaving a hit on this instance in world direction `world_direction`, i.e.
+// LSNIF_LEAVING_TMIN_VOXELS voxel edges of the model along the object-space direction, as a world
+// ray parameter. 0 for a zero or non-finite direction or an invalid transform.
+float leaving_tmin(const Model& model, const Transform3x4& object_to_world, glm::vec3 world_direction);
 
 }  // namespace lsnif

@@ -10,7 +10,7 @@
 namespace lsnif {
 
 static_assert(sizeof(LsnifGpuModelHeader) == LSNIF_GPU_HEADER_WORDS * 4, "header must be 32 words");
-static_assert(sizeof(LsnifReferenceRay) == 32 && sizeof(LsnifReferenceHit) == 48, "test structs");
+static_assert(sizeof(LsnifReferenceRay) == 32 && sizeof(LsnifReferenceHit) == 52, "test structs");
 
 std::vector<GpuLayerLayout> gpu_layer_layout(const Config& config) {
   std::vector<GpuLayerLayout> layers;
@@ -20,9 +20,11 @@ std::vector<GpuLayerLayout> gpu_layer_layout(const Config& config) {
     g.in = in;
     g.out = l < config.hidden_layers ? config.hidden_width : config.output_dim();
     g.row_words = LSNIF_GPU_ROW_WORDS(g.in);
+    g.blocks = LSNIF_GPU_ROW_BLOCKS(g.out);
     g.weight_word = word;
-    g.bias_word = word + g.out * g.row_words;
-    g.end_word = g.bias_word + LSNIF_GPU_ROW_WORDS(g.out);
+    g.bias_word = word + g.blocks * LSNIF_GPU_ROW_BLOCK * g.row_words;
+    g.end_word = g.bias_word + g.blocks * LSNIF_GPU_ROW_BLOCK;  // 8 words of bias per block
+    static_assert(LSNIF_GPU_ROW_BLOCK == 8, "lsnif_mlp.glsl computes 8 rows per block");
     word = g.end_word;
     in = g.out;
     layers.push_back(g);
@@ -58,10 +60,10 @@ Status pack_gpu_model(const Model& model, std::vector<uint32_t>& words) {
   const Config& c = model.config;
   const std::vector<GpuLayerLayout> layers = gpu_layer_layout(c);
   const uint64_t voxel_words = model.voxels.bits.size();
-  const uint64_t grid_words = (c.grid_parameter_count() + 1) / 2;
+  const uint64_t grid_words = ((c.grid_parameter_count() + 1) / 2 + 7) / 8 * 8;  // mlp 32-byte aligned
   const uint64_t mlp_words = layers.back().end_word;
   const uint64_t voxel_offset = LSNIF_GPU_HEADER_WORDS;
-  const uint64_t grid_offset = voxel_offset + voxel_words;
+  const uint64_t grid_offset = voxel_offset + (voxel_words + 7) / 8 * 8;
   const uint64_t mlp_offset = grid_offset + grid_words;
   const uint64_t total = mlp_offset + mlp_words;
   if (total > 0xffffffffull)
@@ -115,14 +117,15 @@ Status pack_gpu_model(const Model& model, std::vector<uint32_t>& words) {
     for (uint32_t r = 0; r < g.out; ++r) {
       for (uint32_t i = 0; i < g.in; ++i) {
         const size_t src = v.weight_offset + size_t(r) * v.in + i;
-        const uint64_t word = mlp_offset + g.weight_word + uint64_t(r) * g.row_words;
-        if (Status s = put_half(words, word, i, model.mlp[src], "MLP", src); !s) {
+        const uint64_t word = mlp_offset + g.weight_word_of(r, i);
+        if (Status s = put_half(words, word, i & 1u, model.mlp[src], "MLP", src); !s) {
           words.clear();
           return s.context("packing GPU model");
         }
       }
       const size_t src = v.bias_offset + r;
-      if (Status s = put_half(words, mlp_offset + g.bias_word, r, model.mlp[src], "MLP", src); !s) {
+      const uint64_t bias_word = mlp_offset + g.bias_word + (r / LSNIF_GPU_ROW_BLOCK) * LSNIF_GPU_ROW_BLOCK;
+      if (Status s = put_half(words, bias_word, r % LSNIF_GPU_ROW_BLOCK, model.mlp[src], "MLP", src); !s) {
         words.clear();
         return s.context("packing GPU model");
       }

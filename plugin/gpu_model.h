@@ -12,13 +12,20 @@
 
 namespace lsnif {
 
-// Word offsets of one MLP layer inside the mlp section (relative to header.mlp_offset).
+// Word offsets of one MLP layer inside the mlp section (relative to header.mlp_offset), row-block
+// layout of shaders/host_device.h.
 struct GpuLayerLayout {
   uint32_t in = 0, out = 0;
-  uint32_t weight_word = 0;  // first word of row 0
-  uint32_t row_words = 0;    // LSNIF_GPU_ROW_WORDS(in)
-  uint32_t bias_word = 0;    // first word of the bias
-  uint32_t end_word = 0;     // one past the layer
+  uint32_t weight_word = 0;  // first word of block 0 (a multiple of 8)
+  uint32_t row_words = 0;    // input pairs P = LSNIF_GPU_ROW_WORDS(in)
+  uint32_t blocks = 0;       // LSNIF_GPU_ROW_BLOCKS(out)
+  uint32_t bias_word = 0;    // first word of the bias (8 words per block)
+  uint32_t end_word = 0;     // one past the layer (a multiple of 8)
+  // Word (relative to the mlp section) holding W[r][i] (half i & 1 of it).
+  uint32_t weight_word_of(uint32_t r, uint32_t i) const {
+    return weight_word + ((r / LSNIF_GPU_ROW_BLOCK) * row_words + i / 2) * LSNIF_GPU_ROW_BLOCK +
+           r % LSNIF_GPU_ROW_BLOCK;
+  }
 };
 // The layers in order (hidden, then output), as the shader walks them.
 std::vector<GpuLayerLayout> gpu_layer_layout(const Config& config);

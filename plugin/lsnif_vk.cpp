@@ -113,6 +113,8 @@ Status Context::allocate(VkDeviceSize bytes, VkBufferUsageFlags usage, bool host
   mai.pNext = &flags;
   mai.allocationSize = req.size;
   mai.memoryTypeIndex = type;
+  out.bytes = bytes;
+  out.allocated = req.size;
   VkResult r = vk_.vkAllocateMemory(device_, &mai, nullptr, &out.memory);
   if (r == VK_SUCCESS) r = vk_.vkBindBufferMemory(device_, out.buffer, out.memory, 0);
   if (r == VK_SUCCESS && data) {
@@ -255,6 +257,9 @@ Status Context::upload_model(const Model& model, ModelHandle& out) {
   if (!s) return s.context("upload_model");
   Slot slot;
   s = allocate(words.size() * sizeof(uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true, words.data(), slot.block);
+  if (s && slot.block.address % 32 != 0)  // the shaders read the MLP in 32-byte loads
+    s = Status::error("model block at device address 0x%llx is not 32-byte aligned",
+                      static_cast<unsigned long long>(slot.block.address));
   if (s) s = build_blas(model, slot);
   if (!s) {
     release_slot(slot);
@@ -301,6 +306,16 @@ VkDeviceAddress Context::blas_address(ModelHandle handle) const {
 }
 
 size_t Context::model_count() const { return slots_.size(); }
+
+Status Context::model_memory(ModelHandle handle, ModelMemory& out) const {
+  const Slot* s = find(handle);
+  if (!s) return Status::error("model_memory: unknown model handle %u", handle.id);
+  out = ModelMemory();
+  out.block_bytes = s->block.bytes;
+  out.blas_bytes = s->blas_storage.bytes;
+  out.allocated_bytes = s->block.allocated + s->blas_storage.allocated;
+  return Status::ok();
+}
 
 Status check_instance_transform(const Transform3x4& xf) {
   for (int r = 0; r < 3; ++r)

@@ -38,6 +38,15 @@ struct ModelHandle {
   explicit operator bool() const { return id != 0; }
 };
 
+// What one uploaded model occupies on the device (the BLAS build's input and scratch buffers are
+// freed after the build and not counted).
+struct ModelMemory {
+  VkDeviceSize block_bytes = 0;      // the GPU model block: pack_gpu_model words x 4
+  VkDeviceSize blas_bytes = 0;       // the AABB BLAS: the driver's accelerationStructureSize
+  VkDeviceSize allocated_bytes = 0;  // device memory allocated for both (VkMemoryRequirements sizes)
+  VkDeviceSize total() const { return block_bytes + blas_bytes; }
+};
+
 class Context {
  public:
   Context() = default;
@@ -66,6 +75,8 @@ class Context {
   VkDeviceAddress blas_address(ModelHandle handle) const;
   // Number of models currently uploaded.
   size_t model_count() const;
+  // The device memory of model `handle` (ModelMemory). Fails on an unknown or 0 handle.
+  Status model_memory(ModelHandle handle, ModelMemory& out) const;
 
   // A TLAS instance record of model `handle` with object-to-world `xf` (row-major 3x4),
   // instanceCustomIndex `custom_index` (the application's model-table index), `mask` and SBT
@@ -90,6 +101,7 @@ class Context {
     VkBuffer buffer = VK_NULL_HANDLE;
     VkDeviceMemory memory = VK_NULL_HANDLE;
     VkDeviceAddress address = 0;
+    VkDeviceSize bytes = 0, allocated = 0;  // requested size, VkMemoryRequirements::size
   };
   struct Slot {
     uint32_t id = 0;

@@ -34,21 +34,44 @@
 /* Occlusion threshold on sigmoid(logit): a hit when the probability is >= 0.5 (logit >= 0). */
 #define LSNIF_OCCLUSION_THRESHOLD 0.5
 
+/* Facing of an LSNIF hit: back-facing when the predicted object-space normal points along the
+ * object-space ray direction (dot(n, d) > 0), front-facing when dot(n, d) < 0 (a zero normal is
+ * neither). The intersection shader (and the CPU reference, intersect(..., ray_flags)) honours the
+ * standard ray flags CullBackFacingTriangles / CullFrontFacingTriangles for LSNIF hits with this
+ * facing; these are their SPIR-V values. */
+#define LSNIF_RAY_FLAG_CULL_BACK_FACING 0x10u
+#define LSNIF_RAY_FLAG_CULL_FRONT_FACING 0x20u
+
+/* The self-intersection rule for rays leaving an LSNIF surface (docs/self-intersection.md): spawn
+ * the ray at the predicted hit point itself (no offset), with the ray flag CullBackFacingTriangles,
+ * and tmin = LSNIF_LEAVING_TMIN_VOXELS voxel edges measured in the hit model's object space
+ * (lsnif_leaving_tmin in lsnif_hit.glsl, leaving_tmin in host/intersector.h). The voxel edge of a
+ * model is |bounds extent| / (V sqrt(3)) (the edge of a cubic grid). Measured against a fixed
+ * origin offset by bench/bench_secondary. */
+#define LSNIF_LEAVING_TMIN_VOXELS 0.5
+
 /* ---- GPU model layout (plugin/gpu_model.cpp packs it, shaders/lsnif_model.glsl reads it) ----
- * One model is one 4-byte-aligned block of 32-bit words, addressed on the device by its buffer
+ * One model is one 32-byte-aligned block of 32-bit words, addressed on the device by its buffer
  * device address. It starts with LsnifGpuModelHeader; every *_offset is in words from the start of
  * the block. Sections:
  *  voxels: V^3 occupancy bits exactly as VoxelGrid::bits (voxel i + V*(j + V*k), bit idx & 31 of
  *          word idx >> 5).
  *  grid:   the hash tables as fp16, two per word (element e in word e >> 1, low half when e is even:
  *          unpackHalf2x16), element order of hash_grid.h: e = (level * 2^M + entry) * F + feature.
- *  mlp:    per layer (hidden layers, then output) with in/out as in network.h: out rows of
- *          LSNIF_GPU_ROW_WORDS(in) words (row r holds W[r][0..in) as fp16 pairs, the last high half
- *          zero when in is odd), then the bias as LSNIF_GPU_ROW_WORDS(out) words of fp16 pairs.
+ *  mlp:    starts at a multiple of 8 words. Per layer (hidden layers, then output) with in/out as
+ *          in network.h, the rows in blocks of LSNIF_GPU_ROW_BLOCK = 8 (the last block padded with
+ *          zero rows) so that one 32-byte load serves 8 rows (the portable inference path, see
+ *          lsnif_mlp.glsl): for block b, input pair i (P = LSNIF_GPU_ROW_WORDS(in) pairs, the last
+ *          high half zero when in is odd), 8 consecutive words, word k holding
+ *          (W[8b + k][2i], W[8b + k][2i + 1]) as an fp16 pair; blocks of 8 P words one after the
+ *          other; then per block 8 words of bias: b[8b .. 8b + 7] as 4 fp16 pairs, 4 zero words.
+ *          Every layer has a multiple of 8 words.
  * All fields are 32-bit uint or float, so the struct has identical std430 layout in C++ and GLSL. */
 #define LSNIF_GPU_MAGIC 0x4647534Cu /* "LSGF" little-endian */
-#define LSNIF_GPU_VERSION 1u
+#define LSNIF_GPU_VERSION 2u
 #define LSNIF_GPU_ROW_WORDS(n) (((n) + 1u) >> 1)
+#define LSNIF_GPU_ROW_BLOCK 8u
+#define LSNIF_GPU_ROW_BLOCKS(n) (((n) + LSNIF_GPU_ROW_BLOCK - 1u) / LSNIF_GPU_ROW_BLOCK)
 
 #ifdef __cplusplus
 #include <cstdint>
@@ -95,6 +118,7 @@ struct LsnifReferenceHit {
   lsnif_uint material;
   float albedo_x, albedo_y, albedo_z;
   lsnif_uint reserved;
+  float leaving_tmin;   /* lsnif_leaving_tmin for the ray's own direction (0 without a hit) */
 };
 
 /* ---- Ray tracing binding convention (shaders/lsnif.rint, shaders/lsnif_hit.glsl) ----
@@ -111,19 +135,22 @@ struct LsnifReferenceHit {
 #define LSNIF_RT_PUSH_MODEL_TABLE_OFFSET 0u
 #define LSNIF_RT_PUSH_APP_OFFSET 8u
 
-/* Hit attributes that lsnif.rint reports (24 bytes <= maxRayHitAttributeSize 32); decode them in a
+/* Hit attributes that lsnif.rint reports (28 bytes <= maxRayHitAttributeSize 32); decode them in a
  * closest-hit shader with lsnif_hit.glsl. The hit distance is gl_HitTEXT (world = object ray
  * parameter), the instance gl_InstanceID / gl_InstanceCustomIndexEXT, the model the table entry.
  *  normal_*:      object-space unit normal as predicted (fp32); world normal = normalize(A^-T n)
  *  albedo_rg:     packUnorm2x16(albedo.r, albedo.g)
  *  albedo_b_material_points: bits 0-15 albedo.b as unorm16, bits 16-23 material index (< 256,
  *                 LSNIF_MAX_MATERIALS <= 64), bits 24-31 boundary points of the walk (<= 32)
- *  occlusion_logit: raw occlusion output (>= 0 for every reported hit) */
+ *  occlusion_logit: raw occlusion output (>= 0 for every reported hit)
+ *  leaving_distance: LSNIF_LEAVING_TMIN_VOXELS x the model's voxel edge, object units (for
+ *                 lsnif_leaving_tmin) */
 struct LsnifHitAttributes {
   float normal_x, normal_y, normal_z;
   lsnif_uint albedo_rg;
   lsnif_uint albedo_b_material_points;
   float occlusion_logit;
+  float leaving_distance;
 };
 
 #endif

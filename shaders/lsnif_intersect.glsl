@@ -1,6 +1,7 @@
 // lsnif_intersect.glsl -- one object-space ray against one LSNIF model: walk (with tmax = inf, so
 // the network input never depends on the query interval) -> encode -> MLP -> decode, accepted when
-// occlusion >= 0.5 and tmin <= t <= tmax. The device twin of the per-ray part of
+// occlusion >= 0.5, tmin <= t <= tmax and the hit's facing is not culled by `ray_flags`
+// (LSNIF_RAY_FLAG_CULL_*_FACING, shaders/host_device.h). The device twin of the per-ray part of
 // host/intersector.cpp; the caller maps world rays to object space (gl_ObjectRay*EXT in an
 // intersection shader) and the normal back to world space (inverse transpose).
 // Include this first in a shader (after #version and GL_GOOGLE_include_directive): it declares
@@ -20,7 +21,21 @@ struct LsnifHitInfo {
   uint material;
 };
 
-LsnifHitInfo lsnif_intersect(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax) {
+// Facing of a prediction (host_device.h): true when a culling flag in `ray_flags` rejects it.
+bool lsnif_facing_culled(vec3 object_normal, vec3 object_direction, uint ray_flags) {
+  const float facing = dot(object_normal, object_direction);
+  return ((ray_flags & LSNIF_RAY_FLAG_CULL_BACK_FACING) != 0u && facing > 0.0) ||
+         ((ray_flags & LSNIF_RAY_FLAG_CULL_FRONT_FACING) != 0u && facing < 0.0);
+}
+
+// Object units of LSNIF_LEAVING_TMIN_VOXELS voxel edges of the model (host_device.h).
+float lsnif_leaving_distance(LsnifModel m) {
+  return float(LSNIF_LEAVING_TMIN_VOXELS) * length(lsnif_bounds_hi(m) - lsnif_bounds_lo(m)) /
+         (float(m.h.voxel_resolution) * sqrt(3.0));
+}
+
+LsnifHitInfo lsnif_intersect(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax,
+                             uint ray_flags) {
   LsnifHitInfo r;
   r.hit = false;
   r.points = 0u;
@@ -38,7 +53,7 @@ LsnifHitInfo lsnif_intersect(LsnifModel m, vec3 origin, vec3 direction, float tm
   const LsnifPrediction p = lsnif_decode(m, lsnif_mlp_forward(m));
   r.occlusion_logit = p.occlusion_logit;
   r.t = p.t;
-  r.hit = p.hit && p.t >= tmin && p.t <= tmax;
+  r.hit = p.hit && p.t >= tmin && p.t <= tmax && !lsnif_facing_culled(p.normal, direction, ray_flags);
   r.normal = p.normal;
   r.albedo = p.albedo;
   r.material = p.material;

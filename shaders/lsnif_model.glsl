@@ -17,18 +17,30 @@ layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer Lsn
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer LsnifWordsRef {
   uint w[];
 };
+layout(buffer_reference, std430, buffer_reference_align = 32) readonly buffer LsnifOctsRef {
+  u64vec4 o[];
+};
 
 struct LsnifModel {
   LsnifGpuModelHeader h;
   LsnifWordsRef words;  // the whole block; header.*_offset index into it
+  LsnifOctsRef octs;    // the same block in 32-byte units (oct i = words 8i .. 8i + 7)
 };
 
-// The model packed at device address `address` (4-byte aligned).
+// The model packed at device address `address` (32-byte aligned).
 LsnifModel lsnif_load_model(uint64_t address) {
   LsnifModel m;
   m.h = LsnifHeaderRef(address).header;
   m.words = LsnifWordsRef(address);
+  m.octs = LsnifOctsRef(address);
   return m;
+}
+
+// The 8 words of oct `i` as two uvec4 (words 0-3, words 4-7).
+void lsnif_load_oct(LsnifModel m, uint i, out uvec4 lo, out uvec4 hi) {
+  const u64vec4 v = m.octs.o[i];
+  lo = uvec4(unpack32(v.x), unpack32(v.y));
+  hi = uvec4(unpack32(v.z), unpack32(v.w));
 }
 
 // VoxelGrid::occupied: false outside [0, V)^3.

@@ -10,6 +10,7 @@
 #include <random>
 
 #include "evaluate.h"
+#include "host_device.h"
 #include "intersector.h"
 #include "mesh.h"
 #include "test_support.h"
@@ -142,6 +143,71 @@ TEST_F(TinyTraining, RejectsBadTransforms) {
   s = intersect(model_, singular, &r, 1, &h);
   EXPECT_FALSE(s);
   EXPECT_NE(s.message().find("singular"), std::string::npos);
+}
+
+// The self-intersection rule's tmin: LSNIF_LEAVING_TMIN_VOXELS voxel edges of the model's own
+// object space, measured along the world direction (world distance = object distance x the scale
+// along that direction), whatever the direction's length.
+TEST_F(TinyTraining, LeavingTminIsHalfAVoxelInObjectSpace) {
+  const float edge = model_.bounds().diagonal() / (float(model_.config.voxel_resolution) * std::sqrt(3.0f));
+  const float half = float(LSNIF_LEAVING_TMIN_VOXELS) * edge;
+  EXPECT_NEAR(leaving_tmin(model_, Transform3x4(), glm::vec3(0, 0, 1)), half, 1e-6f * half);
+  EXPECT_NEAR(leaving_tmin(model_, Transform3x4(), glm::vec3(0, 4, 0)), half / 4, 1e-6f * half);
+  Transform3x4 stretched;  // y scaled by 3, then translated
+  stretched.m[1][1] = 3.0f;
+  stretched.m[0][3] = 5.0f;
+  EXPECT_NEAR(leaving_tmin(model_, stretched, glm::vec3(0, 1, 0)), 3 * half, 1e-5f * half);
+  EXPECT_NEAR(leaving_tmin(model_, stretched, glm::vec3(1, 0, 0)), half, 1e-5f * half);
+  // Skewed instance: the world distance of `half` object units along A^-1 d.
+  const glm::mat3 A = test::skewed_linear();
+  const glm::vec3 d = glm::normalize(glm::vec3(0.3f, -0.5f, 0.8f));
+  const float expect = half / glm::length(glm::inverse(A) * d);
+  EXPECT_NEAR(leaving_tmin(model_, test::skewed_instance(), d), expect, 1e-5f * expect);
+  EXPECT_EQ(leaving_tmin(model_, Transform3x4(), glm::vec3(0.0f)), 0.0f);
+  EXPECT_EQ(leaving_tmin(model_, Transform3x4(), glm::vec3(std::nanf(""), 0, 1)), 0.0f);
+  Transform3x4 singular;
+  singular.m[2][2] = 0.0f;
+  EXPECT_EQ(leaving_tmin(model_, singular, glm::vec3(0, 0, 1)), 0.0f);
+}
+
+// Facing culling on the CPU reference: the back- and front-culled hit sets partition the unculled
+// hits by the sign of dot(world normal, direction), with t unchanged.
+TEST_F(TinyTraining, FacingFlagsPartitionHits) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(-1, 1);
+  const Aabb& b = model_.bounds();
+  std::vector<Ray> rays(4000);
+  for (Ray& r : rays) {  // half from outside, half from inside the box (these meet back faces)
+    const bool inside = &r - rays.data() < 2000;
+    r.origin = b.center() + (inside ? 0.3f : 1.0f) * b.diagonal() * glm::vec3(u(rng), u(rng), u(rng));
+    r.direction = b.center() + 0.3f * b.diagonal() * glm::vec3(u(rng), u(rng), u(rng)) - r.origin;
+  }
+  const Transform3x4 xf = test::skewed_instance();
+  for (Ray& r : rays) {
+    const glm::mat3 A = test::skewed_linear();
+    r.origin = A * r.origin + test::skewed_translation();
+    r.direction = A * r.direction;
+  }
+  std::vector<LsnifHit> all(rays.size()), back(rays.size()), front(rays.size());
+  ASSERT_TRUE(intersect(model_, xf, rays.data(), rays.size(), all.data()));
+  ASSERT_TRUE(intersect(model_, xf, rays.data(), rays.size(), back.data(), LSNIF_RAY_FLAG_CULL_BACK_FACING));
+  ASSERT_TRUE(intersect(model_, xf, rays.data(), rays.size(), front.data(), LSNIF_RAY_FLAG_CULL_FRONT_FACING));
+  size_t n_back_facing = 0, n_front_facing = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    if (!all[i].hit) {
+      EXPECT_FALSE(back[i].hit || front[i].hit);
+      continue;
+    }
+    const float facing = glm::dot(all[i].normal, rays[i].direction);
+    n_back_facing += facing > 0;
+    n_front_facing += facing < 0;
+    EXPECT_EQ(back[i].hit, !(facing > 0)) << i;
+    EXPECT_EQ(front[i].hit, !(facing < 0)) << i;
+    EXPECT_TRUE(!back[i].hit || back[i].t == all[i].t) << i;
+    EXPECT_TRUE(!front[i].hit || front[i].t == all[i].t) << i;
+  }
+  EXPECT_GT(n_back_facing, 20u);  // both kinds occur: the test is not vacuous
+  EXPECT_GT(n_front_facing, 200u);
 }
 
 TEST(Training, DeterministicForSeedAndThreadCount) {

@@ -17,6 +17,8 @@ struct AccelerationStructure {
   VkAccelerationStructureKHR handle = VK_NULL_HANDLE;
   Buffer storage;
   VkDeviceAddress address = 0;  // vkGetAccelerationStructureDeviceAddressKHR
+  bool updatable = false;       // built with ALLOW_UPDATE (update_tlas)
+  uint32_t primitive_count = 0; // instances of a TLAS, triangles of a BLAS
 };
 
 struct RtPipeline {
@@ -31,6 +33,21 @@ struct RtPipeline {
   double create_seconds = 0;  // vkCreateRayTracingPipelinesKHR wall time
 };
 
+// What the driver reports for a BLAS build (vkGetAccelerationStructureBuildSizesKHR, device build).
+struct BlasSizes {
+  VkDeviceSize acceleration_structure = 0;  // accelerationStructureSize
+  VkDeviceSize build_scratch = 0;           // buildScratchSize
+  VkDeviceSize update_scratch = 0;          // updateScratchSize
+};
+
+// A triangle BLAS built for compaction (build_compacted_triangle_blas).
+struct CompactionReport {
+  BlasSizes sizes;             // of the build (PREFER_FAST_TRACE | ALLOW_COMPACTION)
+  VkDeviceSize compacted = 0;  // VK_QUERY_TYPE_ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR
+  double build_seconds = 0;    // wall time of the build submission (lavapipe builds on the CPU)
+  double compact_seconds = 0;  // wall time of the compacting copy
+};
+
 class RayTracer {
  public:
   // `context` must have been initialized with init(true) and outlive the tracer.
@@ -42,8 +59,28 @@ class RayTracer {
   // built on the device. Fails on an empty mesh or an index out of range.
   Status build_triangle_blas(const std::vector<float>& positions, const std::vector<uint32_t>& indices,
                              AccelerationStructure& out);
-  // A TLAS of instance records (at least one; each with a BLAS address), built on the device.
-  Status build_tlas(const std::vector<VkAccelerationStructureInstanceKHR>& instances, AccelerationStructure& out);
+  // The build sizes of one OPAQUE triangle geometry (float3 positions, uint32 indices) of
+  // `vertex_count` vertices and `triangle_count` triangles built with `flags`; no device work.
+  // Fails on a zero count or when the context has no device.
+  Status triangle_blas_sizes(uint32_t vertex_count, uint32_t triangle_count,
+                             VkBuildAccelerationStructureFlagsKHR flags, BlasSizes& out);
+  // Like build_triangle_blas, but built with PREFER_FAST_TRACE | ALLOW_COMPACTION; its compacted
+  // size is read with a VK_QUERY_TYPE_ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR query and the BLAS
+  // is copied (VK_COPY_ACCELERATION_STRUCTURE_MODE_COMPACT_KHR) into `out`, whose storage has
+  // exactly that size. The uncompacted BLAS, the inputs and the scratch are freed before it
+  // returns. Same input errors as build_triangle_blas; also fails, before building, when the
+  // triangles exceed maxPrimitiveCount or the BLAS or its scratch exceeds the device's
+  // maxMemoryAllocationSize. Nothing is left allocated on failure.
+  Status build_compacted_triangle_blas(const std::vector<float>& positions, const std::vector<uint32_t>& indices,
+                                       AccelerationStructure& out, CompactionReport& report);
+  // A TLAS of instance records (at least one; each with a BLAS address), built on the device. With
+  // `allow_update`, built with ALLOW_UPDATE so that update_tlas can refit it.
+  Status build_tlas(const std::vector<VkAccelerationStructureInstanceKHR>& instances, AccelerationStructure& out,
+                    bool allow_update = false);
+  // Refits `tlas` in place (VK_BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE_KHR, source = destination)
+  // to new instance records, e.g. moved transforms, on the device, and waits. `tlas` must come from
+  // build_tlas with allow_update and the same number of records; an error otherwise.
+  Status update_tlas(const std::vector<VkAccelerationStructureInstanceKHR>& instances, AccelerationStructure& tlas);
   void destroy(AccelerationStructure& as);
 
   // The pipeline from SPIR-V files (entry "main"); max recursion depth 1. Hit group 0 (SBT record
@@ -57,15 +94,26 @@ class RayTracer {
   // Binds `tlas` to set 0 binding 0, pushes `push`, traces width x 1 x 1 rays and waits; shader
   // writes are visible to the host when it returns.
   Status trace(RtPipeline& pipeline, const AccelerationStructure& tlas, const void* push, uint32_t width);
+  // trace(), also measuring the trace on the device: `device_seconds` receives the time between
+  // timestamps written right before vkCmdTraceRaysKHR (top of pipe) and after it (bottom of pipe),
+  // scaled by timestampPeriod, or -1 when the queue family has no timestamps (timestampValidBits 0).
+  Status trace_timed(RtPipeline& pipeline, const AccelerationStructure& tlas, const void* push, uint32_t width,
+                     double& device_seconds);
 
   uint32_t handle_size() const { return props_.shaderGroupHandleSize; }
   uint32_t base_alignment() const { return props_.shaderGroupBaseAlignment; }
   uint32_t max_hit_attribute_size() const { return props_.maxRayHitAttributeSize; }
+  // VkPhysicalDeviceAccelerationStructurePropertiesKHR::maxPrimitiveCount (triangles per BLAS).
+  uint64_t max_primitive_count() const { return as_props_.maxPrimitiveCount; }
 
  private:
   Status build(VkAccelerationStructureTypeKHR type, const VkAccelerationStructureGeometryKHR& geometry,
-               uint32_t primitive_count, AccelerationStructure& out);
+               uint32_t primitive_count, AccelerationStructure& out, bool allow_update = false);
   Status load_module(const std::string& path, VkShaderModule& out);
+  // trace() with, when `timestamps` is not null, timestamps 0 and 1 of that 2-query pool written
+  // around vkCmdTraceRaysKHR (the pool is reset in the same command buffer).
+  Status trace_with_timestamps(RtPipeline& pipeline, const AccelerationStructure& tlas, const void* push,
+                               uint32_t width, VkQueryPool timestamps);
   ComputeContext& ctx_;
   VkPhysicalDeviceRayTracingPipelinePropertiesKHR props_{};
   VkPhysicalDeviceAccelerationStructurePropertiesKHR as_props_{};

@@ -44,4 +44,7 @@ class Args {
   std::vector<std::pair<std::string, std::string>> aliases_;
 };
 
+// `s` as a JSON string literal (quotes, backslashes and control characters escaped).
+std::string json_string(const std::string& s);
+
 }  // namespace lsnif::cli

@@ -8,4 +8,6 @@ int cmd_eval(int argc, char** argv);
 int cmd_info(int argc, char** argv);
 int cmd_demo(int argc, char** argv);
 int cmd_devices(int argc, char** argv);
+int cmd_bench_trace(int argc, char** argv);
+int cmd_bench_memory(int argc, char** argv);
 }  // namespace lsnif::cli

@@ -17,11 +17,13 @@ const Command kCommands[] = {
     {"eval", lsnif::cli::cmd_eval, "measure a model against exact ray casting on held-out rays"},
     {"info", lsnif::cli::cmd_info, "print a model's configuration and memory breakdown"},
     {"devices", lsnif::cli::cmd_devices, "list the Vulkan devices and the LSNIF paths each supports"},
+    {"bench-trace", lsnif::cli::cmd_bench_trace, "ray-tracing throughput of a model vs the triangle BLAS of its mesh"},
+    {"bench-memory", lsnif::cli::cmd_bench_memory, "device memory of a model vs the triangle BLAS of its mesh"},
 };
 
 void usage(FILE* out) {
   std::fprintf(out, "usage: lsnif COMMAND [arguments] [--help]\n\nLSNIF: neural intersection functions for ray tracing.\n\ncommands:\n");
-  for (const Command& c : kCommands) std::fprintf(out, "  %-8s %s\n", c.name, c.summary);
+  for (const Command& c : kCommands) std::fprintf(out, "  %-12s %s\n", c.name, c.summary);
 }
 }  // namespace
 

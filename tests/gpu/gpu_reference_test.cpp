@@ -24,9 +24,12 @@
 #include "ray_walk.h"
 #include "trainer.h"
 #include "vk_compute.h"
+#include "gpu_test_support.h"
 
 namespace lsnif {
 namespace {
+
+using namespace gputest;
 
 const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
 
@@ -38,18 +41,6 @@ struct Push {
   float world_to_object[3][4] = {};
 };
 static_assert(sizeof(Push) == 128, "push constant layout");
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-TrainSettings tiny_settings(HitParam param) {
-  TrainSettings s = test::tiny_train_settings();
-  s.config.hit_param = param;
-  s.steps = 200;
-  s.seed = 7;
-  return s;
-}
 
 // A model with random (fp16) parameters and odd sizes everywhere: input 3*1*3 = 9, W = 5, output 10.
 Model random_odd_model() {
@@ -90,89 +81,6 @@ Model random_odd_model() {
 
 // Object-to-world of the transformed instance: rotation * non-uniform scale, then translation.
 Transform3x4 skewed_instance() { return test::skewed_instance(); }
-
-struct Instance {
-  glm::mat3 A, A_inv;  // A_inv exactly as host/intersector.cpp computes it
-  glm::vec3 T;
-};
-Instance instance_of(const Transform3x4& xf) {
-  Instance in;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) in.A[c][r] = xf.m[r][c];
-    in.T[r] = xf.m[r][3];
-  }
-  in.A_inv = glm::inverse(in.A);
-  return in;
-}
-
-enum RayKind { kOutside, kInside, kInOccupied, kAnywhere, kKinds };
-const char* kKindNames[kKinds] = {"from outside through the AABB", "from inside the AABB",
-                                  "from inside occupied voxels", "anywhere (many miss the AABB)"};
-
-// Object-space rays of every kind (round robin), with a varied [tmin, tmax], mapped to world space.
-std::vector<Ray> make_world_rays(const Model& model, const Instance& in, size_t count, uint32_t seed,
-                                 std::vector<int>& kinds) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  const Aabb& b = model.bounds();
-  const glm::vec3 ext = b.extent();
-  const float diag = b.diagonal();
-  const uint32_t V = model.voxels.resolution;
-  std::vector<glm::uvec3> occupied;
-  for (uint32_t k = 0; k < V; ++k)
-    for (uint32_t j = 0; j < V; ++j)
-      for (uint32_t i = 0; i < V; ++i)
-        if (model.voxels.occupied(int(i), int(j), int(k))) occupied.emplace_back(i, j, k);
-  auto unit_vector = [&] {
-    for (;;) {
-      glm::vec3 v(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
-      float l = glm::length(v);
-      if (l > 0.05f && l <= 1.0f) return v / l;
-    }
-  };
-  auto in_box = [&] { return b.lo + ext * glm::vec3(u(rng), u(rng), u(rng)); };
-  std::vector<Ray> rays(count);
-  kinds.resize(count);
-  for (size_t i = 0; i < count; ++i) {
-    const int kind = int(i % kKinds);
-    Ray r;
-    switch (kind) {
-      case kOutside:
-        r.origin = b.center() + diag * (0.8f + 0.7f * u(rng)) * unit_vector();
-        r.direction = in_box() - r.origin;
-        break;
-      case kInside:
-        r.origin = in_box();
-        r.direction = unit_vector();
-        break;
-      case kInOccupied: {
-        const glm::uvec3 v = occupied[size_t(u(rng) * float(occupied.size())) % occupied.size()];
-        r.origin = b.lo + ext * (glm::vec3(v) + glm::vec3(u(rng), u(rng), u(rng))) / float(V);
-        r.direction = unit_vector();
-        break;
-      }
-      default:
-        r.origin = b.center() + 1.5f * ext * glm::vec3(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
-        r.direction = unit_vector();
-        break;
-    }
-    r.direction *= 0.5f + u(rng);  // unnormalized: t is in the direction's units
-    const float span = diag / glm::length(r.direction);
-    const float pick = u(rng);
-    if (pick < 0.15f) {
-      r.tmax = 2.0f * span * u(rng);  // cuts some predicted hits
-    } else if (pick < 0.25f) {
-      r.tmin = 0.5f * span * u(rng);  // skips some
-    }
-    // World space.
-    Ray w = r;
-    w.origin = in.A * r.origin + in.T;
-    w.direction = in.A * r.direction;
-    rays[i] = w;
-    kinds[i] = kind;
-  }
-  return rays;
-}
 
 struct Comparison {
   size_t rays = 0, walk_mismatch = 0, cpu_hits = 0, gpu_hits = 0, hit_agree = 0;
@@ -298,7 +206,8 @@ class GpuReference : public ::testing::Test {
                         const char* name) {
     const Instance in = instance_of(xf);
     std::vector<int> kinds;
-    const std::vector<Ray> world = make_world_rays(model, in, count, seed, kinds);
+    std::vector<Ray> world;
+    make_world_rays(model, in, count, seed, world, kinds);
     std::vector<LsnifHit> cpu(count);
     auto t0 = std::chrono::steady_clock::now();
     Status s = intersect(model, xf, world.data(), count, cpu.data());
@@ -419,7 +328,8 @@ TEST_F(GpuReference, RandomOddSizedModelMatchesCpu) {
   // voxel are predicted hits (random weights alone put nearly all logits on one side).
   const Instance in = instance_of(skewed_instance());
   std::vector<int> kinds;
-  const std::vector<Ray> world = make_world_rays(model, in, 4000, 5, kinds);
+  std::vector<Ray> world;
+  make_world_rays(model, in, 4000, 5, world, kinds);
   std::vector<LsnifHit> cpu(world.size());
   ASSERT_TRUE(intersect(model, skewed_instance(), world.data(), world.size(), cpu.data()));
   std::vector<float> logits;
@@ -487,20 +397,32 @@ TEST(GpuModelPacking, EveryValueAtItsDocumentedPlace) {
   EXPECT_EQ(layers[0].in, 9u);
   EXPECT_EQ(layers[0].row_words, 5u);
   EXPECT_EQ(layers[3].out, 10u);
+  EXPECT_EQ(layers[3].blocks, 2u);
+  EXPECT_EQ(h.mlp_offset % 8, 0u);  // 32-byte loads
+  // Independent of weight_word_of: row r, input i of block b = r / 8 sits in word
+  // ((b * P + i / 2) * 8 + r % 8), half i % 2; padded rows and the pad half are zero; the bias of
+  // block b is 8 words at bias_word + 8 b, 4 words of fp16 pairs then 4 zero words.
   uint32_t expect_word = 0;
   for (size_t l = 0; l < layers.size(); ++l) {
     const GpuLayerLayout& g = layers[l];
     EXPECT_EQ(g.weight_word, expect_word);
-    for (uint32_t r = 0; r < g.out; ++r) {
-      const uint32_t row = h.mlp_offset + g.weight_word + r * g.row_words;
-      for (uint32_t i = 0; i < g.in; ++i)
-        ASSERT_EQ(half_at(row, i), model.mlp[views[l].weight_offset + size_t(r) * g.in + i]) << l << " " << r;
-      if (g.in % 2) {
-        EXPECT_EQ(words[row + g.row_words - 1] >> 16, 0u);  // pad half
+    EXPECT_EQ(g.weight_word % 8, 0u);
+    const uint32_t P = (g.in + 1) / 2;
+    for (uint32_t r = 0; r < g.blocks * 8; ++r) {
+      for (uint32_t i = 0; i < 2 * P; ++i) {
+        const uint32_t word = h.mlp_offset + g.weight_word + ((r / 8) * P + i / 2) * 8 + r % 8;
+        const float expect = r < g.out && i < g.in ? model.mlp[views[l].weight_offset + size_t(r) * g.in + i] : 0.0f;
+        ASSERT_EQ(half_at(word, i % 2), expect) << l << " " << r << " " << i;
       }
-      ASSERT_EQ(half_at(h.mlp_offset + g.bias_word, r), model.mlp[views[l].bias_offset + r]);
+      const float bias = r < g.out ? model.mlp[views[l].bias_offset + r] : 0.0f;
+      ASSERT_EQ(half_at(h.mlp_offset + g.bias_word + (r / 8) * 8, r % 8), bias);
+      if (r % 8 == 0) {
+        for (uint32_t k = 4; k < 8; ++k) EXPECT_EQ(words[h.mlp_offset + g.bias_word + r + k], 0u);  // pad words
+      }
     }
-    expect_word = g.end_word;
+    EXPECT_EQ(g.bias_word, g.weight_word + g.blocks * 8 * P);
+    expect_word = g.bias_word + g.blocks * 8;
+    EXPECT_EQ(g.end_word, expect_word);
   }
   EXPECT_EQ(h.mlp_offset + expect_word, h.total_words);
 }

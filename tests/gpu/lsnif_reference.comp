@@ -38,7 +38,7 @@ void main() {
   const vec3 direction = vec3(ray.direction_x, ray.direction_y, ray.direction_z);
 
   LsnifModel m = lsnif_load_model(pc.model);
-  const LsnifHitInfo h = lsnif_intersect(m, A_inv * (origin - T), A_inv * direction, ray.tmin, ray.tmax);
+  const LsnifHitInfo h = lsnif_intersect(m, A_inv * (origin - T), A_inv * direction, ray.tmin, ray.tmax, 0u);
 
   LsnifReferenceHit out_hit;
   out_hit.hit = h.hit ? 1u : 0u;
@@ -56,5 +56,7 @@ void main() {
   out_hit.albedo_y = h.albedo.y;
   out_hit.albedo_z = h.albedo.z;
   out_hit.reserved = 0u;
+  const float dir_len = length(A_inv * direction);
+  out_hit.leaving_tmin = h.hit && dir_len > 0.0 ? lsnif_leaving_distance(m) / dir_len : 0.0;
   HitRef(pc.hits).hits[i] = out_hit;
 }

@@ -14,6 +14,7 @@
 
 #include "lsnif_vk.h"
 #include "network.h"
+#include "plugin_device.h"
 #include "vk_compute.h"
 
 namespace lsnif {
@@ -100,11 +101,7 @@ class Plugin : public ::testing::Test {
   void SetUp() override {
     const Status s = vk_.init(true);
     ASSERT_TRUE(s) << "no usable Vulkan ray-tracing device: " << s.message();
-    handles_.instance = vk_.instance();
-    handles_.physical = vk_.physical_device();
-    handles_.device = vk_.device();
-    handles_.queue_family = vk_.queue_family();
-    handles_.queue = vk_.queue();
+    handles_ = vk::plugin_handles(vk_);
   }
   vk::ComputeContext vk_;
   plugin::DeviceHandles handles_;

@@ -23,4 +23,5 @@ void main() {
   payload.albedo_y = s.albedo.y;
   payload.albedo_z = s.albedo.z;
   payload.reserved = uint(gl_InstanceID) | (uint(gl_InstanceCustomIndexEXT) << 16);
+  payload.leaving_tmin = lsnif_leaving_tmin(s, gl_WorldRayDirectionEXT);
 }

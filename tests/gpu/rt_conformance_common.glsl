@@ -18,6 +18,7 @@ layout(push_constant) uniform RtPush {
   uint64_t hits;         // LsnifReferenceHit[ray_count]
   uint ray_count;
   uint mode;             // RT_MODE_*
+  uint ray_flags;        // more ray flags for traceRayEXT (culling: host_device.h)
 } pc;
 
 #endif

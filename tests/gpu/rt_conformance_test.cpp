@@ -28,10 +28,14 @@
 #include "ray_walk.h"
 #include "test_support.h"
 #include "trainer.h"
+#include "plugin_device.h"
 #include "vk_raytracing.h"
+#include "gpu_test_support.h"
 
 namespace lsnif {
 namespace {
+
+using namespace gputest;
 
 const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
 const std::string kShaderDir = LSNIF_RT_SHADER_DIR;
@@ -39,110 +43,18 @@ const std::string kShaderDir = LSNIF_RT_SHADER_DIR;
 // The push constant block of rt_conformance_common.glsl (model table first: host_device.h).
 struct RtPush {
   uint64_t model_table = 0, rays = 0, hits = 0;
-  uint32_t ray_count = 0, mode = 0;
+  uint32_t ray_count = 0, mode = 0, ray_flags = 0, pad = 0;
 };
-static_assert(sizeof(RtPush) == 32, "push constant layout");
+static_assert(sizeof(RtPush) == 40, "push constant layout");
 static_assert(offsetof(RtPush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
 static_assert(sizeof(LsnifHitAttributes) <= 32, "maxRayHitAttributeSize on lavapipe");
 constexpr uint32_t kModeClosest = 0, kModeShadow = 1;
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-TrainSettings tiny_settings(HitParam param) {
-  TrainSettings s = test::tiny_train_settings();
-  s.config.hit_param = param;
-  s.steps = 200;
-  s.seed = 7;
-  return s;
-}
-
-struct Instance {
-  glm::mat3 A, A_inv;  // A_inv as host/intersector.cpp computes it
-  glm::vec3 T;
-};
-Instance instance_of(const Transform3x4& xf) {
-  Instance in;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) in.A[c][r] = xf.m[r][c];
-    in.T[r] = xf.m[r][3];
-  }
-  in.A_inv = glm::inverse(in.A);
-  return in;
-}
 
 // Identity shifted by `offset` (world units).
 Transform3x4 translated(glm::vec3 offset) {
   Transform3x4 xf;
   for (int r = 0; r < 3; ++r) xf.m[r][3] = offset[r];
   return xf;
-}
-
-enum RayKind { kOutside, kInside, kInOccupied, kAnywhere, kKinds };
-const char* kKindNames[kKinds] = {"from outside through the AABB", "from inside the AABB",
-                                  "from inside occupied voxels", "anywhere (many miss the AABB)"};
-
-// Object-space rays of every kind (round robin), 15% with a finite tmax that cuts some hits, 10%
-// with a raised tmin, unnormalized directions; appended in world space of instance `in`.
-void make_world_rays(const Model& model, const Instance& in, size_t count, uint32_t seed, std::vector<Ray>& rays,
-                     std::vector<int>& kinds) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  const Aabb& b = model.bounds();
-  const glm::vec3 ext = b.extent();
-  const float diag = b.diagonal();
-  const uint32_t V = model.voxels.resolution;
-  std::vector<glm::uvec3> occupied;
-  for (uint32_t k = 0; k < V; ++k)
-    for (uint32_t j = 0; j < V; ++j)
-      for (uint32_t i = 0; i < V; ++i)
-        if (model.voxels.occupied(int(i), int(j), int(k))) occupied.emplace_back(i, j, k);
-  auto unit_vector = [&] {
-    for (;;) {
-      const glm::vec3 v(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
-      const float l = glm::length(v);
-      if (l > 0.05f && l <= 1.0f) return v / l;
-    }
-  };
-  auto in_box = [&] { return b.lo + ext * glm::vec3(u(rng), u(rng), u(rng)); };
-  for (size_t i = 0; i < count; ++i) {
-    const int kind = int(i % kKinds);
-    Ray r;
-    switch (kind) {
-      case kOutside:
-        r.origin = b.center() + diag * (0.8f + 0.7f * u(rng)) * unit_vector();
-        r.direction = in_box() - r.origin;
-        break;
-      case kInside:
-        r.origin = in_box();
-        r.direction = unit_vector();
-        break;
-      case kInOccupied: {
-        const glm::uvec3 v = occupied[size_t(u(rng) * float(occupied.size())) % occupied.size()];
-        r.origin = b.lo + ext * (glm::vec3(v) + glm::vec3(u(rng), u(rng), u(rng))) / float(V);
-        r.direction = unit_vector();
-        break;
-      }
-      default:
-        r.origin = b.center() + 1.5f * ext * glm::vec3(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
-        r.direction = unit_vector();
-        break;
-    }
-    r.direction *= 0.5f + u(rng);
-    const float span = diag / glm::length(r.direction);
-    const float pick = u(rng);
-    if (pick < 0.15f) {
-      r.tmax = 2.0f * span * u(rng);
-    } else if (pick < 0.25f) {
-      r.tmin = 0.5f * span * u(rng);
-    }
-    Ray w = r;
-    w.origin = in.A * r.origin + in.T;
-    w.direction = in.A * r.direction;
-    rays.push_back(w);
-    kinds.push_back(kind);
-  }
 }
 
 // Boundary points of the walk of world ray `w` through instance `in`, from the object-space ray
@@ -170,6 +82,7 @@ struct Comparison {
   size_t both_hit = 0, material_mismatch = 0, instance_mismatch = 0, instance_ties = 0;
   size_t hits_per_kind[kKinds] = {}, gpu_hits_per_instance[2] = {};
   size_t closest_hit_ran = 0;  // results written by the closest-hit shader (reserved != ~0u)
+  double leaving_tmin_rel_err_max = 0;  // lsnif_leaving_tmin (closest hit) vs leaving_tmin (CPU)
   double t_err_max = 0, t_err_sum = 0, normal_deg_max = 0, normal_deg_sum = 0, albedo_max = 0;
 };
 
@@ -255,6 +168,9 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
       }
     }
     const LsnifHit& h = cpu[ref][i];
+    const double leaving = double(leaving_tmin(model, xfs[ref], w.direction));
+    c.leaving_tmin_rel_err_max =
+        std::max(c.leaving_tmin_rel_err_max, std::fabs(double(g.leaving_tmin) - leaving) / leaving);
     ++c.both_hit;
     ++c.hits_per_kind[kinds[i]];
     const double span = diag / double(glm::length(ins[ref].A_inv * w.direction));
@@ -277,13 +193,14 @@ void print(const char* name, const Comparison& c) {
       "%s: %zu rays, cpu hits %zu, gpu hits %zu, hit agreement %.4f%% (flips: %zu threshold, %zu interval, "
       "%zu walk, %zu other), gpu walk mismatches %zu, gpu hits per instance %zu/%zu\n"
       "  both hit %zu (per kind %zu/%zu/%zu/%zu): t error / diagonal max %.3g mean %.3g, normal angle max "
-      "%.3g deg mean %.3g deg, albedo max %.3g, material mismatches %zu, instance mismatches %zu (ties %zu)\n",
+      "%.3g deg mean %.3g deg, albedo max %.3g, material mismatches %zu, instance mismatches %zu (ties %zu), "
+      "leaving tmin relative error max %.3g\n",
       name, c.rays, c.cpu_hits, c.gpu_hits, 100.0 * double(c.hit_agree) / double(c.rays), c.flips_threshold,
       c.flips_interval, c.flips_walk, c.flips_other, c.walk_mismatch, c.gpu_hits_per_instance[0],
       c.gpu_hits_per_instance[1], c.both_hit, c.hits_per_kind[0], c.hits_per_kind[1], c.hits_per_kind[2],
       c.hits_per_kind[3], c.t_err_max, c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, c.normal_deg_max,
       c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, c.albedo_max, c.material_mismatch,
-      c.instance_mismatch, c.instance_ties);
+      c.instance_mismatch, c.instance_ties, c.leaving_tmin_rel_err_max);
 }
 
 class RtConformance : public ::testing::Test {
@@ -333,13 +250,7 @@ class RtConformance : public ::testing::Test {
 
     // Through the plugin, on the harness's device: model blocks and one AABB BLAS per model, and
     // the model table (custom index -> model address).
-    plugin::DeviceHandles handles;
-    handles.instance = vk_.instance();
-    handles.physical = vk_.physical_device();
-    handles.device = vk_.device();
-    handles.queue_family = vk_.queue_family();
-    handles.queue = vk_.queue();
-    train_status_ = plugin::create_context(handles, plugin_);
+    train_status_ = plugin::create_context(vk::plugin_handles(vk_), plugin_);
     for (uint32_t m = 0; m < 2 && train_status_; ++m) train_status_ = plugin_.upload_model(models_[m], handles_[m]);
     std::vector<uint64_t> addresses;
     if (train_status_) train_status_ = plugin_.model_table({handles_[0], handles_[1]}, addresses);
@@ -356,15 +267,17 @@ class RtConformance : public ::testing::Test {
   }
 
   // Traces `world` through a TLAS of instances `xfs` of model `index` (custom index = index) in
-  // `mode`, runs the CPU reference per instance and compares.
+  // `mode` with `ray_flags`, runs the CPU reference per instance and compares. The TLAS is built
+  // here, or is `prebuilt` (whose instances must be `xfs`).
   static Comparison run(uint32_t index, const std::vector<Transform3x4>& xfs, const std::vector<Ray>& world,
-                        const std::vector<int>& kinds, uint32_t mode, const char* name) {
+                        const std::vector<int>& kinds, uint32_t mode, const char* name, uint32_t ray_flags = 0,
+                        const vk::AccelerationStructure* prebuilt = nullptr) {
     const Model& model = models_[index];
     const size_t count = world.size();
     std::vector<std::vector<LsnifHit>> cpu(xfs.size(), std::vector<LsnifHit>(count));
     auto t0 = std::chrono::steady_clock::now();
     for (size_t k = 0; k < xfs.size(); ++k) {
-      const Status s = intersect(model, xfs[k], world.data(), count, cpu[k].data());
+      const Status s = intersect(model, xfs[k], world.data(), count, cpu[k].data(), ray_flags);
       EXPECT_TRUE(s) << s.message();
     }
     const double cpu_seconds = seconds_since(t0);
@@ -376,7 +289,7 @@ class RtConformance : public ::testing::Test {
     vk::Buffer ray_buf, hit_buf;
     std::vector<LsnifReferenceHit> gpu(count);
     double gpu_seconds = 0;
-    if (s) s = tracer_.build_tlas(instances, tlas);
+    if (s && !prebuilt) s = tracer_.build_tlas(instances, tlas);
     if (s) s = vk_.create_buffer(count * sizeof(LsnifReferenceRay), ray_buf);
     if (s) s = vk_.create_buffer(count * sizeof(LsnifReferenceHit), hit_buf);
     if (s) {
@@ -391,8 +304,9 @@ class RtConformance : public ::testing::Test {
       push.hits = hit_buf.address;
       push.ray_count = uint32_t(count);
       push.mode = mode;
+      push.ray_flags = ray_flags;
       t0 = std::chrono::steady_clock::now();
-      s = tracer_.trace(pipeline_, tlas, &push, uint32_t(count));
+      s = tracer_.trace(pipeline_, prebuilt ? *prebuilt : tlas, &push, uint32_t(count));
       gpu_seconds = seconds_since(t0);
       const auto* hits = static_cast<const LsnifReferenceHit*>(hit_buf.mapped);
       if (s) gpu.assign(hits, hits + count);
@@ -439,6 +353,7 @@ class RtConformance : public ::testing::Test {
     EXPECT_LT(c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, 0.03);
     EXPECT_LT(c.albedo_max, 1e-4);
     EXPECT_EQ(c.material_mismatch, 0u);
+    EXPECT_LT(c.leaving_tmin_rel_err_max, 1e-5);
   }
 
   void SetUp() override {
@@ -542,6 +457,144 @@ TEST_F(RtConformance, ShadowRaysMatchCpuVisibility) {
     EXPECT_GT(c->cpu_hits, kRays / 5);
     EXPECT_LT(c->cpu_hits, kRays - kRays / 5);
   }
+}
+
+// Moving instances: a TLAS of two instances of one model built once with ALLOW_UPDATE, then per
+// frame the plugin makes new instance records for moved transforms (rotation about a tilted axis,
+// non-uniform scale, translation along a path) and the TLAS is refitted in place (update) on
+// frames 1-4 and rebuilt from scratch on frame 5; the models and BLASes stay untouched. Each frame,
+// rays aimed at the instances' current placement must match the CPU reference at the current
+// transforms, and enough of them must hit differently than at the previous frame's transforms (the
+// motion is visible, so a stale TLAS would fail).
+Transform3x4 moving_instance(const Model& model, int frame, int which) {
+  const float angle = 0.35f * float(frame) + 1.3f * float(which);
+  const glm::vec3 axis = glm::normalize(glm::vec3(0.3f, 1.0f, 0.2f * float(which + 1)));
+  const float c = std::cos(angle), s = std::sin(angle);
+  const glm::mat3 K(0, axis.z, -axis.y, -axis.z, 0, axis.x, axis.y, -axis.x, 0);  // cross-product matrix
+  const glm::mat3 R = glm::mat3(1.0f) + s * K + (1 - c) * K * K;
+  const glm::mat3 A = R * glm::mat3(glm::vec3(1.0f + 0.1f * float(frame), 0, 0), glm::vec3(0, 0.8f, 0),
+                                    glm::vec3(0, 0, 1.2f));
+  const Aabb& b = model.bounds();
+  const glm::vec3 T = -A * b.center() + b.diagonal() * glm::vec3(0.15f * float(frame) + 0.6f * float(which),
+                                                                 0.05f * float(frame), -0.1f * float(which));
+  Transform3x4 xf;
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) xf.m[r][k] = A[k][r];
+    xf.m[r][3] = T[r];
+  }
+  return xf;
+}
+
+TEST_F(RtConformance, MovingInstancesFollowTlasUpdates) {
+  const Model& model = models_[kSegmentIndex];
+  std::vector<Transform3x4> xfs = {moving_instance(model, 0, 0), moving_instance(model, 0, 1)};
+  std::vector<VkAccelerationStructureInstanceKHR> records(2);
+  for (int k = 0; k < 2; ++k)
+    ASSERT_TRUE(plugin_.make_instance(handles_[kSegmentIndex], xfs[size_t(k)], kSegmentIndex, 0xFF, 0, records[size_t(k)]));
+  vk::AccelerationStructure tlas;
+  ASSERT_TRUE(tracer_.build_tlas(records, tlas, /*allow_update=*/true));
+  const VkDeviceAddress blas_before = plugin_.blas_address(handles_[kSegmentIndex]);
+  for (int frame = 1; frame <= 5; ++frame) {
+    const std::vector<Transform3x4> previous = xfs;
+    xfs = {moving_instance(model, frame, 0), moving_instance(model, frame, 1)};
+    for (int k = 0; k < 2; ++k)
+      ASSERT_TRUE(plugin_.make_instance(handles_[kSegmentIndex], xfs[size_t(k)], kSegmentIndex, 0xFF, 0, records[size_t(k)]));
+    if (frame < 5) {
+      ASSERT_TRUE(tracer_.update_tlas(records, tlas));
+    } else {
+      tracer_.destroy(tlas);
+      ASSERT_TRUE(tracer_.build_tlas(records, tlas, true));
+    }
+    std::vector<Ray> world;
+    std::vector<int> kinds;
+    make_world_rays(model, instance_of(xfs[0]), kRays / 4, uint32_t(40 + frame), world, kinds);
+    make_world_rays(model, instance_of(xfs[1]), kRays / 4, uint32_t(60 + frame), world, kinds);
+    char name[64];
+    std::snprintf(name, sizeof(name), "moving instances, frame %d (%s)", frame, frame < 5 ? "update" : "rebuild");
+    const Comparison c = run(kSegmentIndex, xfs, world, kinds, kModeClosest, name, 0, &tlas);
+    expect_agreement(c, kModeClosest);
+    EXPECT_GT(c.gpu_hits_per_instance[0], kRays / 40);
+    EXPECT_GT(c.gpu_hits_per_instance[1], kRays / 40);
+    // The same rays against the previous frame's placement: many answers differ.
+    size_t changed = 0;
+    std::vector<LsnifHit> now0(world.size()), now1(world.size()), old0(world.size()), old1(world.size());
+    ASSERT_TRUE(intersect(model, xfs[0], world.data(), world.size(), now0.data()));
+    ASSERT_TRUE(intersect(model, xfs[1], world.data(), world.size(), now1.data()));
+    ASSERT_TRUE(intersect(model, previous[0], world.data(), world.size(), old0.data()));
+    ASSERT_TRUE(intersect(model, previous[1], world.data(), world.size(), old1.data()));
+    for (size_t i = 0; i < world.size(); ++i) changed += (now0[i].hit || now1[i].hit) != (old0[i].hit || old1[i].hit);
+    std::printf("frame %d: %zu of %zu rays hit differently at the previous frame's transforms\n", frame, changed,
+                world.size());
+    EXPECT_GT(changed, world.size() / 20);
+  }
+  EXPECT_EQ(plugin_.blas_address(handles_[kSegmentIndex]), blas_before);  // models untouched
+  tracer_.destroy(tlas);
+  vk::AccelerationStructure plain;
+  ASSERT_TRUE(tracer_.build_tlas(records, plain));
+  EXPECT_FALSE(tracer_.update_tlas(records, plain));  // not built for updates: a clear error
+  records.pop_back();
+  tracer_.destroy(plain);
+}
+
+// The self-intersection rule (host_device.h): rays leaving LSNIF hits of the skewed instance start
+// at the predicted hit point with tmin = leaving_tmin and CullBackFacingTriangles (then, for the
+// flag's twin, CullFrontFacingTriangles); directions cosine-distributed about the predicted world
+// normal, as a renderer would draw them. The GPU must agree with the CPU reference under the same
+// flags, and the flags must change results (not vacuous).
+TEST_F(RtConformance, RaysLeavingTheSurfaceFollowTheRule) {
+  const Model& model = models_[kSegmentIndex];
+  const Transform3x4 xf = test::skewed_instance();
+  std::vector<Ray> primary, secondary;
+  std::vector<int> kinds, secondary_kinds;
+  make_world_rays(model, instance_of(xf), 4 * kRays, 11, primary, kinds);
+  std::vector<LsnifHit> hits(primary.size());
+  ASSERT_TRUE(intersect(model, xf, primary.data(), primary.size(), hits.data()));
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (size_t i = 0; i < primary.size() && secondary.size() < kRays; ++i) {
+    if (kinds[i] != kOutside || !hits[i].hit) continue;
+    const glm::vec3 n = hits[i].normal;
+    const glm::vec3 a = std::fabs(n.x) > 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+    const glm::vec3 t = glm::normalize(glm::cross(a, n)), b = glm::cross(n, t);
+    const float u1 = u(rng), phi = 6.2831853f * u(rng);
+    Ray r;
+    r.origin = primary[i].origin + hits[i].t * primary[i].direction;
+    r.direction = std::sqrt(u1) * (std::cos(phi) * t + std::sin(phi) * b) + std::sqrt(1.0f - u1) * n;
+    r.tmin = leaving_tmin(model, xf, r.direction);
+    ASSERT_GT(r.tmin, 0.0f);
+    secondary.push_back(r);
+    secondary_kinds.push_back(kInOccupied);
+  }
+  ASSERT_GT(secondary.size(), kRays / 4);
+  std::vector<LsnifHit> plain(secondary.size()), back(secondary.size()), front(secondary.size());
+  ASSERT_TRUE(intersect(model, xf, secondary.data(), secondary.size(), plain.data()));
+  ASSERT_TRUE(intersect(model, xf, secondary.data(), secondary.size(), back.data(), LSNIF_RAY_FLAG_CULL_BACK_FACING));
+  ASSERT_TRUE(intersect(model, xf, secondary.data(), secondary.size(), front.data(), LSNIF_RAY_FLAG_CULL_FRONT_FACING));
+  size_t n_plain = 0, n_back = 0, n_front = 0;
+  for (size_t i = 0; i < secondary.size(); ++i) {
+    n_plain += plain[i].hit;
+    n_back += back[i].hit;
+    n_front += front[i].hit;
+    // Culling removes hits by the facing of the predicted normal, never adds or moves one.
+    if (back[i].hit) {
+      EXPECT_TRUE(plain[i].hit && plain[i].t == back[i].t && glm::dot(back[i].normal, secondary[i].direction) <= 0);
+    }
+    if (front[i].hit) {
+      EXPECT_TRUE(plain[i].hit && plain[i].t == front[i].t && glm::dot(front[i].normal, secondary[i].direction) >= 0);
+    }
+  }
+  std::printf("leaving rays: %zu, CPU hits without culling %zu, culling back faces %zu, front faces %zu\n",
+              secondary.size(), n_plain, n_back, n_front);
+  EXPECT_LT(n_back, n_plain);
+  EXPECT_LT(n_front, n_plain);
+  EXPECT_EQ(n_back + n_front, n_plain);  // no predicted normal is exactly tangent here
+  const Comparison cb = run(kSegmentIndex, {xf}, secondary, secondary_kinds, kModeClosest,
+                            "leaving rays, cull back-facing", LSNIF_RAY_FLAG_CULL_BACK_FACING);
+  const Comparison cf = run(kSegmentIndex, {xf}, secondary, secondary_kinds, kModeClosest,
+                            "leaving rays, cull front-facing", LSNIF_RAY_FLAG_CULL_FRONT_FACING);
+  for (const Comparison* c : {&cb, &cf}) expect_agreement(*c, kModeClosest);
+  EXPECT_EQ(cb.cpu_hits, n_back);
+  EXPECT_EQ(cf.cpu_hits, n_front);
 }
 
 // A mixed TLAS: the voxel-segments model as an identity LSNIF instance (custom index 1, hit group 0)

@@ -1,0 +1,551 @@
+// lsnif bench-trace MESH MODEL: throughput of the LSNIF intersection shader (shaders/lsnif.rint, as
+// the plugin compiles it) in a real ray-tracing pipeline on the device, against the same rays
+// traced through a triangle BLAS of the same mesh in the same run and the same pipeline.
+//
+// Setup: the harness's device (samples/common/vk_compute.h, ray tracing on, validation only with
+// --validation); the model uploaded by the plugin (model block + AABB BLAS, model table, instance
+// record); a triangle BLAS of the mesh; two TLASes of one identity instance each (LSNIF: hit group
+// 0 = lsnif.rint + bench_trace.rchit; triangles: hit group 1 = bench_trace_triangle.rchit); one
+// pipeline (samples/lsnif/shaders/bench_trace.*). Rays: N from one seed, origins on the sphere of
+// radius 1.5 x half diagonal around the mesh AABB's center, unit directions towards uniform points
+// inside the AABB, tmin 0, tmax inf. The triangle BLAS input is in Morton order of the triangle
+// centroids by default (lavapipe builds its BVH in input order). Timing: one first trace of each
+// (reported apart: it carries what a driver does on first use of the pipeline), then K repeats
+// alternating LSNIF / triangles; medians of the host wall time around submit + wait, of the device
+// time between timestamps around vkCmdTraceRaysKHR where the queue has timestamps, and of the
+// process CPU time. Network evaluations = rays whose walk (host/ray_walk.h, the CPU twin
+// of the shader's walk) has boundary points: the intersection shader runs the MLP exactly for them.
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "args.h"
+#include "commands.h"
+#include "lsnif_vk.h"
+#include "mesh.h"
+#include "model.h"
+#include "progress.h"
+#include "ray_walk.h"
+#include "plugin_device.h"
+#include "vk_raytracing.h"
+
+#ifndef LSNIF_BENCH_TRACE_SHADER_DIR
+#error "LSNIF_BENCH_TRACE_SHADER_DIR (the compiled samples/lsnif/shaders) must be defined by the build"
+#endif
+
+namespace lsnif::cli {
+
+namespace {
+
+// The push constant block of shaders/bench_trace_common.glsl (model table first: host_device.h).
+struct BenchTracePush {
+  uint64_t model_table = 0, rays = 0, results = 0;
+  uint32_t ray_count = 0, unused = 0;
+};
+static_assert(offsetof(BenchTracePush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
+static_assert(offsetof(BenchTracePush, rays) == LSNIF_RT_PUSH_APP_OFFSET, "binding convention");
+static_assert(offsetof(BenchTracePush, ray_count) == 24, "push constant layout of bench_trace_common.glsl");
+
+// BenchTraceResult of shaders/bench_trace_common.glsl.
+struct BenchTraceResult {
+  float t;
+  uint32_t info;
+};
+static_assert(sizeof(BenchTraceResult) == 8, "result layout of bench_trace_common.glsl");
+constexpr uint32_t kResultHit = 1u, kResultPointsShift = 8u;
+static_assert(sizeof(LsnifReferenceRay) == 32, "ray layout");
+
+constexpr uint32_t kMaxRays = 1u << 24;
+constexpr uint32_t kMaxRepeat = 1000;
+constexpr uint32_t kLsnifRecord = 0, kTriangleRecord = 1;  // SBT hit group records
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// A JSON string literal of `s` (quotes, backslashes and control characters escaped).
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (const char c : s) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '"' || c == '\\') out += std::string("\\") + c;
+    else if (u < 0x20) out += format("\\u%04x", unsigned(u));
+    else out += c;
+  }
+  return out + "\"";
+}
+
+// `count` rays from `seed` (see the file comment): origins uniform on the sphere of radius
+// 1.5 x |extent| / 2 around box.center(), unit directions towards uniform points inside `box`.
+// Every origin lies outside the box (the sphere encloses it).
+std::vector<Ray> make_rays(const Aabb& box, uint32_t count, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const glm::vec3 center = box.center(), ext = box.extent();
+  const float radius = 1.5f * 0.5f * box.diagonal();
+  std::vector<Ray> rays(count);
+  for (Ray& r : rays) {
+    glm::vec3 dir;
+    for (;;) {  // uniform on the unit sphere by rejection from the cube
+      dir = glm::vec3(2.0f * u(rng) - 1.0f, 2.0f * u(rng) - 1.0f, 2.0f * u(rng) - 1.0f);
+      const float l = glm::length(dir);
+      if (l > 1e-3f && l <= 1.0f) {
+        dir /= l;
+        break;
+      }
+    }
+    r.origin = center + radius * dir;
+    const glm::vec3 target = box.lo + ext * glm::vec3(u(rng), u(rng), u(rng));
+    r.direction = glm::normalize(target - r.origin);
+    r.tmin = 0.0f;
+    r.tmax = std::numeric_limits<float>::infinity();
+  }
+  return rays;
+}
+
+// Spreads the low 10 bits of `v` to every third bit (bit i -> bit 3i).
+uint32_t spread_bits(uint32_t v) {
+  v &= 0x3ffu;
+  v = (v | (v << 16)) & 0x030000ffu;
+  v = (v | (v << 8)) & 0x0300f00fu;
+  v = (v | (v << 4)) & 0x030c30c3u;
+  v = (v | (v << 2)) & 0x09249249u;
+  return v;
+}
+
+// The mesh's triangles as BLAS input (float3 positions, 3 uint32 indices per triangle). With
+// `morton`, the triangles are ordered by the 30-bit Morton code of their centroid in the mesh AABB
+// (ties keep file order): a driver that builds its BVH in primitive order without spatial sorting
+// (lavapipe) then gets a spatially coherent tree, as a GPU driver's builder makes by itself.
+void triangle_input(const Mesh& mesh, bool morton, std::vector<float>& positions, std::vector<uint32_t>& indices) {
+  positions.clear();
+  indices.clear();
+  positions.reserve(3 * mesh.positions.size());
+  indices.reserve(3 * mesh.triangles.size());
+  for (const glm::vec3& p : mesh.positions) positions.insert(positions.end(), {p.x, p.y, p.z});
+  std::vector<uint32_t> order(mesh.triangles.size());
+  for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  if (morton) {
+    const Aabb box = mesh.bounds();
+    const glm::vec3 ext = glm::max(box.extent(), glm::vec3(1e-30f));
+    std::vector<uint32_t> code(mesh.triangles.size());
+    for (size_t i = 0; i < code.size(); ++i) {
+      const glm::uvec3& t = mesh.triangles[i];
+      const glm::vec3 c = (mesh.positions[t.x] + mesh.positions[t.y] + mesh.positions[t.z]) / 3.0f;
+      const glm::vec3 q = glm::clamp((c - box.lo) / ext, 0.0f, 1.0f) * 1023.0f;
+      code[i] = spread_bits(uint32_t(q.x)) | (spread_bits(uint32_t(q.y)) << 1) | (spread_bits(uint32_t(q.z)) << 2);
+    }
+    std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return code[a] < code[b]; });
+  }
+  for (const uint32_t i : order) {
+    const glm::uvec3& t = mesh.triangles[i];
+    indices.insert(indices.end(), {t.x, t.y, t.z});
+  }
+}
+
+// A model trained on `mesh` has bounds == pad_aabb(mesh.bounds()) (host/trainer.cpp). Ok when the
+// corners agree within 1e-3 of the diagonal; otherwise an error naming both boxes.
+Status check_same_object(const Mesh& mesh, const Model& model) {
+  const Aabb expect = pad_aabb(mesh.bounds()), got = model.bounds();
+  const float tol = 1e-3f * expect.diagonal();
+  const glm::vec3 d = glm::max(glm::abs(expect.lo - got.lo), glm::abs(expect.hi - got.hi));
+  if (std::max(d.x, std::max(d.y, d.z)) <= tol) return Status::ok();
+  return Status::error(
+      "the mesh does not match the model: the model's AABB is (%g %g %g)..(%g %g %g) but a model trained "
+      "on this mesh would have (%g %g %g)..(%g %g %g) (is MODEL trained on MESH?)",
+      double(got.lo.x), double(got.lo.y), double(got.lo.z), double(got.hi.x), double(got.hi.y), double(got.hi.z),
+      double(expect.lo.x), double(expect.lo.y), double(expect.lo.z), double(expect.hi.x), double(expect.hi.y),
+      double(expect.hi.z));
+}
+
+// Timings of one geometry kind.
+// host: wall time around RayTracer::trace_timed (descriptor update, recording, submit, wait);
+// device: timestamps around vkCmdTraceRaysKHR (-1 / empty without timestamps); cpu: user + system
+// CPU time of this process during the trace (getrusage), which on lavapipe is the work of the
+// trace and depends less on other load of a shared machine than the wall time (meaningless on a
+// GPU, where the host only waits).
+struct Timings {
+  double first_host = 0, first_device = -1, first_cpu = 0;  // the first trace (first use of the pipeline)
+  std::vector<double> host, device, cpu;                     // the K repeats
+  double median_host() const { return median(host); }
+  double min_host() const { return host.empty() ? 0.0 : *std::min_element(host.begin(), host.end()); }
+  double median_cpu() const { return median(cpu); }
+  double median_device() const { return device.empty() ? -1.0 : median(device); }
+};
+
+struct Report {
+  std::string device, mesh_path, model_path, intersection_spv;
+  uint32_t rays = 0, repeat = 0, triangles = 0;
+  uint64_t seed = 0;
+  double pipeline_create_seconds = 0;
+  bool device_timestamps = false;
+  bool morton_order = true;  // triangle BLAS input in Morton order of the centroids (else file order)
+  Timings lsnif, tri;
+  // From the ray walk on the host (identical walk to the shader's, up to float rounding).
+  uint32_t aabb_rays = 0, network_rays = 0;
+  // From the traces' results.
+  uint32_t lsnif_hits = 0, triangle_hits = 0, agree = 0, both_hit = 0, points_mismatch = 0;
+  double median_t_difference = 0;  // |t_lsnif - t_triangle| / mesh AABB diagonal, rays both hit
+  uint32_t validation_warnings = 0, validation_errors = 0;
+  bool validation = false;
+
+  double rays_per_second(const Timings& t) const { return double(rays) / t.median_host(); }
+  double evaluations_per_second() const { return double(network_rays) / lsnif.median_host(); }
+  double ratio() const { return rays_per_second(tri) / rays_per_second(lsnif); }
+};
+
+// Everything the benchmark creates on the device; release() frees it in dependency order (models
+// and buffers before the device) and is safe to call twice.
+struct DeviceState {
+  vk::ComputeContext ctx;
+  vk::RayTracer tracer{ctx};
+  plugin::Context plugin;
+  plugin::ModelHandle model;
+  vk::Buffer table, rays, lsnif_results, tri_results;
+  vk::AccelerationStructure tri_blas, lsnif_tlas, tri_tlas;
+  vk::RtPipeline pipeline;
+
+  DeviceState() = default;
+  DeviceState(const DeviceState&) = delete;
+  DeviceState& operator=(const DeviceState&) = delete;
+  ~DeviceState() { release(); }
+  void release() {
+    if (!ctx.device()) return;
+    tracer.destroy(pipeline);
+    tracer.destroy(lsnif_tlas);
+    tracer.destroy(tri_tlas);
+    tracer.destroy(tri_blas);
+    for (vk::Buffer* b : {&table, &rays, &lsnif_results, &tri_results}) ctx.destroy_buffer(*b);
+    plugin.release_model(model);
+    plugin.destroy();
+  }
+};
+
+// Builds everything on the device for `model` and `mesh` and writes `rays` into the ray buffer.
+Status set_up(DeviceState& st, const Model& model, const Mesh& mesh, const std::vector<Ray>& rays, bool validation,
+              const std::string& intersection_spv, Report& report) {
+  Status s = st.ctx.init(/*ray_tracing=*/true, validation);
+  if (!s) return s.context("Vulkan device with ray tracing");
+  report.device = st.ctx.device_name();
+  if (s = st.tracer.init(); !s) return s;
+  if (st.tracer.max_hit_attribute_size() < sizeof(LsnifHitAttributes))
+    return Status::error("device %s: maxRayHitAttributeSize %u < %zu bytes of LsnifHitAttributes",
+                         report.device.c_str(), st.tracer.max_hit_attribute_size(), sizeof(LsnifHitAttributes));
+
+  const plugin::DeviceHandles handles = vk::plugin_handles(st.ctx);
+  if (s = plugin::create_context(handles, st.plugin); !s) return s.context("plugin");
+  if (s = st.plugin.upload_model(model, st.model); !s) return s.context("uploading the model");
+  std::vector<uint64_t> table;
+  if (s = st.plugin.model_table({st.model}, table); !s) return s;
+  if (s = st.ctx.create_buffer(table.size() * sizeof(uint64_t), st.table); !s) return s;
+  std::memcpy(st.table.mapped, table.data(), table.size() * sizeof(uint64_t));
+
+  std::vector<float> positions;
+  std::vector<uint32_t> indices;
+  triangle_input(mesh, report.morton_order, positions, indices);
+  if (s = st.tracer.build_triangle_blas(positions, indices, st.tri_blas); !s) return s.context("triangle BLAS");
+
+  // One identity instance per TLAS; the instance's SBT record offset picks the hit group.
+  VkAccelerationStructureInstanceKHR lsnif_record{}, tri_record{};
+  if (s = st.plugin.make_instance(st.model, Transform3x4(), 0, 0xFF, kLsnifRecord, lsnif_record); !s) return s;
+  for (uint32_t r = 0; r < 3; ++r) tri_record.transform.matrix[r][r] = 1.0f;
+  tri_record.instanceCustomIndex = 0;
+  tri_record.mask = 0xFF;
+  tri_record.instanceShaderBindingTableRecordOffset = kTriangleRecord;
+  tri_record.accelerationStructureReference = st.tri_blas.address;
+  if (s = st.tracer.build_tlas({lsnif_record}, st.lsnif_tlas); !s) return s.context("LSNIF TLAS");
+  if (s = st.tracer.build_tlas({tri_record}, st.tri_tlas); !s) return s.context("triangle TLAS");
+
+  const std::string dir = LSNIF_BENCH_TRACE_SHADER_DIR;
+  s = st.tracer.create_pipeline(dir + "/bench_trace.rgen.spv", dir + "/bench_trace.rmiss.spv",
+                                dir + "/bench_trace.rchit.spv", intersection_spv,
+                                sizeof(BenchTracePush), st.pipeline, dir + "/bench_trace_triangle.rchit.spv");
+  if (!s) return s;
+  report.pipeline_create_seconds = st.pipeline.create_seconds;
+
+  const size_t n = rays.size();
+  if (s = st.ctx.create_buffer(n * sizeof(LsnifReferenceRay), st.rays); !s) return s;
+  if (s = st.ctx.create_buffer(n * sizeof(BenchTraceResult), st.lsnif_results); !s) return s;
+  if (s = st.ctx.create_buffer(n * sizeof(BenchTraceResult), st.tri_results); !s) return s;
+  auto* out = static_cast<LsnifReferenceRay*>(st.rays.mapped);
+  for (size_t i = 0; i < n; ++i) {
+    const Ray& r = rays[i];
+    out[i] = {r.origin.x, r.origin.y, r.origin.z, r.tmin, r.direction.x, r.direction.y, r.direction.z, r.tmax};
+  }
+  return Status::ok();
+}
+
+// User + system CPU time of this process so far (all threads, lavapipe's workers included).
+double process_cpu_seconds() {
+  rusage u{};
+  if (getrusage(RUSAGE_SELF, &u) != 0) return 0.0;
+  auto secs = [](const timeval& tv) { return double(tv.tv_sec) + 1e-6 * double(tv.tv_usec); };
+  return secs(u.ru_utime) + secs(u.ru_stime);
+}
+
+// One timed trace of all rays through `tlas` into `results`; appends (or, with `first`, stores)
+// the host and device times.
+Status timed_trace(DeviceState& st, const vk::AccelerationStructure& tlas, const vk::Buffer& results,
+                   uint32_t count, bool first, Timings& t) {
+  BenchTracePush push;
+  push.model_table = st.table.address;
+  push.rays = st.rays.address;
+  push.results = results.address;
+  push.ray_count = count;
+  double device_seconds = -1;
+  const double cpu0 = process_cpu_seconds();
+  const auto t0 = std::chrono::steady_clock::now();
+  const Status s = st.tracer.trace_timed(st.pipeline, tlas, &push, count, device_seconds);
+  const double host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double cpu_seconds = process_cpu_seconds() - cpu0;
+  if (!s) return s;
+  if (first) {
+    t.first_host = host_seconds;
+    t.first_device = device_seconds;
+    t.first_cpu = cpu_seconds;
+  } else {
+    t.host.push_back(host_seconds);
+    t.cpu.push_back(cpu_seconds);
+    if (device_seconds >= 0) t.device.push_back(device_seconds);
+  }
+  return Status::ok();
+}
+
+// The first trace of each kind, then `repeat` alternating pairs, with a progress line on stderr.
+Status run_traces(DeviceState& st, uint32_t count, uint32_t repeat, Report& report) {
+  ProgressBar progress("bench-trace", 2 + 2 * uint64_t(repeat));
+  uint64_t done = 0;
+  auto step = [&](const vk::AccelerationStructure& tlas, const vk::Buffer& results, bool first, Timings& t,
+                  const char* what) {
+    progress.update(done, format("tracing %s%s", what, first ? " (first trace)" : ""));
+    const Status s = timed_trace(st, tlas, results, count, first, t);
+    ++done;
+    return s ? Status::ok() : Status(s).context(format("%s trace", what));
+  };
+  Status s = step(st.lsnif_tlas, st.lsnif_results, true, report.lsnif, "LSNIF");
+  if (s) s = step(st.tri_tlas, st.tri_results, true, report.tri, "triangles");
+  for (uint32_t k = 0; k < repeat && s; ++k) {
+    s = step(st.lsnif_tlas, st.lsnif_results, false, report.lsnif, "LSNIF");
+    if (s) s = step(st.tri_tlas, st.tri_results, false, report.tri, "triangles");
+  }
+  if (!s) return s;
+  report.device_timestamps = !report.lsnif.device.empty() && !report.tri.device.empty();
+  progress.finish(format("LSNIF %.3f s, triangles %.3f s per trace (median)", report.lsnif.median_host(),
+                         report.tri.median_host()));
+  return Status::ok();
+}
+
+// Hit statistics of the last traces and the host walk of every ray.
+void compare_results(const DeviceState& st, const Model& model, const Mesh& mesh, const std::vector<Ray>& rays,
+                     Report& report) {
+  const auto* lsnif = static_cast<const BenchTraceResult*>(st.lsnif_results.mapped);
+  const auto* tri = static_cast<const BenchTraceResult*>(st.tri_results.mapped);
+  const double diag = double(mesh.bounds().diagonal());
+  std::vector<double> t_diff;
+  RayWalk walk;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const uint32_t points = walk_ray(model.voxels, rays[i], model.config.max_points, walk);
+    report.aabb_rays += walk.hits_aabb;
+    report.network_rays += points > 0;
+    const bool lh = (lsnif[i].info & kResultHit) != 0, th = (tri[i].info & kResultHit) != 0;
+    report.lsnif_hits += lh;
+    report.triangle_hits += th;
+    report.agree += lh == th;
+    if (lh && ((lsnif[i].info >> kResultPointsShift) & 0xffu) != points) ++report.points_mismatch;
+    if (lh && th) {
+      ++report.both_hit;
+      t_diff.push_back(std::fabs(double(lsnif[i].t) - double(tri[i].t)) / diag);
+    }
+  }
+  report.median_t_difference = median(std::move(t_diff));
+}
+
+// "-" for a missing device time.
+std::string seconds_text(double s) { return s < 0 ? std::string("-") : format("%.4f", s); }
+std::string json_number(double v) { return v < 0 || !std::isfinite(v) ? std::string("null") : format("%.6g", v); }
+
+void print_text(const Report& r) {
+  const double n = double(r.rays);
+  std::printf("bench-trace: LSNIF intersection shader vs triangle BLAS, same rays, same pipeline\n");
+  std::printf("device                 %s\n", r.device.c_str());
+  std::printf("mesh                   %s (%u triangles; BLAS input in %s order)\n", r.mesh_path.c_str(),
+              r.triangles, r.morton_order ? "Morton" : "file");
+  std::printf("model                  %s\n", r.model_path.c_str());
+  std::printf("intersection shader    %s\n", r.intersection_spv.c_str());
+  std::printf("rays                   %u (seed %llu): origins on a sphere (1.5 x half diagonal) around the mesh "
+              "AABB, aimed at uniform points inside it\n",
+              r.rays, static_cast<unsigned long long>(r.seed));
+  std::printf("timer                  host wall time around submit + wait per trace, median of %u repeat%s "
+              "(alternating)%s\n",
+              r.repeat, r.repeat == 1 ? "" : "s",
+              r.device_timestamps ? "; device: timestamps around vkCmdTraceRaysKHR" : "");
+  std::printf("pipeline creation      %.3f s\n\n", r.pipeline_create_seconds);
+  std::printf("%-32s %14s %14s\n", "", "LSNIF", "triangles");
+  std::printf("%-32s %14.4f %14.4f\n", "first trace (s, host)", r.lsnif.first_host, r.tri.first_host);
+  std::printf("%-32s %14.4f %14.4f\n", "median trace (s, host)", r.lsnif.median_host(), r.tri.median_host());
+  std::printf("%-32s %14.4f %14.4f\n", "fastest trace (s, host)", r.lsnif.min_host(), r.tri.min_host());
+  if (r.device_timestamps)
+    std::printf("%-32s %14s %14s\n", "median trace (s, device)", seconds_text(r.lsnif.median_device()).c_str(),
+                seconds_text(r.tri.median_device()).c_str());
+  std::printf("%-32s %14.4f %14.4f\n", "median process CPU time (s)", r.lsnif.median_cpu(), r.tri.median_cpu());
+  std::printf("%-32s %14.4g %14.4g\n", "rays/s (host median)", r.rays_per_second(r.lsnif), r.rays_per_second(r.tri));
+  std::printf("%-32s %14u %14u\n", "hits", r.lsnif_hits, r.triangle_hits);
+  std::printf("\nLSNIF network evaluations       %u rays (%.1f%%; %u rays, %.1f%%, reach the intersection "
+              "shader)\n",
+              r.network_rays, 100.0 * r.network_rays / n, r.aabb_rays, 100.0 * r.aabb_rays / n);
+  std::printf("network evaluations/s           %.4g\n", r.evaluations_per_second());
+  std::printf("triangle rays/s / LSNIF rays/s  %.3g\n", r.ratio());
+  std::printf("hit agreement                   %.2f%% (LSNIF hit == triangle hit); median |t difference| "
+              "%.3g%% of the diagonal over %u rays both hit\n",
+              100.0 * r.agree / n, 100.0 * r.median_t_difference, r.both_hit);
+  std::printf("walk check                      %u LSNIF hits whose shader walk points differ from the host "
+              "walk\n",
+              r.points_mismatch);
+  if (r.validation)
+    std::printf("validation                      %u errors, %u warnings\n", r.validation_errors,
+                r.validation_warnings);
+}
+
+std::string timings_json(const Report& r, const Timings& t) {
+  auto list = [](const std::vector<double>& v) {
+    std::string out = "[";
+    for (size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + format("%.6g", v[i]);
+    return out + "]";
+  };
+  return format("{\"first_trace_seconds\": %.6g, \"first_trace_device_seconds\": %s, "
+                "\"first_trace_cpu_seconds\": %.6g, \"median_trace_seconds\": %.6g, "
+                "\"min_trace_seconds\": %.6g, \"median_trace_device_seconds\": %s, "
+                "\"median_trace_cpu_seconds\": %.6g, \"rays_per_second\": %.6g, \"trace_seconds\": %s, "
+                "\"trace_device_seconds\": %s, \"trace_cpu_seconds\": %s}",
+                t.first_host, json_number(t.first_device).c_str(), t.first_cpu, t.median_host(), t.min_host(),
+                json_number(t.median_device()).c_str(), t.median_cpu(), r.rays_per_second(t), list(t.host).c_str(),
+                list(t.device).c_str(), list(t.cpu).c_str());
+}
+
+void print_json(const Report& r) {
+  std::printf(
+      "{\"device\": %s, \"mesh\": %s, \"model\": %s, \"intersection_shader\": %s, \"mesh_triangles\": %u, "
+      "\"triangle_order\": \"%s\", \"rays\": %u, \"seed\": %llu, "
+      "\"repeat\": %u, \"timer\": \"host wall time around submit + wait, median of the repeats\", "
+      "\"device_timestamps\": %s, \"pipeline_create_seconds\": %.6g, \"lsnif\": %s, \"triangles\": %s, "
+      "\"lsnif_hits\": %u, \"triangle_hits\": %u, \"intersection_shader_rays\": %u, "
+      "\"network_evaluations\": %u, \"network_evaluations_per_second\": %.6g, "
+      "\"triangle_over_lsnif_rays_per_second\": %.6g, \"hit_agreement\": %.6g, \"both_hit\": %u, "
+      "\"median_t_difference_over_diagonal\": %.6g, \"walk_points_mismatches\": %u, \"validation\": %s, "
+      "\"validation_errors\": %u, \"validation_warnings\": %u}\n",
+      quoted(r.device).c_str(), quoted(r.mesh_path).c_str(), quoted(r.model_path).c_str(),
+      quoted(r.intersection_spv).c_str(), r.triangles,
+      r.morton_order ? "morton" : "file", r.rays,
+      static_cast<unsigned long long>(r.seed), r.repeat, r.device_timestamps ? "true" : "false",
+      r.pipeline_create_seconds, timings_json(r, r.lsnif).c_str(), timings_json(r, r.tri).c_str(), r.lsnif_hits,
+      r.triangle_hits, r.aabb_rays, r.network_rays, r.evaluations_per_second(), r.ratio(),
+      double(r.agree) / double(r.rays), r.both_hit, r.median_t_difference, r.points_mismatch,
+      r.validation ? "true" : "false", r.validation_errors, r.validation_warnings);
+}
+
+}  // namespace
+
+int cmd_bench_trace(int argc, char** argv) {
+  std::string mesh_path, model_path, triangle_order = "morton";
+  std::string intersection_spv = plugin::intersection_shader_spirv_path();
+  uint32_t rays = 1u << 18, repeat = 5;
+  uint64_t seed = 1;
+  bool json = false, validation = false;
+  Args args("bench-trace",
+            "Throughput of the LSNIF intersection shader (shaders/lsnif.rint, compiled by the plugin) in a\n"
+            "ray-tracing pipeline on the Vulkan device, against a triangle BLAS of the same mesh: the same rays\n"
+            "through a TLAS of one LSNIF instance and a TLAS of one triangle instance (identity transforms), in\n"
+            "one pipeline. Rays start on a sphere around the mesh AABB and aim at uniform points inside it.\n"
+            "Reports the first trace of each (first use of the pipeline) and the median of the repeats\n"
+            "(host wall time around submit + wait; device timestamps too where the queue has them), rays/s,\n"
+            "LSNIF network evaluations/s, the triangle / LSNIF ratio and the hit agreement of the two.\n"
+            "MODEL must have been trained on MESH (same object space; checked by the AABB).");
+  args.positional("MESH", "the mesh (.off .obj .ply .gltf .glb)", &mesh_path);
+  args.positional("MODEL", "the model trained on it (.lsnif)", &model_path);
+  args.option("rays", "rays per trace (1..2^24)", &rays);
+  args.option("repeat", "timed traces of each kind after the first (1..1000)", &repeat);
+  args.option("seed", "ray seed", &seed);
+  args.option("triangle-order",
+              "triangle order of the BLAS input: morton (centroid Morton code) or file (as loaded); lavapipe "
+              "builds its BVH in this order",
+              &triangle_order);
+  args.option("intersection-shader",
+              "SPIR-V of the intersection shader (to compare shader versions; its hit attributes must keep "
+              "the LsnifHitAttributes layout of the build)",
+              &intersection_spv);
+  args.flag("json", "print one JSON object instead of text", &json);
+  args.flag("validation", "enable the Khronos validation layer (slow; exit 1 if it reports anything)", &validation);
+  if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
+  if (rays == 0 || rays > kMaxRays) {
+    std::fprintf(stderr, "lsnif bench-trace: --rays %u out of range 1..%u\n", rays, kMaxRays);
+    return 2;
+  }
+  if (repeat == 0 || repeat > kMaxRepeat) {
+    std::fprintf(stderr, "lsnif bench-trace: --repeat %u out of range 1..%u\n", repeat, kMaxRepeat);
+    return 2;
+  }
+
+  if (triangle_order != "morton" && triangle_order != "file") {
+    std::fprintf(stderr, "lsnif bench-trace: --triangle-order '%s': expected morton or file\n",
+                 triangle_order.c_str());
+    return 2;
+  }
+
+  auto fail = [](const Status& s) {
+    std::fprintf(stderr, "lsnif bench-trace: %s\n", s.message().c_str());
+    return 1;
+  };
+  Mesh mesh;
+  if (Status s = load_mesh(mesh_path, mesh); !s) return fail(s);
+  Model model;
+  if (Status s = load_model(model_path, model); !s) return fail(s);
+  if (Status s = check_same_object(mesh, model); !s) return fail(s.context(mesh_path + " / " + model_path));
+
+  Report report;
+  report.mesh_path = mesh_path;
+  report.model_path = model_path;
+  report.intersection_spv = intersection_spv;
+  report.rays = rays;
+  report.repeat = repeat;
+  report.seed = seed;
+  report.triangles = uint32_t(mesh.triangles.size());
+  report.validation = validation;
+  report.morton_order = triangle_order == "morton";
+  const std::vector<Ray> ray_list = make_rays(mesh.bounds(), rays, seed);
+
+  DeviceState st;
+  Status s = set_up(st, model, mesh, ray_list, validation, intersection_spv, report);
+  if (s) s = run_traces(st, rays, repeat, report);
+  if (!s) return fail(s);
+  compare_results(st, model, mesh, ray_list, report);
+  // Free everything, then the device, so that validation also sees leaks at vkDestroyDevice.
+  st.release();
+  st.ctx.destroy_device();
+  report.validation_errors = st.ctx.validation_errors();
+  report.validation_warnings = st.ctx.validation_warnings();
+
+  if (json)
+    print_json(report);
+  else
+    print_text(report);
+  if (report.validation_errors + report.validation_warnings > 0) {
+    std::fprintf(stderr, "lsnif bench-trace: the validation layer reported %u errors and %u warnings\n",
+                 report.validation_errors, report.validation_warnings);
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace lsnif::cli
