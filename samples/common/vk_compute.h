@@ -1,7 +1,7 @@
 // vk_compute.h -- a minimal headless Vulkan compute harness for the GPU tests, the benchmarks and
 // the samples (volk): an instance, with the Khronos validation layer and a debug-utils messenger
 // that counts (and prints) every warning and error unless validation is turned off, a device (lavapipe preferred, else the first with a compute queue) with
-// bufferDeviceAddress and shaderInt64, host-visible buffers addressed by device address, one
+// bufferDeviceAddress, shaderInt64 (and scalarBlockLayout where offered), host-visible buffers addressed by device address, one
 // compute pipeline from a SPIR-V file with a push-constant range, dispatch and wait. Optionally
 // (init(true)) the device also has the ray-tracing extensions and features that
 // samples/common/vk_raytracing.h uses.

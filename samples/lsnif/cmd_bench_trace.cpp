@@ -36,6 +36,7 @@
 #include "progress.h"
 #include "ray_walk.h"
 #include "plugin_device.h"
+#include "triangle_order.h"
 #include "vk_raytracing.h"
 
 #ifndef LSNIF_BENCH_TRACE_SHADER_DIR
@@ -115,16 +116,6 @@ std::vector<Ray> make_rays(const Aabb& box, uint32_t count, uint64_t seed) {
   return rays;
 }
 
-// Spreads the low 10 bits of `v` to every third bit (bit i -> bit 3i).
-uint32_t spread_bits(uint32_t v) {
-  v &= 0x3ffu;
-  v = (v | (v << 16)) & 0x030000ffu;
-  v = (v | (v << 8)) & 0x0300f00fu;
-  v = (v | (v << 4)) & 0x030c30c3u;
-  v = (v | (v << 2)) & 0x09249249u;
-  return v;
-}
-
 // The mesh's triangles as BLAS input (float3 positions, 3 uint32 indices per triangle). With
 // `morton`, the triangles are ordered by the 30-bit Morton code of their centroid in the mesh AABB
 // (ties keep file order): a driver that builds its BVH in primitive order without spatial sorting
@@ -138,16 +129,10 @@ void triangle_input(const Mesh& mesh, bool morton, std::vector<float>& positions
   std::vector<uint32_t> order(mesh.triangles.size());
   for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
   if (morton) {
-    const Aabb box = mesh.bounds();
-    const glm::vec3 ext = glm::max(box.extent(), glm::vec3(1e-30f));
-    std::vector<uint32_t> code(mesh.triangles.size());
-    for (size_t i = 0; i < code.size(); ++i) {
-      const glm::uvec3& t = mesh.triangles[i];
-      const glm::vec3 c = (mesh.positions[t.x] + mesh.positions[t.y] + mesh.positions[t.z]) / 3.0f;
-      const glm::vec3 q = glm::clamp((c - box.lo) / ext, 0.0f, 1.0f) * 1023.0f;
-      code[i] = spread_bits(uint32_t(q.x)) | (spread_bits(uint32_t(q.y)) << 1) | (spread_bits(uint32_t(q.z)) << 2);
-    }
-    std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return code[a] < code[b]; });
+    std::vector<uint32_t> flat;
+    flat.reserve(3 * mesh.triangles.size());
+    for (const glm::uvec3& t : mesh.triangles) flat.insert(flat.end(), {t.x, t.y, t.z});
+    order = vk::morton_triangle_order(mesh.positions, flat);
   }
   for (const uint32_t i : order) {
     const glm::uvec3& t = mesh.triangles[i];

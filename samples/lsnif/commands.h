@@ -10,4 +10,6 @@ int cmd_demo(int argc, char** argv);
 int cmd_devices(int argc, char** argv);
 int cmd_bench_trace(int argc, char** argv);
 int cmd_bench_memory(int argc, char** argv);
+int cmd_flip(int argc, char** argv);
+int cmd_render(int argc, char** argv);
 }  // namespace lsnif::cli

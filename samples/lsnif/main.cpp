@@ -19,6 +19,8 @@ const Command kCommands[] = {
     {"devices", lsnif::cli::cmd_devices, "list the Vulkan devices and the LSNIF paths each supports"},
     {"bench-trace", lsnif::cli::cmd_bench_trace, "ray-tracing throughput of a model vs the triangle BLAS of its mesh"},
     {"bench-memory", lsnif::cli::cmd_bench_memory, "device memory of a model vs the triangle BLAS of its mesh"},
+    {"render", lsnif::cli::cmd_render, "path trace a glTF scene with LSNIF objects (or --reference) to an image"},
+    {"flip", lsnif::cli::cmd_flip, "FLIP difference of a test image from a reference (LDR or HDR)"},
 };
 
 void usage(FILE* out) {

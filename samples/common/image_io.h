@@ -1,0 +1,33 @@
+// image_io.h -- reading and writing images through OpenImageIO for the renderer, FLIP and the
+// viewer's screenshots. In memory an image is linear-light float RGB; 8-bit formats (PNG, JPEG) are
+// sRGB-encoded on disk and converted on the way in and out; HDR formats (EXR, HDR) are linear.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "status.h"
+
+namespace lsnif::image {
+
+struct Image {
+  uint32_t width = 0, height = 0;
+  std::vector<float> rgb;  // width * height * 3, row 0 = top
+  float* at(uint32_t x, uint32_t y) { return rgb.data() + (size_t(y) * width + x) * 3; }
+  const float* at(uint32_t x, uint32_t y) const { return rgb.data() + (size_t(y) * width + x) * 3; }
+};
+
+// True for file names whose format stores linear HDR values (.exr, .hdr), false for 8-bit ones.
+bool is_hdr_path(const std::string& path);
+
+// Reads `path` (any format OpenImageIO reads; 1-4 channels: gray is replicated, alpha dropped).
+// 8-bit / 16-bit integer data are decoded from sRGB to linear unless `raw` is true. Fails with the
+// file name and OpenImageIO's message on a missing, unreadable or empty file.
+Status load_image(const std::string& path, Image& out, bool raw = false);
+
+// Writes `img` to `path`, the format chosen by the extension: .exr (half float), .hdr, .png / .jpg
+// (sRGB-encoded, clamped to [0, 1], rounded). Fails on an unknown extension, an empty or
+// inconsistent image or a write error, naming the file.
+Status save_image(const std::string& path, const Image& img);
+
+}  // namespace lsnif::image

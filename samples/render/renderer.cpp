@@ -1,0 +1,370 @@
+// renderer.cpp -- the path tracer of renderer.h: uploads the scene (per mesh primitive a triangle
+// BLAS plus its vertex data, per LSNIF object a plugin model), builds the TLAS (one record per
+// primitive of a triangle instance, one per LSNIF instance; custom index = RenderInstance index),
+// and traces passes of shaders/render.rgen into an accumulation buffer.
+#include "renderer.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+
+#include "model.h"
+#include "plugin_device.h"
+#include "render_host_device.h"
+#include "triangle_order.h"
+
+#ifndef LSNIF_RENDER_SHADER_DIR
+#error "LSNIF_RENDER_SHADER_DIR (the compiled render shaders) must be defined by the build"
+#endif
+
+namespace lsnif::render {
+
+std::string shader_dir() { return LSNIF_RENDER_SHADER_DIR; }
+
+namespace {
+
+// Everything one render allocates on the device; released by the destructor.
+struct DeviceScene {
+  vk::ComputeContext& ctx;
+  vk::RayTracer& tracer;
+  plugin::Context plugin;
+  std::vector<plugin::ModelHandle> models;
+  std::vector<vk::Buffer> buffers;
+  std::vector<vk::AccelerationStructure> blases;
+  vk::AccelerationStructure tlas;
+  DeviceScene(vk::ComputeContext& c, vk::RayTracer& t) : ctx(c), tracer(t) {}
+  ~DeviceScene() {
+    tracer.destroy(tlas);
+    for (vk::AccelerationStructure& b : blases) tracer.destroy(b);
+    for (vk::Buffer& b : buffers) ctx.destroy_buffer(b);
+    for (plugin::ModelHandle& m : models) plugin.release_model(m);
+    plugin.destroy();
+  }
+  // A host-visible buffer holding `bytes` of `data` (zeroed when data is null); its device address.
+  Status upload(const void* data, size_t bytes, uint64_t& address, VkBufferUsageFlags extra = 0) {
+    vk::Buffer b;
+    if (Status s = ctx.create_buffer(bytes, b, extra); !s) return s;
+    if (data && bytes) std::memcpy(b.mapped, data, bytes);
+    address = b.address;
+    buffers.push_back(b);
+    return Status::ok();
+  }
+  template <class T>
+  Status upload(const std::vector<T>& v, uint64_t& address) {
+    return upload(v.empty() ? nullptr : v.data(), v.size() * sizeof(T), address);
+  }
+};
+
+bool finite(const glm::mat4& m) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(m[c][r])) return false;
+  return true;
+}
+
+// Row-major 3x4 of an affine glm matrix.
+Transform3x4 to_3x4(const glm::mat4& m) {
+  Transform3x4 xf;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) xf.m[r][c] = m[c][r];
+  return xf;
+}
+
+// World bounds of the scene's instances (their meshes' vertices; LSNIF-only nodes: the model box).
+void scene_bounds(const scene::Scene& s, const std::vector<Model>& models, glm::vec3& lo, glm::vec3& hi) {
+  lo = glm::vec3(std::numeric_limits<float>::infinity());
+  hi = -lo;
+  for (const scene::Instance& in : s.instances) {
+    auto add = [&](glm::vec3 p) {
+      const glm::vec3 w = glm::vec3(in.object_to_world * glm::vec4(p, 1.0f));
+      lo = glm::min(lo, w);
+      hi = glm::max(hi, w);
+    };
+    if (in.mesh >= 0) {
+      for (const scene::Primitive& p : s.meshes[size_t(in.mesh)].primitives)
+        for (const glm::vec3& v : p.positions) add(v);
+    } else if (in.lsnif >= 0) {
+      const Aabb& b = models[size_t(in.lsnif)].bounds();
+      for (int k = 0; k < 8; ++k) add(glm::vec3(k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z));
+    }
+  }
+}
+
+}  // namespace
+
+Renderer::Renderer(vk::ComputeContext& ctx) : ctx_(ctx), tracer_(ctx) {}
+
+Renderer::~Renderer() {
+  if (pipeline_ready_) tracer_.destroy(pipeline_);
+}
+
+Status Renderer::create_pipeline() {
+  if (pipeline_ready_) return Status::ok();
+  if (Status s = tracer_.init(); !s) return s;
+  if (tracer_.max_hit_attribute_size() < sizeof(LsnifHitAttributes))
+    return Status::error("device maxRayHitAttributeSize %u < %zu bytes of LSNIF hit attributes",
+                         tracer_.max_hit_attribute_size(), sizeof(LsnifHitAttributes));
+  const std::string dir = shader_dir();
+  Status s = tracer_.create_pipeline(dir + "/render.rgen.spv", dir + "/render.rmiss.spv", dir + "/render_lsnif.rchit.spv",
+                                     plugin::intersection_shader_spirv_path(), sizeof(RenderPush), pipeline_,
+                                     dir + "/render_triangle.rchit.spv");
+  if (!s) return s.context("render pipeline");
+  pipeline_ready_ = true;
+  return Status::ok();
+}
+
+Status Renderer::render(const scene::Scene& scene, const RenderSettings& settings, image::Image& out,
+                        RenderStats& stats, const std::function<void(uint32_t)>& progress) {
+  stats = RenderStats();
+  out = image::Image();
+  if (settings.width == 0 || settings.height == 0 || settings.spp == 0 || settings.samples_per_pass == 0)
+    return Status::error("render: width, height, spp and samples per pass must be positive");
+  if (uint64_t(settings.width) * settings.height > (1u << 26))
+    return Status::error("render: %ux%u pixels is too large", settings.width, settings.height);
+  if (scene.instances.empty()) return Status::error("render: the scene %s has no objects", scene.path.c_str());
+  if (settings.camera >= 0 && size_t(settings.camera) >= scene.cameras.size() && !scene.cameras.empty())
+    return Status::error("render: camera %d does not exist (the scene has %zu)", settings.camera, scene.cameras.size());
+  if (Status s = create_pipeline(); !s) return s;
+
+  // LSNIF models the mode uses.
+  std::vector<Model> models(scene.lsnif_objects.size());
+  std::vector<bool> model_used(models.size(), false);
+  for (const scene::Instance& in : scene.instances) {
+    if (!finite(in.object_to_world)) return Status::error("node '%s' has a non-finite transform", in.node_name.c_str());
+    const bool use_lsnif = in.lsnif >= 0 && !settings.reference;
+    if (in.lsnif >= 0 && size_t(in.lsnif) >= models.size())
+      return Status::error("node '%s' names LSNIF object %d of %zu", in.node_name.c_str(), in.lsnif, models.size());
+    if (in.mesh >= 0 && size_t(in.mesh) >= scene.meshes.size())
+      return Status::error("node '%s' names mesh %d of %zu", in.node_name.c_str(), in.mesh, scene.meshes.size());
+    if (!use_lsnif && in.mesh < 0)
+      return Status::error("node '%s' has no triangle mesh%s", in.node_name.c_str(),
+                           settings.reference ? " for the reference mode" : "");
+    if (use_lsnif) model_used[size_t(in.lsnif)] = true;
+  }
+  for (size_t i = 0; i < models.size(); ++i) {
+    if (!model_used[i]) continue;
+    if (Status s = load_model(scene.lsnif_objects[i].model_path, models[i]); !s) return s;
+    if (scene.lsnif_objects[i].material_map.empty())
+      return Status::error("LSNIF object %s has an empty material map", scene.lsnif_objects[i].model_path.c_str());
+    for (uint32_t m : scene.lsnif_objects[i].material_map)
+      if (m >= scene.materials.size())
+        return Status::error("LSNIF object %s maps to material %u of %zu", scene.lsnif_objects[i].model_path.c_str(), m,
+                             scene.materials.size());
+  }
+
+  DeviceScene dev(ctx_, tracer_);
+  if (Status s = plugin::create_context(vk::plugin_handles(ctx_), dev.plugin); !s) return s;
+  dev.models.resize(models.size());
+  for (size_t i = 0; i < models.size(); ++i) {
+    if (!model_used[i]) continue;
+    if (Status s = dev.plugin.upload_model(models[i], dev.models[i]); !s)
+      return s.context(scene.lsnif_objects[i].model_path.c_str());
+    plugin::ModelMemory mem;
+    if (Status s = dev.plugin.model_memory(dev.models[i], mem); !s) return s;
+    stats.lsnif_bytes += mem.total();
+    ++stats.lsnif_models;
+  }
+
+  // Materials, textures, material maps.
+  std::vector<RenderMaterial> materials;
+  for (const scene::Material& m : scene.materials) {
+    auto tex = [&](int32_t t) -> uint32_t {
+      return t >= 0 && size_t(t) < scene.textures.size() ? uint32_t(t) : RENDER_NO_TEXTURE;
+    };
+    materials.push_back({m.base_color.r, m.base_color.g, m.base_color.b, m.base_color.a, m.metallic, m.roughness,
+                         m.emission.r, m.emission.g, m.emission.b, tex(m.base_color_texture),
+                         tex(m.metallic_roughness_texture), tex(m.emission_texture)});
+  }
+  if (materials.empty()) materials.push_back({0.8f, 0.8f, 0.8f, 1, 0, 1, 0, 0, 0, RENDER_NO_TEXTURE, RENDER_NO_TEXTURE, RENDER_NO_TEXTURE});
+  std::vector<RenderTexture> textures;
+  for (const scene::Texture& t : scene.textures) {
+    if (t.rgba.size() != size_t(t.width) * t.height * 4 || t.width == 0)
+      return Status::error("texture '%s' has %zu bytes for %ux%u texels", t.name.c_str(), t.rgba.size(), t.width, t.height);
+    RenderTexture rt{};
+    if (Status s = dev.upload(t.rgba.data(), t.rgba.size(), rt.texels); !s) return s;
+    rt.width = t.width;
+    rt.height = t.height;
+    textures.push_back(rt);
+  }
+
+  // Triangle primitives: vertex data for the closest-hit shader and one BLAS each (per mesh in use).
+  std::vector<RenderPrimitive> primitives;
+  std::vector<std::vector<uint32_t>> mesh_primitives(scene.meshes.size());  // -> primitives / blases index
+  std::vector<bool> mesh_used(scene.meshes.size(), false);
+  for (const scene::Instance& in : scene.instances)
+    if (!(in.lsnif >= 0 && !settings.reference)) mesh_used[size_t(in.mesh)] = true;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    if (!mesh_used[m]) continue;
+    for (const scene::Primitive& p : scene.meshes[m].primitives) {
+      if (p.indices.empty()) continue;
+      if (p.material >= materials.size())
+        return Status::error("mesh '%s' uses material %u of %zu", scene.meshes[m].name.c_str(), p.material, materials.size());
+      RenderPrimitive rp{};
+      rp.material = p.material;
+      // BLAS input in Morton order (triangle_order.h); the closest-hit shader reads the same indices.
+      std::vector<uint32_t> indices;
+      indices.reserve(p.indices.size());
+      for (uint32_t t : vk::morton_triangle_order(p.positions, p.indices))
+        indices.insert(indices.end(), {p.indices[3 * t], p.indices[3 * t + 1], p.indices[3 * t + 2]});
+      if (Status s = dev.upload(p.positions, rp.positions); !s) return s;
+      if (Status s = dev.upload(indices, rp.indices); !s) return s;
+      if (p.normals.size() == p.positions.size()) {
+        if (Status s = dev.upload(p.normals, rp.normals); !s) return s;
+      }
+      if (p.uvs.size() == p.positions.size()) {
+        if (Status s = dev.upload(p.uvs, rp.uvs); !s) return s;
+      }
+      std::vector<float> flat(p.positions.size() * 3);
+      std::memcpy(flat.data(), p.positions.data(), flat.size() * sizeof(float));
+      vk::AccelerationStructure blas;
+      if (Status s = tracer_.build_triangle_blas(flat, indices, blas); !s)
+        return s.context(("mesh '" + scene.meshes[m].name + "'").c_str());
+      stats.triangle_blas_bytes += blas.storage.size;
+      stats.triangles += p.indices.size() / 3;
+      dev.blases.push_back(blas);
+      mesh_primitives[m].push_back(uint32_t(primitives.size()));
+      primitives.push_back(rp);
+    }
+  }
+
+  // Instances: custom index i -> RenderInstance i and model table entry i.
+  std::vector<RenderInstance> instances;
+  std::vector<uint64_t> model_table;
+  std::vector<uint32_t> material_maps;
+  std::vector<VkAccelerationStructureInstanceKHR> records;
+  for (const scene::Instance& in : scene.instances) {
+    if (in.lsnif >= 0 && !settings.reference) {
+      const scene::LsnifObject& obj = scene.lsnif_objects[size_t(in.lsnif)];
+      RenderInstance ri{RENDER_INSTANCE_LSNIF, 0, uint32_t(material_maps.size()), uint32_t(obj.material_map.size())};
+      material_maps.insert(material_maps.end(), obj.material_map.begin(), obj.material_map.end());
+      VkAccelerationStructureInstanceKHR rec;
+      if (Status s = dev.plugin.make_instance(dev.models[size_t(in.lsnif)], to_3x4(in.object_to_world),
+                                              uint32_t(instances.size()), 0xFF, 0, rec);
+          !s)
+        return s.context(("node '" + in.node_name + "'").c_str());
+      model_table.push_back(dev.plugin.model_address(dev.models[size_t(in.lsnif)]));
+      instances.push_back(ri);
+      records.push_back(rec);
+      ++stats.lsnif_instances;
+      continue;
+    }
+    if (Status s = plugin::check_instance_transform(to_3x4(in.object_to_world)); !s)
+      return s.context(("node '" + in.node_name + "'").c_str());
+    for (uint32_t prim : mesh_primitives[size_t(in.mesh)]) {
+      VkAccelerationStructureInstanceKHR rec{};
+      const Transform3x4 xf = to_3x4(in.object_to_world);
+      std::memcpy(&rec.transform, xf.m, sizeof(rec.transform));
+      rec.instanceCustomIndex = uint32_t(instances.size()) & 0xffffffu;
+      rec.mask = 0xFF;
+      rec.instanceShaderBindingTableRecordOffset = 1;  // the triangle hit group
+      rec.accelerationStructureReference = dev.blases[prim].address;
+      instances.push_back({RENDER_INSTANCE_TRIANGLES, prim, 0, 0});
+      model_table.push_back(0);
+      records.push_back(rec);
+      ++stats.triangle_instances;
+    }
+  }
+  if (instances.size() >= (1u << 24)) return Status::error("render: %zu TLAS instances exceed 2^24", instances.size());
+  if (Status s = tracer_.build_tlas(records, dev.tlas); !s) return s;
+  stats.tlas_bytes = dev.tlas.storage.size;
+
+  // Camera.
+  glm::mat4 cam(1.0f);
+  float yfov = 0.8f, aspect = float(settings.width) / float(settings.height);
+  if (settings.camera >= 0 && size_t(settings.camera) < scene.cameras.size()) {
+    const scene::Camera& c = scene.cameras[size_t(settings.camera)];
+    cam = c.camera_to_world;
+    yfov = c.yfov;
+    if (!finite(cam) || !(yfov > 0.0f && yfov < 3.1f))
+      return Status::error("camera '%s' has a non-finite transform or a field of view outside (0, pi)", c.name.c_str());
+  } else {  // frame the scene from the front-right-top
+    glm::vec3 lo, hi;
+    scene_bounds(scene, models, lo, hi);
+    const glm::vec3 center = 0.5f * (lo + hi);
+    const float radius = 0.5f * glm::length(hi - lo);
+    const glm::vec3 eye = center + radius / std::tan(0.5f * yfov) * glm::normalize(glm::vec3(0.6f, 0.4f, 1.0f));
+    const glm::vec3 fwd = glm::normalize(center - eye), right = glm::normalize(glm::cross(fwd, glm::vec3(0, 1, 0)));
+    const glm::vec3 up = glm::cross(right, fwd);
+    cam = glm::mat4(glm::vec4(right, 0), glm::vec4(up, 0), glm::vec4(-fwd, 0), glm::vec4(eye, 1));
+  }
+
+  // Frame data.
+  RenderFrame frame{};
+  const size_t pixels = size_t(settings.width) * settings.height;
+  if (Status s = dev.upload(instances, frame.instances); !s) return s;
+  if (Status s = dev.upload(primitives.empty() ? std::vector<RenderPrimitive>(1) : primitives, frame.primitives); !s) return s;
+  if (Status s = dev.upload(materials, frame.materials); !s) return s;
+  if (Status s = dev.upload(material_maps.empty() ? std::vector<uint32_t>(1) : material_maps, frame.material_maps); !s) return s;
+  if (Status s = dev.upload(textures.empty() ? std::vector<RenderTexture>(1) : textures, frame.textures); !s) return s;
+  if (Status s = dev.upload(nullptr, pixels * 16, frame.accumulation); !s) return s;
+  const scene::Environment& env = scene.environment;
+  frame.env_r = env.color.r;
+  frame.env_g = env.color.g;
+  frame.env_b = env.color.b;
+  frame.env_rotation = env.rotation;
+  if (settings.environment && settings.environment->width > 0) {
+    const scene::EnvironmentMap& e = *settings.environment;
+    if (e.radiance.size() != size_t(e.width) * e.height * 3 || e.pdf_table.size() != size_t(e.width) * e.height)
+      return Status::error("render: the environment map's tables do not match its %ux%u size", e.width, e.height);
+    if (Status s = dev.upload(e.radiance, frame.environment); !s) return s;
+    if (Status s = dev.upload(e.packed(), frame.env_tables); !s) return s;
+    frame.env_width = e.width;
+    frame.env_height = e.height;
+    frame.env_rotation = e.rotation;
+    frame.env_importance = e.integral > 0 ? 1u : 0u;
+  }
+  frame.width = settings.width;
+  frame.height = settings.height;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) frame.cam_to_world[r * 4 + c] = cam[c][r];
+  frame.tan_half_fov_y = std::tan(0.5f * yfov);
+  frame.aspect = aspect;
+  frame.max_bounces = settings.max_bounces;
+  frame.rr_depth = settings.rr_depth;
+  uint64_t frame_address = 0;
+  if (Status s = dev.upload(&frame, sizeof frame, frame_address); !s) return s;
+  uint64_t table_address = 0;
+  if (Status s = dev.upload(model_table, table_address); !s) return s;
+
+  // Passes. A first 1-sample pass, discarded, makes the driver compile the pipeline (lavapipe does it
+  // on first use), so the timed passes measure tracing only.
+  float* acc = nullptr;
+  for (const vk::Buffer& b : dev.buffers)
+    if (b.address == frame.accumulation) acc = static_cast<float*>(b.mapped);
+  if (settings.warm_up) {
+    RenderPush push{};
+    push.model_table = table_address;
+    push.frame = frame_address;
+    push.sample_index = settings.first_sample;
+    push.samples = 1;
+    if (Status s = tracer_.trace(pipeline_, dev.tlas, &push, uint32_t(pixels)); !s) return s.context("warm-up pass");
+    std::memset(acc, 0, pixels * 16);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  uint32_t done = 0;
+  while (done < settings.spp) {
+    RenderPush push{};
+    push.model_table = table_address;
+    push.frame = frame_address;
+    push.sample_index = settings.first_sample + done;
+    push.samples = std::min(settings.samples_per_pass, settings.spp - done);
+    if (Status s = tracer_.trace(pipeline_, dev.tlas, &push, uint32_t(pixels)); !s) return s.context("render pass");
+    done += push.samples;
+    if (progress) progress(done);
+  }
+  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  stats.ms_per_sample = stats.seconds * 1000.0 / settings.spp;
+
+  out.width = settings.width;
+  out.height = settings.height;
+  out.rgb.resize(pixels * 3);
+  for (size_t i = 0; i < pixels; ++i) {
+    const float w = acc[i * 4 + 3];
+    for (int k = 0; k < 3; ++k) out.rgb[i * 3 + size_t(k)] = w > 0 ? acc[i * 4 + size_t(k)] / w : 0.0f;
+  }
+  return Status::ok();
+}
+
+}  // namespace lsnif::render

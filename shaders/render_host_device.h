@@ -1,0 +1,85 @@
+/* render_host_device.h -- the path tracer's structs shared by C++ (samples/render/) and GLSL
+ * (shaders/render_*.glsl, render.rgen/.rmiss/.rchit). Every struct holds only 32-bit scalars and
+ * 64-bit device addresses at 8-byte offsets, so its std430 (scalar) layout is the same on both sides.
+ * The LSNIF binding convention (shaders/host_device.h) holds: the push constant block starts with
+ * the model table address, indexed by gl_InstanceCustomIndexEXT; the renderer gives every TLAS
+ * instance its own custom index i, and RenderInstance i says what it is. */
+#ifndef LSNIF_RENDER_HOST_DEVICE_H
+#define LSNIF_RENDER_HOST_DEVICE_H
+
+#include "host_device.h"
+
+#ifdef __cplusplus
+typedef uint64_t lsnif_address;
+#else
+#define lsnif_address uint64_t
+#endif
+
+#define RENDER_INSTANCE_TRIANGLES 0u /* a triangle BLAS: one geometry per mesh primitive */
+#define RENDER_INSTANCE_LSNIF 1u     /* an LSNIF model through shaders/lsnif.rint */
+
+#define RENDER_NO_TEXTURE 0xffffffffu
+
+/* Per TLAS instance (index = instanceCustomIndex). */
+struct RenderInstance {
+  lsnif_uint kind;             /* RENDER_INSTANCE_* */
+  lsnif_uint first_primitive;  /* triangles: RenderPrimitive of geometry 0 (gl_GeometryIndexEXT adds) */
+  lsnif_uint material_map;     /* LSNIF: first entry in RenderFrame::material_maps (model material -> scene) */
+  lsnif_uint material_count;   /* LSNIF: entries of the map */
+};
+
+/* One triangle list (a mesh primitive), object space. */
+struct RenderPrimitive {
+  lsnif_address positions;  /* float3 per vertex, tightly packed */
+  lsnif_address normals;    /* float3 per vertex, 0: use the face normal */
+  lsnif_address uvs;        /* float2 per vertex, 0: uv = 0 */
+  lsnif_address indices;    /* uint32, 3 per triangle */
+  lsnif_uint material;      /* RenderFrame::materials index */
+  lsnif_uint pad0, pad1, pad2;
+};
+
+/* glTF metallic-roughness material; textures index RenderFrame::textures or RENDER_NO_TEXTURE. */
+struct RenderMaterial {
+  float base_r, base_g, base_b, base_a;
+  float metallic, roughness;
+  float emission_r, emission_g, emission_b;
+  lsnif_uint base_texture, metallic_roughness_texture, emission_texture;
+};
+
+/* RGBA8 texels, row 0 at v = 0, one uint per texel (R in the low byte). */
+struct RenderTexture {
+  lsnif_address texels;
+  lsnif_uint width, height;
+};
+
+/* Everything one frame needs, in one buffer addressed from the push constants. */
+struct RenderFrame {
+  lsnif_address instances;      /* RenderInstance[] */
+  lsnif_address primitives;     /* RenderPrimitive[] */
+  lsnif_address materials;      /* RenderMaterial[] */
+  lsnif_address material_maps;  /* uint[] */
+  lsnif_address textures;       /* RenderTexture[] */
+  lsnif_address environment;    /* float3 radiance per texel (EnvironmentMap::radiance), 0: constant color */
+  lsnif_address env_tables;     /* EnvironmentMap::packed(): marginal CDF, conditional CDFs, pdf table */
+  lsnif_address pad_address;
+  lsnif_address accumulation;   /* float4 per pixel: running sum of radiance, w = samples */
+  lsnif_uint width, height;
+  lsnif_uint env_width, env_height;
+  float env_r, env_g, env_b, env_rotation; /* constant radiance without an image; rotation about +y (radians) */
+  float cam_to_world[12];       /* rows of the 3x4 camera-to-world matrix (camera looks down -z) */
+  float tan_half_fov_y, aspect;
+  lsnif_uint max_bounces;       /* path vertices after the camera (paper: 4) */
+  lsnif_uint rr_depth;          /* Russian roulette from this bounce on */
+  lsnif_uint env_importance;    /* 1: next-event estimation with the environment tables */
+  lsnif_uint pad0;
+};
+
+/* Push constants: the model table first (LSNIF binding convention), then the frame. */
+struct RenderPush {
+  lsnif_address model_table;  /* LSNIF_RT_PUSH_MODEL_TABLE_OFFSET */
+  lsnif_address frame;        /* RenderFrame */
+  lsnif_uint sample_index;    /* index of the first sample of this pass (per-pixel random sequences) */
+  lsnif_uint samples;         /* samples per pixel in this pass */
+};
+
+#endif
