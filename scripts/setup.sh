@@ -114,5 +114,15 @@ if [ ! -f "$data_dir/gltf/.fetched" ]; then
   touch "$data_dir/gltf/.fetched"
   rm -rf "$tmp"; trap - EXIT
 fi
+if [ ! -f "$data_dir/hdr/.fetched" ]; then  # CC0 HDR environments of Blender's studio lights
+  tmp=$(mktemp -d); chmod 755 "$tmp"; chown _apt "$tmp" 2>/dev/null || true; trap 'rm -rf "$tmp"' EXIT
+  fetch_deb blender-data "$tmp"
+  world=$(find "$tmp/root" -type d -path '*studiolights/world' | head -n1)
+  [ -n "$world" ] || { echo "setup.sh: blender-data has no studiolights/world folder" >&2; exit 1; }
+  cp "$world"/*.exr "$data_dir/hdr/"
+  ls "$data_dir/hdr/"*.exr >/dev/null 2>&1 || { echo "setup.sh: no .exr in blender-data's studiolights/world" >&2; exit 1; }
+  touch "$data_dir/hdr/.fetched"
+  rm -rf "$tmp"; trap - EXIT
+fi
 chmod -R a+rX "$data_dir" 2>/dev/null || true
 echo "setup.sh: ready (packages installed, data in $data_dir)"

@@ -1,5 +1,7 @@
-// lsnif demo: the README's main job on the bundled default: train the CGAL bunny, save the model,
-// evaluate it on held-out rays against exact ray casting and the voxel-only baseline.
+// lsnif demo: the README's main job on the bundled default: train the CGAL bunny (or reuse the
+// model), save it, evaluate it on held-out rays against exact ray casting and the voxel-only
+// baseline, then render it on a ground quad under an HDR sky in LSNIF and reference mode and print
+// the FLIP, memory and time rows with a side-by-side picture (render_compare.h).
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -8,6 +10,9 @@
 #include "commands.h"
 #include "evaluate.h"
 #include "mesh.h"
+#include "model.h"
+#include "render_compare.h"
+#include "vk_compute.h"
 #include "train_options.h"
 
 namespace lsnif::cli {
@@ -17,10 +22,24 @@ int cmd_demo(int argc, char** argv) {
   std::string mesh_path = std::string(LSNIF_DATA_DIR) + "/meshes/bunny00.off";
   opts.output = "out/bunny.lsnif";
   uint32_t rays = 100000;
+  bool reuse = false, no_render = false;
+  render::RenderSettings rs;
+  rs.width = 320;
+  rs.height = 240;
+  rs.spp = 16;
+  std::string hdr = std::string(LSNIF_DATA_DIR) + "/hdr/forest.exr", picture = "out/bunny_compare.png";
   Args args("demo", "Trains an LSNIF model of the bundled bunny (from scripts/setup.sh), writes it to\n"
-                    "out/bunny.lsnif and evaluates it on held-out rays against exact ray casting.");
+                    "out/bunny.lsnif, evaluates it on held-out rays against exact ray casting, and renders it\n"
+                    "in LSNIF and reference mode (FLIP, memory, time; out/bunny_compare.png).");
   args.option("mesh", "mesh to train", &mesh_path);
   args.option("eval-rays", "held-out rays for the evaluation", &rays);
+  args.flag("reuse", "load the model from --output if it exists instead of training", &reuse);
+  args.flag("no-render", "skip the rendering comparison", &no_render);
+  args.option("width", "render width", &rs.width);
+  args.option("height", "render height", &rs.height);
+  args.option("spp", "render samples per pixel", &rs.spp);
+  args.option("hdr", "environment image for the render (empty: constant sky)", &hdr);
+  args.option("picture", "side-by-side image (reference | LSNIF | FLIP)", &picture);
   opts.add_to(args);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (!std::filesystem::exists(mesh_path)) {
@@ -32,7 +51,15 @@ int cmd_demo(int argc, char** argv) {
   std::filesystem::path parent = std::filesystem::path(opts.output).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent, ec);
   Model model;
-  if (int r = run_training(mesh_path, opts, &model)) return r;
+  if (reuse && std::filesystem::exists(opts.output)) {
+    if (Status s = load_model(opts.output, model); !s) {
+      std::fprintf(stderr, "lsnif demo: %s\n", s.message().c_str());
+      return 1;
+    }
+    std::printf("reusing %s\n", opts.output.c_str());
+  } else if (int r = run_training(mesh_path, opts, &model)) {
+    return r;
+  }
   Mesh mesh;
   if (Status s = load_mesh(mesh_path, mesh); !s) {
     std::fprintf(stderr, "lsnif demo: %s\n", s.message().c_str());
@@ -46,6 +73,23 @@ int cmd_demo(int argc, char** argv) {
     return 1;
   }
   std::printf("\nevaluation (%.1f s)\n%s", report.seconds, report.to_text().c_str());
+  if (no_render) return 0;
+  if (!hdr.empty() && !std::filesystem::exists(hdr)) {
+    std::fprintf(stderr, "lsnif demo: %s not found: run scripts/setup.sh (it fetches the HDR environments)\n",
+                 hdr.c_str());
+    return 1;
+  }
+  vk::ComputeContext ctx;
+  if (Status s = ctx.init(/*ray_tracing=*/true, /*validation=*/false); !s) {
+    std::fprintf(stderr, "lsnif demo: no usable Vulkan ray-tracing device for the render (`lsnif devices` tells "
+                         "what is missing): %s\n", s.message().c_str());
+    return 1;
+  }
+  CompareReport cmp;
+  if (Status s = render_compare(ctx, object_on_ground(mesh, opts.output, hdr), rs, picture, cmp); !s) {
+    std::fprintf(stderr, "lsnif demo: %s\n", s.message().c_str());
+    return 1;
+  }
   return 0;
 }
 
