@@ -18,63 +18,20 @@
 #include <random>
 #include <unistd.h>
 
+#include "fuzz_support.h"
 #include "mesh.h"
 #include "mesh_formats.h"
 
 namespace lsnif {
 namespace {
 
+using fuzz::base64;
+using fuzz::glb;
+using fuzz::kPngBase64;
+using fuzz::mutate;
+using fuzz::png_bytes;
+using fuzz::put_floats;
 using mesh_io::MeshFormat;
-
-std::string put_floats(std::initializer_list<float> v) {
-  std::string s(v.size() * 4, '\0');
-  size_t i = 0;
-  for (float f : v) std::memcpy(&s[4 * i++], &f, 4);
-  return s;
-}
-
-std::string base64(const std::string& in) {
-  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  size_t i = 0;
-  for (; i + 2 < in.size(); i += 3) {
-    uint32_t v = uint32_t(uint8_t(in[i])) << 16 | uint32_t(uint8_t(in[i + 1])) << 8 | uint8_t(in[i + 2]);
-    for (int s = 18; s >= 0; s -= 6) out += k[(v >> s) & 63];
-  }
-  if (i < in.size()) {
-    uint32_t v = uint32_t(uint8_t(in[i])) << 16 | (i + 1 < in.size() ? uint32_t(uint8_t(in[i + 1])) << 8 : 0u);
-    out += k[(v >> 18) & 63];
-    out += k[(v >> 12) & 63];
-    out += i + 1 < in.size() ? k[(v >> 6) & 63] : '=';
-    out += '=';
-  }
-  return out;
-}
-
-// 2x2 RGBA PNG (red, green / blue, gray).
-const char* kPngBase64 =
-    "iVBORw0KGgoAAAANSUhEUgAAAAIAAAACCAYAAABytg0kAAAAFUlEQVR42mP4z8DwHwyB9P+Ghob/AEVRCHrNY6F/AAAAAElFTkSuQmCC";
-
-std::string png_bytes() {
-  std::string out;
-  auto dec = [](char c) -> int {
-    if (c >= 'A' && c <= 'Z') return c - 'A';
-    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
-    if (c >= '0' && c <= '9') return c - '0' + 52;
-    return c == '+' ? 62 : 63;
-  };
-  uint32_t acc = 0;
-  int bits = 0;
-  for (const char* p = kPngBase64; *p && *p != '='; ++p) {
-    acc = acc << 6 | uint32_t(dec(*p));
-    bits += 6;
-    if (bits >= 8) {
-      bits -= 8;
-      out += char((acc >> bits) & 0xff);
-    }
-  }
-  return out;
-}
 
 // Binary payload shared by the glTF seeds: 4 vertices (positions, normals, uvs, ubyte colors),
 // strip indices, sparse indices/values, and the PNG.
@@ -124,22 +81,6 @@ std::string gltf_json(const std::string& buffer, const std::string& image, size_
  {"buffer":0,"byteOffset":156,"byteLength":12},
  {"buffer":0,"byteOffset":)" + std::to_string(png_offset) + R"(,"byteLength":)" + std::to_string(png_size) + R"(}],
 "buffers":[)" + buffer + "]}";
-}
-
-std::string glb(std::string js, std::string bin) {
-  while (js.size() % 4) js += ' ';
-  while (bin.size() % 4) bin += '\0';
-  std::string g = "glTF";
-  auto u32 = [&](uint32_t v) { g.append(reinterpret_cast<const char*>(&v), 4); };
-  u32(2);
-  u32(uint32_t(28 + js.size() + bin.size()));
-  u32(uint32_t(js.size()));
-  u32(0x4E4F534A);
-  g += js;
-  u32(uint32_t(bin.size()));
-  u32(0x004E4942);
-  g += bin;
-  return g;
 }
 
 template <typename T>
@@ -202,71 +143,10 @@ std::vector<Seed> seeds(const std::string& external_bin_name) {
                    p.bin)});
   // A real asset with a real PNG inside, when the test data is there: corrupts the image decoder's
   // input too.
-  std::ifstream real(std::string(LSNIF_DATA_DIR) + "/gltf/BoxTextured-glTF-Binary/BoxTextured.glb",
-                     std::ios::binary);
-  if (real)
-    s.push_back({"BoxTextured.glb", MeshFormat::Glb,
-                 std::string((std::istreambuf_iterator<char>(real)), std::istreambuf_iterator<char>())});
+  std::string real =
+      fuzz::read_bytes(std::string(LSNIF_DATA_DIR) + "/gltf/BoxTextured-glTF-Binary/BoxTextured.glb");
+  if (!real.empty()) s.push_back({"BoxTextured.glb", MeshFormat::Glb, std::move(real)});
   return s;
-}
-
-// Damages `data` with 1-4 random edits.
-void mutate(std::string& data, std::mt19937_64& rng) {
-  static const char* tokens[] = {"-1", "0", "4294967295", "4294967296", "2147483648", "-2147483649",
-                                 "nan", "inf", "-inf", "1e39", "1e-45", "99999999999999999999",
-                                 "3", "255", "65535", "1.5", "/", "//", " ", "\n", "#", "\"", "{", "}",
-                                 "[", "]", ",", ":", "null", "true", "-0", "1e308"};
-  const int edits = rng() % 4 == 0 ? 2 + int(rng() % 3) : 1;
-  for (int e = 0; e < edits; ++e) {
-    const size_t n = data.size();
-    const size_t pos = n ? size_t(rng() % n) : 0;
-    switch (rng() % 10) {
-      case 0:  // bit flip
-        if (n) data[pos] = char(uint8_t(data[pos]) ^ uint8_t(1u << (rng() % 8)));
-        break;
-      case 1:  // random byte
-        if (n) data[pos] = char(rng() & 0xff);
-        break;
-      case 2:  // truncate
-        data.resize(pos);
-        break;
-      case 3: {  // insert random bytes
-        std::string ins(1 + rng() % 8, '\0');
-        for (char& c : ins) c = char(rng() & 0xff);
-        data.insert(pos, ins);
-        break;
-      }
-      case 4:
-      case 5:  // insert or overwrite with a troublesome token
-      {
-        const char* t = tokens[rng() % (sizeof(tokens) / sizeof(tokens[0]))];
-        if (rng() % 2 == 0 || pos + std::strlen(t) > n)
-          data.insert(pos, t);
-        else
-          data.replace(pos, std::strlen(t), t);
-        break;
-      }
-      case 6:  // delete a range
-        data.erase(pos, 1 + rng() % 16);
-        break;
-      case 7: {  // duplicate a range
-        std::string chunk = data.substr(pos, 1 + rng() % 32);
-        data.insert(size_t(rng() % (data.size() + 1)), chunk);
-        break;
-      }
-      case 8:
-      case 9: {  // replace the next number (count, index, offset, coordinate) by a token
-        size_t b = pos;
-        while (b < n && !(data[b] >= '0' && data[b] <= '9')) ++b;
-        if (b == n) break;
-        size_t end = b;
-        while (end < n && ((data[end] >= '0' && data[end] <= '9') || data[end] == '.' || data[end] == 'e')) ++end;
-        if (b > 0 && data[b - 1] == '-') --b;
-        data.replace(b, end - b, tokens[rng() % 16]);  // the numeric tokens
-        break;
-      }
-    }
-  }
 }
 
 bool finite3(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -345,9 +225,8 @@ TEST(MeshFuzz, MutatedInputsNeverBreakTheContract) {
   GltfPayload p = gltf_payload();
   std::ofstream(dir.str() + "/fuzz.bin", std::ios::binary).write(p.bin.data(), std::streamsize(p.bin.size()));
   // Fixed seed; LSNIF_FUZZ_SEED / LSNIF_FUZZ_SCALE allow longer explorations by hand.
-  const char* seed_env = std::getenv("LSNIF_FUZZ_SEED");
   const char* scale_env = std::getenv("LSNIF_FUZZ_SCALE");
-  std::mt19937_64 rng(seed_env ? std::strtoull(seed_env, nullptr, 0) : 0x15A1F5EEDull);
+  std::mt19937_64 rng = fuzz::fuzz_rng(0x15A1F5EEDull);
   const int scale = scale_env ? std::max(1, std::atoi(scale_env)) : 1;
   const auto start = std::chrono::steady_clock::now();
   size_t ok = 0, failed = 0;

@@ -4,10 +4,8 @@
 // JSON object) and against `lsnif info`.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -15,6 +13,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+
+#include "test_support.h"
 
 namespace {
 
@@ -35,16 +35,12 @@ fs::path temp_dir() {
 
 // Runs `lsnif ARGS` with `env` before it on the shell line; stdout and stderr kept apart.
 CliRun run_cli(const std::string& args, const std::string& env = "") {
-  CliRun r;
   const fs::path err_file = temp_dir() / "stderr.txt";
-  const std::string cmd = env + std::string(LSNIF_CLI) + " " + args + " 2>" + err_file.string();
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const lsnif::test::CommandResult run =
+      lsnif::test::run_command(env + std::string(LSNIF_CLI) + " " + args + " 2>" + err_file.string());
+  CliRun r;
+  r.code = run.code;
+  r.out = run.out;
   std::ifstream in(err_file);
   std::stringstream ss;
   ss << in.rdbuf();

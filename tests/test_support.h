@@ -1,6 +1,17 @@
-// test_support.h -- pieces shared by the end-to-end and GPU tests: the tiny training settings they
-// train with, and one skewed instance transform.
+// test_support.h -- pieces shared by the end-to-end, GPU and command-line tests: the tiny training
+// settings they train with, one skewed instance transform, running a command with its output and
+// exit code captured, and a per-test temporary folder.
 #pragma once
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <system_error>
+
 #include <glm/glm.hpp>
 
 #include "intersector.h"
@@ -39,5 +50,50 @@ inline Transform3x4 skewed_instance() {
   }
   return xf;
 }
+
+// What a command wrote to its standard output, and how it ended.
+struct CommandResult {
+  int code = -1;    // exit status; -1 when it could not be started or did not exit normally
+  std::string out;  // stdout (add " 2>&1" to the command for stderr too)
+};
+
+// Runs `command` through /bin/sh (popen) and waits for it.
+inline CommandResult run_command(const std::string& command) {
+  CommandResult r;
+  FILE* p = popen(command.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+// A fresh folder PREFIX_PID_TESTNAME under the system's temporary folder for the running test,
+// removed with everything in it when this object goes (construct it while a test runs, e.g. as a
+// fixture member or in SetUp).
+class ScopedTestDir {
+ public:
+  explicit ScopedTestDir(const std::string& prefix)
+      : path_(std::filesystem::temp_directory_path() /
+              (prefix + "_" + std::to_string(::getpid()) + "_" +
+               ::testing::UnitTest::GetInstance()->current_test_info()->name())) {
+    std::filesystem::create_directories(path_);
+  }
+  ~ScopedTestDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  ScopedTestDir(const ScopedTestDir&) = delete;
+  ScopedTestDir& operator=(const ScopedTestDir&) = delete;
+
+  const std::filesystem::path& path() const { return path_; }
+  // Path of `name` inside the folder.
+  std::string path(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  std::filesystem::path path_;
+};
 
 }  // namespace lsnif::test

@@ -76,16 +76,6 @@ Status check_png_structure(const std::string& path) {
   }
 }
 
-float srgb_to_linear(float c) {
-  if (c <= 0.04045f) return c / 12.92f;
-  return float(std::pow((double(c) + 0.055) / 1.055, 2.4));
-}
-
-float linear_to_srgb(float c) {
-  if (c <= 0.0031308f) return c * 12.92f;
-  return float(1.055 * std::pow(double(c), 1.0 / 2.4) - 0.055);
-}
-
 bool is_integer_format(OIIO::TypeDesc t) {
   using B = OIIO::TypeDesc::BASETYPE;
   switch (B(t.basetype)) {
@@ -208,6 +198,16 @@ Status save_image(const std::string& path, const Image& img) {
     OIIO::geterror();
     return Status::error("cannot write '%s': %s", path.c_str(), e.what());
   }
+}
+
+float srgb_to_linear(float c) {
+  if (c <= 0.04045f) return c / 12.92f;
+  return float(std::pow((double(c) + 0.055) / 1.055, 2.4));
+}
+
+float linear_to_srgb(float c) {
+  if (c <= 0.0031308f) return c * 12.92f;
+  return float(1.055 * std::pow(double(c), 1.0 / 2.4) - 0.055);
 }
 
 }  // namespace lsnif::image

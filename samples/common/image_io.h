@@ -30,4 +30,11 @@ Status load_image(const std::string& path, Image& out, bool raw = false);
 // inconsistent image or a write error, naming the file.
 Status save_image(const std::string& path, const Image& img);
 
+// The sRGB transfer function (IEC 61966-2-1), used by load_image / save_image and by FLIP:
+// srgb_to_linear decodes an sRGB-encoded value (linear segment below 0.04045, else
+// ((c + 0.055) / 1.055)^2.4), linear_to_srgb encodes a linear one (12.92 c below 0.0031308, else
+// 1.055 c^(1/2.4) - 0.055). Computed in double, rounded to float once; no clamping.
+float srgb_to_linear(float c);
+float linear_to_srgb(float c);
+
 }  // namespace lsnif::image

@@ -5,7 +5,6 @@
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -16,6 +15,8 @@
 #include <random>
 #include <string>
 #include <vector>
+
+#include "test_support.h"
 
 namespace lsnif::image {
 namespace {
@@ -28,17 +29,7 @@ double encode_srgb(double c) { return c <= 0.0031308 ? c * 12.92 : 1.055 * std::
 
 class ImageIo : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("lsnif_image_io_test_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string path(const std::string& name) const { return dir_.path(name); }
 
   static std::vector<char> read_bytes(const std::string& p) {
     std::ifstream f(p, std::ios::binary);
@@ -74,7 +65,7 @@ class ImageIo : public ::testing::Test {
     return img;
   }
 
-  fs::path dir_;
+  test::ScopedTestDir dir_{"lsnif_image_io_test"};
 };
 
 TEST_F(ImageIo, IsHdrPath) {

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "flip_detail.h"
+#include "image_io.h"
 
 namespace lsnif::flip::detail {
 namespace {
@@ -86,15 +87,9 @@ float lab_f(float t) {
 
 }  // namespace
 
-float srgb_to_linear(float c) {
-  if (c <= 0.04045f) return c / 12.92f;
-  return float(std::pow((double(c) + 0.055) / 1.055, 2.4));
-}
-
-float linear_to_srgb(float c) {
-  if (c <= 0.0031308f) return c * 12.92f;
-  return float(1.055 * std::pow(double(c), 1.0 / 2.4) - 0.055);
-}
+// FLIP's sRGB transfer is the one image_io uses to read and write 8-bit files.
+float srgb_to_linear(float c) { return image::srgb_to_linear(c); }
+float linear_to_srgb(float c) { return image::linear_to_srgb(c); }
 
 Vec3 linear_rgb_to_xyz(const Vec3& rgb) { return mul(matrices().to_xyz, rgb); }
 Vec3 xyz_to_linear_rgb(const Vec3& xyz) { return mul(matrices().to_rgb, xyz); }

@@ -1,52 +1,28 @@
 // `lsnif flip` as a user runs it: LDR and HDR pairs, text and JSON output, the heatmap file, and
 // clear errors with the right exit codes (1 failure, 2 usage).
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <string>
 
 #include "image_io.h"
+#include "test_support.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using lsnif::image::Image;
 
-struct CliResult {
-  int code = -1;
-  std::string out;  // stdout and stderr together
-};
+using CliResult = lsnif::test::CommandResult;  // out: stdout and stderr together
 
 CliResult run_cli(const std::string& args) {
-  CliResult r;
-  const std::string cmd = std::string(LSNIF_CLI) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  return lsnif::test::run_command(std::string(LSNIF_CLI) + " " + args + " 2>&1");
 }
 
 class FlipCli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("lsnif_flip_cli_test_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string path(const std::string& name) const { return dir_.path(name); }
 
   // A soft gradient; `noise` adds a fixed pattern of that amplitude.
   static Image picture(uint32_t w, uint32_t h, float noise, float scale = 1.0f) {
@@ -67,7 +43,7 @@ class FlipCli : public ::testing::Test {
     ASSERT_TRUE(lsnif::image::save_image(path(name), img).is_ok()) << name;
   }
 
-  fs::path dir_;
+  lsnif::test::ScopedTestDir dir_{"lsnif_flip_cli_test"};
 };
 
 double json_number(const std::string& json, const std::string& key) {

@@ -16,19 +16,18 @@
 #include <iterator>
 #include <map>
 #include <random>
+#include <vector>
 
+#include "fuzz_support.h"
 #include "scene_gltf.h"
 #include "test_support.h"
 
 namespace lsnif::scene {
 namespace {
 
-const std::string kData = std::string(LSNIF_DATA_DIR) + "/gltf/";
+using fuzz::read_bytes;
 
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
+const std::string kData = std::string(LSNIF_DATA_DIR) + "/gltf/";
 
 std::string folder_of(const std::string& path) { return std::filesystem::path(path).parent_path().string(); }
 
@@ -94,62 +93,11 @@ std::vector<Seed> seeds(const TempDir& dir) {
   return s;
 }
 
-// Damages `data` with 1-4 random edits (the same operators as host/mesh_fuzz_test.cpp).
-void mutate(std::string& data, std::mt19937_64& rng) {
-  static const char* tokens[] = {"-1", "0", "4294967295", "4294967296", "2147483648", "-2147483649",
-                                 "nan", "inf", "-inf", "1e39", "1e-45", "99999999999999999999",
-                                 "3", "255", "65535", "1.5", "/", "//", " ", "\n", "#", "\"", "{", "}",
-                                 "[", "]", ",", ":", "null", "true", "-0", "1e308", "\"\"", "[]", "{}"};
-  const int edits = rng() % 4 == 0 ? 2 + int(rng() % 3) : 1;
-  for (int e = 0; e < edits; ++e) {
-    const size_t n = data.size();
-    const size_t pos = n ? size_t(rng() % n) : 0;
-    switch (rng() % 10) {
-      case 0:  // bit flip
-        if (n) data[pos] = char(uint8_t(data[pos]) ^ uint8_t(1u << (rng() % 8)));
-        break;
-      case 1:  // random byte
-        if (n) data[pos] = char(rng() & 0xff);
-        break;
-      case 2:  // truncate
-        data.resize(pos);
-        break;
-      case 3: {  // insert random bytes
-        std::string ins(1 + rng() % 8, '\0');
-        for (char& c : ins) c = char(rng() & 0xff);
-        data.insert(pos, ins);
-        break;
-      }
-      case 4:
-      case 5: {  // insert or overwrite with a troublesome token
-        const char* t = tokens[rng() % (sizeof(tokens) / sizeof(tokens[0]))];
-        if (rng() % 2 == 0 || pos + std::strlen(t) > n)
-          data.insert(pos, t);
-        else
-          data.replace(pos, std::strlen(t), t);
-        break;
-      }
-      case 6:  // delete a range
-        data.erase(pos, 1 + rng() % 16);
-        break;
-      case 7: {  // duplicate a range
-        std::string chunk = data.substr(pos, 1 + rng() % 32);
-        data.insert(size_t(rng() % (data.size() + 1)), chunk);
-        break;
-      }
-      case 8:
-      case 9: {  // replace the next number (count, index, offset, coordinate) by a numeric token
-        size_t b = pos;
-        while (b < n && !(data[b] >= '0' && data[b] <= '9')) ++b;
-        if (b == n) break;
-        size_t end = b;
-        while (end < n && ((data[end] >= '0' && data[end] <= '9') || data[end] == '.' || data[end] == 'e')) ++end;
-        if (b > 0 && data[b - 1] == '-') --b;
-        data.replace(b, end - b, tokens[rng() % 16]);
-        break;
-      }
-    }
-  }
+// The mutator of host/mesh_fuzz_test.cpp with three more tokens for JSON structure.
+std::vector<const char*> mutation_tokens() {
+  std::vector<const char*> t(std::begin(fuzz::kMutationTokens), std::end(fuzz::kMutationTokens));
+  t.insert(t.end(), {"\"\"", "[]", "{}"});
+  return t;
 }
 
 class SceneFuzz : public ::testing::Test {
@@ -184,9 +132,9 @@ TEST_F(SceneFuzz, SeedsLoad) {
 
 TEST_F(SceneFuzz, MutatedInputsNeverBreakTheContract) {
   // Fixed seed; LSNIF_FUZZ_SEED / LSNIF_FUZZ_SCALE allow longer explorations by hand.
-  const char* seed_env = std::getenv("LSNIF_FUZZ_SEED");
   const char* scale_env = std::getenv("LSNIF_FUZZ_SCALE");
-  std::mt19937_64 rng(seed_env ? std::strtoull(seed_env, nullptr, 0) : 0x5CE7E5EEDull);
+  std::mt19937_64 rng = fuzz::fuzz_rng(0x5CE7E5EEDull);
+  const std::vector<const char*> tokens = mutation_tokens();
   const double scale = scale_env ? std::max(0.01, std::atof(scale_env)) : 1.0;
   const auto start = std::chrono::steady_clock::now();
   size_t ok = 0, failed = 0;
@@ -196,7 +144,7 @@ TEST_F(SceneFuzz, MutatedInputsNeverBreakTheContract) {
     const int iterations = std::max(1, int(s.iterations * scale));
     for (int it = 0; it < iterations; ++it) {
       std::string data = s.data;
-      mutate(data, rng);
+      fuzz::mutate(data, rng, tokens);
       SceneLoadOptions o;
       o.quiet = true;
       Scene scene;

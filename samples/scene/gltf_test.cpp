@@ -21,6 +21,7 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <nlohmann/json.hpp>
 
+#include "fuzz_support.h"
 #include "scene_gltf.h"
 #include "test_support.h"
 
@@ -29,13 +30,11 @@ namespace {
 
 using nlohmann::json;
 namespace fs = std::filesystem;
+using fuzz::base64;
+using fuzz::put_floats;
+using fuzz::read_bytes;
 
 const std::string kData = std::string(LSNIF_DATA_DIR) + "/gltf/";
-
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
 
 // The JSON of a .gltf or of a .glb's JSON chunk.
 json read_json(const std::string& path) {
@@ -330,34 +329,6 @@ TEST(GltfLoad, WarningsForWhatIsIgnored) {
 
 // ---- synthetic files --------------------------------------------------------------------------
 
-std::string put_floats(std::initializer_list<float> v) {
-  std::string s(v.size() * 4, '\0');
-  size_t i = 0;
-  for (float f : v) std::memcpy(&s[4 * i++], &f, 4);
-  return s;
-}
-
-std::string base64(const std::string& in) {
-  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  size_t i = 0;
-  for (; i + 2 < in.size(); i += 3) {
-    uint32_t v = uint32_t(uint8_t(in[i])) << 16 | uint32_t(uint8_t(in[i + 1])) << 8 | uint8_t(in[i + 2]);
-    for (int sh = 18; sh >= 0; sh -= 6) out += k[(v >> sh) & 63];
-  }
-  if (i < in.size()) {
-    uint32_t v = uint32_t(uint8_t(in[i])) << 16 | (i + 1 < in.size() ? uint32_t(uint8_t(in[i + 1])) << 8 : 0u);
-    out += k[(v >> 18) & 63];
-    out += k[(v >> 12) & 63];
-    out += i + 1 < in.size() ? k[(v >> 6) & 63] : '=';
-    out += '=';
-  }
-  return out;
-}
-
-// 2x2 RGBA PNG: red, green / blue, gray.
-const char* kPng = "iVBORw0KGgoAAAANSUhEUgAAAAIAAAACCAYAAABytg0kAAAAFUlEQVR42mP4z8DwHwyB9P+Ghob/AEVRCHrNY6F/AAAAAElFTkSuQmCC";
-
 std::string synthetic_bin() {
   std::string b;
   b += put_floats({0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0});  // 0: positions
@@ -433,7 +404,7 @@ json synthetic_doc() {
   ]})");
   d["buffers"] = json::array({{{"byteLength", bin.size()},
                                {"uri", "data:application/octet-stream;base64," + base64(bin)}}});
-  d["images"] = json::array({{{"uri", std::string("data:image/png;base64,") + kPng}}});
+  d["images"] = json::array({{{"uri", std::string("data:image/png;base64,") + fuzz::kPngBase64}}});
   return d;
 }
 
@@ -513,45 +484,15 @@ TEST(GltfSynthetic, AccessorsIndicesTransformsMaterialsCamera) {
 TEST(GltfSynthetic, GlbContainerWithEmbeddedImage) {
   json d = synthetic_doc();
   std::string bin = synthetic_bin();
-  std::string png;
-  {  // the PNG bytes from base64
-    auto dec = [](char c) -> int {
-      if (c >= 'A' && c <= 'Z') return c - 'A';
-      if (c >= 'a' && c <= 'z') return c - 'a' + 26;
-      if (c >= '0' && c <= '9') return c - '0' + 52;
-      return c == '+' ? 62 : 63;
-    };
-    uint32_t acc = 0;
-    int bits = 0;
-    for (const char* p = kPng; *p && *p != '='; ++p) {
-      acc = acc << 6 | uint32_t(dec(*p));
-      bits += 6;
-      if (bits >= 8) {
-        bits -= 8;
-        png += char((acc >> bits) & 0xff);
-      }
-    }
-  }
+  const std::string png = fuzz::png_bytes();
   const size_t png_offset = bin.size();
   bin += png;
   while (bin.size() % 4) bin += '\0';
   d["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", png_offset}, {"byteLength", png.size()}});
   d["images"] = json::array({{{"bufferView", d["bufferViews"].size() - 1}, {"mimeType", "image/png"}}});
   d["buffers"] = json::array({{{"byteLength", bin.size()}}});
-  std::string js = d.dump();
-  while (js.size() % 4) js += ' ';
-  std::string glb = "glTF";
-  auto u32 = [&](uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
-  u32(2);
-  u32(uint32_t(28 + js.size() + bin.size()));
-  u32(uint32_t(js.size()));
-  u32(0x4E4F534A);
-  glb += js;
-  u32(uint32_t(bin.size()));
-  u32(0x004E4942);
-  glb += bin;
   TempDir dir;
-  write_file(dir / "scene.glb", glb);
+  write_file(dir / "scene.glb", fuzz::glb(d.dump(), bin));
   Scene s;
   Status st = load_scene(dir / "scene.glb", quiet(), s);
   ASSERT_TRUE(st) << st.message();

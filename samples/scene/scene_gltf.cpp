@@ -4,9 +4,9 @@
 // in object space and every node becomes an Instance with its world transform.
 //
 // tinygltf 2.7 leaves most validation to the user, so every index, accessor and buffer range is
-// checked here before a byte is read (the same guards as host/mesh_gltf.cpp: the GLB chunk table
-// is checked before tinygltf sees it, images stored in bufferViews are decoded here after a range
-// check, external files must be regular files).
+// checked before a byte is read: loading, accessor reads and image decoding go through
+// host/gltf_access.h (library lsnif_gltf, shared with host/mesh_gltf.cpp); the rest is checked
+// here.
 #include "scene_gltf.h"
 
 #include <algorithm>
@@ -23,43 +23,16 @@
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
-// Third-party single-header libraries, implemented in this file only. tinygltf's namespace is
-// renamed so that a program linking both this library and lsnif_host (whose mesh_gltf.cpp holds
-// another tinygltf implementation) has no duplicate symbols; stb_image is static.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wconversion"
-#pragma GCC diagnostic ignored "-Wsign-conversion"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wpedantic"
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#pragma GCC diagnostic ignored "-Wunused-variable"
-#pragma GCC diagnostic ignored "-Wunused-but-set-variable"
-#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
-#pragma GCC diagnostic ignored "-Wimplicit-fallthrough"
-#pragma GCC diagnostic ignored "-Wtype-limits"
-#pragma GCC diagnostic ignored "-Wsign-compare"
-#pragma GCC diagnostic ignored "-Wdouble-promotion"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#define tinygltf lsnif_scene_tinygltf
-#define STB_IMAGE_STATIC
-#define STBI_ONLY_PNG
-#define STBI_ONLY_JPEG
-#define STBI_MAX_DIMENSIONS (1 << 15)
-#define STB_IMAGE_IMPLEMENTATION
-#define TINYGLTF_NO_STB_IMAGE_WRITE
-#define TINYGLTF_IMPLEMENTATION
-#include <tiny_gltf.h>
-#pragma GCC diagnostic pop
+#include "gltf_access.h"
 
 namespace lsnif::scene {
 namespace {
 
 constexpr uint64_t kMaxPixels = uint64_t(1) << 26;       // per texture (8192 x 8192)
-constexpr size_t kMaxSparseOnlyCount = size_t(1) << 20;  // accessor without a bufferView
-constexpr size_t kMaxVertices = size_t(1) << 30;         // per primitive
+constexpr size_t kMaxVertices = size_t(1) << 30;         // per accessor
 constexpr int kMaxNodeDepth = 256;
 constexpr size_t kMaxNodeVisits = size_t(1) << 20;
+constexpr size_t kMaxMessageChars = 600;  // of tinygltf's error and warning text
 constexpr size_t kMaxListedWarnings = 8;  // per kind; the rest are counted in a summary line
 constexpr const char* kNodeExtension = "LSNIF_neural_object";
 constexpr const char* kEnvironmentExtension = "LSNIF_environment";
@@ -80,272 +53,6 @@ std::string excerpt(std::string_view s) {
     if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) c = '?';
   if (s.size() > 40) out += "...";
   return out;
-}
-
-std::string trim_message(std::string s) {
-  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
-  for (char& c : s)
-    if (c == '\n') c = ';';
-  if (s.size() > 600) s = s.substr(0, 600) + "...";
-  return s;
-}
-
-// Decodes PNG/JPEG bytes to RGBA8 into `image`; a failure leaves it empty and says why.
-bool decode_image(tinygltf::Image& image, const unsigned char* bytes, size_t size, std::string& why) {
-  image.image.clear();
-  if (size == 0 || size > size_t(std::numeric_limits<int>::max())) {
-    why = "empty or oversized image data";
-    return false;
-  }
-  int w = 0, h = 0, comp = 0;
-  const int n = static_cast<int>(size);
-  if (!stbi_info_from_memory(bytes, n, &w, &h, &comp)) {
-    why = std::string("not a decodable PNG/JPEG (") + stbi_failure_reason() + ")";
-    return false;
-  }
-  if (w <= 0 || h <= 0 || uint64_t(w) * uint64_t(h) > kMaxPixels) {
-    why = format("unsupported image size %dx%d", w, h);
-    return false;
-  }
-  unsigned char* px = stbi_load_from_memory(bytes, n, &w, &h, &comp, 4);
-  if (!px) {
-    why = std::string("decoding failed (") + stbi_failure_reason() + ")";
-    return false;
-  }
-  image.image.assign(px, px + size_t(w) * size_t(h) * 4);
-  stbi_image_free(px);
-  image.width = w;
-  image.height = h;
-  image.component = 4;
-  image.bits = 8;
-  image.pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
-  return true;
-}
-
-// tinygltf image callback (data URIs, external files, GLB-embedded images). Images in a bufferView
-// are left for texture_index(): tinygltf 2.7 hands them over without checking the view. A failed
-// decode is not fatal: the image stays empty and is reported when a material uses it.
-bool load_image_callback(tinygltf::Image* image, const int index, std::string* /*err*/,
-                         std::string* warn, int, int, const unsigned char* bytes, int size,
-                         void* /*user*/) {
-  if (image->bufferView >= 0) return true;
-  std::string why;
-  if (size < 0 || !decode_image(*image, bytes, size_t(size), why))
-    if (warn) *warn += format("image %d: %s\n", index, why.c_str());
-  return true;
-}
-
-// External buffers and images: regular files only (no devices or FIFOs), at most 4 GiB.
-bool read_whole_file(std::vector<unsigned char>* out, std::string* err, const std::string& path,
-                     void*) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    if (err) *err += "missing or not a regular file: " + path + "\n";
-    return false;
-  }
-  const uintmax_t size = std::filesystem::file_size(path, ec);
-  if (ec || size > (uintmax_t(1) << 32)) {
-    if (err) *err += "cannot size or too large: " + path + "\n";
-    return false;
-  }
-  std::ifstream in(path, std::ios::binary);
-  out->resize(static_cast<size_t>(size));
-  in.read(reinterpret_cast<char*>(out->data()), static_cast<std::streamsize>(size));
-  if (!in || static_cast<uintmax_t>(in.gcount()) != size) {
-    if (err) *err += "read error: " + path + "\n";
-    return false;
-  }
-  return true;
-}
-
-// Checks the GLB header and chunk table against the data (tinygltf 2.7 reads the BIN chunk header
-// without checking that it lies inside the file). Returns the container length.
-Status check_glb(std::string_view data, const char* file, uint32_t& length) {
-  auto u32 = [&](size_t o) {
-    uint32_t v;
-    std::memcpy(&v, data.data() + o, 4);
-    return v;
-  };
-  if (data.size() < 20 || std::memcmp(data.data(), "glTF", 4) != 0)
-    return Status::error("%s: not a binary glTF file (bad magic or shorter than 20 bytes)", file);
-  if (u32(4) != 2) return Status::error("%s: unsupported GLB version %u", file, u32(4));
-  length = u32(8);
-  if (length > data.size() || length < 20)
-    return Status::error("%s: GLB length %u does not match the file size %zu", file, length,
-                         data.size());
-  const uint64_t json_end = 20ull + u32(12);
-  if (u32(16) != 0x4E4F534Au || json_end > length)
-    return Status::error("%s: bad GLB JSON chunk", file);
-  if (json_end < length) {
-    if (json_end + 8 > length) return Status::error("%s: truncated GLB chunk header", file);
-    const uint64_t bin_end = json_end + 8 + u32(size_t(json_end));
-    if (bin_end > length)
-      return Status::error("%s: GLB chunk of %u bytes runs past the end of the file", file,
-                           u32(size_t(json_end)));
-  }
-  return Status::ok();
-}
-
-int components_of(int type) {
-  switch (type) {
-    case TINYGLTF_TYPE_SCALAR: return 1;
-    case TINYGLTF_TYPE_VEC2: return 2;
-    case TINYGLTF_TYPE_VEC3: return 3;
-    case TINYGLTF_TYPE_VEC4: return 4;
-    default: return 0;  // matrices: no attribute read here uses them
-  }
-}
-
-size_t component_size(int ct) {
-  switch (ct) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
-    case TINYGLTF_COMPONENT_TYPE_SHORT: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
-    case TINYGLTF_COMPONENT_TYPE_INT: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return 8;
-    default: return 0;
-  }
-}
-
-bool is_integer_type(int ct) {
-  return ct != TINYGLTF_COMPONENT_TYPE_FLOAT && ct != TINYGLTF_COMPONENT_TYPE_DOUBLE;
-}
-
-// One component at `p` as a double; normalized integers map to [0, 1] or [-1, 1].
-double read_component(const unsigned char* p, int ct, bool normalized) {
-  switch (ct) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE: {
-      int8_t v; std::memcpy(&v, p, 1);
-      return normalized ? std::max(v / 127.0, -1.0) : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
-    case TINYGLTF_COMPONENT_TYPE_SHORT: {
-      int16_t v; std::memcpy(&v, p, 2);
-      return normalized ? std::max(v / 32767.0, -1.0) : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-      uint16_t v; std::memcpy(&v, p, 2);
-      return normalized ? v / 65535.0 : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_INT: {
-      int32_t v; std::memcpy(&v, p, 4);
-      return normalized ? std::max(v / 2147483647.0, -1.0) : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
-      uint32_t v; std::memcpy(&v, p, 4);
-      return normalized ? v / 4294967295.0 : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: { float v; std::memcpy(&v, p, 4); return v; }
-    case TINYGLTF_COMPONENT_TYPE_DOUBLE: { double v; std::memcpy(&v, p, 8); return v; }
-    default: return 0.0;
-  }
-}
-
-// Bytes [offset, offset + needed) of bufferView `view`, or an error.
-Status view_range(const tinygltf::Model& model, int view, size_t offset, uint64_t needed,
-                  const unsigned char*& out) {
-  if (view < 0 || size_t(view) >= model.bufferViews.size())
-    return Status::error("bufferView %d does not exist", view);
-  const tinygltf::BufferView& bv = model.bufferViews[size_t(view)];
-  if (bv.buffer < 0 || size_t(bv.buffer) >= model.buffers.size())
-    return Status::error("bufferView %d references missing buffer %d", view, bv.buffer);
-  const std::vector<unsigned char>& data = model.buffers[size_t(bv.buffer)].data;
-  if (bv.byteOffset > data.size() || bv.byteLength > data.size() - bv.byteOffset)
-    return Status::error("bufferView %d (offset %zu, length %zu) exceeds buffer %d of %zu bytes",
-                         view, bv.byteOffset, bv.byteLength, bv.buffer, data.size());
-  if (offset > bv.byteLength || needed > bv.byteLength - offset)
-    return Status::error("%llu bytes at offset %zu exceed bufferView %d of %zu bytes",
-                         static_cast<unsigned long long>(needed), offset, view, bv.byteLength);
-  out = data.data() + bv.byteOffset + offset;
-  return Status::ok();
-}
-
-// Reads accessor `index` into `out` (count x components doubles, row-major). `types` lists the
-// accepted accessor types; integer components are normalized when the accessor says so. Sparse
-// accessors are applied on top of their base data (or of zeros without a bufferView).
-Status read_accessor(const tinygltf::Model& model, int index, std::initializer_list<int> types,
-                     std::vector<double>& out, int& components) {
-  if (index < 0 || size_t(index) >= model.accessors.size())
-    return Status::error("accessor %d does not exist", index);
-  const tinygltf::Accessor& a = model.accessors[size_t(index)];
-  components = components_of(a.type);
-  if (components == 0 || std::find(types.begin(), types.end(), a.type) == types.end())
-    return Status::error("accessor %d has unexpected type %d", index, a.type);
-  const size_t csize = component_size(a.componentType);
-  if (csize == 0)
-    return Status::error("accessor %d has unknown component type %d", index, a.componentType);
-  const bool normalized = is_integer_type(a.componentType) && a.normalized;
-  const size_t elem = csize * size_t(components);
-  const size_t count = a.count;
-  const size_t nc = size_t(components);
-  if (count > kMaxVertices)
-    return Status::error("accessor %d: count %zu too large", index, count);
-
-  if (a.bufferView >= 0) {
-    if (size_t(a.bufferView) >= model.bufferViews.size())
-      return Status::error("accessor %d: bufferView %d does not exist", index, a.bufferView);
-    const tinygltf::BufferView& bv = model.bufferViews[size_t(a.bufferView)];
-    const size_t stride = bv.byteStride ? bv.byteStride : elem;
-    if (stride < elem || stride > 4096)
-      return Status::error("accessor %d: byteStride %zu invalid for %zu-byte elements", index,
-                           bv.byteStride, elem);
-    const unsigned char* base = nullptr;
-    if (count > 0) {
-      Status s = view_range(model, a.bufferView, a.byteOffset,
-                            uint64_t(stride) * (count - 1) + elem, base);
-      if (!s) return s.context(format("accessor %d", index));
-    }
-    out.resize(count * nc);
-    for (size_t i = 0; i < count; ++i)
-      for (size_t c = 0; c < nc; ++c)
-        out[i * nc + c] = read_component(base + i * stride + c * csize, a.componentType, normalized);
-  } else {
-    if (!a.sparse.isSparse)
-      return Status::error("accessor %d has neither a bufferView nor sparse data", index);
-    if (count > kMaxSparseOnlyCount)
-      return Status::error("accessor %d: sparse accessor without bufferView has %zu elements "
-                           "(at most %zu supported)", index, count, kMaxSparseOnlyCount);
-    out.assign(count * nc, 0.0);
-  }
-
-  if (a.sparse.isSparse) {
-    const auto& sp = a.sparse;
-    const size_t isize = component_size(sp.indices.componentType);
-    if (sp.count <= 0 || size_t(sp.count) > count || sp.indices.byteOffset < 0 ||
-        sp.values.byteOffset < 0 || isize == 0 || isize == 8 ||
-        !is_integer_type(sp.indices.componentType))
-      return Status::error("accessor %d: invalid sparse description", index);
-    const size_t n = size_t(sp.count);
-    const unsigned char* idx = nullptr;
-    const unsigned char* val = nullptr;
-    Status s = view_range(model, sp.indices.bufferView, size_t(sp.indices.byteOffset),
-                          uint64_t(n) * isize, idx);
-    if (!s) return s.context(format("accessor %d sparse indices", index));
-    s = view_range(model, sp.values.bufferView, size_t(sp.values.byteOffset), uint64_t(n) * elem, val);
-    if (!s) return s.context(format("accessor %d sparse values", index));
-    for (size_t k = 0; k < n; ++k) {
-      const double target = read_component(idx + k * isize, sp.indices.componentType, false);
-      if (!(target >= 0.0) || target >= double(count))
-        return Status::error("accessor %d: sparse index %.0f out of range (count %zu)", index, target,
-                             count);
-      const size_t t = size_t(target);
-      for (size_t c = 0; c < nc; ++c)
-        out[t * nc + c] = read_component(val + k * elem + c * csize, a.componentType, normalized);
-    }
-  }
-  return Status::ok();
-}
-
-const char* mode_name(int mode) {
-  switch (mode) {
-    case TINYGLTF_MODE_POINTS: return "POINTS";
-    case TINYGLTF_MODE_LINE: return "LINES";
-    case TINYGLTF_MODE_LINE_LOOP: return "LINE_LOOP";
-    case TINYGLTF_MODE_LINE_STRIP: return "LINE_STRIP";
-    case TINYGLTF_MODE_TRIANGLE_STRIP: return "TRIANGLE_STRIP";
-    case TINYGLTF_MODE_TRIANGLE_FAN: return "TRIANGLE_FAN";
-    default: return "unknown";
-  }
 }
 
 bool all_finite(const std::vector<double>& v) {
@@ -408,12 +115,7 @@ class SceneBuilder {
       roots = model_.scenes[size_t(si)].nodes;
     } else if (!model_.nodes.empty()) {
       warn("no 'scenes': rendering every root node");
-      std::vector<uint8_t> has_parent(model_.nodes.size(), 0);
-      for (const tinygltf::Node& n : model_.nodes)
-        for (int c : n.children)
-          if (c >= 0 && size_t(c) < has_parent.size()) has_parent[size_t(c)] = 1;
-      for (size_t i = 0; i < model_.nodes.size(); ++i)
-        if (!has_parent[i]) roots.push_back(int(i));
+      roots = gltf::parentless_nodes(model_);
       if (roots.empty())
         return Status::error("%s: no scene and no root node (every node has a parent)", file());
     } else {
@@ -452,7 +154,7 @@ class SceneBuilder {
     if (skipped_primitives_) {
       std::string by_mode;
       for (const auto& [mode, n] : skipped_by_mode_)
-        by_mode += format("%s%s: %zu", by_mode.empty() ? "" : ", ", mode_name(mode), n);
+        by_mode += format("%s%s: %zu", by_mode.empty() ? "" : ", ", gltf::mode_name(mode), n);
       warn(format("skipped %zu primitives that are not TRIANGLES (%s)", skipped_primitives_,
                   by_mode.c_str()));
     }
@@ -589,18 +291,7 @@ class SceneBuilder {
     mapped = -1;
     tinygltf::Image image = model_.images[size_t(source)];
     std::string why = image.uri.empty() ? "no image data" : "image data missing or undecodable";
-    if (image.image.empty() && image.bufferView >= 0) {
-      const unsigned char* bytes = nullptr;
-      const bool view_ok = size_t(image.bufferView) < model_.bufferViews.size();
-      const size_t length = view_ok ? model_.bufferViews[size_t(image.bufferView)].byteLength : 0;
-      Status s = view_ok ? view_range(model_, image.bufferView, 0, length, bytes)
-                         : Status::error("bufferView %d does not exist", image.bufferView);
-      if (!s) why = s.message();
-      else decode_image(image, bytes, length, why);
-    }
-    const size_t expected = size_t(std::max(image.width, 0)) * size_t(std::max(image.height, 0)) * 4;
-    if (image.image.empty() || image.component != 4 || image.bits != 8 ||
-        image.image.size() != expected || expected == 0) {
+    if (!gltf::resolve_image(model_, image, kMaxPixels, why)) {
       warn(where.substr(name_.size() + 2) +
            format(": image %d could not be used (%s); untextured", source, why.c_str()));
       return -1;
@@ -661,11 +352,6 @@ class SceneBuilder {
     return Status::ok();
   }
 
-  static int attribute(const tinygltf::Primitive& prim, const std::string& key) {
-    auto it = prim.attributes.find(key);
-    return it == prim.attributes.end() ? -1 : it->second;
-  }
-
   Status load_primitive(const tinygltf::Primitive& gp, const std::string& where, Primitive& prim,
                         bool& keep) {
     keep = false;
@@ -676,7 +362,7 @@ class SceneBuilder {
       ++skipped_by_mode_[mode];
       warn_counted("non-TRIANGLES primitives",
                    format("%s: mode %d (%s) is not TRIANGLES; skipped", short_where.c_str(), mode,
-                          mode_name(mode)));
+                          gltf::mode_name(mode)));
       return Status::ok();
     }
     if (gp.extensions.count("KHR_draco_mesh_compression"))
@@ -693,26 +379,22 @@ class SceneBuilder {
     // Positions.
     std::vector<double> pos, nrm, uv;
     int nc = 0;
-    const int pos_acc = attribute(gp, "POSITION");
-    if (pos_acc < 0) return Status::error("%s: no POSITION attribute", where.c_str());
-    Status s = read_accessor(model_, pos_acc, {TINYGLTF_TYPE_VEC3}, pos, nc);
-    if (!s) return s.context(where + ": POSITION");
+    const gltf::AccessorReader reader{model_, kMaxVertices};
+    Status s = reader.read_positions(gp, where, pos);
+    if (!s) return s;
     const size_t n = pos.size() / 3;
     for (size_t i = 0; i < pos.size(); ++i)
       if (!std::isfinite(to_float(pos[i])))
         return Status::error("%s: POSITION (accessor %d) vertex %zu is NaN or infinite", where.c_str(),
-                             pos_acc, i / 3);
+                             gltf::find_attribute(gp, "POSITION"), i / 3);
     prim.positions.resize(n);
     for (size_t i = 0; i < n; ++i)
       prim.positions[i] = glm::vec3(to_float(pos[3 * i]), to_float(pos[3 * i + 1]), to_float(pos[3 * i + 2]));
 
     // Normals: unit length; a NaN or zero normal drops the primitive's normals (face normals used).
-    if (int acc = attribute(gp, "NORMAL"); acc >= 0) {
-      s = read_accessor(model_, acc, {TINYGLTF_TYPE_VEC3}, nrm, nc);
-      if (!s) return s.context(where + ": NORMAL");
-      if (nrm.size() != pos.size())
-        return Status::error("%s: NORMAL has %zu elements, POSITION %zu", where.c_str(),
-                             nrm.size() / 3, n);
+    if (int acc = gltf::find_attribute(gp, "NORMAL"); acc >= 0) {
+      s = reader.read_attribute(acc, "NORMAL", {TINYGLTF_TYPE_VEC3}, false, n, where, nrm, nc);
+      if (!s) return s;
       prim.normals.resize(n);
       for (size_t i = 0; i < n && !prim.normals.empty(); ++i) {
         glm::dvec3 q(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]);
@@ -731,12 +413,9 @@ class SceneBuilder {
     // Texture coordinates of the material's uv set.
     const int set = material_uv_set_[prim.material];
     const std::string uv_key = "TEXCOORD_" + std::to_string(set);
-    if (int acc = attribute(gp, uv_key); acc >= 0) {
-      s = read_accessor(model_, acc, {TINYGLTF_TYPE_VEC2}, uv, nc);
-      if (!s) return s.context(where + ": " + uv_key);
-      if (uv.size() / 2 != n)
-        return Status::error("%s: %s has %zu elements, POSITION %zu", where.c_str(), uv_key.c_str(),
-                             uv.size() / 2, n);
+    if (int acc = gltf::find_attribute(gp, uv_key); acc >= 0) {
+      s = reader.read_attribute(acc, uv_key, {TINYGLTF_TYPE_VEC2}, false, n, where, uv, nc);
+      if (!s) return s;
       if (!std::all_of(uv.begin(), uv.end(), [](double d) { return std::isfinite(to_float(d)); })) {
         warn_counted("bad uvs", short_where + ": " + uv_key + " has NaN or infinite values; untextured");
       } else {
@@ -752,23 +431,8 @@ class SceneBuilder {
 
     // Indices.
     if (gp.indices >= 0) {
-      std::vector<double> raw;
-      s = read_accessor(model_, gp.indices, {TINYGLTF_TYPE_SCALAR}, raw, nc);
-      if (!s) return s.context(where + ": indices");
-      const tinygltf::Accessor& a = model_.accessors[size_t(gp.indices)];
-      const int ct = a.componentType;
-      if (ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
-          ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
-        return Status::error("%s: indices must be unsigned integers (component type %d)",
-                             where.c_str(), ct);
-      if (a.normalized) return Status::error("%s: indices must not be normalized", where.c_str());
-      prim.indices.resize(raw.size());
-      for (size_t i = 0; i < raw.size(); ++i) {
-        if (!(raw[i] < double(n)))
-          return Status::error("%s: index %.0f at position %zu out of range (%zu vertices)",
-                               where.c_str(), raw[i], i, n);
-        prim.indices[i] = static_cast<uint32_t>(raw[i]);
-      }
+      s = reader.read_indices(gp.indices, n, true, where, prim.indices);
+      if (!s) return s;
     } else {
       prim.indices.resize(n);
       for (size_t i = 0; i < n; ++i) prim.indices[i] = static_cast<uint32_t>(i);
@@ -1129,38 +793,6 @@ class SceneBuilder {
   size_t skipped_primitives_ = 0;
 };
 
-Status parse_model(std::string_view data, bool binary, const std::string& name,
-                   const std::string& base_dir, tinygltf::Model& model, std::vector<std::string>& warnings) {
-  const char* file = name.c_str();
-  if (data.size() >= std::numeric_limits<uint32_t>::max())
-    return Status::error("%s: file too large for glTF", file);
-  uint32_t length = static_cast<uint32_t>(data.size());
-  if (binary) {
-    Status s = check_glb(data, file, length);
-    if (!s) return s;
-  }
-  tinygltf::TinyGLTF loader;
-  tinygltf::FsCallbacks fs{&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_whole_file,
-                           &tinygltf::WriteWholeFile, nullptr};
-  loader.SetFsCallbacks(fs);
-  loader.SetImageLoader(&load_image_callback, nullptr);
-  std::string err, warn;
-  const bool ok =
-      binary ? loader.LoadBinaryFromMemory(&model, &err, &warn,
-                                           reinterpret_cast<const unsigned char*>(data.data()), length,
-                                           base_dir)
-             : loader.LoadASCIIFromString(&model, &err, &warn, data.data(), length, base_dir);
-  if (!warn.empty()) warnings.push_back(name + ": " + trim_message(warn));
-  if (!ok) {
-    const bool draco = data.find("KHR_draco_mesh_compression") != std::string_view::npos;
-    return Status::error("%s: invalid glTF: %s%s", file,
-                         err.empty() ? "(no details)" : trim_message(err).c_str(),
-                         draco ? " (the file uses KHR_draco_mesh_compression, which is not supported)"
-                               : "");
-  }
-  return Status::ok();
-}
-
 }  // namespace
 
 Status parse_lsnif_override(const std::string& arg, LsnifOverride& out) {
@@ -1199,7 +831,10 @@ Status load_scene_from_memory(std::string_view data, bool binary, const std::str
   Status s;
   try {
     tinygltf::Model model;
-    s = parse_model(data, binary, name, base_dir, model, out.warnings);
+    gltf::LoadOptions load_options;
+    load_options.max_pixels = kMaxPixels;
+    load_options.max_message_chars = kMaxMessageChars;
+    s = gltf::load_model(data, binary, name, base_dir, load_options, model, out.warnings);
     if (s) s = SceneBuilder(model, name, base_dir, options, out).run();
   } catch (const std::exception& e) {
     s = Status::error("%s: %s while loading the scene", name.c_str(), e.what());
@@ -1220,8 +855,9 @@ Status load_scene(const std::string& path, const SceneLoadOptions& options, Scen
   out = Scene();
   std::vector<unsigned char> bytes;
   std::string err;
-  if (!read_whole_file(&bytes, &err, path, nullptr))
-    return Status::error("%s: cannot read the scene (%s)", path.c_str(), trim_message(err).c_str());
+  if (!gltf::read_whole_file(&bytes, &err, path, nullptr))
+    return Status::error("%s: cannot read the scene (%s)", path.c_str(),
+                         gltf::trim_message(err, kMaxMessageChars).c_str());
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   const bool magic = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
