@@ -173,6 +173,7 @@ Status ComputeContext::init(bool ray_tracing, bool validation) {
   e12.pNext = ray_tracing ? &as_features : nullptr;
   e12.bufferDeviceAddress = VK_TRUE;
   e12.scalarBlockLayout = f12.scalarBlockLayout;  // the path tracer's shaders use scalar layout
+  scalar_block_layout_ = f12.scalarBlockLayout == VK_TRUE;
   VkPhysicalDeviceFeatures2 e2{};
   e2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
   e2.pNext = &e12;

@@ -79,6 +79,8 @@ class ComputeContext {
   // possible afterwards; everything created on the device must be released before.
   void destroy_device();
   VkPhysicalDevice physical_device() const { return physical_; }
+  // Whether the device was created with the scalarBlockLayout feature (enabled when offered).
+  bool scalar_block_layout() const { return scalar_block_layout_; }
 
  private:
   static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
@@ -95,6 +97,7 @@ class ComputeContext {
   VkFence fence_ = VK_NULL_HANDLE;
   std::string device_name_;
   uint32_t warnings_ = 0, errors_ = 0;
+  bool scalar_block_layout_ = false;
 };
 
 }  // namespace lsnif::vk

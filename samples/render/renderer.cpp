@@ -102,6 +102,9 @@ Renderer::~Renderer() {
 
 Status Renderer::create_pipeline() {
   if (pipeline_ready_) return Status::ok();
+  if (!ctx_.scalar_block_layout())
+    return Status::error("device %s lacks the feature scalarBlockLayout (the path tracer's shaders use scalar "
+                         "block layout)", ctx_.device_name().c_str());
   if (Status s = tracer_.init(); !s) return s;
   if (tracer_.max_hit_attribute_size() < sizeof(LsnifHitAttributes))
     return Status::error("device maxRayHitAttributeSize %u < %zu bytes of LSNIF hit attributes",
