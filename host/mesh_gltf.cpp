@@ -12,6 +12,7 @@
 
 #include "gltf_access.h"
 #include "mesh_formats.h"
+#include "mesh_gltf.h"
 
 namespace lsnif::mesh_io {
 namespace {
@@ -21,19 +22,6 @@ constexpr size_t kMaxAccessorCount = size_t(1) << 40;  // elements per accessor
 constexpr int kMaxNodeDepth = 256;
 constexpr size_t kMaxNodeVisits = size_t(1) << 20;
 
-glm::dmat4 local_transform(const tinygltf::Node& node) {
-  if (node.matrix.size() == 16) return glm::make_mat4(node.matrix.data());  // column-major
-  glm::dmat4 m(1.0);
-  if (node.translation.size() == 3)
-    m = glm::translate(m, glm::dvec3(node.translation[0], node.translation[1], node.translation[2]));
-  if (node.rotation.size() == 4)  // glTF stores (x, y, z, w)
-    m *= glm::mat4_cast(glm::dquat(node.rotation[3], node.rotation[0], node.rotation[1],
-                                   node.rotation[2]));
-  if (node.scale.size() == 3)
-    m = glm::scale(m, glm::dvec3(node.scale[0], node.scale[1], node.scale[2]));
-  return m;
-}
-
 class GltfFlattener {
  public:
   GltfFlattener(const tinygltf::Model& model, const std::string& name, Mesh& mesh,
@@ -41,6 +29,29 @@ class GltfFlattener {
       : model_(model), name_(name), mesh_(mesh), report_(report),
         material_map_(model.materials.size(), -1), texture_map_(model.images.size(), -2),
         warned_mesh_(model.meshes.size(), 0) {}
+
+  // Flattens the given parts only (flatten_gltf_meshes).
+  Status run_parts(const std::vector<GltfMeshPart>& parts) {
+    for (const GltfMeshPart& part : parts) {
+      if (part.mesh < 0 || size_t(part.mesh) >= model_.meshes.size())
+        return Status::error("%s: mesh %d does not exist", file(), part.mesh);
+      Status s = add_mesh(part.mesh, part.transform);
+      if (!s) return s;
+    }
+    if (skipped_primitives_)
+      report_.warnings.push_back(format("%s: skipped %u non-triangle primitives (points/lines)",
+                                        file(), skipped_primitives_));
+    if (mesh_.triangles.empty()) return Status::error("%s: no triangle primitives", file());
+    return Status::ok();
+  }
+
+  // glTF material index of every mesh material so far (-1: the default material).
+  std::vector<int> material_sources() const {
+    std::vector<int> out(mesh_.materials.size(), -1);
+    for (size_t g = 0; g < material_map_.size(); ++g)
+      if (material_map_[g] >= 0) out[size_t(material_map_[g])] = int(g);
+    return out;
+  }
 
   Status run() {
     std::vector<int> roots;
@@ -85,7 +96,7 @@ class GltfFlattener {
     if (depth > kMaxNodeDepth || ++visits_ > kMaxNodeVisits)
       return Status::error("%s: node hierarchy too deep or too many node instances", file());
     const tinygltf::Node& node = model_.nodes[size_t(index)];
-    const glm::dmat4 world = parent * local_transform(node);
+    const glm::dmat4 world = parent * gltf_node_transform(node);
     if (node.mesh >= 0) {
       if (size_t(node.mesh) >= model_.meshes.size())
         return Status::error("%s: node %d references missing mesh %d", file(), index, node.mesh);
@@ -304,6 +315,46 @@ class GltfFlattener {
 };
 
 }  // namespace
+}  // namespace lsnif::mesh_io
+
+namespace lsnif {
+
+glm::dmat4 gltf_node_transform(const tinygltf::Node& node) {
+  if (node.matrix.size() == 16) return glm::make_mat4(node.matrix.data());  // column-major
+  glm::dmat4 m(1.0);
+  if (node.translation.size() == 3)
+    m = glm::translate(m, glm::dvec3(node.translation[0], node.translation[1], node.translation[2]));
+  if (node.rotation.size() == 4)  // glTF stores (x, y, z, w)
+    m *= glm::mat4_cast(glm::dquat(node.rotation[3], node.rotation[0], node.rotation[1],
+                                   node.rotation[2]));
+  if (node.scale.size() == 3)
+    m = glm::scale(m, glm::dvec3(node.scale[0], node.scale[1], node.scale[2]));
+  return m;
+}
+
+Status flatten_gltf_meshes(const tinygltf::Model& model, const std::vector<GltfMeshPart>& parts,
+                           const std::string& name, Mesh& mesh, std::vector<int>& material_sources,
+                           MeshImportReport* report) {
+  MeshImportReport local;
+  MeshImportReport& rep = report ? *report : local;
+  mesh = Mesh();
+  material_sources.clear();
+  mesh_io::GltfFlattener flattener(model, name, mesh, rep);
+  if (Status s = flattener.run_parts(parts); !s) {
+    mesh = Mesh();
+    return s;
+  }
+  material_sources = flattener.material_sources();
+  // finalize_mesh only appends a default material when there is none (never here: every
+  // primitive got one), so the sources stay aligned with mesh.materials.
+  Status s = finalize_mesh(mesh, &rep, name);
+  material_sources.resize(mesh.materials.size(), -1);
+  return s;
+}
+
+}  // namespace lsnif
+
+namespace lsnif::mesh_io {
 
 Status parse_gltf(std::string_view data, bool binary, const std::string& name,
                   const std::string& base_dir, Mesh& mesh, MeshImportReport& report) {

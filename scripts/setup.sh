@@ -66,7 +66,7 @@ packages=(
   glslang-tools glslang-dev spirv-tools
   libvulkan-dev libvulkan-volk-dev vulkan-validationlayers vulkan-tools
   libglfw3-dev libopenimageio-dev openimageio-tools
-  xvfb
+  xvfb xauth
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -71,7 +71,11 @@ struct RenderFrame {
   lsnif_uint max_bounces;       /* path vertices after the camera (paper: 4) */
   lsnif_uint rr_depth;          /* Russian roulette from this bounce on */
   lsnif_uint env_importance;    /* 1: next-event estimation with the environment tables */
-  lsnif_uint pad0;
+  lsnif_uint sun_enabled;       /* 1: the sun below is a light (next-event estimation + MIS) */
+  float sun_x, sun_y, sun_z;    /* unit direction towards the sun (world) */
+  float sun_cos_max;            /* cosine of the sun disk's angular radius */
+  float sun_r, sun_g, sun_b;    /* radiance of the disk = irradiance / solid angle */
+  float pad_sun;
 };
 
 /* Push constants: the model table first (LSNIF binding convention), then the frame. */

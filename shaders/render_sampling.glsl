@@ -151,4 +151,19 @@ vec3 render_sample_environment(RenderFrame f, vec2 u, out float pdf) {
   return render_rotate_y(vec3(-sin_t * sin(phi), cos_t, sin_t * cos(phi)), f.env_rotation);
 }
 
+// The sun: a disk of directions within acos(f.sun_cos_max) of the sun direction, uniform radiance.
+// Solid angle 2 pi (1 - cos_max); directions are sampled uniformly in it (pdf = 1 / solid angle).
+float render_sun_pdf(RenderFrame f) { return 1.0 / (2.0 * RENDER_PI * max(1.0 - f.sun_cos_max, 1e-12)); }
+bool render_in_sun(RenderFrame f, vec3 d) {
+  return f.sun_enabled != 0u && dot(d, vec3(f.sun_x, f.sun_y, f.sun_z)) >= f.sun_cos_max;
+}
+vec3 render_sample_sun(RenderFrame f, vec2 u) {
+  const vec3 axis = vec3(f.sun_x, f.sun_y, f.sun_z);
+  const float cos_t = mix(1.0, f.sun_cos_max, u.x), sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+  const float phi = 2.0 * RENDER_PI * u.y;
+  const vec3 t = normalize(abs(axis.x) > 0.9 ? cross(axis, vec3(0, 1, 0)) : cross(axis, vec3(1, 0, 0)));
+  const vec3 b = cross(axis, t);
+  return normalize(cos_t * axis + sin_t * (cos(phi) * t + sin(phi) * b));
+}
+
 #endif

@@ -49,7 +49,7 @@ CliResult train_tiny(const std::string& model) {
 TEST(Cli, HelpForEveryCommand) {
   CliResult top = run_cli("--help");
   EXPECT_EQ(top.code, 0);
-  for (const char* cmd : {"demo", "train", "eval", "info", "devices", "render", "flip"}) {
+  for (const char* cmd : {"demo", "train", "eval", "info", "devices", "render", "flip", "bench", "view", "convert", "bench-trace", "bench-memory"}) {
     EXPECT_NE(top.out.find(cmd), std::string::npos) << cmd;
     CliResult r = run_cli(std::string(cmd) + " --help");
     EXPECT_EQ(r.code, 0) << cmd;
@@ -204,7 +204,7 @@ TEST(Cli, RenderAndDemoWithATinyModel) {
   // The demo's render comparison on the elephant with the tiny model (reused, not retrained).
   const std::string picture = (d / "compare.png").string();
   r = run_cli("demo --reuse --mesh " + kElephant + " -o " + model +
-              " --eval-rays 1000 --width 32 --height 24 --spp 2 --picture " + picture);
+              " --eval-rays 1000 --image-width 32 --image-height 24 --spp 2 --picture " + picture);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(fs::exists(picture));
   for (const char* want : {"reusing", "LDR-FLIP", "geometry memory", "ms per sample"})

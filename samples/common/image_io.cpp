@@ -158,9 +158,7 @@ Status save_impl(const std::string& path, const Image& img) {
   if (ldr) {
     std::vector<uint8_t> bytes(img.rgb.size());
     for (size_t i = 0; i < img.rgb.size(); ++i) {
-      float v = img.rgb[i];
-      v = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
-      bytes[i] = uint8_t(std::lround(linear_to_srgb(v) * 255.0f));
+      bytes[i] = encode_srgb8(img.rgb[i]);
     }
     OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
     spec.attribute("oiio:ColorSpace", "sRGB");
@@ -203,6 +201,11 @@ Status save_image(const std::string& path, const Image& img) {
 float srgb_to_linear(float c) {
   if (c <= 0.04045f) return c / 12.92f;
   return float(std::pow((double(c) + 0.055) / 1.055, 2.4));
+}
+
+uint8_t encode_srgb8(float linear) {
+  const float v = std::isnan(linear) ? 0.0f : std::clamp(linear, 0.0f, 1.0f);
+  return uint8_t(std::lround(linear_to_srgb(v) * 255.0f));
 }
 
 float linear_to_srgb(float c) {

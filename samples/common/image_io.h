@@ -36,5 +36,8 @@ Status save_image(const std::string& path, const Image& img);
 // 1.055 c^(1/2.4) - 0.055). Computed in double, rounded to float once; no clamping.
 float srgb_to_linear(float c);
 float linear_to_srgb(float c);
+// A linear value as a displayed 8-bit sRGB byte: NaN -> 0, clamped to [0, 1], encoded, rounded
+// (what save_image writes to .png and the viewer shows).
+uint8_t encode_srgb8(float linear);
 
 }  // namespace lsnif::image

@@ -13,13 +13,6 @@ namespace {
 
 constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
 
-#define LSNIF_VK_CHECK(call)                                                          \
-  do {                                                                                \
-    const VkResult result_ = (call);                                                  \
-    if (result_ != VK_SUCCESS) return Status::error("%s failed (VkResult %d)", #call, \
-                                                    static_cast<int>(result_));      \
-  } while (0)
-
 }  // namespace
 
 VKAPI_ATTR VkBool32 VKAPI_CALL ComputeContext::on_message(
@@ -54,6 +47,14 @@ ComputeContext::~ComputeContext() {
 }
 
 Status ComputeContext::init(bool ray_tracing, bool validation) {
+  ContextOptions options;
+  options.ray_tracing = ray_tracing;
+  options.validation = validation;
+  return init(options);
+}
+
+Status ComputeContext::init(const ContextOptions& options) {
+  const bool ray_tracing = options.ray_tracing, validation = options.validation;
   if (volkInitialize() != VK_SUCCESS) return Status::error("no Vulkan loader (libvulkan.so.1) found");
 
   if (validation) {
@@ -81,15 +82,28 @@ Status ComputeContext::init(bool ray_tracing, bool validation) {
   app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
   app.pApplicationName = "lsnif";
   app.apiVersion = VK_API_VERSION_1_2;
-  const char* extensions[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
+  std::vector<const char*> extensions;
+  if (validation) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  {
+    uint32_t n = 0;
+    vkEnumerateInstanceExtensionProperties(nullptr, &n, nullptr);
+    std::vector<VkExtensionProperties> available(n);
+    vkEnumerateInstanceExtensionProperties(nullptr, &n, available.data());
+    for (const std::string& name : options.instance_extensions) {
+      bool found = false;
+      for (const VkExtensionProperties& e : available) found |= name == e.extensionName;
+      if (!found) return Status::error("the Vulkan loader lacks the instance extension %s", name.c_str());
+      extensions.push_back(name.c_str());
+    }
+  }
   VkInstanceCreateInfo ici{};
   ici.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
   ici.pNext = validation ? &messenger_info : nullptr;  // also report problems of instance creation
   ici.pApplicationInfo = &app;
   ici.enabledLayerCount = validation ? 1 : 0;
   ici.ppEnabledLayerNames = validation ? &kValidationLayer : nullptr;
-  ici.enabledExtensionCount = validation ? 1 : 0;
-  ici.ppEnabledExtensionNames = validation ? extensions : nullptr;
+  ici.enabledExtensionCount = uint32_t(extensions.size());
+  ici.ppEnabledExtensionNames = extensions.empty() ? nullptr : extensions.data();
   LSNIF_VK_CHECK(vkCreateInstance(&ici, nullptr, &instance_));
   volkLoadInstance(instance_);
   if (validation)
@@ -166,6 +180,18 @@ Status ComputeContext::init(bool ray_tracing, bool validation) {
     rt_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
     rt_features.rayTracingPipeline = VK_TRUE;
     as_features.pNext = &rt_features;
+  }
+
+  if (options.swapchain) {
+    uint32_t ext_count = 0;
+    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &ext_count, nullptr);
+    std::vector<VkExtensionProperties> available(ext_count);
+    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &ext_count, available.data());
+    bool found = false;
+    for (const VkExtensionProperties& e : available)
+      found |= std::strcmp(e.extensionName, VK_KHR_SWAPCHAIN_EXTENSION_NAME) == 0;
+    if (!found) return Status::error("device %s lacks the extension %s", device_name_.c_str(), VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+    device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
   }
 
   VkPhysicalDeviceVulkan12Features e12{};

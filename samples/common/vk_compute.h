@@ -16,6 +16,15 @@
 
 #include "status.h"
 
+// In a function returning Status: returns an error naming the call and its VkResult unless it
+// returned VK_SUCCESS.
+#define LSNIF_VK_CHECK(call)                                                          \
+  do {                                                                                \
+    const VkResult result_ = (call);                                                  \
+    if (result_ != VK_SUCCESS) return Status::error("%s failed (VkResult %d)", #call, \
+                                                    static_cast<int>(result_));      \
+  } while (0)
+
 namespace lsnif::vk {
 
 struct Buffer {
@@ -31,6 +40,16 @@ struct Pipeline {
   VkPipeline pipeline = VK_NULL_HANDLE;
   uint32_t push_size = 0;
   double create_seconds = 0;      // vkCreateComputePipelines wall time (lavapipe compiles here)
+};
+
+// What ComputeContext::init creates besides compute.
+struct ContextOptions {
+  bool ray_tracing = false;  // the ray-tracing extensions and features (vk_raytracing.h)
+  bool validation = true;    // the Khronos validation layer and a counting messenger
+  // Instance extensions to enable (e.g. what glfwGetRequiredInstanceExtensions names for a window
+  // surface); an error names one the loader lacks.
+  std::vector<std::string> instance_extensions;
+  bool swapchain = false;    // VK_KHR_swapchain on the device (presenting to a window)
 };
 
 class ComputeContext {
@@ -49,6 +68,8 @@ class ComputeContext {
   // With `validation` false (benchmarks, samples), no layer and no messenger are used and the
   // validation counts stay 0.
   Status init(bool ray_tracing = false, bool validation = true);
+  // init with more options (window-system extensions for a viewer).
+  Status init(const ContextOptions& options);
   // A host-visible storage buffer of `bytes` with a device address (contents zeroed), with the
   // usage bits `extra_usage` added (e.g. acceleration-structure storage, shader binding table).
   Status create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage = 0);

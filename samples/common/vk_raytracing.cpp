@@ -9,13 +9,6 @@ namespace lsnif::vk {
 
 namespace {
 
-#define LSNIF_VK_CHECK(call)                                                          \
-  do {                                                                                \
-    const VkResult result_ = (call);                                                  \
-    if (result_ != VK_SUCCESS) return Status::error("%s failed (VkResult %d)", #call, \
-                                                    static_cast<int>(result_));      \
-  } while (0)
-
 VkDeviceSize align_up(VkDeviceSize value, VkDeviceSize alignment) {
   return alignment == 0 ? value : (value + alignment - 1) / alignment * alignment;
 }

@@ -15,6 +15,12 @@ void Args::positional(const std::string& name, const std::string& help, std::str
   pos_.push_back({name, help, out, required});
 }
 
+void Args::rest(const std::string& name, const std::string& help, std::vector<std::string>* out) {
+  rest_name_ = name;
+  rest_help_ = help;
+  rest_ = out;
+}
+
 void Args::option(const std::string& name, const std::string& help, std::string* out) {
   opts_.push_back({name, help, "TEXT", out->empty() ? "" : *out, false, [out](const std::string& v) {
                      *out = v;
@@ -66,9 +72,13 @@ void Args::flag(const std::string& name, const std::string& help, bool* out) {
 std::string Args::help() const {
   std::string s = "usage: lsnif " + command_;
   for (const Pos& p : pos_) s += p.required ? " " + p.name : " [" + p.name + "]";
+  if (rest_) s += " [" + rest_name_ + "...]";
   s += " [options]\n\n" + summary_ + "\n";
-  if (!pos_.empty()) s += "\narguments:\n";
+  if (!pos_.empty() || rest_) s += "\narguments:\n";
   for (const Pos& p : pos_) s += "  " + p.name + std::string(p.name.size() < 22 ? 22 - p.name.size() : 1, ' ') + p.help + "\n";
+  if (rest_)
+    s += "  " + rest_name_ + "..." + std::string(rest_name_.size() + 3 < 22 ? 22 - rest_name_.size() - 3 : 1, ' ') +
+         rest_help_ + "\n";
   s += "\noptions:\n";
   for (const Opt& o : opts_) {
     std::string left = "--" + o.name + (o.is_flag ? "" : " " + o.value_name);
@@ -83,6 +93,14 @@ std::string Args::help() const {
 }
 
 int Args::parse(int argc, char** argv) {
+  // Two options of one name would silently share the command line (the last registered wins).
+  for (size_t i = 0; i < opts_.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (opts_[i].name == opts_[j].name) {
+        std::fprintf(stderr, "lsnif %s: internal error: option --%s is registered twice\n", command_.c_str(),
+                     opts_[i].name.c_str());
+        return 2;
+      }
   size_t next_pos = 0;
   for (int i = 0; i < argc; ++i) {
     std::string a = argv[i];
@@ -127,6 +145,10 @@ int Args::parse(int argc, char** argv) {
                      value.c_str(), name.c_str(), opt->value_name.c_str());
         return 2;
       }
+      continue;
+    }
+    if (next_pos >= pos_.size() && rest_) {
+      rest_->push_back(a);
       continue;
     }
     if (next_pos >= pos_.size()) {

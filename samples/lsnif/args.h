@@ -14,6 +14,9 @@ class Args {
   Args(std::string command, std::string summary) : command_(std::move(command)), summary_(std::move(summary)) {}
 
   void positional(const std::string& name, const std::string& help, std::string* out, bool required = true);
+  // Zero or more positionals after those declared with positional(), appended to `out` in order
+  // (shown as "[NAME...]" in the usage line).
+  void rest(const std::string& name, const std::string& help, std::vector<std::string>* out);
   void option(const std::string& name, const std::string& help, std::string* out);
   void option(const std::string& name, const std::string& help, uint32_t* out);
   void option(const std::string& name, const std::string& help, uint64_t* out);
@@ -41,6 +44,8 @@ class Args {
   std::string command_, summary_;
   std::vector<Opt> opts_;
   std::vector<Pos> pos_;
+  std::string rest_name_, rest_help_;
+  std::vector<std::string>* rest_ = nullptr;
   std::vector<std::pair<std::string, std::string>> aliases_;
 };
 

@@ -35,8 +35,8 @@ int cmd_demo(int argc, char** argv) {
   args.option("eval-rays", "held-out rays for the evaluation", &rays);
   args.flag("reuse", "load the model from --output if it exists instead of training", &reuse);
   args.flag("no-render", "skip the rendering comparison", &no_render);
-  args.option("width", "render width", &rs.width);
-  args.option("height", "render height", &rs.height);
+  args.option("image-width", "render width (--width is the network's hidden width)", &rs.width);
+  args.option("image-height", "render height", &rs.height);
   args.option("spp", "render samples per pixel", &rs.spp);
   args.option("hdr", "environment image for the render (empty: constant sky)", &hdr);
   args.option("picture", "side-by-side image (reference | LSNIF | FLIP)", &picture);

@@ -1,7 +1,6 @@
 // lsnif render SCENE: headless path tracing of a glTF scene with LSNIF objects (or, with
 // --reference, their triangle meshes) on the Vulkan device; writes an EXR or PNG.
 #include <cstdio>
-#include <sstream>
 #include <string>
 
 #include "args.h"
@@ -10,40 +9,23 @@
 #include "image_io.h"
 #include "progress.h"
 #include "renderer.h"
-#include "scene_gltf.h"
+#include "scene_args.h"
 #include "vk_compute.h"
 
 namespace lsnif::cli {
 
-namespace {
-
-// "NODE=MODEL[,NODE=MODEL...]" into overrides.
-Status parse_overrides(const std::string& list, std::vector<scene::LsnifOverride>& out) {
-  std::stringstream ss(list);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    scene::LsnifOverride o;
-    if (Status s = scene::parse_lsnif_override(item, o); !s) return s;
-    out.push_back(o);
-  }
-  return Status::ok();
-}
-
-}  // namespace
-
 int cmd_render(int argc, char** argv) {
-  std::string scene_path, output = "render.png", lsnif_list, env_path;
+  std::string output = "render.png";
   uint32_t width = 640, height = 480, spp = 64, bounces = 4;
-  uint32_t camera = 0;
-  float env_intensity = -1.0f, env_rotation = 0.0f;
-  bool reference = false, validation = false, no_camera = false;
+  bool reference = false, validation = false;
+  SceneArgs sa;
   Args args("render",
             "Path traces a glTF scene on the Vulkan device: nodes with an LSNIF object (the scene's "
             "LSNIF_neural_object extension or --lsnif) are traced through the LSNIF plugin, all others as "
             "triangles; --reference traces every node as triangles with the same random sequences. Image-based "
             "lighting from the scene's LSNIF_environment or --env; Lambert + GGX materials. Writes .exr (linear) "
             "or .png (sRGB). Reports time per sample and the device memory of the geometry.");
-  args.positional("SCENE", "glTF scene (.gltf / .glb)", &scene_path);
+  sa.add_to(args);
   args.option("output", "output image (.exr, .hdr, .png)", &output);
   args.alias("-o", "output");
   args.flag("reference", "trace LSNIF nodes as their triangle meshes", &reference);
@@ -51,12 +33,6 @@ int cmd_render(int argc, char** argv) {
   args.option("height", "image height", &height);
   args.option("spp", "samples per pixel", &spp);
   args.option("bounces", "bounces after the camera ray (the paper's 4)", &bounces);
-  args.option("camera", "index of the scene's camera", &camera);
-  args.flag("frame-scene", "ignore the scene's cameras and frame the whole scene", &no_camera);
-  args.option("lsnif", "NODE=MODEL.lsnif[,NODE=MODEL...]: trace these nodes with these models", &lsnif_list);
-  args.option("env", "HDR environment image (.hdr / .exr), replacing the scene's", &env_path);
-  args.option("env-intensity", "environment intensity (default: the scene's)", &env_intensity);
-  args.option("env-rotation", "environment rotation about +y in degrees", &env_rotation);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 on any message)", &validation);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (width == 0 || height == 0 || spp == 0 || width > 16384 || height > 16384) {
@@ -64,26 +40,9 @@ int cmd_render(int argc, char** argv) {
     return 2;
   }
 
-  scene::SceneLoadOptions options;
-  if (Status s = parse_overrides(lsnif_list, options.lsnif_overrides); !lsnif_list.empty() && !s) {
-    std::fprintf(stderr, "lsnif render: --lsnif: %s\n", s.message().c_str());
-    return 2;
-  }
-  if (!env_path.empty()) options.environment.hdr = env_path;
-  if (env_intensity >= 0.0f) options.environment.intensity = env_intensity;
-  if (env_rotation != 0.0f) options.environment.rotation_degrees = env_rotation;
   scene::Scene scene;
-  if (Status s = scene::load_scene(scene_path, options, scene); !s) {
-    std::fprintf(stderr, "lsnif render: %s\n", s.message().c_str());
-    return 1;
-  }
   scene::EnvironmentMap environment;
-  if (!scene.environment.path.empty()) {
-    if (Status s = scene::load_environment_map(scene.environment, environment); !s) {
-      std::fprintf(stderr, "lsnif render: environment: %s\n", s.message().c_str());
-      return 1;
-    }
-  }
+  if (int r = sa.load("render", scene, environment)) return r;
 
   vk::ComputeContext ctx;
   if (Status s = ctx.init(/*ray_tracing=*/true, validation); !s) {
@@ -97,7 +56,7 @@ int cmd_render(int argc, char** argv) {
   settings.spp = spp;
   settings.max_bounces = bounces;
   settings.reference = reference;
-  settings.camera = no_camera ? -1 : int32_t(camera);
+  settings.camera = sa.camera_index();
   settings.environment = environment.width ? &environment : nullptr;
   render::Renderer renderer(ctx);
   image::Image out;
@@ -113,7 +72,7 @@ int cmd_render(int argc, char** argv) {
     std::fprintf(stderr, "lsnif render: %s\n", w.message().c_str());
     return 1;
   }
-  std::printf("scene            %s (%s mode)\n", scene_path.c_str(), reference ? "reference" : "LSNIF");
+  std::printf("scene            %s (%s mode)\n", sa.scene_path.c_str(), reference ? "reference" : "LSNIF");
   std::printf("device           %s\n", ctx.device_name().c_str());
   std::printf("image            %s, %ux%u, %u spp, %u bounces\n", output.c_str(), width, height, spp, bounces);
   std::printf("time             %.2f s, %.2f ms per sample (%.3g s per frame of 1 spp)\n", stats.seconds,

@@ -8,9 +8,9 @@
 
 namespace lsnif::cli {
 
-void TrainOptions::add_to(Args& args) {
+void TrainOptions::add_to(Args& args, const char* output_help) {
   args.alias("-o", "output");
-  args.option("output", "output model file (.lsnif)", &output);
+  args.option("output", output_help, &output);
   args.option("voxels", "voxel resolution V", &voxels);
   args.option("points", "max boundary points H", &points);
   args.option("levels", "hash-grid levels L", &levels);
@@ -107,7 +107,6 @@ bool TrainOptions::to_settings(TrainSettings& s) const {
 int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* trained) {
   TrainSettings settings;
   if (!opts.to_settings(settings)) return 2;
-  if (opts.threads) omp_set_num_threads(int(opts.threads));
   Mesh mesh;
   MeshImportReport import;
   if (Status s = load_mesh(mesh_path, mesh, &import); !s) {
@@ -115,7 +114,15 @@ int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* 
     return 1;
   }
   for (const std::string& w : import.warnings) std::fprintf(stderr, "lsnif: warning: %s\n", w.c_str());
-  std::printf("mesh      %s: %zu triangles, %zu materials\n", mesh_path.c_str(), mesh.triangles.size(),
+  return train_mesh(mesh, mesh_path, opts, trained);
+}
+
+int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& opts, Model* trained,
+               TrainReport* report) {
+  TrainSettings settings;
+  if (!opts.to_settings(settings)) return 2;
+  if (opts.threads) omp_set_num_threads(int(opts.threads));
+  std::printf("mesh      %s: %zu triangles, %zu materials\n", label.c_str(), mesh.triangles.size(),
               mesh.materials.size());
   std::printf("settings  %s (%d threads)\n", settings.describe().c_str(), omp_get_max_threads());
   std::fflush(stdout);
@@ -139,7 +146,9 @@ int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* 
               rep.final_loss.albedo, rep.final_loss.material);
   std::printf("wrote     %s (%.3f MiB, %u occupied voxels) and %s\n", opts.output.c_str(), double(mem.total()) / 1048576.0,
               rep.occupied_voxels, settings.loss_csv.c_str());
+  std::fflush(stdout);
   if (trained) *trained = std::move(model);
+  if (report) *report = rep;
   return 0;
 }
 

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "args.h"
+#include "mesh.h"
 #include "model.h"
 #include "trainer.h"
 
@@ -23,12 +24,19 @@ struct TrainOptions {
   LossSettings loss;
   bool paper = false, quiet = false;
 
-  void add_to(Args& args);
+  // Registers the training options and -o/--output (described by `output_help`).
+  void add_to(Args& args, const char* output_help = "output model file (.lsnif)");
   // Builds trainer settings; returns false (message printed) on an invalid combination.
   bool to_settings(TrainSettings& settings) const;
 };
 
 // Loads the mesh, trains, writes the model (+ CSV) and prints a summary. Returns the exit code.
 int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* trained);
+
+// The same for a mesh already in memory (`label` names it in the summary): trains, writes
+// opts.output (+ CSV), prints the summary; `trained` and `report` (either may be null) receive the
+// model and the trainer's report. Returns the exit code (0 ok, 1 failure, 2 invalid options).
+int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& opts, Model* trained,
+               TrainReport* report = nullptr);
 
 }  // namespace lsnif::cli

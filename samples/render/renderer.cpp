@@ -23,9 +23,8 @@ namespace lsnif::render {
 
 std::string shader_dir() { return LSNIF_RENDER_SHADER_DIR; }
 
-namespace {
-
-// Everything one render allocates on the device; released by the destructor.
+// Everything set_scene allocates on the device, and what a pass needs of the scene; released by
+// the destructor.
 struct DeviceScene {
   vk::ComputeContext& ctx;
   vk::RayTracer& tracer;
@@ -34,6 +33,15 @@ struct DeviceScene {
   std::vector<vk::Buffer> buffers;
   std::vector<vk::AccelerationStructure> blases;
   vk::AccelerationStructure tlas;
+  std::vector<VkAccelerationStructureInstanceKHR> records;  // TLAS records; record i has custom index i
+  std::vector<int64_t> record_model;       // per record: index into `models` (LSNIF) or -1 (triangles)
+  std::vector<std::pair<size_t, size_t>> instance_records;  // per scene instance: first record, count
+  RenderFrame frame{};                    // the scene's part filled in; view and image set per pass
+  RenderFrame* frame_on_device = nullptr;  // mapped RenderFrame buffer
+  uint64_t frame_address = 0, table_address = 0;
+  glm::vec3 lo{0.0f}, hi{0.0f};           // world bounds (for a framing camera)
+  std::vector<scene::Camera> cameras;
+  float env_rotation = 0.0f;
   DeviceScene(vk::ComputeContext& c, vk::RayTracer& t) : ctx(c), tracer(t) {}
   ~DeviceScene() {
     tracer.destroy(tlas);
@@ -57,6 +65,8 @@ struct DeviceScene {
   }
 };
 
+namespace {
+
 bool finite(const glm::mat4& m) {
   for (int c = 0; c < 4; ++c)
     for (int r = 0; r < 4; ++r)
@@ -73,7 +83,9 @@ Transform3x4 to_3x4(const glm::mat4& m) {
 }
 
 // World bounds of the scene's instances (their meshes' vertices; LSNIF-only nodes: the model box).
-void scene_bounds(const scene::Scene& s, const std::vector<Model>& models, glm::vec3& lo, glm::vec3& hi) {
+// `slot` maps an LSNIF object to the object whose model was loaded for it.
+void scene_bounds(const scene::Scene& s, const std::vector<Model>& models, const std::vector<size_t>& slot, glm::vec3& lo,
+                  glm::vec3& hi) {
   lo = glm::vec3(std::numeric_limits<float>::infinity());
   hi = -lo;
   for (const scene::Instance& in : s.instances) {
@@ -86,7 +98,7 @@ void scene_bounds(const scene::Scene& s, const std::vector<Model>& models, glm::
       for (const scene::Primitive& p : s.meshes[size_t(in.mesh)].primitives)
         for (const glm::vec3& v : p.positions) add(v);
     } else if (in.lsnif >= 0) {
-      const Aabb& b = models[size_t(in.lsnif)].bounds();
+      const Aabb& b = models[slot[size_t(in.lsnif)]].bounds();
       for (int k = 0; k < 8; ++k) add(glm::vec3(k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z));
     }
   }
@@ -97,6 +109,8 @@ void scene_bounds(const scene::Scene& s, const std::vector<Model>& models, glm::
 Renderer::Renderer(vk::ComputeContext& ctx) : ctx_(ctx), tracer_(ctx) {}
 
 Renderer::~Renderer() {
+  scene_.reset();
+  release_accumulation();
   if (pipeline_ready_) tracer_.destroy(pipeline_);
 }
 
@@ -122,13 +136,15 @@ Status Renderer::render(const scene::Scene& scene, const RenderSettings& setting
                         RenderStats& stats, const std::function<void(uint32_t)>& progress) {
   stats = RenderStats();
   out = image::Image();
-  if (settings.width == 0 || settings.height == 0 || settings.spp == 0 || settings.samples_per_pass == 0)
-    return Status::error("render: width, height, spp and samples per pass must be positive");
-  if (uint64_t(settings.width) * settings.height > (1u << 26))
-    return Status::error("render: %ux%u pixels is too large", settings.width, settings.height);
+  if (Status s = set_scene(scene, settings.reference, settings.environment); !s) return s;
+  return render(settings, out, stats, progress);
+}
+
+Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scene::EnvironmentMap* environment) {
+  scene_.reset();
+  scene_stats_ = RenderStats();
+  RenderStats& stats = scene_stats_;
   if (scene.instances.empty()) return Status::error("render: the scene %s has no objects", scene.path.c_str());
-  if (settings.camera >= 0 && size_t(settings.camera) >= scene.cameras.size() && !scene.cameras.empty())
-    return Status::error("render: camera %d does not exist (the scene has %zu)", settings.camera, scene.cameras.size());
   if (Status s = create_pipeline(); !s) return s;
 
   // LSNIF models the mode uses.
@@ -136,19 +152,37 @@ Status Renderer::render(const scene::Scene& scene, const RenderSettings& setting
   std::vector<bool> model_used(models.size(), false);
   for (const scene::Instance& in : scene.instances) {
     if (!finite(in.object_to_world)) return Status::error("node '%s' has a non-finite transform", in.node_name.c_str());
-    const bool use_lsnif = in.lsnif >= 0 && !settings.reference;
+    const bool use_lsnif = in.lsnif >= 0 && !reference;
     if (in.lsnif >= 0 && size_t(in.lsnif) >= models.size())
       return Status::error("node '%s' names LSNIF object %d of %zu", in.node_name.c_str(), in.lsnif, models.size());
     if (in.mesh >= 0 && size_t(in.mesh) >= scene.meshes.size())
       return Status::error("node '%s' names mesh %d of %zu", in.node_name.c_str(), in.mesh, scene.meshes.size());
     if (!use_lsnif && in.mesh < 0)
       return Status::error("node '%s' has no triangle mesh%s", in.node_name.c_str(),
-                           settings.reference ? " for the reference mode" : "");
+                           reference ? " for the reference mode" : "");
     if (use_lsnif) model_used[size_t(in.lsnif)] = true;
+  }
+  // Objects naming the same file (e.g. with different material maps) share one model on the device:
+  // slot[i] is the first such object, the one that is loaded and uploaded.
+  // A loaded scene's relative model path resolves against the scene file's folder (resolved_path).
+  auto file_of = [&](size_t i) -> const std::string& {
+    const scene::LsnifObject& obj = scene.lsnif_objects[i];
+    return obj.resolved_path.empty() ? obj.model_path : obj.resolved_path;
+  };
+  std::vector<size_t> slot(models.size());
+  for (size_t i = 0; i < models.size(); ++i) {
+    slot[i] = i;
+    for (size_t j = 0; j < i; ++j)
+      if (model_used[j] && file_of(j) == file_of(i)) {
+        slot[i] = j;
+        break;
+      }
   }
   for (size_t i = 0; i < models.size(); ++i) {
     if (!model_used[i]) continue;
-    if (Status s = load_model(scene.lsnif_objects[i].model_path, models[i]); !s) return s;
+    if (slot[i] == i) {
+      if (Status s = load_model(file_of(i), models[i]); !s) return s;
+    }
     if (scene.lsnif_objects[i].material_map.empty())
       return Status::error("LSNIF object %s has an empty material map", scene.lsnif_objects[i].model_path.c_str());
     for (uint32_t m : scene.lsnif_objects[i].material_map)
@@ -157,11 +191,12 @@ Status Renderer::render(const scene::Scene& scene, const RenderSettings& setting
                              scene.materials.size());
   }
 
-  DeviceScene dev(ctx_, tracer_);
+  auto dev_owner = std::make_unique<DeviceScene>(ctx_, tracer_);
+  DeviceScene& dev = *dev_owner;
   if (Status s = plugin::create_context(vk::plugin_handles(ctx_), dev.plugin); !s) return s;
   dev.models.resize(models.size());
   for (size_t i = 0; i < models.size(); ++i) {
-    if (!model_used[i]) continue;
+    if (!model_used[i] || slot[i] != i) continue;
     if (Status s = dev.plugin.upload_model(models[i], dev.models[i]); !s)
       return s.context(scene.lsnif_objects[i].model_path.c_str());
     plugin::ModelMemory mem;
@@ -197,7 +232,7 @@ Status Renderer::render(const scene::Scene& scene, const RenderSettings& setting
   std::vector<std::vector<uint32_t>> mesh_primitives(scene.meshes.size());  // -> primitives / blases index
   std::vector<bool> mesh_used(scene.meshes.size(), false);
   for (const scene::Instance& in : scene.instances)
-    if (!(in.lsnif >= 0 && !settings.reference)) mesh_used[size_t(in.mesh)] = true;
+    if (!(in.lsnif >= 0 && !reference)) mesh_used[size_t(in.mesh)] = true;
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     if (!mesh_used[m]) continue;
     for (const scene::Primitive& p : scene.meshes[m].primitives) {
@@ -238,18 +273,21 @@ Status Renderer::render(const scene::Scene& scene, const RenderSettings& setting
   std::vector<uint32_t> material_maps;
   std::vector<VkAccelerationStructureInstanceKHR> records;
   for (const scene::Instance& in : scene.instances) {
-    if (in.lsnif >= 0 && !settings.reference) {
+    dev.instance_records.emplace_back(records.size(), 0);
+    if (in.lsnif >= 0 && !reference) {
       const scene::LsnifObject& obj = scene.lsnif_objects[size_t(in.lsnif)];
       RenderInstance ri{RENDER_INSTANCE_LSNIF, 0, uint32_t(material_maps.size()), uint32_t(obj.material_map.size())};
       material_maps.insert(material_maps.end(), obj.material_map.begin(), obj.material_map.end());
       VkAccelerationStructureInstanceKHR rec;
-      if (Status s = dev.plugin.make_instance(dev.models[size_t(in.lsnif)], to_3x4(in.object_to_world),
+      if (Status s = dev.plugin.make_instance(dev.models[slot[size_t(in.lsnif)]], to_3x4(in.object_to_world),
                                               uint32_t(instances.size()), 0xFF, 0, rec);
           !s)
         return s.context(("node '" + in.node_name + "'").c_str());
-      model_table.push_back(dev.plugin.model_address(dev.models[size_t(in.lsnif)]));
+      model_table.push_back(dev.plugin.model_address(dev.models[slot[size_t(in.lsnif)]]));
       instances.push_back(ri);
       records.push_back(rec);
+      dev.record_model.push_back(int64_t(slot[size_t(in.lsnif)]));
+      dev.instance_records.back().second = 1;
       ++stats.lsnif_instances;
       continue;
     }
@@ -266,49 +304,35 @@ Status Renderer::render(const scene::Scene& scene, const RenderSettings& setting
       instances.push_back({RENDER_INSTANCE_TRIANGLES, prim, 0, 0});
       model_table.push_back(0);
       records.push_back(rec);
+      dev.record_model.push_back(-1);
+      ++dev.instance_records.back().second;
       ++stats.triangle_instances;
     }
   }
   if (instances.size() >= (1u << 24)) return Status::error("render: %zu TLAS instances exceed 2^24", instances.size());
-  if (Status s = tracer_.build_tlas(records, dev.tlas); !s) return s;
+  // Built for updates: move_instance refits it.
+  if (Status s = tracer_.build_tlas(records, dev.tlas, /*allow_update=*/true); !s) return s;
+  dev.records = std::move(records);
   stats.tlas_bytes = dev.tlas.storage.size;
 
-  // Camera.
-  glm::mat4 cam(1.0f);
-  float yfov = 0.8f, aspect = float(settings.width) / float(settings.height);
-  if (settings.camera >= 0 && size_t(settings.camera) < scene.cameras.size()) {
-    const scene::Camera& c = scene.cameras[size_t(settings.camera)];
-    cam = c.camera_to_world;
-    yfov = c.yfov;
-    if (!finite(cam) || !(yfov > 0.0f && yfov < 3.1f))
-      return Status::error("camera '%s' has a non-finite transform or a field of view outside (0, pi)", c.name.c_str());
-  } else {  // frame the scene from the front-right-top
-    glm::vec3 lo, hi;
-    scene_bounds(scene, models, lo, hi);
-    const glm::vec3 center = 0.5f * (lo + hi);
-    const float radius = 0.5f * glm::length(hi - lo);
-    const glm::vec3 eye = center + radius / std::tan(0.5f * yfov) * glm::normalize(glm::vec3(0.6f, 0.4f, 1.0f));
-    const glm::vec3 fwd = glm::normalize(center - eye), right = glm::normalize(glm::cross(fwd, glm::vec3(0, 1, 0)));
-    const glm::vec3 up = glm::cross(right, fwd);
-    cam = glm::mat4(glm::vec4(right, 0), glm::vec4(up, 0), glm::vec4(-fwd, 0), glm::vec4(eye, 1));
-  }
+  // What camera_view needs.
+  scene_bounds(scene, models, slot, dev.lo, dev.hi);
+  dev.cameras = scene.cameras;
 
   // Frame data.
-  RenderFrame frame{};
-  const size_t pixels = size_t(settings.width) * settings.height;
+  RenderFrame& frame = dev.frame;
   if (Status s = dev.upload(instances, frame.instances); !s) return s;
   if (Status s = dev.upload(primitives.empty() ? std::vector<RenderPrimitive>(1) : primitives, frame.primitives); !s) return s;
   if (Status s = dev.upload(materials, frame.materials); !s) return s;
   if (Status s = dev.upload(material_maps.empty() ? std::vector<uint32_t>(1) : material_maps, frame.material_maps); !s) return s;
   if (Status s = dev.upload(textures.empty() ? std::vector<RenderTexture>(1) : textures, frame.textures); !s) return s;
-  if (Status s = dev.upload(nullptr, pixels * 16, frame.accumulation); !s) return s;
   const scene::Environment& env = scene.environment;
   frame.env_r = env.color.r;
   frame.env_g = env.color.g;
   frame.env_b = env.color.b;
   frame.env_rotation = env.rotation;
-  if (settings.environment && settings.environment->width > 0) {
-    const scene::EnvironmentMap& e = *settings.environment;
+  if (environment && environment->width > 0) {
+    const scene::EnvironmentMap& e = *environment;
     if (e.radiance.size() != size_t(e.width) * e.height * 3 || e.pdf_table.size() != size_t(e.width) * e.height)
       return Status::error("render: the environment map's tables do not match its %ux%u size", e.width, e.height);
     if (Status s = dev.upload(e.radiance, frame.environment); !s) return s;
@@ -318,55 +342,181 @@ Status Renderer::render(const scene::Scene& scene, const RenderSettings& setting
     frame.env_rotation = e.rotation;
     frame.env_importance = e.integral > 0 ? 1u : 0u;
   }
-  frame.width = settings.width;
-  frame.height = settings.height;
+  if (scene.sun.enabled) {
+    const scene::Sun& sun = scene.sun;
+    const float len = glm::length(sun.direction);
+    if (!(len > 0.0f) || !std::isfinite(len) || !(sun.angular_diameter > 0.0f && sun.angular_diameter < 1.6f) ||
+        !std::isfinite(sun.irradiance.x + sun.irradiance.y + sun.irradiance.z) ||
+        glm::any(glm::lessThan(sun.irradiance, glm::vec3(0.0f))))
+      return Status::error("render: the sun needs a non-zero direction, an angular diameter in (0, 90) degrees and a "
+                           "finite irradiance >= 0");
+    const glm::vec3 d = sun.direction / len;
+    // The solid angle from the float cosine the shader tests and samples with, so that sampling the
+    // disk delivers exactly `irradiance` to a surface facing it.
+    const float cos_max = float(std::cos(0.5 * double(sun.angular_diameter)));
+    const double solid_angle = 2.0 * 3.14159265358979323846 * (1.0 - double(cos_max));
+    frame.sun_enabled = 1;
+    frame.sun_x = d.x;
+    frame.sun_y = d.y;
+    frame.sun_z = d.z;
+    frame.sun_cos_max = cos_max;
+    frame.sun_r = float(double(sun.irradiance.x) / solid_angle);
+    frame.sun_g = float(double(sun.irradiance.y) / solid_angle);
+    frame.sun_b = float(double(sun.irradiance.z) / solid_angle);
+  }
+  dev.env_rotation = frame.env_rotation;
+  if (Status s = dev.upload(&frame, sizeof frame, dev.frame_address); !s) return s;
+  dev.frame_on_device = static_cast<RenderFrame*>(dev.buffers.back().mapped);
+  if (Status s = dev.upload(model_table, dev.table_address); !s) return s;
+  scene_ = std::move(dev_owner);
+  width_ = height_ = accumulated_ = 0;  // a new scene starts a new image
+  return Status::ok();
+}
+
+Status Renderer::camera_view(int32_t camera, View& out) const {
+  if (!scene_) return Status::error("render: no scene set");
+  out = View();
+  if (camera >= 0 && !scene_->cameras.empty()) {
+    if (size_t(camera) >= scene_->cameras.size())
+      return Status::error("render: camera %d does not exist (the scene has %zu)", camera, scene_->cameras.size());
+    const scene::Camera& c = scene_->cameras[size_t(camera)];
+    if (!finite(c.camera_to_world) || !(c.yfov > 0.0f && c.yfov < 3.1f))
+      return Status::error("camera '%s' has a non-finite transform or a field of view outside (0, pi)", c.name.c_str());
+    out.camera_to_world = c.camera_to_world;
+    out.yfov = c.yfov;
+    return Status::ok();
+  }
+  // Frame the scene from the front-right-top.
+  const glm::vec3 center = 0.5f * (scene_->lo + scene_->hi);
+  const float radius = 0.5f * glm::length(scene_->hi - scene_->lo);
+  const glm::vec3 eye = center + radius / std::tan(0.5f * out.yfov) * glm::normalize(glm::vec3(0.6f, 0.4f, 1.0f));
+  const glm::vec3 fwd = glm::normalize(center - eye), right = glm::normalize(glm::cross(fwd, glm::vec3(0, 1, 0)));
+  const glm::vec3 up = glm::cross(right, fwd);
+  out.camera_to_world = glm::mat4(glm::vec4(right, 0), glm::vec4(up, 0), glm::vec4(-fwd, 0), glm::vec4(eye, 1));
+  return Status::ok();
+}
+
+Status Renderer::move_instance(size_t instance, const glm::mat4& object_to_world) {
+  if (!scene_) return Status::error("render: no scene set");
+  DeviceScene& dev = *scene_;
+  if (instance >= dev.instance_records.size())
+    return Status::error("render: instance %zu does not exist (the scene has %zu)", instance, dev.instance_records.size());
+  const Transform3x4 xf = to_3x4(object_to_world);
+  if (Status s = plugin::check_instance_transform(xf); !s) return s;
+  const auto [first, count] = dev.instance_records[instance];
+  for (size_t r = first; r < first + count; ++r) {
+    if (dev.record_model[r] >= 0) {
+      VkAccelerationStructureInstanceKHR rec;
+      if (Status s = dev.plugin.make_instance(dev.models[size_t(dev.record_model[r])], xf, uint32_t(r), 0xFF, 0, rec); !s)
+        return s;
+      dev.records[r] = rec;
+    } else {
+      std::memcpy(&dev.records[r].transform, xf.m, sizeof(dev.records[r].transform));
+    }
+  }
+  return tracer_.update_tlas(dev.records, dev.tlas);
+}
+
+bool Renderer::world_bounds(glm::vec3& lo, glm::vec3& hi) const {
+  if (!scene_) return false;
+  lo = scene_->lo;
+  hi = scene_->hi;
+  return true;
+}
+
+void Renderer::release_accumulation() {
+  if (accumulation_.buffer) ctx_.destroy_buffer(accumulation_);
+  accumulation_ = vk::Buffer();
+  width_ = height_ = accumulated_ = 0;
+}
+
+Status Renderer::reset_accumulation(uint32_t width, uint32_t height) {
+  if (width == 0 || height == 0) return Status::error("render: width and height must be positive");
+  if (uint64_t(width) * height > (1u << 26)) return Status::error("render: %ux%u pixels is too large", width, height);
+  if (width != width_ || height != height_ || !accumulation_.buffer) {
+    release_accumulation();
+    if (Status s = ctx_.create_buffer(size_t(width) * height * 16, accumulation_); !s) return s;
+    width_ = width;
+    height_ = height;
+  } else {
+    std::memset(accumulation_.mapped, 0, size_t(width) * height * 16);
+  }
+  accumulated_ = 0;
+  return Status::ok();
+}
+
+Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces,
+                            uint32_t rr_depth) {
+  if (!scene_) return Status::error("render: no scene set");
+  if (!accumulation_.buffer) return Status::error("render: reset_accumulation before accumulate");
+  if (samples == 0) return Status::ok();
+  if (!finite(view.camera_to_world) || !(view.yfov > 0.0f && view.yfov < 3.1f) || !std::isfinite(view.env_rotation))
+    return Status::error("render: the view has a non-finite transform or rotation or a field of view outside (0, pi)");
+  RenderFrame frame = scene_->frame;
+  frame.accumulation = accumulation_.address;
+  frame.width = width_;
+  frame.height = height_;
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) frame.cam_to_world[r * 4 + c] = cam[c][r];
-  frame.tan_half_fov_y = std::tan(0.5f * yfov);
-  frame.aspect = aspect;
-  frame.max_bounces = settings.max_bounces;
-  frame.rr_depth = settings.rr_depth;
-  uint64_t frame_address = 0;
-  if (Status s = dev.upload(&frame, sizeof frame, frame_address); !s) return s;
-  uint64_t table_address = 0;
-  if (Status s = dev.upload(model_table, table_address); !s) return s;
+    for (int c = 0; c < 4; ++c) frame.cam_to_world[r * 4 + c] = view.camera_to_world[c][r];
+  frame.tan_half_fov_y = std::tan(0.5f * view.yfov);
+  frame.aspect = float(width_) / float(height_);
+  frame.env_rotation = scene_->env_rotation + view.env_rotation;
+  frame.max_bounces = max_bounces;
+  frame.rr_depth = rr_depth;
+  std::memcpy(scene_->frame_on_device, &frame, sizeof frame);
+  RenderPush push{};
+  push.model_table = scene_->table_address;
+  push.frame = scene_->frame_address;
+  push.sample_index = first_sample;
+  push.samples = samples;
+  if (Status s = tracer_.trace(pipeline_, scene_->tlas, &push, width_ * height_); !s) return s.context("render pass");
+  accumulated_ += samples;
+  return Status::ok();
+}
 
-  // Passes. A first 1-sample pass, discarded, makes the driver compile the pipeline (lavapipe does it
-  // on first use), so the timed passes measure tracing only.
-  float* acc = nullptr;
-  for (const vk::Buffer& b : dev.buffers)
-    if (b.address == frame.accumulation) acc = static_cast<float*>(b.mapped);
-  if (settings.warm_up) {
-    RenderPush push{};
-    push.model_table = table_address;
-    push.frame = frame_address;
-    push.sample_index = settings.first_sample;
-    push.samples = 1;
-    if (Status s = tracer_.trace(pipeline_, dev.tlas, &push, uint32_t(pixels)); !s) return s.context("warm-up pass");
-    std::memset(acc, 0, pixels * 16);
-  }
-  const auto t0 = std::chrono::steady_clock::now();
-  uint32_t done = 0;
-  while (done < settings.spp) {
-    RenderPush push{};
-    push.model_table = table_address;
-    push.frame = frame_address;
-    push.sample_index = settings.first_sample + done;
-    push.samples = std::min(settings.samples_per_pass, settings.spp - done);
-    if (Status s = tracer_.trace(pipeline_, dev.tlas, &push, uint32_t(pixels)); !s) return s.context("render pass");
-    done += push.samples;
-    if (progress) progress(done);
-  }
-  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  stats.ms_per_sample = stats.seconds * 1000.0 / settings.spp;
-
-  out.width = settings.width;
-  out.height = settings.height;
-  out.rgb.resize(pixels * 3);
+void Renderer::resolve(image::Image& out) const {
+  out = image::Image();
+  out.width = width_;
+  out.height = height_;
+  const size_t pixels = size_t(width_) * height_;
+  out.rgb.assign(pixels * 3, 0.0f);
+  if (!accumulation_.buffer) return;
+  const float* acc = static_cast<const float*>(accumulation_.mapped);
   for (size_t i = 0; i < pixels; ++i) {
     const float w = acc[i * 4 + 3];
     for (int k = 0; k < 3; ++k) out.rgb[i * 3 + size_t(k)] = w > 0 ? acc[i * 4 + size_t(k)] / w : 0.0f;
   }
+}
+
+Status Renderer::render(const RenderSettings& settings, image::Image& out, RenderStats& stats,
+                        const std::function<void(uint32_t)>& progress) {
+  stats = scene_stats_;
+  out = image::Image();
+  if (!scene_) return Status::error("render: no scene set");
+  if (settings.width == 0 || settings.height == 0 || settings.spp == 0 || settings.samples_per_pass == 0)
+    return Status::error("render: width, height, spp and samples per pass must be positive");
+  View view;
+  if (Status s = camera_view(settings.camera, view); !s) return s;
+  if (Status s = reset_accumulation(settings.width, settings.height); !s) return s;
+  // A first 1-sample pass, discarded, makes the driver compile the pipeline (lavapipe does it on
+  // first use), so the timed passes measure tracing only.
+  if (settings.warm_up) {
+    if (Status s = accumulate(view, settings.first_sample, 1, settings.max_bounces, settings.rr_depth); !s)
+      return s.context("warm-up");
+    if (Status s = reset_accumulation(settings.width, settings.height); !s) return s;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  uint32_t done = 0;
+  while (done < settings.spp) {
+    const uint32_t n = std::min(settings.samples_per_pass, settings.spp - done);
+    if (Status s = accumulate(view, settings.first_sample + done, n, settings.max_bounces, settings.rr_depth); !s)
+      return s;
+    done += n;
+    if (progress) progress(done);
+  }
+  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  stats.ms_per_sample = stats.seconds * 1000.0 / settings.spp;
+  resolve(out);
   return Status::ok();
 }
 

@@ -6,8 +6,11 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
+
+#include <glm/glm.hpp>
 
 #include "environment.h"
 #include "image_io.h"
@@ -45,6 +48,16 @@ struct RenderStats {
   uint64_t triangles = 0;           // triangles of the meshes in use (unique, not per instance)
 };
 
+// Where the camera is and which way the environment faces, for one pass (a viewer changes it
+// between frames; render() takes it from RenderSettings::camera).
+struct View {
+  glm::mat4 camera_to_world{1.0f};  // looks down -z, y up (glTF convention)
+  float yfov = 0.8f;                 // radians, in (0, pi)
+  float env_rotation = 0.0f;         // radians about +y added to the environment's own rotation
+};
+
+struct DeviceScene;  // renderer.cpp: everything set_scene allocated on the device
+
 class Renderer {
  public:
   // `ctx` must be initialized with ray tracing (ComputeContext::init(true, ...)) and outlive this.
@@ -53,19 +66,59 @@ class Renderer {
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
 
-  // Renders `scene` into `out` (linear RGB, the mean of the samples). `progress` (may be empty) is
-  // called after every pass with the samples done. Fails, naming the problem, on an empty scene, a
-  // node without the geometry the mode needs, an unreadable or inconsistent .lsnif file, a bad
-  // camera index or a device error; everything allocated is released either way.
+  // One-shot: set_scene(scene, settings.reference, settings.environment), then render(settings, ...).
   Status render(const scene::Scene& scene, const RenderSettings& settings, image::Image& out, RenderStats& stats,
                 const std::function<void(uint32_t)>& progress = {});
 
+  // Uploads `scene` in one mode (`reference`: every LSNIF node as its triangle mesh) with its
+  // environment map (null: the scene's constant color; the map must outlive nothing, it is copied
+  // to the device) and builds the TLAS, replacing the scene set before. Fails, naming the problem,
+  // on an empty scene, a node without the geometry the mode needs, a non-finite transform, an
+  // unreadable or inconsistent .lsnif file or a device error; on failure no scene is set.
+  Status set_scene(const scene::Scene& scene, bool reference, const scene::EnvironmentMap* environment);
+  bool has_scene() const { return scene_ != nullptr; }
+  // Memory and instance counts of the scene set (times are 0).
+  const RenderStats& scene_stats() const { return scene_stats_; }
+  // Moves scene instance `instance` (an index into the Scene::instances given to set_scene) to
+  // `object_to_world` by refitting the TLAS (no re-upload); the accumulation is not reset. Fails on
+  // a bad index, a non-finite or singular transform, no scene set or a device error.
+  Status move_instance(size_t instance, const glm::mat4& object_to_world);
+  // World bounds of the scene set (its instances' vertices, LSNIF-only nodes: the model box);
+  // false without a scene.
+  bool world_bounds(glm::vec3& lo, glm::vec3& hi) const;
+
+  // Renders the scene set into `out` (linear RGB, the mean of settings.spp samples; the fields
+  // `reference` and `environment` of `settings` are not used: they belong to set_scene).
+  // `progress` (may be empty) is called after every pass with the samples done. Fails on bad
+  // settings, a bad camera index, no scene set or a device error.
+  Status render(const RenderSettings& settings, image::Image& out, RenderStats& stats,
+                const std::function<void(uint32_t)>& progress = {});
+
+  // The view of RenderSettings::camera for a width x height image: the scene's camera `camera`,
+  // or for -1 / a scene without cameras one that frames the whole scene. Fails on a bad index or
+  // a camera with a non-finite transform or a field of view outside (0, pi).
+  Status camera_view(int32_t camera, View& out) const;
+
+  // Progressive rendering (the viewer): reset_accumulation clears (and sizes) the accumulation
+  // image; accumulate traces `samples` more samples per pixel, numbered from `first_sample`, from
+  // `view` and adds them; resolve writes the mean so far (black before any sample).
+  Status reset_accumulation(uint32_t width, uint32_t height);
+  Status accumulate(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces = 4,
+                    uint32_t rr_depth = 4);
+  void resolve(image::Image& out) const;
+  uint32_t accumulated_samples() const { return accumulated_; }
+
  private:
   Status create_pipeline();
+  void release_accumulation();
   vk::ComputeContext& ctx_;
   vk::RayTracer tracer_;
   vk::RtPipeline pipeline_{};
   bool pipeline_ready_ = false;
+  std::unique_ptr<DeviceScene> scene_;
+  RenderStats scene_stats_;
+  vk::Buffer accumulation_{};
+  uint32_t width_ = 0, height_ = 0, accumulated_ = 0;
 };
 
 // Path of the compiled shaders of this renderer (build tree).

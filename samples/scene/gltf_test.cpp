@@ -779,6 +779,39 @@ TEST(GltfEnvironment, ExtensionAndOverrides) {
   EXPECT_FALSE(load_doc(synthetic_doc(), dir, s, neg));
 }
 
+TEST(GltfEnvironment, Sun) {
+  TempDir dir;
+  json d = synthetic_doc();
+  Scene s;
+  ASSERT_TRUE(load_doc(d, dir, s));
+  EXPECT_FALSE(s.sun.enabled);  // no sun unless asked for
+  d["extensions"]["LSNIF_environment"] = {
+      {"sun", {{"direction", {0, 3, 4}}, {"color", {1, 0.5, 0.25}}, {"intensity", 4}, {"angular_diameter_degrees", 1}}}};
+  Status st = load_doc(d, dir, s);
+  ASSERT_TRUE(st) << st.message();
+  EXPECT_TRUE(s.sun.enabled);
+  EXPECT_NEAR(s.sun.direction.y, 0.6f, 1e-6f);
+  EXPECT_NEAR(s.sun.direction.z, 0.8f, 1e-6f);
+  EXPECT_EQ(s.sun.irradiance, glm::vec3(4, 2, 1));
+  EXPECT_NEAR(s.sun.angular_diameter, std::numbers::pi / 180.0, 1e-7);
+  const std::vector<std::pair<json, const char*>> bad = {
+      {{{"color", {1, 1, 1}}}, "direction"},
+      {{{"direction", {0, 0, 0}}}, "non-zero"},
+      {{{"direction", {0, 1}}}, "direction"},
+      {{{"direction", {0, 1, 0}}, {"intensity", -1}}, "irradiance"},
+      {{{"direction", {0, 1, 0}}, {"angular_diameter_degrees", 0}}, "angular diameter"},
+      {{{"direction", {0, 1, 0}}, {"angular_diameter_degrees", 120}}, "angular diameter"},
+      {json::array({1, 2}), "sun"},
+  };
+  for (const auto& [sun, expected] : bad) {
+    json e = synthetic_doc();
+    e["extensions"]["LSNIF_environment"] = {{"sun", sun}};
+    Status es = load_doc(e, dir, s);
+    EXPECT_FALSE(es) << sun.dump();
+    EXPECT_TRUE(contains(es.message(), expected)) << sun.dump() << ": " << es.message();
+  }
+}
+
 // ---- the example scene for the renderer ---------------------------------------------------------
 
 TEST(GltfExample, BunnyOnPlane) {

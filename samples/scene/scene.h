@@ -86,6 +86,16 @@ struct Environment {
   // importance-sampling tables: environment.h.
 };
 
+// A distant light (the sun): a uniformly bright disk of `angular_diameter` about `direction`,
+// sampled by next-event estimation. `irradiance` is what it delivers to a surface facing it
+// (linear RGB); its radiance is irradiance / (the disk's solid angle).
+struct Sun {
+  bool enabled = false;
+  glm::vec3 direction{0.0f, 1.0f, 0.0f};  // unit, from the scene towards the sun (world space)
+  glm::vec3 irradiance{0.0f};
+  float angular_diameter = 0.00925f;      // radians (0.53 degrees, the real sun's)
+};
+
 struct Scene {
   std::string path;  // the file it came from
   std::vector<Texture> textures;
@@ -95,6 +105,7 @@ struct Scene {
   std::vector<Instance> instances;
   std::vector<Camera> cameras;
   Environment environment;
+  Sun sun;  // LSNIF_environment "sun" (docs/scene-format.md) or --sun
   // Added by scene_gltf.cpp: what load_scene reported besides errors (skipped primitives and
   // cameras, ignored extensions, undecodable textures, ...), one line each, also printed to stderr
   // unless SceneLoadOptions::quiet.

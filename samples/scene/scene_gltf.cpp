@@ -9,6 +9,8 @@
 // here.
 #include "scene_gltf.h"
 
+#include "scene_edit.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -716,6 +718,37 @@ class SceneBuilder {
     return Status::ok();
   }
 
+  // LSNIF_environment "sun": {"direction": [x, y, z], "color": [r, g, b], "intensity": E,
+  // "angular_diameter_degrees": D}; irradiance = color * intensity.
+  Status load_sun(const tinygltf::Value& v, const std::string& where) {
+    if (!v.IsObject()) return Status::error("%s must be a JSON object", where.c_str());
+    glm::dvec3 direction(0.0), color(1.0);
+    double intensity = 1.0, diameter = 0.53;
+    bool has_direction = false;
+    auto vec3_of = [](const tinygltf::Value& f, glm::dvec3& out) {
+      return f.IsArray() && f.ArrayLen() == 3 && number_of(f.Get(0), out.x) && number_of(f.Get(1), out.y) &&
+             number_of(f.Get(2), out.z);
+    };
+    for (const std::string& key : v.Keys()) {
+      const tinygltf::Value& f = v.Get(key);
+      if (key == "direction") {
+        if (!vec3_of(f, direction)) return Status::error("%s: \"direction\" must be 3 finite numbers", where.c_str());
+        has_direction = true;
+      } else if (key == "color") {
+        if (!vec3_of(f, color)) return Status::error("%s: \"color\" must be 3 finite numbers", where.c_str());
+      } else if (key == "intensity") {
+        if (!number_of(f, intensity)) return Status::error("%s: \"intensity\" must be a finite number", where.c_str());
+      } else if (key == "angular_diameter_degrees") {
+        if (!number_of(f, diameter))
+          return Status::error("%s: \"angular_diameter_degrees\" must be a finite number", where.c_str());
+      } else {
+        warn(format("%s: unknown property \"%s\" ignored", where.c_str(), excerpt(key).c_str()));
+      }
+    }
+    if (!has_direction) return Status::error("%s needs a \"direction\" (towards the sun)", where.c_str());
+    return make_sun(direction, color * intensity, diameter, where, scene_.sun);
+  }
+
   Status load_environment() {
     Environment& env = scene_.environment;
     env = Environment();
@@ -742,6 +775,8 @@ class SceneBuilder {
         } else if (key == "rotation_degrees") {
           if (!number_of(f, degrees))
             return Status::error("%s: \"rotation_degrees\" must be a finite number", where.c_str());
+        } else if (key == "sun") {
+          if (Status s = load_sun(f, where + ": sun"); !s) return s;
         } else {
           warn(format("%s: unknown property \"%s\" ignored", kEnvironmentExtension, excerpt(key).c_str()));
         }

@@ -13,8 +13,11 @@
 #include <cstdio>
 #include <filesystem>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "flip.h"
 #include "gpu_test_support.h"
+#include "render_test_scene.h"
 #include "mesh.h"
 #include "model.h"
 #include "renderer.h"
@@ -71,55 +74,7 @@ class RenderTest : public ::testing::Test {
     train_status_ = save_model(model, model_path_);
     if (!train_status_) return;
 
-    // Scene: the elephant (mesh 0, LSNIF object 0) standing on a quad (mesh 1) under a sky color.
-    scene_.path = "(render_test)";
-    scene::Material grey, ground;
-    grey.base_color = glm::vec4(color, 1.0f);
-    grey.metallic = 0.0f;
-    grey.roughness = 0.6f;
-    ground.base_color = glm::vec4(0.5f, 0.5f, 0.5f, 1.0f);
-    ground.metallic = 0.0f;
-    scene_.materials = {grey, ground};
-    scene::Mesh elephant;
-    elephant.name = "elephant";
-    scene::Primitive p;
-    p.positions = mesh.positions;
-    p.normals = mesh.normals;
-    for (const glm::uvec3& t : mesh.triangles) p.indices.insert(p.indices.end(), {t.x, t.y, t.z});
-    p.material = 0;
-    elephant.primitives.push_back(p);
-    const Aabb b = mesh.bounds();
-    scene::Mesh quad;
-    quad.name = "ground";
-    scene::Primitive q;
-    const float r = 2.0f * b.diagonal(), y = b.lo.y;
-    const glm::vec3 c = b.center();
-    q.positions = {{c.x - r, y, c.z - r}, {c.x + r, y, c.z - r}, {c.x + r, y, c.z + r}, {c.x - r, y, c.z + r}};
-    q.indices = {0, 2, 1, 0, 3, 2};
-    q.material = 1;
-    quad.primitives.push_back(q);
-    scene_.meshes = {elephant, quad};
-    scene::LsnifObject obj;
-    obj.model_path = model_path_;
-    obj.material_map = {0};
-    scene_.lsnif_objects = {obj};
-    scene::Instance e, g;
-    e.node_name = "elephant";
-    e.mesh = 0;
-    e.lsnif = 0;
-    g.node_name = "ground";
-    g.mesh = 1;
-    scene_.instances = {e, g};
-    scene_.environment.color = glm::vec3(0.9f, 0.95f, 1.0f);
-    // A camera on the elephant, from the front-right and above, the object filling most of the view.
-    scene::Camera cam;
-    cam.name = "closeup";
-    cam.yfov = 0.7f;
-    const glm::vec3 eye = c + 1.3f * b.diagonal() * glm::normalize(glm::vec3(0.7f, 0.45f, 1.0f));
-    const glm::vec3 fwd = glm::normalize(c - eye), right = glm::normalize(glm::cross(fwd, glm::vec3(0, 1, 0)));
-    cam.camera_to_world = glm::mat4(glm::vec4(right, 0), glm::vec4(glm::cross(right, fwd), 0), glm::vec4(-fwd, 0),
-                                    glm::vec4(eye, 1));
-    scene_.cameras = {cam};
+    scene_ = elephant_on_ground(mesh, model_path_, color);
   }
   static void TearDownTestSuite() {
     if (!model_path_.empty()) std::filesystem::remove(model_path_);
@@ -218,6 +173,144 @@ TEST_F(RenderTest, LsnifRenderIsCloseToTheReference) {
               d_lsnif, d_empty, mean(ref), sl.ms_per_sample, sr.ms_per_sample);
   EXPECT_GT(d_empty, 0.02);           // the object matters in this view
   EXPECT_LT(d_lsnif, 0.35 * d_empty);  // and the LSNIF object stands in for it
+}
+
+// The viewer's path: a scene set once, samples accumulated pass by pass from an explicit view,
+// gives the one-shot render of the same samples (up to float summation order), and a second scene
+// set replaces the first.
+TEST_F(RenderTest, ProgressiveAccumulationMatchesOneShotRender) {
+  render::Renderer renderer(vk_);
+  render::RenderSettings settings = small(false);
+  settings.spp = 4;
+  image::Image once, progressive;
+  render::RenderStats stats;
+  ASSERT_TRUE(renderer.render(scene_, settings, once, stats));
+  ASSERT_TRUE(renderer.set_scene(scene_, false, nullptr));
+  EXPECT_EQ(renderer.scene_stats().lsnif_instances, 1u);
+  render::View view;
+  ASSERT_TRUE(renderer.camera_view(0, view));
+  ASSERT_TRUE(renderer.reset_accumulation(settings.width, settings.height));
+  for (uint32_t k = 0; k < settings.spp; ++k) ASSERT_TRUE(renderer.accumulate(view, k, 1));
+  EXPECT_EQ(renderer.accumulated_samples(), 4u);
+  renderer.resolve(progressive);
+  ASSERT_EQ(progressive.rgb.size(), once.rgb.size());
+  double max_diff = 0;
+  for (size_t i = 0; i < once.rgb.size(); ++i)
+    max_diff = std::max(max_diff, std::fabs(double(once.rgb[i]) - double(progressive.rgb[i])) /
+                                      std::max(1.0, double(std::fabs(once.rgb[i]))));
+  EXPECT_LT(max_diff, 1e-5);
+  // Restarting gives black until the next sample; an unknown camera index is an error.
+  ASSERT_TRUE(renderer.reset_accumulation(settings.width, settings.height));
+  renderer.resolve(progressive);
+  EXPECT_EQ(mean(progressive), 0.0);
+  EXPECT_FALSE(renderer.camera_view(5, view));
+  view.yfov = std::nanf("");
+  EXPECT_FALSE(renderer.accumulate(view, 0, 1));
+  // Switching the scene to reference mode: the image is the reference render's.
+  ASSERT_TRUE(renderer.set_scene(scene_, true, nullptr));
+  EXPECT_EQ(renderer.scene_stats().lsnif_instances, 0u);
+  image::Image ref_once, ref_progressive;
+  settings.reference = true;
+  render::Renderer other(vk_);
+  ASSERT_TRUE(other.render(scene_, settings, ref_once, stats));
+  ASSERT_TRUE(renderer.camera_view(0, view));
+  ASSERT_TRUE(renderer.reset_accumulation(settings.width, settings.height));
+  ASSERT_TRUE(renderer.accumulate(view, 0, settings.spp));
+  renderer.resolve(ref_progressive);
+  EXPECT_EQ(ref_progressive.rgb, ref_once.rgb);
+}
+
+// Moving an instance of a scene set on the device (TLAS refit, the viewer's object dragging) gives
+// the image of the scene uploaded with the instance already there, in both modes (an LSNIF instance
+// and a triangle one).
+TEST_F(RenderTest, MovedInstanceRendersAsIfPlacedThere) {
+  glm::mat4 moved = glm::translate(glm::mat4(1.0f), glm::vec3(0.15f, 0.0f, -0.1f));
+  moved = glm::rotate(moved, 0.4f, glm::vec3(0, 1, 0));
+  scene::Scene placed = scene_;
+  placed.instances[0].object_to_world = moved;
+  for (bool reference : {false, true}) {
+    render::Renderer renderer(vk_);
+    render::RenderSettings settings = small(reference);
+    settings.spp = 2;
+    image::Image expected, got, before;
+    render::RenderStats stats;
+    ASSERT_TRUE(renderer.render(placed, settings, expected, stats));
+    ASSERT_TRUE(renderer.render(scene_, settings, before, stats));  // sets scene_ with the elephant unmoved
+    ASSERT_TRUE(renderer.move_instance(0, moved));
+    ASSERT_TRUE(renderer.render(settings, got, stats));
+    ASSERT_EQ(got.rgb.size(), expected.rgb.size());
+    size_t differing = 0;
+    for (size_t i = 0; i < got.rgb.size(); ++i) differing += std::fabs(got.rgb[i] - expected.rgb[i]) > 1e-4f ? 1 : 0;
+    std::printf("%s: moved vs placed: %zu of %zu values differ; before vs placed: mean |d| %.4f\n",
+                reference ? "reference" : "LSNIF", differing, got.rgb.size(), mean_abs_diff(before, expected));
+    EXPECT_LT(double(differing), 0.002 * double(got.rgb.size()));
+    EXPECT_GT(mean_abs_diff(before, expected), 0.01);  // the move is visible
+    EXPECT_FALSE(renderer.move_instance(7, moved));
+    glm::mat4 singular(1.0f);
+    singular[0] = glm::vec4(0.0f);
+    EXPECT_FALSE(renderer.move_instance(0, singular));
+  }
+}
+
+// The sun against the rendering equation by hand: a dielectric plane (base color 0.5, roughness 1)
+// seen from straight above, lit only by a sun 60 degrees from the zenith with irradiance 2, has
+// radiance f(wo = n, wi) * E * cos(60), f = 0.5 / pi + the GGX term F D G1 G1 / (4 cos_o cos_i)
+// (Schlick F0 = 0.04, alpha = 1: D = 1 / pi, G1(c) = 2c / (c + 1)). A sun below the horizon gives black.
+TEST_F(RenderTest, SunLightsALambertPlaneAsTheRenderingEquationSays) {
+  scene::Scene plane;
+  plane.path = "(sun test)";
+  scene::Material m;
+  m.base_color = glm::vec4(0.5f, 0.5f, 0.5f, 1.0f);
+  m.metallic = 0.0f;
+  m.roughness = 1.0f;
+  plane.materials = {m};
+  scene::Mesh quad;
+  quad.name = "plane";
+  scene::Primitive q;
+  q.positions = {{-50, 0, -50}, {50, 0, -50}, {50, 0, 50}, {-50, 0, 50}};
+  q.normals.assign(4, glm::vec3(0, 1, 0));
+  q.indices = {0, 2, 1, 0, 3, 2};
+  quad.primitives = {q};
+  plane.meshes = {quad};
+  scene::Instance in;
+  in.node_name = "plane";
+  in.mesh = 0;
+  plane.instances = {in};
+  plane.environment.color = glm::vec3(0.0f);  // no sky: the sun alone
+  scene::Camera cam;
+  cam.name = "down";
+  cam.yfov = 0.05f;  // narrow: every camera ray within ~1.5 degrees of the normal
+  cam.camera_to_world = glm::mat4(glm::vec4(1, 0, 0, 0), glm::vec4(0, 0, -1, 0), glm::vec4(0, 1, 0, 0),
+                                  glm::vec4(0, 10, 0, 1));  // looks down -y
+  plane.cameras = {cam};
+  const double theta = 60.0 * M_PI / 180.0, E = 2.0;
+  plane.sun.enabled = true;
+  plane.sun.direction = glm::vec3(float(std::sin(theta)), float(std::cos(theta)), 0.0f);
+  plane.sun.irradiance = glm::vec3(float(E));
+
+  const double ci = std::cos(theta), co = 1.0;
+  const double oh = std::cos(0.5 * theta);  // wo = n: the half vector is halfway to wi
+  const double F = 0.04 + 0.96 * std::pow(1.0 - oh, 5.0);
+  const double D = 1.0 / M_PI, G = (2.0 * co / (co + 1.0)) * (2.0 * ci / (ci + 1.0));
+  const double f = 0.5 / M_PI + F * D * G / (4.0 * co * ci);
+  const double expected = f * E * ci;
+
+  render::Renderer renderer(vk_);
+  render::RenderSettings settings = small(true);
+  settings.width = 16;
+  settings.height = 16;
+  settings.spp = 4;
+  image::Image img;
+  render::RenderStats stats;
+  ASSERT_TRUE(renderer.render(plane, settings, img, stats));
+  const double got = mean(img);
+  std::printf("sun-lit plane: mean radiance %.5f, expected %.5f\n", got, expected);
+  EXPECT_NEAR(got, expected, 0.005 * expected);
+  plane.sun.direction = glm::vec3(0.0f, -1.0f, 0.0f);
+  ASSERT_TRUE(renderer.render(plane, settings, img, stats));
+  EXPECT_EQ(mean(img), 0.0);
+  plane.sun.angular_diameter = 0.0f;
+  EXPECT_FALSE(renderer.render(plane, settings, img, stats));
 }
 
 TEST_F(RenderTest, BadScenesGiveClearErrors) {

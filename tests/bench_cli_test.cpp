@@ -1,0 +1,171 @@
+// `lsnif bench` as a user runs it: a quick run of the bunny scene in a temporary folder (tiny
+// model, tiny images) writes results.md, whose row is checked against independent measurements
+// (the mesh file's triangle count, `lsnif bench-memory` on the same mesh and model for the memory
+// columns) and for internal consistency, plus the side-by-side image and the scene files; a second
+// run reuses the scene and the model; unknown scene names and missing data are clear errors.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "test_support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+const std::string kBunny = std::string(LSNIF_DATA_DIR) + "/meshes/bunny00.off";
+
+lsnif::test::CommandResult run_cli(const std::string& args) {
+  return lsnif::test::run_command(std::string(LSNIF_CLI) + " " + args + " 2>&1");
+}
+
+bool has(const std::string& text, const std::string& what) { return text.find(what) != std::string::npos; }
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The cells of the Markdown table row that starts with "| SCENE |", trimmed; empty if none.
+std::vector<std::string> table_row(const std::string& md, const std::string& scene) {
+  std::istringstream in(md);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("| " + scene + " |", 0) != 0) continue;
+    std::vector<std::string> cells;
+    size_t at = 1;
+    for (size_t bar = line.find('|', at); bar != std::string::npos; at = bar + 1, bar = line.find('|', at)) {
+      std::string cell = line.substr(at, bar - at);
+      cell.erase(0, cell.find_first_not_of(' '));
+      cell.erase(cell.find_last_not_of(' ') + 1);
+      cells.push_back(cell);
+    }
+    return cells;
+  }
+  return {};
+}
+
+double number(const std::string& cell) {
+  char* end = nullptr;
+  const double v = std::strtod(cell.c_str(), &end);
+  EXPECT_TRUE(end != cell.c_str() && *end == '\0') << "not a number: '" << cell << "'";
+  return v;
+}
+
+// Width and height from a PNG's IHDR chunk; false when the file is not a PNG.
+bool png_size(const fs::path& path, uint32_t& width, uint32_t& height) {
+  const std::string b = read_text(path);
+  if (b.size() < 24 || b.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0 || b.compare(12, 4, "IHDR") != 0) return false;
+  auto be32 = [&](size_t at) {
+    return uint32_t(uint8_t(b[at])) << 24 | uint32_t(uint8_t(b[at + 1])) << 16 | uint32_t(uint8_t(b[at + 2])) << 8 |
+           uint32_t(uint8_t(b[at + 3]));
+  };
+  width = be32(16);
+  height = be32(20);
+  return true;
+}
+
+// Triangle count from an OFF file's header ("OFF", then "vertices faces edges").
+uint64_t off_faces(const std::string& path) {
+  std::ifstream in(path);
+  std::string magic;
+  uint64_t vertices = 0, faces = 0;
+  in >> magic >> vertices >> faces;
+  return magic == "OFF" ? faces : 0;
+}
+
+TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
+  if (!fs::exists(kBunny)) GTEST_SKIP() << kBunny << " missing: run scripts/setup.sh";
+  lsnif::test::ScopedTestDir dir("lsnif_bench_cli_test");
+  const std::string out = dir.path().string();
+  lsnif::test::CommandResult r = run_cli("bench bunny --quick --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* want : {"scene     wrote", "model     training", "render (LSNIF)", "LDR-FLIP", "results.md"})
+    EXPECT_TRUE(has(r.out, want)) << want << " missing in:\n" << r.out;
+
+  const std::string md = read_text(dir.path() / "results.md");
+  const std::vector<std::string> row = table_row(md, "bunny");
+  ASSERT_EQ(row.size(), 10u) << md;
+  // Tris: every triangle of bunny00.off (all valid) on one instance.
+  const uint64_t faces = off_faces(kBunny);
+  ASSERT_GT(faces, 1000u);
+  char tris[32];
+  std::snprintf(tris, sizeof tris, "%.1fk", double(faces) / 1e3);
+  EXPECT_EQ(row[1], tris);
+  EXPECT_EQ(row[2], "1 (1)");
+  const double lsnif_mib = number(row[3]), blas_mib = number(row[4]), ratio = number(row[5]);
+  const double t_lsnif = number(row[6]), t_ref = number(row[7]), t_ratio = number(row[8]), flip = number(row[9]);
+  EXPECT_GT(ratio, 1.0);
+  EXPECT_NEAR(ratio, blas_mib / lsnif_mib, 0.02 * ratio);
+  EXPECT_GT(t_lsnif, 0.0);
+  EXPECT_GT(t_ref, 0.0);
+  EXPECT_NEAR(t_ratio, t_lsnif / t_ref, 0.05 * t_ratio + 0.01);
+  EXPECT_GT(flip, 0.0);
+  EXPECT_LT(flip, 0.5);  // a render that lost the object entirely would be far off here
+
+  // The memory columns against `lsnif bench-memory` (plugin upload and the driver's size query for
+  // the same mesh and model, a separate code path from the renderer's statistics).
+  const std::string model = (dir.path() / "bunny" / "bunny.lsnif").string();
+  ASSERT_TRUE(fs::exists(model));
+  r = lsnif::test::run_command(std::string(LSNIF_CLI) + " bench-memory " + kBunny + " " + model +
+                               " --subdivide-targets '' --json 2>/dev/null");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const json mem = json::parse(r.out);
+  EXPECT_NEAR(lsnif_mib, mem["lsnif"]["total_bytes"].get<double>() / 1048576.0, 0.0006);
+  EXPECT_NEAR(blas_mib, mem["triangle_blas"][0]["blas_bytes"].get<double>() / 1048576.0, 0.0006);
+  EXPECT_NEAR(ratio, mem["triangle_blas"][0]["ratio_blas"].get<double>(), 0.01);
+
+  // The side-by-side picture (reference | LSNIF | FLIP) at the quick image size, and the scene.
+  uint32_t w = 0, h = 0;
+  ASSERT_TRUE(png_size(dir.path() / "bunny.png", w, h));
+  EXPECT_EQ(w, 3u * 64u);
+  EXPECT_EQ(h, 48u);
+  EXPECT_TRUE(has(md, "![bunny](bunny.png)")) << md;
+  EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "bunny.gltf"));
+  EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "bunny.bin"));
+  EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "forest.exr"));
+
+  // Run again: scene and model are reused, not rebuilt or retrained.
+  const auto model_time = fs::last_write_time(model);
+  r = run_cli("bench bunny --quick --spp 1 --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(has(r.out, "scene     reusing")) << r.out;
+  EXPECT_TRUE(has(r.out, "model     reusing")) << r.out;
+  EXPECT_FALSE(has(r.out, "model     training")) << r.out;
+  EXPECT_EQ(fs::last_write_time(model), model_time);
+  EXPECT_TRUE(has(read_text(dir.path() / "results.md"), "reused (same mesh and settings)"));
+  // Other training settings do not match the stored model: it is trained again.
+  r = run_cli("bench bunny --quick --steps 5 --spp 1 --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(has(r.out, "model     training")) << r.out;
+}
+
+TEST(BenchCli, UnknownSceneAndMissingData) {
+  lsnif::test::ScopedTestDir dir("lsnif_bench_cli_test");
+  const std::string out = (dir.path() / "out").string();
+  lsnif::test::CommandResult r = run_cli("bench bunny teapots --quick --out " + out);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r.out, "unknown scene 'teapots'")) << r.out;
+  EXPECT_TRUE(has(r.out, "bunny, dragons, heavy, foliage")) << r.out;
+  EXPECT_FALSE(fs::exists(out));
+
+  r = run_cli("bench dragons --quick --data " + (dir.path() / "nodata").string() + " --out " + out);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(has(r.out, "nodata/meshes/ChineseDragon-10kv.off")) << r.out;
+  EXPECT_TRUE(has(r.out, "run scripts/setup.sh")) << r.out;
+  EXPECT_FALSE(fs::exists(out));
+
+  r = run_cli("bench --quick --width many");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r.out, "--width")) << r.out;
+}
+
+}  // namespace
