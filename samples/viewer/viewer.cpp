@@ -245,7 +245,10 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
         }
         frame_ms_sum += ms;
         ++frame;
-        if (!settings.quiet) std::printf("frame %u: %s\n", frame, status);
+        if (!settings.quiet) {
+          std::printf("frame %u: %s\n", frame, status);
+          std::fflush(stdout);  // a line per frame also when stdout is a pipe or a file
+        }
         report.frames = frame;
         report.samples = renderer.accumulated_samples();
         report.reference = reference;
