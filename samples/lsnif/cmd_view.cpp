@@ -47,12 +47,10 @@ int cmd_view(int argc, char** argv) {
     return 2;
   }
   if (!move_by.empty()) {
-    glm::mat4 m;
-    if (Status st = scene::parse_transform(move_by, m); !st || m[3][3] != 1.0f || glm::mat3(m) != glm::mat3(1.0f)) {
-      std::fprintf(stderr, "lsnif view: --move-by '%s': expected X,Y,Z\n", move_by.c_str());
+    if (Status st = scene::parse_point(move_by, "--move-by", vs.move_by); !st) {
+      std::fprintf(stderr, "lsnif view: %s\n", st.message().c_str());
       return 2;
     }
-    vs.move_by = glm::vec3(m[3]);
   }
   if (vs.move_at != 0 && vs.select.empty()) {
     std::fprintf(stderr, "lsnif view: --move-at needs --select NODE\n");

@@ -61,13 +61,12 @@ int SceneArgs::apply_edits(const char* command, scene::Scene& scene) const {
     }
   }
   if (!look_from.empty() || !look_at.empty()) {
-    glm::mat4 from(1.0f), to(1.0f);
-    Status s = look_from.empty() ? Status::error("--look-at needs --look-from") : scene::parse_transform(look_from, from);
-    if (s && !look_at.empty()) s = scene::parse_transform(look_at, to);
-    if (s && (glm::mat3(from) != glm::mat3(1.0f) || glm::mat3(to) != glm::mat3(1.0f)))
-      s = Status::error("--look-from / --look-at take a point X,Y,Z");
+    glm::vec3 from(0.0f), to(0.0f);
+    Status s = look_from.empty() ? Status::error("--look-at needs --look-from")
+                                 : scene::parse_point(look_from, "--look-from", from);
+    if (s && !look_at.empty()) s = scene::parse_point(look_at, "--look-at", to);
     scene::Camera cam;
-    if (s) s = scene::make_look_at_camera(glm::vec3(from[3]), glm::vec3(to[3]), fov, "--look-from", cam);
+    if (s) s = scene::make_look_at_camera(from, to, fov, "--look-from", cam);
     if (!s) {
       std::fprintf(stderr, "lsnif %s: %s\n", command, s.message().c_str());
       return 2;

@@ -47,6 +47,15 @@ Status parse_numbers(const std::string& text, const char* what, std::vector<doub
 
 }  // namespace
 
+Status parse_point(const std::string& text, const char* what, glm::vec3& out) {
+  std::vector<double> v;
+  if (Status s = parse_numbers(text, what, v); !s) return s;
+  if (v.size() != 3) return Status::error("%s '%s': expected X,Y,Z, got %zu numbers", what, text.c_str(), v.size());
+  out = glm::vec3(float(v[0]), float(v[1]), float(v[2]));
+  if (!std::isfinite(out.x + out.y + out.z)) return Status::error("%s '%s': out of float range", what, text.c_str());
+  return Status::ok();
+}
+
 Status parse_transform(const std::string& text, glm::mat4& out) {
   std::vector<double> v;
   if (Status s = parse_numbers(text, "transform", v); !s) return s;

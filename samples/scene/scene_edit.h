@@ -20,6 +20,9 @@ namespace lsnif::scene {
 // non-finite value, a scale <= 0 or a singular matrix.
 Status parse_transform(const std::string& text, glm::mat4& out);
 
+// Parses a point or vector "X,Y,Z" (three finite numbers); `what` names the option in errors.
+Status parse_point(const std::string& text, const char* what, glm::vec3& out);
+
 // Sets the world transform of every instance of node `node` (glTF node name). Fails when no
 // instance has that name, or on a non-finite or singular transform.
 Status set_node_transform(Scene& scene, const std::string& node, const glm::mat4& object_to_world);

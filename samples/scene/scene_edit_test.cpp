@@ -38,6 +38,17 @@ TEST(SceneEdit, ParsesTranslationScaleAndRotation) {
   expect_near(apply(m, {0, 1, 0}), {4, 6, 7});
 }
 
+TEST(SceneEdit, ParsesPoints) {
+  glm::vec3 p(0.0f);
+  ASSERT_TRUE(parse_point("1,-2,3.5", "--look-at", p));
+  EXPECT_EQ(p, glm::vec3(1, -2, 3.5f));
+  for (const char* bad : {"1,2", "1,2,3,4", "1,x,3", "1,2,inf", "1e39,0,0", ""}) {
+    const Status s = parse_point(bad, "--look-at", p);
+    EXPECT_FALSE(s) << bad;
+    EXPECT_NE(s.message().find("--look-at"), std::string::npos) << s.message();
+  }
+}
+
 TEST(SceneEdit, RejectsBadTransformsNamingThem) {
   glm::mat4 m(1.0f);
   for (const char* bad : {"", "1,2", "1,2,3,4,5,6", "1,a,3", "1,2,inf", "1,2,nan", "1,2,3,0", "1,2,3,-1", "1,2,3,",
