@@ -1,4 +1,4 @@
-/* host_device.h -- the one definition of LSNIF constants and layouts shared by C++ (host/, plugin/)
+/* host_device.h -- the one definition of LSNIF constants and layouts shared by C++ (format/, core/, plugin/)
  * and GLSL (shaders/). Include from C++ as-is; from GLSL after #extension GL_GOOGLE_include_directive.
  * Anything both sides must agree on (output layout of the network, hash primes, limits) lives here. */
 #ifndef LSNIF_HOST_DEVICE_H
@@ -45,7 +45,7 @@
 /* The self-intersection rule for rays leaving an LSNIF surface (docs/self-intersection.md): spawn
  * the ray at the predicted hit point itself (no offset), with the ray flag CullBackFacingTriangles,
  * and tmin = LSNIF_LEAVING_TMIN_VOXELS voxel edges measured in the hit model's object space
- * (lsnif_leaving_tmin in lsnif_hit.glsl, leaving_tmin in host/intersector.h). The voxel edge of a
+ * (lsnif_leaving_tmin in lsnif_hit.glsl, leaving_tmin in core/intersector.h). The voxel edge of a
  * model is |bounds extent| / (V sqrt(3)) (the edge of a cubic grid). Measured against a fixed
  * origin offset by bench/bench_secondary. */
 #define LSNIF_LEAVING_TMIN_VOXELS 0.5

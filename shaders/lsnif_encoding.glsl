@@ -1,4 +1,4 @@
-// lsnif_encoding.glsl -- sparse hash-grid encoding of a walk (host/hash_grid.cpp: face_corners,
+// lsnif_encoding.glsl -- sparse hash-grid encoding of a walk (core/hash_grid.cpp: face_corners,
 // hash_vertex, encode): each boundary point is interpolated bilinearly from the 4 corners of the
 // face cell containing it, per level. Writes the network input into lsnif_act[0, input_dim),
 // layout [point][level][feature], zero for points j >= walk.count.

@@ -1,4 +1,4 @@
-// lsnif_head.glsl -- the LSNIF output heads on the device (host/head.cpp decode and
+// lsnif_head.glsl -- the LSNIF output heads on the device (core/head.cpp decode and
 // distance_from_unit): occlusion (hit when the logit >= 0, i.e. sigmoid >= 0.5), distance for both
 // hit parametrizations, normalized normal, sigmoid albedo, argmax material.
 #ifndef LSNIF_HEAD_GLSL

@@ -2,7 +2,7 @@
 // the network input never depends on the query interval) -> encode -> MLP -> decode, accepted when
 // occlusion >= 0.5, tmin <= t <= tmax and the hit's facing is not culled by `ray_flags`
 // (LSNIF_RAY_FLAG_CULL_*_FACING, shaders/host_device.h). The device twin of the per-ray part of
-// host/intersector.cpp; the caller maps world rays to object space (gl_ObjectRay*EXT in an
+// core/intersector.cpp; the caller maps world rays to object space (gl_ObjectRay*EXT in an
 // intersection shader) and the normal back to world space (inverse transpose).
 // Include this first in a shader (after #version and GL_GOOGLE_include_directive): it declares
 // the extensions listed in lsnif_model.glsl.

@@ -1,4 +1,4 @@
-// lsnif_mlp.glsl -- the LSNIF MLP forward pass on the device (host/network.cpp mlp_forward):
+// lsnif_mlp.glsl -- the LSNIF MLP forward pass on the device (core/network.cpp mlp_forward):
 // hidden layers y = leaky(W x + b) with leaky(y) = max(y, slope * y), then a linear output layer.
 // Weights and biases are fp16 pairs in 32-bit words, unpacked with unpackHalf2x16 (no 16-bit
 // storage feature needed) and accumulated in fp32.

@@ -1,5 +1,5 @@
 // lsnif_walk.glsl -- the LSNIF ray walk on the device: a line-by-line copy of walk_ray in
-// host/ray_walk.cpp (read its file comment: it is the specification). Same float formulas in the
+// core/ray_walk.cpp (read its file comment: it is the specification). Same float formulas in the
 // same order, fixed-size arrays of LSNIF_MAX_POINTS, rolled loops. The walk is kept in the private
 // global `lsnif_walk` (no copies of its arrays between functions).
 #ifndef LSNIF_WALK_GLSL

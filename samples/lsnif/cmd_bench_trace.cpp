@@ -13,7 +13,7 @@
 // (reported apart: it carries what a driver does on first use of the pipeline), then K repeats
 // alternating LSNIF / triangles; medians of the host wall time around submit + wait, of the device
 // time between timestamps around vkCmdTraceRaysKHR where the queue has timestamps, and of the
-// process CPU time. Network evaluations = rays whose walk (host/ray_walk.h, the CPU twin
+// process CPU time. Network evaluations = rays whose walk (core/ray_walk.h, the CPU twin
 // of the shader's walk) has boundary points: the intersection shader runs the MLP exactly for them.
 #include <sys/resource.h>
 
@@ -140,7 +140,7 @@ void triangle_input(const Mesh& mesh, bool morton, std::vector<float>& positions
   }
 }
 
-// A model trained on `mesh` has bounds == pad_aabb(mesh.bounds()) (host/trainer.cpp). Ok when the
+// A model trained on `mesh` has bounds == pad_aabb(mesh.bounds()) (train/trainer.cpp). Ok when the
 // corners agree within 1e-3 of the diagonal; otherwise an error naming both boxes.
 Status check_same_object(const Mesh& mesh, const Model& model) {
   const Aabb expect = pad_aabb(mesh.bounds()), got = model.bounds();

@@ -93,7 +93,7 @@ std::vector<Seed> seeds(const TempDir& dir) {
   return s;
 }
 
-// The mutator of host/mesh_fuzz_test.cpp with three more tokens for JSON structure.
+// The mutator of import/mesh_fuzz_test.cpp with three more tokens for JSON structure.
 std::vector<const char*> mutation_tokens() {
   std::vector<const char*> t(std::begin(fuzz::kMutationTokens), std::end(fuzz::kMutationTokens));
   t.insert(t.end(), {"\"\"", "[]", "{}"});

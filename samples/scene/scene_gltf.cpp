@@ -1,11 +1,11 @@
 // scene_gltf.cpp -- glTF 2.0 scene loader for the renderer (scene_gltf.h; the LSNIF extensions are
-// specified in docs/scene-format.md). Unlike host/mesh_gltf.cpp, which flattens a file into one
+// specified in docs/scene-format.md). Unlike import/mesh_gltf.cpp, which flattens a file into one
 // object-space triangle soup for training, this keeps the node hierarchy's instancing: meshes stay
 // in object space and every node becomes an Instance with its world transform.
 //
 // tinygltf 2.7 leaves most validation to the user, so every index, accessor and buffer range is
 // checked before a byte is read: loading, accessor reads and image decoding go through
-// host/gltf_access.h (library lsnif_gltf, shared with host/mesh_gltf.cpp); the rest is checked
+// import/gltf_access.h (library lsnif_gltf, shared with import/mesh_gltf.cpp); the rest is checked
 // here.
 #include "scene_gltf.h"
 

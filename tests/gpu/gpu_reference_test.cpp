@@ -1,6 +1,6 @@
 // The device LSNIF math (shaders/lsnif_*.glsl, run as tests/gpu/lsnif_reference.comp through Vulkan
 // compute, lavapipe on machines without a GPU) against the CPU reference intersector
-// (host/intersector.cpp), ray by ray, on tiny models trained in-process for both hit
+// (core/intersector.cpp), ray by ray, on tiny models trained in-process for both hit
 // parametrizations and on a random model with odd layer sizes, with an identity and a
 // rotated/non-uniformly scaled/translated instance. Also checks the GPU block packing
 // (plugin/gpu_model.cpp) value by value, and that the validation layer reported nothing.
@@ -366,7 +366,7 @@ TEST(GpuModelPacking, EveryValueAtItsDocumentedPlace) {
   const Model model = random_odd_model();
   std::vector<uint32_t> words;
   ASSERT_TRUE(pack_gpu_model(model, words));
-  const LsnifGpuModelHeader h = gpu_model_header(words);
+  const LsnifGpuModelHeader h = gpu_block_header(words);
   EXPECT_EQ(h.magic, LSNIF_GPU_MAGIC);
   EXPECT_EQ(h.version, LSNIF_GPU_VERSION);
   EXPECT_EQ(h.total_words, words.size());

@@ -1,5 +1,5 @@
 // gpu_test_support.h -- what the GPU tests (gpu_reference_test, rt_conformance_test) share: tiny
-// training settings, instances (A, A^-1 as host/intersector.cpp computes it, T) and the generator
+// training settings, instances (A, A^-1 as core/intersector.cpp computes it, T) and the generator
 // of world-space test rays of four kinds. Header-only; include inside no namespace.
 #pragma once
 #include <chrono>
@@ -29,7 +29,7 @@ inline TrainSettings tiny_settings(HitParam param) {
 }
 
 struct Instance {
-  glm::mat3 A, A_inv;  // A_inv as host/intersector.cpp computes it
+  glm::mat3 A, A_inv;  // A_inv as core/intersector.cpp computes it
   glm::vec3 T;
 };
 inline Instance instance_of(const Transform3x4& xf) {

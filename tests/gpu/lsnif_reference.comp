@@ -1,6 +1,6 @@
 // lsnif_reference.comp -- evaluates a buffer of world-space rays against one instance of one LSNIF
 // model with shaders/lsnif_intersect.glsl, for comparison with the CPU reference
-// (host/intersector.cpp). Everything is addressed by buffer device addresses in the push constant.
+// (core/intersector.cpp). Everything is addressed by buffer device addresses in the push constant.
 // The instance: object-to-world A x + T (rows of the 3x4 VkTransformMatrixKHR layout) and A^-1
 // (computed on the host exactly as the CPU reference does, as a driver provides
 // gl_WorldToObjectEXT): object ray = A^-1 (o - T), A^-1 d; world normal = normalize(A^-T n).

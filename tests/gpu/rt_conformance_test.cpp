@@ -1,6 +1,6 @@
 // LSNIF objects as procedural AABB geometry traced by a real Vulkan ray-tracing pipeline
 // (shaders/lsnif.rint + tests/gpu/rt_conformance.{rgen,rmiss,rchit}, lavapipe on machines without
-// a GPU) against the CPU reference intersector (host/intersector.cpp), ray by ray: tiny models of
+// a GPU) against the CPU reference intersector (core/intersector.cpp), ray by ray: tiny models of
 // both hit parametrizations trained in-process as in gpu_reference_test, one instance (identity,
 // then rotated / non-uniformly scaled / translated), two instances of one model in one TLAS (the
 // closer one must be reported, with its instance id), and shadow rays (TerminateOnFirstHit |

@@ -23,13 +23,6 @@ struct MlpTrace {
   std::vector<Matrix> layer_input;
 };
 
-// Offsets of layer l's weights and biases in the flat parameter array.
-struct LayerView {
-  uint32_t in = 0, out = 0;
-  size_t weight_offset = 0, bias_offset = 0;
-};
-std::vector<LayerView> mlp_layers(const Config& config);
-
 // out = MLP(input): input is input_dim x B, out becomes output_dim x B (raw, pre-activation).
 // When `trace` is given, keeps what mlp_backward needs.
 void mlp_forward(const Config& config, const float* params, const Matrix& input, Matrix& out,

@@ -1,5 +1,5 @@
-// model_file_test.cpp -- .lsnif files (host/model_file.cpp, docs/model-format.md), CRC-32
-// (host/crc32.h) and the Model helpers (host/model.cpp). Layout expectations are the offsets of the
+// model_file_test.cpp -- .lsnif files (core/model_file.cpp, docs/model-format.md), CRC-32
+// (format/crc32.h) and the Model helpers (core/model.cpp). Layout expectations are the offsets of the
 // format document, written out by hand; the CRC is checked against a bit-by-bit implementation.
 #include <gtest/gtest.h>
 

@@ -2,6 +2,7 @@
 // brute force: all plane crossings of every axis in [t_enter, t_exit], sorted and merged by t, each
 // classified by the voxels before and after it, found by counting the planes already crossed.
 #include "ray_walk.h"
+#include "voxelizer.h"
 
 #include <gtest/gtest.h>
 

@@ -1,9 +1,9 @@
-// voxel_grid_test.cpp -- the SAT triangle/box test and the voxelizer against an independent exact
+// voxelizer_test.cpp -- the SAT triangle/box test and the voxelizer against an independent exact
 // method: Sutherland-Hodgman clipping of the triangle by the six box planes (in double), which is
 // non-empty exactly when the triangle meets the closed box. Near-touching configurations are either
 // excluded (an epsilon band, decided by clipping against a slightly shrunk and a slightly grown box)
 // or built on a dyadic lattice, where touching is exact in float and separation is far above eps.
-#include "voxel_grid.h"
+#include "voxelizer.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>

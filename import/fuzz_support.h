@@ -1,5 +1,5 @@
 // fuzz_support.h -- helpers shared by the mutation-fuzz and synthetic-file tests of the glTF
-// readers (host/mesh_fuzz_test.cpp, samples/scene/gltf_fuzz_test.cpp, samples/scene/gltf_test.cpp).
+// readers (import/mesh_fuzz_test.cpp, samples/scene/gltf_fuzz_test.cpp, samples/scene/gltf_test.cpp).
 // Header-only and used by tests only: building binary payloads, base64, the GLB container, a
 // 2x2 PNG, reading files, and the deterministic byte mutator.
 #pragma once

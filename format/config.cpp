@@ -21,6 +21,23 @@ uint64_t Config::mlp_parameter_count() const {
   return n + in * output_dim() + output_dim();
 }
 
+std::vector<LayerView> mlp_layers(const Config& config) {
+  std::vector<LayerView> layers;
+  uint32_t in = config.input_dim();
+  size_t offset = 0;
+  for (uint32_t l = 0; l <= config.hidden_layers; ++l) {
+    LayerView v;
+    v.in = in;
+    v.out = l < config.hidden_layers ? config.hidden_width : config.output_dim();
+    v.weight_offset = offset;
+    v.bias_offset = offset + size_t(v.in) * v.out;
+    offset = v.bias_offset + v.out;
+    in = v.out;
+    layers.push_back(v);
+  }
+  return layers;
+}
+
 Status Config::validate() const {
   if (voxel_resolution < 1 || voxel_resolution > 256)
     return Status::error("voxel resolution V=%u out of range [1, 256]", voxel_resolution);

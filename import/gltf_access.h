@@ -1,5 +1,5 @@
 // gltf_access.h -- checked access to glTF 2.0 files through tinygltf, shared by the training mesh
-// importer (host/mesh_gltf.cpp, which flattens a file into one triangle soup) and the renderer's
+// importer (import/mesh_gltf.cpp, which flattens a file into one triangle soup) and the renderer's
 // scene loader (samples/scene/scene_gltf.cpp, which keeps the node hierarchy). Library
 // `lsnif_gltf`: no Vulkan, no training code; gltf_access.cpp is the only translation unit of the
 // project with TINYGLTF_IMPLEMENTATION and the stb_image implementation tinygltf needs.

@@ -22,7 +22,7 @@
 #pragma once
 #include <cstdint>
 
-#include "../shaders/host_device.h"
+#include "host_device.h"
 #include "geometry.h"
 #include "voxel_grid.h"
 

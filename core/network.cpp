@@ -12,23 +12,6 @@ using RowMajorMapMut = Eigen::Map<Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dy
 
 }  // namespace
 
-std::vector<LayerView> mlp_layers(const Config& config) {
-  std::vector<LayerView> layers;
-  uint32_t in = config.input_dim();
-  size_t offset = 0;
-  for (uint32_t l = 0; l <= config.hidden_layers; ++l) {
-    LayerView v;
-    v.in = in;
-    v.out = l < config.hidden_layers ? config.hidden_width : config.output_dim();
-    v.weight_offset = offset;
-    v.bias_offset = offset + size_t(v.in) * v.out;
-    offset = v.bias_offset + v.out;
-    in = v.out;
-    layers.push_back(v);
-  }
-  return layers;
-}
-
 namespace {
 // The batch is processed in fixed chunks of columns, one single-threaded GEMM per chunk and
 // thread: on 2 cores this beats Eigen's own threaded GEMM several times over for these shapes,

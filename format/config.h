@@ -2,9 +2,11 @@
 // .lsnif header; the CPU reference, the trainer and the shaders all derive their layouts from it.
 #pragma once
 #include <cstdint>
+#include <cstddef>
 #include <string>
+#include <vector>
 
-#include "../shaders/host_device.h"
+#include "host_device.h"
 #include "status.h"
 
 namespace lsnif {
@@ -47,6 +49,15 @@ struct Config {
   // One-line human-readable summary ("V=32 H=18 L=2 res=64,128 M=17 F=3 W=128x2 Nmat=1 ...").
   std::string describe() const;
 };
+
+// The layers of the MLP in order (hidden layers, then the output layer of 8 + Nmat) and the offsets
+// of their weights and biases in the flat parameter array (Model::mlp, the .lsnif mlp section): per
+// layer the weight matrix row-major [out][in], then the bias [out].
+struct LayerView {
+  uint32_t in = 0, out = 0;
+  size_t weight_offset = 0, bias_offset = 0;
+};
+std::vector<LayerView> mlp_layers(const Config& config);
 
 // Fills grid_resolution[0..L) geometrically from `coarsest` to `finest` (which should be multiples
 // of V); the levels in between are rounded to the nearest multiple of V.

@@ -1,4 +1,4 @@
-// model_file.cpp -- reading and writing .lsnif files. The byte layout is specified in
+// model_format.cpp -- reading and writing .lsnif files at the byte level (model_format.h). The byte layout is specified in
 // docs/model-format.md; in short (all little-endian, packed byte by byte, no struct copies):
 //
 //   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1)
@@ -10,6 +10,8 @@
 //
 // The loader trusts nothing: every size is compared with the file length before it is used, and
 // memory is allocated only once the whole layout has been checked against the validated config.
+#include "model_format.h"
+
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -18,17 +20,15 @@
 #include <system_error>
 
 #include "crc32.h"
-#include "half.h"
-#include "model.h"
 
 namespace lsnif {
 
 namespace {
 
 constexpr uint8_t kMagic[8] = {'L', 'S', 'N', 'I', 'F', 0x00, '\r', '\n'};
-constexpr uint32_t kFormatVersion = 1;
+constexpr uint32_t kFormatVersion = kModelFormatVersion;
 constexpr uint32_t kHeaderSize = 168;
-constexpr uint64_t kNameBytes = 64;
+constexpr uint64_t kNameBytes = kModelMaterialNameBytes;
 constexpr uint64_t kMaterialRecordSize = kNameBytes + 3 * 4;  // name + base_color[3]
 constexpr uint64_t kAlignment = 16;
 constexpr uint64_t kCrcSize = 4;
@@ -120,9 +120,10 @@ unsigned long long ull(uint64_t v) { return static_cast<unsigned long long>(v); 
 bool half_is_finite(uint16_t h) { return (h & 0x7c00u) != 0x7c00u; }
 const char* half_non_finite_kind(uint16_t h) { return (h & 0x3ffu) ? "NaN" : "infinite"; }
 
-bool aabb_usable(const Aabb& b) {
+// Finite and non-empty on every axis.
+bool aabb_usable(const float lo[3], const float hi[3]) {
   for (int a = 0; a < 3; ++a)
-    if (!std::isfinite(b.lo[a]) || !std::isfinite(b.hi[a]) || !(b.lo[a] < b.hi[a])) return false;
+    if (!std::isfinite(lo[a]) || !std::isfinite(hi[a]) || !(lo[a] < hi[a])) return false;
   return true;
 }
 
@@ -153,29 +154,11 @@ Config read_config(const uint8_t* p) {
   return c;
 }
 
-// Converts parameters to fp16 and stores them; fails on values fp16 cannot hold.
-Status write_halves(uint8_t* p, const std::vector<float>& values, const char* section) {
-  for (size_t i = 0; i < values.size(); ++i) {
-    const uint16_t h = float_to_half(values[i]);
-    if (!half_is_finite(h))
-      return Status::error("%s value %zu is %g, which is not a finite fp16 value", section, i,
-                           double(values[i]));
-    put_u16(p + 2 * i, h);
-  }
-  return Status::ok();
-}
-
-// Reads `count` fp16 values, rejecting NaN and infinity.
-Status read_halves(const uint8_t* p, uint64_t count, const char* section, std::vector<float>& out) {
-  for (uint64_t i = 0; i < count; ++i) {
-    const uint16_t h = get_u16(p + 2 * i);
-    if (!half_is_finite(h))
-      return Status::error("%s section value %llu (of %llu) is %s (fp16 bits 0x%04x)", section, ull(i),
-                           ull(count), half_non_finite_kind(h), h);
-  }
-  out.resize(count);
-  for (uint64_t i = 0; i < count; ++i) out[i] = half_to_float(get_u16(p + 2 * i));
-  return Status::ok();
+// The first non-finite fp16 value among `count` little-endian values at p, or `count`.
+uint64_t first_non_finite_half(const uint8_t* p, uint64_t count) {
+  for (uint64_t i = 0; i < count; ++i)
+    if (!half_is_finite(get_u16(p + 2 * i))) return i;
+  return count;
 }
 
 // Checks of the fixed header that need neither the CRC nor the config: magic, version, header
@@ -214,7 +197,7 @@ Status check_padding(const uint8_t* data, uint64_t begin, uint64_t end) {
   return Status::ok();
 }
 
-Status parse_model(const uint8_t* data, size_t size, Model& model) {
+Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   if (Status s = check_preamble(data, size); !s) return s;
   const uint64_t crc_offset = size - kCrcSize;
   const uint32_t stored_crc = get_u32(data + crc_offset), actual_crc = crc32(data, crc_offset);
@@ -222,18 +205,19 @@ Status parse_model(const uint8_t* data, size_t size, Model& model) {
     return Status::error("checksum mismatch: stored CRC-32 0x%08x, computed 0x%08x (file corrupted)",
                          stored_crc, actual_crc);
 
-  Model m;
-  m.config = read_config(data + kOffConfig);
-  if (Status s = m.config.validate(); !s) return s.context("invalid config in header");
-  const Config& c = m.config;
+  ModelFileView v;
+  v.config = read_config(data + kOffConfig);
+  if (Status s = v.config.validate(); !s) return s.context("invalid config in header");
+  const Config& c = v.config;
 
-  Aabb& box = m.voxels.bounds;
-  box.lo = {get_f32(data + kOffAabb), get_f32(data + kOffAabb + 4), get_f32(data + kOffAabb + 8)};
-  box.hi = {get_f32(data + kOffAabb + 12), get_f32(data + kOffAabb + 16), get_f32(data + kOffAabb + 20)};
-  if (!aabb_usable(box))
+  for (int a = 0; a < 3; ++a) {
+    v.bounds_lo[a] = get_f32(data + kOffAabb + 4 * a);
+    v.bounds_hi[a] = get_f32(data + kOffAabb + 12 + 4 * a);
+  }
+  if (!aabb_usable(v.bounds_lo, v.bounds_hi))
     return Status::error("object AABB lo=(%g, %g, %g) hi=(%g, %g, %g) is not finite or is empty",
-                         double(box.lo.x), double(box.lo.y), double(box.lo.z), double(box.hi.x),
-                         double(box.hi.y), double(box.hi.z));
+                         double(v.bounds_lo[0]), double(v.bounds_lo[1]), double(v.bounds_lo[2]),
+                         double(v.bounds_hi[0]), double(v.bounds_hi[1]), double(v.bounds_hi[2]));
 
   // Section table: inside the file, then exactly the sizes and offsets the config implies.
   const Layout expected = layout_of(c);
@@ -265,51 +249,70 @@ Status parse_model(const uint8_t* data, size_t size, Model& model) {
 
   // Materials.
   const uint8_t* p = data + expected.offset[kMaterials];
-  m.materials.resize(c.material_count);
+  v.materials.resize(c.material_count);
   for (uint32_t i = 0; i < c.material_count; ++i, p += kMaterialRecordSize) {
     const void* nul = std::memchr(p, 0, kNameBytes);
     if (!nul) return Status::error("material %u name is not NUL-terminated within %llu bytes", i, ull(kNameBytes));
     const size_t length = static_cast<size_t>(static_cast<const uint8_t*>(nul) - p);
     for (size_t k = length; k < kNameBytes; ++k)
       if (p[k] != 0) return Status::error("material %u name has non-zero bytes after its NUL terminator", i);
-    m.materials[i].name.assign(reinterpret_cast<const char*>(p), length);
+    v.materials[i].name.assign(reinterpret_cast<const char*>(p), length);
     for (int k = 0; k < 3; ++k) {
-      const float v = get_f32(p + kNameBytes + 4 * k);
-      if (!std::isfinite(v)) return Status::error("material %u base color component %d is not finite", i, k);
-      m.materials[i].base_color[k] = v;
+      const float value = get_f32(p + kNameBytes + 4 * k);
+      if (!std::isfinite(value)) return Status::error("material %u base color component %d is not finite", i, k);
+      v.materials[i].base_color[k] = value;
     }
   }
 
-  // Voxels.
-  m.voxels.resolution = c.voxel_resolution;
+  // Voxels: no bit beyond V^3.
+  v.voxels = data + expected.offset[kVoxels];
   const uint64_t words = expected.size[kVoxels] / 4u;
-  p = data + expected.offset[kVoxels];
-  m.voxels.bits.resize(words);
-  for (uint64_t w = 0; w < words; ++w) m.voxels.bits[w] = get_u32(p + 4 * w);
   const uint32_t used_bits = static_cast<uint32_t>(c.voxel_count() % 32u);
-  if (used_bits != 0 && (m.voxels.bits.back() >> used_bits) != 0)
+  if (used_bits != 0 && (get_u32(v.voxels + 4 * (words - 1)) >> used_bits) != 0)
     return Status::error("voxels section has bits set beyond voxel %llu (V^3 = %u^3)", ull(c.voxel_count()),
                          c.voxel_resolution);
 
-  // Parameters.
-  if (Status s = read_halves(data + expected.offset[kGrid], c.grid_parameter_count(), "grid", m.grid); !s)
-    return s;
-  if (Status s = read_halves(data + expected.offset[kMlp], c.mlp_parameter_count(), "mlp", m.mlp); !s) return s;
-
-  if (Status s = m.validate(); !s) return s.context("internal error: loaded model is inconsistent");
-  model = std::move(m);
+  // Parameters: finite fp16 values only.
+  v.grid = data + expected.offset[kGrid];
+  v.mlp = data + expected.offset[kMlp];
+  const struct {
+    const uint8_t* p;
+    uint64_t count;
+    const char* name;
+  } params[2] = {{v.grid, c.grid_parameter_count(), "grid"}, {v.mlp, c.mlp_parameter_count(), "mlp"}};
+  for (const auto& section : params) {
+    const uint64_t i = first_non_finite_half(section.p, section.count);
+    if (i == section.count) continue;
+    const uint16_t bits = get_u16(section.p + 2 * i);
+    return Status::error("%s section value %llu (of %llu) is %s (fp16 bits 0x%04x)", section.name, ull(i),
+                         ull(section.count), half_non_finite_kind(bits), bits);
+  }
+  view = std::move(v);
   return Status::ok();
 }
 
 }  // namespace
 
-Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes) {
-  if (Status s = model.validate(); !s) return s.context("cannot save model");
-  const Config& c = model.config;
-  const Aabb& box = model.bounds();
-  if (!aabb_usable(box)) return Status::error("cannot save model: its AABB is not finite or is empty");
-  for (size_t i = 0; i < model.materials.size(); ++i) {
-    const ModelMaterial& mat = model.materials[i];
+uint64_t model_voxel_words(const Config& config) { return (config.voxel_count() + 31u) / 32u; }
+
+Status parse_model_file(const uint8_t* data, size_t size, ModelFileView& out) {
+  if (!data && size != 0) return Status::error("no data (null pointer with size %zu)", size);
+  if (size == 0) return Status::error("file is empty (0 bytes)");
+  return parse(data, size, out);
+}
+
+Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>& bytes) {
+  const Config& c = contents.config;
+  if (Status s = c.validate(); !s) return s.context("cannot save model");
+  if (!aabb_usable(contents.bounds_lo, contents.bounds_hi))
+    return Status::error("cannot save model: its AABB is not finite or is empty");
+  if (contents.materials.size() != c.material_count)
+    return Status::error("cannot save model: %zu materials, the config has %u", contents.materials.size(),
+                         c.material_count);
+  if (!contents.voxels || !contents.grid || !contents.mlp)
+    return Status::error("cannot save model: a section has no data");
+  for (size_t i = 0; i < contents.materials.size(); ++i) {
+    const ModelFileMaterial& mat = contents.materials[i];
     if (mat.name.size() >= kNameBytes)
       return Status::error("cannot save model: material %zu name \"%s\" is %zu bytes, at most %llu allowed", i,
                            mat.name.c_str(), mat.name.size(), ull(kNameBytes - 1));
@@ -319,6 +322,20 @@ Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes) {
       if (!std::isfinite(mat.base_color[k]))
         return Status::error("cannot save model: material %zu base color is not finite", i);
   }
+  const uint64_t voxel_words = model_voxel_words(c);
+  const uint32_t used_bits = static_cast<uint32_t>(c.voxel_count() % 32u);
+  if (used_bits != 0 && (contents.voxels[voxel_words - 1] >> used_bits) != 0)
+    return Status::error("cannot save model: voxel bits set beyond voxel %llu", ull(c.voxel_count()));
+  const struct {
+    const uint16_t* values;
+    uint64_t count;
+    const char* name;
+  } params[2] = {{contents.grid, c.grid_parameter_count(), "grid"}, {contents.mlp, c.mlp_parameter_count(), "mlp"}};
+  for (const auto& section : params)
+    for (uint64_t i = 0; i < section.count; ++i)
+      if (!half_is_finite(section.values[i]))
+        return Status::error("cannot save model: %s value %llu is %s, not a finite fp16 value", section.name, ull(i),
+                             half_non_finite_kind(section.values[i]));
 
   const Layout l = layout_of(c);
   std::vector<uint8_t> out(l.file_size, 0);  // zero-filled: all padding is already in place
@@ -329,63 +346,31 @@ Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes) {
   put_u64(d + kOffFileSize, l.file_size);
   write_config(d + kOffConfig, c);
   for (int a = 0; a < 3; ++a) {
-    put_f32(d + kOffAabb + 4 * a, box.lo[a]);
-    put_f32(d + kOffAabb + 12 + 4 * a, box.hi[a]);
+    put_f32(d + kOffAabb + 4 * a, contents.bounds_lo[a]);
+    put_f32(d + kOffAabb + 12 + 4 * a, contents.bounds_hi[a]);
   }
   for (int s = 0; s < kSectionCount; ++s) {
     put_u64(d + kOffSections + 16 * s, l.offset[s]);
     put_u64(d + kOffSections + 16 * s + 8, l.size[s]);
   }
-
   uint8_t* p = d + l.offset[kMaterials];
-  for (const ModelMaterial& mat : model.materials) {
+  for (const ModelFileMaterial& mat : contents.materials) {
     std::memcpy(p, mat.name.data(), mat.name.size());
     for (int k = 0; k < 3; ++k) put_f32(p + kNameBytes + 4 * k, mat.base_color[k]);
     p += kMaterialRecordSize;
   }
   p = d + l.offset[kVoxels];
-  for (size_t w = 0; w < model.voxels.bits.size(); ++w) put_u32(p + 4 * w, model.voxels.bits[w]);
-  if (Status s = write_halves(d + l.offset[kGrid], model.grid, "grid"); !s) return s.context("cannot save model");
-  if (Status s = write_halves(d + l.offset[kMlp], model.mlp, "mlp"); !s) return s.context("cannot save model");
-
+  for (uint64_t w = 0; w < voxel_words; ++w) put_u32(p + 4 * w, contents.voxels[w]);
+  p = d + l.offset[kGrid];
+  for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) put_u16(p + 2 * i, contents.grid[i]);
+  p = d + l.offset[kMlp];
+  for (uint64_t i = 0; i < c.mlp_parameter_count(); ++i) put_u16(p + 2 * i, contents.mlp[i]);
   put_u32(d + l.crc_offset, crc32(d, l.crc_offset));
   bytes = std::move(out);
   return Status::ok();
 }
 
-Status save_model(const Model& model, const std::string& path) {
-  std::vector<uint8_t> bytes;
-  if (Status s = save_model_to_memory(model, bytes); !s) return s.context("saving " + path);
-  // Write a temporary file next to the target and rename it, so a failed write never leaves a
-  // half-written model under the target name.
-  const std::string temp = path + ".tmp";
-  std::FILE* f = std::fopen(temp.c_str(), "wb");
-  if (!f) return Status::error("saving %s: cannot open %s for writing: %s", path.c_str(), temp.c_str(),
-                               std::strerror(errno));
-  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-  const int write_errno = errno;
-  const bool closed = std::fclose(f) == 0;
-  if (!written || !closed) {
-    std::remove(temp.c_str());
-    return Status::error("saving %s: writing %zu bytes failed: %s", path.c_str(), bytes.size(),
-                         std::strerror(written ? errno : write_errno));
-  }
-  std::error_code ec;
-  std::filesystem::rename(temp, path, ec);
-  if (ec) {
-    std::remove(temp.c_str());
-    return Status::error("saving %s: cannot rename %s to it: %s", path.c_str(), temp.c_str(), ec.message().c_str());
-  }
-  return Status::ok();
-}
-
-Status load_model_from_memory(const uint8_t* data, size_t size, Model& model) {
-  if (!data && size != 0) return Status::error("no data (null pointer with size %zu)", size);
-  if (size == 0) return Status::error("file is empty (0 bytes)");
-  return parse_model(data, size, model);
-}
-
-Status load_model(const std::string& path, Model& model) {
+Status read_model_file(const std::string& path, std::vector<uint8_t>& out) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
@@ -411,7 +396,8 @@ Status load_model(const std::string& path, Model& model) {
   if (read_error) return Status::error("loading %s: read error", path.c_str());
   if (got != bytes.size() || longer)
     return Status::error("loading %s: the file changed size while it was read", path.c_str());
-  return load_model_from_memory(bytes.data(), bytes.size(), model).context("loading " + path);
+  out = std::move(bytes);
+  return Status::ok();
 }
 
 }  // namespace lsnif

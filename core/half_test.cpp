@@ -1,4 +1,4 @@
-// half_test.cpp -- float_to_half / half_to_float (host/half.h) against independent references:
+// half_test.cpp -- float_to_half / half_to_float (core/half.h) against independent references:
 // an ldexp decode of every binary16 pattern, a nearest-neighbour search with ties to even over the
 // table of all halves, and, where GCC provides it, the compiler's own _Float16 conversion.
 #include "half.h"

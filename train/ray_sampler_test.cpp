@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "rng.h"
+#include "voxelizer.h"
 
 namespace lsnif {
 namespace {

@@ -1,11 +1,8 @@
-// gpu_model.cpp -- the packer of gpu_model.h. The layout itself is documented (once) in
+// gpu_block.cpp -- the packer of gpu_block.h. The layout itself is documented (once) in
 // shaders/host_device.h; this file and shaders/lsnif_model.glsl / lsnif_mlp.glsl follow it.
-#include "gpu_model.h"
+#include "gpu_block.h"
 
 #include <cstring>
-
-#include "half.h"
-#include "network.h"
 
 namespace lsnif {
 
@@ -34,32 +31,25 @@ std::vector<GpuLayerLayout> gpu_layer_layout(const Config& config) {
 
 namespace {
 
-// fp16 bits of v, or false when v is not exactly representable.
-bool exact_half(float v, uint16_t& h) {
-  h = float_to_half(v);
-  const float back = half_to_float(h);
-  return std::memcmp(&back, &v, sizeof v) == 0;
+uint16_t get_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
+uint32_t get_u32(const uint8_t* p) {
+  return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
 }
 
-Status put_half(std::vector<uint32_t>& words, uint64_t word_base, uint64_t element, float v,
-                const char* what, uint64_t index) {
-  uint16_t h;
-  if (!exact_half(v, h))
-    return Status::error("%s value %llu (%.9g) is not an fp16 value: quantize the model first", what,
-                         static_cast<unsigned long long>(index), double(v));
+// Stores fp16 bits `h` as element `element` of the fp16 pairs starting at word `word_base`.
+void put_half(std::vector<uint32_t>& words, uint64_t word_base, uint64_t element, uint16_t h) {
   words[size_t(word_base + (element >> 1))] |= uint32_t(h) << ((element & 1u) * 16u);
-  return Status::ok();
 }
 
 }  // namespace
 
-// Contract: see gpu_model.h. On failure `words` is left empty.
-Status pack_gpu_model(const Model& model, std::vector<uint32_t>& words) {
+// Contract: see gpu_block.h.
+Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   words.clear();
-  if (Status s = model.validate(); !s) return s.context("packing GPU model");
-  const Config& c = model.config;
+  const Config& c = view.config;
+  if (Status s = c.validate(); !s) return s.context("packing GPU block");
   const std::vector<GpuLayerLayout> layers = gpu_layer_layout(c);
-  const uint64_t voxel_words = model.voxels.bits.size();
+  const uint64_t voxel_words = model_voxel_words(c);
   const uint64_t grid_words = ((c.grid_parameter_count() + 1) / 2 + 7) / 8 * 8;  // mlp 32-byte aligned
   const uint64_t mlp_words = layers.back().end_word;
   const uint64_t voxel_offset = LSNIF_GPU_HEADER_WORDS;
@@ -67,7 +57,7 @@ Status pack_gpu_model(const Model& model, std::vector<uint32_t>& words) {
   const uint64_t mlp_offset = grid_offset + grid_words;
   const uint64_t total = mlp_offset + mlp_words;
   if (total > 0xffffffffull)
-    return Status::error("packing GPU model: %llu words exceed the 32-bit word addressing",
+    return Status::error("packing GPU block: %llu words exceed the 32-bit word addressing",
                          static_cast<unsigned long long>(total));
   words.assign(size_t(total), 0u);
 
@@ -89,26 +79,19 @@ Status pack_gpu_model(const Model& model, std::vector<uint32_t>& words) {
   h.material_count = c.material_count;
   h.hit_param = static_cast<uint32_t>(c.hit_param);
   h.leaky_slope = c.leaky_slope;
-  const Aabb& b = model.bounds();
-  h.bounds_lo_x = b.lo.x;
-  h.bounds_lo_y = b.lo.y;
-  h.bounds_lo_z = b.lo.z;
-  h.bounds_hi_x = b.hi.x;
-  h.bounds_hi_y = b.hi.y;
-  h.bounds_hi_z = b.hi.z;
+  h.bounds_lo_x = view.bounds_lo[0];
+  h.bounds_lo_y = view.bounds_lo[1];
+  h.bounds_lo_z = view.bounds_lo[2];
+  h.bounds_hi_x = view.bounds_hi[0];
+  h.bounds_hi_y = view.bounds_hi[1];
+  h.bounds_hi_z = view.bounds_hi[2];
   h.voxel_offset = uint32_t(voxel_offset);
   h.grid_offset = uint32_t(grid_offset);
   h.mlp_offset = uint32_t(mlp_offset);
   std::memcpy(words.data(), &h, sizeof h);
 
-  std::memcpy(words.data() + voxel_offset, model.voxels.bits.data(), voxel_words * 4);
-
-  for (uint64_t e = 0; e < model.grid.size(); ++e) {
-    if (Status s = put_half(words, grid_offset, e, model.grid[size_t(e)], "hash grid", e); !s) {
-      words.clear();
-      return s.context("packing GPU model");
-    }
-  }
+  for (uint64_t w = 0; w < voxel_words; ++w) words[size_t(voxel_offset + w)] = get_u32(view.voxels + 4 * w);
+  for (uint64_t e = 0; e < c.grid_parameter_count(); ++e) put_half(words, grid_offset, e, get_u16(view.grid + 2 * e));
 
   const std::vector<LayerView> views = mlp_layers(c);
   for (size_t l = 0; l < layers.size(); ++l) {
@@ -117,27 +100,34 @@ Status pack_gpu_model(const Model& model, std::vector<uint32_t>& words) {
     for (uint32_t r = 0; r < g.out; ++r) {
       for (uint32_t i = 0; i < g.in; ++i) {
         const size_t src = v.weight_offset + size_t(r) * v.in + i;
-        const uint64_t word = mlp_offset + g.weight_word_of(r, i);
-        if (Status s = put_half(words, word, i & 1u, model.mlp[src], "MLP", src); !s) {
-          words.clear();
-          return s.context("packing GPU model");
-        }
+        put_half(words, mlp_offset + g.weight_word_of(r, i), i & 1u, get_u16(view.mlp + 2 * src));
       }
       const size_t src = v.bias_offset + r;
       const uint64_t bias_word = mlp_offset + g.bias_word + (r / LSNIF_GPU_ROW_BLOCK) * LSNIF_GPU_ROW_BLOCK;
-      if (Status s = put_half(words, bias_word, r % LSNIF_GPU_ROW_BLOCK, model.mlp[src], "MLP", src); !s) {
-        words.clear();
-        return s.context("packing GPU model");
-      }
+      put_half(words, bias_word, r % LSNIF_GPU_ROW_BLOCK, get_u16(view.mlp + 2 * src));
     }
   }
   return Status::ok();
 }
 
-LsnifGpuModelHeader gpu_model_header(const std::vector<uint32_t>& words) {
+LsnifGpuModelHeader gpu_block_header(const std::vector<uint32_t>& words) {
   LsnifGpuModelHeader h{};
   if (words.size() >= LSNIF_GPU_HEADER_WORDS) std::memcpy(&h, words.data(), sizeof h);
   return h;
+}
+
+Status check_gpu_block_header(const std::vector<uint32_t>& words) {
+  if (words.size() < LSNIF_GPU_HEADER_WORDS)
+    return Status::error("GPU block of %zu words is shorter than its %u-word header", words.size(),
+                         LSNIF_GPU_HEADER_WORDS);
+  const LsnifGpuModelHeader h = gpu_block_header(words);
+  if (h.magic != LSNIF_GPU_MAGIC)
+    return Status::error("GPU block magic 0x%08x is not LSNIF's 0x%08x", h.magic, LSNIF_GPU_MAGIC);
+  if (h.version != LSNIF_GPU_VERSION)
+    return Status::error("GPU block layout version %u, this build reads version %u", h.version, LSNIF_GPU_VERSION);
+  if (h.total_words != words.size())
+    return Status::error("GPU block header says %u words, the block has %zu", h.total_words, words.size());
+  return Status::ok();
 }
 
 }  // namespace lsnif

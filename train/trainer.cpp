@@ -13,6 +13,7 @@
 #include "head.h"
 #include "network.h"
 #include "progress.h"
+#include "voxelizer.h"
 
 namespace lsnif {
 

@@ -1,11 +1,10 @@
-// voxel_grid.cpp -- LSNIF local geometry voxelization (paper 3.1): marks the voxels of a V^3 grid
+// voxelizer.cpp -- LSNIF local geometry voxelization (paper 3.1): marks the voxels of a V^3 grid
 // over the padded object AABB that the surface triangles overlap, with an exact separating-axis
 // triangle/box test.
-#include "voxel_grid.h"
+#include "voxelizer.h"
 
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <cmath>
 
 namespace lsnif {
@@ -63,12 +62,6 @@ bool finite(const glm::vec3& v) {
 }
 
 }  // namespace
-
-uint32_t VoxelGrid::count_occupied() const {
-  uint32_t n = 0;
-  for (uint32_t word : bits) n += static_cast<uint32_t>(std::popcount(word));
-  return n;
-}
 
 bool triangle_box_overlap(const glm::vec3& box_center, const glm::vec3& box_half,
                           const glm::vec3& a, const glm::vec3& b, const glm::vec3& c) {

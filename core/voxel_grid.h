@@ -1,4 +1,4 @@
-// voxel_grid.h -- LSNIF local geometry voxelization (paper 3.1): binary occupancy of the object's
+// voxel_grid.h -- the voxel grid of LSNIF local geometry (paper 3.1): binary occupancy of the object's
 // surface on a V^3 grid over its padded AABB. Voxel (i,j,k) covers the unit-cube box
 // [i/V,(i+1)/V] x [j/V,(j+1)/V] x [k/V,(k+1)/V]; unit space maps linearly onto the AABB.
 #pragma once
@@ -6,7 +6,6 @@
 #include <vector>
 
 #include "geometry.h"
-#include "mesh.h"
 
 namespace lsnif {
 
@@ -30,14 +29,5 @@ struct VoxelGrid {
   glm::vec3 to_unit(const glm::vec3& p) const { return (p - bounds.lo) / bounds.extent(); }
   glm::vec3 direction_to_unit(const glm::vec3& d) const { return d / bounds.extent(); }
 };
-
-// Marks every voxel whose closed box overlaps at least one triangle (exact separating-axis
-// triangle/box test; polygon soup, no topology assumed). `bounds` is normally pad_aabb(mesh.bounds()).
-VoxelGrid voxelize(const Mesh& mesh, uint32_t resolution, const Aabb& bounds);
-
-// Exact triangle / axis-aligned box overlap test (separating axis theorem, 13 axes). Touching
-// counts as overlap.
-bool triangle_box_overlap(const glm::vec3& box_center, const glm::vec3& box_half,
-                          const glm::vec3& a, const glm::vec3& b, const glm::vec3& c);
 
 }  // namespace lsnif

@@ -1,0 +1,20 @@
+# lsnif_add_tests_per_file(PREFIX p LIBS ... [DEFINES ...] [TEST_PREFIX t] [LABEL l]): one GoogleTest
+# executable p<name> per *_test.cpp of the calling folder, linked with LIBS, compiled with DEFINES
+# and LSNIF_DATA_DIR, its tests discovered with label l (default "host") and CTest names prefixed
+# by t. Each module's tests build and fail alone.
+function(lsnif_add_tests_per_file)
+  cmake_parse_arguments(ARG "" "PREFIX;TEST_PREFIX;LABEL" "LIBS;DEFINES" ${ARGN})
+  if(NOT ARG_LABEL)
+    set(ARG_LABEL host)
+  endif()
+  file(GLOB tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*_test.cpp)
+  foreach(src ${tests})
+    get_filename_component(name ${src} NAME_WE)
+    set(exe ${ARG_PREFIX}${name})
+    add_executable(${exe} ${src})
+    target_link_libraries(${exe} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main lsnif_warnings)
+    target_compile_definitions(${exe} PRIVATE LSNIF_DATA_DIR="${LSNIF_DATA_DIR}" ${ARG_DEFINES})
+    gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60 TEST_PREFIX "${ARG_TEST_PREFIX}"
+      PROPERTIES LABELS ${ARG_LABEL})
+  endforeach()
+endfunction()

@@ -1,0 +1,119 @@
+// model_file.cpp -- .lsnif files to and from a Model (model.h). The bytes are read and written by
+// format/model_format.cpp; this file only converts between fp16 bits and the Model's floats.
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+
+#include "half.h"
+#include "model.h"
+#include "model_format.h"
+
+namespace lsnif {
+
+namespace {
+
+// Converts `count` little-endian fp16 values at p to float.
+void halves_to_floats(const uint8_t* p, uint64_t count, std::vector<float>& out) {
+  out.resize(size_t(count));
+  for (uint64_t i = 0; i < count; ++i)
+    out[size_t(i)] = half_to_float(static_cast<uint16_t>(p[2 * i] | (p[2 * i + 1] << 8)));
+}
+
+// fp16 bits of `values`; fails on a value fp16 cannot hold (NaN, infinite, or beyond its range).
+Status floats_to_halves(const std::vector<float>& values, const char* section, std::vector<uint16_t>& out) {
+  out.resize(values.size());
+  for (size_t i = 0; i < values.size(); ++i) {
+    const uint16_t h = float_to_half(values[i]);
+    if ((h & 0x7c00u) == 0x7c00u)
+      return Status::error("%s value %zu is %g, which is not a finite fp16 value", section, i, double(values[i]));
+    out[i] = h;
+  }
+  return Status::ok();
+}
+
+}  // namespace
+
+Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes) {
+  if (Status s = model.validate(); !s) return s.context("cannot save model");
+  ModelFileContents c;
+  c.config = model.config;
+  const Aabb& box = model.bounds();
+  for (int a = 0; a < 3; ++a) {
+    c.bounds_lo[a] = box.lo[a];
+    c.bounds_hi[a] = box.hi[a];
+  }
+  c.materials.resize(model.materials.size());
+  for (size_t i = 0; i < model.materials.size(); ++i) {
+    c.materials[i].name = model.materials[i].name;
+    for (int k = 0; k < 3; ++k) c.materials[i].base_color[k] = model.materials[i].base_color[k];
+  }
+  std::vector<uint16_t> grid, mlp;
+  if (Status s = floats_to_halves(model.grid, "grid", grid); !s) return s.context("cannot save model");
+  if (Status s = floats_to_halves(model.mlp, "mlp", mlp); !s) return s.context("cannot save model");
+  c.voxels = model.voxels.bits.data();
+  c.grid = grid.data();
+  c.mlp = mlp.data();
+  return write_model_file(c, bytes);
+}
+
+Status save_model(const Model& model, const std::string& path) {
+  std::vector<uint8_t> bytes;
+  if (Status s = save_model_to_memory(model, bytes); !s) return s.context("saving " + path);
+  // Write a temporary file next to the target and rename it, so a failed write never leaves a
+  // half-written model under the target name.
+  const std::string temp = path + ".tmp";
+  std::FILE* f = std::fopen(temp.c_str(), "wb");
+  if (!f) return Status::error("saving %s: cannot open %s for writing: %s", path.c_str(), temp.c_str(),
+                               std::strerror(errno));
+  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
+  const int write_errno = errno;
+  const bool closed = std::fclose(f) == 0;
+  if (!written || !closed) {
+    std::remove(temp.c_str());
+    return Status::error("saving %s: writing %zu bytes failed: %s", path.c_str(), bytes.size(),
+                         std::strerror(written ? errno : write_errno));
+  }
+  std::error_code ec;
+  std::filesystem::rename(temp, path, ec);
+  if (ec) {
+    std::remove(temp.c_str());
+    return Status::error("saving %s: cannot rename %s to it: %s", path.c_str(), temp.c_str(), ec.message().c_str());
+  }
+  return Status::ok();
+}
+
+Status load_model_from_memory(const uint8_t* data, size_t size, Model& model) {
+  ModelFileView v;
+  if (Status s = parse_model_file(data, size, v); !s) return s;
+  Model m;
+  m.config = v.config;
+  m.voxels.resolution = v.config.voxel_resolution;
+  m.voxels.bounds.lo = {v.bounds_lo[0], v.bounds_lo[1], v.bounds_lo[2]};
+  m.voxels.bounds.hi = {v.bounds_hi[0], v.bounds_hi[1], v.bounds_hi[2]};
+  m.voxels.bits.resize(size_t(model_voxel_words(v.config)));
+  for (size_t w = 0; w < m.voxels.bits.size(); ++w) {
+    const uint8_t* p = v.voxels + 4 * w;
+    m.voxels.bits[w] = uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
+  }
+  m.materials.resize(v.materials.size());
+  for (size_t i = 0; i < v.materials.size(); ++i) {
+    m.materials[i].name = v.materials[i].name;
+    m.materials[i].base_color = {v.materials[i].base_color[0], v.materials[i].base_color[1],
+                                 v.materials[i].base_color[2]};
+  }
+  halves_to_floats(v.grid, v.config.grid_parameter_count(), m.grid);
+  halves_to_floats(v.mlp, v.config.mlp_parameter_count(), m.mlp);
+  if (Status s = m.validate(); !s) return s.context("internal error: loaded model is inconsistent");
+  model = std::move(m);
+  return Status::ok();
+}
+
+Status load_model(const std::string& path, Model& model) {
+  std::vector<uint8_t> bytes;
+  if (Status s = read_model_file(path, bytes); !s) return s;
+  return load_model_from_memory(bytes.data(), bytes.size(), model).context("loading " + path);
+}
+
+}  // namespace lsnif
