@@ -1,16 +1,20 @@
 // device_support.h -- what the LSNIF ray-tracing path needs from a Vulkan physical device, queried
-// once into a plain struct (so the message building is testable without a device), and the check
-// that names every missing extension or feature.
+// once into a plain struct (so the message building is testable without a device), the check that
+// names every missing extension or feature, and the feature-chain helpers of lsnif.h.
 #pragma once
 #include <cstdint>
 #include <string>
 #include <vector>
 
-#include <volk.h>
+#include <vulkan/vulkan_core.h>
 
 #include "status.h"
+#include "vk_dispatch.h"
 
 namespace lsnif::plugin {
+
+// The device extensions LSNIF needs enabled (lsnifGetRequiredDeviceExtensions).
+extern const char* const kRequiredDeviceExtensions[3];
 
 // What a physical device offers (not what an application enabled). Filled by query_device_support.
 struct DeviceSupport {
@@ -32,11 +36,9 @@ struct DeviceSupport {
   bool ext_nv_cooperative_vector = false;   // VK_NV_cooperative_vector
 };
 
-// Reads the device's name, API version, extensions and features. The instance-level functions of
-// the instance that owns `physical` must be loaded into volk (volkLoadInstance or
-// volkLoadInstanceOnly). Feature structs of Vulkan 1.2 are queried only on a 1.2+ device (else the
-// 1.2 features read as missing).
-DeviceSupport query_device_support(VkPhysicalDevice physical);
+// Reads the device's name, API version, extensions and features. Feature structs of Vulkan 1.2
+// are queried only on a 1.2+ device (else the 1.2 features read as missing).
+DeviceSupport query_device_support(const InstanceDispatch& vk, VkPhysicalDevice physical);
 
 // The pieces of the ray-tracing pipeline path that `support` lacks, in the order listed below
 // ("Vulkan 1.2", "extension VK_KHR_...", "feature ..."); empty when it has them all.
@@ -49,8 +51,14 @@ std::vector<std::string> missing_for_ray_tracing(const DeviceSupport& support);
 // separated, in that order.
 Status describe_device_support(const DeviceSupport& support);
 
-// describe_device_support(query_device_support(physical)); same precondition as the query.
-Status check_device_support(VkPhysicalDevice physical);
+// The features LSNIF needs that the feature chain starting at `chain` (a VkDeviceCreateInfo or a
+// feature struct, as given to vkCreateDevice) does not enable, as "feature NAME" in the order of
+// missing_for_ray_tracing; a feature whose struct is absent from the chain counts as not enabled.
+std::vector<std::string> features_not_enabled(const void* chain);
+
+// lsnifEnableDeviceFeatures: sets LSNIF's features in the structs of the chain; returns the names
+// of the structs it needed but did not find (empty: all set).
+std::vector<std::string> enable_device_features(void* chain);
 
 // "1.3.278" from a VK_MAKE_API_VERSION value.
 std::string api_version_string(uint32_t version);

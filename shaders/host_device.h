@@ -73,11 +73,15 @@
 #define LSNIF_GPU_ROW_BLOCK 8u
 #define LSNIF_GPU_ROW_BLOCKS(n) (((n) + LSNIF_GPU_ROW_BLOCK - 1u) / LSNIF_GPU_ROW_BLOCK)
 
-#ifdef __cplusplus
+#if defined(__cplusplus)
 #include <cstdint>
 typedef uint32_t lsnif_uint;
-#else
+#elif defined(GL_core_profile) || defined(GL_es_profile) || defined(VULKAN) /* GLSL */
+#define LSNIF_GLSL 1
 #define lsnif_uint uint
+#else /* C */
+#include <stdint.h>
+typedef uint32_t lsnif_uint;
 #endif
 
 struct LsnifGpuModelHeader {
@@ -125,15 +129,35 @@ struct LsnifReferenceHit {
  * Every LSNIF object is one instance of a BLAS holding one AABB geometry (VK_GEOMETRY_TYPE_AABBS_KHR,
  * flag OPAQUE) whose box is the model's object-space AABB (LsnifGpuModelHeader bounds, may be padded:
  * the intersection shader clips to the model's own bounds) and whose hit group is
- * (lsnif.rint, the application's closest-hit shader).
- * Model lookup: the push constant block of the pipeline starts (offset 0, 8 bytes) with the buffer
- * device address of the instance model table, an array of uint64 model block addresses
- * (LsnifGpuModelHeader blocks, 4-byte aligned) indexed by the instance's custom index
- * (VkAccelerationStructureInstanceKHR::instanceCustomIndex = gl_InstanceCustomIndexEXT). The push
- * constant range must include VK_SHADER_STAGE_INTERSECTION_BIT_KHR; the application's own push
- * constants follow at offset >= LSNIF_RT_PUSH_APP_OFFSET. */
+ * (lsnif.rint, the application's closest-hit shader). The intersection shader finds the instance's
+ * model in one of two ways (two SPIR-V variants, LsnifModelLookup in include/lsnif/lsnif.h):
+ *  instance table (default): the push constant block of the pipeline starts (offset 0, 16 bytes,
+ *    LsnifRtPushConstants) with the buffer device address of the instance model table, an array of
+ *    uint64 model block addresses indexed by the instance's custom index
+ *    (VkAccelerationStructureInstanceKHR::instanceCustomIndex = gl_InstanceCustomIndexEXT), and the
+ *    number of entries of that table. The push constant range must include
+ *    VK_SHADER_STAGE_INTERSECTION_BIT_KHR; the application's own push constants follow at offset
+ *    >= LSNIF_RT_PUSH_APP_OFFSET.
+ *  shader record (compiled with LSNIF_MODEL_FROM_SHADER_RECORD): the hit group's shader record
+ *    holds the model's block address (uint64) at byte LSNIF_SHADER_RECORD_MODEL_OFFSET after the
+ *    group handle; no push constants, and the custom index stays the application's.
+ * Broken conventions are misses, never faults: a table address of 0, a custom index >= the table's
+ * entry count, a table entry or shader record of 0 (a hole), or a block whose header is not
+ * LSNIF_GPU_MAGIC / LSNIF_GPU_VERSION make the shader report no intersection. */
 #define LSNIF_RT_PUSH_MODEL_TABLE_OFFSET 0u
-#define LSNIF_RT_PUSH_APP_OFFSET 8u
+#define LSNIF_RT_PUSH_MODEL_COUNT_OFFSET 8u
+#define LSNIF_RT_PUSH_APP_OFFSET 16u
+#define LSNIF_SHADER_RECORD_MODEL_OFFSET 0u
+#define LSNIF_SHADER_RECORD_SIZE 8u
+#ifndef LSNIF_GLSL
+/* The push constants of the instance-table convention, as C/C++ see them (offset 0 of the
+ * application's push constant block). */
+struct LsnifRtPushConstants {
+  uint64_t model_table;  /* device address of uint64 model block addresses; 0: every LSNIF instance misses */
+  uint32_t model_count;  /* entries of the table */
+  uint32_t reserved;     /* zero */
+};
+#endif
 
 /* Hit attributes that lsnif.rint reports (28 bytes <= maxRayHitAttributeSize 32); decode them in a
  * closest-hit shader with lsnif_hit.glsl. The hit distance is gl_HitTEXT (world = object ray

@@ -27,6 +27,13 @@ struct LsnifModel {
   LsnifOctsRef octs;    // the same block in 32-byte units (oct i = words 8i .. 8i + 7)
 };
 
+// True when the block at `address` starts with this layout's magic and version (host_device.h);
+// anything else must not be read as a model.
+bool lsnif_model_layout_matches(uint64_t address) {
+  LsnifWordsRef w = LsnifWordsRef(address);
+  return w.w[0] == LSNIF_GPU_MAGIC && w.w[1] == LSNIF_GPU_VERSION;
+}
+
 // The model packed at device address `address` (32-byte aligned).
 LsnifModel lsnif_load_model(uint64_t address) {
   LsnifModel m;

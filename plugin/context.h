@@ -1,0 +1,90 @@
+// context.h -- the objects behind the C API's handles (include/lsnif/lsnif.h): a context on the
+// application's device and the models created in it (GPU block, AABB input, BLAS, build scratch).
+// Every function returns an Outcome: a result code and, on failure, the message naming the
+// problem; api.cpp turns it into the thread's last error and the error callback.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "lsnif/lsnif.h"
+#include "status.h"
+#include "vk_dispatch.h"
+
+namespace lsnif::plugin {
+
+struct Outcome {
+  LsnifResult code = LSNIF_SUCCESS;
+  std::string message;
+  explicit operator bool() const { return code == LSNIF_SUCCESS; }
+  static Outcome ok() { return Outcome(); }
+  static Outcome fail(LsnifResult code, const char* fmt, ...) __attribute__((format(printf, 2, 3)));
+  // A failed Status as an Outcome of `code` (ok stays ok).
+  static Outcome from(const Status& status, LsnifResult code);
+  Outcome& context(const std::string& prefix) {
+    if (code != LSNIF_SUCCESS) message = prefix + ": " + message;
+    return *this;
+  }
+};
+
+// One device buffer with its own memory.
+struct Allocation {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkDeviceAddress address = 0;
+  VkDeviceSize bytes = 0, allocated = 0;  // requested size, VkMemoryRequirements::size
+  bool host_visible = false;
+};
+
+}  // namespace lsnif::plugin
+
+struct LsnifModel_T {
+  lsnif::plugin::Allocation block;          // the GPU block (device address: the model's address)
+  lsnif::plugin::Allocation staging;        // the block's words, when the block is not host-visible
+  lsnif::plugin::Allocation aabb;           // the BLAS build input (one VkAabbPositionsKHR)
+  lsnif::plugin::Allocation scratch;        // the BLAS build scratch
+  lsnif::plugin::Allocation blas_storage;
+  VkAccelerationStructureKHR blas = VK_NULL_HANDLE;
+  VkDeviceAddress blas_address = 0;
+  VkDeviceSize scratch_address = 0;         // aligned to minAccelerationStructureScratchOffsetAlignment
+  float bounds_min[3] = {}, bounds_max[3] = {};
+  uint32_t material_count = 0;
+  uint32_t layout_version = 0;
+  bool build_recorded = false;
+};
+
+struct LsnifContext_T {
+  LsnifContextCreateInfo info{};
+  lsnif::plugin::InstanceDispatch vki;
+  lsnif::plugin::DeviceDispatch vk;
+  VkPhysicalDeviceMemoryProperties memory{};
+  VkDeviceSize scratch_alignment = 0;
+  bool staging_upload = false;  // blocks always go through a staging buffer (LSNIF_CONTEXT_CREATE_STAGING_UPLOAD_BIT)
+  VkCommandPool pool = VK_NULL_HANDLE;  // for the blocking calls (created on first use)
+  VkFence fence = VK_NULL_HANDLE;
+  std::vector<std::unique_ptr<LsnifModel_T>> models;
+
+  // The model behind `handle` if it belongs to this context, else null.
+  LsnifModel_T* find(LsnifModel handle) const;
+};
+
+namespace lsnif::plugin {
+
+// lsnifCreateContext / lsnifDestroyContext.
+Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<LsnifContext_T>& out);
+void destroy_context(LsnifContext_T& ctx);
+
+// lsnifCreateModelFromMemory: parse, pack, allocate, write the block and the AABB; no commands.
+Outcome create_model(LsnifContext_T& ctx, const uint8_t* data, size_t size, LsnifModel& out);
+void destroy_model(LsnifContext_T& ctx, LsnifModel_T& model);
+// Records block uploads and BLAS builds of `models` (checked by the caller) and the barrier.
+void record_builds(LsnifContext_T& ctx, VkCommandBuffer cmd, const std::vector<LsnifModel_T*>& models);
+// Records into the context's own command buffer, submits, waits, frees the build resources.
+Outcome build_and_wait(LsnifContext_T& ctx, const std::vector<LsnifModel_T*>& models);
+void free_build_resources(LsnifContext_T& ctx, LsnifModel_T& model);
+
+// Finite, non-singular transform check of lsnifMakeInstance.
+Outcome check_instance_transform(const VkTransformMatrixKHR& xf);
+
+}  // namespace lsnif::plugin
