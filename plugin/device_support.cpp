@@ -30,6 +30,8 @@ DeviceSupport query_device_support(VkPhysicalDevice physical) {
   s.ext_nv_cooperative_matrix = has("VK_NV_cooperative_matrix");
   s.ext_khr_cooperative_matrix = has("VK_KHR_cooperative_matrix");
   s.ext_nv_cooperative_vector = has("VK_NV_cooperative_vector");
+  s.ext_spirv_1_4 = has("VK_KHR_spirv_1_4");
+  s.ext_swapchain = has("VK_KHR_swapchain");
 
   VkPhysicalDeviceFeatures2 f2{};
   f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
@@ -57,6 +59,7 @@ DeviceSupport query_device_support(VkPhysicalDevice physical) {
   vkGetPhysicalDeviceFeatures2(physical, &f2);
   s.shader_int64 = f2.features.shaderInt64 == VK_TRUE;
   s.buffer_device_address = v12 && f12.bufferDeviceAddress == VK_TRUE;
+  s.scalar_block_layout = v12 && f12.scalarBlockLayout == VK_TRUE;
   s.acceleration_structure = s.ext_acceleration_structure && as.accelerationStructure == VK_TRUE;
   s.ray_tracing_pipeline = s.ext_ray_tracing_pipeline && rt.rayTracingPipeline == VK_TRUE;
   return s;

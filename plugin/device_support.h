@@ -30,6 +30,11 @@ struct DeviceSupport {
   bool ext_nv_cooperative_matrix = false;   // VK_NV_cooperative_matrix
   bool ext_khr_cooperative_matrix = false;  // VK_KHR_cooperative_matrix
   bool ext_nv_cooperative_vector = false;   // VK_NV_cooperative_vector
+  // What the samples' Vulkan harness also asks for (samples/common/device_choice.h), not required
+  // by the plugin.
+  bool ext_spirv_1_4 = false;        // VK_KHR_spirv_1_4
+  bool ext_swapchain = false;        // VK_KHR_swapchain
+  bool scalar_block_layout = false;  // VkPhysicalDeviceVulkan12Features
 };
 
 // Reads the device's name, API version, extensions and features. The instance-level functions of

@@ -10,6 +10,7 @@
 
 #include "args.h"
 #include "commands.h"
+#include "device_option.h"
 #include "lsnif_vk.h"
 #include "mesh.h"
 #include "mesh_subdivide.h"
@@ -196,7 +197,7 @@ bool mesh_fits_model(const Mesh& mesh, const Model& model) {
 }  // namespace
 
 int cmd_bench_memory(int argc, char** argv) {
-  std::string mesh_path, model_path, targets_arg = "1000000,5000000";
+  std::string mesh_path, model_path, targets_arg = "1000000,5000000", device;
   bool json = false;
   Args args("bench-memory",
             "Device memory of an LSNIF model against the triangle BLAS of its mesh. LSNIF: the model's GPU\n"
@@ -209,6 +210,7 @@ int cmd_bench_memory(int argc, char** argv) {
   args.positional("MODEL", "LSNIF model of it (.lsnif)", &model_path);
   args.option("subdivide-targets", "comma-separated triangle counts ('' for none)", &targets_arg);
   args.flag("json", "print one JSON object instead of the table", &json);
+  add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   std::vector<uint64_t> targets;
   if (!parse_targets(targets_arg, targets)) {
@@ -253,7 +255,7 @@ int cmd_bench_memory(int argc, char** argv) {
   }
 
   vk::ComputeContext vk;
-  if (Status s = vk.init(/*ray_tracing=*/true, /*validation=*/false); !s) {
+  if (Status s = vk.init(/*ray_tracing=*/true, /*validation=*/false, device); !s) {
     std::fprintf(stderr, "lsnif bench-memory: no usable Vulkan ray-tracing device (`lsnif devices` tells what is "
                          "missing): %s\n", s.message().c_str());
     return 1;

@@ -30,6 +30,7 @@
 
 #include "args.h"
 #include "commands.h"
+#include "device_option.h"
 #include "lsnif_vk.h"
 #include "mesh.h"
 #include "model.h"
@@ -218,10 +219,11 @@ struct DeviceState {
   }
 };
 
-// Builds everything on the device for `model` and `mesh` and writes `rays` into the ray buffer.
+// Builds everything on the device `device` selects (vk::ContextOptions::device) for `model` and
+// `mesh` and writes `rays` into the ray buffer.
 Status set_up(DeviceState& st, const Model& model, const Mesh& mesh, const std::vector<Ray>& rays, bool validation,
-              const std::string& intersection_spv, Report& report) {
-  Status s = st.ctx.init(/*ray_tracing=*/true, validation);
+              const std::string& device, const std::string& intersection_spv, Report& report) {
+  Status s = st.ctx.init(/*ray_tracing=*/true, validation, device);
   if (!s) return s.context("Vulkan device with ray tracing");
   report.device = st.ctx.device_name();
   if (s = st.tracer.init(); !s) return s;
@@ -443,7 +445,7 @@ void print_json(const Report& r) {
 }  // namespace
 
 int cmd_bench_trace(int argc, char** argv) {
-  std::string mesh_path, model_path, triangle_order = "morton";
+  std::string mesh_path, model_path, triangle_order = "morton", device;
   std::string intersection_spv = plugin::intersection_shader_spirv_path();
   uint32_t rays = 1u << 18, repeat = 5;
   uint64_t seed = 1;
@@ -472,6 +474,7 @@ int cmd_bench_trace(int argc, char** argv) {
               &intersection_spv);
   args.flag("json", "print one JSON object instead of text", &json);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 if it reports anything)", &validation);
+  add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (rays == 0 || rays > kMaxRays) {
     std::fprintf(stderr, "lsnif bench-trace: --rays %u out of range 1..%u\n", rays, kMaxRays);
@@ -511,7 +514,7 @@ int cmd_bench_trace(int argc, char** argv) {
   const std::vector<Ray> ray_list = make_rays(mesh.bounds(), rays, seed);
 
   DeviceState st;
-  Status s = set_up(st, model, mesh, ray_list, validation, intersection_spv, report);
+  Status s = set_up(st, model, mesh, ray_list, validation, device, intersection_spv, report);
   if (s) s = run_traces(st, rays, repeat, report);
   if (!s) return fail(s);
   compare_results(st, model, mesh, ray_list, report);

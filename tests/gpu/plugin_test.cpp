@@ -15,6 +15,7 @@
 #include "lsnif_vk.h"
 #include "network.h"
 #include "plugin_device.h"
+#include "test_support.h"
 #include "vk_compute.h"
 
 namespace lsnif {
@@ -99,7 +100,7 @@ Model random_model() {
 class Plugin : public ::testing::Test {
  protected:
   void SetUp() override {
-    const Status s = vk_.init(true);
+    const Status s = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::kReferenceDevice);
     ASSERT_TRUE(s) << "no usable Vulkan ray-tracing device: " << s.message();
     handles_ = vk::plugin_handles(vk_);
   }
