@@ -10,6 +10,7 @@
 #include "context.h"
 #include "device_support.h"
 #include "lsnif/lsnif.h"
+#include "instance_transform.h"
 #include "model_format.h"
 
 using lsnif::plugin::Outcome;
@@ -315,7 +316,8 @@ LSNIF_API LsnifResult lsnifMakeInstance(LsnifContext context, const LsnifInstanc
                   if (pInfo->flags > 0xFFu)
                     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "flags 0x%x do not fit their 8 bits",
                                          pInfo->flags);
-                  if (Outcome o = lsnif::plugin::check_instance_transform(pInfo->transform); !o) return o;
+                  if (lsnif::Status s = lsnif::check_instance_transform(pInfo->transform.matrix); !s)
+                    return Outcome::from(s, LSNIF_ERROR_INVALID_ARGUMENT);
                   VkAccelerationStructureInstanceKHR rec{};
                   rec.transform = pInfo->transform;
                   rec.instanceCustomIndex = pInfo->instanceCustomIndex & 0xFFFFFFu;

@@ -84,7 +84,4 @@ void record_builds(LsnifContext_T& ctx, VkCommandBuffer cmd, const std::vector<L
 Outcome build_and_wait(LsnifContext_T& ctx, const std::vector<LsnifModel_T*>& models);
 void free_build_resources(LsnifContext_T& ctx, LsnifModel_T& model);
 
-// Finite, non-singular transform check of lsnifMakeInstance.
-Outcome check_instance_transform(const VkTransformMatrixKHR& xf);
-
 }  // namespace lsnif::plugin

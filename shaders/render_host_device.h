@@ -78,10 +78,13 @@ struct RenderFrame {
   float pad_sun;
 };
 
-/* Push constants: the model table first (LSNIF binding convention), then the frame. */
+/* Push constants: the model table and its entry count first (LSNIF binding convention), then the
+ * frame at LSNIF_RT_PUSH_APP_OFFSET. */
 struct RenderPush {
   lsnif_address model_table;  /* LSNIF_RT_PUSH_MODEL_TABLE_OFFSET */
-  lsnif_address frame;        /* RenderFrame */
+  lsnif_uint model_count;     /* LSNIF_RT_PUSH_MODEL_COUNT_OFFSET */
+  lsnif_uint reserved;
+  lsnif_address frame;        /* RenderFrame, at LSNIF_RT_PUSH_APP_OFFSET */
   lsnif_uint sample_index;    /* index of the first sample of this pass (per-pixel random sequences) */
   lsnif_uint samples;         /* samples per pixel in this pass */
 };

@@ -10,6 +10,8 @@
 #include <fstream>
 #include <string>
 
+#include "test_support.h"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -90,6 +92,79 @@ TEST(Cli, DevicesListsLavapipeWithRayTracing) {
 
   r = run_cli("devices --frobnicate");
   EXPECT_EQ(r.code, 2) << r.out;
+}
+
+size_t occurrences(const std::string& text, const std::string& part) {
+  size_t n = 0;
+  for (size_t at = text.find(part); at != std::string::npos; at = text.find(part, at + part.size())) ++n;
+  return n;
+}
+
+// The JSON object of the device `lsnif devices --json` marks as selected ("" when none).
+std::string selected_device(const std::string& json) {
+  const size_t mark = json.find("\"selected\": true");
+  if (mark == std::string::npos) return "";
+  const size_t begin = json.rfind('{', mark);
+  return json.substr(begin, json.find('}', mark) + 1 - begin);
+}
+
+// The device the commands use: every command on a Vulkan device takes --device; `lsnif devices`
+// marks exactly one device, automatically or as --device names it (by part of the name in any
+// case, by index); a --device naming no device is an error that lists the devices, for `devices`
+// and for `render`; naming lavapipe renders.
+TEST(Cli, DeviceChoice) {
+  for (const char* cmd : {"render", "view", "bench", "bench-trace", "bench-memory", "demo", "devices"}) {
+    const CliResult help = run_cli(std::string(cmd) + " --help");
+    EXPECT_NE(help.out.find("--device TEXT"), std::string::npos) << cmd << ":\n" << help.out;
+  }
+  CliResult r = run_cli("devices --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(occurrences(r.out, "\"selected\": true"), 1u) << r.out;
+  EXPECT_EQ(occurrences(r.out, "\"selected\": "), occurrences(r.out, "\"index\": ")) << r.out;
+  EXPECT_NE(r.out.find("\"selection\": \"automatic\""), std::string::npos) << r.out;
+  r = run_cli("devices");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(occurrences(r.out, "* device "), 1u) << r.out;
+  EXPECT_NE(r.out.find("automatic choice"), std::string::npos) << r.out;
+
+  r = run_cli("devices --json --device LLVMpipe");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string lavapipe = selected_device(r.out);
+  ASSERT_NE(lavapipe.find("\"name\": \"llvmpipe"), std::string::npos) << r.out;
+  const std::string index_key = "\"index\": ";
+  const size_t index_at = lavapipe.find(index_key) + index_key.size();
+  const std::string index = lavapipe.substr(index_at, lavapipe.find(',', index_at) - index_at);
+  r = run_cli("devices --json --device " + index);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(selected_device(r.out), lavapipe) << r.out;
+  for (const char* bad : {"99", "no-such-gpu"}) {
+    r = run_cli(std::string("devices --device ") + bad);
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.out.find(std::string("'") + bad + "'"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("llvmpipe"), std::string::npos) << r.out;
+  }
+
+  if (!fs::exists(kElephant)) GTEST_SKIP() << kElephant << " missing: run scripts/setup.sh";
+  const lsnif::test::ScopedTestDir dir("lsnif_cli_device");
+  const std::string model = dir.path("elephant.lsnif"), image = dir.path("render.png");
+  r = train_tiny(model);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string render = "render " + std::string(LSNIF_DATA_DIR) +
+                             "/../samples/scene/examples/bunny_on_plane.gltf --lsnif bunny=" + model +
+                             " --width 8 --height 8 --spp 1 -o " + image + " --device ";
+  r = run_cli(render + "99");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("there is no device 99"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("'llvmpipe"), std::string::npos) << r.out;
+  r = run_cli(render + "no-such-gpu");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("'no-such-gpu' matches no device"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("llvmpipe"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(image));
+  r = run_cli(render + lsnif::test::kReferenceDevice);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(image));
+  EXPECT_NE(r.out.find("device           llvmpipe"), std::string::npos) << r.out;
 }
 
 TEST(Cli, UsageErrors) {

@@ -1,6 +1,6 @@
-// test_support.h -- pieces shared by the end-to-end, GPU and command-line tests: the tiny training
-// settings they train with, one skewed instance transform, running a command with its output and
-// exit code captured, and a per-test temporary folder.
+// test_support.h -- pieces shared by the end-to-end, GPU and command-line tests: the device they
+// ask for, the tiny training settings they train with, one skewed instance transform, running a
+// command with its output and exit code captured, and a per-test temporary folder.
 #pragma once
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -18,6 +18,10 @@
 #include "trainer.h"
 
 namespace lsnif::test {
+
+// The device selector (vk::ContextOptions::device, `lsnif ... --device`) of the GPU tests: lavapipe,
+// their reference platform, also on a machine with a GPU that the automatic choice would prefer.
+inline constexpr const char* kReferenceDevice = "llvmpipe";
 
 // A small, fast model: V=16, H=12, grid 32..64 with 2^14 entries, 2x64 MLP, batches of 2048, no
 // progress bar. Callers set the steps, seed and hit parametrization they need.

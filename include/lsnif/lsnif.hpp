@@ -41,6 +41,8 @@ class Context {
     lsnifDestroyContext(context_);
     context_ = nullptr;
   }
+  // Gives up ownership without destroying (the caller destroys the context).
+  LsnifContext release() { return std::exchange(context_, nullptr); }
   LsnifContext get() const { return context_; }
   explicit operator bool() const { return context_ != nullptr; }
 
@@ -94,6 +96,11 @@ class Model {
     LsnifModelMemory m{};
     if (model_) lsnifGetModelMemory(context_, model_, &m);
     return m;
+  }
+  // Gives up ownership without destroying (e.g. when lsnifDestroyContext already destroyed it).
+  LsnifModel release() {
+    context_ = nullptr;
+    return std::exchange(model_, nullptr);
   }
   LsnifModel get() const { return model_; }
   LsnifContext context() const { return context_; }

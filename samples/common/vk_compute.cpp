@@ -5,7 +5,9 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <utility>
 #include <vector>
+
 
 namespace lsnif::vk {
 
@@ -13,7 +15,78 @@ namespace {
 
 constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
 
+DeviceType device_type(VkPhysicalDeviceType type) {
+  switch (type) {
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return DeviceType::integrated_gpu;
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return DeviceType::discrete_gpu;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return DeviceType::virtual_gpu;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return DeviceType::cpu;
+    default: return DeviceType::other;
+  }
+}
+
 }  // namespace
+
+DeviceInfo query_device_info(VkPhysicalDevice physical) {
+  // What the harness enables (device_choice.h): extensions, features, the type and the queues.
+  DeviceInfo info;
+  VkPhysicalDeviceProperties props;
+  vkGetPhysicalDeviceProperties(physical, &props);
+  info.name = props.deviceName;
+  info.type = device_type(props.deviceType);
+  info.vulkan_1_2 = VK_API_VERSION_MAJOR(props.apiVersion) > 1 || VK_API_VERSION_MINOR(props.apiVersion) >= 2;
+
+  uint32_t count = 0;
+  vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
+  std::vector<VkExtensionProperties> extensions(count);
+  vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, extensions.data());
+  extensions.resize(count);
+  auto offers = [&](const char* name) {
+    for (const VkExtensionProperties& e : extensions)
+      if (std::strcmp(e.extensionName, name) == 0) return true;
+    return false;
+  };
+  info.ext_acceleration_structure = offers(VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME);
+  info.ext_ray_tracing_pipeline = offers(VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME);
+  info.ext_deferred_host_operations = offers(VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME);
+  info.ext_spirv_1_4 = offers(VK_KHR_SPIRV_1_4_EXTENSION_NAME);
+  info.ext_swapchain = offers(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+
+  // Feature structs only for what the device knows (an unknown struct in pNext is invalid usage).
+  VkPhysicalDeviceFeatures2 f2{};
+  f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  VkPhysicalDeviceVulkan12Features f12{};
+  f12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
+  as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+  rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+  void** tail = &f2.pNext;
+  for (auto [wanted, s] : {std::pair<bool, VkBaseOutStructure*>{info.vulkan_1_2, reinterpret_cast<VkBaseOutStructure*>(&f12)},
+                           {info.ext_acceleration_structure, reinterpret_cast<VkBaseOutStructure*>(&as)},
+                           {info.ext_ray_tracing_pipeline, reinterpret_cast<VkBaseOutStructure*>(&rt)}}) {
+    if (!wanted) continue;
+    *tail = s;
+    tail = reinterpret_cast<void**>(&s->pNext);
+  }
+  vkGetPhysicalDeviceFeatures2(physical, &f2);
+  info.shader_int64 = f2.features.shaderInt64 == VK_TRUE;
+  info.buffer_device_address = info.vulkan_1_2 && f12.bufferDeviceAddress == VK_TRUE;
+  info.scalar_block_layout = info.vulkan_1_2 && f12.scalarBlockLayout == VK_TRUE;
+  info.acceleration_structure = info.ext_acceleration_structure && as.accelerationStructure == VK_TRUE;
+  info.ray_tracing_pipeline = info.ext_ray_tracing_pipeline && rt.rayTracingPipeline == VK_TRUE;
+
+  uint32_t family_count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(physical, &family_count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(family_count);
+  vkGetPhysicalDeviceQueueFamilyProperties(physical, &family_count, families.data());
+  for (uint32_t q = 0; q < family_count && !info.compute_queue; ++q)
+    if (families[q].queueFlags & VK_QUEUE_COMPUTE_BIT) {
+      info.compute_queue = true;
+      info.compute_queue_family = q;
+    }
+  return info;
+}
 
 VKAPI_ATTR VkBool32 VKAPI_CALL ComputeContext::on_message(
     VkDebugUtilsMessageSeverityFlagBitsEXT severity, VkDebugUtilsMessageTypeFlagsEXT,
@@ -46,10 +119,11 @@ ComputeContext::~ComputeContext() {
   if (instance_) vkDestroyInstance(instance_, nullptr);
 }
 
-Status ComputeContext::init(bool ray_tracing, bool validation) {
+Status ComputeContext::init(bool ray_tracing, bool validation, const std::string& device) {
   ContextOptions options;
   options.ray_tracing = ray_tracing;
   options.validation = validation;
+  options.device = device;
   return init(options);
 }
 
@@ -111,95 +185,42 @@ Status ComputeContext::init(const ContextOptions& options) {
 
   uint32_t count = 0;
   vkEnumeratePhysicalDevices(instance_, &count, nullptr);
-  if (count == 0) return Status::error("no Vulkan physical device (is mesa-vulkan-drivers installed?)");
   std::vector<VkPhysicalDevice> devices(count);
-  vkEnumeratePhysicalDevices(instance_, &count, devices.data());
-  // lavapipe first (the tests' reference platform), then any other device with a compute queue.
-  int best_rank = -1;
-  for (VkPhysicalDevice d : devices) {
-    VkPhysicalDeviceProperties props;
-    vkGetPhysicalDeviceProperties(d, &props);
-    uint32_t qcount = 0;
-    vkGetPhysicalDeviceQueueFamilyProperties(d, &qcount, nullptr);
-    std::vector<VkQueueFamilyProperties> qs(qcount);
-    vkGetPhysicalDeviceQueueFamilyProperties(d, &qcount, qs.data());
-    for (uint32_t q = 0; q < qcount; ++q) {
-      if (!(qs[q].queueFlags & VK_QUEUE_COMPUTE_BIT)) continue;
-      const int rank = props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 1 : 0;
-      if (rank > best_rank) {
-        best_rank = rank;
-        physical_ = d;
-        queue_family_ = q;
-        device_name_ = props.deviceName;
-      }
-      break;
-    }
-  }
-  if (!physical_) return Status::error("no Vulkan device with a compute queue among %u devices", count);
+  if (count > 0) vkEnumeratePhysicalDevices(instance_, &count, devices.data());
+  std::vector<DeviceInfo> infos;
+  for (VkPhysicalDevice d : devices) infos.push_back(query_device_info(d));
+  DeviceNeeds needs;
+  needs.ray_tracing = ray_tracing;
+  needs.swapchain = options.swapchain;
+  size_t chosen = 0;
+  if (Status s = choose_device(infos, needs, options.device, chosen); !s) return s;
+  physical_ = devices[chosen];
+  queue_family_ = infos[chosen].compute_queue_family;
+  device_name_ = infos[chosen].name;
 
-  VkPhysicalDeviceVulkan12Features f12{};
-  f12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
-  VkPhysicalDeviceFeatures2 f2{};
-  f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
-  f2.pNext = &f12;
-  vkGetPhysicalDeviceFeatures2(physical_, &f2);
-  if (!f12.bufferDeviceAddress) return Status::error("device %s lacks bufferDeviceAddress", device_name_.c_str());
-  if (!f2.features.shaderInt64) return Status::error("device %s lacks shaderInt64", device_name_.c_str());
-
+  // choose_device checked that the device offers every extension and feature enabled here.
   std::vector<const char*> device_extensions;
   VkPhysicalDeviceAccelerationStructureFeaturesKHR as_features{};
   as_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+  as_features.accelerationStructure = VK_TRUE;
   VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt_features{};
   rt_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
-  if (ray_tracing) {
-    uint32_t ext_count = 0;
-    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &ext_count, nullptr);
-    std::vector<VkExtensionProperties> available(ext_count);
-    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &ext_count, available.data());
-    // Vulkan 1.2 covers descriptor indexing, buffer device address and float controls.
-    for (const char* name : {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME, VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME,
-                             VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME, VK_KHR_SPIRV_1_4_EXTENSION_NAME}) {
-      bool found = false;
-      for (const VkExtensionProperties& e : available) found |= std::strcmp(e.extensionName, name) == 0;
-      if (!found) return Status::error("device %s lacks the extension %s", device_name_.c_str(), name);
-      device_extensions.push_back(name);
-    }
-    as_features.pNext = &rt_features;
-    VkPhysicalDeviceFeatures2 q2{};
-    q2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
-    q2.pNext = &as_features;
-    vkGetPhysicalDeviceFeatures2(physical_, &q2);
-    if (!as_features.accelerationStructure)
-      return Status::error("device %s lacks the feature accelerationStructure", device_name_.c_str());
-    if (!rt_features.rayTracingPipeline)
-      return Status::error("device %s lacks the feature rayTracingPipeline", device_name_.c_str());
-    as_features = VkPhysicalDeviceAccelerationStructureFeaturesKHR{};
-    as_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
-    as_features.accelerationStructure = VK_TRUE;
-    rt_features = VkPhysicalDeviceRayTracingPipelineFeaturesKHR{};
-    rt_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
-    rt_features.rayTracingPipeline = VK_TRUE;
-    as_features.pNext = &rt_features;
-  }
-
-  if (options.swapchain) {
-    uint32_t ext_count = 0;
-    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &ext_count, nullptr);
-    std::vector<VkExtensionProperties> available(ext_count);
-    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &ext_count, available.data());
-    bool found = false;
-    for (const VkExtensionProperties& e : available)
-      found |= std::strcmp(e.extensionName, VK_KHR_SWAPCHAIN_EXTENSION_NAME) == 0;
-    if (!found) return Status::error("device %s lacks the extension %s", device_name_.c_str(), VK_KHR_SWAPCHAIN_EXTENSION_NAME);
-    device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
-  }
+  rt_features.rayTracingPipeline = VK_TRUE;
+  as_features.pNext = &rt_features;
+  // Vulkan 1.2 covers descriptor indexing, buffer device address and float controls.
+  if (ray_tracing)
+    device_extensions = {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME,
+                         VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME,
+                         VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME, VK_KHR_SPIRV_1_4_EXTENSION_NAME};
+  if (options.swapchain) device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
 
   VkPhysicalDeviceVulkan12Features e12{};
   e12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
   e12.pNext = ray_tracing ? &as_features : nullptr;
   e12.bufferDeviceAddress = VK_TRUE;
-  e12.scalarBlockLayout = f12.scalarBlockLayout;  // the path tracer's shaders use scalar layout
-  scalar_block_layout_ = f12.scalarBlockLayout == VK_TRUE;
+  // Enabled where offered: the path tracer's shaders use scalar layout.
+  e12.scalarBlockLayout = infos[chosen].scalar_block_layout ? VK_TRUE : VK_FALSE;
+  scalar_block_layout_ = infos[chosen].scalar_block_layout;
   VkPhysicalDeviceFeatures2 e2{};
   e2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
   e2.pNext = &e12;
@@ -281,22 +302,39 @@ void ComputeContext::destroy_buffer(Buffer& buffer) {
   buffer = Buffer();
 }
 
-Status ComputeContext::load_shader_module(const std::string& spirv_path, VkShaderModule& out) {
-  if (!device_) return Status::error("load_shader_module: context not initialized");
-  std::ifstream file(spirv_path, std::ios::binary | std::ios::ate);
-  if (!file) return Status::error("cannot open SPIR-V file %s", spirv_path.c_str());
+Status read_spirv_file(const std::string& path, std::vector<uint32_t>& code) {
+  std::ifstream file(path, std::ios::binary | std::ios::ate);
+  if (!file) return Status::error("cannot open SPIR-V file %s", path.c_str());
   const std::streamsize size = file.tellg();
   if (size <= 0 || size % 4 != 0)
-    return Status::error("SPIR-V file %s has %lld bytes (not a positive multiple of 4)", spirv_path.c_str(),
+    return Status::error("SPIR-V file %s has %lld bytes (not a positive multiple of 4)", path.c_str(),
                          static_cast<long long>(size));
-  std::vector<uint32_t> code(size_t(size) / 4);
+  code.assign(size_t(size) / 4, 0u);
   file.seekg(0);
   if (!file.read(reinterpret_cast<char*>(code.data()), size))
-    return Status::error("cannot read SPIR-V file %s", spirv_path.c_str());
+    return Status::error("cannot read SPIR-V file %s", path.c_str());
+  return Status::ok();
+}
+
+Status ComputeContext::load_shader_module(const std::string& spirv_path, VkShaderModule& out) {
+  if (!device_) return Status::error("load_shader_module: context not initialized");
+  std::vector<uint32_t> code;
+  if (Status s = read_spirv_file(spirv_path, code); !s) return s;
+  Spirv spirv;
+  spirv.code = code.data();
+  spirv.bytes = code.size() * sizeof(uint32_t);
+  return create_shader_module(spirv, out).context(spirv_path);
+}
+
+Status ComputeContext::create_shader_module(const Spirv& code, VkShaderModule& out) {
+  if (!device_) return Status::error("create_shader_module: context not initialized");
+  if (!code.code || code.bytes == 0 || code.bytes % 4 != 0 || code.code[0] != 0x07230203u)
+    return Status::error("not SPIR-V (%zu bytes, a positive multiple of 4 starting with the magic 0x07230203 expected)",
+                         code.bytes);
   VkShaderModuleCreateInfo smi{};
   smi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
-  smi.codeSize = size_t(size);
-  smi.pCode = code.data();
+  smi.codeSize = code.bytes;
+  smi.pCode = code.code;
   LSNIF_VK_CHECK(vkCreateShaderModule(device_, &smi, nullptr, &out));
   return Status::ok();
 }

@@ -1,10 +1,15 @@
 // vk_compute.h -- a minimal headless Vulkan compute harness for the GPU tests, the benchmarks and
 // the samples (volk): an instance, with the Khronos validation layer and a debug-utils messenger
-// that counts (and prints) every warning and error unless validation is turned off, a device (lavapipe preferred, else the first with a compute queue) with
-// bufferDeviceAddress, shaderInt64 (and scalarBlockLayout where offered), host-visible buffers addressed by device address, one
-// compute pipeline from a SPIR-V file with a push-constant range, dispatch and wait. Optionally
-// (init(true)) the device also has the ray-tracing extensions and features that
-// samples/common/vk_raytracing.h uses.
+// that counts (and prints) every warning and error unless validation is turned off, a device with
+// bufferDeviceAddress, shaderInt64 (and scalarBlockLayout where offered), host-visible buffers
+// addressed by device address, one compute pipeline from a SPIR-V file with a push-constant range,
+// dispatch and wait. Optionally (init(true)) the device also has the ray-tracing extensions and
+// features that samples/common/vk_raytracing.h uses.
+// The device: ContextOptions::device selects one (an index in `lsnif devices` order or a part of
+// its name; the GPU tests name lavapipe, "llvmpipe", their reference platform); left empty, the
+// first discrete GPU that offers what is needed, else an integrated, virtual GPU, else a CPU device
+// (device_choice.h). A device lacking something needed is skipped by the automatic choice and is
+// an error when selected.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -14,6 +19,7 @@
 
 #include <volk.h>
 
+#include "device_choice.h"
 #include "status.h"
 
 // In a function returning Status: returns an error naming the call and its VkResult unless it
@@ -35,6 +41,15 @@ struct Buffer {
   VkDeviceAddress address = 0;    // vkGetBufferDeviceAddress
 };
 
+// SPIR-V words in memory (a shader embedded at build time, or lsnifGetIntersectionShaderSpirv).
+struct Spirv {
+  const uint32_t* code = nullptr;
+  size_t bytes = 0;
+};
+
+// Reads a SPIR-V file into `code` (replaced); errors name the file.
+Status read_spirv_file(const std::string& path, std::vector<uint32_t>& code);
+
 struct Pipeline {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline pipeline = VK_NULL_HANDLE;
@@ -50,7 +65,18 @@ struct ContextOptions {
   // surface); an error names one the loader lacks.
   std::vector<std::string> instance_extensions;
   bool swapchain = false;    // VK_KHR_swapchain on the device (presenting to a window)
+  // Which device: "" chooses automatically (a discrete GPU first, then integrated, virtual, CPU);
+  // else an index in vkEnumeratePhysicalDevices order or a case-insensitive part of the name
+  // (device_choice.h).
+  std::string device;
 };
+
+// What `physical` offers, for choose_device (device_choice.h). The instance-level functions of
+// the instance that owns it must be loaded into volk (volkLoadInstance or volkLoadInstanceOnly),
+// and that instance must be created for Vulkan 1.2 or later (the 1.2 features are queried on 1.2+
+// devices).
+DeviceInfo query_device_info(VkPhysicalDevice physical);
+
 
 class ComputeContext {
  public:
@@ -60,14 +86,15 @@ class ComputeContext {
   ~ComputeContext();
 
   // Creates instance (validation layer required with `validation`: an error when it is missing),
-  // messenger and
-  // device. Errors name the missing piece (no Vulkan loader, no device, no compute queue, ...).
+  // messenger and the device `device` selects (ContextOptions::device; "" chooses automatically).
+  // Errors name the missing piece (no Vulkan loader, no device, no qualifying device with what each
+  // lacks, a selector naming no device or several, a selected device that lacks something).
   // With `ray_tracing`, the device must offer VK_KHR_acceleration_structure,
   // VK_KHR_ray_tracing_pipeline (and their dependencies) and they are enabled with the features
-  // accelerationStructure and rayTracingPipeline; an error names what is missing.
+  // accelerationStructure and rayTracingPipeline.
   // With `validation` false (benchmarks, samples), no layer and no messenger are used and the
   // validation counts stay 0.
-  Status init(bool ray_tracing = false, bool validation = true);
+  Status init(bool ray_tracing = false, bool validation = true, const std::string& device = "");
   // init with more options (window-system extensions for a viewer).
   Status init(const ContextOptions& options);
   // A host-visible storage buffer of `bytes` with a device address (contents zeroed), with the
@@ -77,6 +104,8 @@ class ComputeContext {
   // A compute pipeline (entry "main", no descriptor sets) from a SPIR-V file.
   // Reads a SPIR-V file and creates a shader module on this context's device (caller destroys it).
   Status load_shader_module(const std::string& spirv_path, VkShaderModule& out);
+  // A shader module of `code` on this context's device (caller destroys it).
+  Status create_shader_module(const Spirv& code, VkShaderModule& out);
   Status create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out);
   void destroy_pipeline(Pipeline& pipeline);
   // Records push constants + vkCmdDispatch(groups_x, 1, 1), submits, waits; shader writes are

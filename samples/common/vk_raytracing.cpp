@@ -405,26 +405,23 @@ void RayTracer::destroy(AccelerationStructure& as) {
   as = AccelerationStructure();
 }
 
-Status RayTracer::load_module(const std::string& path, VkShaderModule& out) {
-  return ctx_.load_shader_module(path, out);
-}
-
-Status RayTracer::create_pipeline(const std::string& raygen, const std::string& miss,
-                                  const std::string& closest_hit, const std::string& intersection,
-                                  uint32_t push_size, RtPipeline& out, const std::string& triangle_closest_hit) {
+Status RayTracer::create_pipeline(const RtShaders& shaders, uint32_t push_size, RtPipeline& out) {
   out = RtPipeline();
   if (!ctx_.device() || props_.shaderGroupHandleSize == 0)
     return Status::error("create_pipeline: RayTracer not initialized");
-  const bool triangles = !triangle_closest_hit.empty();
+  const bool triangles = shaders.triangle_closest_hit.code != nullptr;
   const uint32_t stage_count = triangles ? 5 : 4, group_count = triangles ? 4 : 3;
-  const std::string* paths[5] = {&raygen, &miss, &closest_hit, &intersection, &triangle_closest_hit};
+  const Spirv* code[5] = {&shaders.raygen, &shaders.miss, &shaders.closest_hit, &shaders.intersection,
+                          &shaders.triangle_closest_hit};
+  const char* stage_names[5] = {"raygen", "miss", "closest hit", "intersection", "triangle closest hit"};
   const VkShaderStageFlagBits stages[5] = {VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
                                            VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR,
                                            VK_SHADER_STAGE_INTERSECTION_BIT_KHR,
                                            VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR};
   VkShaderModule modules[5] = {};
   Status s = Status::ok();
-  for (uint32_t i = 0; i < stage_count && s; ++i) s = load_module(*paths[i], modules[i]);
+  for (uint32_t i = 0; i < stage_count && s; ++i)
+    s = ctx_.create_shader_module(*code[i], modules[i]).context(std::string("create_pipeline: ") + stage_names[i]);
   auto release_modules = [&] {
     for (VkShaderModule m : modules)
       if (m) vkDestroyShaderModule(ctx_.device(), m, nullptr);
@@ -511,8 +508,7 @@ Status RayTracer::create_pipeline(const std::string& raygen, const std::string& 
   release_modules();
   if (r != VK_SUCCESS) {
     destroy(out);
-    return Status::error("vkCreateRayTracingPipelinesKHR(%s, %s, %s, %s) failed (VkResult %d)", raygen.c_str(),
-                         miss.c_str(), closest_hit.c_str(), intersection.c_str(), static_cast<int>(r));
+    return Status::error("vkCreateRayTracingPipelinesKHR failed (VkResult %d)", static_cast<int>(r));
   }
   out.push_size = push_size;
 
@@ -526,10 +522,22 @@ Status RayTracer::create_pipeline(const std::string& raygen, const std::string& 
     destroy(out);
     return Status::error("vkGetRayTracingShaderGroupHandlesKHR failed (VkResult %d)", static_cast<int>(r));
   }
+  // The hit region: the procedural records (each handle + its data), then the triangle group's.
+  const size_t procedural = std::max<size_t>(1, shaders.procedural_records.size());
+  size_t data_bytes = 0;
+  for (const std::vector<uint8_t>& d : shaders.procedural_records) data_bytes = std::max(data_bytes, d.size());
   const VkDeviceSize base_align = props_.shaderGroupBaseAlignment;
   const VkDeviceSize record_stride = align_up(handle_size, props_.shaderGroupHandleAlignment);
+  const VkDeviceSize hit_stride = align_up(handle_size + data_bytes, props_.shaderGroupHandleAlignment);
+  if (hit_stride > props_.maxShaderGroupStride) {
+    destroy(out);
+    return Status::error("create_pipeline: hit record stride %llu exceeds maxShaderGroupStride %u",
+                         static_cast<unsigned long long>(hit_stride), props_.maxShaderGroupStride);
+  }
   const VkDeviceSize region = align_up(record_stride, base_align);
-  s = ctx_.create_buffer(size_t(4 * region + base_align), out.sbt,
+  const size_t hit_records = procedural + (triangles ? 1 : 0);
+  const VkDeviceSize hit_region = align_up(hit_stride * hit_records, base_align);
+  s = ctx_.create_buffer(size_t(2 * region + hit_region + base_align), out.sbt,
                          VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR);
   if (!s) {
     destroy(out);
@@ -537,13 +545,19 @@ Status RayTracer::create_pipeline(const std::string& raygen, const std::string& 
   }
   const VkDeviceAddress base = align_up(out.sbt.address, base_align);
   auto* bytes = static_cast<uint8_t*>(out.sbt.mapped) + (base - out.sbt.address);
-  for (size_t g = 0; g < 3; ++g) std::memcpy(bytes + g * region, handles.data() + g * handle_size, handle_size);
-  // The hit region holds the hit groups back to back, record_stride apart.
-  if (triangles)
-    std::memcpy(bytes + 2 * region + record_stride, handles.data() + 3 * handle_size, handle_size);
+  for (size_t g = 0; g < 2; ++g) std::memcpy(bytes + g * region, handles.data() + g * handle_size, handle_size);
+  uint8_t* hits = bytes + 2 * region;
+  for (size_t i = 0; i < procedural; ++i) {
+    std::memcpy(hits + i * hit_stride, handles.data() + 2 * handle_size, handle_size);
+    if (i < shaders.procedural_records.size() && !shaders.procedural_records[i].empty())
+      std::memcpy(hits + i * hit_stride + handle_size, shaders.procedural_records[i].data(),
+                  shaders.procedural_records[i].size());
+  }
+  if (triangles) std::memcpy(hits + procedural * hit_stride, handles.data() + 3 * handle_size, handle_size);
+  out.triangle_sbt_offset = uint32_t(procedural);
   out.raygen_region = {base, region, region};
   out.miss_region = {base + region, record_stride, record_stride};
-  out.hit_region = {base + 2 * region, record_stride, record_stride * (group_count - 2)};
+  out.hit_region = {base + 2 * region, hit_stride, hit_stride * hit_records};
   out.callable_region = {0, 0, 0};
   return Status::ok();
 }

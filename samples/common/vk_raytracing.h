@@ -1,6 +1,6 @@
 // vk_raytracing.h -- a minimal Vulkan ray-tracing harness for the GPU tests and benchmarks, on top of
 // ComputeContext (initialized with init(true)): a TLAS of instance records built on the device
-// (the LSNIF BLASes and instance records come from the plugin, plugin/lsnif_vk.h), a triangle BLAS
+// (the LSNIF BLASes and instance records come from the plugin, include/lsnif/lsnif.h), a triangle BLAS
 // (for mixed scenes), a ray-tracing pipeline of raygen, miss and one
 // procedural hit group (closest hit + intersection) and optionally a triangle hit group with the TLAS at set 0 binding 0 (raygen) and
 // one push-constant range visible to every stage, its shader binding table, and vkCmdTraceRaysKHR.
@@ -21,6 +21,15 @@ struct AccelerationStructure {
   uint32_t primitive_count = 0; // instances of a TLAS, triangles of a BLAS
 };
 
+// The shaders of a ray-tracing pipeline (create_pipeline) as SPIR-V in memory.
+struct RtShaders {
+  Spirv raygen, miss, closest_hit, intersection;
+  Spirv triangle_closest_hit;  // optional (code null: no triangle hit group)
+  // Shader-record data of the procedural hit group's records (e.g. the model block address of
+  // LSNIF_MODEL_LOOKUP_SHADER_RECORD); empty: one record without data.
+  std::vector<std::vector<uint8_t>> procedural_records;
+};
+
 struct RtPipeline {
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkDescriptorPool pool = VK_NULL_HANDLE;
@@ -31,6 +40,7 @@ struct RtPipeline {
   Buffer sbt;  // raygen | miss | hit group records, each region at shaderGroupBaseAlignment
   VkStridedDeviceAddressRegionKHR raygen_region{}, miss_region{}, hit_region{}, callable_region{};
   double create_seconds = 0;  // vkCreateRayTracingPipelinesKHR wall time
+  uint32_t triangle_sbt_offset = 0;  // SBT record offset of the triangle hit group (when there is one)
 };
 
 // What the driver reports for a BLAS build (vkGetAccelerationStructureBuildSizesKHR, device build).
@@ -83,13 +93,12 @@ class RayTracer {
   Status update_tlas(const std::vector<VkAccelerationStructureInstanceKHR>& instances, AccelerationStructure& tlas);
   void destroy(AccelerationStructure& as);
 
-  // The pipeline from SPIR-V files (entry "main"); max recursion depth 1. Hit group 0 (SBT record
-  // offset 0) is the procedural one (closest_hit + intersection); with a non-empty
-  // `triangle_closest_hit`, hit group 1 (SBT record offset 1) is a triangle hit group of that
-  // closest-hit shader.
-  Status create_pipeline(const std::string& raygen, const std::string& miss, const std::string& closest_hit,
-                         const std::string& intersection, uint32_t push_size, RtPipeline& out,
-                         const std::string& triangle_closest_hit = "");
+  // The pipeline of `shaders` (entry "main"); max recursion depth 1. The procedural hit group
+  // (closest_hit + intersection) has one SBT record per entry of shaders.procedural_records (SBT
+  // record offsets 0 .. n-1, the entry's bytes after the group handle), or one record without data
+  // when that list is empty; with shaders.triangle_closest_hit set, a triangle hit group of that
+  // closest-hit shader follows at SBT record offset RtPipeline::triangle_sbt_offset.
+  Status create_pipeline(const RtShaders& shaders, uint32_t push_size, RtPipeline& out);
   void destroy(RtPipeline& pipeline);
   // Binds `tlas` to set 0 binding 0, pushes `push`, traces width x 1 x 1 rays and waits; shader
   // writes are visible to the host when it returns.
@@ -109,7 +118,6 @@ class RayTracer {
  private:
   Status build(VkAccelerationStructureTypeKHR type, const VkAccelerationStructureGeometryKHR& geometry,
                uint32_t primitive_count, AccelerationStructure& out, bool allow_update = false);
-  Status load_module(const std::string& path, VkShaderModule& out);
   // trace() with, when `timestamps` is not null, timestamps 0 and 1 of that 2-query pool written
   // around vkCmdTraceRaysKHR (the pool is reset in the same command buffer).
   Status trace_with_timestamps(RtPipeline& pipeline, const AccelerationStructure& tlas, const void* push,

@@ -15,6 +15,7 @@
 #include "args.h"
 #include "bench_scenes.h"
 #include "commands.h"
+#include "device_option.h"
 #include "render_compare.h"
 #include "scene_gltf.h"
 #include "train_options.h"
@@ -113,7 +114,7 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
 
 int cmd_bench(int argc, char** argv) {
   std::vector<std::string> names;
-  std::string out_dir = "out/bench", data_dir = LSNIF_DATA_DIR;
+  std::string out_dir = "out/bench", data_dir = LSNIF_DATA_DIR, device;
   uint32_t width = 0, height = 0, spp = 0, steps = 0, batch = 0, threads = 0;
   uint64_t seed = 1;
   bool quick = false, retrain = false;
@@ -137,6 +138,7 @@ int cmd_bench(int argc, char** argv) {
   args.flag("quick", "tiny models (V=16, 2^12-entry grid, 32-wide MLP, 30 steps) and tiny images: seconds, for tests",
             &quick);
   args.flag("retrain", "train every model even when a matching one exists", &retrain);
+  add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
 
   if (names.empty()) names = bench_scene_names();
@@ -199,7 +201,7 @@ int cmd_bench(int argc, char** argv) {
     return 1;
   }
   vk::ComputeContext ctx;
-  if (Status s = ctx.init(/*ray_tracing=*/true, /*validation=*/false); !s) {
+  if (Status s = ctx.init(/*ray_tracing=*/true, /*validation=*/false, device); !s) {
     std::fprintf(stderr, "lsnif bench: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
                  s.message().c_str());
     return 1;

@@ -10,7 +10,10 @@
 
 #include "args.h"
 #include "commands.h"
-#include "lsnif_vk.h"
+#include "device_option.h"
+#include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
+
+#include "lsnif/lsnif.hpp"
 #include "mesh.h"
 #include "mesh_subdivide.h"
 #include "model.h"
@@ -25,9 +28,17 @@ namespace {
 // machines).
 constexpr uint64_t kMaxTriangles = uint64_t(1) << 27;
 
+// What one built model occupies on the device (lsnifGetModelMemory once its build resources are freed).
+struct ModelDeviceMemory {
+  uint64_t block_bytes = 0;      // the GPU block
+  uint64_t blas_bytes = 0;       // the AABB BLAS (the driver's accelerationStructureSize)
+  uint64_t allocated_bytes = 0;  // device memory allocated for both
+  uint64_t total() const { return block_bytes + blas_bytes; }
+};
+
 struct LsnifMemory {
   uint64_t model_bytes = 0;  // memory_breakdown(model).total(): the model's parameters and header
-  plugin::ModelMemory device;
+  ModelDeviceMemory device;
 };
 
 // One measured version of the mesh: the original (level 0) or a subdivision.
@@ -72,17 +83,24 @@ double mib(uint64_t bytes) { return double(bytes) / 1048576.0; }
 double ratio(uint64_t a, uint64_t b) { return b ? double(a) / double(b) : 0.0; }
 
 
-// Uploads `model` with the plugin on `vk`'s device, reads what it occupies, releases it.
+// Uploads `model` with the plugin on `vk`'s device, builds it, reads what it occupies, releases it.
 Status measure_lsnif(vk::ComputeContext& vk, const Model& model, LsnifMemory& out) {
   out.model_bytes = memory_breakdown(model).total();
+  std::vector<uint8_t> bytes;
+  if (Status s = save_model_to_memory(model, bytes); !s) return s;
   plugin::Context ctx;
-  Status s = plugin::create_context(vk::plugin_handles(vk), ctx);
-  plugin::ModelHandle handle;
-  if (s) s = ctx.upload_model(model, handle);
-  if (s) s = ctx.model_memory(handle, out.device);
-  ctx.release_model(handle);
-  ctx.destroy();
-  return s;
+  plugin::Model m;
+  LsnifModelMemory mem{};
+  LsnifModel handle = nullptr;
+  const bool ok = ctx.create(vk::plugin_create_info(vk)) == LSNIF_SUCCESS &&
+                  m.create_from_memory(ctx.get(), bytes.data(), bytes.size()) == LSNIF_SUCCESS &&
+                  (handle = m.get(), lsnifBuildModels(ctx.get(), 1, &handle) == LSNIF_SUCCESS) &&
+                  lsnifGetModelMemory(ctx.get(), handle, &mem) == LSNIF_SUCCESS;
+  if (!ok) return Status::error("plugin: %s", lsnifGetLastErrorMessage());
+  out.device.block_bytes = mem.blockBytes;
+  out.device.blas_bytes = mem.blasBytes;
+  out.device.allocated_bytes = mem.allocatedBytes;
+  return Status::ok();
 }
 
 // Fills `v` (level and targets set by the caller) for `mesh`: sizes, then a build with compaction
@@ -132,7 +150,7 @@ void print_text(const std::string& mesh_path, const std::string& model_path, con
               grouped(l.model_bytes).c_str(), mib(l.model_bytes));
   std::printf("mesh     %s\n\n", mesh_path.c_str());
   std::printf("LSNIF on the device                    bytes        MiB\n");
-  std::printf("  model block (pack_gpu_model) %14s %10.3f\n", grouped(l.device.block_bytes).c_str(),
+  std::printf("  model block (GPU layout)     %14s %10.3f\n", grouped(l.device.block_bytes).c_str(),
               mib(l.device.block_bytes));
   std::printf("  AABB BLAS                    %14s %10.3f\n", grouped(l.device.blas_bytes).c_str(),
               mib(l.device.blas_bytes));
@@ -196,7 +214,7 @@ bool mesh_fits_model(const Mesh& mesh, const Model& model) {
 }  // namespace
 
 int cmd_bench_memory(int argc, char** argv) {
-  std::string mesh_path, model_path, targets_arg = "1000000,5000000";
+  std::string mesh_path, model_path, targets_arg = "1000000,5000000", device;
   bool json = false;
   Args args("bench-memory",
             "Device memory of an LSNIF model against the triangle BLAS of its mesh. LSNIF: the model's GPU\n"
@@ -209,6 +227,7 @@ int cmd_bench_memory(int argc, char** argv) {
   args.positional("MODEL", "LSNIF model of it (.lsnif)", &model_path);
   args.option("subdivide-targets", "comma-separated triangle counts ('' for none)", &targets_arg);
   args.flag("json", "print one JSON object instead of the table", &json);
+  add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   std::vector<uint64_t> targets;
   if (!parse_targets(targets_arg, targets)) {
@@ -253,7 +272,7 @@ int cmd_bench_memory(int argc, char** argv) {
   }
 
   vk::ComputeContext vk;
-  if (Status s = vk.init(/*ray_tracing=*/true, /*validation=*/false); !s) {
+  if (Status s = vk.init(/*ray_tracing=*/true, /*validation=*/false, device); !s) {
     std::fprintf(stderr, "lsnif bench-memory: no usable Vulkan ray-tracing device (`lsnif devices` tells what is "
                          "missing): %s\n", s.message().c_str());
     return 1;

@@ -30,31 +30,46 @@
 
 #include "args.h"
 #include "commands.h"
-#include "lsnif_vk.h"
+#include "device_option.h"
 #include "mesh.h"
 #include "model.h"
 #include "progress.h"
 #include "ray_walk.h"
+#include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
+
+#include "lsnif/lsnif.hpp"
 #include "plugin_device.h"
 #include "triangle_order.h"
 #include "vk_raytracing.h"
-
-#ifndef LSNIF_BENCH_TRACE_SHADER_DIR
-#error "LSNIF_BENCH_TRACE_SHADER_DIR (the compiled samples/lsnif/shaders) must be defined by the build"
-#endif
 
 namespace lsnif::cli {
 
 namespace {
 
+// The benchmark's own shaders (samples/lsnif/shaders), compiled at build time.
+#include "bench_trace_rchit_spirv.h"
+#include "bench_trace_rgen_spirv.h"
+#include "bench_trace_rmiss_spirv.h"
+#include "bench_trace_triangle_rchit_spirv.h"
+
 // The push constant block of shaders/bench_trace_common.glsl (model table first: host_device.h).
 struct BenchTracePush {
-  uint64_t model_table = 0, rays = 0, results = 0;
+  uint64_t model_table = 0;
+  uint32_t model_count = 0, reserved = 0;
+  uint64_t rays = 0, results = 0;
   uint32_t ray_count = 0, unused = 0;
 };
 static_assert(offsetof(BenchTracePush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
+static_assert(offsetof(BenchTracePush, model_count) == LSNIF_RT_PUSH_MODEL_COUNT_OFFSET, "binding convention");
 static_assert(offsetof(BenchTracePush, rays) == LSNIF_RT_PUSH_APP_OFFSET, "binding convention");
-static_assert(offsetof(BenchTracePush, ray_count) == 24, "push constant layout of bench_trace_common.glsl");
+static_assert(offsetof(BenchTracePush, ray_count) == 32, "push constant layout of bench_trace_common.glsl");
+
+vk::Spirv spirv(const uint32_t* code, size_t bytes) {
+  vk::Spirv s;
+  s.code = code;
+  s.bytes = bytes;
+  return s;
+}
 
 // BenchTraceResult of shaders/bench_trace_common.glsl.
 struct BenchTraceResult {
@@ -197,7 +212,7 @@ struct DeviceState {
   vk::ComputeContext ctx;
   vk::RayTracer tracer{ctx};
   plugin::Context plugin;
-  plugin::ModelHandle model;
+  plugin::Model model;
   vk::Buffer table, rays, lsnif_results, tri_results;
   vk::AccelerationStructure tri_blas, lsnif_tlas, tri_tlas;
   vk::RtPipeline pipeline;
@@ -213,15 +228,17 @@ struct DeviceState {
     tracer.destroy(tri_tlas);
     tracer.destroy(tri_blas);
     for (vk::Buffer* b : {&table, &rays, &lsnif_results, &tri_results}) ctx.destroy_buffer(*b);
-    plugin.release_model(model);
-    plugin.destroy();
+    model.reset();
+    plugin.reset();
   }
 };
 
-// Builds everything on the device for `model` and `mesh` and writes `rays` into the ray buffer.
-Status set_up(DeviceState& st, const Model& model, const Mesh& mesh, const std::vector<Ray>& rays, bool validation,
-              const std::string& intersection_spv, Report& report) {
-  Status s = st.ctx.init(/*ray_tracing=*/true, validation);
+// Builds everything on the device `device` selects (vk::ContextOptions::device) for the model file
+// `model_path` and `mesh` and writes `rays` into the ray buffer. The intersection shader is the
+// plugin's, or the SPIR-V file `intersection_spv` when not empty.
+Status set_up(DeviceState& st, const std::string& model_path, const Mesh& mesh, const std::vector<Ray>& rays,
+              bool validation, const std::string& device, const std::string& intersection_spv, Report& report) {
+  Status s = st.ctx.init(/*ray_tracing=*/true, validation, device);
   if (!s) return s.context("Vulkan device with ray tracing");
   report.device = st.ctx.device_name();
   if (s = st.tracer.init(); !s) return s;
@@ -229,13 +246,15 @@ Status set_up(DeviceState& st, const Model& model, const Mesh& mesh, const std::
     return Status::error("device %s: maxRayHitAttributeSize %u < %zu bytes of LsnifHitAttributes",
                          report.device.c_str(), st.tracer.max_hit_attribute_size(), sizeof(LsnifHitAttributes));
 
-  const plugin::DeviceHandles handles = vk::plugin_handles(st.ctx);
-  if (s = plugin::create_context(handles, st.plugin); !s) return s.context("plugin");
-  if (s = st.plugin.upload_model(model, st.model); !s) return s.context("uploading the model");
-  std::vector<uint64_t> table;
-  if (s = st.plugin.model_table({st.model}, table); !s) return s;
-  if (s = st.ctx.create_buffer(table.size() * sizeof(uint64_t), st.table); !s) return s;
-  std::memcpy(st.table.mapped, table.data(), table.size() * sizeof(uint64_t));
+  auto plugin_error = [](const char* what) { return Status::error("%s: %s", what, lsnifGetLastErrorMessage()); };
+  if (st.plugin.create(vk::plugin_create_info(st.ctx)) != LSNIF_SUCCESS) return plugin_error("plugin");
+  if (st.model.create_from_file(st.plugin.get(), model_path.c_str()) != LSNIF_SUCCESS)
+    return plugin_error("uploading the model");
+  const LsnifModel handle = st.model.get();
+  if (lsnifBuildModels(st.plugin.get(), 1, &handle) != LSNIF_SUCCESS) return plugin_error("building the model BLAS");
+  if (s = st.ctx.create_buffer(sizeof(uint64_t), st.table); !s) return s;
+  if (lsnifWriteModelTable(st.plugin.get(), 1, &handle, static_cast<uint64_t*>(st.table.mapped)) != LSNIF_SUCCESS)
+    return plugin_error("model table");
 
   std::vector<float> positions;
   std::vector<uint32_t> indices;
@@ -244,7 +263,12 @@ Status set_up(DeviceState& st, const Model& model, const Mesh& mesh, const std::
 
   // One identity instance per TLAS; the instance's SBT record offset picks the hit group.
   VkAccelerationStructureInstanceKHR lsnif_record{}, tri_record{};
-  if (s = st.plugin.make_instance(st.model, Transform3x4(), 0, 0xFF, kLsnifRecord, lsnif_record); !s) return s;
+  LsnifInstanceInfo info{};
+  info.model = handle;
+  for (uint32_t r = 0; r < 3; ++r) info.transform.matrix[r][r] = 1.0f;
+  info.mask = 0xFF;
+  info.instanceShaderBindingTableRecordOffset = kLsnifRecord;
+  if (lsnifMakeInstance(st.plugin.get(), &info, &lsnif_record) != LSNIF_SUCCESS) return plugin_error("instance");
   for (uint32_t r = 0; r < 3; ++r) tri_record.transform.matrix[r][r] = 1.0f;
   tri_record.instanceCustomIndex = 0;
   tri_record.mask = 0xFF;
@@ -253,11 +277,24 @@ Status set_up(DeviceState& st, const Model& model, const Mesh& mesh, const std::
   if (s = st.tracer.build_tlas({lsnif_record}, st.lsnif_tlas); !s) return s.context("LSNIF TLAS");
   if (s = st.tracer.build_tlas({tri_record}, st.tri_tlas); !s) return s.context("triangle TLAS");
 
-  const std::string dir = LSNIF_BENCH_TRACE_SHADER_DIR;
-  s = st.tracer.create_pipeline(dir + "/bench_trace.rgen.spv", dir + "/bench_trace.rmiss.spv",
-                                dir + "/bench_trace.rchit.spv", intersection_spv,
-                                sizeof(BenchTracePush), st.pipeline, dir + "/bench_trace_triangle.rchit.spv");
+  vk::RtShaders shaders;
+  shaders.raygen = spirv(bench_trace_rgen_spirv, sizeof bench_trace_rgen_spirv);
+  shaders.miss = spirv(bench_trace_rmiss_spirv, sizeof bench_trace_rmiss_spirv);
+  shaders.closest_hit = spirv(bench_trace_rchit_spirv, sizeof bench_trace_rchit_spirv);
+  shaders.triangle_closest_hit = spirv(bench_trace_triangle_rchit_spirv, sizeof bench_trace_triangle_rchit_spirv);
+  std::vector<uint32_t> file_code;
+  if (intersection_spv.empty()) {
+    if (lsnifGetIntersectionShaderSpirv(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE, &shaders.intersection.code,
+                                        &shaders.intersection.bytes) != LSNIF_SUCCESS)
+      return plugin_error("intersection shader");
+  } else {
+    if (s = vk::read_spirv_file(intersection_spv, file_code); !s) return s;
+    shaders.intersection = spirv(file_code.data(), file_code.size() * sizeof(uint32_t));
+  }
+  s = st.tracer.create_pipeline(shaders, sizeof(BenchTracePush), st.pipeline);
   if (!s) return s;
+  if (st.pipeline.triangle_sbt_offset != kTriangleRecord)
+    return Status::error("internal error: the triangle hit group is at SBT offset %u", st.pipeline.triangle_sbt_offset);
   report.pipeline_create_seconds = st.pipeline.create_seconds;
 
   const size_t n = rays.size();
@@ -286,6 +323,7 @@ Status timed_trace(DeviceState& st, const vk::AccelerationStructure& tlas, const
                    uint32_t count, bool first, Timings& t) {
   BenchTracePush push;
   push.model_table = st.table.address;
+  push.model_count = 1;
   push.rays = st.rays.address;
   push.results = results.address;
   push.ray_count = count;
@@ -443,13 +481,13 @@ void print_json(const Report& r) {
 }  // namespace
 
 int cmd_bench_trace(int argc, char** argv) {
-  std::string mesh_path, model_path, triangle_order = "morton";
-  std::string intersection_spv = plugin::intersection_shader_spirv_path();
+  std::string mesh_path, model_path, triangle_order = "morton", device;
+  std::string intersection_spv;
   uint32_t rays = 1u << 18, repeat = 5;
   uint64_t seed = 1;
   bool json = false, validation = false;
   Args args("bench-trace",
-            "Throughput of the LSNIF intersection shader (shaders/lsnif.rint, compiled by the plugin) in a\n"
+            "Throughput of the LSNIF intersection shader (shaders/lsnif.rint, embedded in the plugin) in a\n"
             "ray-tracing pipeline on the Vulkan device, against a triangle BLAS of the same mesh: the same rays\n"
             "through a TLAS of one LSNIF instance and a TLAS of one triangle instance (identity transforms), in\n"
             "one pipeline. Rays start on a sphere around the mesh AABB and aim at uniform points inside it.\n"
@@ -467,11 +505,12 @@ int cmd_bench_trace(int argc, char** argv) {
               "builds its BVH in this order",
               &triangle_order);
   args.option("intersection-shader",
-              "SPIR-V of the intersection shader (to compare shader versions; its hit attributes must keep "
-              "the LsnifHitAttributes layout of the build)",
+              "SPIR-V file of the intersection shader instead of the plugin's (to compare shader versions; its "
+              "hit attributes and model lookup must keep the layouts of the build)",
               &intersection_spv);
   args.flag("json", "print one JSON object instead of text", &json);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 if it reports anything)", &validation);
+  add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (rays == 0 || rays > kMaxRays) {
     std::fprintf(stderr, "lsnif bench-trace: --rays %u out of range 1..%u\n", rays, kMaxRays);
@@ -501,7 +540,7 @@ int cmd_bench_trace(int argc, char** argv) {
   Report report;
   report.mesh_path = mesh_path;
   report.model_path = model_path;
-  report.intersection_spv = intersection_spv;
+  report.intersection_spv = intersection_spv.empty() ? "the plugin's (lsnifGetIntersectionShaderSpirv)" : intersection_spv;
   report.rays = rays;
   report.repeat = repeat;
   report.seed = seed;
@@ -511,7 +550,7 @@ int cmd_bench_trace(int argc, char** argv) {
   const std::vector<Ray> ray_list = make_rays(mesh.bounds(), rays, seed);
 
   DeviceState st;
-  Status s = set_up(st, model, mesh, ray_list, validation, intersection_spv, report);
+  Status s = set_up(st, model_path, mesh, ray_list, validation, device, intersection_spv, report);
   if (s) s = run_traces(st, rays, repeat, report);
   if (!s) return fail(s);
   compare_results(st, model, mesh, ray_list, report);

@@ -8,6 +8,7 @@
 
 #include "args.h"
 #include "commands.h"
+#include "device_option.h"
 #include "evaluate.h"
 #include "mesh.h"
 #include "model.h"
@@ -28,6 +29,7 @@ int cmd_demo(int argc, char** argv) {
   rs.height = 240;
   rs.spp = 16;
   std::string hdr = std::string(LSNIF_DATA_DIR) + "/hdr/forest.exr", picture = "out/bunny_compare.png";
+  std::string device;
   Args args("demo", "Trains an LSNIF model of the bundled bunny (from scripts/setup.sh), writes it to\n"
                     "out/bunny.lsnif, evaluates it on held-out rays against exact ray casting, and renders it\n"
                     "in LSNIF and reference mode (FLIP, memory, time; out/bunny_compare.png).");
@@ -40,6 +42,7 @@ int cmd_demo(int argc, char** argv) {
   args.option("spp", "render samples per pixel", &rs.spp);
   args.option("hdr", "environment image for the render (empty: constant sky)", &hdr);
   args.option("picture", "side-by-side image (reference | LSNIF | FLIP)", &picture);
+  add_device_option(args, &device);
   opts.add_to(args);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (!std::filesystem::exists(mesh_path)) {
@@ -80,7 +83,7 @@ int cmd_demo(int argc, char** argv) {
     return 1;
   }
   vk::ComputeContext ctx;
-  if (Status s = ctx.init(/*ray_tracing=*/true, /*validation=*/false); !s) {
+  if (Status s = ctx.init(/*ray_tracing=*/true, /*validation=*/false, device); !s) {
     std::fprintf(stderr, "lsnif demo: no usable Vulkan ray-tracing device for the render (`lsnif devices` tells "
                          "what is missing): %s\n", s.message().c_str());
     return 1;

@@ -5,6 +5,7 @@
 
 #include "args.h"
 #include "commands.h"
+#include "device_option.h"
 #include "environment.h"
 #include "image_io.h"
 #include "progress.h"
@@ -15,7 +16,7 @@
 namespace lsnif::cli {
 
 int cmd_render(int argc, char** argv) {
-  std::string output = "render.png";
+  std::string output = "render.png", device;
   uint32_t width = 640, height = 480, spp = 64, bounces = 4;
   bool reference = false, validation = false;
   SceneArgs sa;
@@ -34,6 +35,7 @@ int cmd_render(int argc, char** argv) {
   args.option("spp", "samples per pixel", &spp);
   args.option("bounces", "bounces after the camera ray (the paper's 4)", &bounces);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 on any message)", &validation);
+  add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (width == 0 || height == 0 || spp == 0 || width > 16384 || height > 16384) {
     std::fprintf(stderr, "lsnif render: --width and --height must be in 1..16384 and --spp positive\n");
@@ -45,7 +47,7 @@ int cmd_render(int argc, char** argv) {
   if (int r = sa.load("render", scene, environment)) return r;
 
   vk::ComputeContext ctx;
-  if (Status s = ctx.init(/*ray_tracing=*/true, validation); !s) {
+  if (Status s = ctx.init(/*ray_tracing=*/true, validation, device); !s) {
     std::fprintf(stderr, "lsnif render: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
                  s.message().c_str());
     return 1;

@@ -8,6 +8,7 @@
 
 #include "args.h"
 #include "commands.h"
+#include "device_option.h"
 #include "scene_args.h"
 #include "scene_edit.h"
 #include "viewer.h"
@@ -40,6 +41,7 @@ int cmd_view(int argc, char** argv) {
   args.option("screenshot", "write the last frame, read back from the window, to this .png", &vs.screenshot);
   args.flag("quiet", "no line per frame", &vs.quiet);
   args.flag("validation", "enable the Khronos validation layer (exit 1 on any message)", &vs.validation);
+  add_device_option(args, &vs.device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (vs.width == 0 || vs.height == 0 || vs.width > 16384 || vs.height > 16384 || vs.scale == 0 || vs.scale > 64 ||
       !std::isfinite(exposure)) {

@@ -5,23 +5,40 @@
 #include "renderer.h"
 
 #include <chrono>
+#include <cstddef>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <limits>
 
-#include "model.h"
+#include "instance_transform.h"
+#include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
+
+#include "lsnif/lsnif.hpp"
 #include "plugin_device.h"
 #include "render_host_device.h"
 #include "triangle_order.h"
 
-#ifndef LSNIF_RENDER_SHADER_DIR
-#error "LSNIF_RENDER_SHADER_DIR (the compiled render shaders) must be defined by the build"
-#endif
-
 namespace lsnif::render {
 
-std::string shader_dir() { return LSNIF_RENDER_SHADER_DIR; }
+namespace {
+// The path tracer's shaders, compiled at build time (cmake/LsnifShaders.cmake).
+#include "render_lsnif_rchit_spirv.h"
+#include "render_rgen_spirv.h"
+#include "render_rmiss_spirv.h"
+#include "render_triangle_rchit_spirv.h"
+
+static_assert(offsetof(RenderPush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
+static_assert(offsetof(RenderPush, model_count) == LSNIF_RT_PUSH_MODEL_COUNT_OFFSET, "binding convention");
+static_assert(offsetof(RenderPush, frame) >= LSNIF_RT_PUSH_APP_OFFSET, "binding convention");
+
+vk::Spirv spirv(const uint32_t* code, size_t bytes) {
+  vk::Spirv s;
+  s.code = code;
+  s.bytes = bytes;
+  return s;
+}
+}  // namespace
 
 // Everything set_scene allocates on the device, and what a pass needs of the scene; released by
 // the destructor.
@@ -29,7 +46,7 @@ struct DeviceScene {
   vk::ComputeContext& ctx;
   vk::RayTracer& tracer;
   plugin::Context plugin;
-  std::vector<plugin::ModelHandle> models;
+  std::vector<plugin::Model> models;     // per LSNIF object of the scene: its device model (or empty)
   std::vector<vk::Buffer> buffers;
   std::vector<vk::AccelerationStructure> blases;
   vk::AccelerationStructure tlas;
@@ -39,6 +56,7 @@ struct DeviceScene {
   RenderFrame frame{};                    // the scene's part filled in; view and image set per pass
   RenderFrame* frame_on_device = nullptr;  // mapped RenderFrame buffer
   uint64_t frame_address = 0, table_address = 0;
+  uint32_t table_count = 0;                // entries of the model table
   glm::vec3 lo{0.0f}, hi{0.0f};           // world bounds (for a framing camera)
   std::vector<scene::Camera> cameras;
   float env_rotation = 0.0f;
@@ -47,8 +65,8 @@ struct DeviceScene {
     tracer.destroy(tlas);
     for (vk::AccelerationStructure& b : blases) tracer.destroy(b);
     for (vk::Buffer& b : buffers) ctx.destroy_buffer(b);
-    for (plugin::ModelHandle& m : models) plugin.release_model(m);
-    plugin.destroy();
+    models.clear();  // before their context
+    plugin.reset();
   }
   // A host-visible buffer holding `bytes` of `data` (zeroed when data is null); its device address.
   Status upload(const void* data, size_t bytes, uint64_t& address, VkBufferUsageFlags extra = 0) {
@@ -75,17 +93,20 @@ bool finite(const glm::mat4& m) {
 }
 
 // Row-major 3x4 of an affine glm matrix.
-Transform3x4 to_3x4(const glm::mat4& m) {
-  Transform3x4 xf;
+VkTransformMatrixKHR to_3x4(const glm::mat4& m) {
+  VkTransformMatrixKHR xf;
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) xf.m[r][c] = m[c][r];
+    for (int c = 0; c < 4; ++c) xf.matrix[r][c] = m[c][r];
   return xf;
 }
 
+// The plugin's last error as a Status (after a failed call of the C API).
+Status plugin_error(const char* what) { return Status::error("%s: %s", what, lsnifGetLastErrorMessage()); }
+
 // World bounds of the scene's instances (their meshes' vertices; LSNIF-only nodes: the model box).
 // `slot` maps an LSNIF object to the object whose model was loaded for it.
-void scene_bounds(const scene::Scene& s, const std::vector<Model>& models, const std::vector<size_t>& slot, glm::vec3& lo,
-                  glm::vec3& hi) {
+void scene_bounds(const scene::Scene& s, const std::vector<plugin::Model>& models, const std::vector<size_t>& slot,
+                  glm::vec3& lo, glm::vec3& hi) {
   lo = glm::vec3(std::numeric_limits<float>::infinity());
   hi = -lo;
   for (const scene::Instance& in : s.instances) {
@@ -98,8 +119,10 @@ void scene_bounds(const scene::Scene& s, const std::vector<Model>& models, const
       for (const scene::Primitive& p : s.meshes[size_t(in.mesh)].primitives)
         for (const glm::vec3& v : p.positions) add(v);
     } else if (in.lsnif >= 0) {
-      const Aabb& b = models[slot[size_t(in.lsnif)]].bounds();
-      for (int k = 0; k < 8; ++k) add(glm::vec3(k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z));
+      const LsnifModelProperties p = models[slot[size_t(in.lsnif)]].properties();
+      for (int k = 0; k < 8; ++k)
+        add(glm::vec3(k & 1 ? p.boundsMax[0] : p.boundsMin[0], k & 2 ? p.boundsMax[1] : p.boundsMin[1],
+                      k & 4 ? p.boundsMax[2] : p.boundsMin[2]));
     }
   }
 }
@@ -123,10 +146,15 @@ Status Renderer::create_pipeline() {
   if (tracer_.max_hit_attribute_size() < sizeof(LsnifHitAttributes))
     return Status::error("device maxRayHitAttributeSize %u < %zu bytes of LSNIF hit attributes",
                          tracer_.max_hit_attribute_size(), sizeof(LsnifHitAttributes));
-  const std::string dir = shader_dir();
-  Status s = tracer_.create_pipeline(dir + "/render.rgen.spv", dir + "/render.rmiss.spv", dir + "/render_lsnif.rchit.spv",
-                                     plugin::intersection_shader_spirv_path(), sizeof(RenderPush), pipeline_,
-                                     dir + "/render_triangle.rchit.spv");
+  vk::RtShaders shaders;
+  shaders.raygen = spirv(render_rgen_spirv, sizeof render_rgen_spirv);
+  shaders.miss = spirv(render_rmiss_spirv, sizeof render_rmiss_spirv);
+  shaders.closest_hit = spirv(render_lsnif_rchit_spirv, sizeof render_lsnif_rchit_spirv);
+  shaders.triangle_closest_hit = spirv(render_triangle_rchit_spirv, sizeof render_triangle_rchit_spirv);
+  if (lsnifGetIntersectionShaderSpirv(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE, &shaders.intersection.code,
+                                      &shaders.intersection.bytes) != LSNIF_SUCCESS)
+    return plugin_error("render pipeline");
+  Status s = tracer_.create_pipeline(shaders, sizeof(RenderPush), pipeline_);
   if (!s) return s.context("render pipeline");
   pipeline_ready_ = true;
   return Status::ok();
@@ -148,13 +176,13 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
   if (Status s = create_pipeline(); !s) return s;
 
   // LSNIF models the mode uses.
-  std::vector<Model> models(scene.lsnif_objects.size());
-  std::vector<bool> model_used(models.size(), false);
+  const size_t object_count = scene.lsnif_objects.size();
+  std::vector<bool> model_used(object_count, false);
   for (const scene::Instance& in : scene.instances) {
     if (!finite(in.object_to_world)) return Status::error("node '%s' has a non-finite transform", in.node_name.c_str());
     const bool use_lsnif = in.lsnif >= 0 && !reference;
-    if (in.lsnif >= 0 && size_t(in.lsnif) >= models.size())
-      return Status::error("node '%s' names LSNIF object %d of %zu", in.node_name.c_str(), in.lsnif, models.size());
+    if (in.lsnif >= 0 && size_t(in.lsnif) >= object_count)
+      return Status::error("node '%s' names LSNIF object %d of %zu", in.node_name.c_str(), in.lsnif, object_count);
     if (in.mesh >= 0 && size_t(in.mesh) >= scene.meshes.size())
       return Status::error("node '%s' names mesh %d of %zu", in.node_name.c_str(), in.mesh, scene.meshes.size());
     if (!use_lsnif && in.mesh < 0)
@@ -169,8 +197,8 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
     const scene::LsnifObject& obj = scene.lsnif_objects[i];
     return obj.resolved_path.empty() ? obj.model_path : obj.resolved_path;
   };
-  std::vector<size_t> slot(models.size());
-  for (size_t i = 0; i < models.size(); ++i) {
+  std::vector<size_t> slot(object_count);
+  for (size_t i = 0; i < object_count; ++i) {
     slot[i] = i;
     for (size_t j = 0; j < i; ++j)
       if (model_used[j] && file_of(j) == file_of(i)) {
@@ -178,11 +206,8 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
         break;
       }
   }
-  for (size_t i = 0; i < models.size(); ++i) {
+  for (size_t i = 0; i < object_count; ++i) {
     if (!model_used[i]) continue;
-    if (slot[i] == i) {
-      if (Status s = load_model(file_of(i), models[i]); !s) return s;
-    }
     if (scene.lsnif_objects[i].material_map.empty())
       return Status::error("LSNIF object %s has an empty material map", scene.lsnif_objects[i].model_path.c_str());
     for (uint32_t m : scene.lsnif_objects[i].material_map)
@@ -193,15 +218,21 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
 
   auto dev_owner = std::make_unique<DeviceScene>(ctx_, tracer_);
   DeviceScene& dev = *dev_owner;
-  if (Status s = plugin::create_context(vk::plugin_handles(ctx_), dev.plugin); !s) return s;
-  dev.models.resize(models.size());
-  for (size_t i = 0; i < models.size(); ++i) {
+  if (dev.plugin.create(vk::plugin_create_info(ctx_)) != LSNIF_SUCCESS) return plugin_error("render");
+  dev.models.resize(object_count);
+  std::vector<LsnifModel> to_build;
+  for (size_t i = 0; i < object_count; ++i) {
     if (!model_used[i] || slot[i] != i) continue;
-    if (Status s = dev.plugin.upload_model(models[i], dev.models[i]); !s)
-      return s.context(scene.lsnif_objects[i].model_path.c_str());
-    plugin::ModelMemory mem;
-    if (Status s = dev.plugin.model_memory(dev.models[i], mem); !s) return s;
-    stats.lsnif_bytes += mem.total();
+    if (dev.models[i].create_from_file(dev.plugin.get(), file_of(i).c_str()) != LSNIF_SUCCESS)
+      return plugin_error(scene.lsnif_objects[i].model_path.c_str());
+    to_build.push_back(dev.models[i].get());
+  }
+  if (lsnifBuildModels(dev.plugin.get(), uint32_t(to_build.size()), to_build.data()) != LSNIF_SUCCESS)
+    return plugin_error("render");
+  for (LsnifModel m : to_build) {
+    LsnifModelMemory mem{};
+    if (lsnifGetModelMemory(dev.plugin.get(), m, &mem) != LSNIF_SUCCESS) return plugin_error("render");
+    stats.lsnif_bytes += mem.blockBytes + mem.blasBytes;
     ++stats.lsnif_models;
   }
 
@@ -278,12 +309,16 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
       const scene::LsnifObject& obj = scene.lsnif_objects[size_t(in.lsnif)];
       RenderInstance ri{RENDER_INSTANCE_LSNIF, 0, uint32_t(material_maps.size()), uint32_t(obj.material_map.size())};
       material_maps.insert(material_maps.end(), obj.material_map.begin(), obj.material_map.end());
+      const plugin::Model& model = dev.models[slot[size_t(in.lsnif)]];
+      LsnifInstanceInfo info{};
+      info.model = model.get();
+      info.transform = to_3x4(in.object_to_world);
+      info.instanceCustomIndex = uint32_t(instances.size());
+      info.mask = 0xFF;
       VkAccelerationStructureInstanceKHR rec;
-      if (Status s = dev.plugin.make_instance(dev.models[slot[size_t(in.lsnif)]], to_3x4(in.object_to_world),
-                                              uint32_t(instances.size()), 0xFF, 0, rec);
-          !s)
-        return s.context(("node '" + in.node_name + "'").c_str());
-      model_table.push_back(dev.plugin.model_address(dev.models[slot[size_t(in.lsnif)]]));
+      if (lsnifMakeInstance(dev.plugin.get(), &info, &rec) != LSNIF_SUCCESS)
+        return plugin_error(("node '" + in.node_name + "'").c_str());
+      model_table.push_back(model.properties().blockAddress);
       instances.push_back(ri);
       records.push_back(rec);
       dev.record_model.push_back(int64_t(slot[size_t(in.lsnif)]));
@@ -291,15 +326,14 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
       ++stats.lsnif_instances;
       continue;
     }
-    if (Status s = plugin::check_instance_transform(to_3x4(in.object_to_world)); !s)
-      return s.context(("node '" + in.node_name + "'").c_str());
+    const VkTransformMatrixKHR xf = to_3x4(in.object_to_world);
+    if (Status s = check_instance_transform(xf.matrix); !s) return s.context(("node '" + in.node_name + "'").c_str());
     for (uint32_t prim : mesh_primitives[size_t(in.mesh)]) {
       VkAccelerationStructureInstanceKHR rec{};
-      const Transform3x4 xf = to_3x4(in.object_to_world);
-      std::memcpy(&rec.transform, xf.m, sizeof(rec.transform));
+      rec.transform = xf;
       rec.instanceCustomIndex = uint32_t(instances.size()) & 0xffffffu;
       rec.mask = 0xFF;
-      rec.instanceShaderBindingTableRecordOffset = 1;  // the triangle hit group
+      rec.instanceShaderBindingTableRecordOffset = pipeline_.triangle_sbt_offset & 0xffffffu;  // triangle hit group
       rec.accelerationStructureReference = dev.blases[prim].address;
       instances.push_back({RENDER_INSTANCE_TRIANGLES, prim, 0, 0});
       model_table.push_back(0);
@@ -316,7 +350,7 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
   stats.tlas_bytes = dev.tlas.storage.size;
 
   // What camera_view needs.
-  scene_bounds(scene, models, slot, dev.lo, dev.hi);
+  scene_bounds(scene, dev.models, slot, dev.lo, dev.hi);
   dev.cameras = scene.cameras;
 
   // Frame data.
@@ -368,6 +402,7 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
   if (Status s = dev.upload(&frame, sizeof frame, dev.frame_address); !s) return s;
   dev.frame_on_device = static_cast<RenderFrame*>(dev.buffers.back().mapped);
   if (Status s = dev.upload(model_table, dev.table_address); !s) return s;
+  dev.table_count = uint32_t(model_table.size());
   scene_ = std::move(dev_owner);
   width_ = height_ = accumulated_ = 0;  // a new scene starts a new image
   return Status::ok();
@@ -401,17 +436,21 @@ Status Renderer::move_instance(size_t instance, const glm::mat4& object_to_world
   DeviceScene& dev = *scene_;
   if (instance >= dev.instance_records.size())
     return Status::error("render: instance %zu does not exist (the scene has %zu)", instance, dev.instance_records.size());
-  const Transform3x4 xf = to_3x4(object_to_world);
-  if (Status s = plugin::check_instance_transform(xf); !s) return s;
+  const VkTransformMatrixKHR xf = to_3x4(object_to_world);
+  if (Status s = check_instance_transform(xf.matrix); !s) return s;
   const auto [first, count] = dev.instance_records[instance];
   for (size_t r = first; r < first + count; ++r) {
     if (dev.record_model[r] >= 0) {
+      LsnifInstanceInfo info{};
+      info.model = dev.models[size_t(dev.record_model[r])].get();
+      info.transform = xf;
+      info.instanceCustomIndex = uint32_t(r);
+      info.mask = 0xFF;
       VkAccelerationStructureInstanceKHR rec;
-      if (Status s = dev.plugin.make_instance(dev.models[size_t(dev.record_model[r])], xf, uint32_t(r), 0xFF, 0, rec); !s)
-        return s;
+      if (lsnifMakeInstance(dev.plugin.get(), &info, &rec) != LSNIF_SUCCESS) return plugin_error("move_instance");
       dev.records[r] = rec;
     } else {
-      std::memcpy(&dev.records[r].transform, xf.m, sizeof(dev.records[r].transform));
+      dev.records[r].transform = xf;
     }
   }
   return tracer_.update_tlas(dev.records, dev.tlas);
@@ -466,6 +505,7 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   std::memcpy(scene_->frame_on_device, &frame, sizeof frame);
   RenderPush push{};
   push.model_table = scene_->table_address;
+  push.model_count = scene_->table_count;
   push.frame = scene_->frame_address;
   push.sample_index = first_sample;
   push.samples = samples;

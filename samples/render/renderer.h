@@ -1,5 +1,5 @@
-// renderer.h -- the hybrid path tracer (issue 4) on a Vulkan device: a scene's triangle meshes as
-// triangle BLASes and its LSNIF objects through the plugin (plugin/lsnif_vk.h), in one TLAS, traced
+// renderer.h -- the hybrid path tracer on a Vulkan device: a scene's triangle meshes as
+// triangle BLASes and its LSNIF objects through the plugin (include/lsnif/lsnif.h), in one TLAS, traced
 // by shaders/render.rgen. Two modes over the same scene: LSNIF (every node with an LSNIF object
 // uses it) and reference (every such node uses its triangle mesh instead); both use the same
 // per-pixel random sequences, so their difference is the geometry's, not noise.
@@ -14,7 +14,6 @@
 
 #include "environment.h"
 #include "image_io.h"
-#include "lsnif_vk.h"
 #include "scene.h"
 #include "status.h"
 #include "vk_raytracing.h"
@@ -120,8 +119,5 @@ class Renderer {
   vk::Buffer accumulation_{};
   uint32_t width_ = 0, height_ = 0, accumulated_ = 0;
 };
-
-// Path of the compiled shaders of this renderer (build tree).
-std::string shader_dir();
 
 }  // namespace lsnif::render

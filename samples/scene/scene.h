@@ -1,4 +1,4 @@
-// scene.h -- the renderer's scene (issue 4): triangle meshes, materials, textures, instances with
+// scene.h -- the renderer's scene: triangle meshes, materials, textures, instances with
 // transforms, cameras, LSNIF objects and the environment light, as loaded from a glTF file
 // (scene_gltf.cpp; the LSNIF node extension is documented in docs/scene-format.md). No Vulkan.
 // Units and conventions: right-handed, y up (glTF); colors linear RGB; transforms column-major glm.

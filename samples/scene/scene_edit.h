@@ -1,4 +1,4 @@
-// scene_edit.h -- editing a loaded scene at render time, without retraining (issue 5, the paper's
+// scene_edit.h -- editing a loaded scene at render time, without retraining (the paper's
 // section 6.4): a node's transform, and a pre-trained LSNIF object placed where the scene never
 // had one. Used by `lsnif render` / `lsnif view` (--node-transform, --add / --at).
 #pragma once

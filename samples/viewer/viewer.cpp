@@ -91,6 +91,7 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
   options.ray_tracing = true;
   options.validation = settings.validation;
   options.swapchain = true;
+  options.device = settings.device;
   if (Status s = window_instance_extensions(options.instance_extensions); !s) return s;
 
   Input input;

@@ -1,4 +1,4 @@
-// viewer.h -- the sample IBL viewer (issue 4): a window showing the path tracer's progressive
+// viewer.h -- the sample IBL viewer: a window showing the path tracer's progressive
 // accumulation of a scene, with an orbit/fly camera, a toggle between LSNIF and reference mode,
 // environment rotation and exposure, and the frame time on screen.
 //
@@ -28,6 +28,7 @@ struct ViewerSettings {
   float exposure = 0.0f;               // stops
   float env_rotation = 0.0f;           // radians added to the environment's
   bool validation = false;             // Khronos validation layer (messages fail the run at exit)
+  std::string device;                  // vk::ContextOptions::device ("": automatic choice)
   // Scripted runs (tests, screenshots): stop after `frames` frames (0: when the window closes),
   // toggle the mode before frame `toggle_at` (0: never), and write `screenshot` (.png) of the
   // last presented frame read back from the swapchain.

@@ -173,7 +173,7 @@ void print(const char* name, const Comparison& c) {
 class GpuReference : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    vk_status_ = vk_.init();
+    vk_status_ = vk_.init(/*ray_tracing=*/false, /*validation=*/true, test::kReferenceDevice);
     if (vk_status_) {
       std::printf("Vulkan device: %s\n", vk_.device_name().c_str());
       vk_status_ = vk_.create_pipeline(LSNIF_REFERENCE_SPV, sizeof(Push), pipeline_);

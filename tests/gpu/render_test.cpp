@@ -55,7 +55,7 @@ double mean(const image::Image& a) {
 class RenderTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    vk_status_ = vk_.init(true);
+    vk_status_ = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::kReferenceDevice);
     if (!vk_status_) return;
     Mesh mesh;
     if (!std::filesystem::exists(kElephant) || !load_mesh(kElephant, mesh)) {

@@ -14,7 +14,9 @@
 
 layout(push_constant) uniform RtPush {
   uint64_t model_table;  // LSNIF_RT_PUSH_MODEL_TABLE_OFFSET
-  uint64_t rays;         // LsnifReferenceRay[ray_count]
+  uint model_count;      // LSNIF_RT_PUSH_MODEL_COUNT_OFFSET
+  uint reserved;
+  uint64_t rays;         // LsnifReferenceRay[ray_count] (LSNIF_RT_PUSH_APP_OFFSET)
   uint64_t hits;         // LsnifReferenceHit[ray_count]
   uint ray_count;
   uint mode;             // RT_MODE_*

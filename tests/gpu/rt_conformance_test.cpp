@@ -23,7 +23,6 @@
 
 #include "ground_truth.h"
 #include "intersector.h"
-#include "lsnif_vk.h"
 #include "mesh.h"
 #include "ray_walk.h"
 #include "test_support.h"
@@ -31,6 +30,7 @@
 #include "plugin_device.h"
 #include "vk_raytracing.h"
 #include "gpu_test_support.h"
+#include "test_plugin.h"
 
 namespace lsnif {
 namespace {
@@ -38,15 +38,34 @@ namespace {
 using namespace gputest;
 
 const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
-const std::string kShaderDir = LSNIF_RT_SHADER_DIR;
+// The test's shaders (rt_conformance.*, rt_mixed_triangle.rchit), compiled at build time.
+#include "rt_conformance_rchit_spirv.h"
+#include "rt_conformance_rgen_spirv.h"
+#include "rt_conformance_rmiss_spirv.h"
+#include "rt_mixed_triangle_rchit_spirv.h"
 
 // The push constant block of rt_conformance_common.glsl (model table first: host_device.h).
 struct RtPush {
-  uint64_t model_table = 0, rays = 0, hits = 0;
+  uint64_t model_table = 0;
+  uint32_t model_count = 0, reserved = 0;
+  uint64_t rays = 0, hits = 0;
   uint32_t ray_count = 0, mode = 0, ray_flags = 0, pad = 0;
 };
-static_assert(sizeof(RtPush) == 40, "push constant layout");
+static_assert(sizeof(RtPush) == 48, "push constant layout");
 static_assert(offsetof(RtPush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
+static_assert(offsetof(RtPush, model_count) == LSNIF_RT_PUSH_MODEL_COUNT_OFFSET, "binding convention");
+static_assert(offsetof(RtPush, rays) == LSNIF_RT_PUSH_APP_OFFSET, "binding convention");
+
+// The pipeline's shaders, with the triangle hit group when `mixed`.
+vk::RtShaders rt_shaders(bool mixed) {
+  vk::RtShaders s;
+  s.raygen = spirv(rt_conformance_rgen_spirv, sizeof rt_conformance_rgen_spirv);
+  s.miss = spirv(rt_conformance_rmiss_spirv, sizeof rt_conformance_rmiss_spirv);
+  s.closest_hit = spirv(rt_conformance_rchit_spirv, sizeof rt_conformance_rchit_spirv);
+  s.intersection = TestPlugin::intersection_shader();
+  if (mixed) s.triangle_closest_hit = spirv(rt_mixed_triangle_rchit_spirv, sizeof rt_mixed_triangle_rchit_spirv);
+  return s;
+}
 static_assert(sizeof(LsnifHitAttributes) <= 32, "maxRayHitAttributeSize on lavapipe");
 constexpr uint32_t kModeClosest = 0, kModeShadow = 1;
 
@@ -208,7 +227,7 @@ class RtConformance : public ::testing::Test {
   static constexpr uint32_t kAabbIndex = 0, kSegmentIndex = 1;  // model table entries
 
   static void SetUpTestSuite() {
-    vk_status_ = vk_.init(true);
+    vk_status_ = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::kReferenceDevice);
     if (vk_status_) vk_status_ = tracer_.init();
     if (vk_status_) {
       std::printf("Vulkan device: %s (shaderGroupHandleSize %u, shaderGroupBaseAlignment %u, "
@@ -220,18 +239,10 @@ class RtConformance : public ::testing::Test {
                                    tracer_.max_hit_attribute_size(), sizeof(LsnifHitAttributes));
     }
     if (vk_status_)
-      vk_status_ = tracer_.create_pipeline(kShaderDir + "/rt_conformance.rgen.spv",
-                                           kShaderDir + "/rt_conformance.rmiss.spv",
-                                           kShaderDir + "/rt_conformance.rchit.spv",
-                                           plugin::intersection_shader_spirv_path(),
-                                           sizeof(RtPush), pipeline_);
+      vk_status_ = tracer_.create_pipeline(rt_shaders(false), sizeof(RtPush), pipeline_);
     if (vk_status_) std::printf("vkCreateRayTracingPipelinesKHR %.3f s\n", pipeline_.create_seconds);
     if (vk_status_)
-      vk_status_ = tracer_.create_pipeline(kShaderDir + "/rt_conformance.rgen.spv",
-                                           kShaderDir + "/rt_conformance.rmiss.spv",
-                                           kShaderDir + "/rt_conformance.rchit.spv",
-                                           plugin::intersection_shader_spirv_path(), sizeof(RtPush),
-                                           mixed_pipeline_, kShaderDir + "/rt_mixed_triangle.rchit.spv");
+      vk_status_ = tracer_.create_pipeline(rt_shaders(true), sizeof(RtPush), mixed_pipeline_);
 
     if (!std::filesystem::exists(kElephant)) {
       train_status_ = Status::error("%s missing: run scripts/setup.sh", kElephant.c_str());
@@ -250,8 +261,8 @@ class RtConformance : public ::testing::Test {
 
     // Through the plugin, on the harness's device: model blocks and one AABB BLAS per model, and
     // the model table (custom index -> model address).
-    train_status_ = plugin::create_context(vk::plugin_handles(vk_), plugin_);
-    for (uint32_t m = 0; m < 2 && train_status_; ++m) train_status_ = plugin_.upload_model(models_[m], handles_[m]);
+    train_status_ = plugin_.init(vk_);
+    for (uint32_t m = 0; m < 2 && train_status_; ++m) train_status_ = plugin_.upload(models_[m], handles_[m]);
     std::vector<uint64_t> addresses;
     if (train_status_) train_status_ = plugin_.model_table({handles_[0], handles_[1]}, addresses);
     if (train_status_) train_status_ = vk_.create_buffer(addresses.size() * sizeof(uint64_t), table_);
@@ -259,7 +270,7 @@ class RtConformance : public ::testing::Test {
   }
 
   static void TearDownTestSuite() {
-    for (int m = 0; m < 2; ++m) plugin_.release_model(handles_[m]);
+    for (int m = 0; m < 2; ++m) plugin_.release(handles_[m]);
     plugin_.destroy();
     vk_.destroy_buffer(table_);
     tracer_.destroy(pipeline_);
@@ -300,6 +311,7 @@ class RtConformance : public ::testing::Test {
       }
       RtPush push;
       push.model_table = table_.address;
+      push.model_count = 2;
       push.rays = ray_buf.address;
       push.hits = hit_buf.address;
       push.ray_count = uint32_t(count);
@@ -371,8 +383,8 @@ class RtConformance : public ::testing::Test {
   static Mesh mesh_;
   static Status vk_status_, train_status_;
   static Model models_[2];
-  static plugin::Context plugin_;
-  static plugin::ModelHandle handles_[2];
+  static TestPlugin plugin_;
+  static LsnifModel handles_[2];
   static vk::Buffer table_;
 };
 vk::ComputeContext RtConformance::vk_;
@@ -381,8 +393,8 @@ vk::RtPipeline RtConformance::pipeline_, RtConformance::mixed_pipeline_;
 Mesh RtConformance::mesh_;
 Status RtConformance::vk_status_, RtConformance::train_status_;
 Model RtConformance::models_[2];
-plugin::Context RtConformance::plugin_;
-plugin::ModelHandle RtConformance::handles_[2];
+TestPlugin RtConformance::plugin_;
+LsnifModel RtConformance::handles_[2];
 vk::Buffer RtConformance::table_;
 
 constexpr size_t kRays = 5000;  // per model and instance: 20k rays for the single-instance tests
@@ -493,7 +505,7 @@ TEST_F(RtConformance, MovingInstancesFollowTlasUpdates) {
     ASSERT_TRUE(plugin_.make_instance(handles_[kSegmentIndex], xfs[size_t(k)], kSegmentIndex, 0xFF, 0, records[size_t(k)]));
   vk::AccelerationStructure tlas;
   ASSERT_TRUE(tracer_.build_tlas(records, tlas, /*allow_update=*/true));
-  const VkDeviceAddress blas_before = plugin_.blas_address(handles_[kSegmentIndex]);
+  const VkDeviceAddress blas_before = plugin_.properties(handles_[kSegmentIndex]).blasAddress;
   for (int frame = 1; frame <= 5; ++frame) {
     const std::vector<Transform3x4> previous = xfs;
     xfs = {moving_instance(model, frame, 0), moving_instance(model, frame, 1)};
@@ -527,7 +539,7 @@ TEST_F(RtConformance, MovingInstancesFollowTlasUpdates) {
                 world.size());
     EXPECT_GT(changed, world.size() / 20);
   }
-  EXPECT_EQ(plugin_.blas_address(handles_[kSegmentIndex]), blas_before);  // models untouched
+  EXPECT_EQ(plugin_.properties(handles_[kSegmentIndex]).blasAddress, blas_before);  // models untouched
   tracer_.destroy(tlas);
   vk::AccelerationStructure plain;
   ASSERT_TRUE(tracer_.build_tlas(records, plain));
@@ -640,7 +652,7 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
   }
   tri.instanceCustomIndex = kTriangleIndex;
   tri.mask = 0xFF;
-  tri.instanceShaderBindingTableRecordOffset = 1;
+  tri.instanceShaderBindingTableRecordOffset = mixed_pipeline_.triangle_sbt_offset & 0xffffffu;
   tri.accelerationStructureReference = tri_blas.address;
   ASSERT_TRUE(tracer_.build_tlas(records, tlas));
 
@@ -690,6 +702,7 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
     }
     RtPush push;
     push.model_table = table_.address;
+    push.model_count = 2;
     push.rays = ray_buf.address;
     push.hits = hit_buf.address;
     push.ray_count = uint32_t(kMixedRays);

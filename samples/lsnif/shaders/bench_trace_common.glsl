@@ -23,6 +23,8 @@ struct BenchTraceResult {
 
 layout(push_constant) uniform BenchTracePush {
   uint64_t model_table;  // LSNIF_RT_PUSH_MODEL_TABLE_OFFSET (read by lsnif.rint)
+  uint model_count;      // LSNIF_RT_PUSH_MODEL_COUNT_OFFSET
+  uint reserved;
   uint64_t rays;         // LsnifReferenceRay[ray_count], world space (LSNIF_RT_PUSH_APP_OFFSET)
   uint64_t results;      // BenchTraceResult[ray_count]
   uint ray_count;

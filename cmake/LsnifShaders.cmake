@@ -1,0 +1,24 @@
+# lsnif_spirv_header(OUTPUT header NAME symbol SOURCE shader [DEFINES -D...] [INCLUDES dir...]
+#                    [DEPENDS file...]): compiles one GLSL shader (glslangValidator, Vulkan 1.2) at
+# build time into a header that defines `const uint32_t symbol[]`, so that programs carry their
+# SPIR-V instead of reading it from the build tree. The shared GLSL of shaders/ is always a
+# dependency and on the include path.
+find_program(LSNIF_GLSLANG_VALIDATOR glslangValidator REQUIRED)
+file(GLOB LSNIF_SHARED_SHADER_INCLUDES CONFIGURE_DEPENDS ${CMAKE_CURRENT_LIST_DIR}/../shaders/*.glsl
+  ${CMAKE_CURRENT_LIST_DIR}/../shaders/*.h)
+set(LSNIF_SHARED_SHADER_DIR ${CMAKE_CURRENT_LIST_DIR}/../shaders)
+function(lsnif_spirv_header)
+  cmake_parse_arguments(A "" "OUTPUT;NAME;SOURCE" "DEFINES;INCLUDES;DEPENDS" ${ARGN})
+  get_filename_component(dir ${A_OUTPUT} DIRECTORY)
+  get_filename_component(name ${A_SOURCE} NAME)
+  set(includes -I${LSNIF_SHARED_SHADER_DIR})
+  foreach(inc ${A_INCLUDES})
+    list(APPEND includes -I${inc})
+  endforeach()
+  add_custom_command(OUTPUT ${A_OUTPUT}
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${dir}
+    COMMAND ${LSNIF_GLSLANG_VALIDATOR} --target-env vulkan1.2 -V ${A_DEFINES} ${includes} --vn ${A_NAME}
+            ${A_SOURCE} -o ${A_OUTPUT}
+    DEPENDS ${A_SOURCE} ${LSNIF_SHARED_SHADER_INCLUDES} ${A_DEPENDS}
+    COMMENT "glslangValidator ${name} -> ${A_NAME}" VERBATIM)
+endfunction()
