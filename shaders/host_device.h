@@ -177,4 +177,13 @@ struct LsnifHitAttributes {
   float leaving_distance;
 };
 
+#if !defined(LSNIF_GLSL) && !defined(__cplusplus)
+/* C: the structs under their plain names too, as in C++ and GLSL. */
+typedef struct LsnifGpuModelHeader LsnifGpuModelHeader;
+typedef struct LsnifReferenceRay LsnifReferenceRay;
+typedef struct LsnifReferenceHit LsnifReferenceHit;
+typedef struct LsnifRtPushConstants LsnifRtPushConstants;
+typedef struct LsnifHitAttributes LsnifHitAttributes;
+#endif
+
 #endif
