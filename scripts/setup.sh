@@ -60,6 +60,7 @@ fi
 # --- 2. packages
 packages=(
   build-essential cmake ninja-build pkg-config git ca-certificates xz-utils
+  file binutils  # cpack -G DEB (file, dpkg-shlibdeps) and the package test (nm, readelf, strings)
   libgtest-dev libgmock-dev
   libembree-dev libeigen3-dev
   libtinygltf-dev nlohmann-json3-dev libstb-dev libglm-dev

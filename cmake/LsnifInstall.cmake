@@ -1,0 +1,134 @@
+# Install rules, the CMake package (lsnifConfig.cmake: lsnif::vk; COMPONENTS train: lsnif::format,
+# lsnif::core, lsnif::import, lsnif::train), the pkg-config file (lsnif.pc) and the CPack DEB
+# packages, one per install component:
+#   runtime    liblsnif-vk0        lib/liblsnif_vk.so.0*
+#   dev        liblsnif-dev        headers + GLSL includes (include/lsnif), liblsnif_vk.so, cmake config, lsnif.pc
+#   train-dev  liblsnif-train-dev  the static CPU libraries and their headers (include/lsnif/<folder>)
+#   tools      lsnif-tools         bin/lsnif
+# Every installed file is relocatable: the config and lsnif.pc locate the prefix from their own path.
+include(CMakePackageConfigHelpers)
+
+set(LSNIF_COMPONENTS runtime dev)
+set(LSNIF_PACKAGES liblsnif-vk0 liblsnif-dev)
+if(LSNIF_BUILD_TRAIN)
+  list(APPEND LSNIF_COMPONENTS train-dev)
+  list(APPEND LSNIF_PACKAGES liblsnif-train-dev)
+endif()
+if(LSNIF_BUILD_TOOLS)
+  list(APPEND LSNIF_COMPONENTS tools)
+  list(APPEND LSNIF_PACKAGES lsnif-tools)
+endif()
+
+set(LSNIF_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/lsnif)
+set(LSNIF_INSTALL_INCLUDEDIR ${CMAKE_INSTALL_INCLUDEDIR}/lsnif)
+# lsnif_hit.glsl includes host_device.h; both sit beside lsnif.h.
+set(LSNIF_INSTALL_GLSLDIR ${LSNIF_INSTALL_INCLUDEDIR})
+
+# ---- the plugin: lsnif::vk
+set_target_properties(lsnif_vk PROPERTIES EXPORT_NAME vk)
+install(TARGETS lsnif_vk EXPORT lsnifTargets
+  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT runtime NAMELINK_COMPONENT dev)
+install(FILES ${PROJECT_SOURCE_DIR}/include/lsnif/lsnif.h ${PROJECT_SOURCE_DIR}/include/lsnif/lsnif.hpp
+  ${PROJECT_BINARY_DIR}/include/lsnif/lsnif_version.h ${PROJECT_SOURCE_DIR}/shaders/host_device.h
+  DESTINATION ${LSNIF_INSTALL_INCLUDEDIR} COMPONENT dev)
+install(FILES ${PROJECT_SOURCE_DIR}/shaders/lsnif_hit.glsl DESTINATION ${LSNIF_INSTALL_GLSLDIR} COMPONENT dev)
+install(EXPORT lsnifTargets NAMESPACE lsnif:: DESTINATION ${LSNIF_INSTALL_CMAKEDIR} COMPONENT dev)
+
+# ---- the CPU libraries: COMPONENTS train. lsnif_format is exported here only: lsnif::vk links it
+# privately into the shared library.
+if(LSNIF_BUILD_TRAIN)
+  foreach(folder format core import train)
+    set_target_properties(lsnif_${folder} PROPERTIES EXPORT_NAME ${folder})
+    # The sources include each other's headers by file name: one include folder per library.
+    target_include_directories(lsnif_${folder} INTERFACE $<INSTALL_INTERFACE:${LSNIF_INSTALL_INCLUDEDIR}/${folder}>)
+    file(GLOB headers ${PROJECT_SOURCE_DIR}/${folder}/*.h)
+    list(FILTER headers EXCLUDE REGEX "(_test|fuzz_support)\\.h$")  # test helpers
+    install(FILES ${headers} DESTINATION ${LSNIF_INSTALL_INCLUDEDIR}/${folder} COMPONENT train-dev)
+  endforeach()
+  # format's headers include host_device.h (installed by the dev component).
+  target_include_directories(lsnif_format INTERFACE $<INSTALL_INTERFACE:${LSNIF_INSTALL_INCLUDEDIR}>)
+  install(TARGETS lsnif_format lsnif_core lsnif_import lsnif_train EXPORT lsnifTrainTargets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT train-dev)
+  install(EXPORT lsnifTrainTargets NAMESPACE lsnif:: DESTINATION ${LSNIF_INSTALL_CMAKEDIR} COMPONENT train-dev)
+endif()
+
+# ---- the lsnif program
+if(LSNIF_BUILD_TOOLS)
+  # Finds the installed liblsnif_vk beside it wherever the prefix is.
+  file(RELATIVE_PATH lsnif_bin_to_lib /prefix/${CMAKE_INSTALL_BINDIR} /prefix/${CMAKE_INSTALL_LIBDIR})
+  set_target_properties(lsnif PROPERTIES INSTALL_RPATH "$ORIGIN/${lsnif_bin_to_lib}")
+  install(TARGETS lsnif RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
+endif()
+
+# ---- the license in every package, where Debian keeps it
+foreach(component package IN ZIP_LISTS LSNIF_COMPONENTS LSNIF_PACKAGES)
+  install(FILES ${PROJECT_SOURCE_DIR}/LICENSE DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/${package}
+    RENAME copyright COMPONENT ${component})
+endforeach()
+
+# ---- lsnifConfig.cmake, lsnifConfigVersion.cmake
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/lsnifConfig.cmake.in
+  ${PROJECT_BINARY_DIR}/package/lsnifConfig.cmake INSTALL_DESTINATION ${LSNIF_INSTALL_CMAKEDIR}
+  PATH_VARS CMAKE_INSTALL_INCLUDEDIR LSNIF_INSTALL_GLSLDIR)
+write_basic_package_version_file(${PROJECT_BINARY_DIR}/package/lsnifConfigVersion.cmake
+  VERSION ${PROJECT_VERSION} COMPATIBILITY SameMajorVersion)
+install(FILES ${PROJECT_BINARY_DIR}/package/lsnifConfig.cmake ${PROJECT_BINARY_DIR}/package/lsnifConfigVersion.cmake
+  DESTINATION ${LSNIF_INSTALL_CMAKEDIR} COMPONENT dev)
+
+# ---- lsnif.pc: the prefix is found from the file's own folder (${pcfiledir}).
+set(LSNIF_INSTALL_PKGCONFIGDIR ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+file(RELATIVE_PATH LSNIF_PC_TO_PREFIX /prefix/${LSNIF_INSTALL_PKGCONFIGDIR} /prefix)
+string(REGEX REPLACE "/$" "" LSNIF_PC_TO_PREFIX "${LSNIF_PC_TO_PREFIX}")
+configure_file(${PROJECT_SOURCE_DIR}/cmake/lsnif.pc.in ${PROJECT_BINARY_DIR}/package/lsnif.pc @ONLY)
+install(FILES ${PROJECT_BINARY_DIR}/package/lsnif.pc DESTINATION ${LSNIF_INSTALL_PKGCONFIGDIR} COMPONENT dev)
+
+# ---- CPack: `cpack -G DEB` in the build folder writes one .deb per component.
+set(CPACK_PACKAGE_NAME lsnif)
+set(CPACK_PACKAGE_VENDOR "LSNIF")
+set(CPACK_PACKAGE_CONTACT "LSNIF maintainers <lsnif@localhost>")
+set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "LSNIF: neural intersection functions for Vulkan ray tracing")
+set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
+set(CPACK_GENERATOR DEB)
+set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
+set(CPACK_DEB_COMPONENT_INSTALL ON)
+set(CPACK_COMPONENTS_ALL ${LSNIF_COMPONENTS})
+foreach(component package IN ZIP_LISTS LSNIF_COMPONENTS LSNIF_PACKAGES)
+  string(TOUPPER ${component} upper)
+  set(CPACK_DEBIAN_${upper}_PACKAGE_NAME ${package})
+endforeach()
+set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
+set(CPACK_DEBIAN_PACKAGE_SECTION libs)
+# Versioned dependencies between the packages of one build (liblsnif-dev -> liblsnif-vk0 (= version)).
+set(CPACK_DEBIAN_ENABLE_COMPONENT_DEPENDS ON)
+
+set(CPACK_COMPONENT_RUNTIME_DESCRIPTION "LSNIF Vulkan plugin library (liblsnif_vk.so.0)
+ Neural intersection functions for Vulkan ray tracing: the shared library an application loads.")
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
+
+set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
+set(CPACK_COMPONENT_DEV_DESCRIPTION "LSNIF Vulkan plugin: headers, GLSL includes, CMake and pkg-config files
+ find_package(lsnif) gives lsnif::vk, pkg-config --cflags --libs lsnif the flags; the GLSL
+ includes for closest-hit shaders (lsnif_hit.glsl) are in /usr/include/lsnif.")
+set(CPACK_COMPONENT_DEV_DEPENDS runtime)
+set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "libvulkan-dev")
+
+set(CPACK_DEBIAN_TRAIN-DEV_PACKAGE_SECTION libdevel)
+set(CPACK_COMPONENT_TRAIN-DEV_DESCRIPTION "LSNIF CPU libraries (static): model format, inference, import, training
+ find_package(lsnif COMPONENTS train) gives lsnif::format, lsnif::core, lsnif::import and
+ lsnif::train.")
+set(CPACK_COMPONENT_TRAIN-DEV_DEPENDS dev)
+set(CPACK_DEBIAN_TRAIN-DEV_PACKAGE_DEPENDS "libeigen3-dev, libglm-dev, libembree-dev, libtinygltf-dev")
+
+set(CPACK_DEBIAN_TOOLS_PACKAGE_SECTION graphics)
+set(CPACK_COMPONENT_TOOLS_DESCRIPTION "LSNIF command-line program (lsnif train, eval, render, bench, ...)")
+set(CPACK_COMPONENT_TOOLS_DEPENDS runtime)
+set(CPACK_DEBIAN_TOOLS_PACKAGE_SHLIBDEPS ON)
+# volk opens libvulkan.so.1 at run time (dlopen), which dpkg-shlibdeps cannot see; it adds the rest.
+set(CPACK_DEBIAN_TOOLS_PACKAGE_DEPENDS "libvulkan1")
+set(CPACK_DEBIAN_TOOLS_PACKAGE_RECOMMENDS "mesa-vulkan-drivers | vulkan-icd")
+# dpkg-shlibdeps must find liblsnif_vk.so.0 (needed by bin/lsnif), which no installed package
+# provides: it runs in the tools component's staging folder, beside the runtime component's
+# (every component is staged before any is packaged). The dependency on liblsnif-vk0 itself is the
+# versioned component dependency above.
+set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS_PRIVATE_DIRS ../runtime${CPACK_PACKAGING_INSTALL_PREFIX}/${CMAKE_INSTALL_LIBDIR})
+include(CPack)
