@@ -157,7 +157,16 @@ TEST(BenchCli, UnknownSceneAndMissingData) {
   EXPECT_TRUE(has(r.out, "bunny, dragons, heavy, foliage")) << r.out;
   EXPECT_FALSE(fs::exists(out));
 
-  r = run_cli("bench dragons --quick --data " + (dir.path() / "nodata").string() + " --out " + out);
+  // No data folder: named, with how to get it; a data folder without the scene's files: the file named.
+  const fs::path nodata = dir.path() / "nodata";
+  r = run_cli("bench dragons --quick --data " + nodata.string() + " --out " + out);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(has(r.out, "the data folder " + nodata.string() + " does not exist")) << r.out;
+  EXPECT_TRUE(has(r.out, "run scripts/setup.sh")) << r.out;
+  EXPECT_TRUE(has(r.out, "--data")) << r.out;
+  EXPECT_FALSE(fs::exists(out));
+  fs::create_directories(nodata);
+  r = run_cli("bench dragons --quick --data " + nodata.string() + " --out " + out);
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(has(r.out, "nodata/meshes/ChineseDragon-10kv.off")) << r.out;
   EXPECT_TRUE(has(r.out, "run scripts/setup.sh")) << r.out;

@@ -59,6 +59,23 @@ TEST(Cli, HelpForEveryCommand) {
   }
 }
 
+// `lsnif demo` without its data folder (an installed lsnif away from the source tree): the folder
+// is named with how to get the data, before anything is trained; an explicit --mesh does not need it.
+TEST(Cli, DemoNamesAMissingDataFolder) {
+  const fs::path d = temp_dir();
+  const std::string nodata = (d / "nodata").string();
+  CliResult r = run_cli("demo --data " + nodata);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("the data folder " + nodata + " does not exist"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("scripts/setup.sh"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--data DIR"), std::string::npos) << r.out;
+  r = run_cli("demo --data " + nodata + " --mesh " + (d / "none.off").string() + " --no-render");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("none.off not found"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("data folder"), std::string::npos) << r.out;
+  fs::remove_all(d);
+}
+
 // `lsnif devices` on this machine (lavapipe with ray tracing): llvmpipe is listed and supports
 // the ray-tracing pipeline, in text and JSON; with the Vulkan driver hidden it fails with exit
 // code 1 and says why.

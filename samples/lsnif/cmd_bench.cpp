@@ -15,6 +15,7 @@
 #include "args.h"
 #include "bench_scenes.h"
 #include "commands.h"
+#include "data_dir.h"
 #include "device_option.h"
 #include "render_compare.h"
 #include "scene_gltf.h"
@@ -114,7 +115,7 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
 
 int cmd_bench(int argc, char** argv) {
   std::vector<std::string> names;
-  std::string out_dir = "out/bench", data_dir = LSNIF_DATA_DIR, device;
+  std::string out_dir = "out/bench", data_dir = default_data_dir(), device;
   uint32_t width = 0, height = 0, spp = 0, steps = 0, batch = 0, threads = 0;
   uint64_t seed = 1;
   bool quick = false, retrain = false;
@@ -154,6 +155,7 @@ int cmd_bench(int argc, char** argv) {
     for (const std::string& s : scenes) seen |= s == n;
     if (!seen) scenes.push_back(n);
   }
+  if (!check_data_dir("bench", data_dir)) return 1;
   for (const std::string& n : scenes)
     for (const std::string& f : bench_scene_inputs(n, data_dir))
       if (!fs::is_regular_file(f)) {

@@ -8,6 +8,7 @@
 
 #include "args.h"
 #include "commands.h"
+#include "data_dir.h"
 #include "device_option.h"
 #include "evaluate.h"
 #include "mesh.h"
@@ -20,7 +21,9 @@ namespace lsnif::cli {
 
 int cmd_demo(int argc, char** argv) {
   TrainOptions opts;
-  std::string mesh_path = std::string(LSNIF_DATA_DIR) + "/meshes/bunny00.off";
+  std::string data_dir = default_data_dir();
+  const auto in_data = [&data_dir](const char* file) { return data_dir + "/" + file; };
+  std::string mesh_path = in_data("meshes/bunny00.off");
   opts.output = "out/bunny.lsnif";
   uint32_t rays = 100000;
   bool reuse = false, no_render = false;
@@ -28,23 +31,30 @@ int cmd_demo(int argc, char** argv) {
   rs.width = 320;
   rs.height = 240;
   rs.spp = 16;
-  std::string hdr = std::string(LSNIF_DATA_DIR) + "/hdr/forest.exr", picture = "out/bunny_compare.png";
+  std::string hdr = in_data("hdr/forest.exr"), picture = "out/bunny_compare.png";
+  const std::string default_mesh = mesh_path, default_hdr = hdr;
   std::string device;
   Args args("demo", "Trains an LSNIF model of the bundled bunny (from scripts/setup.sh), writes it to\n"
                     "out/bunny.lsnif, evaluates it on held-out rays against exact ray casting, and renders it\n"
                     "in LSNIF and reference mode (FLIP, memory, time; out/bunny_compare.png).");
-  args.option("mesh", "mesh to train", &mesh_path);
+  args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &data_dir);
+  args.option("mesh", "mesh to train, in --data unless given", &mesh_path);
   args.option("eval-rays", "held-out rays for the evaluation", &rays);
   args.flag("reuse", "load the model from --output if it exists instead of training", &reuse);
   args.flag("no-render", "skip the rendering comparison", &no_render);
   args.option("image-width", "render width (--width is the network's hidden width)", &rs.width);
   args.option("image-height", "render height", &rs.height);
   args.option("spp", "render samples per pixel", &rs.spp);
-  args.option("hdr", "environment image for the render (empty: constant sky)", &hdr);
+  args.option("hdr", "environment image for the render (empty: constant sky), in --data unless given", &hdr);
   args.option("picture", "side-by-side image (reference | LSNIF | FLIP)", &picture);
   add_device_option(args, &device);
   opts.add_to(args);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
+  // --mesh and --hdr not given: the files of --data.
+  const bool mesh_from_data = mesh_path == default_mesh, hdr_from_data = hdr == default_hdr;
+  if (mesh_from_data) mesh_path = in_data("meshes/bunny00.off");
+  if (hdr_from_data) hdr = in_data("hdr/forest.exr");
+  if ((mesh_from_data || (hdr_from_data && !no_render)) && !check_data_dir("demo", data_dir)) return 1;
   if (!std::filesystem::exists(mesh_path)) {
     std::fprintf(stderr, "lsnif demo: %s not found: run scripts/setup.sh first (it fetches the test meshes)\n",
                  mesh_path.c_str());
