@@ -1,11 +1,6 @@
 // model_file.cpp -- .lsnif files to and from a Model (model.h). The bytes are read and written by
 // format/model_format.cpp; this file only converts between fp16 bits and the Model's floats.
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
-#include <system_error>
-
+#include "atomic_file.h"
 #include "half.h"
 #include "model.h"
 #include "model_format.h"
@@ -61,27 +56,7 @@ Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes) {
 Status save_model(const Model& model, const std::string& path) {
   std::vector<uint8_t> bytes;
   if (Status s = save_model_to_memory(model, bytes); !s) return s.context("saving " + path);
-  // Write a temporary file next to the target and rename it, so a failed write never leaves a
-  // half-written model under the target name.
-  const std::string temp = path + ".tmp";
-  std::FILE* f = std::fopen(temp.c_str(), "wb");
-  if (!f) return Status::error("saving %s: cannot open %s for writing: %s", path.c_str(), temp.c_str(),
-                               std::strerror(errno));
-  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-  const int write_errno = errno;
-  const bool closed = std::fclose(f) == 0;
-  if (!written || !closed) {
-    std::remove(temp.c_str());
-    return Status::error("saving %s: writing %zu bytes failed: %s", path.c_str(), bytes.size(),
-                         std::strerror(written ? errno : write_errno));
-  }
-  std::error_code ec;
-  std::filesystem::rename(temp, path, ec);
-  if (ec) {
-    std::remove(temp.c_str());
-    return Status::error("saving %s: cannot rename %s to it: %s", path.c_str(), temp.c_str(), ec.message().c_str());
-  }
-  return Status::ok();
+  return write_file_atomic(path, bytes.data(), bytes.size());
 }
 
 Status load_model_from_memory(const uint8_t* data, size_t size, Model& model) {

@@ -121,9 +121,12 @@ bool half_is_finite(uint16_t h) { return (h & 0x7c00u) != 0x7c00u; }
 const char* half_non_finite_kind(uint16_t h) { return (h & 0x3ffu) ? "NaN" : "infinite"; }
 
 // Finite and non-empty on every axis.
+// Finite, non-empty, and within +-kMaxModelCoordinate (beyond, the squared distances of float ray
+// math overflow).
 bool aabb_usable(const float lo[3], const float hi[3]) {
   for (int a = 0; a < 3; ++a)
-    if (!std::isfinite(lo[a]) || !std::isfinite(hi[a]) || !(lo[a] < hi[a])) return false;
+    if (!(std::abs(lo[a]) <= kMaxModelCoordinate) || !(std::abs(hi[a]) <= kMaxModelCoordinate) || !(lo[a] < hi[a]))
+      return false;
   return true;
 }
 
@@ -215,9 +218,10 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
     v.bounds_hi[a] = get_f32(data + kOffAabb + 12 + 4 * a);
   }
   if (!aabb_usable(v.bounds_lo, v.bounds_hi))
-    return Status::error("object AABB lo=(%g, %g, %g) hi=(%g, %g, %g) is not finite or is empty",
+    return Status::error("object AABB lo=(%g, %g, %g) hi=(%g, %g, %g) is not finite, is empty or exceeds +-%g",
                          double(v.bounds_lo[0]), double(v.bounds_lo[1]), double(v.bounds_lo[2]),
-                         double(v.bounds_hi[0]), double(v.bounds_hi[1]), double(v.bounds_hi[2]));
+                         double(v.bounds_hi[0]), double(v.bounds_hi[1]), double(v.bounds_hi[2]),
+                         kMaxModelCoordinate);
 
   // Section table: inside the file, then exactly the sizes and offsets the config implies.
   const Layout expected = layout_of(c);
@@ -257,6 +261,9 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
     for (size_t k = length; k < kNameBytes; ++k)
       if (p[k] != 0) return Status::error("material %u name has non-zero bytes after its NUL terminator", i);
     v.materials[i].name.assign(reinterpret_cast<const char*>(p), length);
+    if (!is_clean_utf8(v.materials[i].name))
+      return Status::error("material %u name \"%s\" is not valid UTF-8 or contains control characters", i,
+                           printable(v.materials[i].name).c_str());
     for (int k = 0; k < 3; ++k) {
       const float value = get_f32(p + kNameBytes + 4 * k);
       if (!std::isfinite(value)) return Status::error("material %u base color component %d is not finite", i, k);
@@ -305,7 +312,7 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   const Config& c = contents.config;
   if (Status s = c.validate(); !s) return s.context("cannot save model");
   if (!aabb_usable(contents.bounds_lo, contents.bounds_hi))
-    return Status::error("cannot save model: its AABB is not finite or is empty");
+    return Status::error("cannot save model: its AABB is not finite, is empty or exceeds +-%g", kMaxModelCoordinate);
   if (contents.materials.size() != c.material_count)
     return Status::error("cannot save model: %zu materials, the config has %u", contents.materials.size(),
                          c.material_count);
@@ -318,6 +325,9 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
                            mat.name.c_str(), mat.name.size(), ull(kNameBytes - 1));
     if (mat.name.find('\0') != std::string::npos)
       return Status::error("cannot save model: material %zu name contains a NUL byte", i);
+    if (!is_clean_utf8(mat.name))
+      return Status::error("cannot save model: material %zu name \"%s\" is not valid UTF-8 or contains control "
+                           "characters", i, printable(mat.name).c_str());
     for (int k = 0; k < 3; ++k)
       if (!std::isfinite(mat.base_color[k]))
         return Status::error("cannot save model: material %zu base color is not finite", i);

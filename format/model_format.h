@@ -15,6 +15,8 @@ namespace lsnif {
 
 constexpr uint32_t kModelFormatVersion = 1;
 constexpr size_t kModelMaterialNameBytes = 64;  // NUL-terminated: at most 63 bytes of name
+// The stored AABB lies within +-this on every axis (float ray math squares distances).
+constexpr double kMaxModelCoordinate = 1e18;
 
 struct ModelFileMaterial {
   std::string name;
@@ -37,7 +39,8 @@ struct ModelFileView {
 uint64_t model_voxel_words(const Config& config);
 
 // Parses and validates a whole .lsnif file in memory: magic, version, sizes, the config, the AABB,
-// section table, zero padding, CRC-32, material names, no voxel bits beyond V^3, no NaN or
+// section table, zero padding, CRC-32, material names (valid UTF-8 without control characters),
+// the AABB within +-kMaxModelCoordinate, no voxel bits beyond V^3, no NaN or
 // infinite fp16 value. Never reads outside [data, data + size). Errors name the problem ("checksum
 // mismatch ...", "truncated ...", "section grid has size ...").
 Status parse_model_file(const uint8_t* data, size_t size, ModelFileView& out);

@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdarg>
 #include <string>
+#include <string_view>
 
 namespace lsnif {
 
@@ -28,5 +29,16 @@ class Status {
 
 std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 std::string vformat(const char* fmt, va_list args);
+
+// Names from files (nodes, meshes, materials) are untrusted text.
+// True when `s` is valid UTF-8 (no overlong forms, surrogates or code points past U+10FFFF) with no
+// control character (U+0000..U+001F, U+007F).
+bool is_clean_utf8(std::string_view s);
+// `s` for a message or a terminal: control characters and bytes that are not valid UTF-8 as
+// "\xNN", the rest as it is.
+std::string printable(std::string_view s);
+// `s` with every control character and invalid UTF-8 byte replaced by '?', cut to at most
+// `max_bytes` bytes at a character boundary.
+std::string clean_utf8(std::string_view s, size_t max_bytes);
 
 }  // namespace lsnif

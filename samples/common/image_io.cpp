@@ -3,6 +3,7 @@
 // code values.
 #include "image_io.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -11,6 +12,8 @@
 #include <exception>
 #include <fstream>
 #include <memory>
+
+#include "atomic_file.h"
 
 namespace lsnif::image {
 namespace {
@@ -151,10 +154,17 @@ Status save_impl(const std::string& path, const Image& img) {
     return Status::error("cannot write '%s': unknown image extension '%s' (expected .exr, .hdr, .png, .jpg or .jpeg)",
                          path.c_str(), ext.c_str());
 
+  // Encoded in memory first, then written by write_file_atomic: OpenImageIO's own file writes are
+  // not all checked, and a failed one would leave a partial image in place of the old one.
   auto out = OIIO::ImageOutput::create(path);
   if (!out)
     return Status::error("cannot write '%s': %s", path.c_str(), oiio_message<OIIO::ImageOutput>(nullptr).c_str());
+  std::vector<unsigned char> encoded;
+  OIIO::Filesystem::IOVecOutput memory(encoded);
+  if (!out->set_ioproxy(&memory))
+    return Status::error("cannot write '%s': the %s writer cannot encode into memory", path.c_str(), ext.c_str());
   const int w = int(img.width), h = int(img.height);
+  bool ok = false;
   if (ldr) {
     std::vector<uint8_t> bytes(img.rgb.size());
     for (size_t i = 0; i < img.rgb.size(); ++i) {
@@ -162,15 +172,15 @@ Status save_impl(const std::string& path, const Image& img) {
     }
     OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
     spec.attribute("oiio:ColorSpace", "sRGB");
-    if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) || !out->close())
-      return Status::error("cannot write '%s': %s", path.c_str(), oiio_message(out.get()).c_str());
-    return Status::ok();
+    ok = out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) && out->close();
+  } else {
+    OIIO::ImageSpec spec(w, h, 3, exr ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
+    spec.attribute("oiio:ColorSpace", "Linear");
+    ok = out->open(path, spec) && out->write_image(OIIO::TypeFloat, img.rgb.data()) && out->close();
   }
-  OIIO::ImageSpec spec(w, h, 3, exr ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
-  spec.attribute("oiio:ColorSpace", "Linear");
-  if (!out->open(path, spec) || !out->write_image(OIIO::TypeFloat, img.rgb.data()) || !out->close())
-    return Status::error("cannot write '%s': %s", path.c_str(), oiio_message(out.get()).c_str());
-  return Status::ok();
+  if (!ok) return Status::error("cannot write '%s': %s", path.c_str(), oiio_message(out.get()).c_str());
+  if (encoded.empty()) return Status::error("cannot write '%s': the encoder produced no bytes", path.c_str());
+  return write_file_atomic(path, encoded.data(), encoded.size());
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "args.h"
+#include "atomic_file.h"
 #include "bench_scenes.h"
 #include "commands.h"
 #include "data_dir.h"
@@ -50,9 +51,9 @@ std::string read_text(const fs::path& path) {
 }
 
 bool write_text(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-  return bool(out);
+  const Status s = write_file_atomic(path.string(), text);
+  if (!s) std::fprintf(stderr, "lsnif bench: %s\n", s.message().c_str());
+  return bool(s);
 }
 
 std::string count_text(uint64_t n) {
