@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <type_traits>
 
 // Third-party single-header libraries. The stb functions are static (no clash with another
@@ -34,6 +35,9 @@
 // <stb_image.h> itself (found through the stb system include folder).
 #include "gltf_access.h"
 #pragma GCC diagnostic pop
+
+#include "json_text.h"
+#include "resolve_path.h"
 
 namespace lsnif::gltf {
 namespace {
@@ -159,6 +163,49 @@ double read_component(const unsigned char* p, int ct, bool normalized) {
   }
 }
 
+// What the file-system callbacks of one load know: the folder external files are resolved against,
+// the reference policy, and the references it refused.
+struct FsContext {
+  std::string base_dir;
+  bool allow_outside = false;
+  std::vector<std::string> refused;
+  std::map<std::string, std::string> resolved;  // tinygltf's joined path -> the file it names
+};
+
+// tinygltf's FileExists callback. tinygltf joins the folder and the (URL-decoded) URI and also
+// tries the working folder ("./URI"); only the first is a file of the scene, so the URI is taken
+// back from the joined path and checked against the reference policy, and nothing else exists.
+bool file_exists_callback(const std::string& joined, void* user) {
+  FsContext& ctx = *static_cast<FsContext*>(user);
+  const std::string prefix = ctx.base_dir.back() == '/' ? ctx.base_dir : ctx.base_dir + "/";
+  if (joined.compare(0, prefix.size(), prefix) != 0) return false;
+  std::string resolved;
+  Status s = resolve_reference(ctx.base_dir, joined.substr(prefix.size()), ctx.allow_outside, "external file",
+                               resolved);
+  if (!s) {
+    if (std::find(ctx.refused.begin(), ctx.refused.end(), s.message()) == ctx.refused.end())
+      ctx.refused.push_back(s.message());
+    return false;
+  }
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(resolved, ec)) return false;
+  ctx.resolved[joined] = resolved;
+  return true;
+}
+
+// tinygltf's ReadWholeFile callback: reads the file file_exists_callback resolved the joined path to
+// (an absolute URI is not under the folder; "out/../in/a.bin" reads in/a.bin even before "out"
+// exists). Nothing else is read.
+bool read_file_callback(std::vector<unsigned char>* out, std::string* err, const std::string& joined, void* user) {
+  const FsContext& ctx = *static_cast<const FsContext*>(user);
+  const auto it = ctx.resolved.find(joined);
+  if (it == ctx.resolved.end()) {
+    if (err) *err += "not resolved: " + joined + "\n";
+    return false;
+  }
+  return read_whole_file(out, err, it->second, nullptr);
+}
+
 }  // namespace
 
 std::string trim_message(std::string s, size_t max_chars) {
@@ -201,19 +248,30 @@ Status load_model(std::string_view data, bool binary, const std::string& name,
   if (binary) {
     Status s = check_glb(data, file, length);
     if (!s) return s;
+    uint32_t json_length;
+    std::memcpy(&json_length, data.data() + 12, 4);
+    if (Status d = json::check_depth(data.substr(20, json_length), name); !d) return d;
+  } else if (Status d = json::check_depth(data, name); !d) {
+    return d;
   }
+  FsContext context;
+  context.base_dir = base_dir.empty() ? std::string(".") : base_dir;
+  context.allow_outside = options.allow_outside_refs;
   tinygltf::TinyGLTF loader;
-  tinygltf::FsCallbacks fs{&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_whole_file,
-                           &tinygltf::WriteWholeFile, nullptr};
+  tinygltf::FsCallbacks fs{&file_exists_callback, &tinygltf::ExpandFilePath, &read_file_callback,
+                           &tinygltf::WriteWholeFile, &context};
   loader.SetFsCallbacks(fs);
+  loader.SetStoreOriginalJSONForExtrasAndExtensions(options.keep_extension_json);
   // tinygltf keeps the pointer only for the duration of the Load call below.
   loader.SetImageLoader(&load_image_callback, const_cast<LoadOptions*>(&options));
   std::string err, warn;
   const bool ok =
       binary ? loader.LoadBinaryFromMemory(&model, &err, &warn,
                                            reinterpret_cast<const unsigned char*>(data.data()), length,
-                                           base_dir)
-             : loader.LoadASCIIFromString(&model, &err, &warn, data.data(), length, base_dir);
+                                           context.base_dir)
+             : loader.LoadASCIIFromString(&model, &err, &warn, data.data(), length, context.base_dir);
+  // A refused reference is an error even where tinygltf only warns (images).
+  if (!context.refused.empty()) return Status::error("%s: %s", file, context.refused.front().c_str());
   if (!warn.empty()) warnings.push_back(name + ": " + trim_message(warn, options.max_message_chars));
   if (!ok) {
     // tinygltf rejects Draco primitives' bufferView-less accessors before we can name the cause.

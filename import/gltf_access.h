@@ -35,6 +35,11 @@ struct LoadOptions {
   // tinygltf's error and warning text is cut to this many characters ("..." appended);
   // std::string::npos: never cut.
   size_t max_message_chars = std::string::npos;
+  // External buffers and images may lie outside `base_dir` (resolve_path.h); default: an error.
+  bool allow_outside_refs = false;
+  // Keep each object's "extensions" JSON text (tinygltf's extensions_json_string), so that the
+  // caller can see extension values tinygltf drops (it keeps only those that are JSON objects).
+  bool keep_extension_json = false;
 };
 
 // tinygltf's multi-line message text on one line: trailing newlines and spaces dropped, inner
@@ -48,8 +53,11 @@ bool read_whole_file(std::vector<unsigned char>* out, std::string* err, const st
                      void* user);
 
 // Parses glTF from memory into `model`: `binary` selects a .glb container (whose header and chunk
-// table are checked first), else .gltf JSON. `name` names the input in messages; external buffers
-// and images are resolved against `base_dir` and must be regular files. PNG/JPEG images given by
+// table are checked first), else .gltf JSON; the JSON's nesting depth is bounded first
+// (json_text.h). `name` names the input in messages; external buffers and images are resolved
+// against `base_dir` ("" = the working folder) under the reference policy of resolve_path.h (an
+// error when one leaves the folder, unless options.allow_outside_refs; never looked up in the
+// working folder instead) and must be regular files. PNG/JPEG images given by
 // URI or GLB are decoded to RGBA8 (an undecodable one stays empty and adds a warning); images
 // stored in a bufferView are left empty for decode_image_in_view(). tinygltf's warnings are
 // appended to `warnings` as one line "NAME: ...". Errors: "NAME: not a binary glTF file ...",

@@ -10,6 +10,7 @@
 
 #include "mesh.h"
 #include "mesh_formats.h"
+#include "model_format.h"
 
 namespace lsnif {
 namespace {
@@ -42,6 +43,44 @@ uint32_t wrap(int64_t i, uint32_t n) {
 glm::dvec3 face_cross(const Mesh& mesh, const glm::uvec3& t) {
   glm::dvec3 p0(mesh.positions[t.x]), p1(mesh.positions[t.y]), p2(mesh.positions[t.z]);
   return glm::cross(p1 - p0, p2 - p0);
+}
+
+// Coordinates beyond this magnitude overflow the squared distances of float ray math (half the
+// model file's limit: the trainer pads the box).
+constexpr double kMaxCoordinate = 0.5 * kMaxModelCoordinate;
+// Triangle areas at or below this underflow the float ray math (edges of ~1e-15).
+constexpr double kMinTriangleArea = 1e-30;
+// A triangle whose area is at most this times its longest edge squared has collinear corners (its
+// height is below float resolution relative to the edge).
+constexpr double kMinAreaPerEdge2 = 1e-8;
+
+bool within_range(const glm::vec3& v) {
+  return finite3(v) && std::abs(v.x) <= kMaxCoordinate && std::abs(v.y) <= kMaxCoordinate &&
+         std::abs(v.z) <= kMaxCoordinate;
+}
+
+// Removes the vertices no triangle uses (with their attributes) and renumbers the triangles, so
+// that an unused broken vertex cannot reach the voxelizer, the ray caster or the bounds.
+void remove_unused_vertices(Mesh& mesh) {
+  const size_t n = mesh.positions.size();
+  std::vector<uint32_t> remap(n, mesh_io::kInvalidIndex);
+  for (const glm::uvec3& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) remap[t[k]] = 0;
+  uint32_t next = 0;
+  for (size_t i = 0; i < n; ++i)
+    if (remap[i] == 0) remap[i] = next++;
+  if (next == n) return;
+  auto compact = [&](auto& v) {
+    if (v.size() != n) return;
+    for (size_t i = 0; i < n; ++i)
+      if (remap[i] != mesh_io::kInvalidIndex) v[remap[i]] = v[i];
+    v.resize(next);
+  };
+  compact(mesh.positions);
+  compact(mesh.normals);
+  compact(mesh.uvs);
+  compact(mesh.colors);
+  for (glm::uvec3& t : mesh.triangles) t = glm::uvec3(remap[t.x], remap[t.y], remap[t.z]);
 }
 
 }  // namespace
@@ -136,7 +175,7 @@ void compute_vertex_normals(Mesh& mesh) {
   }
 }
 
-Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& name) {
+Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& name, bool allow_dropping_most) {
   MeshImportReport local;
   MeshImportReport& rep = report ? *report : local;
   const size_t n = mesh.positions.size();
@@ -176,14 +215,26 @@ Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& na
 
   // Materials: at least one, one valid index per triangle.
   if (mesh.materials.empty()) mesh.materials.push_back(Material{"default", glm::vec3(1.0f), -1});
+  size_t renamed = 0;
   for (Material& m : mesh.materials) {
     sanitize_color(m.base_color);
+    // A model file stores names of at most 63 bytes of clean UTF-8: fixed here, not at the save
+    // after the training.
+    std::string clean = clean_utf8(m.name, kModelMaterialNameBytes - 1);
+    if (clean != m.name) {
+      m.name = std::move(clean);
+      ++renamed;
+    }
     if (m.texture >= 0 && size_t(m.texture) >= mesh.textures.size()) {
       rep.warnings.push_back(format("%s: material '%s' references missing texture %d; ignored",
                                     name.c_str(), m.name.c_str(), m.texture));
       m.texture = -1;
     }
   }
+  if (renamed)
+    rep.warnings.push_back(format("%s: %zu material names were not clean UTF-8 or longer than %zu bytes; control "
+                                  "characters and invalid bytes became '?', long names were cut", name.c_str(),
+                                  renamed, kModelMaterialNameBytes - 1));
   if (bad_attr)
     rep.warnings.push_back(format("%s: replaced %zu non-finite texture coordinates/colors",
                                   name.c_str(), bad_attr));
@@ -208,32 +259,24 @@ Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& na
     rep.warnings.push_back(format("%s: %zu triangles had an out-of-range material; set to 0",
                                   name.c_str(), bad_material));
 
-  // Invalid triangles: bad indices or non-finite corners. The box of the remaining corners sets
-  // the scale of the degeneracy threshold.
-  std::vector<uint8_t> keep(mesh.triangles.size(), 0);
-  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+  // Invalid triangles: bad indices, non-finite corners or corners too far out for float ray math.
+  // Degenerate ones: a repeated vertex, or an area not above both the absolute bound and the bound
+  // relative to the triangle's own longest edge (judged per triangle: a stray triangle far away
+  // does not change which of the others are kept).
+  const size_t total = mesh.triangles.size();
   uint32_t invalid = 0, degenerate = 0;
-  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
-    const glm::uvec3& t = mesh.triangles[i];
-    if (t.x >= n || t.y >= n || t.z >= n || !finite3(mesh.positions[t.x]) ||
-        !finite3(mesh.positions[t.y]) || !finite3(mesh.positions[t.z])) {
+  size_t kept = 0;
+  for (size_t i = 0; i < total; ++i) {
+    const glm::uvec3 t = mesh.triangles[i];
+    if (t.x >= n || t.y >= n || t.z >= n || !within_range(mesh.positions[t.x]) ||
+        !within_range(mesh.positions[t.y]) || !within_range(mesh.positions[t.z])) {
       ++invalid;
       continue;
     }
-    keep[i] = 1;
-    for (int k = 0; k < 3; ++k) {
-      glm::dvec3 p(mesh.positions[t[k]]);
-      lo = glm::min(lo, p);
-      hi = glm::max(hi, p);
-    }
-  }
-  const double diag2 = keep.empty() || lo.x > hi.x ? 0.0 : glm::dot(hi - lo, hi - lo);
-  const double min_area = 1e-12 * diag2;
-  size_t kept = 0;
-  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
-    if (!keep[i]) continue;
-    const glm::uvec3 t = mesh.triangles[i];
-    if (t.x == t.y || t.y == t.z || t.x == t.z || !(0.5 * glm::length(face_cross(mesh, t)) > min_area)) {
+    const glm::dvec3 p0(mesh.positions[t.x]), p1(mesh.positions[t.y]), p2(mesh.positions[t.z]);
+    const double edge2 = std::max({glm::dot(p1 - p0, p1 - p0), glm::dot(p2 - p1, p2 - p1), glm::dot(p0 - p2, p0 - p2)});
+    const double area = 0.5 * glm::length(face_cross(mesh, t));
+    if (t.x == t.y || t.y == t.z || t.x == t.z || !(area > kMinTriangleArea) || !(area > kMinAreaPerEdge2 * edge2)) {
       ++degenerate;
       continue;
     }
@@ -247,13 +290,18 @@ Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& na
   rep.dropped_degenerate += degenerate;
   if (invalid)
     rep.warnings.push_back(format("%s: dropped %u triangles with out-of-range indices or non-finite "
-                                  "positions", name.c_str(), invalid));
+                                  "positions (or coordinates beyond +-%g)", name.c_str(), invalid, kMaxCoordinate));
   if (degenerate)
-    rep.warnings.push_back(format("%s: dropped %u degenerate (zero-area or repeated-index) triangles",
-                                  name.c_str(), degenerate));
+    rep.warnings.push_back(format("%s: dropped %u degenerate (repeated-index, collinear or smaller than %g in area) "
+                                  "triangles", name.c_str(), degenerate, kMinTriangleArea));
   if (kept == 0)
     return Status::error("%s: no valid triangles (%u degenerate, %u invalid)", name.c_str(),
                          degenerate, invalid);
+  if (!allow_dropping_most && double(total - kept) > kMaxDroppedFraction * double(total))
+    return Status::error("%s: %zu of its %zu triangles would be dropped (%u degenerate, %u invalid), more than %.0f%%: "
+                         "the rest is unlikely to be the object meant (allow it with --allow-dropped-triangles)",
+                         name.c_str(), total - kept, total, degenerate, invalid, 100.0 * kMaxDroppedFraction);
+  remove_unused_vertices(mesh);
 
   // Normals: recompute the missing or unusable ones from the cleaned triangles.
   uint32_t fixed = 0;
@@ -301,7 +349,8 @@ MeshFormat format_from_path(const std::string& path) {
 }
 
 Status parse_mesh(std::string_view data, MeshFormat format, const std::string& name,
-                  const std::string& base_dir, Mesh& mesh, MeshImportReport* report) {
+                  const std::string& base_dir, Mesh& mesh, MeshImportReport* report,
+                  const MeshImportOptions& options) {
   mesh = Mesh{};
   MeshImportReport local;
   MeshImportReport& rep = report ? *report : local;
@@ -310,10 +359,10 @@ Status parse_mesh(std::string_view data, MeshFormat format, const std::string& n
     Status s;
     switch (format) {
       case MeshFormat::Off: s = parse_off(data, name, mesh, rep); break;
-      case MeshFormat::Obj: s = parse_obj(data, name, base_dir, mesh, rep); break;
+      case MeshFormat::Obj: s = parse_obj(data, name, base_dir, options, mesh, rep); break;
       case MeshFormat::Ply: s = parse_ply(data, name, mesh, rep); break;
-      case MeshFormat::Gltf: s = parse_gltf(data, false, name, base_dir, mesh, rep); break;
-      case MeshFormat::Glb: s = parse_gltf(data, true, name, base_dir, mesh, rep); break;
+      case MeshFormat::Gltf: s = parse_gltf(data, false, name, base_dir, options, mesh, rep); break;
+      case MeshFormat::Glb: s = parse_gltf(data, true, name, base_dir, options, mesh, rep); break;
       case MeshFormat::Unknown:
         return Status::error("%s: unsupported mesh format (expected .off, .obj, .ply, .gltf or .glb)",
                              name.c_str());
@@ -322,7 +371,7 @@ Status parse_mesh(std::string_view data, MeshFormat format, const std::string& n
       mesh = Mesh{};
       return s;
     }
-    s = finalize_mesh(mesh, &rep, name);
+    s = finalize_mesh(mesh, &rep, name, options.allow_dropping_most);
     if (!s) mesh = Mesh{};
     return s;
   } catch (const std::bad_alloc&) {
@@ -336,7 +385,8 @@ Status parse_mesh(std::string_view data, MeshFormat format, const std::string& n
 
 }  // namespace mesh_io
 
-Status load_mesh(const std::string& path, Mesh& mesh, MeshImportReport* report) {
+Status load_mesh(const std::string& path, Mesh& mesh, MeshImportReport* report,
+                 const MeshImportOptions& options) {
   mesh = Mesh{};
   mesh_io::MeshFormat format = mesh_io::format_from_path(path);
   if (format == mesh_io::MeshFormat::Unknown)
@@ -361,7 +411,7 @@ Status load_mesh(const std::string& path, Mesh& mesh, MeshImportReport* report) 
     return Status::error("%s: read error (got %lld of %ju bytes)", path.c_str(),
                          static_cast<long long>(in.gcount()), size);
   std::string base_dir = std::filesystem::path(path).parent_path().string();
-  return mesh_io::parse_mesh(data, format, path, base_dir, mesh, report);
+  return mesh_io::parse_mesh(data, format, path, base_dir, mesh, report, options);
 }
 
 }  // namespace lsnif

@@ -51,15 +51,36 @@ struct MeshImportReport {
   std::vector<std::string> warnings;
 };
 
+// What the user allows an import to do beyond the safe defaults.
+struct MeshImportOptions {
+  // Files the mesh refers to (OBJ mtllib, glTF buffers and images) may lie outside the mesh file's
+  // folder (`..` escapes, absolute paths). Default: refused (resolve_path.h).
+  bool allow_outside_refs = false;
+  // Import a mesh of which more than kMaxDroppedFraction of the triangles are dropped as
+  // degenerate or invalid (default: an error, since the rest is rarely the object meant).
+  bool allow_dropping_most = false;
+};
+
+// More than this fraction of a mesh's triangles dropped is an error unless allow_dropping_most.
+inline constexpr double kMaxDroppedFraction = 0.5;
+
 // Loads .off, .obj, .ply, .gltf or .glb by extension (case-insensitive). glTF node transforms are
 // flattened into object space; every triangle primitive of every mesh in the default scene is kept.
 // Degenerate and invalid triangles are dropped and counted in `report`; a mesh with no valid
-// triangle left, an unreadable file or an unsupported format is an error naming the file.
-Status load_mesh(const std::string& path, Mesh& mesh, MeshImportReport* report = nullptr);
+// triangle left (or, without options.allow_dropping_most, with most of them dropped), an unreadable
+// file, a reference leaving the file's folder or an unsupported format is an error naming the file.
+Status load_mesh(const std::string& path, Mesh& mesh, MeshImportReport* report = nullptr,
+                 const MeshImportOptions& options = {});
 
 // Cleans a mesh in place (the step load_mesh ends with): drops degenerate/invalid triangles,
 // recomputes missing or non-finite vertex normals (area-weighted), fills a default material.
-Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& name);
+// A triangle is degenerate when it repeats a vertex or its area is not above both an absolute
+// bound (the area float coordinates can resolve: 1e-30, below which the ray math underflows) and a
+// bound relative to the triangle's own longest edge (area <= 1e-7 * edge^2: collinear corners).
+// Vertices no kept triangle uses are removed. Dropping more than kMaxDroppedFraction of the
+// triangles is an error unless `allow_dropping_most`.
+Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& name,
+                     bool allow_dropping_most = false);
 
 void compute_vertex_normals(Mesh& mesh);
 

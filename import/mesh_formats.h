@@ -29,18 +29,21 @@ inline constexpr uint32_t kInvalidIndex = std::numeric_limits<uint32_t>::max();
 // naming `name` and the problem; no input makes them read out of bounds or throw.
 Status parse_off(std::string_view data, const std::string& name, Mesh& mesh,
                  MeshImportReport& report);
+// `options.allow_outside_refs`: mtllib files and glTF buffers/images may lie outside base_dir.
 Status parse_obj(std::string_view data, const std::string& name, const std::string& base_dir,
-                 Mesh& mesh, MeshImportReport& report);
+                 const MeshImportOptions& options, Mesh& mesh, MeshImportReport& report);
 Status parse_ply(std::string_view data, const std::string& name, Mesh& mesh,
                  MeshImportReport& report);
 // `binary`: the bytes are a .glb container, else .gltf JSON.
 Status parse_gltf(std::string_view data, bool binary, const std::string& name,
-                  const std::string& base_dir, Mesh& mesh, MeshImportReport& report);
+                  const std::string& base_dir, const MeshImportOptions& options, Mesh& mesh,
+                  MeshImportReport& report);
 
 // What load_mesh does once the file is read: clears `mesh`, parses `data` as `format`, then
 // finalize_mesh. Exceptions from the standard library (allocation failures) become errors.
 Status parse_mesh(std::string_view data, MeshFormat format, const std::string& name,
-                  const std::string& base_dir, Mesh& mesh, MeshImportReport* report);
+                  const std::string& base_dir, Mesh& mesh, MeshImportReport* report,
+                  const MeshImportOptions& options = {});
 
 // double -> float without undefined behaviour: out-of-range magnitudes become +-infinity, NaN
 // stays NaN.

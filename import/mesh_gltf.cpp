@@ -334,7 +334,7 @@ glm::dmat4 gltf_node_transform(const tinygltf::Node& node) {
 
 Status flatten_gltf_meshes(const tinygltf::Model& model, const std::vector<GltfMeshPart>& parts,
                            const std::string& name, Mesh& mesh, std::vector<int>& material_sources,
-                           MeshImportReport* report) {
+                           MeshImportReport* report, bool allow_dropping_most) {
   MeshImportReport local;
   MeshImportReport& rep = report ? *report : local;
   mesh = Mesh();
@@ -347,7 +347,7 @@ Status flatten_gltf_meshes(const tinygltf::Model& model, const std::vector<GltfM
   material_sources = flattener.material_sources();
   // finalize_mesh only appends a default material when there is none (never here: every
   // primitive got one), so the sources stay aligned with mesh.materials.
-  Status s = finalize_mesh(mesh, &rep, name);
+  Status s = finalize_mesh(mesh, &rep, name, allow_dropping_most);
   material_sources.resize(mesh.materials.size(), -1);
   return s;
 }
@@ -357,10 +357,12 @@ Status flatten_gltf_meshes(const tinygltf::Model& model, const std::vector<GltfM
 namespace lsnif::mesh_io {
 
 Status parse_gltf(std::string_view data, bool binary, const std::string& name,
-                  const std::string& base_dir, Mesh& mesh, MeshImportReport& report) {
+                  const std::string& base_dir, const MeshImportOptions& import_options, Mesh& mesh,
+                  MeshImportReport& report) {
   const char* file = name.c_str();
   gltf::LoadOptions options;
   options.max_pixels = kMaxPixels;
+  options.allow_outside_refs = import_options.allow_outside_refs;
   tinygltf::Model model;
   Status s = gltf::load_model(data, binary, name, base_dir, options, model, report.warnings);
   if (!s) return s;

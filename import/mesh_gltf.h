@@ -28,8 +28,9 @@ struct GltfMeshPart {
 // into `mesh` (cleared first), then finalize_mesh. Materials are created on first use in part and
 // primitive order; `material_sources[i]` is the glTF material index mesh material i came from (-1
 // for the default material). Errors name `name`, the mesh, the primitive and the problem.
+// `allow_dropping_most` is finalize_mesh's.
 Status flatten_gltf_meshes(const tinygltf::Model& model, const std::vector<GltfMeshPart>& parts,
                            const std::string& name, Mesh& mesh, std::vector<int>& material_sources,
-                           MeshImportReport* report = nullptr);
+                           MeshImportReport* report = nullptr, bool allow_dropping_most = false);
 
 }  // namespace lsnif

@@ -9,6 +9,7 @@
 #include <unordered_map>
 
 #include "mesh_formats.h"
+#include "resolve_path.h"
 
 namespace lsnif::mesh_io {
 namespace {
@@ -97,7 +98,7 @@ void read_mtl(const std::string& path, std::unordered_map<std::string, glm::vec3
 }  // namespace
 
 Status parse_obj(std::string_view data, const std::string& name, const std::string& base_dir,
-                 Mesh& mesh, MeshImportReport& report) {
+                 const MeshImportOptions& options, Mesh& mesh, MeshImportReport& report) {
   const char* file = name.c_str();
   std::vector<glm::vec3> pos, col, nrm;
   std::vector<glm::vec2> tex;
@@ -239,10 +240,12 @@ Status parse_obj(std::string_view data, const std::string& name, const std::stri
   // Materials, with Kd from the mtllib files that exist next to the OBJ.
   std::unordered_map<std::string, glm::vec3> kd;
   for (const std::string& lib : mtllibs) {
-    std::filesystem::path path = std::filesystem::path(base_dir) / lib;
+    std::string path;
+    if (Status s = resolve_reference(base_dir, lib, options.allow_outside_refs, "mtllib", path); !s)
+      return s.context(name);
     std::error_code ec;
     if (std::filesystem::is_regular_file(path, ec))
-      read_mtl(path.string(), kd);
+      read_mtl(path, kd);
     else
       report.warnings.push_back(format("%s: material library '%s' not found; using white",
                                        file, excerpt(lib).c_str()));

@@ -57,10 +57,17 @@ struct Loaded {
   MeshImportReport report;
 };
 
-Loaded load(const std::string& path) {
+Loaded load(const std::string& path, const MeshImportOptions& options = {}) {
   Loaded l;
-  l.status = load_mesh(path, l.mesh, &l.report);
+  l.status = load_mesh(path, l.mesh, &l.report, options);
   return l;
+}
+
+// Options for the tests that count dropped triangles on tiny meshes where most are bad.
+MeshImportOptions allow_dropping() {
+  MeshImportOptions o;
+  o.allow_dropping_most = true;
+  return o;
 }
 
 bool contains(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
@@ -172,6 +179,11 @@ TEST(MeshOff, GoodAndBadTrianglesAreCounted) {
       "3 0 1 4\n"    // NaN corner -> invalid
       "3 0 1 17\n";  // index out of range -> invalid
   Loaded l = load(dir.write("mixed.off", off));
+  ASSERT_FALSE(l.status);  // 4 of 6 dropped
+  EXPECT_TRUE(contains(l.status.message(), "4 of its 6 triangles would be dropped (2 degenerate, 2 invalid)"))
+      << l.status.message();
+  EXPECT_TRUE(contains(l.status.message(), "--allow-dropped-triangles")) << l.status.message();
+  l = load(dir.write("mixed.off", off), allow_dropping());
   ASSERT_TRUE(l.status) << l.status.message();
   EXPECT_EQ(l.mesh.triangles.size(), 2u);
   EXPECT_EQ(l.report.dropped_degenerate, 2u);
@@ -179,8 +191,9 @@ TEST(MeshOff, GoodAndBadTrianglesAreCounted) {
   EXPECT_TRUE(any_warning(l.report, "degenerate"));
   EXPECT_TRUE(any_warning(l.report, "non-finite"));
   EXPECT_EQ(l.mesh.triangle_material.size(), 2u);
-  // The NaN vertex is still there but unreferenced: the bounds ignore it.
-  EXPECT_EQ(l.mesh.positions.size(), 6u);
+  // The vertices no kept triangle uses (the NaN one, the collinear one) are gone.
+  EXPECT_EQ(l.mesh.positions.size(), 4u);
+  for (const glm::vec3& p : l.mesh.positions) EXPECT_TRUE(std::isfinite(p.x + p.y + p.z));
   Aabb b = l.mesh.bounds();
   EXPECT_TRUE(finite_box(b));
   expect_vec3(b.hi, glm::vec3(1.0f));
@@ -307,14 +320,14 @@ TEST(MeshObj, VertexColorsBadIndicesAndMissingMtllib) {
       "mtllib missing.mtl\n"
       "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nv 0 0 1\n"
       "f 1 2 3\nf 1 2 9\nf 0 1 2\nf 1 2\n";
-  Loaded l = load(dir.write("c.obj", obj));
+  Loaded l = load(dir.write("c.obj", obj), allow_dropping());
   ASSERT_TRUE(l.status) << l.status.message();
   EXPECT_EQ(l.mesh.triangles.size(), 1u);
   EXPECT_EQ(l.report.dropped_invalid, 2u);      // index 9 and index 0
   EXPECT_EQ(l.report.dropped_degenerate, 1u);   // the 2-vertex face
   EXPECT_TRUE(any_warning(l.report, "missing.mtl"));
-  ASSERT_EQ(l.mesh.colors.size(), 4u);
-  expect_vec3(l.mesh.colors[3], glm::vec3(1.0f));  // no color given: white
+  // Vertex 4 (no color given: white) is used by no kept triangle and removed.
+  ASSERT_EQ(l.mesh.colors.size(), 3u);
   // Albedo interpolates the vertex colors with Embree barycentrics.
   expect_vec3(l.mesh.albedo(0, 0.25f, 0.5f), glm::vec3(0.25f, 0.25f, 0.5f));
   Loaded bad = load(dir.write("bad.obj", "v 0 0\n"));
