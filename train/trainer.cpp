@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <random>
@@ -122,6 +123,14 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   if (settings.ray_reuse < 1 || settings.ray_reuse > settings.batch_size)
     return Status::error("ray reuse %u must be in [1, batch size %u]", settings.ray_reuse,
                          settings.batch_size);
+  if (!(settings.adam.learning_rate > 0.0f) || !std::isfinite(settings.adam.learning_rate))
+    return Status::error("learning rate %g must be positive and finite", double(settings.adam.learning_rate));
+  const LossSettings& w = settings.loss_settings;
+  for (float weight : {w.occlusion, w.distance, w.normal, w.albedo, w.material})
+    if (!(weight >= 0.0f) || !std::isfinite(weight))
+      return Status::error("loss weights must be finite and >= 0 (%s)", w.describe().c_str());
+  if (!(w.occlusion + w.distance + w.normal + w.albedo + w.material > 0.0f))
+    return Status::error("every loss weight is 0: nothing would be trained");
 
   model = Model();
   model.config = config;
@@ -146,14 +155,8 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   std::vector<float> d_grid(model.grid.size()), d_mlp(model.mlp.size());
   Adam grid_adam(model.grid.size(), settings.adam), mlp_adam(model.mlp.size(), settings.adam);
 
-  std::unique_ptr<FILE, int (*)(FILE*)> csv(nullptr, &std::fclose);
-  if (!settings.loss_csv.empty()) {
-    csv.reset(std::fopen(settings.loss_csv.c_str(), "w"));
-    if (!csv) return Status::error("cannot write loss curve '%s'", settings.loss_csv.c_str());
-    std::fprintf(csv.get(), "step,seconds,total,occlusion,distance,normal,albedo,material\n");
-  }
-
   TrainReport rep;
+  if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material\n";
   rep.occupied_voxels = occupied;
   const uint32_t B = settings.batch_size, out_dim = config.output_dim();
   std::vector<Sample> samples, fresh_samples;
@@ -220,6 +223,11 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
     mean.occlusion = lo / B; mean.distance = ld / B; mean.normal = ln / B;
     mean.albedo = la / B; mean.material = lm / B;
     rep.seconds_loss += since(t0);
+    if (!std::isfinite(mean.total()))
+      return Status::error("training diverged: the loss of step %u is %g (occlusion %g, distance %g, normal %g, "
+                           "albedo %g, material %g); lower the learning rate (Adam lr %g)",
+                           step, mean.total(), mean.occlusion, mean.distance, mean.normal, mean.albedo,
+                           mean.material, double(settings.adam.learning_rate));
 
     t0 = Clock::now();
     std::fill(d_mlp.begin(), d_mlp.end(), 0.0f);
@@ -240,9 +248,9 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
       tail += mean;
       ++tail_steps;
     }
-    if (csv)
-      std::fprintf(csv.get(), "%u,%.3f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", step, since(t_start),
-                   mean.total(), mean.occlusion, mean.distance, mean.normal, mean.albedo, mean.material);
+    if (settings.loss_curve)
+      rep.loss_curve += format("%u,%.3f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", step, since(t_start), mean.total(),
+                               mean.occlusion, mean.distance, mean.normal, mean.albedo, mean.material);
     bar.update(step, format("loss %.4f", mean.total()));
     if (callback && !callback(step, mean, model)) break;
   }
@@ -254,6 +262,14 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
     rep.final_loss.normal = tail.normal * k; rep.final_loss.albedo = tail.albedo * k;
     rep.final_loss.material = tail.material * k;
   }
+  // fp16 holds magnitudes up to 65504; a parameter beyond that (or NaN) cannot be saved.
+  for (const std::vector<float>* params : {&model.grid, &model.mlp})
+    for (size_t i = 0; i < params->size(); ++i)
+      if (!(std::abs((*params)[i]) <= 65504.0f))
+        return Status::error("training diverged: %s parameter %zu is %g after %llu rays, beyond the fp16 range of "
+                             "the model file; lower the learning rate (Adam lr %g)",
+                             params == &model.grid ? "hash-grid" : "MLP", i, double((*params)[i]),
+                             (unsigned long long)rep.rays, double(settings.adam.learning_rate));
   model.quantize();
   if (report) *report = rep;
   return model.validate();

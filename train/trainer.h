@@ -30,7 +30,7 @@ struct TrainSettings {
   SamplerSettings sampler;
   float grid_init_range = 1e-4f;   // hash-table entries start in U(-range, range) (paper)
   bool progress = true;            // progress bar on stderr
-  std::string loss_csv;            // if set, the loss curve is written there (one row per step)
+  bool loss_curve = false;         // true: TrainReport::loss_curve receives the loss curve (CSV)
   std::string describe() const;
 };
 
@@ -41,6 +41,9 @@ struct TrainReport {
   uint64_t rays = 0;              // training rays used
   uint32_t occupied_voxels = 0;
   LossTerms final_loss;           // mean over the last 10% of steps
+  // With TrainSettings::loss_curve: "step,seconds,total,occlusion,...\n" and one row per step. The
+  // trainer writes no file; the caller saves it next to the model.
+  std::string loss_curve;
   double rays_per_second() const { return seconds > 0 ? double(rays) / seconds : 0.0; }
 };
 
@@ -49,7 +52,9 @@ struct TrainReport {
 using TrainCallback = std::function<bool(uint32_t, const LossTerms&, const Model&)>;
 
 // Voxelizes `mesh`, trains, and fills `model` (quantized to fp16, ready to save). The material
-// table comes from the mesh (config.material_count is set from it).
+// table comes from the mesh (config.material_count is set from it). Training stops with an error
+// as soon as a step's loss is not finite, and fails when the trained parameters are not finite or
+// exceed the fp16 range of the model file (a diverged run, e.g. a learning rate far too high).
 Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model,
                    TrainReport* report = nullptr, const TrainCallback& callback = nullptr);
 
