@@ -6,6 +6,10 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <sstream>
+
+#include "atomic_file.h"
+#include "json_text.h"
 
 namespace lsnif::scene {
 namespace {
@@ -215,31 +219,46 @@ void set_environment(tinygltf::Model& model, const EnvironmentSpec& env) {
   use_extension(model, kEnvironmentExtension);
 }
 
+Status gltf_text(const tinygltf::Model& model, const std::string& bin_uri, std::string& text) {
+  if (model.buffers.size() > 1)
+    return Status::error("the model has %zu buffers; only buffer 0 is written", model.buffers.size());
+  // tinygltf writes buffers into the JSON (as data URIs) or into files of its own (unchecked);
+  // the JSON is made without them and buffer 0 is added as a reference to `bin_uri`.
+  tinygltf::Model out = model;
+  const size_t bin_bytes = out.buffers.empty() ? 0 : out.buffers[0].data.size();
+  const std::string buffer_name = out.buffers.empty() ? std::string() : out.buffers[0].name;
+  out.buffers.clear();
+  std::ostringstream stream;
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&out, stream, /*prettyPrint=*/false, /*writeBinary=*/false))
+    return Status::error("tinygltf could not serialize the scene");
+  nlohmann::json j;
+  if (Status s = json::parse(stream.str(), "the serialized scene", j); !s) return s;
+  if (bin_bytes > 0) {
+    nlohmann::json buffer = {{"byteLength", bin_bytes}};
+    if (bin_uri.empty()) return Status::error("the scene has binary data but no buffer file name");
+    buffer["uri"] = bin_uri;
+    if (!buffer_name.empty()) buffer["name"] = buffer_name;
+    j["buffers"] = nlohmann::json::array({buffer});
+  }
+  text = j.dump(2) + "\n";
+  return Status::ok();
+}
+
 Status save_gltf(const tinygltf::Model& model, const std::string& path) {
   const std::filesystem::path p(path);
   if (p.extension() != ".gltf") return Status::error("%s: expected a .gltf file name", path.c_str());
-  if (model.buffers.size() > 1)
-    return Status::error("%s: the model has %zu buffers; save_gltf writes buffer 0 only", path.c_str(),
-                         model.buffers.size());
-  tinygltf::Model out = model;
   const std::string bin = p.stem().string() + ".bin";
-  if (!out.buffers.empty()) {
-    if (out.buffers[0].data.empty()) {
-      out.buffers.clear();  // nothing binary: no .bin file
-    } else {
-      out.buffers[0].uri = bin;
-    }
+  const bool has_bin = !model.buffers.empty() && !model.buffers[0].data.empty();
+  std::string text;
+  if (Status s = gltf_text(model, bin, text); !s) return s.context(path);
+  // The buffer first: the scene file never refers to a buffer file that is not complete.
+  if (has_bin) {
+    const std::string bin_path = (p.parent_path() / bin).string();
+    const std::vector<unsigned char>& data = model.buffers[0].data;
+    if (Status s = write_file_atomic(bin_path, data.data(), data.size()); !s) return s;
   }
-  tinygltf::TinyGLTF writer;
-  if (!writer.WriteGltfSceneToFile(&out, path, /*embedImages=*/false, /*embedBuffers=*/false,
-                                   /*prettyPrint=*/true, /*writeBinary=*/false))
-    return Status::error("%s: could not write the scene (or its buffer %s)", path.c_str(), bin.c_str());
-  std::error_code ec;
-  if (!out.buffers.empty() && std::filesystem::file_size(p.parent_path() / bin, ec) != out.buffers[0].data.size())
-    return Status::error("%s: the buffer file %s was not written completely", path.c_str(), bin.c_str());
-  if (std::filesystem::file_size(p, ec) == 0 || ec)
-    return Status::error("%s: the scene file was not written", path.c_str());
-  return Status::ok();
+  return write_file_atomic(path, text);
 }
 
 }  // namespace lsnif::scene

@@ -77,10 +77,15 @@ struct EnvironmentSpec {
 // extensionsUsed. "hdr" is omitted when empty.
 void set_environment(tinygltf::Model& model, const EnvironmentSpec& env);
 
+// The glTF JSON of `model` (pretty-printed) with buffer 0, when it holds data, referred to as
+// `bin_uri` (its bytes are not in the text). Fails when the model has more than one buffer.
+Status gltf_text(const tinygltf::Model& model, const std::string& bin_uri, std::string& text);
+
 // Writes `model` to `path` (a .gltf file: JSON, pretty-printed) and its buffer 0 to the file
-// named STEM.bin beside it (STEM = `path`'s file name without extension), overwriting both. The
-// folder must exist. Fails naming the file that could not be written, or when `path` does not end
-// in ".gltf" or the model has a buffer other than buffer 0.
+// named STEM.bin beside it (STEM = `path`'s file name without extension), replacing both, each
+// atomically (format/atomic_file.h; the buffer first). The folder must exist. Fails naming the
+// file that could not be written, or when `path` does not end in ".gltf" or the model has a
+// buffer other than buffer 0.
 Status save_gltf(const tinygltf::Model& model, const std::string& path);
 
 }  // namespace lsnif::scene

@@ -623,7 +623,14 @@ TEST(GltfLsnif, NodeExtensionResolvesValidatesAndShares) {
   d["scenes"][0]["nodes"].push_back(11);
   d["extensionsUsed"] = {"LSNIF_neural_object"};
   Scene s;
+  // The absolute model path of "only2" is outside the scene's folder by policy: refused unless allowed.
   Status st = load_doc(d, dir, s);
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.message().find("it is an absolute path"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("--allow-outside-refs"), std::string::npos) << st.message();
+  SceneLoadOptions allow = quiet();
+  allow.allow_outside_refs = true;
+  st = load_doc(d, dir, s, allow);
   ASSERT_TRUE(st) << st.message();
   EXPECT_EQ(check_scene(s), "");
   ASSERT_EQ(s.instances.size(), 9u);

@@ -10,6 +10,8 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "geometry.h"
+#include "model_format.h"
 #include "scene_gltf.h"
 
 namespace lsnif::scene {
@@ -156,6 +158,40 @@ Status parse_sun(const std::string& text, Sun& out) {
     return Status::error("--sun '%s': expected DX,DY,DZ,IRRADIANCE[,DIAMETER_DEGREES], got %zu numbers", text.c_str(),
                          v.size());
   return make_sun({v[0], v[1], v[2]}, glm::dvec3(v[3]), v.size() == 5 ? v[4] : 0.53, "--sun '" + text + "'", out);
+}
+
+Status check_models_fit_meshes(const Scene& scene) {
+  std::vector<int> checked(scene.lsnif_objects.size() * (scene.meshes.size() + 1), 0);
+  for (const Instance& inst : scene.instances) {
+    if (inst.mesh < 0 || inst.lsnif < 0 || size_t(inst.mesh) >= scene.meshes.size() ||
+        size_t(inst.lsnif) >= scene.lsnif_objects.size())
+      continue;
+    int& done = checked[size_t(inst.lsnif) * (scene.meshes.size() + 1) + size_t(inst.mesh)];
+    if (done) continue;
+    done = 1;
+    Aabb mesh_box;
+    for (const Primitive& p : scene.meshes[size_t(inst.mesh)].primitives)
+      for (uint32_t i : p.indices) mesh_box.grow(p.positions[i]);
+    const Aabb expect = pad_aabb(mesh_box);
+    const std::string& path = scene.lsnif_objects[size_t(inst.lsnif)].resolved_path;
+    std::vector<uint8_t> bytes;
+    ModelFileView view;
+    Status s = read_model_file(path, bytes);
+    if (s) s = parse_model_file(bytes.data(), bytes.size(), view).context(path);
+    if (!s) return s.context("node '" + inst.node_name + "'");
+    const glm::vec3 lo(view.bounds_lo[0], view.bounds_lo[1], view.bounds_lo[2]);
+    const glm::vec3 hi(view.bounds_hi[0], view.bounds_hi[1], view.bounds_hi[2]);
+    const float tolerance = 0.1f * std::max(expect.diagonal(), glm::length(hi - lo));
+    const glm::vec3 d = glm::max(glm::abs(expect.lo - lo), glm::abs(expect.hi - hi));
+    if (std::max(d.x, std::max(d.y, d.z)) <= tolerance) continue;
+    return Status::error(
+        "node '%s': model %s was trained in another object space than the node's mesh: its box is (%g %g %g)..(%g %g "
+        "%g), a model of the mesh would have (%g %g %g)..(%g %g %g); train it on the mesh as the scene places it",
+        inst.node_name.c_str(), path.c_str(), double(lo.x), double(lo.y), double(lo.z), double(hi.x), double(hi.y),
+        double(hi.z), double(expect.lo.x), double(expect.lo.y), double(expect.lo.z), double(expect.hi.x),
+        double(expect.hi.y), double(expect.hi.z));
+  }
+  return Status::ok();
 }
 
 }  // namespace lsnif::scene

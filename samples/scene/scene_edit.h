@@ -35,6 +35,14 @@ Status set_node_transform(Scene& scene, const std::string& node, const glm::mat4
 Status add_lsnif_instance(Scene& scene, const std::string& model_path, const glm::mat4& object_to_world,
                           const std::string& name);
 
+// A model traced in place of a node's mesh must have been trained in that mesh's object space: for
+// every instance with both a mesh and an LSNIF object, the model's stored bounds (read from the
+// file) must be the mesh's object-space bounds padded as the trainer pads them, within 10% of the
+// diagonal per coordinate. Otherwise (e.g. a model trained on the raw file while the scene
+// normalizes the mesh) the render would be garbage: an error naming the node, the model and both
+// boxes. Also an error when a model file does not load.
+Status check_models_fit_meshes(const Scene& scene);
+
 // A camera at `from` looking at `to` with +y up (when looking straight up or down, -z is up), named
 // `name`, vertical field of view `yfov_degrees` in (0, 180). Fails on non-finite input or from == to.
 Status make_look_at_camera(glm::vec3 from, glm::vec3 to, float yfov_degrees, const std::string& name, Camera& out);

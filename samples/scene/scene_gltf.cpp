@@ -26,6 +26,8 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "gltf_access.h"
+#include "json_text.h"
+#include "resolve_path.h"
 
 namespace lsnif::scene {
 namespace {
@@ -59,16 +61,6 @@ std::string excerpt(std::string_view s) {
 
 bool all_finite(const std::vector<double>& v) {
   return std::all_of(v.begin(), v.end(), [](double d) { return std::isfinite(d); });
-}
-
-// `p` joined to `base_dir` when relative; rejects empty paths and embedded NULs.
-Status resolve_path(const std::string& p, const std::string& base_dir, std::string& out) {
-  if (p.empty()) return Status::error("empty path");
-  if (p.find('\0') != std::string::npos) return Status::error("path contains a NUL character");
-  std::filesystem::path fp(p);
-  if (fp.is_relative() && !base_dir.empty()) fp = std::filesystem::path(base_dir) / fp;
-  out = fp.lexically_normal().string();
-  return Status::ok();
 }
 
 // A finite number from a JSON value.
@@ -170,6 +162,7 @@ class SceneBuilder {
   // ---- extensions ----------------------------------------------------------------------------
 
   Status check_extensions() {
+    if (Status s = check_extension_types(model_, name_); !s) return s;
     static const std::set<std::string> supported = {
         kNodeExtension, kEnvironmentExtension, "KHR_materials_emissive_strength",
         "KHR_mesh_quantization"};
@@ -618,8 +611,9 @@ class SceneBuilder {
         has_materials = !materials.empty();
       }
       if (!ov && !model_path.empty()) {
-        Status s = resolve_path(model_path, base_dir_, resolved);
-        if (s) s = check_lsnif_file(resolved);
+        Status s = resolve_reference(base_dir_, model_path, options_.allow_outside_refs, "model", resolved);
+        const std::vector<std::string>& pending = options_.pending_models;
+        if (s && std::find(pending.begin(), pending.end(), resolved) == pending.end()) s = check_lsnif_file(resolved);
         if (!s) return s.context(ext_where + ": model '" + excerpt(model_path) + "'");
       }
     }
@@ -802,7 +796,9 @@ class SceneBuilder {
       return Status::error("%s: color x intensity overflows a float", where.c_str());
     env.rotation = float(std::fmod(degrees, 360.0) * std::numbers::pi / 180.0);
     if (!hdr.empty()) {
-      Status s = resolve_path(hdr, hdr_relative_to_scene ? base_dir_ : std::string(), env.path);
+      // The scene's own image follows the reference policy; a --env path is the user's and is used as given.
+      Status s = hdr_relative_to_scene ? resolve_reference(base_dir_, hdr, options_.allow_outside_refs, "hdr", env.path)
+                                       : resolve_reference("", hdr, true, "--env", env.path);
       std::error_code ec;
       if (s && !std::filesystem::is_regular_file(env.path, ec))
         s = Status::error("'%s' does not exist or is not a regular file", env.path.c_str());
@@ -828,7 +824,31 @@ class SceneBuilder {
   size_t skipped_primitives_ = 0;
 };
 
+// tinygltf keeps only extension values that are JSON objects and drops the others silently; the
+// object's "extensions" text (kept with LoadOptions::keep_extension_json) tells whether `ext` had
+// another value.
+Status check_extension_object(const std::string& extensions_json, const char* ext, const std::string& where) {
+  if (extensions_json.find(ext) == std::string::npos) return Status::ok();
+  nlohmann::json j;
+  if (Status s = json::parse(extensions_json, where, j); !s) return s;
+  if (j.is_object() && j.contains(ext) && !j[ext].is_object())
+    return Status::error("%s: %s must be a JSON object, not a %s (docs/scene-format.md)", where.c_str(), ext,
+                         j[ext].type_name());
+  return Status::ok();
+}
+
 }  // namespace
+
+Status check_extension_types(const tinygltf::Model& model, const std::string& name) {
+  if (Status s = check_extension_object(model.extensions_json_string, kEnvironmentExtension, name); !s) return s;
+  for (size_t i = 0; i < model.nodes.size(); ++i) {
+    const tinygltf::Node& n = model.nodes[i];
+    const std::string where = n.name.empty() ? format("%s: node %zu", name.c_str(), i)
+                                             : format("%s: node %zu ('%s')", name.c_str(), i, excerpt(n.name).c_str());
+    if (Status s = check_extension_object(n.extensions_json_string, kNodeExtension, where); !s) return s;
+  }
+  return Status::ok();
+}
 
 Status parse_lsnif_override(const std::string& arg, LsnifOverride& out) {
   const size_t eq = arg.rfind('=');
@@ -869,6 +889,8 @@ Status load_scene_from_memory(std::string_view data, bool binary, const std::str
     gltf::LoadOptions load_options;
     load_options.max_pixels = kMaxPixels;
     load_options.max_message_chars = kMaxMessageChars;
+    load_options.allow_outside_refs = options.allow_outside_refs;
+    load_options.keep_extension_json = true;
     s = gltf::load_model(data, binary, name, base_dir, load_options, model, out.warnings);
     if (s) s = SceneBuilder(model, name, base_dir, options, out).run();
   } catch (const std::exception& e) {

@@ -40,6 +40,10 @@
 #include "scene.h"
 #include "status.h"
 
+namespace tinygltf {
+class Model;
+}
+
 namespace lsnif::scene {
 
 // `--lsnif NODE=MODEL.lsnif`: trace the node(s) named `node` through the LSNIF plugin with the given
@@ -71,6 +75,12 @@ struct EnvironmentOverride {
 struct SceneLoadOptions {
   std::vector<LsnifOverride> lsnif_overrides;
   EnvironmentOverride environment;
+  // Files the scene refers to (buffers, images, models, the environment image) may lie outside
+  // its folder (import/resolve_path.h); default: such a reference is an error.
+  bool allow_outside_refs = false;
+  // Model files that do not exist yet but will (the converter validates the scene it is about to
+  // write before training): resolved paths that need not exist; every other model file must.
+  std::vector<std::string> pending_models;
   bool quiet = false;  // true: warnings only go to Scene::warnings, not to stderr
 };
 
@@ -84,6 +94,11 @@ Status load_scene(const std::string& path, const SceneLoadOptions& options, Scen
 Status load_scene_from_memory(std::string_view data, bool binary, const std::string& name,
                               const std::string& base_dir, const SceneLoadOptions& options,
                               Scene& out);
+
+// The LSNIF extensions must be JSON objects where they appear (the root's LSNIF_environment, each
+// node's LSNIF_neural_object); tinygltf drops other values silently, so this needs `model` loaded
+// with gltf::LoadOptions::keep_extension_json. Errors name `name`, the node and the type found.
+Status check_extension_types(const tinygltf::Model& model, const std::string& name);
 
 // Checks that `path` is a regular file that starts with the 8-byte .lsnif magic "LSNIF\0\r\n"
 // (docs/model-format.md); the rest of the model is not read.
