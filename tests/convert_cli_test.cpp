@@ -42,7 +42,16 @@ TEST(ConvertCli, ConvertsRerunsAndDryRuns) {
   std::ofstream(dir.path("in/bunny.lsnif"), std::ios::binary) << std::string("LSNIF\0\r\n", 8) << "rest";
   const std::string in = dir.path("in/scene.gltf"), out = dir.path("out/scene.gltf");
 
+  // The written scene would refer to ../in/bunny.lsnif, outside its folder: refused before any
+  // training unless allowed (the renderer would refuse it too).
   CommandResult r = convert(in + " -o " + out + kTiny);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("model '../in/bunny.lsnif' refers to a file outside the folder"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("trained "), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir.path("out/scene.ground_quad.lsnif")));
+  EXPECT_FALSE(fs::exists(out));
+
+  r = convert(in + " -o " + out + kTiny + " --allow-outside-refs");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("node 'ground' (mesh 'ground_quad', 2 triangles): convert"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("trained   1, up to date 0, failed 0"), std::string::npos) << r.out;
@@ -63,12 +72,12 @@ TEST(ConvertCli, ConvertsRerunsAndDryRuns) {
   EXPECT_TRUE(scene["extensions"].contains("LSNIF_environment"));
 
   const auto time = fs::last_write_time(model);
-  r = convert(in + " -o " + out + kTiny);
+  r = convert(in + " -o " + out + kTiny + " --allow-outside-refs");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("trained   0, up to date 1, failed 0"), std::string::npos) << r.out;
   EXPECT_EQ(fs::last_write_time(model), time);
 
-  r = convert(in + " -o " + dir.path("dry/scene.gltf") + " --dry-run" + kTiny);
+  r = convert(in + " -o " + dir.path("dry/scene.gltf") + " --dry-run --allow-outside-refs" + kTiny);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("would be trained"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(dir.path("dry")));

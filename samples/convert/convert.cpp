@@ -4,6 +4,9 @@
 #include <filesystem>
 #include <map>
 #include <set>
+#include <sstream>
+
+#include "atomic_file.h"
 
 #include "scene_gltf.h"
 
@@ -45,7 +48,8 @@ void print_plan(const ConvertSettings& s, const ConvertResult& res, FILE* out) {
   for (const PlannedNode& n : plan.nodes) {
     std::string target;
     if (n.model >= 0) target = " -> model '" + plan.models[size_t(n.model)].name + "'";
-    std::fprintf(out, "  node '%s' (mesh '%s', %llu triangles): %s%s\n", n.name.c_str(), n.mesh_name.c_str(),
+    std::fprintf(out, "  node '%s' (mesh '%s', %llu triangles): %s%s\n", printable(n.name).c_str(),
+                 printable(n.mesh_name).c_str(),
                  (unsigned long long)n.triangles, decision_text(n.decision), target.c_str());
   }
 }
@@ -59,8 +63,9 @@ void print_models(const ConvertSettings& s, const ConvertResult& res, FILE* out)
     const ModelResult& r = res.models[i];
     const uint64_t bytes = r.bytes ? r.bytes : estimated_model_bytes(s.train, planned_material_count(plan, m));
     if (r.state != ModelState::Failed) total += bytes;
-    const std::string what = m.group.empty() ? format("mesh '%s'", plan.nodes[size_t(m.nodes[0])].mesh_name.c_str())
-                                             : format("group '%s'", m.group.c_str());
+    const std::string what = m.group.empty()
+                                 ? format("mesh '%s'", printable(plan.nodes[size_t(m.nodes[0])].mesh_name).c_str())
+                                 : format("group '%s'", printable(m.group).c_str());
     std::fprintf(out, "  model '%s' (%s, %llu triangles, %zu materials): %zu %s, %.3f MiB, %s [%s]", m.name.c_str(),
                  what.c_str(), (unsigned long long)m.triangles,
                  r.mesh.materials.empty() ? size_t(planned_material_count(plan, m)) : r.mesh.materials.size(),
@@ -95,7 +100,7 @@ void print_groups(const ConvertSettings& s, const ConvertResult& res, FILE* out)
     const uint64_t grouped = r.bytes ? r.bytes : estimated_model_bytes(s.train, planned_material_count(plan, m));
     std::fprintf(out, "group     '%s': 1 model (%.3f MiB) for %zu nodes instead of %zu models, one per distinct mesh "
                       "(%.3f MiB): %.1fx less memory",
-                 m.group.c_str(), mib(grouped), m.nodes.size(), meshes.size(), mib(separate),
+                 printable(m.group).c_str(), mib(grouped), m.nodes.size(), meshes.size(), mib(separate),
                  grouped ? double(separate) / double(grouped) : 0.0);
     if (std::string e = eval_text(r); !e.empty()) std::fprintf(out, "; its error: %s", e.c_str());
     std::fprintf(out, "\n");
@@ -110,6 +115,45 @@ void print_groups(const ConvertSettings& s, const ConvertResult& res, FILE* out)
       std::fprintf(out, "          (%s)\n", s.dry_run ? "its error is measured once it is trained"
                                                      : "no error measured: --eval-rays 0");
   }
+}
+
+// The output files are none of the files the input uses, and can be written (the folder is made):
+// checked before training.
+Status check_outputs(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir) {
+  const std::string bin = (fs::path(out_dir) / (fs::path(settings.output).stem().string() + ".bin")).string();
+  for (const std::string& input : referenced_files(plan, settings.input))
+    for (const std::string& output : {settings.output, bin})
+      if (fs::path(output).lexically_normal().string() == input || same_file(output, input))
+        return Status::error("%s would overwrite %s, which the input scene %s uses; write the output elsewhere",
+                             output.c_str(), input.c_str(), settings.input.c_str());
+  if (settings.dry_run) return Status::ok();
+  if (!out_dir.empty()) {
+    std::error_code ec;
+    fs::create_directories(out_dir, ec);
+    if (ec) return Status::error("%s: cannot create the output folder: %s", out_dir.c_str(), ec.message().c_str());
+  }
+  if (Status s = check_output_path(settings.output); !s) return s;
+  return check_output_path(bin);
+}
+
+Status validate_output(const ConvertSettings& settings, const ConvertResult& result, const std::string& out_dir) {
+  tinygltf::Model out;
+  WriteReport unused;
+  if (Status s = build_output(settings, result.plan, result.models, true, out, unused); !s) return s;
+  if (!out.buffers.empty() && out.buffers[0].data.empty()) out.buffers.clear();  // as save_gltf writes it
+  std::ostringstream text;  // buffers embedded as data URIs: nothing is written
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&out, text, /*prettyPrint=*/false, /*writeBinary=*/false))
+    return Status::error("%s: tinygltf could not serialize the scene", settings.output.c_str());
+  const std::string base = out_dir.empty() ? std::string(".") : out_dir;
+  scene::SceneLoadOptions options;
+  options.quiet = true;
+  options.allow_outside_refs = settings.import_options.allow_outside_refs;
+  for (size_t i = 0; i < result.plan.models.size(); ++i)
+    if (result.models[i].state != ModelState::Failed)
+      options.pending_models.push_back((fs::path(base) / result.plan.models[i].file).lexically_normal().string());
+  scene::Scene scene;
+  return scene::load_scene_from_memory(text.str(), false, settings.output, base, options, scene);
 }
 
 }  // namespace
@@ -141,16 +185,18 @@ int run_convert(const ConvertSettings& settings, ConvertResult& result, FILE* ou
   std::fflush(out);
 
   const std::string out_dir = fs::path(settings.output).parent_path().string();
-  if (!settings.dry_run && !out_dir.empty()) {
-    std::error_code ec;
-    fs::create_directories(out_dir, ec);
-    if (ec) {
-      std::fprintf(err, "lsnif convert: %s: cannot create the output folder: %s\n", out_dir.c_str(),
-                   ec.message().c_str());
-      return 1;
-    }
+  if (Status s = check_outputs(settings, result.plan, out_dir); !s) {
+    std::fprintf(err, "lsnif convert: %s\n", s.message().c_str());
+    return 1;
   }
-  build_models(settings, result.plan, out_dir, result.models);
+  prepare_models(settings, result.plan, out_dir, result.models);
+  // The scene about to be written must load in the renderer before any model is trained, in a dry
+  // run too (a missing environment image, a broken camera or transform, a missing model).
+  if (Status s = validate_output(settings, result, out_dir); !s) {
+    std::fprintf(err, "lsnif convert: error: the converted scene would not load: %s\n", s.message().c_str());
+    return 1;
+  }
+  train_models(settings, result.plan, out_dir, result.models);
   for (size_t i = 0; i < result.models.size(); ++i) {
     const ModelResult& r = result.models[i];
     result.trained += r.state == ModelState::Trained;
@@ -182,6 +228,7 @@ int run_convert(const ConvertSettings& settings, ConvertResult& result, FILE* ou
   scene::Scene check;
   scene::SceneLoadOptions quiet;
   quiet.quiet = true;
+  quiet.allow_outside_refs = settings.import_options.allow_outside_refs;
   if (Status s = scene::load_scene(settings.output, quiet, check); !s) {
     std::fprintf(err, "lsnif convert: error: the written scene does not load: %s\n", s.message().c_str());
     result.output_loads = false;

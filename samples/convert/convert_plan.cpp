@@ -1,20 +1,20 @@
 // convert_plan.cpp -- reading the input glTF and deciding what to convert (convert_plan.h).
-// GCC 12 reports a false -Wmaybe-uninitialized inside libstdc++'s <regex> (std::function moves in
-// its NFA) when built with -fsanitize=address,undefined; the pragma comes before every include
-// because the warning is located in the library headers.
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include "convert_plan.h"
+
+#include <re2/re2.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <map>
-#include <regex>
+#include <memory>
 #include <set>
 
-#include <nlohmann/json.hpp>
-
+#include "atomic_file.h"
+#include "json_text.h"
 #include "mesh_gltf.h"
 #include "model.h"
+#include "resolve_path.h"
+#include "scene_gltf.h"
 
 namespace lsnif::convert {
 namespace fs = std::filesystem;
@@ -38,17 +38,14 @@ std::string url_decode(const std::string& s) {
   return out;
 }
 
-// Why an external buffer file cannot be used ("" when it can): outside the scene folder, missing,
-// not a regular file or shorter than byteLength.
-std::string check_buffer_file(const fs::path& dir, const std::string& uri, uint64_t byte_length) {
-  const fs::path decoded(url_decode(uri));
+// Why an external buffer file cannot be used ("" when it can): outside the scene folder (the
+// reference policy of resolve_path.h), missing, not a regular file or shorter than byteLength.
+std::string check_buffer_file(const fs::path& dir, const std::string& uri, uint64_t byte_length, bool allow_outside) {
+  std::string path;
+  if (Status s = resolve_reference(dir.string(), url_decode(uri), allow_outside, "the URI", path); !s)
+    return s.message();
+  const fs::path file(path);
   std::error_code ec;
-  const fs::path base = fs::weakly_canonical(dir.empty() ? fs::path(".") : dir, ec);
-  const fs::path file = fs::weakly_canonical(base / decoded, ec);
-  if (decoded.is_absolute()) return "the file is outside the scene folder (absolute path)";
-  const fs::path rel = file.lexically_relative(base);
-  if (ec || rel.empty() || *rel.begin() == "..")
-    return "the file is outside the scene folder " + base.string();
   if (!fs::exists(file, ec)) return "the file " + file.string() + " does not exist";
   if (!fs::is_regular_file(file, ec)) return file.string() + " is not a regular file";
   const uint64_t size = fs::file_size(file, ec);
@@ -60,11 +57,11 @@ std::string check_buffer_file(const fs::path& dir, const std::string& uri, uint6
 
 // For .gltf JSON: replaces every external buffer that cannot be used by an empty one (so that
 // tinygltf loads the rest) and records why in `bad`. Returns the JSON to load (unchanged when it
-// does not parse: tinygltf then reports the error).
-std::string isolate_bad_buffers(const std::string& text, const fs::path& dir,
-                                std::vector<std::string>& bad) {
-  nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded() || !j.is_object() || !j.contains("buffers") || !j["buffers"].is_array())
+// does not parse: gltf::load_model then reports the error).
+std::string isolate_bad_buffers(const std::string& text, const std::string& name, const fs::path& dir,
+                                bool allow_outside, std::vector<std::string>& bad) {
+  nlohmann::json j;
+  if (!json::parse(text, name, j) || !j.is_object() || !j.contains("buffers") || !j["buffers"].is_array())
     return text;
   nlohmann::json& buffers = j["buffers"];
   bad.assign(buffers.size(), "");
@@ -76,7 +73,7 @@ std::string isolate_bad_buffers(const std::string& text, const fs::path& dir,
     if (uri.rfind("data:", 0) == 0) continue;
     const uint64_t length =
         b.contains("byteLength") && b["byteLength"].is_number_unsigned() ? b["byteLength"].get<uint64_t>() : 0;
-    std::string why = check_buffer_file(dir, uri, length);
+    std::string why = check_buffer_file(dir, uri, length, allow_outside);
     if (why.empty()) continue;
     bad[i] = format("buffer %zu ('%s'): %s", i, uri.c_str(), why.c_str());
     b["uri"] = "data:application/octet-stream;base64,AA==";  // one zero byte: tinygltf rejects empty data
@@ -136,14 +133,18 @@ std::string mesh_problem(const Plan& plan, int m) {
   return "";
 }
 
-bool search(const std::regex& re, const std::string& s) { return std::regex_search(s, re); }
+using Pattern = std::unique_ptr<re2::RE2>;
 
-Status compile(const std::string& pattern, const char* what, std::regex& out) {
-  try {
-    out = std::regex(pattern, std::regex::ECMAScript);
-  } catch (const std::regex_error& e) {
-    return Status::error("%s '%s' is not a valid regular expression: %s", what, pattern.c_str(), e.what());
-  }
+// True when `re` matches somewhere in `s` (RE2: time linear in the name, no recursion).
+bool search(const Pattern& re, const std::string& s) { return re2::RE2::PartialMatch(s, *re); }
+
+Status compile(const std::string& pattern, const char* what, Pattern& out) {
+  re2::RE2::Options options;
+  options.set_log_errors(false);
+  out = std::make_unique<re2::RE2>(pattern, options);
+  if (!out->ok())
+    return Status::error("%s '%s' is not a valid regular expression (RE2 syntax): %s", what, pattern.c_str(),
+                         out->error().c_str());
   return Status::ok();
 }
 
@@ -160,6 +161,27 @@ std::string extras_group(const tinygltf::Node& n) {
 }
 
 }  // namespace
+
+std::vector<std::string> referenced_files(const Plan& plan, const std::string& input) {
+  const tinygltf::Model& g = plan.gltf;
+  std::vector<std::string> out{fs::path(input).lexically_normal().string()};
+  auto add = [&](const std::string& ref) {
+    if (ref.empty() || ref.rfind("data:", 0) == 0) return;
+    std::string path;
+    if (resolve_reference(plan.input_dir, url_decode(ref), true, "reference", path)) out.push_back(path);
+  };
+  for (const tinygltf::Buffer& b : g.buffers) add(b.uri);
+  for (const tinygltf::Image& im : g.images) add(im.uri);
+  auto string_field = [](const tinygltf::ExtensionMap& exts, const char* ext, const char* key) {
+    auto it = exts.find(ext);
+    if (it == exts.end() || !it->second.IsObject() || !it->second.Has(key) || !it->second.Get(key).IsString())
+      return std::string();
+    return it->second.Get(key).Get<std::string>();
+  };
+  for (const tinygltf::Node& n : g.nodes) add(string_field(n.extensions, kNodeExtension, "model"));
+  add(string_field(g.extensions, "LSNIF_environment", "hdr"));
+  return out;
+}
 
 bool is_triangle_mode(int mode) {
   if (mode < 0) mode = TINYGLTF_MODE_TRIANGLES;  // glTF's default
@@ -213,8 +235,8 @@ namespace {
 
 // The settings' regular expressions, compiled.
 struct Rules {
-  std::regex select, exclude;
-  std::vector<std::regex> groups;
+  Pattern select, exclude;
+  std::vector<Pattern> groups;
 };
 
 Status compile_rules(const ConvertSettings& settings, Rules& rules) {
@@ -251,9 +273,14 @@ Status make_plan(const ConvertSettings& settings, Plan& plan) {
   std::string data(bytes.begin(), bytes.end());
   const bool binary = data.size() >= 4 && data.compare(0, 4, "glTF") == 0;
   plan.input_dir = fs::path(in).parent_path().string();
-  if (!binary) data = isolate_bad_buffers(data, fs::path(plan.input_dir), plan.bad_buffers);
-  if (Status s = gltf::load_model(data, binary, in, plan.input_dir, gltf::LoadOptions(), plan.gltf, plan.warnings); !s)
+  const bool allow_outside = settings.import_options.allow_outside_refs;
+  if (!binary) data = isolate_bad_buffers(data, in, fs::path(plan.input_dir), allow_outside, plan.bad_buffers);
+  gltf::LoadOptions load_options;
+  load_options.allow_outside_refs = allow_outside;
+  load_options.keep_extension_json = true;
+  if (Status s = gltf::load_model(data, binary, in, plan.input_dir, load_options, plan.gltf, plan.warnings); !s)
     return s;
+  if (Status s = scene::check_extension_types(plan.gltf, in); !s) return s;
   const tinygltf::Model& g = plan.gltf;
   plan.bad_buffers.resize(g.buffers.size());
 
@@ -300,13 +327,23 @@ Status make_plan(const ConvertSettings& settings, Plan& plan) {
     plan.nodes.push_back(std::move(p));
   }
 
-  // Decisions and models.
+  // Decisions and models. A model's file must not be a file the input refers to (a model another
+  // node already uses, a buffer, an image): such names get a suffix like names used twice.
   const std::string out_stem = fs::path(settings.output).stem().string();
+  const fs::path out_dir = fs::path(settings.output).parent_path();
+  const std::vector<std::string> inputs = referenced_files(plan, in);
+  auto taken = [&](const std::string& name) {
+    const std::string file = (out_stem.empty() ? std::string("scene") : out_stem) + "." + name + ".lsnif";
+    const std::string path = (out_dir / file).lexically_normal().string();
+    for (const std::string& input : inputs)
+      if (input == path || same_file(input, path)) return true;
+    return false;
+  };
   std::set<std::string> used_names;
   auto add_model = [&](const std::string& base, int mesh, const std::string& group) {
     PlannedModel m;
     std::string name = safe_name(base);
-    for (int k = 2; used_names.count(name); ++k) name = safe_name(base) + "_" + std::to_string(k);
+    for (int k = 2; used_names.count(name) || taken(name); ++k) name = safe_name(base) + "_" + std::to_string(k);
     used_names.insert(name);
     m.name = name;
     m.file = (out_stem.empty() ? std::string("scene") : out_stem) + "." + name + ".lsnif";
@@ -347,7 +384,7 @@ Status make_plan(const ConvertSettings& settings, Plan& plan) {
     }
     std::string group = extras_group(n);
     for (size_t r = 0; group.empty() && r < settings.groups.size(); ++r)
-      if (std::regex_search(p.name, rules.groups[r])) group = settings.groups[r].name;
+      if (search(rules.groups[r], p.name)) group = settings.groups[r].name;
     if (!group.empty()) {
       auto it = group_model.find(group);
       if (it == group_model.end()) it = group_model.emplace(group, add_model(group, -1, group)).first;

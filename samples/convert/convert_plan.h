@@ -66,11 +66,18 @@ struct Plan {
   size_t failed_models() const;
 };
 
+// Every file the input scene `input` refers to, resolved against its folder (buffers, images, the
+// models of LSNIF nodes, the environment image) and the input itself: what the converter must
+// never overwrite.
+std::vector<std::string> referenced_files(const Plan& plan, const std::string& input);
+
 // The settings' own errors: an invalid regular expression or a --group without NAME or REGEX.
 Status check_settings(const ConvertSettings& settings);
 
 // Reads settings.input and makes the plan. Errors (the whole run stops): an unreadable or broken
-// file, an invalid regular expression, a malformed --group, a cyclic node hierarchy. A bad object
+// file (too deeply nested JSON, an LSNIF extension that is not an object, an image leaving the
+// scene's folder), an invalid regular expression, a malformed --group, a cyclic node hierarchy.
+// Model file names are unique and never name a file the input refers to (referenced_files). A bad object
 // is not an error here: its model carries `error`.
 Status make_plan(const ConvertSettings& settings, Plan& plan);
 

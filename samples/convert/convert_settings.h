@@ -13,7 +13,7 @@ namespace lsnif::convert {
 // named NAME (their meshes flattened into world space, one model for all of them).
 struct GroupRule {
   std::string name;
-  std::string pattern;  // ECMAScript regular expression, searched in the node name
+  std::string pattern;  // RE2 regular expression, searched in the node name
 };
 
 struct ConvertSettings {
@@ -22,7 +22,8 @@ struct ConvertSettings {
   // The paper's face-count threshold: meshes (groups: all members together) with fewer triangles
   // stay triangle meshes. Node extras {"lsnif": true} overrides it.
   uint64_t min_triangles = 1000;
-  // ECMAScript regular expressions searched in the node name and the mesh name; empty: no rule.
+  // RE2 regular expressions (linear-time matching: node names are untrusted input) searched in the
+  // node name and the mesh name; empty: no rule.
   // A node is a candidate when `select` is empty or matches, and `exclude` is empty or matches
   // neither name.
   std::string select, exclude;
@@ -33,6 +34,9 @@ struct ConvertSettings {
   uint32_t jobs = 1;         // models trained at the same time
   uint32_t eval_rays = 20000;  // held-out rays per trained model for the report (0: no evaluation)
   bool progress = true;      // one overall progress bar on stderr
+  // --allow-outside-refs (buffers, images, models and the HDR of the input, and the references
+  // of the written scene, may leave their folder) and --allow-dropped-triangles.
+  MeshImportOptions import_options;
   // Training of every model (TrainSettings::progress and loss_csv are ignored: the converter
   // draws one bar for all models and writes no loss curves).
   TrainSettings train;

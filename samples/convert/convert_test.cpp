@@ -255,7 +255,7 @@ TEST_F(Convert, OneBadObjectDoesNotLoseTheOthers) {
   EXPECT_EQ(r.trained, 1u);
   EXPECT_EQ(r.failed, 4u);
   for (const char* expected : {"node 'broken' (mesh 'broken_mesh')", "missing.bin", "does not exist",
-                               "node 'outsider'", "outside the scene folder", "node 'wireframe'", "LINES",
+                               "node 'outsider'", "outside the folder", "--allow-outside-refs", "node 'wireframe'", "LINES",
                                "model 'short_mesh' (node 'shorty')"})
     EXPECT_NE(log.find(expected), std::string::npos) << expected << "\n" << log;
   ASSERT_TRUE(r.wrote_output);

@@ -14,6 +14,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "atomic_file.h"
+#include "json_text.h"
 #include "mesh_gltf.h"
 #include "model.h"
 #include "progress.h"
@@ -57,12 +59,12 @@ struct Sidecar {
 };
 
 bool read_sidecar(const std::string& path, Sidecar& out) {
-  std::ifstream f(path);
-  if (!f) return false;
-  std::stringstream ss;
-  ss << f.rdbuf();
-  nlohmann::json j = nlohmann::json::parse(ss.str(), nullptr, false);
-  if (j.is_discarded() || !j.is_object() || !j.contains("hash") || !j["hash"].is_string()) return false;
+  std::vector<unsigned char> bytes;
+  if (!gltf::read_whole_file(&bytes, nullptr, path, nullptr)) return false;
+  nlohmann::json j;
+  if (!json::parse(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), path, j) ||
+      !j.is_object() || !j.contains("hash") || !j["hash"].is_string())
+    return false;
   out.hash = j["hash"].get<std::string>();
   if (j.contains("eval") && j["eval"].is_object()) {
     const nlohmann::json& e = j["eval"];
@@ -90,20 +92,11 @@ Status write_sidecar(const std::string& path, const PlannedModel& m, const Model
                  {"accuracy", r.metrics.accuracy},
                  {"t_error_median", r.metrics.t_error_median},
                  {"normal_error_median", r.metrics.normal_error_median}};
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::trunc);
-    f << j.dump(2) << "\n";
-    if (!f) return Status::error("%s: could not write the sidecar", tmp.c_str());
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) return Status::error("%s: could not write the sidecar (%s)", path.c_str(), ec.message().c_str());
-  return Status::ok();
+  return write_file_atomic(path, j.dump(2) + "\n").context("sidecar");
 }
 
 // Flattens the model's mesh(es): a mesh model in the mesh's object space, a group in world space.
-Status flatten(const Plan& plan, const PlannedModel& m, ModelResult& r) {
+Status flatten(const Plan& plan, const PlannedModel& m, bool allow_dropping_most, ModelResult& r) {
   std::vector<GltfMeshPart> parts;
   if (m.group.empty()) {
     parts.push_back({m.mesh, glm::dmat4(1.0)});
@@ -112,7 +105,7 @@ Status flatten(const Plan& plan, const PlannedModel& m, ModelResult& r) {
   }
   MeshImportReport report;
   const std::string label = (m.group.empty() ? "mesh '" : "group '") + m.name + "'";
-  Status s = flatten_gltf_meshes(plan.gltf, parts, label, r.mesh, r.material_sources, &report);
+  Status s = flatten_gltf_meshes(plan.gltf, parts, label, r.mesh, r.material_sources, &report, allow_dropping_most);
   r.warnings = std::move(report.warnings);
   return s;
 }
@@ -121,7 +114,7 @@ Status flatten(const Plan& plan, const PlannedModel& m, ModelResult& r) {
 std::string object_label(const Plan& plan, const PlannedModel& m) {
   std::string nodes;
   for (size_t k = 0; k < m.nodes.size() && k < 3; ++k)
-    nodes += (k ? ", '" : "'") + plan.nodes[size_t(m.nodes[k])].name + "'";
+    nodes += (k ? ", '" : "'") + printable(plan.nodes[size_t(m.nodes[k])].name) + "'";
   if (m.nodes.size() > 3) nodes += format(" and %zu more", m.nodes.size() - 3);
   return format("model '%s' (node%s %s)", m.name.c_str(), m.nodes.size() == 1 ? "" : "s", nodes.c_str());
 }
@@ -157,11 +150,10 @@ std::string content_hash(const Mesh& mesh, const TrainSettings& train) {
 
 std::string sidecar_path(const std::string& model_path) { return model_path + ".json"; }
 
-void build_models(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir,
-                  std::vector<ModelResult>& results) {
+void prepare_models(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir,
+                    std::vector<ModelResult>& results) {
   results.clear();
   results.resize(plan.models.size());
-  std::vector<size_t> todo;
   for (size_t i = 0; i < plan.models.size(); ++i) {
     const PlannedModel& m = plan.models[i];
     ModelResult& r = results[i];
@@ -170,7 +162,7 @@ void build_models(const ConvertSettings& settings, const Plan& plan, const std::
       r.error = m.error;
       continue;
     }
-    if (Status s = flatten(plan, m, r); !s) {
+    if (Status s = flatten(plan, m, settings.import_options.allow_dropping_most, r); !s) {
       r.state = ModelState::Failed;
       r.error = object_label(plan, m) + ": " + s.message();
       continue;
@@ -189,9 +181,15 @@ void build_models(const ConvertSettings& settings, const Plan& plan, const std::
       if (!settings.dry_run) r.state = ModelState::UpToDate;
       continue;
     }
-    if (!settings.dry_run) todo.push_back(i);
   }
-  if (todo.empty()) return;
+}
+
+void train_models(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir,
+                  std::vector<ModelResult>& results) {
+  std::vector<size_t> todo;
+  for (size_t i = 0; i < results.size(); ++i)
+    if (results[i].state == ModelState::Planned) todo.push_back(i);
+  if (todo.empty() || settings.dry_run) return;
 
   // Training: `jobs` threads share the cores (OpenMP threads per job = cores / jobs).
   const size_t threads = std::max<size_t>(1, std::min<size_t>(settings.jobs, todo.size()));
@@ -220,7 +218,7 @@ void build_models(const ConvertSettings& settings, const Plan& plan, const std::
       try {
         TrainSettings train = settings.train;
         train.progress = false;
-        train.loss_csv.clear();
+        train.loss_curve = false;
         Model model;
         TrainReport rep;
         Status s = train_model(r.mesh, train, model, &rep, [&](uint32_t, const LossTerms&, const Model&) {

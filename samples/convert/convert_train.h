@@ -34,16 +34,23 @@ struct ModelResult {
 };
 
 // The content hash of a training mesh and the settings that shape its model (everything in
-// TrainSettings but progress and loss_csv), as 16 hex digits.
+// TrainSettings but progress and loss_curve), as 16 hex digits.
 std::string content_hash(const Mesh& mesh, const TrainSettings& train);
 
 // The sidecar of a .lsnif file: MODEL.lsnif.json.
 std::string sidecar_path(const std::string& model_path);
 
-// Runs the stage for plan.models into `results` (one per model, same order). Models go to
-// `out_dir`/PlannedModel::file. Nothing is trained or written when settings.dry_run. A model that
-// fails (bad mesh data, training error, unwritable file) is Failed with its error; the others go on.
-void build_models(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir,
+// The stage's first half, for plan.models into `results` (one per model, same order): flattens
+// each model's mesh(es), hashes them and marks the models whose .lsnif in `out_dir` is up to date
+// (UpToDate; a dry run only sets up_to_date_on_disk). The others stay Planned, or Failed with
+// their error (bad mesh data). Nothing is trained or written.
+void prepare_models(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir,
+                    std::vector<ModelResult>& results);
+
+// The second half: trains the Planned models (several at once) into `out_dir`/PlannedModel::file
+// (+ sidecar). Nothing when settings.dry_run. A model that fails (training error, unwritable file)
+// is Failed with its error; the others go on.
+void train_models(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir,
                   std::vector<ModelResult>& results);
 
 }  // namespace lsnif::convert

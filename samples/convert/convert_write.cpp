@@ -216,12 +216,10 @@ bool has_triangle_primitive(const tinygltf::Model& g, int mesh) {
 
 }  // namespace
 
-Status write_output(const ConvertSettings& settings, const Plan& plan,
-                    const std::vector<ModelResult>& results, WriteReport& report) {
+Status build_output(const ConvertSettings& settings, const Plan& plan, const std::vector<ModelResult>& results,
+                    bool planned_as_trained, tinygltf::Model& out, WriteReport& report) {
   report = WriteReport();
-  if (fs::path(settings.output).extension() != ".gltf")
-    return Status::error("%s: the output must be a .gltf file", settings.output.c_str());
-  tinygltf::Model out = plan.gltf;
+  out = plan.gltf;
   relocate_files(out, plan.input_dir, fs::path(settings.output).parent_path().string());
   if (out.scenes.empty()) {  // make the implicit scene (every root node) explicit before adding nodes
     out.scenes.resize(1);
@@ -247,7 +245,9 @@ Status write_output(const ConvertSettings& settings, const Plan& plan,
   for (size_t i = 0; i < plan.models.size(); ++i) {
     const PlannedModel& m = plan.models[i];
     const ModelResult& r = results[i];
-    if (r.state != ModelState::Trained && r.state != ModelState::UpToDate) continue;
+    const bool made = r.state == ModelState::Trained || r.state == ModelState::UpToDate ||
+                      (planned_as_trained && r.state == ModelState::Planned);
+    if (!made) continue;
     const std::vector<uint32_t> materials = material_list(r);
     for (int ni : m.nodes) {
       tinygltf::Node& n = out.nodes[size_t(plan.nodes[size_t(ni)].node)];
@@ -291,6 +291,15 @@ Status write_output(const ConvertSettings& settings, const Plan& plan,
     ++report.group_nodes;
   }
   out.asset.generator = "lsnif convert (from " + (out.asset.generator.empty() ? std::string("unknown") : out.asset.generator) + ")";
+  return Status::ok();
+}
+
+Status write_output(const ConvertSettings& settings, const Plan& plan,
+                    const std::vector<ModelResult>& results, WriteReport& report) {
+  if (fs::path(settings.output).extension() != ".gltf")
+    return Status::error("%s: the output must be a .gltf file", settings.output.c_str());
+  tinygltf::Model out;
+  if (Status s = build_output(settings, plan, results, false, out, report); !s) return s;
   return scene::save_gltf(out, settings.output);
 }
 

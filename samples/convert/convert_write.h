@@ -19,6 +19,11 @@ struct WriteReport {
   std::vector<std::string> notes;  // what was dropped and why, one line each
 };
 
+// The output scene in memory, as write_output writes it; with `planned_as_trained`, the models not
+// trained yet (Planned) count as made (the converter checks the scene before it trains).
+Status build_output(const ConvertSettings& settings, const Plan& plan, const std::vector<ModelResult>& results,
+                    bool planned_as_trained, tinygltf::Model& out, WriteReport& report);
+
 // Writes settings.output (must end in .gltf) and OUT.bin beside it from the plan and the models
 // that were trained or are up to date; failed models leave their nodes as they were, except that
 // a mesh whose triangle data cannot be read (or copied) is left out (a note says so).
