@@ -10,6 +10,7 @@
 
 #include "args.h"
 #include "commands.h"
+#include "train_options.h"
 #include "device_option.h"
 #include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
 
@@ -216,6 +217,7 @@ bool mesh_fits_model(const Mesh& mesh, const Model& model) {
 int cmd_bench_memory(int argc, char** argv) {
   std::string mesh_path, model_path, targets_arg = "1000000,5000000", device;
   bool json = false;
+  MeshImportOptions import_options;
   Args args("bench-memory",
             "Device memory of an LSNIF model against the triangle BLAS of its mesh. LSNIF: the model's GPU\n"
             "block plus its AABB BLAS, uploaded by the plugin. Triangles: for MESH and for each midpoint\n"
@@ -228,6 +230,7 @@ int cmd_bench_memory(int argc, char** argv) {
   args.option("subdivide-targets", "comma-separated triangle counts ('' for none)", &targets_arg);
   args.flag("json", "print one JSON object instead of the table", &json);
   add_device_option(args, &device);
+  add_import_flags(args, &import_options);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   std::vector<uint64_t> targets;
   if (!parse_targets(targets_arg, targets)) {
@@ -243,7 +246,7 @@ int cmd_bench_memory(int argc, char** argv) {
     return 1;
   }
   Mesh mesh;
-  if (Status s = load_mesh(mesh_path, mesh); !s) {
+  if (Status s = load_mesh(mesh_path, mesh, nullptr, import_options); !s) {
     std::fprintf(stderr, "lsnif bench-memory: %s\n", s.message().c_str());
     return 1;
   }

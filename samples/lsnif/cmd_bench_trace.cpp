@@ -30,6 +30,7 @@
 
 #include "args.h"
 #include "commands.h"
+#include "train_options.h"
 #include "device_option.h"
 #include "mesh.h"
 #include "model.h"
@@ -486,6 +487,7 @@ int cmd_bench_trace(int argc, char** argv) {
   uint32_t rays = 1u << 18, repeat = 5;
   uint64_t seed = 1;
   bool json = false, validation = false;
+  MeshImportOptions import_options;
   Args args("bench-trace",
             "Throughput of the LSNIF intersection shader (shaders/lsnif.rint, embedded in the plugin) in a\n"
             "ray-tracing pipeline on the Vulkan device, against a triangle BLAS of the same mesh: the same rays\n"
@@ -511,6 +513,7 @@ int cmd_bench_trace(int argc, char** argv) {
   args.flag("json", "print one JSON object instead of text", &json);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 if it reports anything)", &validation);
   add_device_option(args, &device);
+  add_import_flags(args, &import_options);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (rays == 0 || rays > kMaxRays) {
     std::fprintf(stderr, "lsnif bench-trace: --rays %u out of range 1..%u\n", rays, kMaxRays);
@@ -532,7 +535,7 @@ int cmd_bench_trace(int argc, char** argv) {
     return 1;
   };
   Mesh mesh;
-  if (Status s = load_mesh(mesh_path, mesh); !s) return fail(s);
+  if (Status s = load_mesh(mesh_path, mesh, nullptr, import_options); !s) return fail(s);
   Model model;
   if (Status s = load_model(model_path, model); !s) return fail(s);
   if (Status s = check_same_object(mesh, model); !s) return fail(s.context(mesh_path + " / " + model_path));

@@ -60,7 +60,7 @@ int cmd_convert(int argc, char** argv) {
             "The training options are those of `lsnif train`.");
   args.positional("IN", "input scene (.gltf or .glb)", &cs.input);
   args.option("min-triangles", "meshes with fewer triangles stay triangle meshes", &min_triangles);
-  args.option("select", "convert only nodes whose node or mesh name matches this ECMAScript regex", &cs.select);
+  args.option("select", "convert only nodes whose node or mesh name matches this regex (RE2 syntax)", &cs.select);
   args.option("exclude", "never convert nodes whose node or mesh name matches this regex", &cs.exclude);
   args.option("group", "NAME=REGEX: one model for all selected nodes whose name matches (repeatable)", &group_help);
   args.option("jobs", "models trained at the same time", &jobs);
@@ -83,6 +83,7 @@ int cmd_convert(int argc, char** argv) {
   cs.jobs = jobs < 1 ? 1 : jobs;
   cs.eval_rays = eval_rays;
   cs.progress = !opts.quiet;
+  cs.import_options = opts.import_options;
   convert::ConvertResult result;
   return convert::run_convert(cs, result, stdout, stderr);
 }

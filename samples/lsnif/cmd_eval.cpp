@@ -6,6 +6,7 @@
 
 #include "args.h"
 #include "commands.h"
+#include "train_options.h"
 #include "evaluate.h"
 #include "mesh.h"
 
@@ -16,6 +17,7 @@ int cmd_eval(int argc, char** argv) {
   uint32_t rays = 100000, threads = 0;
   uint64_t seed = EvalSettings().seed;
   bool json = false;
+  MeshImportOptions import_options;
   Args args("eval", "Measures MODEL against exact ray casting (Embree) of MESH on fresh held-out rays drawn\n"
                     "like the training rays and crossing at least one occupied voxel: occlusion accuracy,\n"
                     "precision, recall; |t| error as a fraction of the AABB diagonal; normal error in\n"
@@ -26,6 +28,7 @@ int cmd_eval(int argc, char** argv) {
   args.option("seed", "held-out ray seed", &seed);
   args.option("threads", "worker threads (0 = all cores)", &threads);
   args.flag("json", "print JSON instead of text", &json);
+  add_import_flags(args, &import_options);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (threads) omp_set_num_threads(int(threads));
   Model model;
@@ -34,7 +37,7 @@ int cmd_eval(int argc, char** argv) {
     return 1;
   }
   Mesh mesh;
-  if (Status s = load_mesh(mesh_path, mesh); !s) {
+  if (Status s = load_mesh(mesh_path, mesh, nullptr, import_options); !s) {
     std::fprintf(stderr, "lsnif eval: %s\n", s.message().c_str());
     return 1;
   }

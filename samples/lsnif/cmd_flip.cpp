@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "args.h"
+#include "atomic_file.h"
 #include "commands.h"
 #include "flip.h"
 #include "image_io.h"
@@ -76,6 +77,14 @@ int cmd_flip(int argc, char** argv) {
     return 2;
   }
 
+  if (!heatmap_path.empty()) {
+    Status s = check_not_an_input(heatmap_path, "--heatmap", {reference_path, test_path});
+    if (s) s = check_output_path(heatmap_path).context("--heatmap");
+    if (!s) {
+      std::fprintf(stderr, "lsnif flip: %s\n", s.message().c_str());
+      return 1;
+    }
+  }
   image::Image reference, test;
   for (auto [path, img] : {std::pair{&reference_path, &reference}, std::pair{&test_path, &test}})
     if (Status s = image::load_image(*path, *img); !s) {

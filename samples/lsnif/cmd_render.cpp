@@ -42,6 +42,8 @@ int cmd_render(int argc, char** argv) {
     return 2;
   }
 
+  // The image's place is checked before the render, not after it.
+  if (int r = sa.check_output("render", "-o", output)) return r;
   scene::Scene scene;
   scene::EnvironmentMap environment;
   if (int r = sa.load("render", scene, environment)) return r;

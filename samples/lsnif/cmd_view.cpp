@@ -60,6 +60,8 @@ int cmd_view(int argc, char** argv) {
   }
   vs.exposure = exposure;
   vs.camera = sa.camera_index();
+  if (!vs.screenshot.empty())
+    if (int r = sa.check_output("view", "--screenshot", vs.screenshot)) return r;
   scene::Scene scene;
   scene::EnvironmentMap environment;
   if (int r = sa.load("view", scene, environment)) return r;

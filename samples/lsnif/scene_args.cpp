@@ -5,6 +5,7 @@
 #include <sstream>
 #include <vector>
 
+#include "atomic_file.h"
 #include "scene_edit.h"
 #include "scene_gltf.h"
 
@@ -28,6 +29,8 @@ void SceneArgs::add_to(Args& args) {
   args.option("sun", "DX,DY,DZ,IRRADIANCE[,DIAMETER_DEGREES]: a sun towards (DX,DY,DZ) (replaces the scene's)", &sun);
   args.option("add", "MODEL.lsnif[;...]: place pre-trained models the scene does not contain (with --at)", &add_models);
   args.option("at", "TRANSFORM[;...]: where each --add model goes (same forms as --node-transform)", &add_at);
+  args.flag("allow-outside-refs", "let files the scene refers to (buffers, images, models, HDR) lie outside its folder",
+            &allow_outside_refs);
 }
 
 namespace {
@@ -114,17 +117,39 @@ int SceneArgs::load(const char* command, scene::Scene& scene, scene::Environment
   if (!env_path.empty()) options.environment.hdr = env_path;
   if (env_intensity >= 0.0f) options.environment.intensity = env_intensity;
   if (env_rotation != 0.0f) options.environment.rotation_degrees = env_rotation;
-  if (Status s = scene::load_scene(scene_path, options, scene); !s) {
+  options.allow_outside_refs = allow_outside_refs;
+  Status s = scene::load_scene(scene_path, options, scene);
+  if (s) s = scene::check_models_fit_meshes(scene);
+  if (!s) {
     std::fprintf(stderr, "lsnif %s: %s\n", command, s.message().c_str());
     return 1;
   }
   if (int r = apply_edits(command, scene)) return r;
   environment = scene::EnvironmentMap();
   if (!scene.environment.path.empty()) {
-    if (Status s = scene::load_environment_map(scene.environment, environment); !s) {
-      std::fprintf(stderr, "lsnif %s: environment: %s\n", command, s.message().c_str());
+    if (Status e = scene::load_environment_map(scene.environment, environment); !e) {
+      std::fprintf(stderr, "lsnif %s: environment: %s\n", command, e.message().c_str());
       return 1;
     }
+  }
+  return 0;
+}
+
+int SceneArgs::check_output(const char* command, const char* what, const std::string& output) const {
+  std::vector<std::string> inputs{scene_path, env_path};
+  for (const std::string& item : split(lsnif_list, ',')) {
+    scene::LsnifOverride o;
+    if (scene::parse_lsnif_override(item, o)) inputs.push_back(o.model_path);
+  }
+  for (const std::string& model : split(add_models, ';')) inputs.push_back(model);
+  for (const std::string& input : inputs)
+    if (Status s = check_not_an_input(output, what, {input}); !s) {
+      std::fprintf(stderr, "lsnif %s: %s\n", command, s.message().c_str());
+      return 1;
+    }
+  if (Status s = check_output_path(output); !s) {
+    std::fprintf(stderr, "lsnif %s: %s: %s\n", command, what, s.message().c_str());
+    return 1;
   }
   return 0;
 }

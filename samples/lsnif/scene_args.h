@@ -21,9 +21,10 @@ struct SceneArgs {
   float env_intensity = -1.0f, env_rotation = 0.0f;  // < 0: the scene's intensity; degrees
   uint32_t camera = 0;
   bool frame_scene = false;
+  bool allow_outside_refs = false;
 
   // Registers SCENE and --lsnif, --env, --env-intensity, --env-rotation, --camera, --frame-scene,
-  // --look-from, --look-at, --fov, --node-transform, --add, --at, --sun.
+  // --look-from, --look-at, --fov, --node-transform, --add, --at, --sun, --allow-outside-refs.
   void add_to(Args& args);
   // The camera index for RenderSettings::camera / ViewerSettings::camera (-1: frame the scene).
   // (--look-from: the camera it adds, which load() puts first.)
@@ -34,6 +35,9 @@ struct SceneArgs {
   // --lsnif, 1 when the scene or environment cannot be loaded; errors are printed to stderr as
   // "lsnif COMMAND: ...", naming the option or file at fault.
   int load(const char* command, scene::Scene& scene, scene::EnvironmentMap& environment) const;
+  // An error (printed as "lsnif COMMAND: ...", returns 1) when `output` is one of the files the
+  // options name or the scene file; `what` names the output option.
+  int check_output(const char* command, const char* what, const std::string& output) const;
 
  private:
   int apply_edits(const char* command, scene::Scene& scene) const;

@@ -2,8 +2,11 @@
 
 #include <omp.h>
 
+#include <cmath>
 #include <cstdio>
+#include <utility>
 
+#include "atomic_file.h"
 #include "mesh.h"
 
 namespace lsnif::cli {
@@ -37,9 +40,48 @@ void TrainOptions::add_to(Args& args, const char* output_help) {
   args.flag("paper", "paper settings: batch 2^18, hit=aabb, normal-loss=cosine, ray-reuse=1 (slow on a CPU)",
             &paper);
   args.flag("quiet", "no progress bar", &quiet);
+  add_import_flags(args, &import_options);
+}
+
+void add_import_flags(Args& args, MeshImportOptions* options, bool meshes) {
+  args.flag("allow-outside-refs",
+            "let files the input refers to (buffers, images, mtllib, models, HDR) lie outside its folder",
+            &options->allow_outside_refs);
+  if (meshes)
+    args.flag("allow-dropped-triangles", "import a mesh even when most of its triangles are degenerate or invalid",
+              &options->allow_dropping_most);
 }
 
 bool TrainOptions::to_settings(TrainSettings& s) const {
+  // The options' own ranges first, named as the user typed them (the checks below divide by the
+  // voxel resolution and compare with the batch).
+  if (voxels < 1 || voxels > 256) {
+    std::fprintf(stderr, "lsnif: --voxels %u out of range [1, 256]\n", voxels);
+    return false;
+  }
+  if (steps < 1 || batch < 1) {
+    std::fprintf(stderr, "lsnif: --steps (%u) and --batch (%u) must be at least 1\n", steps, batch);
+    return false;
+  }
+  if (!(lr > 0.0f) || !std::isfinite(lr)) {
+    std::fprintf(stderr, "lsnif: --lr %g must be a positive, finite learning rate\n", double(lr));
+    return false;
+  }
+  const std::pair<const char*, float> weights[] = {{"--w-occlusion", loss.occlusion}, {"--w-distance", loss.distance},
+                                                   {"--w-normal", loss.normal}, {"--w-albedo", loss.albedo},
+                                                   {"--w-material", loss.material}};
+  float weight_sum = 0.0f;
+  for (const auto& [name, w] : weights) {
+    if (!(w >= 0.0f) || !std::isfinite(w)) {
+      std::fprintf(stderr, "lsnif: %s %g must be a finite weight >= 0\n", name, double(w));
+      return false;
+    }
+    weight_sum += w;
+  }
+  if (!(weight_sum > 0.0f)) {
+    std::fprintf(stderr, "lsnif: every loss weight (--w-*) is 0: nothing would be trained\n");
+    return false;
+  }
   Config& c = s.config;
   c.voxel_resolution = voxels;
   c.max_points = points;
@@ -96,7 +138,7 @@ bool TrainOptions::to_settings(TrainSettings& s) const {
   }
   s.adam.learning_rate = lr;
   s.progress = !quiet;
-  s.loss_csv = csv.empty() ? output + ".csv" : csv;
+  s.loss_curve = true;
   if (Status st = c.validate(); !st) {
     std::fprintf(stderr, "lsnif: invalid model settings: %s\n", st.message().c_str());
     return false;
@@ -104,12 +146,33 @@ bool TrainOptions::to_settings(TrainSettings& s) const {
   return true;
 }
 
+namespace {
+
+// The model and the CSV can be written, and neither is the mesh or the other: checked before the
+// work, so that a bad -o fails in a second, not after the training.
+int check_outputs(const TrainOptions& opts, const std::string& mesh_path) {
+  const std::string csv = opts.csv_path();
+  Status s = check_not_an_input(opts.output, "-o", {mesh_path});
+  if (s) s = check_not_an_input(csv, "--csv", {mesh_path, opts.output});
+  if (s && csv == opts.output) s = Status::error("--csv and -o name the same file '%s'", csv.c_str());
+  if (s) s = check_output_path(opts.output).context("-o");
+  if (s) s = check_output_path(csv).context("--csv");
+  if (!s) {
+    std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
 int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* trained) {
   TrainSettings settings;
   if (!opts.to_settings(settings)) return 2;
+  if (int r = check_outputs(opts, mesh_path)) return r;
   Mesh mesh;
   MeshImportReport import;
-  if (Status s = load_mesh(mesh_path, mesh, &import); !s) {
+  if (Status s = load_mesh(mesh_path, mesh, &import, opts.import_options); !s) {
     std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
     return 1;
   }
@@ -121,6 +184,7 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
                TrainReport* report) {
   TrainSettings settings;
   if (!opts.to_settings(settings)) return 2;
+  if (int r = check_outputs(opts, "")) return r;
   if (opts.threads) omp_set_num_threads(int(opts.threads));
   std::printf("mesh      %s: %zu triangles, %zu materials\n", label.c_str(), mesh.triangles.size(),
               mesh.materials.size());
@@ -136,6 +200,10 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
     std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
     return 1;
   }
+  if (Status s = write_file_atomic(opts.csv_path(), rep.loss_curve); !s) {
+    std::fprintf(stderr, "lsnif: loss curve: %s\n", s.message().c_str());
+    return 1;
+  }
   const MemoryBreakdown mem = memory_breakdown(model);
   std::printf("trained   %u steps x %u rays in %.1f s (%.0f rays/s): sampling %.1f s, encoding %.1f s, "
               "MLP %.1f s, loss %.1f s, Adam %.1f s\n",
@@ -145,7 +213,7 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
               rep.final_loss.total(), rep.final_loss.occlusion, rep.final_loss.distance, rep.final_loss.normal,
               rep.final_loss.albedo, rep.final_loss.material);
   std::printf("wrote     %s (%.3f MiB, %u occupied voxels) and %s\n", opts.output.c_str(), double(mem.total()) / 1048576.0,
-              rep.occupied_voxels, settings.loss_csv.c_str());
+              rep.occupied_voxels, opts.csv_path().c_str());
   std::fflush(stdout);
   if (trained) *trained = std::move(model);
   if (report) *report = rep;

@@ -23,19 +23,30 @@ struct TrainOptions {
   std::string csv;
   LossSettings loss;
   bool paper = false, quiet = false;
+  MeshImportOptions import_options;  // --allow-outside-refs, --allow-dropped-triangles
 
-  // Registers the training options and -o/--output (described by `output_help`).
+  // Registers the training options, the mesh import flags and -o/--output (described by
+  // `output_help`).
   void add_to(Args& args, const char* output_help = "output model file (.lsnif)");
-  // Builds trainer settings; returns false (message printed) on an invalid combination.
+  // Builds trainer settings; returns false (message printed, naming the option) on an invalid
+  // value or combination.
   bool to_settings(TrainSettings& settings) const;
+  // The loss curve's path: --csv, or MODEL.csv.
+  std::string csv_path() const { return csv.empty() ? output + ".csv" : csv; }
 };
 
+// Registers --allow-outside-refs (and, with `meshes`, --allow-dropped-triangles) into `options`:
+// the import policy flags of every command that reads a mesh or a scene.
+void add_import_flags(Args& args, MeshImportOptions* options, bool meshes = true);
+
 // Loads the mesh, trains, writes the model (+ CSV) and prints a summary. Returns the exit code.
+// The outputs are checked before any work: writable, not a link or device, not the mesh itself.
 int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* trained);
 
 // The same for a mesh already in memory (`label` names it in the summary): trains, writes
-// opts.output (+ CSV), prints the summary; `trained` and `report` (either may be null) receive the
-// model and the trainer's report. Returns the exit code (0 ok, 1 failure, 2 invalid options).
+// opts.output and then the CSV (each atomically: a failure leaves the old files), prints the
+// summary; `trained` and `report` (either may be null) receive the model and the trainer's report.
+// Returns the exit code (0 ok, 1 failure, 2 invalid options).
 int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& opts, Model* trained,
                TrainReport* report = nullptr);
 
