@@ -63,7 +63,7 @@ packages=(
   file binutils  # cpack -G DEB (file, dpkg-shlibdeps) and the package test (nm, readelf, strings)
   libgtest-dev libgmock-dev
   libembree-dev libeigen3-dev
-  libtinygltf-dev nlohmann-json3-dev libstb-dev libglm-dev
+  libtinygltf-dev nlohmann-json3-dev libstb-dev libglm-dev libre2-dev
   glslang-tools glslang-dev spirv-tools
   libvulkan-dev libvulkan-volk-dev vulkan-validationlayers vulkan-tools
   libglfw3-dev libopenimageio-dev openimageio-tools
