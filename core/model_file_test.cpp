@@ -519,6 +519,11 @@ TEST(ModelFileErrors, StructuralChecksBehindTheChecksum) {
       {"bytes after NUL", [](Bytes& b) { const size_t at = section_offset(b, kMaterials) + 76; b[at] = 0; b[at + 5] = 'q'; },
        {"material 1", "NUL"}},
       {"color NaN", [](Bytes& b) { wrf32(b, section_offset(b, kMaterials) + 64, std::nanf("")); }, {"material 0", "color"}},
+      // Finite but beyond float ray math (1e38: its squared distances overflow).
+      {"AABB 1e38", [](Bytes& b) { wrf32(b, kAabbAt, -1e38f); wrf32(b, kAabbAt + 12, 1e38f); }, {"AABB", "exceeds +-1e+18"}},
+      {"name not UTF-8", [](Bytes& b) { b[section_offset(b, kMaterials)] = 0xff; }, {"material 0 name", "\\xff", "UTF-8"}},
+      {"name with a control character", [](Bytes& b) { b[section_offset(b, kMaterials)] = 0x1b; },
+       {"material 0 name", "\\x1b", "control"}},
       {"header padding", [](Bytes& b) { b[170] = 1; }, {"padding", "170"}},
   };
   for (const FieldCase& fc : cases) {
@@ -661,7 +666,15 @@ TEST(ModelFileErrors, SaveRefusesWhatTheLoaderWouldReject) {
   m.voxels.bounds = Aabb();
   expect_save_error(m, "AABB");
   m = good;
+  m.materials[0].name = "bad\xc3";  // a truncated UTF-8 sequence
+  expect_save_error(m, "not valid UTF-8");
+  m = good;
+  m.voxels.bounds.hi.x = 1e30f;
+  expect_save_error(m, "AABB");
+  m = good;
   m.materials[0].name = std::string(63, 'n');
+  EXPECT_TRUE(save_model_to_memory(m, b));
+  m.materials[1].name = "caf\xc3\xa9 \xe2\x9c\x93";  // UTF-8 text is fine
   EXPECT_TRUE(save_model_to_memory(m, b));
   m.mlp[4] = 65504.0f;
   EXPECT_TRUE(save_model_to_memory(m, b));

@@ -22,6 +22,9 @@
 #include <nlohmann/json.hpp>
 
 #include "fuzz_support.h"
+#include "model.h"
+#include "model_format.h"
+#include "scene_edit.h"
 #include "scene_gltf.h"
 #include "test_support.h"
 
@@ -874,6 +877,134 @@ TEST(GltfExample, BunnyOnPlane) {
   } else {
     EXPECT_FALSE(st);
     EXPECT_TRUE(contains(st.message(), "bunny.lsnif")) << st.message();
+  }
+}
+
+}  // namespace
+}  // namespace lsnif::scene
+
+// ---- hostile inputs --------------------------------------------------------------------------
+
+namespace lsnif::scene {
+namespace {
+
+// tinygltf drops extension values that are not objects; the loader must not (docs/scene-format.md).
+TEST(GltfHostile, ExtensionsOfAnotherTypeAreErrorsNamingTheNode) {
+  TempDir dir;
+  write_fake_lsnif(dir / "bunny.lsnif");
+  for (const json& value : {json("bunny.lsnif"), json(5), json::array({1}), json(nullptr)}) {
+    json d = synthetic_doc();
+    d["nodes"].push_back({{"name", "objectless"}, {"extensions", {{"LSNIF_neural_object", value}}}});
+    d["scenes"][0]["nodes"].push_back(d["nodes"].size() - 1);
+    Scene s;
+    Status st = load_doc(d, dir, s);
+    ASSERT_FALSE(st) << value.dump();
+    EXPECT_NE(st.message().find("node 10 ('objectless'): LSNIF_neural_object must be a JSON object, not a " +
+                                std::string(value.type_name())),
+              std::string::npos)
+        << st.message();
+    json e = synthetic_doc();
+    e["extensions"]["LSNIF_environment"] = value;
+    st = load_doc(e, dir, s);
+    ASSERT_FALSE(st) << value.dump();
+    EXPECT_NE(st.message().find("LSNIF_environment must be a JSON object"), std::string::npos) << st.message();
+  }
+  // The text "LSNIF_neural_object" elsewhere (a string value) is no extension.
+  json d = synthetic_doc();
+  d["nodes"][1]["extensions"]["OTHER_ext"] = {{"note", "LSNIF_neural_object"}};
+  Scene s;
+  Status st = load_doc(d, dir, s);
+  EXPECT_TRUE(st) << st.message();
+}
+
+TEST(GltfHostile, DeepJsonAndOutsideReferencesAreRefused) {
+  TempDir dir;
+  json d = synthetic_doc();
+  std::string text = d.dump();
+  text.insert(text.size() - 1, ",\"extras\":" + std::string(20000, '[') + std::string(20000, ']'));
+  for (const bool binary : {false, true}) {
+    Scene s;
+    const std::string bytes = binary ? fuzz::glb(text, "") : text;
+    Status st = load_scene_from_memory(bytes, binary, "deep", dir.str(), quiet(), s);
+    ASSERT_FALSE(st);
+    EXPECT_NE(st.message().find("deep: JSON nested deeper than 128 levels"), std::string::npos) << st.message();
+  }
+  // Model and environment image outside the scene's folder.
+  write_fake_lsnif(dir / "m.lsnif");
+  write_file(dir / "sky.hdr", "not read");
+  std::filesystem::create_directories(dir / "scene");
+  json m = synthetic_doc();
+  m["nodes"][1]["extensions"]["LSNIF_neural_object"] = {{"model", "../m.lsnif"}};
+  json h = synthetic_doc();
+  h["extensions"]["LSNIF_environment"] = {{"hdr", "../sky.hdr"}};
+  for (const json& doc : {m, h}) {
+    Scene s;
+    write_file(dir / "scene/s.gltf", doc.dump());
+    Status st = load_scene(dir / "scene/s.gltf", quiet(), s);
+    ASSERT_FALSE(st);
+    EXPECT_NE(st.message().find("refers to a file outside the folder"), std::string::npos) << st.message();
+    SceneLoadOptions allow = quiet();
+    allow.allow_outside_refs = true;
+    st = load_scene(dir / "scene/s.gltf", allow, s);
+    EXPECT_TRUE(st) << st.message();
+  }
+}
+
+// A valid model file of an empty network whose stored box is `lo`..`hi`.
+void write_model_with_bounds(const std::string& path, glm::vec3 lo, glm::vec3 hi) {
+  Model m;
+  m.config.voxel_resolution = 4;
+  m.config.max_points = 4;
+  m.config.grid_levels = 1;
+  set_grid_resolutions(m.config, 4, 4);
+  m.config.log2_table_size = 4;
+  m.config.features = 1;
+  m.config.hidden_width = 8;
+  m.config.hidden_layers = 1;
+  m.config.material_count = 1;
+  m.voxels.resolution = 4;
+  m.voxels.bounds.lo = lo;
+  m.voxels.bounds.hi = hi;
+  m.voxels.bits.assign(size_t(model_voxel_words(m.config)), 1u);
+  m.materials.push_back({"m", glm::vec3(1.0f)});
+  m.grid.assign(m.config.grid_parameter_count(), 0.0f);
+  m.mlp.assign(m.config.mlp_parameter_count(), 0.0f);
+  Status s = save_model(m, path);
+  ASSERT_TRUE(s) << s.message();
+}
+
+TEST(GltfHostile, OverrideModelsMustMatchTheNodeMeshSpace) {
+  TempDir dir;
+  json d = synthetic_doc();
+  Scene s;
+  ASSERT_TRUE(load_doc(d, dir, s));
+  // Node "c" uses mesh 1 (the quad's positions): its box by hand, padded by 1% of the diagonal.
+  const Instance& c = s.instances[size_t(instance_of(s, "c"))];
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (const Primitive& p : s.meshes[size_t(c.mesh)].primitives)
+    for (const glm::vec3& q : p.positions) lo = glm::min(lo, q), hi = glm::max(hi, q);
+  const float pad = 0.01f * glm::length(hi - lo);
+  write_model_with_bounds(dir / "same.lsnif", lo - pad, hi + pad);
+  write_model_with_bounds(dir / "raw.lsnif", 10.0f * (lo - pad), 10.0f * (hi + pad));  // another object space
+  for (const char* model : {"same.lsnif", "raw.lsnif"}) {
+    SceneLoadOptions o = quiet();
+    LsnifOverride ov;
+    ASSERT_TRUE(parse_lsnif_override("c=" + (dir / model), ov));
+    o.lsnif_overrides.push_back(ov);
+    ASSERT_TRUE(load_doc(d, dir, s, o));
+    Status st = check_models_fit_meshes(s);
+    if (std::string(model) == "same.lsnif") {
+      EXPECT_TRUE(st) << st.message();
+    } else {
+      ASSERT_FALSE(st);
+      EXPECT_NE(st.message().find("node 'c': model " + (dir / model) + " was trained in another object space"),
+                std::string::npos)
+          << st.message();
+      EXPECT_NE(st.message().find(format("(%g %g %g)", double(10.0f * (lo.x - pad)), double(10.0f * (lo.y - pad)),
+                                         double(10.0f * (lo.z - pad)))),
+                std::string::npos)
+          << st.message();
+    }
   }
 }
 

@@ -1,0 +1,109 @@
+// trainer_test.cpp -- the trainer's guards on a cube: a learning rate far too high stops at the
+// first non-finite loss with an error naming the step (instead of training to the end and failing
+// at the save), invalid settings are refused before any work, and the loss curve comes back in the
+// report, one row per step, without any file being written.
+#include "trainer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+namespace lsnif {
+namespace {
+
+Mesh cube() {
+  Mesh m;
+  for (int i = 0; i < 8; ++i) m.positions.emplace_back(float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1));
+  const uint32_t faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& f : faces) {
+    m.triangles.emplace_back(f[0], f[1], f[2]);
+    m.triangles.emplace_back(f[0], f[2], f[3]);
+  }
+  EXPECT_TRUE(finalize_mesh(m, nullptr, "cube"));
+  return m;
+}
+
+TrainSettings small() {
+  TrainSettings s;
+  s.config.voxel_resolution = 8;
+  s.config.max_points = 8;
+  set_grid_resolutions(s.config, 16, 32);
+  s.config.log2_table_size = 10;
+  s.config.hidden_width = 16;
+  s.steps = 20;
+  s.batch_size = 256;
+  s.progress = false;
+  return s;
+}
+
+TEST(Trainer, DivergenceStopsAtTheFirstNonFiniteLoss) {
+  TrainSettings s = small();
+  s.adam.learning_rate = 1e30f;
+  Model model;
+  uint32_t steps_run = 0;
+  Status st = train_model(cube(), s, model, nullptr, [&](uint32_t step, const LossTerms&, const Model&) {
+    steps_run = step;
+    return true;
+  });
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.message().find("training diverged: the loss of step"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("lower the learning rate"), std::string::npos) << st.message();
+  EXPECT_LT(steps_run, s.steps);  // stopped early, not after all the work
+}
+
+TEST(Trainer, InvalidSettingsAreRefusedBeforeTraining) {
+  const Mesh mesh = cube();
+  struct Case {
+    const char* name;
+    void (*change)(TrainSettings&);
+    const char* expected;
+  };
+  const Case cases[] = {
+      {"lr 0", [](TrainSettings& s) { s.adam.learning_rate = 0.0f; }, "learning rate 0"},
+      {"lr negative", [](TrainSettings& s) { s.adam.learning_rate = -0.01f; }, "learning rate -0.01"},
+      {"lr NaN", [](TrainSettings& s) { s.adam.learning_rate = std::nanf(""); }, "learning rate"},
+      {"negative weight", [](TrainSettings& s) { s.loss_settings.normal = -1.0f; }, "loss weights"},
+      {"all weights 0",
+       [](TrainSettings& s) {
+         s.loss_settings.occlusion = s.loss_settings.distance = s.loss_settings.normal = 0.0f;
+         s.loss_settings.albedo = s.loss_settings.material = 0.0f;
+       },
+       "every loss weight is 0"},
+      {"batch 0", [](TrainSettings& s) { s.batch_size = 0; }, "batch size (0)"},
+  };
+  for (const Case& c : cases) {
+    TrainSettings s = small();
+    c.change(s);
+    Model model;
+    uint32_t steps_run = 0;
+    Status st = train_model(mesh, s, model, nullptr, [&](uint32_t, const LossTerms&, const Model&) {
+      ++steps_run;
+      return true;
+    });
+    ASSERT_FALSE(st) << c.name;
+    EXPECT_NE(st.message().find(c.expected), std::string::npos) << c.name << ": " << st.message();
+    EXPECT_EQ(steps_run, 0u) << c.name;
+  }
+}
+
+TEST(Trainer, LossCurveComesBackInTheReport) {
+  TrainSettings s = small();
+  s.steps = 5;
+  s.loss_curve = true;
+  Model model;
+  TrainReport report;
+  Status st = train_model(cube(), s, model, &report);
+  ASSERT_TRUE(st) << st.message();
+  ASSERT_EQ(report.loss_curve.rfind("step,seconds,total,occlusion,distance,normal,albedo,material\n", 0), 0u);
+  size_t rows = 0;
+  for (char c : report.loss_curve) rows += c == '\n';
+  EXPECT_EQ(rows, 1u + s.steps);
+  EXPECT_NE(report.loss_curve.find("\n5,"), std::string::npos);
+  s.loss_curve = false;
+  ASSERT_TRUE(train_model(cube(), s, model, &report));
+  EXPECT_TRUE(report.loss_curve.empty());
+}
+
+}  // namespace
+}  // namespace lsnif
