@@ -3,14 +3,21 @@
 // command with its output and exit code captured, and a per-test temporary folder.
 #pragma once
 #include <gtest/gtest.h>
+#include <poll.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
+#include <chrono>
+#include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include <glm/glm.hpp>
 
@@ -71,6 +78,69 @@ inline CommandResult run_command(const std::string& command) {
   while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
   const int status = pclose(p);
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+// How a process run by run_process ended.
+struct ProcessResult {
+  int exit_code = -1;      // when it exited normally, else -1
+  int signal = 0;          // the signal that killed it (SIGSEGV, SIGFPE, SIGABRT, ...), else 0
+  bool timed_out = false;  // killed by run_process after the time limit
+  std::string output;      // stdout and stderr together
+  bool crashed() const { return signal != 0 && !timed_out; }
+};
+
+// Runs argv[0] with the arguments argv[1..] (no shell: any byte may be in an argument), stdout and
+// stderr captured, killed after `timeout_s` seconds. With `file_size_limit` > 0 the child's files
+// cannot grow beyond that many bytes (RLIMIT_FSIZE; SIGXFSZ ignored, so a write past it fails with
+// EFBIG): a full disk for the program. `env` entries ("NAME=value") are added to the environment.
+inline ProcessResult run_process(const std::vector<std::string>& argv, double timeout_s,
+                                 uint64_t file_size_limit = 0, const std::vector<std::string>& env = {}) {
+  ProcessResult r;
+  int fds[2];
+  if (argv.empty() || ::pipe(fds) != 0) return r;
+  const pid_t pid = ::fork();
+  if (pid < 0) return r;
+  if (pid == 0) {
+    ::dup2(fds[1], 1);
+    ::dup2(fds[1], 2);
+    ::close(fds[0]);
+    ::close(fds[1]);
+    std::signal(SIGXFSZ, SIG_IGN);  // an ignored signal stays ignored across exec
+    if (file_size_limit > 0) {
+      struct rlimit limit = {rlim_t(file_size_limit), rlim_t(file_size_limit)};
+      ::setrlimit(RLIMIT_FSIZE, &limit);
+    }
+    for (const std::string& e : env) ::putenv(const_cast<char*>(e.c_str()));
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  ::close(fds[1]);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  std::array<char, 4096> buf;
+  for (;;) {
+    const double left = std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+    if (left <= 0) {
+      r.timed_out = true;
+      ::kill(pid, SIGKILL);
+      break;
+    }
+    struct pollfd p = {fds[0], POLLIN, 0};
+    const int ready = ::poll(&p, 1, int(std::min(left, 1.0) * 1000) + 1);
+    if (ready < 0 && errno != EINTR) break;
+    if (ready <= 0) continue;
+    const ssize_t n = ::read(fds[0], buf.data(), buf.size());
+    if (n <= 0) break;
+    r.output.append(buf.data(), size_t(n));
+  }
+  ::close(fds[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
   return r;
 }
 

@@ -6,7 +6,10 @@
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
 #include <algorithm>
+#include <csignal>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -340,6 +343,34 @@ TEST_F(ImageIo, CorruptedFilesFailCleanly) {
     EXPECT_GT(failures, 30) << name;  // the truncations alone fail
     RecordProperty(std::string(name) + "_loads", loads);
   }
+}
+
+// Every format is written whole or not at all: under a file size limit (a full disk for the
+// writer) the save fails with the reason and the previous image stays as it was, in each format.
+TEST_F(ImageIo, AFailingWriteKeepsThePreviousImage) {
+  for (const char* name : {"full.png", "full.exr", "full.hdr", "full.jpg"}) {
+    const std::string file = path(name);
+    ASSERT_TRUE(save_image(file, gradient(8, 8)));
+    std::ifstream in(file, std::ios::binary);
+    const std::string before((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    // The limit is set on this process for the one call (OpenImageIO's threads forbid a fork):
+    // the soft limit goes down and back up to the hard one.
+    struct rlimit saved;
+    ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &saved), 0);
+    const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+    struct rlimit limit = {64, saved.rlim_max};
+    ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &limit), 0);
+    const Status s = save_image(file, gradient(256, 256));
+    ::setrlimit(RLIMIT_FSIZE, &saved);
+    std::signal(SIGXFSZ, old_handler);
+    ASSERT_FALSE(s) << name;
+    EXPECT_NE(s.message().find("File too large"), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find(file), std::string::npos) << s.message();
+    std::ifstream again(file, std::ios::binary);
+    EXPECT_EQ(std::string((std::istreambuf_iterator<char>(again)), std::istreambuf_iterator<char>()), before) << name;
+  }
+  for (const auto& e : std::filesystem::directory_iterator(dir_.path()))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
 }
 
 }  // namespace

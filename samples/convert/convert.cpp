@@ -193,6 +193,9 @@ int run_convert(const ConvertSettings& settings, ConvertResult& result, FILE* ou
   // The scene about to be written must load in the renderer before any model is trained, in a dry
   // run too (a missing environment image, a broken camera or transform, a missing model).
   if (Status s = validate_output(settings, result, out_dir); !s) {
+    // The objects that already failed may be why (their nodes are left out).
+    for (const ModelResult& r : result.models)
+      if (r.state == ModelState::Failed) std::fprintf(err, "lsnif convert: error: %s\n", r.error.c_str());
     std::fprintf(err, "lsnif convert: error: the converted scene would not load: %s\n", s.message().c_str());
     return 1;
   }
