@@ -95,12 +95,15 @@ inline std::string glb(std::string js, std::string bin) {
   return g;
 }
 
+// 130 opening brackets: JSON nested past the readers' bound (import/json_text.h).
+inline constexpr const char kDeepNesting[] = "[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[";
+
 // Troublesome tokens the mutator inserts; the first kNumericTokens are numbers (used to replace
 // numbers in the input).
 inline constexpr const char* kMutationTokens[] = {
     "-1", "0", "4294967295", "4294967296", "2147483648", "-2147483649", "nan", "inf", "-inf", "1e39",
     "1e-45", "99999999999999999999", "3", "255", "65535", "1.5", "/", "//", " ", "\n", "#", "\"", "{",
-    "}", "[", "]", ",", ":", "null", "true", "-0", "1e308"};
+    "}", "[", "]", ",", ":", "null", "true", "-0", "1e308", kDeepNesting};
 inline constexpr size_t kNumericTokens = 16;
 
 // Damages `data` with 1-4 random edits drawn from `rng`: bit flips, random bytes, truncation,
