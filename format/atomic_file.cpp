@@ -105,17 +105,23 @@ bool write_all(int fd, const void* data, size_t size) {
   return true;
 }
 
+// Checks that the folder (`dir`) of `path` exists and that the target is absent or a regular file
+// (`mode`: its permissions, or 0), then creates the temporary file (`temp`). Its descriptor, or -1
+// with `error` set.
+int open_temp_beside(const std::string& path, std::string& dir, mode_t& mode, std::string& temp, Status& error) {
+  error = path.empty() ? Status::error("empty output path") : Status::ok();
+  if (error) error = check_folder(path, dir = folder_of(path));
+  if (error) error = check_target(path, mode);
+  return error ? create_temp(path, temp, error) : -1;
+}
+
 }  // namespace
 
 Status check_output_path(const std::string& path) {
-  if (path.empty()) return Status::error("empty output path");
-  const std::string dir = folder_of(path);
-  if (Status s = check_folder(path, dir); !s) return s;
+  std::string dir, temp;
   mode_t mode;
-  if (Status s = check_target(path, mode); !s) return s;
-  std::string temp;
   Status error;
-  const int fd = create_temp(path, temp, error);
+  const int fd = open_temp_beside(path, dir, mode, temp, error);
   if (fd < 0) return error;
   ::close(fd);
   ::unlink(temp.c_str());
@@ -123,14 +129,10 @@ Status check_output_path(const std::string& path) {
 }
 
 Status write_file_atomic(const std::string& path, const void* data, size_t size) {
-  if (path.empty()) return Status::error("empty output path");
-  const std::string dir = folder_of(path);
-  if (Status s = check_folder(path, dir); !s) return s;
-  mode_t mode;
-  if (Status s = check_target(path, mode); !s) return s;
-  std::string temp;
+  std::string dir, temp;
+  mode_t mode = 0;
   Status error;
-  const int fd = create_temp(path, temp, error);
+  const int fd = open_temp_beside(path, dir, mode, temp, error);
   if (fd < 0) return error;
   auto fail = [&](const char* what) {
     const int e = errno;

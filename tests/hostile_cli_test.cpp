@@ -335,27 +335,18 @@ TEST_F(HostileCli, OptionValuesAndNamesAreChecked) {
   // `info` refuses a model with bounds of 1e38 or a material name that is not UTF-8 (the bytes
   // patched, the CRC-32 recomputed).
   const std::string bytes = read_all(model_);
-  auto fix_crc = [](std::string& b) {
-    uint32_t crc = 0xffffffffu;
-    for (size_t i = 0; i + 4 < b.size(); ++i) {
-      crc ^= uint8_t(b[i]);
-      for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-    }
-    crc = ~crc;
-    std::memcpy(&b[b.size() - 4], &crc, 4);
-  };
   std::string huge = bytes;
   const float lo = -1e38f, hi = 1e38f;
   std::memcpy(&huge[80], &lo, 4);
   std::memcpy(&huge[92], &hi, 4);
-  fix_crc(huge);
+  lsnif::test::fix_model_crc(huge);
   put(path("huge.lsnif"), huge);
   EXPECT_FAILS_WITH(lsnif_run({"info", path("huge.lsnif")}), 1, "exceeds +-1e+18");
   std::string name = bytes;
   const size_t at = name.find("default");
   ASSERT_NE(at, std::string::npos);
   name[at] = char(0xff);
-  fix_crc(name);
+  lsnif::test::fix_model_crc(name);
   put(path("name.lsnif"), name);
   EXPECT_FAILS_WITH(lsnif_run({"info", path("name.lsnif")}), 1, "\\xffefault\" is not valid UTF-8");
 }

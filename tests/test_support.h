@@ -81,6 +81,18 @@ inline CommandResult run_command(const std::string& command) {
   return r;
 }
 
+// Recomputes the CRC-32 in the last 4 bytes of .lsnif file bytes `b` (docs/model-format.md), bit by
+// bit from the definition, so that a test's change to a field reaches the checks behind the CRC.
+inline void fix_model_crc(std::string& b) {
+  uint32_t crc = 0xffffffffu;
+  for (size_t i = 0; i + 4 < b.size(); ++i) {
+    crc ^= uint8_t(b[i]);
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  crc = ~crc;
+  for (int k = 0; k < 4; ++k) b[b.size() - 4 + size_t(k)] = char((crc >> (8 * k)) & 0xff);
+}
+
 // How a process run by run_process ended.
 struct ProcessResult {
   int exit_code = -1;      // when it exited normally, else -1

@@ -9,6 +9,8 @@
 #include <cmath>
 #include <string>
 
+#include "test_support.h"
+
 namespace lsnif {
 namespace {
 
@@ -24,16 +26,12 @@ Mesh cube() {
   return m;
 }
 
+// tests/test_support.h's tiny settings, smaller still for a cube.
 TrainSettings small() {
-  TrainSettings s;
-  s.config.voxel_resolution = 8;
-  s.config.max_points = 8;
-  set_grid_resolutions(s.config, 16, 32);
-  s.config.log2_table_size = 10;
+  TrainSettings s = test::tiny_train_settings();
   s.config.hidden_width = 16;
   s.steps = 20;
   s.batch_size = 256;
-  s.progress = false;
   return s;
 }
 

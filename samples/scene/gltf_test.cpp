@@ -950,26 +950,9 @@ TEST(GltfHostile, DeepJsonAndOutsideReferencesAreRefused) {
   }
 }
 
-// A valid model file of an empty network whose stored box is `lo`..`hi`.
+// A valid model file of an untrained network whose stored box is `lo`..`hi`.
 void write_model_with_bounds(const std::string& path, glm::vec3 lo, glm::vec3 hi) {
-  Model m;
-  m.config.voxel_resolution = 4;
-  m.config.max_points = 4;
-  m.config.grid_levels = 1;
-  set_grid_resolutions(m.config, 4, 4);
-  m.config.log2_table_size = 4;
-  m.config.features = 1;
-  m.config.hidden_width = 8;
-  m.config.hidden_layers = 1;
-  m.config.material_count = 1;
-  m.voxels.resolution = 4;
-  m.voxels.bounds.lo = lo;
-  m.voxels.bounds.hi = hi;
-  m.voxels.bits.assign(size_t(model_voxel_words(m.config)), 1u);
-  m.materials.push_back({"m", glm::vec3(1.0f)});
-  m.grid.assign(m.config.grid_parameter_count(), 0.0f);
-  m.mlp.assign(m.config.mlp_parameter_count(), 0.0f);
-  Status s = save_model(m, path);
+  Status s = save_model(tiny_model(lo, hi), path);
   ASSERT_TRUE(s) << s.message();
 }
 

@@ -7,8 +7,11 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 #include <unistd.h>
 
+#include "model.h"
+#include "model_format.h"
 #include "scene_gltf.h"
 
 namespace lsnif::scene {
@@ -21,6 +24,30 @@ inline void write_file(const std::string& path, const std::string& data) {
 // A file that passes check_lsnif_file: the magic and some bytes (not a valid model).
 inline void write_fake_lsnif(const std::string& path) {
   write_file(path, std::string("LSNIF\0\r\n", 8) + std::string(64, '\0'));
+}
+
+// A valid model of an untrained network (V=4, one grid level of 8^3, a 2x8 hash table entry
+// layout, one 8-wide hidden layer) whose stored box is `lo`..`hi`, with one material per name and
+// every parameter 0 and every voxel occupied.
+inline Model tiny_model(glm::vec3 lo, glm::vec3 hi, const std::vector<std::string>& material_names = {"m"}) {
+  Model m;
+  m.config.voxel_resolution = 4;
+  m.config.max_points = 4;
+  m.config.grid_levels = 1;
+  set_grid_resolutions(m.config, 8, 8);
+  m.config.log2_table_size = 5;
+  m.config.features = 2;
+  m.config.hidden_width = 8;
+  m.config.hidden_layers = 1;
+  m.config.material_count = uint32_t(material_names.size());
+  m.voxels.resolution = 4;
+  m.voxels.bounds.lo = lo;
+  m.voxels.bounds.hi = hi;
+  m.voxels.bits.assign(size_t(model_voxel_words(m.config)), ~0u);
+  for (const std::string& name : material_names) m.materials.push_back({name, glm::vec3(0.5f)});
+  m.grid.assign(m.config.grid_parameter_count(), 0.0f);
+  m.mlp.assign(m.config.mlp_parameter_count(), 0.0f);
+  return m;
 }
 
 class TempDir {

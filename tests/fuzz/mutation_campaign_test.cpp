@@ -58,26 +58,10 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 
 // A small valid model (V=4, one level, 2 materials) with parameters drawn from `seed`.
 std::string model_bytes(uint64_t seed) {
-  Model m;
-  m.config.voxel_resolution = 4;
-  m.config.max_points = 4;
-  m.config.grid_levels = 1;
-  set_grid_resolutions(m.config, 8, 8);
-  m.config.log2_table_size = 5;
-  m.config.features = 2;
-  m.config.hidden_width = 8;
-  m.config.hidden_layers = 1;
-  m.config.material_count = 2;
-  m.voxels.resolution = 4;
-  m.voxels.bounds.lo = glm::vec3(-1.0f);
-  m.voxels.bounds.hi = glm::vec3(1.0f, 2.0f, 1.5f);
+  Model m = scene::tiny_model(glm::vec3(-1.0f), glm::vec3(1.0f, 2.0f, 1.5f), {"stone", "caf\xc3\xa9"});
   std::mt19937_64 rng(seed);
-  m.voxels.bits.resize(size_t(model_voxel_words(m.config)));
   for (uint32_t& w : m.voxels.bits) w = uint32_t(rng());
-  m.materials = {{"stone", glm::vec3(0.5f)}, {"caf\xc3\xa9", glm::vec3(0.9f, 0.1f, 0.2f)}};
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  m.grid.resize(m.config.grid_parameter_count());
-  m.mlp.resize(m.config.mlp_parameter_count());
   for (float& g : m.grid) g = u(rng);
   for (float& w : m.mlp) w = u(rng);
   std::vector<uint8_t> bytes;
@@ -88,17 +72,6 @@ std::string model_bytes(uint64_t seed) {
 Status parse_model(const std::string& bytes) {
   Model m;
   return load_model_from_memory(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), m);
-}
-
-// Rewrites the CRC-32 (the last 4 bytes) so that a field change is seen by the checks behind it.
-void fix_crc(std::string& b) {
-  uint32_t crc = 0xffffffffu;
-  for (size_t i = 0; i + 4 < b.size(); ++i) {
-    crc ^= uint8_t(b[i]);
-    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-  }
-  crc = ~crc;
-  std::memcpy(&b[b.size() - 4], &crc, 4);
 }
 
 template <typename T>
@@ -144,7 +117,7 @@ TEST(MutationCampaign, ModelFiles) {
     for (size_t f = 0; f < fields.size(); ++f, ++cases) {
       std::string b = good;
       fields[f](b);
-      fix_crc(b);
+      test::fix_model_crc(b);
       ASSERT_FALSE(parse_model(b)) << "field case " << f;
     }
   }
