@@ -44,7 +44,8 @@ MemoryBreakdown memory_breakdown(const Model& model);
 // .lsnif files: versioned little-endian binary (see model_file.cpp for the exact layout) with a
 // CRC-32 over everything before it. Loading validates every field and never trusts a size it has
 // not checked against the file's length: truncated, corrupted, wrong-version or inconsistent
-// files return an error that names the problem.
+// files return an error that names the problem. save_model writes through write_file_atomic
+// (format/atomic_file.h): the whole file or, on any failure, the previous file left as it was.
 Status save_model(const Model& model, const std::string& path);
 Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes);
 Status load_model(const std::string& path, Model& model);

@@ -48,7 +48,8 @@ std::string trim_message(std::string s, size_t max_chars = std::string::npos);
 
 // Reads a whole regular file (no devices or FIFOs, at most 4 GiB) into `out`. On failure returns
 // false and appends a one-line reason naming `path` to `err` (when not null). Has the signature of
-// tinygltf's ReadWholeFile callback, which it is used as (`user` is ignored).
+// tinygltf's ReadWholeFile callback (`user` is ignored); load_model's callback reads through it
+// the files the reference policy resolved.
 bool read_whole_file(std::vector<unsigned char>* out, std::string* err, const std::string& path,
                      void* user);
 
