@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fuzz_support.h"
+#include "mesh.h"
 #include "test_support.h"
 
 namespace {
@@ -349,6 +350,50 @@ TEST_F(HostileCli, OptionValuesAndNamesAreChecked) {
   lsnif::test::fix_model_crc(name);
   put(path("name.lsnif"), name);
   EXPECT_FAILS_WITH(lsnif_run({"info", path("name.lsnif")}), 1, "\\xffefault\" is not valid UTF-8");
+}
+
+// The elephant written as OFF with `scale` applied and `extra` vertex / face lines appended.
+std::string elephant_off(double scale, const std::string& extra_vertices, int extra_vertex_count,
+                         const std::string& extra_faces, int extra_face_count) {
+  lsnif::Mesh e;
+  EXPECT_TRUE(lsnif::load_mesh(kElephant, e));
+  std::string off = "OFF\n" + std::to_string(e.positions.size() + size_t(extra_vertex_count)) + " " +
+                    std::to_string(e.triangles.size() + size_t(extra_face_count)) + " 0\n";
+  char line[128];
+  for (const glm::vec3& p : e.positions) {
+    std::snprintf(line, sizeof line, "%.9g %.9g %.9g\n", scale * p.x, scale * p.y, scale * p.z);
+    off += line;
+  }
+  off += extra_vertices;
+  for (const glm::uvec3& t : e.triangles) off += "3 " + std::to_string(t.x) + " " + std::to_string(t.y) + " " +
+                                                 std::to_string(t.z) + "\n";
+  return off + extra_faces;
+}
+
+// Degeneracy is judged per triangle: a stray triangle far away no longer drops the rest of the mesh
+// (which then fills too little of its box to train on: a clear error, not a model of a remnant),
+// an unused NaN vertex is harmless, and a mesh too small for float ray math is an error rather than
+// a model of nothing.
+TEST_F(HostileCli, MeshCleanupIsJudgedPerTriangle) {
+  lsnif::Mesh e;
+  ASSERT_TRUE(lsnif::load_mesh(kElephant, e));
+  const std::string n = std::to_string(e.positions.size());
+  put(path("stray.off"), elephant_off(1.0, "10000 0 0\n10001 0 0\n10000 1 0\n", 3,
+                                      "3 " + n + " " + std::to_string(e.positions.size() + 1) + " " +
+                                          std::to_string(e.positions.size() + 2) + "\n",
+                                      1));
+  ProcessResult r = lsnif_run(with_tiny({"train", path("stray.off"), "-o", path("stray.lsnif")}));
+  EXPECT_NE(r.output.find(": " + std::to_string(e.triangles.size() + 1) + " triangles"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find("dropped"), std::string::npos) << r.output;
+  EXPECT_FAILS_WITH(r, 1, "far-away stray triangles");
+  put(path("nan.off"), elephant_off(1.0, "nan nan nan\n", 1, "", 0));
+  r = lsnif_run(with_tiny({"train", path("nan.off"), "-o", path("nan.lsnif")}));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  put(path("tiny.off"), elephant_off(1e-30, "", 0, "", 0));
+  r = lsnif_run(with_tiny({"train", path("tiny.off"), "-o", path("tiny.lsnif")}));
+  EXPECT_FAILS_WITH(r, 1, "no valid triangles");
+  EXPECT_FALSE(fs::exists(path("tiny.lsnif")));
 }
 
 }  // namespace

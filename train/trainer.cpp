@@ -180,8 +180,10 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
     sampler.generate(settings.seed, step, last - first, fresh_samples, fresh_walks);
     rep.seconds_sampling += since(t0);
     if (fresh_samples.size() != last - first)
-      return Status::error("the ray sampler found only %zu of %zu rays crossing an occupied voxel "
-                           "(is the mesh degenerate?)", fresh_samples.size(), last - first);
+      return Status::error("the ray sampler found only %zu of %zu rays crossing an occupied voxel (%u of %u voxels "
+                           "occupied: is the mesh degenerate, or a small part of its bounding box, e.g. beside "
+                           "far-away stray triangles?)", fresh_samples.size(), last - first, occupied,
+                           config.voxel_resolution * config.voxel_resolution * config.voxel_resolution);
     if (first == 0 && last == B) {
       samples.swap(fresh_samples);
       walks.swap(fresh_walks);
