@@ -371,4 +371,83 @@ LSNIF_API LsnifResult lsnifGetIntersectionShaderSpirv(LsnifModelLookup lookup, c
                 "lsnifGetIntersectionShaderSpirv", nullptr);
 }
 
+LSNIF_API LsnifResult lsnifCreateQueryPipeline(LsnifContext context, const LsnifQueryPipelineCreateInfo* pCreateInfo,
+                                               LsnifQueryPipeline* pPipeline) {
+  return report(guarded([&]() -> Outcome {
+                  if (!context) return invalid("%s is NULL", "context");
+                  if (!pPipeline) return invalid("%s is NULL", "pPipeline");
+                  if (pCreateInfo && pCreateInfo->pNext) return invalid("%s must be NULL", "pCreateInfo->pNext");
+                  std::unique_ptr<LsnifQueryPipeline_T> p;
+                  Outcome o = lsnif::plugin::create_query_pipeline(
+                      *context, pCreateInfo ? pCreateInfo->pipelineCache : VK_NULL_HANDLE, p);
+                  if (!o) return o;
+                  *pPipeline = p.get();
+                  context->query_pipelines.push_back(std::move(p));
+                  return o;
+                }),
+                "lsnifCreateQueryPipeline", context);
+}
+
+LSNIF_API void lsnifDestroyQueryPipeline(LsnifContext context, LsnifQueryPipeline pipeline) {
+  if (!context || !pipeline) return;
+  auto& list = context->query_pipelines;
+  for (size_t i = 0; i < list.size(); ++i) {
+    if (list[i].get() != pipeline) continue;
+    lsnif::plugin::destroy_query_pipeline(*context, *list[i]);
+    list.erase(list.begin() + static_cast<std::ptrdiff_t>(i));
+    return;
+  }
+}
+
+LSNIF_API LsnifResult lsnifGetIntersectScratchSize(LsnifContext context, LsnifModel model, uint32_t rayCount,
+                                                   VkDeviceSize* pSize) {
+  return report(guarded([&]() -> Outcome {
+                  if (!context) return invalid("%s is NULL", "context");
+                  if (!pSize) return invalid("%s is NULL", "pSize");
+                  const LsnifModel_T* m = context->find(model);
+                  if (!m) return invalid("%s is not a model of this context", "model");
+                  *pSize = lsnif::plugin::intersect_scratch_bytes(*m, rayCount);
+                  return Outcome::ok();
+                }),
+                "lsnifGetIntersectScratchSize", context);
+}
+
+LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommandBuffer commandBuffer,
+                                                 LsnifQueryPipeline pipeline, const LsnifIntersectModelRaysInfo* pInfo) {
+  return report(guarded([&]() -> Outcome {
+                  if (!context) return invalid("%s is NULL", "context");
+                  if (!commandBuffer) return invalid("%s is VK_NULL_HANDLE", "commandBuffer");
+                  if (!pInfo) return invalid("%s is NULL", "pInfo");
+                  const LsnifIntersectModelRaysInfo& info = *pInfo;
+                  if (info.pNext) return invalid("%s must be NULL", "pInfo->pNext");
+                  const LsnifQueryPipeline_T* p = context->find(pipeline);
+                  if (!p) return invalid("%s is not a query pipeline of this context", "pipeline");
+                  const LsnifModel_T* m = context->find(info.model);
+                  if (!m) return invalid("%s is not a model of this context", "pInfo->model");
+                  if (!m->build_recorded)
+                    return invalid("%s has not been built (lsnifCmdBuildModels / lsnifBuildModels)", "pInfo->model");
+                  if (info.rayCount == 0) return Outcome::ok();
+                  if (info.rayCount > LSNIF_BATCH_GROUP_SIZE * 65535u)
+                    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->rayCount %u is over the limit %u",
+                                         info.rayCount, LSNIF_BATCH_GROUP_SIZE * 65535u);
+                  const struct {
+                    const char* name;
+                    VkDeviceAddress address;
+                  } addresses[] = {{"pInfo->rays", info.rays}, {"pInfo->hits", info.hits}, {"pInfo->scratch", info.scratch}};
+                  for (const auto& a : addresses) {
+                    if (a.address == 0) return invalid("%s is 0", a.name);
+                    if (a.address % 16 != 0) return invalid("%s is not 16-byte aligned", a.name);
+                  }
+                  const VkDeviceSize need = lsnif::plugin::intersect_scratch_bytes(*m, info.rayCount);
+                  if (info.scratchSize < need)
+                    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                                         "pInfo->scratchSize %llu is less than the %llu bytes %u rays need",
+                                         static_cast<unsigned long long>(info.scratchSize),
+                                         static_cast<unsigned long long>(need), info.rayCount);
+                  lsnif::plugin::record_intersect_model_rays(*context, *p, commandBuffer, *m, info);
+                  return Outcome::ok();
+                }),
+                "lsnifCmdIntersectModelRays", context);
+}
+
 }  // extern "C"

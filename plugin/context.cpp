@@ -282,6 +282,8 @@ Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<Lsnif
 }
 
 void destroy_context(LsnifContext_T& ctx) {
+  for (auto& p : ctx.query_pipelines) destroy_query_pipeline(ctx, *p);
+  ctx.query_pipelines.clear();
   for (auto& m : ctx.models) destroy_model(ctx, *m);
   ctx.models.clear();
   const VkAllocationCallbacks* cb = ctx.info.pAllocator;
@@ -316,7 +318,11 @@ Outcome create_model(LsnifContext_T& ctx, const uint8_t* data, size_t size, Lsni
   for (const float v : {box.minX, box.minY, box.minZ, box.maxX, box.maxY, box.maxZ})
     if (!std::isfinite(v)) return Outcome::fail(LSNIF_ERROR_INVALID_MODEL, "the model's bounds overflow when padded");
   m->material_count = view.config.material_count;
-  m->layout_version = gpu_block_header(words).version;
+  const LsnifGpuModelHeader header = gpu_block_header(words);
+  m->layout_version = header.version;
+  m->max_points = header.max_points;
+  m->input_dim = header.max_points * header.grid_levels * header.features;
+  m->output_dim = LSNIF_OUT_FIXED + header.material_count;
   Outcome o = create_device_objects(ctx, *m, words, box);
   if (!o) {
     destroy_model(ctx, *m);

@@ -51,7 +51,15 @@ struct LsnifModel_T {
   float bounds_min[3] = {}, bounds_max[3] = {};
   uint32_t material_count = 0;
   uint32_t layout_version = 0;
+  uint32_t max_points = 0;                  // H
+  uint32_t input_dim = 0, output_dim = 0;   // of the network
   bool build_recorded = false;
+};
+
+// The compute pipelines of the batched path (shaders/lsnif_batch.comp, one per stage).
+struct LsnifQueryPipeline_T {
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline clear = VK_NULL_HANDLE, narrow = VK_NULL_HANDLE, mlp = VK_NULL_HANDLE, decode = VK_NULL_HANDLE;
 };
 
 struct LsnifContext_T {
@@ -64,9 +72,12 @@ struct LsnifContext_T {
   VkCommandPool pool = VK_NULL_HANDLE;  // for the blocking calls (created on first use)
   VkFence fence = VK_NULL_HANDLE;
   std::vector<std::unique_ptr<LsnifModel_T>> models;
+  std::vector<std::unique_ptr<LsnifQueryPipeline_T>> query_pipelines;
 
   // The model behind `handle` if it belongs to this context, else null.
   LsnifModel_T* find(LsnifModel handle) const;
+  // The query pipeline behind `handle` if it belongs to this context, else null.
+  LsnifQueryPipeline_T* find(LsnifQueryPipeline handle) const;
 };
 
 namespace lsnif::plugin {
@@ -83,5 +94,14 @@ void record_builds(LsnifContext_T& ctx, VkCommandBuffer cmd, const std::vector<L
 // Records into the context's own command buffer, submits, waits, frees the build resources.
 Outcome build_and_wait(LsnifContext_T& ctx, const std::vector<LsnifModel_T*>& models);
 void free_build_resources(LsnifContext_T& ctx, LsnifModel_T& model);
+
+// lsnifCreateQueryPipeline / lsnifDestroyQueryPipeline (query_pipeline.cpp).
+Outcome create_query_pipeline(LsnifContext_T& ctx, VkPipelineCache cache, std::unique_ptr<LsnifQueryPipeline_T>& out);
+void destroy_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipeline_T& pipeline);
+// Bytes of scratch lsnifCmdIntersectModelRays needs for `rays` rays of `model`.
+VkDeviceSize intersect_scratch_bytes(const LsnifModel_T& model, uint32_t rays);
+// Records the stages of lsnifCmdIntersectModelRays (arguments checked by the caller).
+void record_intersect_model_rays(LsnifContext_T& ctx, const LsnifQueryPipeline_T& pipeline, VkCommandBuffer cmd,
+                                 const LsnifModel_T& model, const LsnifIntersectModelRaysInfo& info);
 
 }  // namespace lsnif::plugin

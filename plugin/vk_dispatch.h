@@ -43,7 +43,17 @@ namespace lsnif::plugin {
   X(vkCreateFence)                                \
   X(vkDestroyFence)                               \
   X(vkWaitForFences)                              \
-  X(vkResetFences)
+  X(vkResetFences)                                \
+  X(vkCreateShaderModule)                         \
+  X(vkDestroyShaderModule)                        \
+  X(vkCreatePipelineLayout)                       \
+  X(vkDestroyPipelineLayout)                      \
+  X(vkCreateComputePipelines)                     \
+  X(vkDestroyPipeline)                            \
+  X(vkCmdBindPipeline)                            \
+  X(vkCmdPushConstants)                           \
+  X(vkCmdDispatch)                                \
+  X(vkCmdWriteTimestamp)
 
 struct InstanceDispatch {
 #define LSNIF_DECLARE(name) PFN_##name name = nullptr;

@@ -177,6 +177,46 @@ struct LsnifHitAttributes {
   float leaving_distance;
 };
 
+/* ---- Batched queries (the wavefront path: lsnifCmdIntersectModelRays, shaders/lsnif_batch.comp) ----
+ * The application's rays and the hits the library writes, in device buffers addressed by their
+ * buffer device addresses (16-byte aligned). Rays are in the model's object space. */
+struct LsnifQueryRay { /* 48 bytes */
+  float origin_x, origin_y, origin_z, tmin;
+  float direction_x, direction_y, direction_z, tmax;
+  lsnif_uint flags;     /* LSNIF_RAY_FLAG_CULL_BACK_FACING | LSNIF_RAY_FLAG_CULL_FRONT_FACING */
+  lsnif_uint reserved0, reserved1, reserved2; /* zero */
+};
+#define LSNIF_QUERY_HIT_NONE 0u  /* LsnifQueryHit::kind: no accepted hit */
+#define LSNIF_QUERY_HIT_LSNIF 1u /* an accepted hit of an LSNIF model */
+struct LsnifQueryHit { /* 48 bytes; every field is written, also for a miss */
+  float t;                              /* ray parameter (also when not accepted, if points > 0) */
+  float normal_x, normal_y, normal_z;   /* object space, normalized (zero when points == 0) */
+  float albedo_r, albedo_g, albedo_b;
+  lsnif_uint material;
+  lsnif_uint kind;                      /* LSNIF_QUERY_HIT_* */
+  lsnif_uint points;                    /* boundary points of the walk (0: the network was not evaluated) */
+  float occlusion_logit;                /* raw occlusion output (0 when points == 0) */
+  lsnif_uint reserved;                  /* zero */
+};
+
+/* Push constants of the batched stages (one block for all of them, 48 bytes). The scratch buffer
+ * holds, from its start, in 32-bit words: the count of rays with boundary points (the MLP's batch
+ * size) and padding up to LSNIF_BATCH_HEADER_WORDS, then structure-of-arrays sections of `stride`
+ * words per row: the ray index of each batch slot (1 row), the walk of each slot (count, t_enter,
+ * t_exit, t[0 .. H-1]: 3 + H rows), the network input (2 x LSNIF_GPU_ROW_WORDS(input) rows) and
+ * the raw network output (8 x LSNIF_GPU_ROW_BLOCKS(output) rows). */
+#define LSNIF_BATCH_HEADER_WORDS 64u
+#define LSNIF_BATCH_GROUP_SIZE 64u /* invocations of a workgroup of every stage; stride is a multiple */
+struct LsnifBatchPushConstants {
+  lsnif_uint model_lo, model_hi;       /* the model's block address */
+  lsnif_uint rays_lo, rays_hi;         /* LsnifQueryRay[ray_count] */
+  lsnif_uint hits_lo, hits_hi;         /* LsnifQueryHit[ray_count] */
+  lsnif_uint scratch_lo, scratch_hi;   /* the scratch layout above */
+  lsnif_uint ray_count;
+  lsnif_uint stride;                   /* ray_count rounded up to a multiple of LSNIF_BATCH_GROUP_SIZE */
+  lsnif_uint reserved0, reserved1;
+};
+
 #if !defined(LSNIF_GLSL) && !defined(__cplusplus)
 /* C: the structs under their plain names too, as in C++ and GLSL. */
 typedef struct LsnifGpuModelHeader LsnifGpuModelHeader;
@@ -184,6 +224,9 @@ typedef struct LsnifReferenceRay LsnifReferenceRay;
 typedef struct LsnifReferenceHit LsnifReferenceHit;
 typedef struct LsnifRtPushConstants LsnifRtPushConstants;
 typedef struct LsnifHitAttributes LsnifHitAttributes;
+typedef struct LsnifQueryRay LsnifQueryRay;
+typedef struct LsnifQueryHit LsnifQueryHit;
+typedef struct LsnifBatchPushConstants LsnifBatchPushConstants;
 #endif
 
 #endif

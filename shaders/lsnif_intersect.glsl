@@ -34,8 +34,32 @@ float lsnif_leaving_distance(LsnifModel m) {
          (float(m.h.voxel_resolution) * sqrt(3.0));
 }
 
-LsnifHitInfo lsnif_intersect(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax,
-                             uint ray_flags) {
+// The first half of lsnif_intersect: the walk of a valid ray (else 0 boundary points, a miss).
+// Fills lsnif_walk; returns its point count.
+uint lsnif_intersect_walk(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax) {
+  if (!lsnif_finite3(origin) || !lsnif_finite3(direction) || direction == vec3(0.0) || isnan(tmin) ||
+      isnan(tmax))
+    return 0u;
+  return lsnif_walk_ray(m, origin, direction, tmin, LSNIF_INF);
+}
+
+// The second half: the decoded prediction of a walk with `points` > 0 accepted or not against the
+// query interval and the culling flags.
+LsnifHitInfo lsnif_intersect_accept(LsnifPrediction p, uint points, vec3 direction, float tmin, float tmax,
+                                    uint ray_flags) {
+  LsnifHitInfo r;
+  r.points = points;
+  r.occlusion_logit = p.occlusion_logit;
+  r.t = p.t;
+  r.hit = p.hit && p.t >= tmin && p.t <= tmax && !lsnif_facing_culled(p.normal, direction, ray_flags);
+  r.normal = p.normal;
+  r.albedo = p.albedo;
+  r.material = p.material;
+  return r;
+}
+
+// A miss before any network evaluation (points == 0).
+LsnifHitInfo lsnif_intersect_none() {
   LsnifHitInfo r;
   r.hit = false;
   r.points = 0u;
@@ -44,20 +68,17 @@ LsnifHitInfo lsnif_intersect(LsnifModel m, vec3 origin, vec3 direction, float tm
   r.normal = vec3(0.0);
   r.albedo = vec3(0.0);
   r.material = 0u;
-  if (!lsnif_finite3(origin) || !lsnif_finite3(direction) || direction == vec3(0.0) || isnan(tmin) ||
-      isnan(tmax))
-    return r;
-  r.points = lsnif_walk_ray(m, origin, direction, tmin, LSNIF_INF);
-  if (r.points == 0u) return r;
-  lsnif_encode(m);
-  const LsnifPrediction p = lsnif_decode(m, lsnif_mlp_forward(m));
-  r.occlusion_logit = p.occlusion_logit;
-  r.t = p.t;
-  r.hit = p.hit && p.t >= tmin && p.t <= tmax && !lsnif_facing_culled(p.normal, direction, ray_flags);
-  r.normal = p.normal;
-  r.albedo = p.albedo;
-  r.material = p.material;
   return r;
+}
+
+// One ray, the whole way: walk -> encode -> MLP -> decode -> accept. The batched path
+// (lsnif_batch.comp) runs the same steps in separate passes over many rays.
+LsnifHitInfo lsnif_intersect(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax,
+                             uint ray_flags) {
+  const uint points = lsnif_intersect_walk(m, origin, direction, tmin, tmax);
+  if (points == 0u) return lsnif_intersect_none();
+  lsnif_encode(m);
+  return lsnif_intersect_accept(lsnif_decode(m, lsnif_mlp_forward(m)), points, direction, tmin, tmax, ray_flags);
 }
 
 #endif

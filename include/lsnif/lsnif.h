@@ -146,6 +146,7 @@ LSNIF_API LsnifResult lsnifQueryDeviceSupport(VkInstance instance, VkPhysicalDev
 
 typedef struct LsnifContext_T* LsnifContext;
 typedef struct LsnifModel_T* LsnifModel;
+typedef struct LsnifQueryPipeline_T* LsnifQueryPipeline;
 
 typedef enum LsnifContextCreateFlagBits {
   /* Upload every model block through a staging buffer and a recorded copy into memory that is, where
@@ -288,6 +289,63 @@ LSNIF_API LsnifResult lsnifWriteModelTable(LsnifContext context, uint32_t count,
  * group's closest-hit shader decodes the hit with lsnif_hit.glsl. */
 LSNIF_API LsnifResult lsnifGetIntersectionShaderSpirv(LsnifModelLookup lookup, const uint32_t** ppCode,
                                                       size_t* pCodeSize);
+
+/* ---- Batched queries (the wavefront path) ---------------------------------------------------- *
+ * Instead of running the network inside an intersection shader one ray at a time, the batched path
+ * evaluates many rays of one model in compute passes: the narrow phase (walk and hash-grid
+ * encoding of every ray, rays without boundary points answered right away), one dispatch of the
+ * MLP over the dense batch (the weights at one address for the whole dispatch), and the decode
+ * that accepts each prediction against its ray's interval and culling flags, with the same hit
+ * semantics as the intersection shader. It needs only compute (no ray-tracing pipeline). */
+
+typedef struct LsnifQueryPipelineCreateInfo {
+  const void* pNext;                          /* reserved: NULL */
+  VkPipelineCache pipelineCache;              /* optional */
+} LsnifQueryPipelineCreateInfo;
+
+/* Creates the compute pipelines of the batched path on the context's device (SPIR-V embedded in
+ * this library). Destroyed by lsnifDestroyQueryPipeline or with the context. */
+LSNIF_API LsnifResult lsnifCreateQueryPipeline(LsnifContext context, const LsnifQueryPipelineCreateInfo* pCreateInfo,
+                                               LsnifQueryPipeline* pPipeline);
+
+/* The application must ensure the GPU no longer uses the pipeline. NULL or an unknown handle is
+ * ignored. */
+LSNIF_API void lsnifDestroyQueryPipeline(LsnifContext context, LsnifQueryPipeline pipeline);
+
+/* Timestamps lsnifCmdIntersectModelRays writes into LsnifIntersectModelRaysInfo::timestampPool:
+ * before the narrow phase, after it, after the MLP, after the decode (stage bottom of pipe). */
+#define LSNIF_INTERSECT_TIMESTAMP_COUNT 4U
+
+typedef struct LsnifIntersectModelRaysInfo {
+  const void* pNext;                          /* reserved: NULL */
+  LsnifModel model;                           /* built (lsnifCmdBuildModels executed before these commands) */
+  uint32_t rayCount;                          /* 0 records nothing; at most LSNIF_BATCH_GROUP_SIZE x 65535 */
+  VkDeviceAddress rays;                       /* LsnifQueryRay[rayCount] in the model's object space, 16-byte aligned */
+  VkDeviceAddress hits;                       /* LsnifQueryHit[rayCount], written (every field), 16-byte aligned */
+  VkDeviceAddress scratch;                    /* lsnifGetIntersectScratchSize bytes, 16-byte aligned, not shared
+                                                 with commands running at the same time */
+  VkDeviceSize scratchSize;
+  VkQueryPool timestampPool;                  /* optional: LSNIF_INTERSECT_TIMESTAMP_COUNT queries from firstTimestamp */
+  uint32_t firstTimestamp;
+} LsnifIntersectModelRaysInfo;
+
+/* The scratch bytes lsnifCmdIntersectModelRays needs for rayCount rays of `model` (per ray: the
+ * walk, the network input and output as fp32: about 4 x (4 + H + input + output) bytes). */
+LSNIF_API LsnifResult lsnifGetIntersectScratchSize(LsnifContext context, LsnifModel model, uint32_t rayCount,
+                                                   VkDeviceSize* pSize);
+
+/* Records the batched intersection of rayCount object-space rays with one model into the
+ * application's command buffer (recording, outside a render pass, queue family with compute):
+ * hits[i] = what the intersection shader would report for rays[i] (kind LSNIF_QUERY_HIT_LSNIF for an
+ * accepted hit: occlusion >= 0.5, tmin <= t <= tmax, facing not culled by flags), or kind
+ * LSNIF_QUERY_HIT_NONE. It binds its own compute pipelines and push constants (the application's
+ * compute bindings are disturbed) and records barriers between its stages only: the application
+ * makes its writes of the rays visible to compute-shader reads before, and waits for compute-shader
+ * writes before reading the hits. Fails, recording nothing, on an unknown model or pipeline, a
+ * model not built yet, a null or misaligned address, or scratch smaller than
+ * lsnifGetIntersectScratchSize. */
+LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommandBuffer commandBuffer,
+                                                 LsnifQueryPipeline pipeline, const LsnifIntersectModelRaysInfo* pInfo);
 
 #ifdef __cplusplus
 }

@@ -11,6 +11,7 @@
 //  - the application's allocation callbacks balanced, and no leak at vkDestroyDevice.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -118,7 +119,8 @@ class PluginApi : public ::testing::Test {
   // table `table` with `count` entries.
   static std::vector<LsnifReferenceHit> trace(vk::RtPipeline& pipeline,
                                               const std::vector<VkAccelerationStructureInstanceKHR>& records,
-                                              uint64_t table, uint32_t count, const std::vector<Ray>& rays) {
+                                              uint64_t table, uint32_t count, const std::vector<Ray>& rays,
+                                              uint32_t ray_flags = 0) {
     std::vector<LsnifReferenceHit> out;
     vk::AccelerationStructure tlas;
     vk::Buffer ray_buf, hit_buf;
@@ -136,6 +138,7 @@ class PluginApi : public ::testing::Test {
       push.rays = ray_buf.address;
       push.hits = hit_buf.address;
       push.ray_count = uint32_t(rays.size());
+      push.ray_flags = ray_flags;
       s = tracer_.trace(pipeline, tlas, &push, uint32_t(rays.size()));
     }
     EXPECT_TRUE(s) << s.message();
@@ -174,6 +177,48 @@ class PluginApi : public ::testing::Test {
         continue;
       ++agree;
     }
+  }
+
+  // `rays` (object space of `m`), ray i with flags[i] (or 0), through lsnifCmdIntersectModelRays
+  // with `pipeline`. The hit buffer starts as 0xFF bytes, so a field left unwritten shows.
+  static std::vector<LsnifQueryHit> intersect_batched(const TestPlugin& plugin, LsnifQueryPipeline pipeline,
+                                                      LsnifModel m, const std::vector<Ray>& rays,
+                                                      const std::vector<uint32_t>& flags = {}) {
+    std::vector<LsnifQueryHit> out;
+    const uint32_t n = uint32_t(rays.size());
+    VkDeviceSize scratch_bytes = 0;
+    EXPECT_EQ(lsnifGetIntersectScratchSize(plugin.context(), m, n, &scratch_bytes), LSNIF_SUCCESS);
+    vk::Buffer ray_buf, hit_buf, scratch;
+    Status s = vk_.create_buffer(std::max<size_t>(1, n) * sizeof(LsnifQueryRay), ray_buf);
+    if (s) s = vk_.create_buffer(std::max<size_t>(1, n) * sizeof(LsnifQueryHit), hit_buf);
+    if (s) s = vk_.create_buffer(size_t(scratch_bytes), scratch);
+    if (s) {
+      auto* r = static_cast<LsnifQueryRay*>(ray_buf.mapped);
+      for (uint32_t i = 0; i < n; ++i)
+        r[i] = {rays[i].origin.x, rays[i].origin.y, rays[i].origin.z, rays[i].tmin, rays[i].direction.x,
+                rays[i].direction.y, rays[i].direction.z, rays[i].tmax, i < flags.size() ? flags[i] : 0u, 0, 0, 0};
+      std::memset(hit_buf.mapped, 0xFF, std::max<size_t>(1, n) * sizeof(LsnifQueryHit));
+      LsnifIntersectModelRaysInfo info{};
+      info.model = m;
+      info.rayCount = n;
+      info.rays = ray_buf.address;
+      info.hits = hit_buf.address;
+      info.scratch = scratch.address;
+      info.scratchSize = scratch_bytes;
+      s = vk_.submit("lsnifCmdIntersectModelRays", [&](VkCommandBuffer cmd) {
+        EXPECT_EQ(lsnifCmdIntersectModelRays(plugin.context(), cmd, pipeline, &info), LSNIF_SUCCESS)
+            << lsnifGetLastErrorMessage();
+      });
+    }
+    EXPECT_TRUE(s) << s.message();
+    if (s) {
+      const auto* h = static_cast<const LsnifQueryHit*>(hit_buf.mapped);
+      out.assign(h, h + n);
+    }
+    vk_.destroy_buffer(ray_buf);
+    vk_.destroy_buffer(hit_buf);
+    vk_.destroy_buffer(scratch);
+    return out;
   }
 
   static size_t count_hits(const std::vector<LsnifReferenceHit>& hits) {
@@ -581,6 +626,181 @@ TEST_F(PluginApi, ShaderRecordLookupMatchesTheCpu) {
   EXPECT_EQ(count_hits(trace(pipeline, {rec}, 0, 0, rays)), 0u);
   tracer_.destroy(pipeline);
 }
+
+// The batched path (lsnifCmdIntersectModelRays) against the intersection shader on the same rays
+// (the same GLSL functions run in another order of passes: walk, encoding, network, heads and the
+// acceptance are computed in fp32 on both sides, so the points agree exactly and t and the normal
+// to rounding) and against the CPU reference, for every ray kind of gpu_test_support.h, with no
+// culling, back-face and front-face culling. The instance is the identity: object = world space.
+TEST_F(PluginApi, BatchedQueriesMatchTheIntersectionShaderAndTheCpu) {
+  TestPlugin plugin;
+  ASSERT_TRUE(plugin.init(vk_));
+  LsnifModel m = nullptr;
+  ASSERT_TRUE(plugin.upload(model_, m));
+  LsnifQueryPipeline pipeline = nullptr;
+  ASSERT_EQ(lsnifCreateQueryPipeline(plugin.context(), nullptr, &pipeline), LSNIF_SUCCESS) << last_error();
+  const Transform3x4 xf;  // identity
+  VkAccelerationStructureInstanceKHR rec;
+  ASSERT_TRUE(plugin.make_instance(m, xf, 0, 0xFF, 0, rec));
+  std::vector<uint64_t> table;
+  ASSERT_TRUE(plugin.model_table({m}, table));
+  vk::Buffer table_buf;
+  ASSERT_TRUE(vk_.create_buffer(sizeof(uint64_t), table_buf));
+  std::memcpy(table_buf.mapped, table.data(), sizeof(uint64_t));
+  const std::vector<Ray> rays = rays_at(xf, kRays, 21);
+  const double diag = double(model_.bounds().diagonal());
+
+  for (const uint32_t flags : {0u, LSNIF_RAY_FLAG_CULL_BACK_FACING, LSNIF_RAY_FLAG_CULL_FRONT_FACING}) {
+    SCOPED_TRACE(testing::Message() << "ray flags 0x" << std::hex << flags);
+    const std::vector<LsnifQueryHit> batched =
+        intersect_batched(plugin, pipeline, m, rays, std::vector<uint32_t>(rays.size(), flags));
+    const std::vector<LsnifReferenceHit> inline_hits = trace(table_pipeline_, {rec}, table_buf.address, 1, rays, flags);
+    std::vector<LsnifHit> cpu(rays.size());
+    ASSERT_TRUE(intersect(model_, xf, rays.data(), rays.size(), cpu.data(), flags));
+    ASSERT_EQ(batched.size(), rays.size());
+    ASSERT_EQ(inline_hits.size(), rays.size());
+    size_t same_hit = 0, cpu_agree = 0, hits = 0, evaluated = 0;
+    double max_dt = 0.0, max_angle = 0.0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const LsnifQueryHit& b = batched[i];
+      ASSERT_TRUE(b.kind == LSNIF_QUERY_HIT_NONE || b.kind == LSNIF_QUERY_HIT_LSNIF) << "ray " << i;
+      EXPECT_EQ(b.reserved, 0u) << "ray " << i;
+      const bool hit = b.kind == LSNIF_QUERY_HIT_LSNIF;
+      hits += hit;
+      evaluated += b.points > 0;
+      if (b.points == 0) {
+        EXPECT_FALSE(hit);
+        EXPECT_EQ(b.occlusion_logit, 0.0f);
+      }
+      // The shader reports points only for hits; where it hit, they must agree exactly.
+      if (inline_hits[i].hit) {
+        EXPECT_EQ(b.points, inline_hits[i].points) << "ray " << i;
+      }
+      if (hit == bool(inline_hits[i].hit)) ++same_hit;
+      if (hit && inline_hits[i].hit) {
+        const double len = double(glm::length(rays[i].direction));
+        max_dt = std::max(max_dt, std::fabs(double(b.t - inline_hits[i].t)) * len / diag);
+        const glm::vec3 nb(b.normal_x, b.normal_y, b.normal_z);
+        const glm::vec3 ni(inline_hits[i].normal_x, inline_hits[i].normal_y, inline_hits[i].normal_z);
+        max_angle = std::max(max_angle, double(std::acos(std::clamp(glm::dot(nb, ni), -1.0f, 1.0f))) * 180.0 / M_PI);
+      }
+      if (hit == cpu[i].hit &&
+          (!hit || std::fabs(double(b.t - cpu[i].t)) * double(glm::length(rays[i].direction)) <= 2e-4 * diag))
+        ++cpu_agree;
+    }
+    EXPECT_GE(double(same_hit), 0.999 * double(rays.size())) << "hit/miss vs the intersection shader";
+    EXPECT_LE(max_dt, 1e-5) << "largest |t difference| / diagonal vs the intersection shader";
+    EXPECT_LE(max_angle, 0.05) << "largest normal difference (degrees) vs the intersection shader";
+    EXPECT_GE(double(cpu_agree), 0.999 * double(rays.size())) << "agreement with the CPU reference";
+    EXPECT_GT(hits, rays.size() / 20) << "too few hits to tell anything";
+    EXPECT_LT(evaluated, rays.size()) << "every ray had boundary points: the miss-before-network path is untested";
+  }
+  vk_.destroy_buffer(table_buf);
+  lsnifDestroyQueryPipeline(plugin.context(), pipeline);
+}
+
+// Rays that start on the LSNIF surface, spawned with the self-intersection rule (origin at the
+// predicted hit point, back-face culling, tmin = leaving_tmin): the batched path answers them as
+// the CPU reference does. Also an empty batch (records nothing), a batch in which no ray reaches
+// the model (every field of every hit written: no network ran), and the argument errors.
+TEST_F(PluginApi, BatchedQueriesFromTheSurfaceEmptyAndMissingBatchesAndErrors) {
+  TestPlugin plugin;
+  ASSERT_TRUE(plugin.init(vk_));
+  LsnifModel m = nullptr;
+  ASSERT_TRUE(plugin.upload(model_, m));
+  LsnifQueryPipeline pipeline = nullptr;
+  ASSERT_EQ(lsnifCreateQueryPipeline(plugin.context(), nullptr, &pipeline), LSNIF_SUCCESS) << last_error();
+  const Transform3x4 xf;  // identity
+  const double diag = double(model_.bounds().diagonal());
+
+  // Leaving rays: from the CPU's hits of primary rays, in random directions.
+  const std::vector<Ray> primary = rays_at(xf, kRays, 23);
+  std::vector<LsnifHit> first(primary.size());
+  ASSERT_TRUE(intersect(model_, xf, primary.data(), primary.size(), first.data()));
+  std::mt19937 rng(5);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  std::vector<Ray> leaving;
+  for (size_t i = 0; i < primary.size(); ++i) {
+    if (!first[i].hit) continue;
+    Ray r;
+    r.origin = primary[i].origin + first[i].t * primary[i].direction;
+    r.direction = glm::normalize(glm::vec3(g(rng), g(rng), g(rng)));
+    r.tmin = leaving_tmin(model_, xf, r.direction);
+    leaving.push_back(r);
+  }
+  ASSERT_GT(leaving.size(), primary.size() / 20);
+  const std::vector<uint32_t> cull(leaving.size(), LSNIF_RAY_FLAG_CULL_BACK_FACING);
+  const std::vector<LsnifQueryHit> batched = intersect_batched(plugin, pipeline, m, leaving, cull);
+  std::vector<LsnifHit> cpu(leaving.size());
+  ASSERT_TRUE(intersect(model_, xf, leaving.data(), leaving.size(), cpu.data(), LSNIF_RAY_FLAG_CULL_BACK_FACING));
+  ASSERT_EQ(batched.size(), leaving.size());
+  size_t agree = 0;
+  for (size_t i = 0; i < leaving.size(); ++i) {
+    const bool hit = batched[i].kind == LSNIF_QUERY_HIT_LSNIF;
+    if (hit == cpu[i].hit && (!hit || std::fabs(double(batched[i].t - cpu[i].t)) <= 2e-4 * diag)) ++agree;
+  }
+  EXPECT_GE(double(agree), 0.999 * double(leaving.size())) << "rays leaving the surface";
+
+  // An empty batch records nothing and succeeds.
+  EXPECT_TRUE(intersect_batched(plugin, pipeline, m, {}).empty());
+
+  // No ray reaches the model: parallel to it, outside the box, pointing away.
+  std::vector<Ray> away(300);
+  const Aabb& b = model_.bounds();
+  for (size_t i = 0; i < away.size(); ++i) {
+    away[i].origin = b.hi + glm::vec3(0.1f + 0.01f * float(i));
+    away[i].direction = glm::vec3(1.0f, 0.5f, 0.25f);
+  }
+  for (const LsnifQueryHit& h : intersect_batched(plugin, pipeline, m, away)) {
+    EXPECT_EQ(h.kind, LSNIF_QUERY_HIT_NONE);
+    EXPECT_EQ(h.points, 0u);
+    EXPECT_EQ(h.t, 0.0f);
+    EXPECT_EQ(h.material, 0u);
+    EXPECT_EQ(h.occlusion_logit, 0.0f);
+    EXPECT_EQ(h.reserved, 0u);
+  }
+
+  // Argument errors: nothing recorded, a message naming the problem.
+  VkDeviceSize need = 0;
+  ASSERT_EQ(lsnifGetIntersectScratchSize(plugin.context(), m, 1000, &need), LSNIF_SUCCESS);
+  LsnifIntersectModelRaysInfo info{};
+  info.model = m;
+  info.rayCount = 1000;
+  info.rays = 0x10000;
+  info.hits = 0x20000;
+  info.scratch = 0x30000;
+  info.scratchSize = need;
+  auto refused = [&](LsnifQueryPipeline p, const LsnifIntersectModelRaysInfo& in, const char* words) {
+    Status s = vk_.submit("refused", [&](VkCommandBuffer cmd) {
+      EXPECT_EQ(lsnifCmdIntersectModelRays(plugin.context(), cmd, p, &in), LSNIF_ERROR_INVALID_ARGUMENT);
+    });
+    EXPECT_TRUE(s) << s.message();
+    EXPECT_NE(last_error().find(words), std::string::npos) << last_error();
+  };
+  LsnifIntersectModelRaysInfo bad = info;
+  bad.scratchSize = need - 4;
+  refused(pipeline, bad, "scratchSize");
+  bad = info;
+  bad.rays = 0x10008;
+  refused(pipeline, bad, "pInfo->rays is not 16-byte aligned");
+  bad = info;
+  bad.hits = 0;
+  refused(pipeline, bad, "pInfo->hits is 0");
+  bad = info;
+  bad.model = reinterpret_cast<LsnifModel>(&bad);
+  refused(pipeline, bad, "not a model of this context");
+  refused(reinterpret_cast<LsnifQueryPipeline>(&bad), info, "not a query pipeline of this context");
+  bad = info;
+  bad.rayCount = LSNIF_BATCH_GROUP_SIZE * 65535u + 1u;
+  refused(pipeline, bad, "over the limit");
+  LsnifModel unbuilt = nullptr;
+  ASSERT_EQ(lsnifCreateModelFromMemory(plugin.context(), bytes_.data(), bytes_.size(), &unbuilt), LSNIF_SUCCESS);
+  bad = info;
+  bad.model = unbuilt;
+  refused(pipeline, bad, "has not been built");
+  lsnifDestroyQueryPipeline(plugin.context(), pipeline);
+}
+
 
 // Allocation callbacks of the application see every allocation freed, and validation reports no
 // leaked object at vkDestroyDevice (own device: the suite's must stay alive for the other tests).
