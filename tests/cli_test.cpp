@@ -231,6 +231,22 @@ TEST(Cli, TrainingOptionsReachTheTrainer) {
   r = run_cli(base + " --normal-loss sideways");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("--normal-loss"), std::string::npos) << r.out;
+  // The paper's low-quality configuration: W = 64 and H = 10 in the saved model, the same option
+  // combined with --width or --points refused, an unknown quality named.
+  const std::string quality = "train " + kElephant + " -o " + (d / "q.lsnif").string() +
+                              " --voxels 16 --res-min 32 --res-max 64 --table-log2 12 --steps 1 --batch 256 --quiet";
+  r = run_cli(quality + " --quality low");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run_cli("info --json " + (d / "q.lsnif").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("\"hidden_width\": 64"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\"max_points\": 10"), std::string::npos) << r.out;
+  r = run_cli(quality + " --quality low --width 32");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--quality low sets --width 64 and --points 10"), std::string::npos) << r.out;
+  r = run_cli(quality + " --quality medium");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--quality must be 'high' or 'low'"), std::string::npos) << r.out;
   fs::remove_all(d);
 }
 

@@ -37,6 +37,7 @@ void TrainOptions::add_to(Args& args, const char* output_help) {
   args.option("w-normal", "loss weight of the normal", &loss.normal);
   args.option("w-albedo", "loss weight of albedo", &loss.albedo);
   args.option("w-material", "loss weight of the material", &loss.material);
+  args.option("quality", "the paper's configuration: high (default widths) or low (--width 64 --points 10)", &quality);
   args.flag("paper", "paper settings: batch 2^18, hit=aabb, normal-loss=cosine, ray-reuse=1 (slow on a CPU)",
             &paper);
   args.flag("quiet", "no progress bar", &quiet);
@@ -100,10 +101,25 @@ bool TrainOptions::to_settings(TrainSettings& s) const {
                  "(voxel faces must lie on grid planes)\n", res_min, res_max, voxels);
     return false;
   }
+  uint32_t hidden_width = width, max_points = points;
+  if (quality == "low") {
+    const TrainOptions defaults;
+    if (width != defaults.width || points != defaults.points) {
+      std::fprintf(stderr, "lsnif: --quality low sets --width %u and --points %u; give either --quality or those\n",
+                   kLowQualityWidth, kLowQualityPoints);
+      return false;
+    }
+    hidden_width = kLowQualityWidth;
+    max_points = kLowQualityPoints;
+  } else if (quality != "high") {
+    std::fprintf(stderr, "lsnif: --quality must be 'high' or 'low' (got '%s')\n", quality.c_str());
+    return false;
+  }
+  c.max_points = max_points;
   set_grid_resolutions(c, res_min, res_max);
   c.log2_table_size = table_log2;
   c.features = features;
-  c.hidden_width = width;
+  c.hidden_width = hidden_width;
   c.hidden_layers = layers;
   if (hit == "segments") {
     c.hit_param = HitParam::VoxelSegments;

@@ -21,6 +21,10 @@ struct TrainOptions {
   float lr = 0.01f;
   std::string hit = "segments";
   std::string csv;
+  // The paper's two configurations (section 6): "high" (the defaults above) and "low", which
+  // reduces the hidden width W to 64 and the boundary points H to 10 (kLowQuality*).
+  std::string quality = "high";
+  static constexpr uint32_t kLowQualityWidth = 64, kLowQualityPoints = 10;
   LossSettings loss;
   bool paper = false, quiet = false;
   MeshImportOptions import_options;  // --allow-outside-refs, --allow-dropped-triangles
