@@ -427,9 +427,6 @@ LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommand
                   if (!m->build_recorded)
                     return invalid("%s has not been built (lsnifCmdBuildModels / lsnifBuildModels)", "pInfo->model");
                   if (info.rayCount == 0) return Outcome::ok();
-                  if (info.rayCount > LSNIF_BATCH_GROUP_SIZE * 65535u)
-                    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->rayCount %u is over the limit %u",
-                                         info.rayCount, LSNIF_BATCH_GROUP_SIZE * 65535u);
                   const struct {
                     const char* name;
                     VkDeviceAddress address;
@@ -441,7 +438,8 @@ LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommand
                   const VkDeviceSize need = lsnif::plugin::intersect_scratch_bytes(*m, info.rayCount);
                   if (info.scratchSize < need)
                     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
-                                         "pInfo->scratchSize %llu is less than the %llu bytes %u rays need",
+                                         "pInfo->scratchSize %llu is less than the %llu bytes %u rays need "
+                                         "(lsnifGetIntersectScratchSize)",
                                          static_cast<unsigned long long>(info.scratchSize),
                                          static_cast<unsigned long long>(need), info.rayCount);
                   lsnif::plugin::record_intersect_model_rays(*context, *p, commandBuffer, *m, info);

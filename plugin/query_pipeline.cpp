@@ -96,25 +96,17 @@ void destroy_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipeline_T& p) {
 }
 
 VkDeviceSize intersect_scratch_bytes(const LsnifModel_T& m, uint32_t rays) {
+  rays = std::min(rays, LSNIF_BATCH_CHUNK_RAYS);  // larger batches reuse it chunk after chunk
   return 4u * (LSNIF_BATCH_HEADER_WORDS + scratch_rows(m) * uint64_t(stride_of(rays)));
 }
 
 void record_intersect_model_rays(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandBuffer cmd,
                                  const LsnifModel_T& m, const LsnifIntersectModelRaysInfo& info) {
   const DeviceDispatch& vk = ctx.vk;
-  LsnifBatchPushConstants pc{};
   auto split = [](VkDeviceAddress a, lsnif_uint& lo, lsnif_uint& hi) {
     lo = lsnif_uint(a & 0xffffffffu);
     hi = lsnif_uint(a >> 32);
   };
-  split(m.block.address, pc.model_lo, pc.model_hi);
-  split(info.rays, pc.rays_lo, pc.rays_hi);
-  split(info.hits, pc.hits_lo, pc.hits_hi);
-  split(info.scratch, pc.scratch_lo, pc.scratch_hi);
-  pc.ray_count = info.rayCount;
-  pc.stride = stride_of(info.rayCount);
-  const uint32_t groups = pc.stride / LSNIF_BATCH_GROUP_SIZE;
-
   VkMemoryBarrier barrier{};
   barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
   barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
@@ -127,22 +119,37 @@ void record_intersect_model_rays(LsnifContext_T& ctx, const LsnifQueryPipeline_T
     if (info.timestampPool)
       vk.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, info.timestampPool, info.firstTimestamp + k);
   };
+  LsnifBatchPushConstants pc{};
   auto run = [&](VkPipeline stage, uint32_t group_count) {
     vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stage);
     vk.vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof pc, &pc);
     vk.vkCmdDispatch(cmd, group_count, 1, 1);
   };
 
+  // The stages run once per chunk of at most LSNIF_BATCH_CHUNK_RAYS rays, every chunk in the same
+  // scratch (the barrier after a chunk's decode orders its reads before the next chunk's writes).
+  // The timestamps bracket the stages of all chunks together.
   timestamp(0);
-  run(p.clear, 1);
-  between_stages();
-  run(p.narrow, groups);
-  between_stages();
-  timestamp(1);
-  run(p.mlp, groups);
-  between_stages();
-  timestamp(2);
-  run(p.decode, groups);
+  for (uint32_t base = 0; base < info.rayCount; base += LSNIF_BATCH_CHUNK_RAYS) {
+    const uint32_t n = std::min(info.rayCount - base, LSNIF_BATCH_CHUNK_RAYS);
+    split(m.block.address, pc.model_lo, pc.model_hi);
+    split(info.rays + VkDeviceAddress(base) * sizeof(LsnifQueryRay), pc.rays_lo, pc.rays_hi);
+    split(info.hits + VkDeviceAddress(base) * sizeof(LsnifQueryHit), pc.hits_lo, pc.hits_hi);
+    split(info.scratch, pc.scratch_lo, pc.scratch_hi);
+    pc.ray_count = n;
+    pc.stride = stride_of(n);
+    const uint32_t groups = pc.stride / LSNIF_BATCH_GROUP_SIZE;
+    if (base > 0) between_stages();
+    run(p.clear, 1);
+    between_stages();
+    run(p.narrow, groups);
+    between_stages();
+    if (base == 0) timestamp(1);
+    run(p.mlp, groups);
+    between_stages();
+    if (base == 0) timestamp(2);
+    run(p.decode, groups);
+  }
   timestamp(3);
 }
 

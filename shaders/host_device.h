@@ -207,6 +207,7 @@ struct LsnifQueryHit { /* 48 bytes; every field is written, also for a miss */
  * the raw network output (8 x LSNIF_GPU_ROW_BLOCKS(output) rows). */
 #define LSNIF_BATCH_HEADER_WORDS 64u
 #define LSNIF_BATCH_GROUP_SIZE 64u /* invocations of a workgroup of every stage; stride is a multiple */
+#define LSNIF_BATCH_CHUNK_RAYS 262144u /* rays per run of the stages: larger batches run in chunks that share the scratch */
 struct LsnifBatchPushConstants {
   lsnif_uint model_lo, model_hi;       /* the model's block address */
   lsnif_uint rays_lo, rays_hi;         /* LsnifQueryRay[ray_count] */

@@ -313,13 +313,15 @@ LSNIF_API LsnifResult lsnifCreateQueryPipeline(LsnifContext context, const Lsnif
 LSNIF_API void lsnifDestroyQueryPipeline(LsnifContext context, LsnifQueryPipeline pipeline);
 
 /* Timestamps lsnifCmdIntersectModelRays writes into LsnifIntersectModelRaysInfo::timestampPool:
- * before the narrow phase, after it, after the MLP, after the decode (stage bottom of pipe). */
+ * before the narrow phase, after it, after the MLP, after the decode (stage bottom of pipe). A batch
+ * of more than LSNIF_BATCH_CHUNK_RAYS rays runs the stages once per chunk: the first and last
+ * timestamps bracket all of them, the middle two belong to the first chunk. */
 #define LSNIF_INTERSECT_TIMESTAMP_COUNT 4U
 
 typedef struct LsnifIntersectModelRaysInfo {
   const void* pNext;                          /* reserved: NULL */
   LsnifModel model;                           /* built (lsnifCmdBuildModels executed before these commands) */
-  uint32_t rayCount;                          /* 0 records nothing; at most LSNIF_BATCH_GROUP_SIZE x 65535 */
+  uint32_t rayCount;                          /* 0 records nothing; more than LSNIF_BATCH_CHUNK_RAYS run in chunks */
   VkDeviceAddress rays;                       /* LsnifQueryRay[rayCount] in the model's object space, 16-byte aligned */
   VkDeviceAddress hits;                       /* LsnifQueryHit[rayCount], written (every field), 16-byte aligned */
   VkDeviceAddress scratch;                    /* lsnifGetIntersectScratchSize bytes, 16-byte aligned, not shared
@@ -329,8 +331,9 @@ typedef struct LsnifIntersectModelRaysInfo {
   uint32_t firstTimestamp;
 } LsnifIntersectModelRaysInfo;
 
-/* The scratch bytes lsnifCmdIntersectModelRays needs for rayCount rays of `model` (per ray: the
- * walk, the network input and output as fp32: about 4 x (4 + H + input + output) bytes). */
+/* The scratch bytes lsnifCmdIntersectModelRays needs for rayCount rays of `model` (per ray of a
+ * chunk of at most LSNIF_BATCH_CHUNK_RAYS: the walk, the network input and output as fp32, about
+ * 4 x (4 + H + input + output) bytes; larger batches reuse the scratch chunk after chunk). */
 LSNIF_API LsnifResult lsnifGetIntersectScratchSize(LsnifContext context, LsnifModel model, uint32_t rayCount,
                                                    VkDeviceSize* pSize);
 
@@ -343,7 +346,8 @@ LSNIF_API LsnifResult lsnifGetIntersectScratchSize(LsnifContext context, LsnifMo
  * makes its writes of the rays visible to compute-shader reads before, and waits for compute-shader
  * writes before reading the hits. Fails, recording nothing, on an unknown model or pipeline, a
  * model not built yet, a null or misaligned address, or scratch smaller than
- * lsnifGetIntersectScratchSize. */
+ * lsnifGetIntersectScratchSize. The rays of a batch of more than LSNIF_BATCH_CHUNK_RAYS run in
+ * chunks, one after the other, in the same scratch. */
 LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommandBuffer commandBuffer,
                                                  LsnifQueryPipeline pipeline, const LsnifIntersectModelRaysInfo* pInfo);
 
