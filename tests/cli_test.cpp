@@ -274,6 +274,14 @@ TEST(Cli, TrainInfoEvalRoundTrip) {
   r = run_cli("info --json " + model);
   EXPECT_EQ(r.code, 0);
   EXPECT_EQ(r.out.front(), '{');
+  EXPECT_EQ(r.out.find("grid_usage"), std::string::npos) << "only with --grid-usage";
+  r = run_cli("info --json --grid-usage " + model);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("\"grid_usage\": [{\"resolution\": 32, \"vertices\": "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("}, {\"resolution\": 64, "), std::string::npos) << r.out;
+  r = run_cli("info --grid-usage " + model);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("level 1 (R=64)"), std::string::npos) << r.out;
   r = run_cli("eval " + model + " " + kElephant + " --rays 2000 --json");
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("\"voxel_baseline\""), std::string::npos) << r.out;

@@ -4,16 +4,19 @@
 
 #include "args.h"
 #include "commands.h"
+#include "grid_usage.h"
 #include "model.h"
 
 namespace lsnif::cli {
 
 int cmd_info(int argc, char** argv) {
   std::string path;
-  bool json = false;
+  bool json = false, usage = false;
   Args args("info", "Prints the configuration, bounds, materials and memory breakdown of an .lsnif model.");
   args.positional("MODEL", "model file (.lsnif)", &path);
   args.flag("json", "print JSON instead of text", &json);
+  args.flag("grid-usage", "also count, per level, the grid vertices the encoding can read and their hash collisions",
+            &usage);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   Model model;
   if (Status s = load_model(path, model); !s) {
@@ -21,18 +24,30 @@ int cmd_info(int argc, char** argv) {
     return 1;
   }
   const MemoryBreakdown m = memory_breakdown(model);
+  const std::vector<GridLevelUsage> levels = usage ? grid_usage(model.config, model.voxels) : std::vector<GridLevelUsage>();
   const Config& c = model.config;
   const Aabb& b = model.bounds();
   if (json) {
     std::printf("{\"config\": \"%s\", \"voxel_resolution\": %u, \"max_points\": %u, \"grid_levels\": %u, "
                 "\"log2_table_size\": %u, \"features\": %u, \"hidden_width\": %u, \"hidden_layers\": %u, "
                 "\"material_count\": %u, \"hit_param\": \"%s\", \"occupied_voxels\": %u, "
-                "\"bytes\": {\"voxels\": %llu, \"grid\": %llu, \"mlp\": %llu, \"header\": %llu, \"total\": %llu}}\n",
+                "\"bytes\": {\"voxels\": %llu, \"grid\": %llu, \"mlp\": %llu, \"header\": %llu, \"total\": %llu}",
                 c.describe().c_str(), c.voxel_resolution, c.max_points, c.grid_levels, c.log2_table_size,
                 c.features, c.hidden_width, c.hidden_layers, c.material_count, to_string(c.hit_param),
                 model.voxels.count_occupied(), (unsigned long long)m.voxel_bytes,
                 (unsigned long long)m.grid_bytes, (unsigned long long)m.mlp_bytes,
                 (unsigned long long)m.header_bytes, (unsigned long long)m.total());
+    if (usage) {
+      std::printf(", \"grid_usage\": [");
+      for (size_t l = 0; l < levels.size(); ++l)
+        std::printf("%s{\"resolution\": %u, \"vertices\": %llu, \"table_entries\": %llu, \"entries_used\": %llu, "
+                    "\"entries_shared\": %llu, \"vertices_in_shared\": %llu}",
+                    l ? ", " : "", levels[l].resolution, (unsigned long long)levels[l].vertices,
+                    (unsigned long long)levels[l].table_entries, (unsigned long long)levels[l].entries_used,
+                    (unsigned long long)levels[l].entries_shared, (unsigned long long)levels[l].vertices_in_shared);
+      std::printf("]");
+    }
+    std::printf("}\n");
     return 0;
   }
   std::printf("model      %s\n", path.c_str());
@@ -51,6 +66,15 @@ int cmd_info(int argc, char** argv) {
               (unsigned long long)c.mlp_parameter_count());
   std::printf("           header %8.1f KB\n", double(m.header_bytes) / 1024.0);
   std::printf("           total  %8.1f KB (%.3f MiB)\n", double(m.total()) / 1024.0, double(m.total()) / 1048576.0);
+  for (size_t l = 0; l < levels.size(); ++l) {
+    const GridLevelUsage& u = levels[l];
+    std::printf("%s level %zu (R=%u): %llu vertices on occupied voxel faces -> %llu of %llu entries used (%.1f%%), "
+                "%llu shared by 2+ vertices (%.1f%% of the vertices)\n",
+                l ? "          " : "grid use  ", l, u.resolution, (unsigned long long)u.vertices,
+                (unsigned long long)u.entries_used, (unsigned long long)u.table_entries,
+                100.0 * double(u.entries_used) / double(u.table_entries), (unsigned long long)u.entries_shared,
+                u.vertices ? 100.0 * double(u.vertices_in_shared) / double(u.vertices) : 0.0);
+  }
   return 0;
 }
 

@@ -1,0 +1,61 @@
+// grid_usage.cpp -- see grid_usage.h. Every face of every occupied voxel contributes its
+// (n + 1)^2 grid vertices, n = R_l / V cells per voxel edge; a sorted list of packed coordinates
+// removes the vertices that neighbouring faces share.
+#include "grid_usage.h"
+
+#include <algorithm>
+
+#include "hash_grid.h"
+
+namespace lsnif {
+
+std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& voxels) {
+  std::vector<GridLevelUsage> out;
+  const uint32_t V = voxels.resolution;
+  for (uint32_t level = 0; level < config.grid_levels; ++level) {
+    GridLevelUsage u;
+    u.resolution = config.grid_resolution[level];
+    u.table_entries = uint64_t(1) << config.log2_table_size;
+    const uint32_t n = u.resolution / V;
+    auto pack = [](uint64_t x, uint64_t y, uint64_t z) { return x | y << 21 | z << 42; };
+    std::vector<uint64_t> found;
+    for (uint32_t k = 0; k < V; ++k)
+      for (uint32_t j = 0; j < V; ++j)
+        for (uint32_t i = 0; i < V; ++i) {
+          if (!voxels.occupied(int(i), int(j), int(k))) continue;
+          const uint32_t cell[3] = {i, j, k};
+          for (uint32_t a = 0; a < 3; ++a) {
+            const uint32_t b = (a + 1) % 3, c = (a + 2) % 3;
+            for (uint32_t side = 0; side < 2; ++side) {  // the voxel's two faces of axis a
+              uint32_t v[3];
+              v[a] = (cell[a] + side) * n;
+              for (uint32_t db = 0; db <= n; ++db)
+                for (uint32_t dc = 0; dc <= n; ++dc) {
+                  v[b] = cell[b] * n + db;
+                  v[c] = cell[c] * n + dc;
+                  found.push_back(pack(v[0], v[1], v[2]));
+                }
+            }
+          }
+        }
+    std::sort(found.begin(), found.end());
+    found.erase(std::unique(found.begin(), found.end()), found.end());
+    u.vertices = found.size();
+    std::vector<uint32_t> per_entry(size_t(u.table_entries), 0);
+    for (const uint64_t p : found) {
+      const uint32_t x = uint32_t(p & 0x1fffff), y = uint32_t(p >> 21 & 0x1fffff), z = uint32_t(p >> 42);
+      ++per_entry[hash_vertex(x, y, z, config.log2_table_size)];
+    }
+    for (const uint32_t count : per_entry) {
+      u.entries_used += count > 0;
+      if (count > 1) {
+        ++u.entries_shared;
+        u.vertices_in_shared += count;
+      }
+    }
+    out.push_back(u);
+  }
+  return out;
+}
+
+}  // namespace lsnif

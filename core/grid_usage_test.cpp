@@ -1,0 +1,151 @@
+// grid_usage against brute force: the vertices on faces of occupied voxels counted by testing every
+// lattice point of the grid geometrically, the entry counts by hashing that set, the identity
+// vertices = used - shared + in-shared; and the claim the count rests on: every corner the encoder
+// reads with a non-zero weight along random walks is one of those vertices.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <set>
+#include <vector>
+
+#include "grid_usage.h"
+#include "hash_grid.h"
+#include "ray_walk.h"
+
+namespace lsnif {
+namespace {
+
+VoxelGrid grid_of(uint32_t V) {
+  VoxelGrid g;
+  g.resolution = V;
+  g.bounds = Aabb{glm::vec3(0.0f), glm::vec3(1.0f)};
+  g.bits.assign((V * V * V + 31) / 32, 0u);
+  return g;
+}
+
+Config config_of(uint32_t V, uint32_t n0, uint32_t n1, uint32_t log2_entries) {
+  Config c;
+  c.voxel_resolution = V;
+  c.grid_levels = 2;
+  c.grid_resolution[0] = V * n0;
+  c.grid_resolution[1] = V * n1;
+  c.log2_table_size = log2_entries;
+  return c;
+}
+
+// Brute force: lattice point (x, y, z) of level resolution R lies on a face of an occupied voxel
+// when it is inside that voxel's closed box and on one of its six planes.
+std::vector<glm::uvec3> face_vertices(const VoxelGrid& g, uint32_t R) {
+  const uint32_t V = g.resolution, n = R / V;
+  std::vector<glm::uvec3> out;
+  for (uint32_t z = 0; z <= R; ++z)
+    for (uint32_t y = 0; y <= R; ++y)
+      for (uint32_t x = 0; x <= R; ++x) {
+        bool on = false;
+        for (uint32_t k = 0; k < V && !on; ++k)
+          for (uint32_t j = 0; j < V && !on; ++j)
+            for (uint32_t i = 0; i < V && !on; ++i) {
+              if (!g.occupied(int(i), int(j), int(k))) continue;
+              const uint32_t lo[3] = {i * n, j * n, k * n}, p[3] = {x, y, z};
+              bool inside = true, on_plane = false;
+              for (int a = 0; a < 3; ++a) {
+                inside = inside && p[a] >= lo[a] && p[a] <= lo[a] + n;
+                on_plane = on_plane || p[a] == lo[a] || p[a] == lo[a] + n;
+              }
+              on = inside && on_plane;
+            }
+        if (on) out.emplace_back(x, y, z);
+      }
+  return out;
+}
+
+void expect_matches_brute_force(const Config& c, const VoxelGrid& g) {
+  const std::vector<GridLevelUsage> usage = grid_usage(c, g);
+  ASSERT_EQ(usage.size(), c.grid_levels);
+  for (uint32_t l = 0; l < c.grid_levels; ++l) {
+    SCOPED_TRACE(testing::Message() << "level " << l);
+    const std::vector<glm::uvec3> truth = face_vertices(g, c.grid_resolution[l]);
+    std::vector<uint32_t> per_entry(size_t(1) << c.log2_table_size, 0);
+    for (const glm::uvec3& v : truth) ++per_entry[hash_vertex(v.x, v.y, v.z, c.log2_table_size)];
+    uint64_t used = 0, shared = 0, in_shared = 0;
+    for (uint32_t k : per_entry) {
+      used += k > 0;
+      shared += k > 1;
+      in_shared += k > 1 ? k : 0;
+    }
+    const GridLevelUsage& u = usage[l];
+    EXPECT_EQ(u.resolution, c.grid_resolution[l]);
+    EXPECT_EQ(u.vertices, truth.size());
+    EXPECT_EQ(u.table_entries, uint64_t(1) << c.log2_table_size);
+    EXPECT_EQ(u.entries_used, used);
+    EXPECT_EQ(u.entries_shared, shared);
+    EXPECT_EQ(u.vertices_in_shared, in_shared);
+    EXPECT_EQ(u.vertices, u.entries_used - u.entries_shared + u.vertices_in_shared);
+  }
+}
+
+TEST(GridUsage, OneVoxelIsTheSurfaceOfItsCells) {
+  VoxelGrid g = grid_of(4);
+  g.set(1, 2, 1);
+  const Config c = config_of(4, 2, 4, 20);
+  const std::vector<GridLevelUsage> u = grid_usage(c, g);
+  ASSERT_EQ(u.size(), 2u);
+  // The lattice points on the surface of an n x n x n block: (n + 1)^3 - (n - 1)^3.
+  EXPECT_EQ(u[0].vertices, 27u - 1u);
+  EXPECT_EQ(u[1].vertices, 125u - 27u);
+  expect_matches_brute_force(c, g);
+}
+
+TEST(GridUsage, NeighboursShareTheirFacesAndTinyTablesCollide) {
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 4; ++trial) {
+    VoxelGrid g = grid_of(6);
+    for (uint32_t k = 0; k < 6; ++k)
+      for (uint32_t j = 0; j < 6; ++j)
+        for (uint32_t i = 0; i < 6; ++i)
+          if (rng() % 3 == 0) g.set(i, j, k);
+    expect_matches_brute_force(config_of(6, 1, 2, 16), g);
+    expect_matches_brute_force(config_of(6, 2, 3, 3), g);  // 8 entries: nearly all shared
+  }
+}
+
+// Every corner the encoder reads with a non-zero weight, along random walks, is an entry that a
+// vertex counted by grid_usage hashes to (the vertices are the encoder's whole domain).
+TEST(GridUsage, TheEncoderReadsOnlyCountedVertices) {
+  std::mt19937 rng(5);
+  VoxelGrid g = grid_of(8);
+  for (uint32_t k = 0; k < 8; ++k)
+    for (uint32_t j = 0; j < 8; ++j)
+      for (uint32_t i = 0; i < 8; ++i)
+        if (rng() % 4 == 0) g.set(i, j, k);
+  Config c = config_of(8, 2, 4, 20);
+  c.max_points = LSNIF_MAX_POINTS;
+  std::set<uint32_t> domain[2];
+  for (uint32_t l = 0; l < 2; ++l)
+    for (const glm::uvec3& v : face_vertices(g, c.grid_resolution[l]))
+      domain[l].insert((l << c.log2_table_size) + hash_vertex(v.x, v.y, v.z, c.log2_table_size));
+  std::uniform_real_distribution<float> u(-0.5f, 1.5f);
+  size_t reads = 0;
+  for (int r = 0; r < 3000; ++r) {
+    Ray ray;
+    ray.origin = glm::vec3(u(rng), u(rng), u(rng));
+    ray.direction = glm::vec3(u(rng), u(rng), u(rng)) - ray.origin;
+    if (r % 3 == 0) ray.direction.x = 0.0f;  // rays along grid planes and edges too
+    RayWalk walk;
+    walk_ray(g, ray, c.max_points, walk);
+    for (uint32_t j = 0; j < walk.count; ++j)
+      for (uint32_t l = 0; l < 2; ++l) {
+        FaceCorners fc;
+        face_corners(c, l, walk.p[j], walk.axis[j], fc);
+        for (int k = 0; k < 4; ++k) {
+          if (fc.weight[k] == 0.0f) continue;
+          ++reads;
+          EXPECT_TRUE(domain[l].count(fc.entry[k])) << "ray " << r << " point " << j << " level " << l;
+        }
+      }
+  }
+  EXPECT_GT(reads, 10000u);
+}
+
+}  // namespace
+}  // namespace lsnif
