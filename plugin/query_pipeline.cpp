@@ -57,6 +57,23 @@ uint64_t scratch_rows(const LsnifModel_T& m) {
          LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(m.output_dim);
 }
 
+// A stride near 0.618 x `groups`, coprime to it: workgroup w takes block (w x step) mod groups, a
+// permutation that spreads the first blocks (those with work) over all workgroups.
+uint32_t block_step(uint32_t groups) {
+  if (groups <= 2) return 1;
+  uint32_t step = uint32_t(0.6180339887 * double(groups)) | 1u;
+  auto gcd = [](uint32_t a, uint32_t b) {
+    while (b) {
+      const uint32_t t = a % b;
+      a = b;
+      b = t;
+    }
+    return a;
+  };
+  while (gcd(step, groups) != 1) step += 2;
+  return step;
+}
+
 uint32_t stride_of(uint32_t rays) {
   return (rays + LSNIF_BATCH_GROUP_SIZE - 1) / LSNIF_BATCH_GROUP_SIZE * LSNIF_BATCH_GROUP_SIZE;
 }
@@ -139,6 +156,7 @@ void record_intersect_model_rays(LsnifContext_T& ctx, const LsnifQueryPipeline_T
     pc.ray_count = n;
     pc.stride = stride_of(n);
     const uint32_t groups = pc.stride / LSNIF_BATCH_GROUP_SIZE;
+    pc.block_step = block_step(groups);
     if (base > 0) between_stages();
     run(p.clear, 1);
     between_stages();

@@ -215,7 +215,9 @@ struct LsnifBatchPushConstants {
   lsnif_uint scratch_lo, scratch_hi;   /* the scratch layout above */
   lsnif_uint ray_count;
   lsnif_uint stride;                   /* ray_count rounded up to a multiple of LSNIF_BATCH_GROUP_SIZE */
-  lsnif_uint reserved0, reserved1;
+  lsnif_uint block_step;               /* stages over batch slots: workgroup w takes the slots of block
+                                          (w x block_step) mod (workgroup count); coprime to that count */
+  lsnif_uint reserved0;
 };
 
 #if !defined(LSNIF_GLSL) && !defined(__cplusplus)

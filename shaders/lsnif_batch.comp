@@ -94,7 +94,11 @@ void main() {
   const uint inputs = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
   for (uint i = 0u; i < inputs; ++i) scratch.w[lsnif_batch_input_row(m, i) + slot] = floatBitsToUint(lsnif_act[i]);
 #else
-  const uint slot = gl_GlobalInvocationID.x;
+  // Only the first `count` slots hold work, and a CPU driver hands each thread one contiguous range
+  // of workgroups (lavapipe does): the blocks of slots are spread over the workgroups by a stride
+  // coprime to their count, so that every range gets its share of the work.
+  const uint block = (gl_WorkGroupID.x * pc.block_step) % gl_NumWorkGroups.x;
+  const uint slot = block * LSNIF_BATCH_GROUP_SIZE + gl_LocalInvocationID.x;
   if (slot >= scratch.w[0]) return;
 #if defined(LSNIF_BATCH_MLP)
   const uint inputs = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
