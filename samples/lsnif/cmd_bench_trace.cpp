@@ -247,6 +247,7 @@ struct Report {
   double evaluations_per_second() const { return double(network_rays) / lsnif.median_host(); }
   double ratio() const { return rays_per_second(tri) / rays_per_second(lsnif); }
   double batched_evaluations_per_second() const { return double(batched_network_rays) / batched.median_host(); }
+  // NaN (JSON null) when no ray has boundary points.
   double batched_over_inline() const { return batched_evaluations_per_second() / evaluations_per_second(); }
   double batched_over_gemm() const { return batched_evaluations_per_second() / gemm.evaluations_per_second(); }
   // The MLP stage alone: evaluations per second of its median device time (-1 without timestamps).
@@ -742,8 +743,8 @@ void print_text(const Report& r) {
                 r.median_stage(&StageTimes::decode), r.batched_first_stages.narrow, r.batched_first_stages.mlp,
                 r.batched_first_stages.decode);
   std::printf("batched network evaluations     %u rays (points > 0)\n", r.batched_network_rays);
-  std::printf("batched network evaluations/s   %.4g (%.3g x the inline shader's)\n",
-              r.batched_evaluations_per_second(), r.batched_over_inline());
+  std::printf("batched network evaluations/s   %.4g (%s x the inline shader's)\n", r.batched_evaluations_per_second(),
+              std::isfinite(r.batched_over_inline()) ? format("%.3g", r.batched_over_inline()).c_str() : "-");
   if (r.mlp_stage_evaluations_per_second() > 0)
     std::printf("MLP stage alone                 %.4g evaluations/s (device median)\n",
                 r.mlp_stage_evaluations_per_second());
@@ -836,10 +837,10 @@ void print_json(const Report& r) {
       "\"median_t_difference_over_diagonal\": %.6g, \"walk_points_mismatches\": %u, "
       "\"query_pipeline_create_seconds\": %.6g, \"batched\": %s, \"batched_hits\": %u, "
       "\"batched_network_evaluations\": %u, \"batched_network_evaluations_per_second\": %.6g, "
-      "\"batched_over_inline_network_evaluations_per_second\": %.6g, \"batched_inline_hit_agreement\": %.6g, "
+      "\"batched_over_inline_network_evaluations_per_second\": %s, \"batched_inline_hit_agreement\": %.6g, "
       "\"batched_inline_both_hit\": %u, \"batched_inline_max_t_difference_over_diagonal\": %.6g, "
       "\"batched_inline_points_mismatches\": %u, \"batched_walk_points_mismatches\": %u, \"gemm\": %s, "
-      "\"batched_over_gemm_network_evaluations_per_second\": %.6g, "
+      "\"batched_over_gemm_network_evaluations_per_second\": %s, "
       "\"batched_mlp_stage_evaluations_per_second\": %s, \"validation\": %s, "
       "\"validation_errors\": %u, \"validation_warnings\": %u}\n",
       quoted(r.device).c_str(), quoted(r.mesh_path).c_str(), quoted(r.model_path).c_str(),
@@ -850,9 +851,11 @@ void print_json(const Report& r) {
       r.triangle_hits, r.aabb_rays, r.network_rays, r.evaluations_per_second(), r.ratio(),
       double(r.agree) / double(r.rays), r.both_hit, r.median_t_difference, r.points_mismatch,
       r.query_pipeline_create_seconds, batched_json(r).c_str(), r.batched_hits, r.batched_network_rays,
-      r.batched_evaluations_per_second(), r.batched_over_inline(), double(r.batched_agree) / double(r.rays),
+      r.batched_evaluations_per_second(), json_number(r.batched_over_inline()).c_str(),
+      double(r.batched_agree) / double(r.rays),
       r.batched_both_hit, r.batched_max_t_difference, r.batched_points_mismatch, r.batched_walk_mismatch,
-      gemm_json(r.gemm).c_str(), r.batched_over_gemm(), json_number(r.mlp_stage_evaluations_per_second()).c_str(),
+      gemm_json(r.gemm).c_str(), json_number(r.batched_over_gemm()).c_str(),
+      json_number(r.mlp_stage_evaluations_per_second()).c_str(),
       r.validation ? "true" : "false", r.validation_errors,
       r.validation_warnings);
 }
