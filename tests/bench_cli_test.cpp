@@ -3,6 +3,8 @@
 // (the mesh file's triangle count, `lsnif bench-memory` on the same mesh and model for the memory
 // columns) and for internal consistency, plus the side-by-side image and the scene files; a second
 // run reuses the scene and the model; unknown scene names and missing data are clear errors.
+// `lsnif bench-trace` with few rays: its JSON has the batched path's and the CPU GEMM's numbers,
+// and the batched hits agree with the intersection shader's ray by ray.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -146,6 +148,74 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   r = run_cli("bench bunny --quick --steps 5 --spp 1 --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(has(r.out, "model     training")) << r.out;
+}
+
+// The batched path (lsnifCmdIntersectModelRays, compute) against the intersection shader
+// (lsnif.rint in a ray-tracing pipeline) on the same rays and model: two separate implementations
+// of the same per-ray computation, so they must agree (hit or miss, t, the walk's points) up to
+// float rounding. A tiny model of the bunny, few rays, one repeat, a short GEMM: seconds.
+TEST(BenchCli, TraceBatchedPathAgreesWithTheIntersectionShader) {
+  if (!fs::exists(kBunny)) GTEST_SKIP() << kBunny << " missing: run scripts/setup.sh";
+  lsnif::test::ScopedTestDir dir("lsnif_bench_trace_cli_test");
+  const std::string model = dir.path("bunny.lsnif");
+  lsnif::test::CommandResult r = run_cli("train " + kBunny + " -o " + model +
+                                         " --voxels 16 --points 9 --levels 1 --res-min 32 --res-max 64"
+                                         " --table-log2 12 --width 32 --steps 60 --batch 1024 --quiet");
+  ASSERT_EQ(r.code, 0) << r.out;
+  constexpr uint32_t kRays = 4096;
+  r = lsnif::test::run_command(std::string(LSNIF_CLI) + " bench-trace " + kBunny + " " + model + " --rays " +
+                               std::to_string(kRays) + " --repeat 1 --gemm-seconds 0.05 --json --device " +
+                               lsnif::test::kReferenceDevice + " 2>/dev/null");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const json j = json::parse(r.out);
+  // The existing keys stay.
+  for (const char* key : {"lsnif", "triangles", "network_evaluations", "network_evaluations_per_second",
+                          "hit_agreement", "walk_points_mismatches"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  for (const char* key : {"query_pipeline_create_seconds", "batched", "batched_hits", "batched_network_evaluations",
+                          "batched_network_evaluations_per_second",
+                          "batched_over_inline_network_evaluations_per_second", "batched_inline_hit_agreement", "batched_inline_both_hit",
+                          "batched_inline_max_t_difference_over_diagonal", "batched_inline_points_mismatches",
+                          "batched_walk_points_mismatches", "gemm", "batched_over_gemm_network_evaluations_per_second",
+                          "batched_mlp_stage_evaluations_per_second"})
+    ASSERT_TRUE(j.contains(key)) << key << " missing in " << r.out;
+  const json& batched = j["batched"];
+  for (const char* key : {"first_trace_seconds", "median_trace_seconds", "median_trace_device_seconds",
+                          "rays_per_second", "trace_seconds", "calls_per_run", "first_run_stages",
+                          "median_narrow_seconds", "median_mlp_seconds", "median_decode_seconds"})
+    EXPECT_TRUE(batched.contains(key)) << key;
+  EXPECT_EQ(batched["trace_seconds"].size(), 1u);
+  EXPECT_EQ(batched["calls_per_run"].get<uint32_t>(), 1u);
+  EXPECT_GT(batched["median_trace_seconds"].get<double>(), 0.0);
+  if (j["device_timestamps"].get<bool>()) {  // lavapipe has them: stages within the device time
+    const double stages = batched["median_narrow_seconds"].get<double>() + batched["median_mlp_seconds"].get<double>() +
+                          batched["median_decode_seconds"].get<double>();
+    EXPECT_GT(stages, 0.0);
+    EXPECT_LE(stages, batched["median_trace_device_seconds"].get<double>() * 1.0001);
+  }
+  const json& gemm = j["gemm"];
+  // Input H*L*F = 9*1*3 = 27, padded to 28 as the GPU model pads it; 2 hidden layers; 8 + 1 outputs.
+  EXPECT_EQ(gemm["layer_widths"], json::parse("[28, 32, 32, 9]")) << gemm;
+  EXPECT_GT(gemm["threads"].get<uint32_t>(), 0u);
+  EXPECT_GE(gemm["seconds"].get<double>(), 0.05);
+  EXPECT_GT(gemm["evaluations_per_second"].get<double>(), 0.0);
+
+  // The same evaluations: every ray with boundary points, counted by the batched path and by the
+  // host walk; the same hits as the intersection shader.
+  const uint32_t evaluations = j["network_evaluations"].get<uint32_t>();
+  EXPECT_GT(evaluations, kRays / 4);
+  EXPECT_EQ(j["batched_network_evaluations"].get<uint32_t>(), evaluations);
+  EXPECT_EQ(j["batched_walk_points_mismatches"].get<uint32_t>(), 0u);
+  EXPECT_EQ(j["batched_inline_points_mismatches"].get<uint32_t>(), 0u);
+  EXPECT_GE(j["batched_inline_hit_agreement"].get<double>(), 0.999);
+  EXPECT_GT(j["lsnif_hits"].get<uint32_t>(), kRays / 10);
+  EXPECT_NEAR(double(j["batched_hits"].get<uint32_t>()), double(j["lsnif_hits"].get<uint32_t>()), kRays * 0.001);
+  EXPECT_GT(j["batched_inline_both_hit"].get<uint32_t>(), kRays / 10);
+  EXPECT_LT(j["batched_inline_max_t_difference_over_diagonal"].get<double>(), 1e-4);
+  EXPECT_NEAR(j["batched_over_inline_network_evaluations_per_second"].get<double>(),
+              j["batched_network_evaluations_per_second"].get<double>() /
+                  j["network_evaluations_per_second"].get<double>(),
+              1e-3 * j["batched_over_inline_network_evaluations_per_second"].get<double>());
 }
 
 TEST(BenchCli, UnknownSceneAndMissingData) {

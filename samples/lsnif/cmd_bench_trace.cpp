@@ -15,6 +15,14 @@
 // time between timestamps around vkCmdTraceRaysKHR where the queue has timestamps, and of the
 // process CPU time. Network evaluations = rays whose walk (core/ray_walk.h, the CPU twin
 // of the shader's walk) has boundary points: the intersection shader runs the MLP exactly for them.
+//
+// In the same run, the same rays also go through the plugin's batched path
+// (lsnifCmdIntersectModelRays with a query pipeline of the same plugin context: narrow phase, MLP
+// over the dense batch, decode, in compute; object space = world space as the instance is the
+// identity), timed like the traces and alternating with them, with per-stage device times from
+// its timestamps, and its hits compared ray by ray with the inline shader's. The CPU limit of the
+// network evaluation is an Eigen GEMM of the model's MLP shapes on the trainer's OpenMP threads.
+#include <omp.h>
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -34,6 +42,7 @@
 #include "device_option.h"
 #include "mesh.h"
 #include "model.h"
+#include "network.h"
 #include "progress.h"
 #include "ray_walk.h"
 #include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
@@ -81,8 +90,13 @@ static_assert(sizeof(BenchTraceResult) == 8, "result layout of bench_trace_commo
 constexpr uint32_t kResultHit = 1u, kResultPointsShift = 8u;
 static_assert(sizeof(LsnifReferenceRay) == 32, "ray layout");
 
+static_assert(sizeof(LsnifQueryRay) == 48 && sizeof(LsnifQueryHit) == 48, "batched query layouts");
+
 constexpr uint32_t kMaxRays = 1u << 24;
 constexpr uint32_t kMaxRepeat = 1000;
+// lsnifCmdIntersectModelRays takes at most this many rays per call; more rays go in several calls
+// (one after the other in the same command buffer, sharing the scratch).
+constexpr uint32_t kMaxBatchRays = LSNIF_BATCH_GROUP_SIZE * 65535u;
 constexpr uint32_t kLsnifRecord = 0, kTriangleRecord = 1;  // SBT hit group records
 
 double median(std::vector<double> v) {
@@ -186,25 +200,69 @@ struct Timings {
   double median_device() const { return device.empty() ? -1.0 : median(device); }
 };
 
+// Device times of the stages of one batched run, from its timestamps (summed over the calls when
+// the rays need several): narrow phase (with the clear of the batch counter), MLP, decode.
+struct StageTimes {
+  double narrow = 0, mlp = 0, decode = 0;
+};
+
+// The CPU limit of the network evaluation (run_gemm).
+struct GemmReport {
+  std::vector<uint32_t> widths;  // input (padded as the GPU model pads it), hidden layers, output
+  uint32_t threads = 0, batch = 0;  // OpenMP threads; columns per thread and pass
+  uint64_t passes = 0;
+  double seconds = 0;      // wall time of the timed passes
+  double cpu_seconds = 0;  // process CPU time during them (all threads)
+  double flops_per_column = 0;  // 2 x multiply-adds of the GEMMs (bias and activation not counted)
+  uint64_t columns() const { return passes * threads * batch; }
+  double evaluations_per_second() const { return seconds > 0 ? double(columns()) / seconds : 0.0; }
+};
+
 struct Report {
   std::string device, mesh_path, model_path, intersection_spv;
   uint32_t rays = 0, repeat = 0, triangles = 0;
   uint64_t seed = 0;
-  double pipeline_create_seconds = 0;
+  double pipeline_create_seconds = 0, query_pipeline_create_seconds = 0;
   bool device_timestamps = false;
   bool morton_order = true;  // triangle BLAS input in Morton order of the centroids (else file order)
-  Timings lsnif, tri;
+  Timings lsnif, tri, batched;
+  uint32_t batched_calls = 0;                 // lsnifCmdIntersectModelRays calls per batched run
+  StageTimes batched_first_stages;            // of the first batched run (where timestamps exist)
+  std::vector<StageTimes> batched_stages;     // of the K repeats (empty without timestamps)
   // From the ray walk on the host (identical walk to the shader's, up to float rounding).
   uint32_t aabb_rays = 0, network_rays = 0;
   // From the traces' results.
   uint32_t lsnif_hits = 0, triangle_hits = 0, agree = 0, both_hit = 0, points_mismatch = 0;
   double median_t_difference = 0;  // |t_lsnif - t_triangle| / mesh AABB diagonal, rays both hit
+  // From the batched hits of the last run, against the inline shader's (the LSNIF trace) and the
+  // host walk. The inline shader reports its walk's points only for its hits, so `points` is
+  // compared with it over those rays, and with the host walk over all rays.
+  uint32_t batched_hits = 0, batched_network_rays = 0, batched_agree = 0, batched_both_hit = 0;
+  uint32_t batched_points_mismatch = 0, batched_walk_mismatch = 0;
+  double batched_max_t_difference = 0;  // |t_batched - t_inline| / mesh AABB diagonal, rays both hit
+  GemmReport gemm;
   uint32_t validation_warnings = 0, validation_errors = 0;
   bool validation = false;
 
   double rays_per_second(const Timings& t) const { return double(rays) / t.median_host(); }
   double evaluations_per_second() const { return double(network_rays) / lsnif.median_host(); }
   double ratio() const { return rays_per_second(tri) / rays_per_second(lsnif); }
+  double batched_evaluations_per_second() const { return double(batched_network_rays) / batched.median_host(); }
+  // NaN (JSON null) when no ray has boundary points.
+  double batched_over_inline() const { return batched_evaluations_per_second() / evaluations_per_second(); }
+  double batched_over_gemm() const { return batched_evaluations_per_second() / gemm.evaluations_per_second(); }
+  // The MLP stage alone: evaluations per second of its median device time (-1 without timestamps).
+  double mlp_stage_evaluations_per_second() const {
+    const double t = median_stage(&StageTimes::mlp);
+    return t > 0 ? double(batched_network_rays) / t : -1.0;
+  }
+  // Median over the repeats of one stage (-1 without timestamps).
+  double median_stage(double StageTimes::*stage) const {
+    if (batched_stages.empty()) return -1.0;
+    std::vector<double> v;
+    for (const StageTimes& s : batched_stages) v.push_back(s.*stage);
+    return median(std::move(v));
+  }
 };
 
 // Everything the benchmark creates on the device; release() frees it in dependency order (models
@@ -217,6 +275,13 @@ struct DeviceState {
   vk::Buffer table, rays, lsnif_results, tri_results;
   vk::AccelerationStructure tri_blas, lsnif_tlas, tri_tlas;
   vk::RtPipeline pipeline;
+  // The batched path: its pipeline, the rays as LsnifQueryRay, the hits, the scratch, and a pool of
+  // LSNIF_INTERSECT_TIMESTAMP_COUNT timestamps per call (none where the queue has no timestamps).
+  LsnifQueryPipeline query = nullptr;
+  vk::Buffer query_rays, query_hits, scratch;
+  VkQueryPool timestamps = VK_NULL_HANDLE;
+  uint64_t timestamp_mask = 0;
+  double timestamp_period = 0;  // nanoseconds per tick
 
   DeviceState() = default;
   DeviceState(const DeviceState&) = delete;
@@ -228,11 +293,71 @@ struct DeviceState {
     tracer.destroy(lsnif_tlas);
     tracer.destroy(tri_tlas);
     tracer.destroy(tri_blas);
-    for (vk::Buffer* b : {&table, &rays, &lsnif_results, &tri_results}) ctx.destroy_buffer(*b);
+    for (vk::Buffer* b : {&table, &rays, &lsnif_results, &tri_results, &query_rays, &query_hits, &scratch})
+      ctx.destroy_buffer(*b);
+    if (timestamps) vkDestroyQueryPool(ctx.device(), timestamps, nullptr);
+    timestamps = VK_NULL_HANDLE;
+    lsnifDestroyQueryPipeline(plugin.get(), query);
+    query = nullptr;
     model.reset();
     plugin.reset();
   }
 };
+
+// The batched path on the plugin context of `st`: the query pipeline, the rays as LsnifQueryRay
+// (the same rays: the instance is the identity, so object space is world space; flags 0), the
+// hits, the scratch for the largest call, and the timestamp pool where the queue has timestamps.
+Status set_up_batched(DeviceState& st, const std::vector<Ray>& rays, Report& report) {
+  auto plugin_error = [](const char* what) { return Status::error("%s: %s", what, lsnifGetLastErrorMessage()); };
+  LsnifQueryPipelineCreateInfo qi{};
+  const auto t0 = std::chrono::steady_clock::now();
+  if (lsnifCreateQueryPipeline(st.plugin.get(), &qi, &st.query) != LSNIF_SUCCESS)
+    return plugin_error("query pipeline of the batched path");
+  report.query_pipeline_create_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  const uint32_t n = uint32_t(rays.size());
+  report.batched_calls = (n + kMaxBatchRays - 1) / kMaxBatchRays;
+  VkDeviceSize scratch_bytes = 0;
+  if (lsnifGetIntersectScratchSize(st.plugin.get(), st.model.get(), std::min(n, kMaxBatchRays), &scratch_bytes) !=
+      LSNIF_SUCCESS)
+    return plugin_error("scratch size of the batched path");
+  Status s = st.ctx.create_buffer(size_t(n) * sizeof(LsnifQueryRay), st.query_rays);
+  if (s) s = st.ctx.create_buffer(size_t(n) * sizeof(LsnifQueryHit), st.query_hits);
+  if (s) s = st.ctx.create_buffer(size_t(scratch_bytes), st.scratch);
+  if (!s) return s.context("buffers of the batched path");
+  auto* out = static_cast<LsnifQueryRay*>(st.query_rays.mapped);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const Ray& r = rays[i];
+    out[i] = LsnifQueryRay{};
+    out[i].origin_x = r.origin.x;
+    out[i].origin_y = r.origin.y;
+    out[i].origin_z = r.origin.z;
+    out[i].tmin = r.tmin;
+    out[i].direction_x = r.direction.x;
+    out[i].direction_y = r.direction.y;
+    out[i].direction_z = r.direction.z;
+    out[i].tmax = r.tmax;
+  }
+
+  uint32_t family_count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(st.ctx.physical_device(), &family_count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(family_count);
+  vkGetPhysicalDeviceQueueFamilyProperties(st.ctx.physical_device(), &family_count, families.data());
+  const uint32_t valid_bits =
+      st.ctx.queue_family() < family_count ? families[st.ctx.queue_family()].timestampValidBits : 0u;
+  if (valid_bits == 0) return Status::ok();
+  VkPhysicalDeviceProperties props;
+  vkGetPhysicalDeviceProperties(st.ctx.physical_device(), &props);
+  st.timestamp_mask = valid_bits >= 64 ? ~uint64_t(0) : (uint64_t(1) << valid_bits) - 1;
+  st.timestamp_period = double(props.limits.timestampPeriod);
+  VkQueryPoolCreateInfo qci{};
+  qci.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
+  qci.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  qci.queryCount = LSNIF_INTERSECT_TIMESTAMP_COUNT * report.batched_calls;
+  LSNIF_VK_CHECK(vkCreateQueryPool(st.ctx.device(), &qci, nullptr, &st.timestamps));
+  return Status::ok();
+}
 
 // Builds everything on the device `device` selects (vk::ContextOptions::device) for the model file
 // `model_path` and `mesh` and writes `rays` into the ray buffer. The intersection shader is the
@@ -307,7 +432,7 @@ Status set_up(DeviceState& st, const std::string& model_path, const Mesh& mesh, 
     const Ray& r = rays[i];
     out[i] = {r.origin.x, r.origin.y, r.origin.z, r.tmin, r.direction.x, r.direction.y, r.direction.z, r.tmax};
   }
-  return Status::ok();
+  return set_up_batched(st, rays, report);
 }
 
 // User + system CPU time of this process so far (all threads, lavapipe's workers included).
@@ -347,9 +472,86 @@ Status timed_trace(DeviceState& st, const vk::AccelerationStructure& tlas, const
   return Status::ok();
 }
 
-// The first trace of each kind, then `repeat` alternating pairs, with a progress line on stderr.
+// One timed batched run of all rays: lsnifCmdIntersectModelRays (several calls when the rays are
+// more than one call takes, with a barrier between them as they share the scratch) in one command
+// buffer, submitted and waited for; the host time is the wall time around recording, submit and
+// wait (as for the traces). Appends (or, with `first`, stores) the times and the stage times.
+Status timed_batched(DeviceState& st, uint32_t count, bool first, Report& report) {
+  const uint32_t calls = report.batched_calls;
+  LsnifResult result = LSNIF_SUCCESS;
+  const double cpu0 = process_cpu_seconds();
+  const auto t0 = std::chrono::steady_clock::now();
+  Status s = st.ctx.submit("lsnifCmdIntersectModelRays", [&](VkCommandBuffer cmd) {
+    if (st.timestamps) vkCmdResetQueryPool(cmd, st.timestamps, 0, LSNIF_INTERSECT_TIMESTAMP_COUNT * calls);
+    VkMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+    for (uint32_t c = 0; c < calls && result == LSNIF_SUCCESS; ++c) {
+      if (c > 0)
+        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1,
+                             &barrier, 0, nullptr, 0, nullptr);
+      const uint32_t first_ray = c * kMaxBatchRays;
+      LsnifIntersectModelRaysInfo info{};
+      info.model = st.model.get();
+      info.rayCount = std::min(count - first_ray, kMaxBatchRays);
+      info.rays = st.query_rays.address + VkDeviceAddress(first_ray) * sizeof(LsnifQueryRay);
+      info.hits = st.query_hits.address + VkDeviceAddress(first_ray) * sizeof(LsnifQueryHit);
+      info.scratch = st.scratch.address;
+      info.scratchSize = st.scratch.size;
+      info.timestampPool = st.timestamps;
+      info.firstTimestamp = LSNIF_INTERSECT_TIMESTAMP_COUNT * c;
+      result = lsnifCmdIntersectModelRays(st.plugin.get(), cmd, st.query, &info);
+    }
+    barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier, 0,
+                         nullptr, 0, nullptr);
+  });
+  const double host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double cpu_seconds = process_cpu_seconds() - cpu0;
+  // A failed call recorded nothing, so its timestamps were never written: no query below.
+  if (result != LSNIF_SUCCESS) return Status::error("lsnifCmdIntersectModelRays: %s", lsnifGetLastErrorMessage());
+  if (!s) return s;
+
+  double device_seconds = -1;
+  StageTimes stages;
+  if (st.timestamps) {
+    std::vector<uint64_t> ticks(LSNIF_INTERSECT_TIMESTAMP_COUNT * calls);
+    LSNIF_VK_CHECK(vkGetQueryPoolResults(st.ctx.device(), st.timestamps, 0, uint32_t(ticks.size()),
+                                         ticks.size() * sizeof(uint64_t), ticks.data(), sizeof(uint64_t),
+                                         VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+    auto seconds = [&](uint32_t from, uint32_t to) {
+      return double((ticks[to] - ticks[from]) & st.timestamp_mask) * st.timestamp_period * 1e-9;
+    };
+    device_seconds = seconds(0, uint32_t(ticks.size()) - 1);
+    for (uint32_t c = 0; c < calls; ++c) {
+      const uint32_t b = LSNIF_INTERSECT_TIMESTAMP_COUNT * c;
+      stages.narrow += seconds(b, b + 1);
+      stages.mlp += seconds(b + 1, b + 2);
+      stages.decode += seconds(b + 2, b + 3);
+    }
+  }
+  Timings& t = report.batched;
+  if (first) {
+    t.first_host = host_seconds;
+    t.first_device = device_seconds;
+    t.first_cpu = cpu_seconds;
+    report.batched_first_stages = stages;
+  } else {
+    t.host.push_back(host_seconds);
+    t.cpu.push_back(cpu_seconds);
+    if (device_seconds >= 0) {
+      t.device.push_back(device_seconds);
+      report.batched_stages.push_back(stages);
+    }
+  }
+  return Status::ok();
+}
+
+// The first trace of each kind and the first batched run, then `repeat` alternating rounds (LSNIF,
+// triangles, batched), with a progress line on stderr.
 Status run_traces(DeviceState& st, uint32_t count, uint32_t repeat, Report& report) {
-  ProgressBar progress("bench-trace", 2 + 2 * uint64_t(repeat));
+  ProgressBar progress("bench-trace", 3 + 3 * uint64_t(repeat));
   uint64_t done = 0;
   auto step = [&](const vk::AccelerationStructure& tlas, const vk::Buffer& results, bool first, Timings& t,
                   const char* what) {
@@ -358,29 +560,98 @@ Status run_traces(DeviceState& st, uint32_t count, uint32_t repeat, Report& repo
     ++done;
     return s ? Status::ok() : Status(s).context(format("%s trace", what));
   };
+  auto batched = [&](bool first) {
+    progress.update(done, format("batched path%s", first ? " (first run)" : ""));
+    const Status s = timed_batched(st, count, first, report);
+    ++done;
+    return s ? Status::ok() : Status(s).context("batched path");
+  };
   Status s = step(st.lsnif_tlas, st.lsnif_results, true, report.lsnif, "LSNIF");
   if (s) s = step(st.tri_tlas, st.tri_results, true, report.tri, "triangles");
+  if (s) s = batched(true);
   for (uint32_t k = 0; k < repeat && s; ++k) {
     s = step(st.lsnif_tlas, st.lsnif_results, false, report.lsnif, "LSNIF");
     if (s) s = step(st.tri_tlas, st.tri_results, false, report.tri, "triangles");
+    if (s) s = batched(false);
   }
   if (!s) return s;
-  report.device_timestamps = !report.lsnif.device.empty() && !report.tri.device.empty();
-  progress.finish(format("LSNIF %.3f s, triangles %.3f s per trace (median)", report.lsnif.median_host(),
-                         report.tri.median_host()));
+  report.device_timestamps =
+      !report.lsnif.device.empty() && !report.tri.device.empty() && !report.batched.device.empty();
+  progress.finish(format("LSNIF %.3f s, triangles %.3f s, batched %.3f s per run (median)",
+                         report.lsnif.median_host(), report.tri.median_host(), report.batched.median_host()));
   return Status::ok();
 }
 
-// Hit statistics of the last traces and the host walk of every ray.
+// The CPU limit of the network evaluation: the model's MLP as Eigen GEMMs (float32, the model's
+// weights, the input padded to an even width as the GPU model block pads it, bias and leaky ReLU
+// after every hidden layer as core/network.cpp computes them) on `threads` OpenMP threads, each
+// pushing its own `batch` columns of fixed random inputs through all layers per pass (one
+// single-threaded GEMM per layer, chunk and thread, as mlp_forward runs the trainer's batches),
+// repeated for at least `min_seconds` after one untimed pass.
+GemmReport run_gemm(const Model& model, uint32_t batch, double min_seconds) {
+  const Config& config = model.config;
+  const std::vector<LayerView> layers = mlp_layers(config);
+  GemmReport g;
+  g.threads = uint32_t(std::max(1, omp_get_max_threads()));
+  g.batch = batch;
+  std::vector<Matrix> weights;
+  std::vector<Eigen::VectorXf> biases;
+  for (size_t l = 0; l < layers.size(); ++l) {
+    const LayerView& v = layers[l];
+    const uint32_t in = l == 0 ? 2u * LSNIF_GPU_ROW_WORDS(v.in) : v.in;
+    Matrix w = Matrix::Zero(v.out, in);
+    for (uint32_t r = 0; r < v.out; ++r)
+      for (uint32_t c = 0; c < v.in; ++c) w(r, c) = model.mlp[v.weight_offset + size_t(r) * v.in + c];
+    weights.push_back(std::move(w));
+    biases.push_back(Eigen::Map<const Eigen::VectorXf>(model.mlp.data() + v.bias_offset, v.out));
+    if (l == 0) g.widths.push_back(in);
+    g.widths.push_back(v.out);
+    g.flops_per_column += 2.0 * double(in) * double(v.out);
+  }
+  // Per thread: the input and one output per layer, allocated once (no allocation in the passes).
+  std::vector<std::vector<Matrix>> acts(g.threads);
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (std::vector<Matrix>& a : acts) {
+    for (const uint32_t w : g.widths) a.emplace_back(w, batch);
+    for (Eigen::Index i = 0; i < a[0].size(); ++i) a[0].data()[i] = u(rng);
+  }
+  const float slope = config.leaky_slope;
+  auto pass = [&]() {
+#pragma omp parallel num_threads(int(g.threads))
+    {
+      std::vector<Matrix>& a = acts[size_t(omp_get_thread_num())];
+      for (size_t l = 0; l < weights.size(); ++l) {
+        a[l + 1].noalias() = weights[l] * a[l];
+        a[l + 1].colwise() += biases[l];
+        if (l + 1 < weights.size()) a[l + 1] = a[l + 1].cwiseMax(slope * a[l + 1]);
+      }
+    }
+  };
+  pass();
+  const double cpu0 = process_cpu_seconds();
+  const auto t0 = std::chrono::steady_clock::now();
+  do {
+    pass();
+    ++g.passes;
+    g.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  } while (g.seconds < min_seconds);
+  g.cpu_seconds = process_cpu_seconds() - cpu0;
+  return g;
+}
+
+// Hit statistics of the last traces and batched run, and the host walk of every ray.
 void compare_results(const DeviceState& st, const Model& model, const Mesh& mesh, const std::vector<Ray>& rays,
                      Report& report) {
   const auto* lsnif = static_cast<const BenchTraceResult*>(st.lsnif_results.mapped);
   const auto* tri = static_cast<const BenchTraceResult*>(st.tri_results.mapped);
   const double diag = double(mesh.bounds().diagonal());
   std::vector<double> t_diff;
+  std::vector<uint32_t> host_points(rays.size());
   RayWalk walk;
   for (size_t i = 0; i < rays.size(); ++i) {
     const uint32_t points = walk_ray(model.voxels, rays[i], model.config.max_points, walk);
+    host_points[i] = points;
     report.aabb_rays += walk.hits_aabb;
     report.network_rays += points > 0;
     const bool lh = (lsnif[i].info & kResultHit) != 0, th = (tri[i].info & kResultHit) != 0;
@@ -394,6 +665,23 @@ void compare_results(const DeviceState& st, const Model& model, const Mesh& mesh
     }
   }
   report.median_t_difference = median(std::move(t_diff));
+
+  // The batched hits against the inline shader's, ray by ray, and their walks against the host's.
+  const auto* batched = static_cast<const LsnifQueryHit*>(st.query_hits.mapped);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const bool bh = batched[i].kind == LSNIF_QUERY_HIT_LSNIF, lh = (lsnif[i].info & kResultHit) != 0;
+    report.batched_hits += bh;
+    report.batched_network_rays += batched[i].points > 0;
+    report.batched_agree += bh == lh;
+    if (lh && ((lsnif[i].info >> kResultPointsShift) & 0xffu) != std::min(batched[i].points, 255u))
+      ++report.batched_points_mismatch;
+    report.batched_walk_mismatch += batched[i].points != host_points[i];
+    if (bh && lh) {
+      ++report.batched_both_hit;
+      report.batched_max_t_difference =
+          std::max(report.batched_max_t_difference, std::fabs(double(batched[i].t) - double(lsnif[i].t)) / diag);
+    }
+  }
 }
 
 // "-" for a missing device time.
@@ -414,18 +702,27 @@ void print_text(const Report& r) {
   std::printf("timer                  host wall time around submit + wait per trace, median of %u repeat%s "
               "(alternating)%s\n",
               r.repeat, r.repeat == 1 ? "" : "s",
-              r.device_timestamps ? "; device: timestamps around vkCmdTraceRaysKHR" : "");
-  std::printf("pipeline creation      %.3f s\n\n", r.pipeline_create_seconds);
-  std::printf("%-32s %14s %14s\n", "", "LSNIF", "triangles");
-  std::printf("%-32s %14.4f %14.4f\n", "first trace (s, host)", r.lsnif.first_host, r.tri.first_host);
-  std::printf("%-32s %14.4f %14.4f\n", "median trace (s, host)", r.lsnif.median_host(), r.tri.median_host());
-  std::printf("%-32s %14.4f %14.4f\n", "fastest trace (s, host)", r.lsnif.min_host(), r.tri.min_host());
+              r.device_timestamps ? "; device: timestamps around vkCmdTraceRaysKHR and the batched stages" : "");
+  std::printf("pipeline creation      %.3f s (ray tracing), %.3f s (batched path: lsnifCreateQueryPipeline)\n",
+              r.pipeline_create_seconds, r.query_pipeline_create_seconds);
+  std::printf("batched path           lsnifCmdIntersectModelRays on the same rays (identity instance: object space "
+              "= world space), %u call%s per run, alternating with the traces\n\n",
+              r.batched_calls, r.batched_calls == 1 ? "" : "s");
+  std::printf("%-32s %14s %14s %14s\n", "", "LSNIF", "triangles", "batched");
+  std::printf("%-32s %14.4f %14.4f %14.4f\n", "first trace (s, host)", r.lsnif.first_host, r.tri.first_host,
+              r.batched.first_host);
+  std::printf("%-32s %14.4f %14.4f %14.4f\n", "median trace (s, host)", r.lsnif.median_host(), r.tri.median_host(),
+              r.batched.median_host());
+  std::printf("%-32s %14.4f %14.4f %14.4f\n", "fastest trace (s, host)", r.lsnif.min_host(), r.tri.min_host(),
+              r.batched.min_host());
   if (r.device_timestamps)
-    std::printf("%-32s %14s %14s\n", "median trace (s, device)", seconds_text(r.lsnif.median_device()).c_str(),
-                seconds_text(r.tri.median_device()).c_str());
-  std::printf("%-32s %14.4f %14.4f\n", "median process CPU time (s)", r.lsnif.median_cpu(), r.tri.median_cpu());
-  std::printf("%-32s %14.4g %14.4g\n", "rays/s (host median)", r.rays_per_second(r.lsnif), r.rays_per_second(r.tri));
-  std::printf("%-32s %14u %14u\n", "hits", r.lsnif_hits, r.triangle_hits);
+    std::printf("%-32s %14s %14s %14s\n", "median trace (s, device)", seconds_text(r.lsnif.median_device()).c_str(),
+                seconds_text(r.tri.median_device()).c_str(), seconds_text(r.batched.median_device()).c_str());
+  std::printf("%-32s %14.4f %14.4f %14.4f\n", "median process CPU time (s)", r.lsnif.median_cpu(), r.tri.median_cpu(),
+              r.batched.median_cpu());
+  std::printf("%-32s %14.4g %14.4g %14.4g\n", "rays/s (host median)", r.rays_per_second(r.lsnif),
+              r.rays_per_second(r.tri), r.rays_per_second(r.batched));
+  std::printf("%-32s %14u %14u %14u\n", "hits", r.lsnif_hits, r.triangle_hits, r.batched_hits);
   std::printf("\nLSNIF network evaluations       %u rays (%.1f%%; %u rays, %.1f%%, reach the intersection "
               "shader)\n",
               r.network_rays, 100.0 * r.network_rays / n, r.aabb_rays, 100.0 * r.aabb_rays / n);
@@ -437,6 +734,40 @@ void print_text(const Report& r) {
   std::printf("walk check                      %u LSNIF hits whose shader walk points differ from the host "
               "walk\n",
               r.points_mismatch);
+
+  std::printf("batched stages (s, device)      ");
+  if (r.batched_stages.empty())
+    std::printf("- (the queue has no timestamps)\n");
+  else
+    std::printf("narrow phase %.4f, MLP %.4f, decode %.4f (medians; first run %.4f, %.4f, %.4f)\n",
+                r.median_stage(&StageTimes::narrow), r.median_stage(&StageTimes::mlp),
+                r.median_stage(&StageTimes::decode), r.batched_first_stages.narrow, r.batched_first_stages.mlp,
+                r.batched_first_stages.decode);
+  std::printf("batched network evaluations     %u rays (points > 0)\n", r.batched_network_rays);
+  std::printf("batched network evaluations/s   %.4g (%s x the inline shader's)\n", r.batched_evaluations_per_second(),
+              std::isfinite(r.batched_over_inline()) ? format("%.3g", r.batched_over_inline()).c_str() : "-");
+  if (r.mlp_stage_evaluations_per_second() > 0)
+    std::printf("MLP stage alone                 %.4g evaluations/s (device median)\n",
+                r.mlp_stage_evaluations_per_second());
+  std::printf("batched vs inline               hit == hit for %.4f%% of the rays; max |t difference| %.3g%% of the "
+              "diagonal over %u rays both hit\n",
+              100.0 * r.batched_agree / n, 100.0 * r.batched_max_t_difference, r.batched_both_hit);
+  std::printf("batched walk check              %u of the %u inline hits with other points; %u rays whose points "
+              "differ from the host walk\n",
+              r.batched_points_mismatch, r.lsnif_hits, r.batched_walk_mismatch);
+  std::string widths;
+  for (const uint32_t w : r.gemm.widths) widths += format(widths.empty() ? "%u" : "-%u", w);
+  std::printf("\nCPU limit                       Eigen GEMM %s float32 (bias + leaky ReLU included), %u OpenMP "
+              "thread%s x %u columns, %llu passes in %.3f s (process CPU time %.3f s; %.3g GFLOP/s in the GEMMs)\n",
+              widths.c_str(), r.gemm.threads, r.gemm.threads == 1 ? "" : "s", r.gemm.batch,
+              static_cast<unsigned long long>(r.gemm.passes), r.gemm.seconds, r.gemm.cpu_seconds,
+              r.gemm.evaluations_per_second() * r.gemm.flops_per_column * 1e-9);
+  std::printf("GEMM network evaluations/s      %.4g\n", r.gemm.evaluations_per_second());
+  std::printf("batched / GEMM evaluations/s    %.3g", r.batched_over_gemm());
+  if (r.mlp_stage_evaluations_per_second() > 0)
+    std::printf(" (MLP stage alone / GEMM: %.3g)",
+                r.mlp_stage_evaluations_per_second() / r.gemm.evaluations_per_second());
+  std::printf("\n");
   if (r.validation)
     std::printf("validation                      %u errors, %u warnings\n", r.validation_errors,
                 r.validation_warnings);
@@ -458,6 +789,43 @@ std::string timings_json(const Report& r, const Timings& t) {
                 list(t.device).c_str(), list(t.cpu).c_str());
 }
 
+std::string stages_json(const StageTimes& s, bool valid) {
+  if (!valid) return "null";
+  return format("{\"narrow_seconds\": %.6g, \"mlp_seconds\": %.6g, \"decode_seconds\": %.6g}", s.narrow, s.mlp,
+                s.decode);
+}
+
+// The batched path: its timings (the keys of the traces' objects) and its stages.
+std::string batched_json(const Report& r) {
+  std::string t = timings_json(r, r.batched);
+  t.pop_back();  // the closing brace
+  auto list = [&](double StageTimes::*stage) {
+    std::string out = "[";
+    for (size_t i = 0; i < r.batched_stages.size(); ++i)
+      out += (i ? ", " : "") + format("%.6g", r.batched_stages[i].*stage);
+    return out + "]";
+  };
+  return t + format(", \"calls_per_run\": %u, \"first_run_stages\": %s, \"median_narrow_seconds\": %s, "
+                    "\"median_mlp_seconds\": %s, \"median_decode_seconds\": %s, \"narrow_seconds\": %s, "
+                    "\"mlp_seconds\": %s, \"decode_seconds\": %s}",
+                    r.batched_calls, stages_json(r.batched_first_stages, r.batched.first_device >= 0).c_str(),
+                    json_number(r.median_stage(&StageTimes::narrow)).c_str(),
+                    json_number(r.median_stage(&StageTimes::mlp)).c_str(),
+                    json_number(r.median_stage(&StageTimes::decode)).c_str(), list(&StageTimes::narrow).c_str(),
+                    list(&StageTimes::mlp).c_str(), list(&StageTimes::decode).c_str());
+}
+
+std::string gemm_json(const GemmReport& g) {
+  std::string widths = "[";
+  for (size_t i = 0; i < g.widths.size(); ++i) widths += format(i ? ", %u" : "%u", g.widths[i]);
+  widths += "]";
+  return format("{\"layer_widths\": %s, \"float32\": true, \"bias_and_activation\": true, \"threads\": %u, "
+                "\"columns_per_thread\": %u, \"passes\": %llu, \"seconds\": %.6g, \"cpu_seconds\": %.6g, "
+                "\"flops_per_evaluation\": %.6g, \"evaluations_per_second\": %.6g}",
+                widths.c_str(), g.threads, g.batch, static_cast<unsigned long long>(g.passes), g.seconds,
+                g.cpu_seconds, g.flops_per_column, g.evaluations_per_second());
+}
+
 void print_json(const Report& r) {
   std::printf(
       "{\"device\": %s, \"mesh\": %s, \"model\": %s, \"intersection_shader\": %s, \"mesh_triangles\": %u, "
@@ -467,7 +835,14 @@ void print_json(const Report& r) {
       "\"lsnif_hits\": %u, \"triangle_hits\": %u, \"intersection_shader_rays\": %u, "
       "\"network_evaluations\": %u, \"network_evaluations_per_second\": %.6g, "
       "\"triangle_over_lsnif_rays_per_second\": %.6g, \"hit_agreement\": %.6g, \"both_hit\": %u, "
-      "\"median_t_difference_over_diagonal\": %.6g, \"walk_points_mismatches\": %u, \"validation\": %s, "
+      "\"median_t_difference_over_diagonal\": %.6g, \"walk_points_mismatches\": %u, "
+      "\"query_pipeline_create_seconds\": %.6g, \"batched\": %s, \"batched_hits\": %u, "
+      "\"batched_network_evaluations\": %u, \"batched_network_evaluations_per_second\": %.6g, "
+      "\"batched_over_inline_network_evaluations_per_second\": %s, \"batched_inline_hit_agreement\": %.6g, "
+      "\"batched_inline_both_hit\": %u, \"batched_inline_max_t_difference_over_diagonal\": %.6g, "
+      "\"batched_inline_points_mismatches\": %u, \"batched_walk_points_mismatches\": %u, \"gemm\": %s, "
+      "\"batched_over_gemm_network_evaluations_per_second\": %s, "
+      "\"batched_mlp_stage_evaluations_per_second\": %s, \"validation\": %s, "
       "\"validation_errors\": %u, \"validation_warnings\": %u}\n",
       quoted(r.device).c_str(), quoted(r.mesh_path).c_str(), quoted(r.model_path).c_str(),
       quoted(r.intersection_spv).c_str(), r.triangles,
@@ -476,7 +851,14 @@ void print_json(const Report& r) {
       r.pipeline_create_seconds, timings_json(r, r.lsnif).c_str(), timings_json(r, r.tri).c_str(), r.lsnif_hits,
       r.triangle_hits, r.aabb_rays, r.network_rays, r.evaluations_per_second(), r.ratio(),
       double(r.agree) / double(r.rays), r.both_hit, r.median_t_difference, r.points_mismatch,
-      r.validation ? "true" : "false", r.validation_errors, r.validation_warnings);
+      r.query_pipeline_create_seconds, batched_json(r).c_str(), r.batched_hits, r.batched_network_rays,
+      r.batched_evaluations_per_second(), json_number(r.batched_over_inline()).c_str(),
+      double(r.batched_agree) / double(r.rays),
+      r.batched_both_hit, r.batched_max_t_difference, r.batched_points_mismatch, r.batched_walk_mismatch,
+      gemm_json(r.gemm).c_str(), json_number(r.batched_over_gemm()).c_str(),
+      json_number(r.mlp_stage_evaluations_per_second()).c_str(),
+      r.validation ? "true" : "false", r.validation_errors,
+      r.validation_warnings);
 }
 
 }  // namespace
@@ -484,7 +866,8 @@ void print_json(const Report& r) {
 int cmd_bench_trace(int argc, char** argv) {
   std::string mesh_path, model_path, triangle_order = "morton", device;
   std::string intersection_spv;
-  uint32_t rays = 1u << 18, repeat = 5;
+  uint32_t rays = 1u << 18, repeat = 5, gemm_batch = 4096;
+  float gemm_seconds = 0.5f;
   uint64_t seed = 1;
   bool json = false, validation = false;
   MeshImportOptions import_options;
@@ -496,6 +879,10 @@ int cmd_bench_trace(int argc, char** argv) {
             "Reports the first trace of each (first use of the pipeline) and the median of the repeats\n"
             "(host wall time around submit + wait; device timestamps too where the queue has them), rays/s,\n"
             "LSNIF network evaluations/s, the triangle / LSNIF ratio and the hit agreement of the two.\n"
+            "The same rays also go through the plugin's batched path (lsnifCmdIntersectModelRays: narrow phase,\n"
+            "MLP, decode in compute), timed the same way with per-stage device times and compared ray by ray\n"
+            "with the intersection shader; and an Eigen GEMM of the model's MLP on the CPU (the trainer's\n"
+            "OpenMP threads) gives the CPU limit of the network evaluations/s.\n"
             "MODEL must have been trained on MESH (same object space; checked by the AABB).");
   args.positional("MESH", "the mesh (.off .obj .ply .gltf .glb)", &mesh_path);
   args.positional("MODEL", "the model trained on it (.lsnif)", &model_path);
@@ -510,6 +897,8 @@ int cmd_bench_trace(int argc, char** argv) {
               "SPIR-V file of the intersection shader instead of the plugin's (to compare shader versions; its "
               "hit attributes and model lookup must keep the layouts of the build)",
               &intersection_spv);
+  args.option("gemm-batch", "columns per OpenMP thread of the CPU GEMM (1..65536)", &gemm_batch);
+  args.option("gemm-seconds", "least time of the timed CPU GEMM passes (0.01..60 s)", &gemm_seconds);
   args.flag("json", "print one JSON object instead of text", &json);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 if it reports anything)", &validation);
   add_device_option(args, &device);
@@ -521,6 +910,15 @@ int cmd_bench_trace(int argc, char** argv) {
   }
   if (repeat == 0 || repeat > kMaxRepeat) {
     std::fprintf(stderr, "lsnif bench-trace: --repeat %u out of range 1..%u\n", repeat, kMaxRepeat);
+    return 2;
+  }
+
+  if (gemm_batch == 0 || gemm_batch > 65536) {
+    std::fprintf(stderr, "lsnif bench-trace: --gemm-batch %u out of range 1..65536\n", gemm_batch);
+    return 2;
+  }
+  if (!(gemm_seconds >= 0.01f && gemm_seconds <= 60.0f)) {
+    std::fprintf(stderr, "lsnif bench-trace: --gemm-seconds %g out of range 0.01..60\n", double(gemm_seconds));
     return 2;
   }
 
@@ -557,6 +955,9 @@ int cmd_bench_trace(int argc, char** argv) {
   if (s) s = run_traces(st, rays, repeat, report);
   if (!s) return fail(s);
   compare_results(st, model, mesh, ray_list, report);
+  // After the device work, so that lavapipe's threads are idle while the GEMM has the cores.
+  std::fprintf(stderr, "bench-trace: CPU GEMM of the MLP for %.2g s or more\n", double(gemm_seconds));
+  report.gemm = run_gemm(model, gemm_batch, double(gemm_seconds));
   // Free everything, then the device, so that validation also sees leaks at vkDestroyDevice.
   st.release();
   st.ctx.destroy_device();
