@@ -94,9 +94,10 @@ static_assert(sizeof(LsnifQueryRay) == 48 && sizeof(LsnifQueryHit) == 48, "batch
 
 constexpr uint32_t kMaxRays = 1u << 24;
 constexpr uint32_t kMaxRepeat = 1000;
-// lsnifCmdIntersectModelRays takes at most this many rays per call; more rays go in several calls
-// (one after the other in the same command buffer, sharing the scratch).
-constexpr uint32_t kMaxBatchRays = LSNIF_BATCH_GROUP_SIZE * 65535u;
+// Rays per lsnifCmdIntersectModelRays call: one chunk of the plugin, so that each call's middle
+// timestamps bracket its stages (a call of more rays runs several chunks and times only the first
+// chunk's stages); more rays go in several calls, one after the other, sharing the scratch.
+constexpr uint32_t kMaxBatchRays = LSNIF_BATCH_CHUNK_RAYS;
 constexpr uint32_t kLsnifRecord = 0, kTriangleRecord = 1;  // SBT hit group records
 
 double median(std::vector<double> v) {
