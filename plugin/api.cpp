@@ -245,13 +245,8 @@ LSNIF_API LsnifResult lsnifFreeModelBuildResources(LsnifContext context, uint32_
 }
 
 LSNIF_API void lsnifDestroyModel(LsnifContext context, LsnifModel model) {
-  if (!context || !model) return;
-  for (size_t i = 0; i < context->models.size(); ++i) {
-    if (context->models[i].get() != model) continue;
-    lsnif::plugin::destroy_model(*context, *context->models[i]);
-    context->models.erase(context->models.begin() + static_cast<std::ptrdiff_t>(i));
-    return;
-  }
+  if (!context) return;
+  if (auto m = LsnifContext_T::take(context->models, model)) lsnif::plugin::destroy_model(*context, *m);
 }
 
 LSNIF_API LsnifResult lsnifGetModelProperties(LsnifContext context, LsnifModel model,
@@ -389,14 +384,9 @@ LSNIF_API LsnifResult lsnifCreateQueryPipeline(LsnifContext context, const Lsnif
 }
 
 LSNIF_API void lsnifDestroyQueryPipeline(LsnifContext context, LsnifQueryPipeline pipeline) {
-  if (!context || !pipeline) return;
-  auto& list = context->query_pipelines;
-  for (size_t i = 0; i < list.size(); ++i) {
-    if (list[i].get() != pipeline) continue;
-    lsnif::plugin::destroy_query_pipeline(*context, *list[i]);
-    list.erase(list.begin() + static_cast<std::ptrdiff_t>(i));
-    return;
-  }
+  if (!context) return;
+  if (auto p = LsnifContext_T::take(context->query_pipelines, pipeline))
+    lsnif::plugin::destroy_query_pipeline(*context, *p);
 }
 
 LSNIF_API LsnifResult lsnifGetIntersectScratchSize(LsnifContext context, LsnifModel model, uint32_t rayCount,

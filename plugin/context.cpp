@@ -12,13 +12,6 @@
 #include "gpu_block.h"
 #include "model_format.h"
 
-LsnifModel_T* LsnifContext_T::find(LsnifModel handle) const {
-  if (!handle) return nullptr;
-  for (const auto& m : models)
-    if (m.get() == handle) return m.get();
-  return nullptr;
-}
-
 namespace lsnif::plugin {
 
 Outcome Outcome::fail(LsnifResult code, const char* fmt, ...) {

@@ -74,10 +74,29 @@ struct LsnifContext_T {
   std::vector<std::unique_ptr<LsnifModel_T>> models;
   std::vector<std::unique_ptr<LsnifQueryPipeline_T>> query_pipelines;
 
-  // The model behind `handle` if it belongs to this context, else null.
-  LsnifModel_T* find(LsnifModel handle) const;
-  // The query pipeline behind `handle` if it belongs to this context, else null.
-  LsnifQueryPipeline_T* find(LsnifQueryPipeline handle) const;
+  // The model or query pipeline behind `handle` if it belongs to this context, else null.
+  LsnifModel_T* find(LsnifModel handle) const { return find_in(models, handle); }
+  LsnifQueryPipeline_T* find(LsnifQueryPipeline handle) const { return find_in(query_pipelines, handle); }
+  // Removes the object behind `handle` from its list and returns it (null when it is not there).
+  template <class T>
+  static std::unique_ptr<T> take(std::vector<std::unique_ptr<T>>& list, const T* handle) {
+    for (auto it = list.begin(); it != list.end(); ++it) {
+      if (it->get() != handle) continue;
+      std::unique_ptr<T> out = std::move(*it);
+      list.erase(it);
+      return out;
+    }
+    return nullptr;
+  }
+
+ private:
+  template <class T>
+  static T* find_in(const std::vector<std::unique_ptr<T>>& list, const T* handle) {
+    if (!handle) return nullptr;
+    for (const auto& p : list)
+      if (p.get() == handle) return p.get();
+    return nullptr;
+  }
 };
 
 namespace lsnif::plugin {

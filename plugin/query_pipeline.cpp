@@ -2,7 +2,7 @@
 // lsnifCmdIntersectModelRays): the four compute stages of shaders/lsnif_batch.comp, embedded as
 // SPIR-V, one pipeline layout (push constants only: every buffer is a device address), and the
 // recording of clear -> narrow phase -> MLP -> decode with compute-to-compute barriers.
-#include <cstring>
+#include <algorithm>
 
 #include "context.h"
 
@@ -14,13 +14,6 @@ namespace {
 #include "lsnif_batch_narrow_spirv.h"
 
 }  // namespace
-
-LsnifQueryPipeline_T* LsnifContext_T::find(LsnifQueryPipeline handle) const {
-  if (!handle) return nullptr;
-  for (const auto& p : query_pipelines)
-    if (p.get() == handle) return p.get();
-  return nullptr;
-}
 
 namespace lsnif::plugin {
 namespace {
@@ -145,14 +138,14 @@ void record_intersect_model_rays(LsnifContext_T& ctx, const LsnifQueryPipeline_T
 
   // The stages run once per chunk of at most LSNIF_BATCH_CHUNK_RAYS rays, every chunk in the same
   // scratch (the barrier after a chunk's decode orders its reads before the next chunk's writes).
-  // The timestamps bracket the stages of all chunks together.
+  // The first and last timestamps bracket all chunks, the middle two the first chunk's stages.
+  split(m.block.address, pc.model_lo, pc.model_hi);
+  split(info.scratch, pc.scratch_lo, pc.scratch_hi);
   timestamp(0);
   for (uint32_t base = 0; base < info.rayCount; base += LSNIF_BATCH_CHUNK_RAYS) {
     const uint32_t n = std::min(info.rayCount - base, LSNIF_BATCH_CHUNK_RAYS);
-    split(m.block.address, pc.model_lo, pc.model_hi);
     split(info.rays + VkDeviceAddress(base) * sizeof(LsnifQueryRay), pc.rays_lo, pc.rays_hi);
     split(info.hits + VkDeviceAddress(base) * sizeof(LsnifQueryHit), pc.hits_lo, pc.hits_hi);
-    split(info.scratch, pc.scratch_lo, pc.scratch_hi);
     pc.ray_count = n;
     pc.stride = stride_of(n);
     const uint32_t groups = pc.stride / LSNIF_BATCH_GROUP_SIZE;

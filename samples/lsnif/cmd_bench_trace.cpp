@@ -199,6 +199,18 @@ struct Timings {
   double min_host() const { return host.empty() ? 0.0 : *std::min_element(host.begin(), host.end()); }
   double median_cpu() const { return median(cpu); }
   double median_device() const { return device.empty() ? -1.0 : median(device); }
+  // Stores the first run's times (`first`) or appends a repeat's (a device time < 0: none).
+  void add(bool first, double host_seconds, double device_seconds, double cpu_seconds) {
+    if (first) {
+      first_host = host_seconds;
+      first_device = device_seconds;
+      first_cpu = cpu_seconds;
+      return;
+    }
+    host.push_back(host_seconds);
+    cpu.push_back(cpu_seconds);
+    if (device_seconds >= 0) device.push_back(device_seconds);
+  }
 };
 
 // Device times of the stages of one batched run, from its timestamps (summed over the calls when
@@ -461,15 +473,7 @@ Status timed_trace(DeviceState& st, const vk::AccelerationStructure& tlas, const
   const double host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu_seconds = process_cpu_seconds() - cpu0;
   if (!s) return s;
-  if (first) {
-    t.first_host = host_seconds;
-    t.first_device = device_seconds;
-    t.first_cpu = cpu_seconds;
-  } else {
-    t.host.push_back(host_seconds);
-    t.cpu.push_back(cpu_seconds);
-    if (device_seconds >= 0) t.device.push_back(device_seconds);
-  }
+  t.add(first, host_seconds, device_seconds, cpu_seconds);
   return Status::ok();
 }
 
@@ -532,20 +536,11 @@ Status timed_batched(DeviceState& st, uint32_t count, bool first, Report& report
       stages.decode += seconds(b + 2, b + 3);
     }
   }
-  Timings& t = report.batched;
-  if (first) {
-    t.first_host = host_seconds;
-    t.first_device = device_seconds;
-    t.first_cpu = cpu_seconds;
+  report.batched.add(first, host_seconds, device_seconds, cpu_seconds);
+  if (first)
     report.batched_first_stages = stages;
-  } else {
-    t.host.push_back(host_seconds);
-    t.cpu.push_back(cpu_seconds);
-    if (device_seconds >= 0) {
-      t.device.push_back(device_seconds);
-      report.batched_stages.push_back(stages);
-    }
-  }
+  else if (device_seconds >= 0)
+    report.batched_stages.push_back(stages);
   return Status::ok();
 }
 

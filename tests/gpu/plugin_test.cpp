@@ -160,8 +160,15 @@ class PluginApi : public ::testing::Test {
     return rays;
   }
 
-  // Hits of `gpu` that agree with the CPU reference of instance `xf` (hit / miss and, for hits, t
-  // within 2e-4 of the diagonal); also counts the GPU's hits.
+  // A GPU answer (`hit`, `t`) for `ray` agrees with the CPU's: the same hit / miss and, for hits,
+  // t within 2e-4 of the model's diagonal (in the ray's units of length).
+  static bool agrees(bool hit, float t, const LsnifHit& cpu, const Ray& ray) {
+    const double diag = double(model_.bounds().diagonal());
+    return hit == cpu.hit && (!hit || std::fabs(double(t - cpu.t)) * double(glm::length(ray.direction)) <= 2e-4 * diag);
+  }
+
+  // Hits of `gpu` that agree with the CPU reference of instance `xf` (agrees); also counts the
+  // GPU's hits.
   static void agreement(const Transform3x4& xf, const std::vector<Ray>& rays, const std::vector<LsnifReferenceHit>& gpu,
                         size_t& agree, size_t& gpu_hits) {
     std::vector<LsnifHit> cpu(rays.size());
@@ -169,13 +176,9 @@ class PluginApi : public ::testing::Test {
     ASSERT_TRUE(s) << s.message();
     ASSERT_EQ(gpu.size(), rays.size());
     agree = gpu_hits = 0;
-    const double diag = double(model_.bounds().diagonal());
     for (size_t i = 0; i < rays.size(); ++i) {
       gpu_hits += gpu[i].hit;
-      if (bool(gpu[i].hit) != cpu[i].hit) continue;
-      if (cpu[i].hit && std::fabs(double(gpu[i].t - cpu[i].t)) * double(glm::length(rays[i].direction)) > 2e-4 * diag)
-        continue;
-      ++agree;
+      agree += agrees(gpu[i].hit != 0, gpu[i].t, cpu[i], rays[i]);
     }
   }
 
@@ -684,9 +687,7 @@ TEST_F(PluginApi, BatchedQueriesMatchTheIntersectionShaderAndTheCpu) {
         const glm::vec3 ni(inline_hits[i].normal_x, inline_hits[i].normal_y, inline_hits[i].normal_z);
         max_angle = std::max(max_angle, double(std::acos(std::clamp(glm::dot(nb, ni), -1.0f, 1.0f))) * 180.0 / M_PI);
       }
-      if (hit == cpu[i].hit &&
-          (!hit || std::fabs(double(b.t - cpu[i].t)) * double(glm::length(rays[i].direction)) <= 2e-4 * diag))
-        ++cpu_agree;
+      cpu_agree += agrees(hit, b.t, cpu[i], rays[i]);
     }
     EXPECT_GE(double(same_hit), 0.999 * double(rays.size())) << "hit/miss vs the intersection shader";
     EXPECT_LE(max_dt, 1e-5) << "largest |t difference| / diagonal vs the intersection shader";
@@ -711,7 +712,6 @@ TEST_F(PluginApi, BatchedQueriesFromTheSurfaceEmptyAndMissingBatchesAndErrors) {
   LsnifQueryPipeline pipeline = nullptr;
   ASSERT_EQ(lsnifCreateQueryPipeline(plugin.context(), nullptr, &pipeline), LSNIF_SUCCESS) << last_error();
   const Transform3x4 xf;  // identity
-  const double diag = double(model_.bounds().diagonal());
 
   // Leaving rays: from the CPU's hits of primary rays, in random directions.
   const std::vector<Ray> primary = rays_at(xf, kRays, 23);
@@ -736,8 +736,7 @@ TEST_F(PluginApi, BatchedQueriesFromTheSurfaceEmptyAndMissingBatchesAndErrors) {
   ASSERT_EQ(batched.size(), leaving.size());
   size_t agree = 0;
   for (size_t i = 0; i < leaving.size(); ++i) {
-    const bool hit = batched[i].kind == LSNIF_QUERY_HIT_LSNIF;
-    if (hit == cpu[i].hit && (!hit || std::fabs(double(batched[i].t - cpu[i].t)) <= 2e-4 * diag)) ++agree;
+    agree += agrees(batched[i].kind == LSNIF_QUERY_HIT_LSNIF, batched[i].t, cpu[i], leaving[i]);
   }
   EXPECT_GE(double(agree), 0.999 * double(leaving.size())) << "rays leaving the surface";
 
@@ -760,9 +759,7 @@ TEST_F(PluginApi, BatchedQueriesFromTheSurfaceEmptyAndMissingBatchesAndErrors) {
     size_t same = 0, second_chunk_hits = 0;
     for (size_t i = 0; i < n; ++i) {
       const bool hit = got[i].kind == LSNIF_QUERY_HIT_LSNIF;
-      if (hit == want[i].hit && (!hit || std::fabs(double(got[i].t - want[i].t)) *
-                                                 double(glm::length(many[i].direction)) <= 2e-4 * diag))
-        ++same;
+      same += agrees(hit, got[i].t, want[i], many[i]);
       if (i >= LSNIF_BATCH_CHUNK_RAYS) second_chunk_hits += hit;
     }
     EXPECT_GE(double(same), 0.999 * double(n)) << "a batch of two chunks";
