@@ -49,20 +49,32 @@ struct DeviceScene {
   std::vector<plugin::Model> models;     // per LSNIF object of the scene: its device model (or empty)
   std::vector<vk::Buffer> buffers;
   std::vector<vk::AccelerationStructure> blases;
-  vk::AccelerationStructure tlas;
-  std::vector<VkAccelerationStructureInstanceKHR> records;  // TLAS records; record i has custom index i
-  std::vector<int64_t> record_model;       // per record: index into `models` (LSNIF) or -1 (triangles)
-  std::vector<std::pair<size_t, size_t>> instance_records;  // per scene instance: first record, count
+  // What one mode (LSNIF: 0, reference: 1) traces: its TLAS over the shared BLASes and models, and
+  // the tables its shaders read. set_mode switches between prepared modes without uploads.
+  struct Mode {
+    bool ready = false;
+    std::string why_not;                  // set_scene's error for a mode it could not prepare
+    vk::AccelerationStructure tlas;
+    std::vector<VkAccelerationStructureInstanceKHR> records;  // TLAS records; record i has custom index i
+    std::vector<int64_t> record_model;     // per record: index into `models` (LSNIF) or -1 (triangles)
+    std::vector<std::pair<size_t, size_t>> instance_records;  // per scene instance: first record, count
+    uint64_t instances = 0, material_maps = 0;  // RenderFrame::instances, material_maps of the mode
+    uint64_t table_address = 0;
+    uint32_t table_count = 0;              // entries of the model table
+    RenderStats stats;                     // what the mode uses (times 0)
+  };
+  Mode modes[2];
+  int active = 0;
   RenderFrame frame{};                    // the scene's part filled in; view and image set per pass
   RenderFrame* frame_on_device = nullptr;  // mapped RenderFrame buffer
-  uint64_t frame_address = 0, table_address = 0;
-  uint32_t table_count = 0;                // entries of the model table
+  uint64_t frame_address = 0;
   glm::vec3 lo{0.0f}, hi{0.0f};           // world bounds (for a framing camera)
   std::vector<scene::Camera> cameras;
   float env_rotation = 0.0f;
+  Mode& mode() { return modes[active]; }
   DeviceScene(vk::ComputeContext& c, vk::RayTracer& t) : ctx(c), tracer(t) {}
   ~DeviceScene() {
-    tracer.destroy(tlas);
+    for (Mode& m : modes) tracer.destroy(m.tlas);
     for (vk::AccelerationStructure& b : blases) tracer.destroy(b);
     for (vk::Buffer& b : buffers) ctx.destroy_buffer(b);
     models.clear();  // before their context
@@ -168,27 +180,38 @@ Status Renderer::render(const scene::Scene& scene, const RenderSettings& setting
   return render(settings, out, stats, progress);
 }
 
-Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scene::EnvironmentMap* environment) {
+Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scene::EnvironmentMap* environment,
+                           bool both_modes) {
   scene_.reset();
   scene_stats_ = RenderStats();
-  RenderStats& stats = scene_stats_;
   if (scene.instances.empty()) return Status::error("render: the scene %s has no objects", scene.path.c_str());
   if (Status s = create_pipeline(); !s) return s;
 
-  // LSNIF models the mode uses.
+  // The modes to prepare: `reference`, and with both_modes the other one where the scene has its
+  // geometry (its error is kept for set_mode). LSNIF models the LSNIF mode uses.
   const size_t object_count = scene.lsnif_objects.size();
   std::vector<bool> model_used(object_count, false);
-  for (const scene::Instance& in : scene.instances) {
-    if (!finite(in.object_to_world)) return Status::error("node '%s' has a non-finite transform", in.node_name.c_str());
-    const bool use_lsnif = in.lsnif >= 0 && !reference;
-    if (in.lsnif >= 0 && size_t(in.lsnif) >= object_count)
-      return Status::error("node '%s' names LSNIF object %d of %zu", in.node_name.c_str(), in.lsnif, object_count);
-    if (in.mesh >= 0 && size_t(in.mesh) >= scene.meshes.size())
-      return Status::error("node '%s' names mesh %d of %zu", in.node_name.c_str(), in.mesh, scene.meshes.size());
-    if (!use_lsnif && in.mesh < 0)
-      return Status::error("node '%s' has no triangle mesh%s", in.node_name.c_str(),
-                           reference ? " for the reference mode" : "");
-    if (use_lsnif) model_used[size_t(in.lsnif)] = true;
+  auto check_mode = [&](bool ref, bool mark) -> Status {
+    for (const scene::Instance& in : scene.instances) {
+      if (!finite(in.object_to_world)) return Status::error("node '%s' has a non-finite transform", in.node_name.c_str());
+      const bool use_lsnif = in.lsnif >= 0 && !ref;
+      if (in.lsnif >= 0 && size_t(in.lsnif) >= object_count)
+        return Status::error("node '%s' names LSNIF object %d of %zu", in.node_name.c_str(), in.lsnif, object_count);
+      if (in.mesh >= 0 && size_t(in.mesh) >= scene.meshes.size())
+        return Status::error("node '%s' names mesh %d of %zu", in.node_name.c_str(), in.mesh, scene.meshes.size());
+      if (!use_lsnif && in.mesh < 0)
+        return Status::error("node '%s' has no triangle mesh%s", in.node_name.c_str(),
+                             ref ? " for the reference mode" : "");
+      if (use_lsnif && mark) model_used[size_t(in.lsnif)] = true;
+    }
+    return Status::ok();
+  };
+  if (Status s = check_mode(reference, true); !s) return s;
+  bool prepare[2] = {!reference, reference};  // [0]: LSNIF mode, [1]: reference mode
+  Status other = Status::ok();
+  if (both_modes) {
+    other = check_mode(!reference, true);
+    prepare[reference ? 0 : 1] = bool(other);
   }
   // Objects naming the same file (e.g. with different material maps) share one model on the device:
   // slot[i] is the first such object, the one that is loaded and uploaded.
@@ -229,11 +252,12 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
   }
   if (lsnifBuildModels(dev.plugin.get(), uint32_t(to_build.size()), to_build.data()) != LSNIF_SUCCESS)
     return plugin_error("render");
+  models_loaded_ += uint32_t(to_build.size());
+  uint64_t lsnif_bytes = 0;
   for (LsnifModel m : to_build) {
     LsnifModelMemory mem{};
     if (lsnifGetModelMemory(dev.plugin.get(), m, &mem) != LSNIF_SUCCESS) return plugin_error("render");
-    stats.lsnif_bytes += mem.blockBytes + mem.blasBytes;
-    ++stats.lsnif_models;
+    lsnif_bytes += mem.blockBytes + mem.blasBytes;
   }
 
   // Materials, textures, material maps.
@@ -262,8 +286,10 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
   std::vector<RenderPrimitive> primitives;
   std::vector<std::vector<uint32_t>> mesh_primitives(scene.meshes.size());  // -> primitives / blases index
   std::vector<bool> mesh_used(scene.meshes.size(), false);
+  std::vector<uint64_t> mesh_blas_bytes(scene.meshes.size(), 0), mesh_triangles(scene.meshes.size(), 0);
   for (const scene::Instance& in : scene.instances)
-    if (!(in.lsnif >= 0 && !reference)) mesh_used[size_t(in.mesh)] = true;
+    for (int mode = 0; mode < 2; ++mode)
+      if (prepare[mode] && !(in.lsnif >= 0 && mode == 0)) mesh_used[size_t(in.mesh)] = true;
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     if (!mesh_used[m]) continue;
     for (const scene::Primitive& p : scene.meshes[m].primitives) {
@@ -290,64 +316,93 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
       vk::AccelerationStructure blas;
       if (Status s = tracer_.build_triangle_blas(flat, indices, blas); !s)
         return s.context(("mesh '" + scene.meshes[m].name + "'").c_str());
-      stats.triangle_blas_bytes += blas.storage.size;
-      stats.triangles += p.indices.size() / 3;
+      ++blases_built_;
+      mesh_blas_bytes[m] += blas.storage.size;
+      mesh_triangles[m] += p.indices.size() / 3;
       dev.blases.push_back(blas);
       mesh_primitives[m].push_back(uint32_t(primitives.size()));
       primitives.push_back(rp);
     }
   }
 
-  // Instances: custom index i -> RenderInstance i and model table entry i.
-  std::vector<RenderInstance> instances;
-  std::vector<uint64_t> model_table;
-  std::vector<uint32_t> material_maps;
-  std::vector<VkAccelerationStructureInstanceKHR> records;
-  for (const scene::Instance& in : scene.instances) {
-    dev.instance_records.emplace_back(records.size(), 0);
-    if (in.lsnif >= 0 && !reference) {
-      const scene::LsnifObject& obj = scene.lsnif_objects[size_t(in.lsnif)];
-      RenderInstance ri{RENDER_INSTANCE_LSNIF, 0, uint32_t(material_maps.size()), uint32_t(obj.material_map.size())};
-      material_maps.insert(material_maps.end(), obj.material_map.begin(), obj.material_map.end());
-      const plugin::Model& model = dev.models[slot[size_t(in.lsnif)]];
-      LsnifInstanceInfo info{};
-      info.model = model.get();
-      info.transform = to_3x4(in.object_to_world);
-      info.instanceCustomIndex = uint32_t(instances.size());
-      info.mask = 0xFF;
-      VkAccelerationStructureInstanceKHR rec;
-      if (lsnifMakeInstance(dev.plugin.get(), &info, &rec) != LSNIF_SUCCESS)
-        return plugin_error(("node '" + in.node_name + "'").c_str());
-      model_table.push_back(model.properties().blockAddress);
-      instances.push_back(ri);
-      records.push_back(rec);
-      dev.record_model.push_back(int64_t(slot[size_t(in.lsnif)]));
-      dev.instance_records.back().second = 1;
-      ++stats.lsnif_instances;
+  // Per prepared mode: instances (custom index i -> RenderInstance i and model table entry i),
+  // material maps, model table and TLAS.
+  for (int mode = 0; mode < 2; ++mode) {
+    DeviceScene::Mode& md = dev.modes[mode];
+    if (!prepare[mode]) {
+      md.why_not = other.message();
       continue;
     }
-    const VkTransformMatrixKHR xf = to_3x4(in.object_to_world);
-    if (Status s = check_instance_transform(xf.matrix); !s) return s.context(("node '" + in.node_name + "'").c_str());
-    for (uint32_t prim : mesh_primitives[size_t(in.mesh)]) {
-      VkAccelerationStructureInstanceKHR rec{};
-      rec.transform = xf;
-      rec.instanceCustomIndex = uint32_t(instances.size()) & 0xffffffu;
-      rec.mask = 0xFF;
-      rec.instanceShaderBindingTableRecordOffset = pipeline_.triangle_sbt_offset & 0xffffffu;  // triangle hit group
-      rec.accelerationStructureReference = dev.blases[prim].address;
-      instances.push_back({RENDER_INSTANCE_TRIANGLES, prim, 0, 0});
-      model_table.push_back(0);
-      records.push_back(rec);
-      dev.record_model.push_back(-1);
-      ++dev.instance_records.back().second;
-      ++stats.triangle_instances;
+    const bool ref = mode == 1;
+    RenderStats& stats = md.stats;
+    std::vector<bool> mesh_counted(scene.meshes.size(), false);
+    std::vector<RenderInstance> instances;
+    std::vector<uint64_t> model_table;
+    std::vector<uint32_t> material_maps;
+    std::vector<VkAccelerationStructureInstanceKHR> records;
+    for (const scene::Instance& in : scene.instances) {
+      md.instance_records.emplace_back(records.size(), 0);
+      if (in.lsnif >= 0 && !ref) {
+        const scene::LsnifObject& obj = scene.lsnif_objects[size_t(in.lsnif)];
+        RenderInstance ri{RENDER_INSTANCE_LSNIF, 0, uint32_t(material_maps.size()), uint32_t(obj.material_map.size())};
+        material_maps.insert(material_maps.end(), obj.material_map.begin(), obj.material_map.end());
+        const plugin::Model& model = dev.models[slot[size_t(in.lsnif)]];
+        LsnifInstanceInfo info{};
+        info.model = model.get();
+        info.transform = to_3x4(in.object_to_world);
+        info.instanceCustomIndex = uint32_t(instances.size());
+        info.mask = 0xFF;
+        VkAccelerationStructureInstanceKHR rec;
+        if (lsnifMakeInstance(dev.plugin.get(), &info, &rec) != LSNIF_SUCCESS)
+          return plugin_error(("node '" + in.node_name + "'").c_str());
+        model_table.push_back(model.properties().blockAddress);
+        instances.push_back(ri);
+        records.push_back(rec);
+        md.record_model.push_back(int64_t(slot[size_t(in.lsnif)]));
+        md.instance_records.back().second = 1;
+        ++stats.lsnif_instances;
+        continue;
+      }
+      const VkTransformMatrixKHR xf = to_3x4(in.object_to_world);
+      if (Status s = check_instance_transform(xf.matrix); !s) return s.context(("node '" + in.node_name + "'").c_str());
+      if (!mesh_counted[size_t(in.mesh)]) {
+        mesh_counted[size_t(in.mesh)] = true;
+        stats.triangle_blas_bytes += mesh_blas_bytes[size_t(in.mesh)];
+        stats.triangles += mesh_triangles[size_t(in.mesh)];
+      }
+      for (uint32_t prim : mesh_primitives[size_t(in.mesh)]) {
+        VkAccelerationStructureInstanceKHR rec{};
+        rec.transform = xf;
+        rec.instanceCustomIndex = uint32_t(instances.size()) & 0xffffffu;
+        rec.mask = 0xFF;
+        rec.instanceShaderBindingTableRecordOffset = pipeline_.triangle_sbt_offset & 0xffffffu;  // triangle hit group
+        rec.accelerationStructureReference = dev.blases[prim].address;
+        instances.push_back({RENDER_INSTANCE_TRIANGLES, prim, 0, 0});
+        model_table.push_back(0);
+        records.push_back(rec);
+        md.record_model.push_back(-1);
+        ++md.instance_records.back().second;
+        ++stats.triangle_instances;
+      }
     }
+    if (instances.size() >= (1u << 24)) return Status::error("render: %zu TLAS instances exceed 2^24", instances.size());
+    if (!ref) {
+      stats.lsnif_bytes = lsnif_bytes;
+      stats.lsnif_models = uint32_t(to_build.size());
+    }
+    // Built for updates: move_instance refits it.
+    if (Status s = tracer_.build_tlas(records, md.tlas, /*allow_update=*/true); !s) return s;
+    ++tlases_built_;
+    md.records = std::move(records);
+    stats.tlas_bytes = md.tlas.storage.size;
+    if (Status s = dev.upload(instances, md.instances); !s) return s;
+    if (Status s = dev.upload(material_maps.empty() ? std::vector<uint32_t>(1) : material_maps, md.material_maps); !s)
+      return s;
+    if (Status s = dev.upload(model_table, md.table_address); !s) return s;
+    md.table_count = uint32_t(model_table.size());
+    md.ready = true;
   }
-  if (instances.size() >= (1u << 24)) return Status::error("render: %zu TLAS instances exceed 2^24", instances.size());
-  // Built for updates: move_instance refits it.
-  if (Status s = tracer_.build_tlas(records, dev.tlas, /*allow_update=*/true); !s) return s;
-  dev.records = std::move(records);
-  stats.tlas_bytes = dev.tlas.storage.size;
+  dev.active = reference ? 1 : 0;
 
   // What camera_view needs.
   scene_bounds(scene, dev.models, slot, dev.lo, dev.hi);
@@ -355,10 +410,8 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
 
   // Frame data.
   RenderFrame& frame = dev.frame;
-  if (Status s = dev.upload(instances, frame.instances); !s) return s;
   if (Status s = dev.upload(primitives.empty() ? std::vector<RenderPrimitive>(1) : primitives, frame.primitives); !s) return s;
   if (Status s = dev.upload(materials, frame.materials); !s) return s;
-  if (Status s = dev.upload(material_maps.empty() ? std::vector<uint32_t>(1) : material_maps, frame.material_maps); !s) return s;
   if (Status s = dev.upload(textures.empty() ? std::vector<RenderTexture>(1) : textures, frame.textures); !s) return s;
   const scene::Environment& env = scene.environment;
   frame.env_r = env.color.r;
@@ -401,9 +454,8 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
   dev.env_rotation = frame.env_rotation;
   if (Status s = dev.upload(&frame, sizeof frame, dev.frame_address); !s) return s;
   dev.frame_on_device = static_cast<RenderFrame*>(dev.buffers.back().mapped);
-  if (Status s = dev.upload(model_table, dev.table_address); !s) return s;
-  dev.table_count = uint32_t(model_table.size());
   scene_ = std::move(dev_owner);
+  scene_stats_ = scene_->mode().stats;
   width_ = height_ = accumulated_ = 0;  // a new scene starts a new image
   return Status::ok();
 }
@@ -434,27 +486,49 @@ Status Renderer::camera_view(int32_t camera, View& out) const {
 Status Renderer::move_instance(size_t instance, const glm::mat4& object_to_world) {
   if (!scene_) return Status::error("render: no scene set");
   DeviceScene& dev = *scene_;
-  if (instance >= dev.instance_records.size())
-    return Status::error("render: instance %zu does not exist (the scene has %zu)", instance, dev.instance_records.size());
+  if (instance >= dev.mode().instance_records.size())
+    return Status::error("render: instance %zu does not exist (the scene has %zu)", instance,
+                         dev.mode().instance_records.size());
   const VkTransformMatrixKHR xf = to_3x4(object_to_world);
   if (Status s = check_instance_transform(xf.matrix); !s) return s;
-  const auto [first, count] = dev.instance_records[instance];
-  for (size_t r = first; r < first + count; ++r) {
-    if (dev.record_model[r] >= 0) {
-      LsnifInstanceInfo info{};
-      info.model = dev.models[size_t(dev.record_model[r])].get();
-      info.transform = xf;
-      info.instanceCustomIndex = uint32_t(r);
-      info.mask = 0xFF;
-      VkAccelerationStructureInstanceKHR rec;
-      if (lsnifMakeInstance(dev.plugin.get(), &info, &rec) != LSNIF_SUCCESS) return plugin_error("move_instance");
-      dev.records[r] = rec;
-    } else {
-      dev.records[r].transform = xf;
+  for (DeviceScene::Mode& md : dev.modes) {
+    if (!md.ready) continue;
+    const auto [first, count] = md.instance_records[instance];
+    for (size_t r = first; r < first + count; ++r) {
+      if (md.record_model[r] >= 0) {
+        LsnifInstanceInfo info{};
+        info.model = dev.models[size_t(md.record_model[r])].get();
+        info.transform = xf;
+        info.instanceCustomIndex = uint32_t(r);
+        info.mask = 0xFF;
+        VkAccelerationStructureInstanceKHR rec;
+        if (lsnifMakeInstance(dev.plugin.get(), &info, &rec) != LSNIF_SUCCESS) return plugin_error("move_instance");
+        md.records[r] = rec;
+      } else {
+        md.records[r].transform = xf;
+      }
     }
+    if (Status s = tracer_.update_tlas(md.records, md.tlas); !s) return s;
   }
-  return tracer_.update_tlas(dev.records, dev.tlas);
+  return Status::ok();
 }
+
+Status Renderer::set_mode(bool reference) {
+  if (!scene_) return Status::error("render: no scene set");
+  DeviceScene::Mode& md = scene_->modes[reference ? 1 : 0];
+  if (!md.ready)
+    return Status::error("render: the %s mode was not prepared by set_scene%s%s", reference ? "reference" : "LSNIF",
+                         md.why_not.empty() ? " (both_modes)" : ": ", md.why_not.c_str());
+  if (scene_->active != (reference ? 1 : 0)) {
+    scene_->active = reference ? 1 : 0;
+    scene_stats_ = md.stats;
+    if (accumulation_.buffer) std::memset(accumulation_.mapped, 0, size_t(width_) * height_ * 16);
+    accumulated_ = 0;
+  }
+  return Status::ok();
+}
+
+bool Renderer::reference_mode() const { return scene_ && scene_->active == 1; }
 
 bool Renderer::world_bounds(glm::vec3& lo, glm::vec3& hi) const {
   if (!scene_) return false;
@@ -492,6 +566,9 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   if (!finite(view.camera_to_world) || !(view.yfov > 0.0f && view.yfov < 3.1f) || !std::isfinite(view.env_rotation))
     return Status::error("render: the view has a non-finite transform or rotation or a field of view outside (0, pi)");
   RenderFrame frame = scene_->frame;
+  const DeviceScene::Mode& md = scene_->mode();
+  frame.instances = md.instances;
+  frame.material_maps = md.material_maps;
   frame.accumulation = accumulation_.address;
   frame.width = width_;
   frame.height = height_;
@@ -504,12 +581,12 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   frame.rr_depth = rr_depth;
   std::memcpy(scene_->frame_on_device, &frame, sizeof frame);
   RenderPush push{};
-  push.model_table = scene_->table_address;
-  push.model_count = scene_->table_count;
+  push.model_table = md.table_address;
+  push.model_count = md.table_count;
   push.frame = scene_->frame_address;
   push.sample_index = first_sample;
   push.samples = samples;
-  if (Status s = tracer_.trace(pipeline_, scene_->tlas, &push, width_ * height_); !s) return s.context("render pass");
+  if (Status s = tracer_.trace(pipeline_, md.tlas, &push, width_ * height_); !s) return s.context("render pass");
   accumulated_ += samples;
   return Status::ok();
 }

@@ -71,15 +71,29 @@ class Renderer {
 
   // Uploads `scene` in one mode (`reference`: every LSNIF node as its triangle mesh) with its
   // environment map (null: the scene's constant color; the map must outlive nothing, it is copied
-  // to the device) and builds the TLAS, replacing the scene set before. Fails, naming the problem,
-  // on an empty scene, a node without the geometry the mode needs, a non-finite transform, an
-  // unreadable or inconsistent .lsnif file or a device error; on failure no scene is set.
-  Status set_scene(const scene::Scene& scene, bool reference, const scene::EnvironmentMap* environment);
+  // to the device) and builds the TLAS, replacing the scene set before. With `both_modes` it also
+  // prepares the other mode where the scene has the geometry for it (models, triangle BLASes of
+  // the LSNIF nodes' meshes, a second TLAS), so that set_mode switches without uploads or builds.
+  // Fails, naming the problem, on an empty scene, a node without the geometry the requested mode
+  // needs, a non-finite transform, an unreadable or inconsistent .lsnif file or a device error; on
+  // failure no scene is set.
+  Status set_scene(const scene::Scene& scene, bool reference, const scene::EnvironmentMap* environment,
+                   bool both_modes = false);
+  // Makes `reference` (or the LSNIF mode) the mode traced from now on, without uploads or builds;
+  // clears the accumulation when the mode changes. Fails, with set_scene's reason, on a mode
+  // set_scene did not prepare (no scene, both_modes not given, or e.g. a node without a mesh).
+  Status set_mode(bool reference);
+  bool reference_mode() const;
+  // Work done on the device by set_scene calls so far (set_mode adds none).
+  uint32_t models_loaded() const { return models_loaded_; }
+  uint32_t blases_built() const { return blases_built_; }
+  uint32_t tlases_built() const { return tlases_built_; }
   bool has_scene() const { return scene_ != nullptr; }
   // Memory and instance counts of the scene set (times are 0).
   const RenderStats& scene_stats() const { return scene_stats_; }
   // Moves scene instance `instance` (an index into the Scene::instances given to set_scene) to
-  // `object_to_world` by refitting the TLAS (no re-upload); the accumulation is not reset. Fails on
+  // `object_to_world` by refitting the TLAS (of every prepared mode; no re-upload); the
+  // accumulation is not reset. Fails on
   // a bad index, a non-finite or singular transform, no scene set or a device error.
   Status move_instance(size_t instance, const glm::mat4& object_to_world);
   // World bounds of the scene set (its instances' vertices, LSNIF-only nodes: the model box);
@@ -118,6 +132,7 @@ class Renderer {
   RenderStats scene_stats_;
   vk::Buffer accumulation_{};
   uint32_t width_ = 0, height_ = 0, accumulated_ = 0;
+  uint32_t models_loaded_ = 0, blases_built_ = 0, tlases_built_ = 0;
 };
 
 }  // namespace lsnif::render

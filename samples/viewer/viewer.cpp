@@ -110,8 +110,9 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
       if (Status s = presenter.attach(ctx); !s) return s;
 
       bool reference = settings.reference;
-      scene::Scene edited = scene;  // with the objects' moves, for re-uploads on a mode toggle
-      if (Status s = renderer.set_scene(edited, reference, environment); !s) return s;
+      scene::Scene edited = scene;  // with the objects' moves
+      // Both modes on the device, so that the toggle reloads no model and rebuilds no BLAS or TLAS.
+      if (Status s = renderer.set_scene(edited, reference, environment, /*both_modes=*/true); !s) return s;
       int64_t selected = -1;
       if (!settings.select.empty()) {
         for (size_t i = 0; i < edited.instances.size() && selected < 0; ++i)
@@ -148,10 +149,9 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
         if (input.toggle_mode) {
           input.toggle_mode = false;
           // A scene whose LSNIF nodes have no triangle mesh has no reference mode: say so, stay.
-          if (Status s = renderer.set_scene(edited, !reference, environment); !s) {
+          if (Status s = renderer.set_mode(!reference); !s) {
             std::fprintf(stderr, "lsnif view: cannot switch to %s mode: %s\n", reference ? "LSNIF" : "reference",
                          s.message().c_str());
-            if (Status back = renderer.set_scene(edited, reference, environment); !back) return back;
           } else {
             reference = !reference;
           }

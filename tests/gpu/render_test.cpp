@@ -252,6 +252,90 @@ TEST_F(RenderTest, MovedInstanceRendersAsIfPlacedThere) {
   }
 }
 
+// The viewer's toggle: set_scene with both modes prepares the LSNIF and the reference mode once;
+// set_mode then switches without loading a model or building a BLAS or TLAS, and each mode renders
+// exactly what a scene set in that mode alone renders (same TLAS records, same random sequences).
+// A move refits both modes. A mode the scene has no geometry for is refused with the reason.
+TEST_F(RenderTest, ModeSwitchReusesTheDeviceSceneAndMatchesSingleModeScenes) {
+  render::View view;
+  auto draw = [&](render::Renderer& r, image::Image& out) -> Status {
+    if (Status s = r.reset_accumulation(64, 48); !s) return s;
+    if (Status s = r.accumulate(view, 0, 4); !s) return s;
+    r.resolve(out);
+    return Status::ok();
+  };
+  auto alone = [&](const scene::Scene& sc, bool reference, image::Image& out) -> Status {
+    render::Renderer r(vk_);
+    if (Status s = r.set_scene(sc, reference, nullptr); !s) return s;
+    return draw(r, out);
+  };
+  render::Renderer renderer(vk_);
+  ASSERT_TRUE(renderer.set_scene(scene_, false, nullptr, /*both_modes=*/true));
+  ASSERT_TRUE(renderer.camera_view(0, view));
+  const uint32_t models = renderer.models_loaded(), blases = renderer.blases_built(), tlases = renderer.tlases_built();
+  EXPECT_EQ(models, 1u);
+  EXPECT_EQ(tlases, 2u);
+  size_t primitives = 0;
+  for (const scene::Mesh& m : scene_.meshes) primitives += m.primitives.size();
+  EXPECT_EQ(blases, primitives);  // the elephant's mesh too, for the reference mode
+  EXPECT_FALSE(renderer.reference_mode());
+  EXPECT_EQ(renderer.scene_stats().lsnif_instances, 1u);
+
+  image::Image lsnif_1, reference_1, lsnif_2, lsnif_alone, reference_alone;
+  ASSERT_TRUE(draw(renderer, lsnif_1));
+  ASSERT_TRUE(renderer.set_mode(true));
+  EXPECT_TRUE(renderer.reference_mode());
+  EXPECT_EQ(renderer.accumulated_samples(), 0u);  // a mode change starts a new image
+  EXPECT_EQ(renderer.scene_stats().lsnif_instances, 0u);
+  EXPECT_EQ(renderer.scene_stats().triangle_instances, 2u);
+  ASSERT_TRUE(draw(renderer, reference_1));
+  ASSERT_TRUE(renderer.set_mode(false));
+  ASSERT_TRUE(draw(renderer, lsnif_2));
+  EXPECT_EQ(renderer.models_loaded(), models);
+  EXPECT_EQ(renderer.blases_built(), blases);
+  EXPECT_EQ(renderer.tlases_built(), tlases);
+
+  ASSERT_TRUE(alone(scene_, false, lsnif_alone));
+  ASSERT_TRUE(alone(scene_, true, reference_alone));
+  EXPECT_EQ(lsnif_1.rgb, lsnif_alone.rgb);
+  EXPECT_EQ(lsnif_2.rgb, lsnif_alone.rgb);
+  EXPECT_EQ(reference_1.rgb, reference_alone.rgb);
+  EXPECT_GT(mean_abs_diff(lsnif_1, reference_1), 0.0);  // the switch changed the geometry
+
+  // A move in one mode is seen in the other (both TLASes refit).
+  glm::mat4 moved = glm::translate(glm::mat4(1.0f), glm::vec3(0.15f, 0.0f, -0.1f));
+  scene::Scene placed = scene_;
+  placed.instances[0].object_to_world = moved;
+  ASSERT_TRUE(renderer.move_instance(0, moved));
+  ASSERT_TRUE(renderer.set_mode(true));
+  image::Image moved_reference, placed_reference;
+  ASSERT_TRUE(draw(renderer, moved_reference));
+  ASSERT_TRUE(alone(placed, true, placed_reference));
+  size_t differing = 0;
+  for (size_t i = 0; i < moved_reference.rgb.size(); ++i)
+    differing += std::fabs(moved_reference.rgb[i] - placed_reference.rgb[i]) > 1e-4f ? 1 : 0;
+  EXPECT_LT(double(differing), 0.002 * double(moved_reference.rgb.size()));  // refit vs build, as above
+  EXPECT_GT(mean_abs_diff(moved_reference, reference_1), 0.01);
+
+  // Without both modes, or without the geometry for one, set_mode refuses and keeps the mode.
+  render::Renderer single(vk_);
+  ASSERT_TRUE(single.set_scene(scene_, false, nullptr));
+  Status s = single.set_mode(true);
+  EXPECT_FALSE(s);
+  EXPECT_NE(s.message().find("not prepared"), std::string::npos) << s.message();
+  EXPECT_FALSE(single.reference_mode());
+  EXPECT_TRUE(single.set_mode(false));  // the mode it has
+  scene::Scene meshless = scene_;
+  meshless.instances[0].mesh = -1;
+  render::Renderer partial(vk_);
+  ASSERT_TRUE(partial.set_scene(meshless, false, nullptr, /*both_modes=*/true));
+  s = partial.set_mode(true);
+  EXPECT_FALSE(s);
+  EXPECT_NE(s.message().find("has no triangle mesh for the reference mode"), std::string::npos) << s.message();
+  EXPECT_FALSE(partial.reference_mode());
+  EXPECT_FALSE(render::Renderer(vk_).set_mode(false));  // no scene
+}
+
 // The sun against the rendering equation by hand: a dielectric plane (base color 0.5, roughness 1)
 // seen from straight above, lit only by a sun 60 degrees from the zenith with irradiance 2, has
 // radiance f(wo = n, wi) * E * cos(60), f = 0.5 / pi + the GGX term F D G1 G1 / (4 cos_o cos_i)
