@@ -25,6 +25,18 @@ std::string value_name(const SettingDef& d) {
   return s;
 }
 
+// The help of a setting's option: its text and, where bounded, its range.
+std::string setting_help(const SettingDef& d) {
+  std::string help = d.help;
+  if (d.kind == SettingKind::U32 && d.max < kU32Max)
+    help += format(" [%u, %u]", uint32_t(d.min), uint32_t(d.max));
+  else if (d.kind == SettingKind::U32)
+    help += format(" (at least %u)", uint32_t(d.min));
+  if (d.kind == SettingKind::F32 && d.max < kF32Max)
+    help += format(" %c%g, %g%c", d.min_open ? '(' : '[', d.min, d.max, d.max_open ? ')' : ']');
+  return help;
+}
+
 // The help of a preset option: its text, then what each choice sets ("high or low (--width 64 ...)").
 std::string preset_help(const std::string& option) {
   std::string help, choices;
@@ -62,7 +74,7 @@ void TrainOptions::add_to(Args& args, const char* output_help) {
               "given here override it", &config);
   const SettingValues defaults = SettingValues::defaults();
   for (const SettingDef& d : kSettingDefs) {
-    args.option(d.name, d.help, value_name(d), setting_text(d, defaults[d.id]), [this, &d](const std::string& text) {
+    args.option(d.name, setting_help(d), value_name(d), setting_text(d, defaults[d.id]), [this, &d](const std::string& text) {
       SettingValue v;
       switch (d.kind) {
         case SettingKind::U32: {
@@ -86,7 +98,7 @@ void TrainOptions::add_to(Args& args, const char* output_help) {
   for (const Preset& p : kPresets) {
     if (&p != &kPresets[0] && std::string_view(p.option) == (&p)[-1].option) continue;  // one option per name
     const bool flag = p.choice == nullptr;
-    args.option(p.option, preset_help(p.option), flag ? "" : "TEXT", "", [this, &p](const std::string& text) {
+    args.option(p.option, preset_help(p.option), flag ? "" : "TEXT", flag ? "" : p.choice, [this, &p](const std::string& text) {
       presets.emplace_back(p.option, text);
       return true;
     });
@@ -128,7 +140,7 @@ bool TrainOptions::to_settings(TrainSettings& s) const {
   SettingLayer file;
   if (!config.empty()) {
     if (Status st = read_settings_file(config, file); !st) {
-      std::fprintf(stderr, "lsnif: --config %s\n", st.message().c_str());
+      std::fprintf(stderr, "lsnif: %s\n", st.message().c_str());
       return false;
     }
     layers.push_back(&file);
