@@ -80,13 +80,13 @@ Layout layout_of(const Config& c, uint64_t training_bytes) {
 // load_model from reading an arbitrarily large file into memory.
 uint64_t max_file_size() {
   Config c;
-  c.voxel_resolution = 256;
-  c.max_points = LSNIF_MAX_POINTS;
-  c.grid_levels = LSNIF_MAX_LEVELS;
-  c.log2_table_size = 24;
-  c.features = LSNIF_MAX_FEATURES;
-  c.hidden_width = LSNIF_MAX_HIDDEN_WIDTH;
-  c.hidden_layers = LSNIF_MAX_HIDDEN_LAYERS;
+  c.voxel_resolution = max_u32(SettingId::Voxels);
+  c.max_points = max_u32(SettingId::Points);
+  c.grid_levels = max_u32(SettingId::Levels);
+  c.log2_table_size = max_u32(SettingId::TableLog2);
+  c.features = max_u32(SettingId::Features);
+  c.hidden_width = max_u32(SettingId::Width);
+  c.hidden_layers = max_u32(SettingId::Layers);
   c.material_count = LSNIF_MAX_MATERIALS;
   return layout_of(c, kMaxTrainingRecordBytes).file_size;
 }

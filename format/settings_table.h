@@ -54,6 +54,7 @@ inline constexpr SettingChoice kHitChoices[] = {{"segments", LSNIF_HIT_PARAM_VOX
 inline constexpr SettingChoice kNormalLossChoices[] = {{"angle", 1}, {"cosine", 0}};
 
 inline constexpr double kU32Max = std::numeric_limits<uint32_t>::max();
+inline constexpr uint32_t kMaxGridResolution = 4096;
 inline constexpr double kF32Max = std::numeric_limits<float>::max();
 
 namespace setting_detail {
@@ -76,9 +77,9 @@ inline constexpr SettingDef kSettingDefs[] = {
     setting_detail::u32(SettingId::Voxels, "voxels", 32, 1, 256, "voxel resolution V"),
     setting_detail::u32(SettingId::Points, "points", 18, 1, LSNIF_MAX_POINTS, "max boundary points H"),
     setting_detail::u32(SettingId::Levels, "levels", 2, 1, LSNIF_MAX_LEVELS, "hash-grid levels L"),
-    setting_detail::u32(SettingId::ResMin, "res-min", 64, 1, 4096,
+    setting_detail::u32(SettingId::ResMin, "res-min", 64, 1, kMaxGridResolution,
                         "coarsest grid resolution (a multiple of the voxel resolution)"),
-    setting_detail::u32(SettingId::ResMax, "res-max", 128, 1, 4096,
+    setting_detail::u32(SettingId::ResMax, "res-max", 128, 1, kMaxGridResolution,
                         "finest grid resolution (a multiple of the voxel resolution)"),
     setting_detail::u32(SettingId::TableLog2, "table-log2", 17, 4, 24, "log2 hash-table entries per level M"),
     setting_detail::u32(SettingId::Features, "features", 3, 1, LSNIF_MAX_FEATURES, "features per entry F"),
