@@ -16,20 +16,6 @@ namespace {
 
 constexpr uint64_t kMaxConfigFileBytes = 1u << 20;
 
-SettingValue default_value(const SettingDef& d) {
-  SettingValue v;
-  if (d.kind == SettingKind::F32) v.f = static_cast<float>(d.def);
-  else v.u = static_cast<uint64_t>(d.def);
-  return v;
-}
-
-SettingValue preset_value(const SettingDef& d, double value) {
-  SettingValue v;
-  if (d.kind == SettingKind::F32) v.f = static_cast<float>(value);
-  else v.u = static_cast<uint64_t>(value);
-  return v;
-}
-
 // "'a' or 'b'", "'a', 'b' or 'c'".
 template <class Name>
 std::string alternatives(size_t count, Name name) {
@@ -112,7 +98,7 @@ Status apply_layer(const SettingLayer& layer, SettingValues& values, Origins& or
       const SettingDef& d = setting_def(p->values[k].id);
       if (k) sets += k + 1 == p->count ? " and " : ", ";
       sets += layer.label(d.name) + (layer.file.empty() ? " " : ": ") +
-              setting_text(d, preset_value(d, p->values[k].value));
+              setting_text(d, setting_value(d, p->values[k].value));
       if (layer.given[static_cast<size_t>(d.id)]) conflicts = layer.label(d.name);
     }
     const std::string preset = layer.label(p->option) + (p->choice ? (layer.file.empty() ? " " : ": ") +
@@ -122,7 +108,7 @@ Status apply_layer(const SettingLayer& layer, SettingValues& values, Origins& or
                            layer.label(p->option).c_str());
     for (uint32_t k = 0; k < p->count; ++k) {
       const SettingDef& d = setting_def(p->values[k].id);
-      values[d.id] = preset_value(d, p->values[k].value);
+      values[d.id] = setting_value(d, p->values[k].value);
       origin[static_cast<size_t>(d.id)] = &layer;
     }
   }
@@ -228,9 +214,16 @@ struct Fnv {
 
 }  // namespace
 
+SettingValue setting_value(const SettingDef& d, double value) {
+  SettingValue v;
+  if (d.kind == SettingKind::F32) v.f = static_cast<float>(value);
+  else v.u = static_cast<uint64_t>(value);
+  return v;
+}
+
 SettingValues SettingValues::defaults() {
   SettingValues v;
-  for (const SettingDef& d : kSettingDefs) v[d.id] = default_value(d);
+  for (const SettingDef& d : kSettingDefs) v[d.id] = setting_value(d, d.def);
   return v;
 }
 

@@ -26,6 +26,9 @@ struct SettingValue {
   bool operator==(const SettingValue&) const = default;
 };
 
+// A number of the table (a default, a bound, a preset's value) as a value of setting `def`.
+SettingValue setting_value(const SettingDef& def, double value);
+
 // Every setting's value, indexed by SettingId.
 struct SettingValues {
   std::array<SettingValue, kSettingCount> v;

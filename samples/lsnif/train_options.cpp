@@ -46,13 +46,10 @@ std::string preset_help(const std::string& option) {
     std::string sets;
     for (uint32_t k = 0; k < p.count; ++k) {
       const SettingDef& d = setting_def(p.values[k].id);
-      SettingValue v;
-      if (d.kind == SettingKind::F32) v.f = float(p.values[k].value);
-      else v.u = uint64_t(p.values[k].value);
       sets += k ? " --" : "--";
       sets += d.name;
       sets += ' ';
-      sets += setting_text(d, v);
+      sets += setting_text(d, setting_value(d, p.values[k].value));
     }
     if (p.choice) {
       choices += choices.empty() ? ": " : " or ";
