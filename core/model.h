@@ -26,6 +26,9 @@ struct Model {
   // MLP parameters, config.mlp_parameter_count() values. For each layer in order (hidden layers,
   // then the output layer): the weight matrix row-major [out][in], then the bias [out].
   std::vector<float> mlp;
+  // How it was trained: compact JSON {"settings", "mesh", "threads"} (train/settings_io.h), stored
+  // in the file's training section (format version 2); empty when not recorded (version 1 files).
+  std::string training;
 
   const Aabb& bounds() const { return voxels.bounds; }
   // Consistency of sizes with the config; the message names the mismatch.
@@ -38,7 +41,8 @@ struct MemoryBreakdown {
   uint64_t voxel_bytes = 0, grid_bytes = 0, mlp_bytes = 0, header_bytes = 0;
   uint64_t total() const { return voxel_bytes + grid_bytes + mlp_bytes + header_bytes; }
 };
-// Bytes the model's parts take in the .lsnif file (= on the GPU, fp16 parameters, 1 bit/voxel).
+// Bytes the model's parts take in the .lsnif file (= on the GPU, fp16 parameters, 1 bit/voxel). The
+// training record is not counted: it never reaches the GPU.
 MemoryBreakdown memory_breakdown(const Model& model);
 
 // .lsnif files: versioned little-endian binary (see model_file.cpp for the exact layout) with a

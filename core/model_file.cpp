@@ -50,6 +50,7 @@ Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes) {
   c.voxels = model.voxels.bits.data();
   c.grid = grid.data();
   c.mlp = mlp.data();
+  c.training = model.training;
   return write_model_file(c, bytes);
 }
 
@@ -80,6 +81,7 @@ Status load_model_from_memory(const uint8_t* data, size_t size, Model& model) {
   }
   halves_to_floats(v.grid, v.config.grid_parameter_count(), m.grid);
   halves_to_floats(v.mlp, v.config.mlp_parameter_count(), m.mlp);
+  m.training = std::move(v.training);
   if (Status s = m.validate(); !s) return s.context("internal error: loaded model is inconsistent");
   model = std::move(m);
   return Status::ok();

@@ -4,11 +4,11 @@
 
 namespace lsnif {
 
+static_assert(default_u32(SettingId::Levels) == 2, "Config::grid_resolution's default is set for 2 levels");
+
 const char* to_string(HitParam p) {
-  switch (p) {
-    case HitParam::AabbInterval: return "aabb";
-    case HitParam::VoxelSegments: return "segments";
-  }
+  for (const SettingChoice& c : kHitChoices)
+    if (c.value == static_cast<uint32_t>(p)) return c.name;
   return "unknown";
 }
 
@@ -38,36 +38,39 @@ std::vector<LayerView> mlp_layers(const Config& config) {
   return layers;
 }
 
+namespace {
+// An error when `value` lies outside the range of `id` in settings_table.h; `what` names it.
+Status check_range(SettingId id, uint32_t value, const char* what) {
+  if (value < min_u32(id) || value > max_u32(id))
+    return Status::error("%s=%u out of range [%u, %u]", what, value, min_u32(id), max_u32(id));
+  return Status::ok();
+}
+}  // namespace
+
 Status Config::validate() const {
-  if (voxel_resolution < 1 || voxel_resolution > 256)
-    return Status::error("voxel resolution V=%u out of range [1, 256]", voxel_resolution);
-  if (max_points < 1 || max_points > LSNIF_MAX_POINTS)
-    return Status::error("max points H=%u out of range [1, %u]", max_points, LSNIF_MAX_POINTS);
-  if (grid_levels < 1 || grid_levels > LSNIF_MAX_LEVELS)
-    return Status::error("grid levels L=%u out of range [1, %u]", grid_levels, LSNIF_MAX_LEVELS);
+  if (Status s = check_range(SettingId::Voxels, voxel_resolution, "voxel resolution V"); !s) return s;
+  if (Status s = check_range(SettingId::Points, max_points, "max points H"); !s) return s;
+  if (Status s = check_range(SettingId::Levels, grid_levels, "grid levels L"); !s) return s;
   for (uint32_t l = 0; l < grid_levels; ++l) {
     uint32_t r = grid_resolution[l];
-    if (r < voxel_resolution || r > 4096 || r % voxel_resolution != 0)
+    if (r < voxel_resolution || r > max_u32(SettingId::ResMax) || r % voxel_resolution != 0)
       return Status::error(
-          "grid resolution %u of level %u must be a multiple of the voxel resolution %u (and <= 4096)",
-          r, l, voxel_resolution);
+          "grid resolution %u of level %u must be a multiple of the voxel resolution %u (and <= %u)",
+          r, l, voxel_resolution, max_u32(SettingId::ResMax));
   }
   for (uint32_t l = grid_levels; l < LSNIF_MAX_LEVELS; ++l)
     if (grid_resolution[l] != 0) return Status::error("grid resolution of unused level %u is not 0", l);
-  if (log2_table_size < 4 || log2_table_size > 24)
-    return Status::error("hash table size M=%u out of range [4, 24] (log2 entries)", log2_table_size);
-  if (features < 1 || features > LSNIF_MAX_FEATURES)
-    return Status::error("features F=%u out of range [1, %u]", features, LSNIF_MAX_FEATURES);
-  if (hidden_width < 1 || hidden_width > LSNIF_MAX_HIDDEN_WIDTH)
-    return Status::error("hidden width W=%u out of range [1, %u]", hidden_width, LSNIF_MAX_HIDDEN_WIDTH);
-  if (hidden_layers < 1 || hidden_layers > LSNIF_MAX_HIDDEN_LAYERS)
-    return Status::error("hidden layers %u out of range [1, %u]", hidden_layers, LSNIF_MAX_HIDDEN_LAYERS);
+  if (Status s = check_range(SettingId::TableLog2, log2_table_size, "hash table size (log2 entries) M"); !s) return s;
+  if (Status s = check_range(SettingId::Features, features, "features F"); !s) return s;
+  if (Status s = check_range(SettingId::Width, hidden_width, "hidden width W"); !s) return s;
+  if (Status s = check_range(SettingId::Layers, hidden_layers, "hidden layers"); !s) return s;
   if (material_count < 1 || material_count > LSNIF_MAX_MATERIALS)
     return Status::error("material count %u out of range [1, %u]", material_count, LSNIF_MAX_MATERIALS);
   if (hit_param != HitParam::AabbInterval && hit_param != HitParam::VoxelSegments)
     return Status::error("unknown hit parametrization %u", static_cast<uint32_t>(hit_param));
-  if (!(leaky_slope >= 0.0f && leaky_slope < 1.0f))
-    return Status::error("leaky ReLU slope %g out of range [0, 1)", double(leaky_slope));
+  const SettingDef& slope = setting_def(SettingId::LeakySlope);
+  if (!(leaky_slope >= slope.min && leaky_slope < slope.max))
+    return Status::error("leaky ReLU slope %g out of range [%g, %g)", double(leaky_slope), slope.min, slope.max);
   return Status::ok();
 }
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "host_device.h"
+#include "settings_table.h"
 #include "status.h"
 
 namespace lsnif {
@@ -17,18 +18,21 @@ enum class HitParam : uint32_t {
 };
 const char* to_string(HitParam p);
 
+// The defaults and ranges are those of settings_table.h.
 struct Config {
-  uint32_t voxel_resolution = 32;  // V: voxels per axis over the padded object AABB
-  uint32_t max_points = 18;        // H: boundary points fed to the network (zero-filled after)
-  uint32_t grid_levels = 2;        // L: hash-grid levels
-  uint32_t grid_resolution[LSNIF_MAX_LEVELS] = {64, 128, 0, 0};  // per level; multiples of V
-  uint32_t log2_table_size = 17;   // M: 2^M entries per level
-  uint32_t features = 3;           // F: features per entry
-  uint32_t hidden_width = 128;     // W
-  uint32_t hidden_layers = 2;
+  uint32_t voxel_resolution = default_u32(SettingId::Voxels);  // V: voxels per axis over the padded object AABB
+  uint32_t max_points = default_u32(SettingId::Points);  // H: boundary points fed to the network (zero-filled after)
+  uint32_t grid_levels = default_u32(SettingId::Levels);  // L: hash-grid levels
+  // Per level; multiples of V. The default: set_grid_resolutions(res-min, res-max) of the default
+  // 2 levels (config.cpp checks the level count).
+  uint32_t grid_resolution[LSNIF_MAX_LEVELS] = {default_u32(SettingId::ResMin), default_u32(SettingId::ResMax), 0, 0};
+  uint32_t log2_table_size = default_u32(SettingId::TableLog2);  // M: 2^M entries per level
+  uint32_t features = default_u32(SettingId::Features);           // F: features per entry
+  uint32_t hidden_width = default_u32(SettingId::Width);          // W
+  uint32_t hidden_layers = default_u32(SettingId::Layers);
   uint32_t material_count = 1;     // Nmat
-  HitParam hit_param = HitParam::VoxelSegments;
-  float leaky_slope = 0.01f;       // leaky ReLU negative slope
+  HitParam hit_param = static_cast<HitParam>(default_u32(SettingId::Hit));
+  float leaky_slope = default_f32(SettingId::LeakySlope);  // leaky ReLU negative slope
 
   uint32_t table_size() const { return 1u << log2_table_size; }
   uint32_t input_dim() const { return max_points * grid_levels * features; }

@@ -1,12 +1,14 @@
 // model_format.cpp -- reading and writing .lsnif files at the byte level (model_format.h). The byte layout is specified in
 // docs/model-format.md; in short (all little-endian, packed byte by byte, no struct copies):
 //
-//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1)
-//   12   u32 header size (168)              16  u64 total file size
+//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1 or 2)
+//   12   u32 header size (168 or 184)       16  u64 total file size
 //   24   Config (13 x u32, leaky slope f32) 80  AABB lo.xyz, hi.xyz (6 x f32)
-//   104  section table: {u64 offset, u64 size} for materials, voxels, grid, mlp
-//   168  zero padding to 176, then the four sections in that order, each at a 16-byte aligned
-//        offset with zero padding between them, then (16-byte aligned) u32 CRC-32 of all bytes before.
+//   104  section table: {u64 offset, u64 size} for materials, voxels, grid, mlp (and, in version 2,
+//        training at 168)
+//   168 or 184: zero padding to 176 or 192, then the sections in that order, each at a 16-byte
+//        aligned offset with zero padding between them, then (16-byte aligned) u32 CRC-32 of all
+//        bytes before.
 //
 // The loader trusts nothing: every size is compared with the file length before it is used, and
 // memory is allocated only once the whole layout has been checked against the validated config.
@@ -26,8 +28,8 @@ namespace lsnif {
 namespace {
 
 constexpr uint8_t kMagic[8] = {'L', 'S', 'N', 'I', 'F', 0x00, '\r', '\n'};
-constexpr uint32_t kFormatVersion = kModelFormatVersion;
-constexpr uint32_t kHeaderSize = 168;
+constexpr uint32_t kHeaderSizeV1 = 168;
+constexpr uint32_t kHeaderSizeV2 = kHeaderSizeV1 + 16;  // + the training section's {offset, size}
 constexpr uint64_t kNameBytes = kModelMaterialNameBytes;
 constexpr uint64_t kMaterialRecordSize = kNameBytes + 3 * 4;  // name + base_color[3]
 constexpr uint64_t kAlignment = 16;
@@ -37,26 +39,35 @@ constexpr uint64_t kCrcSize = 4;
 constexpr size_t kOffVersion = 8, kOffHeaderSize = 12, kOffFileSize = 16, kOffConfig = 24,
                  kOffAabb = 80, kOffSections = 104;
 
-enum Section { kMaterials = 0, kVoxels, kGrid, kMlp, kSectionCount };
-constexpr const char* kSectionName[kSectionCount] = {"materials", "voxels", "grid", "mlp"};
+enum Section { kMaterials = 0, kVoxels, kGrid, kMlp, kTraining, kSectionCount };
+constexpr const char* kSectionName[kSectionCount] = {"materials", "voxels", "grid", "mlp", "training"};
 
 uint64_t align16(uint64_t n) { return (n + kAlignment - 1) & ~(kAlignment - 1); }
 
-// Where everything lives in the file of a model with this (valid) config.
+// Where everything lives in the file of a model with this (valid) config and a training record of
+// `training_bytes` (0: none, a version 1 file).
 struct Layout {
+  uint32_t version = 1, header_size = kHeaderSizeV1;
+  int sections = kTraining;  // kTraining in version 1, kSectionCount in version 2
   uint64_t offset[kSectionCount] = {};
   uint64_t size[kSectionCount] = {};
   uint64_t crc_offset = 0, file_size = 0;
 };
 
-Layout layout_of(const Config& c) {
+Layout layout_of(const Config& c, uint64_t training_bytes) {
   Layout l;
+  if (training_bytes) {
+    l.version = 2;
+    l.header_size = kHeaderSizeV2;
+    l.sections = kSectionCount;
+  }
   l.size[kMaterials] = kMaterialRecordSize * c.material_count;
   l.size[kVoxels] = 4u * ((c.voxel_count() + 31u) / 32u);
   l.size[kGrid] = 2u * c.grid_parameter_count();
   l.size[kMlp] = 2u * c.mlp_parameter_count();
-  uint64_t end = kHeaderSize;
-  for (int s = 0; s < kSectionCount; ++s) {
+  l.size[kTraining] = training_bytes;
+  uint64_t end = l.header_size;
+  for (int s = 0; s < l.sections; ++s) {
     l.offset[s] = align16(end);
     end = l.offset[s] + l.size[s];
   }
@@ -69,15 +80,15 @@ Layout layout_of(const Config& c) {
 // load_model from reading an arbitrarily large file into memory.
 uint64_t max_file_size() {
   Config c;
-  c.voxel_resolution = 256;
-  c.max_points = LSNIF_MAX_POINTS;
-  c.grid_levels = LSNIF_MAX_LEVELS;
-  c.log2_table_size = 24;
-  c.features = LSNIF_MAX_FEATURES;
-  c.hidden_width = LSNIF_MAX_HIDDEN_WIDTH;
-  c.hidden_layers = LSNIF_MAX_HIDDEN_LAYERS;
+  c.voxel_resolution = max_u32(SettingId::Voxels);
+  c.max_points = max_u32(SettingId::Points);
+  c.grid_levels = max_u32(SettingId::Levels);
+  c.log2_table_size = max_u32(SettingId::TableLog2);
+  c.features = max_u32(SettingId::Features);
+  c.hidden_width = max_u32(SettingId::Width);
+  c.hidden_layers = max_u32(SettingId::Layers);
   c.material_count = LSNIF_MAX_MATERIALS;
-  return layout_of(c).file_size;
+  return layout_of(c, kMaxTrainingRecordBytes).file_size;
 }
 
 // ---- little-endian packing ----------------------------------------------------------------------
@@ -165,31 +176,32 @@ uint64_t first_non_finite_half(const uint8_t* p, uint64_t count) {
 }
 
 // Checks of the fixed header that need neither the CRC nor the config: magic, version, header
-// size, and the declared total size against the actual one.
-Status check_preamble(const uint8_t* data, size_t size) {
+// size, and the declared total size against the actual one. Sets `version`.
+Status check_preamble(const uint8_t* data, size_t size, uint32_t& version) {
   if (size == 0) return Status::error("file is empty (0 bytes)");
   const size_t magic_bytes = size < sizeof(kMagic) ? size : sizeof(kMagic);
   if (std::memcmp(data, kMagic, magic_bytes) != 0)
     return Status::error("bad magic: not an .lsnif file (the first 8 bytes must be \"LSNIF\\0\\r\\n\")");
   if (size < kOffFileSize + 8)
-    return Status::error("truncated: %zu bytes, the .lsnif header alone is %u bytes", size, kHeaderSize);
-  const uint32_t version = get_u32(data + kOffVersion);
-  if (version != kFormatVersion)
-    return Status::error("unsupported format version %u (this build supports version %u)", version,
-                         kFormatVersion);
+    return Status::error("truncated: %zu bytes, the .lsnif header alone is %u bytes", size, kHeaderSizeV1);
+  version = get_u32(data + kOffVersion);
+  if (version < 1 || version > kModelFormatVersion)
+    return Status::error("unsupported format version %u (this build supports versions 1 to %u)", version,
+                         kModelFormatVersion);
+  const uint32_t expected_header = version == 1 ? kHeaderSizeV1 : kHeaderSizeV2;
   const uint32_t header_size = get_u32(data + kOffHeaderSize);
-  if (header_size != kHeaderSize)
-    return Status::error("header size %u is wrong: format version %u has a %u-byte header", header_size,
-                         kFormatVersion, kHeaderSize);
+  if (header_size != expected_header)
+    return Status::error("header size %u is wrong: format version %u has a %u-byte header", header_size, version,
+                         expected_header);
   const uint64_t declared = get_u64(data + kOffFileSize);
   if (size < declared)
     return Status::error("truncated: expected %llu bytes (from the header), got %zu", ull(declared), size);
   if (size > declared)
     return Status::error("trailing data: the header says the file has %llu bytes, got %zu", ull(declared),
                          size);
-  if (declared < kHeaderSize + kCrcSize)
+  if (declared < expected_header + kCrcSize)
     return Status::error("truncated: the header declares %llu bytes, less than the %llu-byte header and checksum",
-                         ull(declared), ull(kHeaderSize + kCrcSize));
+                         ull(declared), ull(expected_header + kCrcSize));
   return Status::ok();
 }
 
@@ -201,7 +213,8 @@ Status check_padding(const uint8_t* data, uint64_t begin, uint64_t end) {
 }
 
 Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
-  if (Status s = check_preamble(data, size); !s) return s;
+  uint32_t version = 0;
+  if (Status s = check_preamble(data, size, version); !s) return s;
   const uint64_t crc_offset = size - kCrcSize;
   const uint32_t stored_crc = get_u32(data + crc_offset), actual_crc = crc32(data, crc_offset);
   if (stored_crc != actual_crc)
@@ -223,14 +236,23 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
                          double(v.bounds_hi[0]), double(v.bounds_hi[1]), double(v.bounds_hi[2]),
                          kMaxModelCoordinate);
 
-  // Section table: inside the file, then exactly the sizes and offsets the config implies.
-  const Layout expected = layout_of(c);
-  for (int s = 0; s < kSectionCount; ++s) {
+  // Section table: inside the file, then exactly the sizes and offsets the config (and the training
+  // record's size) implies.
+  uint64_t training_bytes = 0;
+  if (version >= 2) {
+    training_bytes = get_u64(data + kOffSections + 16 * kTraining + 8);
+    if (training_bytes < 1 || training_bytes > kMaxTrainingRecordBytes)
+      return Status::error("section training has size %llu bytes, expected 1 to %llu", ull(training_bytes),
+                           ull(kMaxTrainingRecordBytes));
+  }
+  const Layout expected = layout_of(c, training_bytes);
+  const uint32_t header_size = expected.header_size;
+  for (int s = 0; s < expected.sections; ++s) {
     const uint64_t offset = get_u64(data + kOffSections + 16 * s);
     const uint64_t bytes = get_u64(data + kOffSections + 16 * s + 8);
-    if (offset < kHeaderSize || offset > crc_offset || bytes > crc_offset - offset)
+    if (offset < header_size || offset > crc_offset || bytes > crc_offset - offset)
       return Status::error("section %s [offset %llu, size %llu] lies outside the file's data bytes [%u, %llu)",
-                           kSectionName[s], ull(offset), ull(bytes), kHeaderSize, ull(crc_offset));
+                           kSectionName[s], ull(offset), ull(bytes), header_size, ull(crc_offset));
     if (bytes != expected.size[s])
       return Status::error("section %s has size %llu bytes, the config implies %llu", kSectionName[s],
                            ull(bytes), ull(expected.size[s]));
@@ -244,8 +266,8 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
                          ull(expected.file_size));
 
   // Padding between header, sections and checksum.
-  uint64_t end = kHeaderSize;
-  for (int s = 0; s < kSectionCount; ++s) {
+  uint64_t end = header_size;
+  for (int s = 0; s < expected.sections; ++s) {
     if (Status st = check_padding(data, end, expected.offset[s]); !st) return st;
     end = expected.offset[s] + expected.size[s];
   }
@@ -294,6 +316,15 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
     return Status::error("%s section value %llu (of %llu) is %s (fp16 bits 0x%04x)", section.name, ull(i),
                          ull(section.count), half_non_finite_kind(bits), bits);
   }
+
+  // The training record: text for people and tools, checked like the material names.
+  v.version = version;
+  if (training_bytes) {
+    v.training.assign(reinterpret_cast<const char*>(data + expected.offset[kTraining]), training_bytes);
+    if (!is_clean_utf8(v.training))
+      return Status::error("training section is not valid UTF-8 or contains control characters: \"%s\"",
+                           printable(v.training.substr(0, 200)).c_str());
+  }
   view = std::move(v);
   return Status::ok();
 }
@@ -318,6 +349,11 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
                          c.material_count);
   if (!contents.voxels || !contents.grid || !contents.mlp)
     return Status::error("cannot save model: a section has no data");
+  if (contents.training.size() > kMaxTrainingRecordBytes)
+    return Status::error("cannot save model: the training record is %zu bytes, at most %llu allowed",
+                         contents.training.size(), ull(kMaxTrainingRecordBytes));
+  if (!is_clean_utf8(contents.training))
+    return Status::error("cannot save model: the training record is not valid UTF-8 or contains control characters");
   for (size_t i = 0; i < contents.materials.size(); ++i) {
     const ModelFileMaterial& mat = contents.materials[i];
     if (mat.name.size() >= kNameBytes)
@@ -347,19 +383,19 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
         return Status::error("cannot save model: %s value %llu is %s, not a finite fp16 value", section.name, ull(i),
                              half_non_finite_kind(section.values[i]));
 
-  const Layout l = layout_of(c);
+  const Layout l = layout_of(c, contents.training.size());
   std::vector<uint8_t> out(l.file_size, 0);  // zero-filled: all padding is already in place
   uint8_t* d = out.data();
   std::memcpy(d, kMagic, sizeof(kMagic));
-  put_u32(d + kOffVersion, kFormatVersion);
-  put_u32(d + kOffHeaderSize, kHeaderSize);
+  put_u32(d + kOffVersion, l.version);
+  put_u32(d + kOffHeaderSize, l.header_size);
   put_u64(d + kOffFileSize, l.file_size);
   write_config(d + kOffConfig, c);
   for (int a = 0; a < 3; ++a) {
     put_f32(d + kOffAabb + 4 * a, contents.bounds_lo[a]);
     put_f32(d + kOffAabb + 12 + 4 * a, contents.bounds_hi[a]);
   }
-  for (int s = 0; s < kSectionCount; ++s) {
+  for (int s = 0; s < l.sections; ++s) {
     put_u64(d + kOffSections + 16 * s, l.offset[s]);
     put_u64(d + kOffSections + 16 * s + 8, l.size[s]);
   }
@@ -375,6 +411,8 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) put_u16(p + 2 * i, contents.grid[i]);
   p = d + l.offset[kMlp];
   for (uint64_t i = 0; i < c.mlp_parameter_count(); ++i) put_u16(p + 2 * i, contents.mlp[i]);
+  if (!contents.training.empty())
+    std::memcpy(d + l.offset[kTraining], contents.training.data(), contents.training.size());
   put_u32(d + l.crc_offset, crc32(d, l.crc_offset));
   bytes = std::move(out);
   return Status::ok();

@@ -13,7 +13,11 @@
 
 namespace lsnif {
 
-constexpr uint32_t kModelFormatVersion = 1;
+// Files without a training record are written as version 1 (the layout before the record existed),
+// files with one as version 2; both are read.
+constexpr uint32_t kModelFormatVersion = 2;
+// The training section (version 2): compact JSON text, at most this many bytes.
+constexpr size_t kMaxTrainingRecordBytes = 65536;
 constexpr size_t kModelMaterialNameBytes = 64;  // NUL-terminated: at most 63 bytes of name
 // The stored AABB lies within +-this on every axis (float ray math squares distances).
 constexpr double kMaxModelCoordinate = 1e18;
@@ -33,12 +37,15 @@ struct ModelFileView {
   const uint8_t* voxels = nullptr;             // model_voxel_words(config) u32 words
   const uint8_t* grid = nullptr;               // config.grid_parameter_count() fp16 values
   const uint8_t* mlp = nullptr;                // config.mlp_parameter_count() fp16 values
+  uint32_t version = 0;                        // 1 or 2
+  std::string training;                        // the training record (version 2), else empty
 };
 
 // Words of the voxel section of a model with this config: ceil(V^3 / 32).
 uint64_t model_voxel_words(const Config& config);
 
-// Parses and validates a whole .lsnif file in memory: magic, version, sizes, the config, the AABB,
+// Parses and validates a whole .lsnif file in memory (format version 1 or 2): magic, version,
+// sizes, the config, the AABB,
 // section table, zero padding, CRC-32, material names (valid UTF-8 without control characters),
 // the AABB within +-kMaxModelCoordinate, no voxel bits beyond V^3, no NaN or
 // infinite fp16 value. Never reads outside [data, data + size). Errors name the problem ("checksum
@@ -58,10 +65,14 @@ struct ModelFileContents {
   const uint32_t* voxels = nullptr;     // model_voxel_words(config) words
   const uint16_t* grid = nullptr;       // config.grid_parameter_count() values
   const uint16_t* mlp = nullptr;        // config.mlp_parameter_count() values
+  // The training record (train/settings_io.h): empty writes a version 1 file, else version 2 with
+  // a training section (valid UTF-8 without control characters, at most kMaxTrainingRecordBytes).
+  std::string training;
 };
 
 // Encodes `contents` as a .lsnif file into `bytes` (replaced). Fails, naming the problem, on an
-// invalid config, a non-finite or empty AABB, a material name of 64 bytes or more or with a NUL,
+// invalid config, a non-finite or empty AABB, a training record too long or not clean UTF-8, a
+// material name of 64 bytes or more or with a NUL,
 // a non-finite base color, voxel bits beyond V^3, or a non-finite fp16 value.
 Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>& bytes);
 

@@ -8,7 +8,13 @@
 
 namespace lsnif {
 
-const char* to_string(NormalLoss l) { return l == NormalLoss::Cosine ? "cosine" : "angle"; }
+const char* to_string(NormalLoss l) {
+  for (const SettingChoice& c : kNormalLossChoices)
+    if (c.value == static_cast<uint32_t>(l)) return c.name;
+  return "unknown";
+}
+static_assert(kNormalLossChoices[0].value == static_cast<uint32_t>(NormalLoss::Angle) &&
+              kNormalLossChoices[1].value == static_cast<uint32_t>(NormalLoss::Cosine));
 
 std::string LossSettings::describe() const {
   return format("loss weights occ=%g dist=%g normal=%g albedo=%g mat=%g, normal loss %s", double(occlusion),

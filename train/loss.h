@@ -30,9 +30,11 @@ struct LossTarget {
 enum class NormalLoss : uint32_t { Cosine = 0, Angle = 1 };
 const char* to_string(NormalLoss l);
 
-struct LossSettings {
-  float occlusion = 1.0f, distance = 1.0f, normal = 1.0f, albedo = 1.0f, material = 1.0f;  // weights
-  NormalLoss normal_loss = NormalLoss::Angle;
+struct LossSettings {  // defaults: settings_table.h
+  float occlusion = default_f32(SettingId::WOcclusion), distance = default_f32(SettingId::WDistance),
+        normal = default_f32(SettingId::WNormal), albedo = default_f32(SettingId::WAlbedo),
+        material = default_f32(SettingId::WMaterial);  // weights
+  NormalLoss normal_loss = static_cast<NormalLoss>(default_u32(SettingId::NormalLoss));
   std::string describe() const;
 };
 

@@ -5,13 +5,15 @@
 #include <string>
 #include <vector>
 
+#include "settings_table.h"
+
 namespace lsnif {
 
-struct AdamSettings {
-  float learning_rate = 0.01f;
-  float beta1 = 0.9f;
-  float beta2 = 0.99f;
-  float epsilon = 1e-15f;
+struct AdamSettings {  // defaults: settings_table.h
+  float learning_rate = default_f32(SettingId::Lr);
+  float beta1 = default_f32(SettingId::AdamBeta1);
+  float beta2 = default_f32(SettingId::AdamBeta2);
+  float epsilon = default_f32(SettingId::AdamEpsilon);
   std::string describe() const;
 };
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "ground_truth.h"
+#include "settings_table.h"
 #include "ray_walk.h"
 #include "voxel_grid.h"
 
@@ -19,10 +20,10 @@ struct Sample {
   ReferenceHit reference;
 };
 
-struct SamplerSettings {
-  float surface_fraction = 0.5f;      // share of rays starting on the surface
-  float sphere_scale = 1.0f;          // sphere radius = scale * half diagonal of the padded AABB
-  float surface_offset = 1e-4f;       // surface origins pushed off by this x AABB diagonal
+struct SamplerSettings {  // defaults: settings_table.h
+  float surface_fraction = default_f32(SettingId::SurfaceFraction);  // share of rays starting on the surface
+  float sphere_scale = default_f32(SettingId::SphereScale);  // sphere radius = scale * half diagonal of the padded AABB
+  float surface_offset = default_f32(SettingId::SurfaceOffset);  // surface origins pushed off by this x AABB diagonal
 };
 
 class RaySampler {

@@ -15,20 +15,21 @@
 
 namespace lsnif {
 
+// The defaults and ranges are those of settings_table.h; settings_io.h reads and writes them.
 struct TrainSettings {
   Config config;
-  uint32_t steps = 2000;
-  uint32_t batch_size = 1u << 14;  // paper: 2^18 on a GPU; 2^14 is faster per second on 2 CPU cores
-  uint64_t seed = 1;
+  uint32_t steps = default_u32(SettingId::Steps);
+  uint32_t batch_size = default_u32(SettingId::Batch);  // paper: 2^18 on a GPU; 2^14 is faster per second on 2 CPU cores
+  uint64_t seed = default_u64(SettingId::Seed);
   // Each training ray is used in this many consecutive steps: every step replaces 1/ray_reuse of
   // the batch with fresh rays (round robin). 1 = fresh rays every step (default: on the bunny, 2
   // saved ~10% of the training time but raised the median normal error from 5.2 to 6.5 degrees
   // and the t error from 0.39% to 0.57%).
-  uint32_t ray_reuse = 1;
+  uint32_t ray_reuse = default_u32(SettingId::RayReuse);
   AdamSettings adam;
   LossSettings loss_settings;
   SamplerSettings sampler;
-  float grid_init_range = 1e-4f;   // hash-table entries start in U(-range, range) (paper)
+  float grid_init_range = default_f32(SettingId::GridInitRange);  // hash-table entries start in U(-range, range) (paper)
   bool progress = true;            // progress bar on stderr
   bool loss_curve = false;         // true: TrainReport::loss_curve receives the loss curve (CSV)
   std::string describe() const;

@@ -17,37 +17,13 @@
 #include "mesh_gltf.h"
 #include "model.h"
 #include "progress.h"
+#include "settings_io.h"
 #include "trainer.h"
 
 namespace lsnif::convert {
 namespace fs = std::filesystem;
 
 namespace {
-
-// 64-bit FNV-1a.
-struct Hasher {
-  uint64_t h = 0xcbf29ce484222325ull;
-  void bytes(const void* p, size_t n) {
-    const auto* b = static_cast<const unsigned char*>(p);
-    for (size_t i = 0; i < n; ++i) {
-      h ^= b[i];
-      h *= 0x100000001b3ull;
-    }
-  }
-  template <class T>
-  void vec(const std::vector<T>& v) {
-    const uint64_t n = v.size();
-    bytes(&n, sizeof n);
-    if (!v.empty()) bytes(v.data(), v.size() * sizeof(T));
-  }
-  void str(const std::string& s) {
-    const uint64_t n = s.size();
-    bytes(&n, sizeof n);
-    bytes(s.data(), s.size());
-  }
-  template <class T>
-  void pod(const T& v) { bytes(&v, sizeof v); }
-};
 
 // What the sidecar holds.
 struct Sidecar {
@@ -84,7 +60,7 @@ Status write_sidecar(const std::string& path, const PlannedModel& m, const Model
   j["name"] = m.name;
   j["triangles"] = r.mesh.triangles.size();
   j["materials"] = r.mesh.materials.size();
-  j["settings"] = train.describe();
+  j["settings"] = settings_to_json(from_train_settings(train));
   if (r.evaluated)
     j["eval"] = {{"rays", r.metrics.rays},
                  {"accuracy", r.metrics.accuracy},
@@ -120,30 +96,10 @@ std::string object_label(const Plan& plan, const PlannedModel& m) {
 }  // namespace
 
 std::string content_hash(const Mesh& mesh, const TrainSettings& train) {
-  Hasher h;
-  h.str("lsnif-convert-1");
-  h.vec(mesh.positions);
-  h.vec(mesh.normals);
-  h.vec(mesh.uvs);
-  h.vec(mesh.colors);
-  h.vec(mesh.triangles);
-  h.vec(mesh.triangle_material);
-  for (const Material& m : mesh.materials) {
-    h.str(m.name);
-    h.pod(m.base_color);
-    h.pod(m.texture);
-  }
-  for (const Texture& t : mesh.textures) {
-    h.pod(t.width);
-    h.pod(t.height);
-    h.vec(t.rgba);
-  }
-  h.str(train.describe());
-  h.pod(train.sampler.surface_fraction);
-  h.pod(train.sampler.sphere_scale);
-  h.pod(train.sampler.surface_offset);
-  h.pod(train.grid_init_range);
-  return format("%016llx", (unsigned long long)h.h);
+  // The mesh's hash and every training setting (settings_io.h), hashed together.
+  const std::string key = format("lsnif-convert-2 %016llx ", (unsigned long long)mesh_hash(mesh)) +
+                          settings_to_json(from_train_settings(train)).dump();
+  return format("%016llx", (unsigned long long)fnv1a64(key));
 }
 
 std::string sidecar_path(const std::string& model_path) { return model_path + ".json"; }
@@ -224,6 +180,7 @@ void train_models(const ConvertSettings& settings, const Plan& plan, const std::
           advance(1, false);
           return true;
         });
+        model.training = training_record(train, r.mesh, m.name, omp_get_max_threads());
         if (s) s = save_model(model, path);
         if (s && settings.eval_rays > 0) {
           EvalSettings es;

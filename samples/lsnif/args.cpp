@@ -28,38 +28,47 @@ void Args::option(const std::string& name, const std::string& help, std::string*
                    }});
 }
 
+bool parse_u64(const std::string& v, uint64_t& out) {
+  errno = 0;
+  char* end = nullptr;
+  unsigned long long x = std::strtoull(v.c_str(), &end, 0);
+  if (errno || end == v.c_str() || *end || v[0] == '-') return false;
+  out = uint64_t(x);
+  return true;
+}
+
+bool parse_u32(const std::string& v, uint32_t& out) {
+  uint64_t x = 0;
+  if (!parse_u64(v, x) || x > 0xffffffffull) return false;
+  out = uint32_t(x);
+  return true;
+}
+
+bool parse_f32(const std::string& v, float& out) {
+  char* end = nullptr;
+  float x = std::strtof(v.c_str(), &end);
+  if (end == v.c_str() || *end || !std::isfinite(x)) return false;
+  out = x;
+  return true;
+}
+
 void Args::option(const std::string& name, const std::string& help, uint32_t* out) {
-  opts_.push_back({name, help, "N", std::to_string(*out), false, [out](const std::string& v) {
-                     errno = 0;
-                     char* end = nullptr;
-                     unsigned long long x = std::strtoull(v.c_str(), &end, 0);
-                     if (errno || end == v.c_str() || *end || x > 0xffffffffull || v[0] == '-') return false;
-                     *out = uint32_t(x);
-                     return true;
-                   }});
+  option(name, help, "N", std::to_string(*out), [out](const std::string& v) { return parse_u32(v, *out); });
 }
 
 void Args::option(const std::string& name, const std::string& help, uint64_t* out) {
-  opts_.push_back({name, help, "N", std::to_string(*out), false, [out](const std::string& v) {
-                     errno = 0;
-                     char* end = nullptr;
-                     unsigned long long x = std::strtoull(v.c_str(), &end, 0);
-                     if (errno || end == v.c_str() || *end || v[0] == '-') return false;
-                     *out = uint64_t(x);
-                     return true;
-                   }});
+  option(name, help, "N", std::to_string(*out), [out](const std::string& v) { return parse_u64(v, *out); });
 }
 
 void Args::option(const std::string& name, const std::string& help, float* out) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", double(*out));
-  opts_.push_back({name, help, "X", buf, false, [out](const std::string& v) {
-                     char* end = nullptr;
-                     float x = std::strtof(v.c_str(), &end);
-                     if (end == v.c_str() || *end || !std::isfinite(x)) return false;
-                     *out = x;
-                     return true;
-                   }});
+  option(name, help, "X", buf, [out](const std::string& v) { return parse_f32(v, *out); });
+}
+
+void Args::option(const std::string& name, const std::string& help, const std::string& value_name,
+                  const std::string& default_text, std::function<bool(const std::string&)> set) {
+  opts_.push_back({name, help, value_name, default_text, value_name.empty(), std::move(set)});
 }
 
 void Args::flag(const std::string& name, const std::string& help, bool* out) {

@@ -22,6 +22,10 @@ class Args {
   void option(const std::string& name, const std::string& help, uint64_t* out);
   void option(const std::string& name, const std::string& help, float* out);
   void flag(const std::string& name, const std::string& help, bool* out);
+  // An option whose value `set` takes (false: not a valid VALUE_NAME); `default_text` is shown in
+  // --help. A flag when `value_name` is empty (`set` gets "").
+  void option(const std::string& name, const std::string& help, const std::string& value_name,
+              const std::string& default_text, std::function<bool(const std::string&)> set);
   // A short spelling ("-o") for a long option ("output").
   void alias(const std::string& short_name, const std::string& long_name);
 
@@ -48,6 +52,12 @@ class Args {
   std::vector<std::string>* rest_ = nullptr;
   std::vector<std::pair<std::string, std::string>> aliases_;
 };
+
+// Option values: a whole decimal (or 0x) number without a sign; a finite float. False when `text`
+// is not one.
+bool parse_u32(const std::string& text, uint32_t& out);
+bool parse_u64(const std::string& text, uint64_t& out);
+bool parse_f32(const std::string& text, float& out);
 
 // `s` as a JSON string literal (quotes, backslashes and control characters escaped).
 std::string json_string(const std::string& s);

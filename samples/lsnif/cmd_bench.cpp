@@ -171,24 +171,25 @@ int cmd_bench(int argc, char** argv) {
   rs.width = 320;
   rs.height = 240;
   rs.spp = 16;
+  const auto set = [&topt](SettingId id, uint64_t value) { topt.given.set(id, {.u = value}); };
   if (quick) {
-    topt.voxels = 16;
-    topt.res_min = 32;
-    topt.res_max = 64;
-    topt.table_log2 = 12;
-    topt.width = 32;
-    topt.steps = 30;
-    topt.batch = 1024;
+    set(SettingId::Voxels, 16);
+    set(SettingId::ResMin, 32);
+    set(SettingId::ResMax, 64);
+    set(SettingId::TableLog2, 12);
+    set(SettingId::Width, 32);
+    set(SettingId::Steps, 30);
+    set(SettingId::Batch, 1024);
     rs.width = 64;
     rs.height = 48;
     rs.spp = 2;
   }
-  if (steps) topt.steps = steps;
-  if (batch) topt.batch = batch;
+  if (steps) set(SettingId::Steps, steps);
+  if (batch) set(SettingId::Batch, batch);
   if (width) rs.width = width;
   if (height) rs.height = height;
   if (spp) rs.spp = spp;
-  topt.seed = seed;
+  set(SettingId::Seed, seed);
   topt.threads = threads;
   // Checked (and described for results.md) before any work; to_settings wants an output name for
   // the loss-curve path it derives, nothing is written under it.

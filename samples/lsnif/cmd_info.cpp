@@ -5,16 +5,58 @@
 #include "args.h"
 #include "commands.h"
 #include "grid_usage.h"
+#include "json_text.h"
 #include "model.h"
+#include "settings_io.h"
 
 namespace lsnif::cli {
 
+namespace {
+
+// The model's training record, parsed; null when none is recorded (a version 1 file). The record
+// is untrusted text: an unreadable one is an error.
+Status read_training(const Model& model, nlohmann::json& out) {
+  out = nullptr;
+  if (model.training.empty()) return Status::ok();
+  if (Status s = json::parse(model.training, "training record", out); !s) return s;
+  if (!out.is_object() || !out.contains("settings") || !out["settings"].is_object())
+    return Status::error("training record: not an object with \"settings\"");
+  return Status::ok();
+}
+
+// "name=value" of every recorded setting, in table order, wrapped to lines of about 100 columns;
+// keys the table does not know (a newer writer's) after them.
+std::string settings_lines(const nlohmann::json& settings, const char* indent) {
+  std::vector<std::string> items;
+  for (const SettingDef& d : kSettingDefs)
+    if (settings.contains(d.name)) {
+      const nlohmann::json& v = settings[d.name];
+      items.push_back(std::string(d.name) + "=" + (v.is_string() ? v.get<std::string>() : v.dump()));
+    }
+  for (const auto& [key, v] : settings.items())
+    if (!find_setting(key)) items.push_back(key + "=" + (v.is_string() ? v.get<std::string>() : v.dump()));
+  std::string out, line;
+  for (const std::string& item : items) {
+    if (!line.empty() && line.size() + item.size() > 90) {
+      out += line + "\n" + indent;
+      line.clear();
+    }
+    if (!line.empty()) line += ' ';
+    line += printable(item);
+  }
+  return out + line;
+}
+
+}  // namespace
+
 int cmd_info(int argc, char** argv) {
   std::string path;
-  bool json = false, usage = false;
+  bool json = false, usage = false, settings_only = false;
   Args args("info", "Prints the configuration, bounds, materials and memory breakdown of an .lsnif model.");
   args.positional("MODEL", "model file (.lsnif)", &path);
   args.flag("json", "print JSON instead of text", &json);
+  args.flag("settings", "print only the training settings the model records, as JSON (a `--config` file for "
+            "`lsnif train` and `lsnif convert`)", &settings_only);
   args.flag("grid-usage", "also count, per level, the grid vertices the encoding can read and their hash collisions",
             &usage);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
@@ -22,6 +64,26 @@ int cmd_info(int argc, char** argv) {
   if (Status s = load_model(path, model); !s) {
     std::fprintf(stderr, "lsnif info: %s\n", s.message().c_str());
     return 1;
+  }
+  nlohmann::json training;
+  if (Status s = read_training(model, training); !s) {
+    std::fprintf(stderr, "lsnif info: %s: %s\n", path.c_str(), s.message().c_str());
+    return 1;
+  }
+  if (settings_only) {
+    if (training.is_null()) {
+      std::fprintf(stderr, "lsnif info: %s records no training settings (a format version 1 file)\n", path.c_str());
+      return 1;
+    }
+    // In table order, then keys the table does not know (they fail as a --config file, naming them).
+    const nlohmann::json& recorded = training["settings"];
+    nlohmann::ordered_json ordered = nlohmann::ordered_json::object();
+    for (const SettingDef& d : kSettingDefs)
+      if (recorded.contains(d.name)) ordered[d.name] = recorded[d.name];
+    for (const auto& [key, v] : recorded.items())
+      if (!find_setting(key)) ordered[key] = v;
+    std::printf("%s\n", ordered.dump(2).c_str());
+    return 0;
   }
   const MemoryBreakdown m = memory_breakdown(model);
   const std::vector<GridLevelUsage> levels = usage ? grid_usage(model.config, model.voxels) : std::vector<GridLevelUsage>();
@@ -47,7 +109,7 @@ int cmd_info(int argc, char** argv) {
                     (unsigned long long)levels[l].entries_shared, (unsigned long long)levels[l].vertices_in_shared);
       std::printf("]");
     }
-    std::printf("}\n");
+    std::printf(", \"training\": %s}\n", training.dump().c_str());
     return 0;
   }
   std::printf("model      %s\n", path.c_str());
@@ -55,6 +117,19 @@ int cmd_info(int argc, char** argv) {
   std::printf("bounds     [%g %g %g] - [%g %g %g]\n", double(b.lo.x), double(b.lo.y), double(b.lo.z),
               double(b.hi.x), double(b.hi.y), double(b.hi.z));
   std::printf("voxels     %u^3, %u occupied\n", c.voxel_resolution, model.voxels.count_occupied());
+  if (training.is_null()) {
+    std::printf("training   not recorded (format version 1)\n");
+  } else {
+    std::printf("settings   %s\n", settings_lines(training["settings"], "           ").c_str());
+    const nlohmann::json& mesh = training.contains("mesh") ? training["mesh"] : nlohmann::json();
+    if (mesh.is_object() && mesh.contains("name") && mesh["name"].is_string() && mesh.contains("triangles") &&
+        mesh.contains("hash") && mesh["hash"].is_string())
+      std::printf("mesh       %s: %s triangles, %s\n", printable(mesh["name"].get<std::string>()).c_str(),
+                  printable(mesh["triangles"].dump()).c_str(), printable(mesh["hash"].get<std::string>()).c_str());
+    else if (!mesh.is_null())
+      std::printf("mesh       %s\n", printable(mesh.dump()).c_str());
+    if (training.contains("threads")) std::printf("threads    %s\n", printable(training["threads"].dump()).c_str());
+  }
   for (size_t i = 0; i < model.materials.size(); ++i)
     std::printf("material   %zu: %s (base color %.3f %.3f %.3f)\n", i, model.materials[i].name.c_str(),
                 double(model.materials[i].base_color.r), double(model.materials[i].base_color.g),

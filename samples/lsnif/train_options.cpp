@@ -2,8 +2,8 @@
 
 #include <omp.h>
 
-#include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <utility>
 
 #include "atomic_file.h"
@@ -11,35 +11,97 @@
 
 namespace lsnif::cli {
 
+namespace {
+
+// "N", "X" or "segments|aabb": what a setting's option takes.
+std::string value_name(const SettingDef& d) {
+  if (d.kind == SettingKind::F32) return "X";
+  if (d.kind != SettingKind::Choice) return "N";
+  std::string s;
+  for (uint32_t c = 0; c < d.choice_count; ++c) {
+    if (c) s += '|';
+    s += d.choices[c].name;
+  }
+  return s;
+}
+
+// The help of a setting's option: its text and, where bounded, its range.
+std::string setting_help(const SettingDef& d) {
+  std::string help = d.help;
+  if (d.kind == SettingKind::U32 && d.max < kU32Max)
+    help += format(" [%u, %u]", uint32_t(d.min), uint32_t(d.max));
+  else if (d.kind == SettingKind::U32)
+    help += format(" (at least %u)", uint32_t(d.min));
+  if (d.kind == SettingKind::F32 && d.max < kF32Max)
+    help += format(" %c%g, %g%c", d.min_open ? '(' : '[', d.min, d.max, d.max_open ? ')' : ']');
+  return help;
+}
+
+// The help of a preset option: its text, then what each choice sets ("high or low (--width 64 ...)").
+std::string preset_help(const std::string& option) {
+  std::string help, choices;
+  for (const Preset& p : kPresets) {
+    if (option != p.option) continue;
+    if (help.empty()) help = p.help;
+    std::string sets;
+    for (uint32_t k = 0; k < p.count; ++k) {
+      const SettingDef& d = setting_def(p.values[k].id);
+      sets += k ? " --" : "--";
+      sets += d.name;
+      sets += ' ';
+      sets += setting_text(d, setting_value(d, p.values[k].value));
+    }
+    if (p.choice) {
+      choices += choices.empty() ? ": " : " or ";
+      choices += p.choice;
+      if (!sets.empty()) choices += " (" + sets + ")";
+    } else {
+      choices = ": " + sets;
+    }
+  }
+  return help + choices;
+}
+
+}  // namespace
+
 void TrainOptions::add_to(Args& args, const char* output_help) {
   args.alias("-o", "output");
   args.option("output", output_help, &output);
-  args.option("voxels", "voxel resolution V", &voxels);
-  args.option("points", "max boundary points H", &points);
-  args.option("levels", "hash-grid levels L", &levels);
-  args.option("res-min", "coarsest grid resolution", &res_min);
-  args.option("res-max", "finest grid resolution", &res_max);
-  args.option("table-log2", "log2 hash-table entries per level M", &table_log2);
-  args.option("features", "features per entry F", &features);
-  args.option("width", "hidden layer width W", &width);
-  args.option("layers", "hidden layers", &layers);
-  args.option("steps", "training steps", &steps);
-  args.option("batch", "rays per step", &batch);
-  args.option("seed", "random seed", &seed);
-  args.option("lr", "Adam learning rate", &lr);
-  args.option("hit", "hit distance parametrization: segments (ours) or aabb (paper)", &hit);
-  args.option("ray-reuse", "steps each training ray is used in (1 = fresh rays every step)", &ray_reuse);
-  args.option("normal-loss", "normal loss: angle (ours) or cosine (paper)", &normal_loss);
+  args.option("config", "JSON file of settings (name -> value, as `lsnif info --settings` prints); the options "
+              "given here override it", &config);
+  const SettingValues defaults = SettingValues::defaults();
+  for (const SettingDef& d : kSettingDefs) {
+    args.option(d.name, setting_help(d), value_name(d), setting_text(d, defaults[d.id]), [this, &d](const std::string& text) {
+      SettingValue v;
+      switch (d.kind) {
+        case SettingKind::U32: {
+          uint32_t x = 0;
+          if (!parse_u32(text, x)) return false;
+          v.u = x;
+          break;
+        }
+        case SettingKind::U64:
+          if (!parse_u64(text, v.u)) return false;
+          break;
+        case SettingKind::F32:
+          if (!parse_f32(text, v.f)) return false;
+          break;
+        case SettingKind::Choice: break;  // checked when resolved, naming the choices
+      }
+      given.set(d.id, v, d.kind == SettingKind::Choice ? text : std::string());
+      return true;
+    });
+  }
+  for (const Preset& p : kPresets) {
+    if (&p != &kPresets[0] && std::string_view(p.option) == (&p)[-1].option) continue;  // one option per name
+    const bool flag = p.choice == nullptr;
+    args.option(p.option, preset_help(p.option), flag ? "" : "TEXT", flag ? "" : p.choice, [this, &p](const std::string& text) {
+      presets.emplace_back(p.option, text);
+      return true;
+    });
+  }
   args.option("threads", "worker threads (0 = all cores)", &threads);
   args.option("csv", "loss curve CSV (default: MODEL.csv)", &csv);
-  args.option("w-occlusion", "loss weight of occlusion", &loss.occlusion);
-  args.option("w-distance", "loss weight of hit distance", &loss.distance);
-  args.option("w-normal", "loss weight of the normal", &loss.normal);
-  args.option("w-albedo", "loss weight of albedo", &loss.albedo);
-  args.option("w-material", "loss weight of the material", &loss.material);
-  args.option("quality", "the paper's configuration: high (default widths) or low (--width 64 --points 10)", &quality);
-  args.flag("paper", "paper settings: batch 2^18, hit=aabb, normal-loss=cosine, ray-reuse=1 (slow on a CPU)",
-            &paper);
   args.flag("quiet", "no progress bar", &quiet);
   add_import_flags(args, &import_options);
 }
@@ -54,111 +116,41 @@ void add_import_flags(Args& args, MeshImportOptions* options, bool meshes) {
 }
 
 bool TrainOptions::to_settings(TrainSettings& s) const {
-  // The options' own ranges first, named as the user typed them (the checks below divide by the
-  // voxel resolution and compare with the batch).
-  if (voxels < 1 || voxels > 256) {
-    std::fprintf(stderr, "lsnif: --voxels %u out of range [1, 256]\n", voxels);
-    return false;
-  }
-  if (steps < 1 || batch < 1) {
-    std::fprintf(stderr, "lsnif: --steps (%u) and --batch (%u) must be at least 1\n", steps, batch);
-    return false;
-  }
-  if (!(lr > 0.0f) || !std::isfinite(lr)) {
-    std::fprintf(stderr, "lsnif: --lr %g must be a positive, finite learning rate\n", double(lr));
-    return false;
-  }
-  const std::pair<const char*, float> weights[] = {{"--w-occlusion", loss.occlusion}, {"--w-distance", loss.distance},
-                                                   {"--w-normal", loss.normal}, {"--w-albedo", loss.albedo},
-                                                   {"--w-material", loss.material}};
-  float weight_sum = 0.0f;
-  for (const auto& [name, w] : weights) {
-    if (!(w >= 0.0f) || !std::isfinite(w)) {
-      std::fprintf(stderr, "lsnif: %s %g must be a finite weight >= 0\n", name, double(w));
+  SettingLayer command_line = given;
+  for (const auto& [option, choice] : presets) {
+    const bool flag = find_preset(option, nullptr) != nullptr;
+    const Preset* p = find_preset(option, flag ? nullptr : choice.c_str());
+    if (!p) {
+      std::string names;
+      for (const Preset& q : kPresets)
+        if (option == q.option) {
+          names += names.empty() ? "'" : "' or '";
+          names += q.choice;
+        }
+      std::fprintf(stderr, "lsnif: --%s must be %s' (got '%s')\n", option.c_str(), names.c_str(),
+                   printable(choice).c_str());
       return false;
     }
-    weight_sum += w;
+    command_line.presets.push_back(p);
   }
-  if (!(weight_sum > 0.0f)) {
-    std::fprintf(stderr, "lsnif: every loss weight (--w-*) is 0: nothing would be trained\n");
-    return false;
-  }
-  Config& c = s.config;
-  c.voxel_resolution = voxels;
-  c.max_points = points;
-  c.grid_levels = levels;
-  if (levels < 1 || levels > LSNIF_MAX_LEVELS) {
-    std::fprintf(stderr, "lsnif: --levels %u out of range [1, %u]\n", levels, LSNIF_MAX_LEVELS);
-    return false;
-  }
-  if (res_min < 1 || res_max < res_min) {
-    std::fprintf(stderr, "lsnif: need 1 <= --res-min <= --res-max (got %u, %u)\n", res_min, res_max);
-    return false;
-  }
-  if (res_min % voxels || res_max % voxels) {
-    std::fprintf(stderr,
-                 "lsnif: --res-min %u and --res-max %u must each be a multiple of the voxel resolution %u "
-                 "(voxel faces must lie on grid planes)\n", res_min, res_max, voxels);
-    return false;
-  }
-  uint32_t hidden_width = width, max_points = points;
-  if (quality == "low") {
-    const TrainOptions defaults;
-    if (width != defaults.width || points != defaults.points) {
-      std::fprintf(stderr, "lsnif: --quality low sets --width %u and --points %u; give either --quality or those\n",
-                   kLowQualityWidth, kLowQualityPoints);
+  std::vector<const SettingLayer*> layers;
+  SettingLayer file;
+  if (!config.empty()) {
+    if (Status st = read_settings_file(config, file); !st) {
+      std::fprintf(stderr, "lsnif: %s\n", st.message().c_str());
       return false;
     }
-    hidden_width = kLowQualityWidth;
-    max_points = kLowQualityPoints;
-  } else if (quality != "high") {
-    std::fprintf(stderr, "lsnif: --quality must be 'high' or 'low' (got '%s')\n", quality.c_str());
+    layers.push_back(&file);
+  }
+  layers.push_back(&command_line);
+  SettingValues values;
+  if (Status st = resolve_settings(layers, values); !st) {
+    std::fprintf(stderr, "lsnif: %s\n", st.message().c_str());
     return false;
   }
-  c.max_points = max_points;
-  set_grid_resolutions(c, res_min, res_max);
-  c.log2_table_size = table_log2;
-  c.features = features;
-  c.hidden_width = hidden_width;
-  c.hidden_layers = layers;
-  if (hit == "segments") {
-    c.hit_param = HitParam::VoxelSegments;
-  } else if (hit == "aabb") {
-    c.hit_param = HitParam::AabbInterval;
-  } else {
-    std::fprintf(stderr, "lsnif: --hit must be 'segments' or 'aabb' (got '%s')\n", hit.c_str());
-    return false;
-  }
-  s.steps = steps;
-  s.batch_size = batch;
-  s.ray_reuse = ray_reuse;
-  s.seed = seed;
-  s.loss_settings = loss;
-  if (normal_loss == "angle") {
-    s.loss_settings.normal_loss = NormalLoss::Angle;
-  } else if (normal_loss == "cosine") {
-    s.loss_settings.normal_loss = NormalLoss::Cosine;
-  } else {
-    std::fprintf(stderr, "lsnif: --normal-loss must be 'angle' or 'cosine' (got '%s')\n", normal_loss.c_str());
-    return false;
-  }
-  if (paper) {
-    s.batch_size = 1u << 18;
-    c.hit_param = HitParam::AabbInterval;
-    s.loss_settings.normal_loss = NormalLoss::Cosine;
-    s.ray_reuse = 1;
-  }
-  if (s.ray_reuse < 1 || s.ray_reuse > s.batch_size) {
-    std::fprintf(stderr, "lsnif: --ray-reuse %u must be in [1, --batch %u]\n", s.ray_reuse, s.batch_size);
-    return false;
-  }
-  s.adam.learning_rate = lr;
+  to_train_settings(values, s);
   s.progress = !quiet;
   s.loss_curve = true;
-  if (Status st = c.validate(); !st) {
-    std::fprintf(stderr, "lsnif: invalid model settings: %s\n", st.message().c_str());
-    return false;
-  }
   return true;
 }
 
@@ -212,6 +204,8 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
     std::fprintf(stderr, "lsnif: training failed: %s\n", s.message().c_str());
     return 1;
   }
+  model.training = training_record(settings, mesh, std::filesystem::path(label).filename().string(),
+                                   omp_get_max_threads());
   if (Status s = save_model(model, opts.output); !s) {
     std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
     return 1;

@@ -3,37 +3,35 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "args.h"
 #include "mesh.h"
 #include "model.h"
+#include "settings_io.h"
 #include "trainer.h"
 
 namespace lsnif::cli {
 
 struct TrainOptions {
   std::string output;
-  uint32_t voxels = 32, points = 18, levels = 2, res_min = 64, res_max = 128, table_log2 = 17,
-           features = 3, width = 128, layers = 2, steps = 2000, batch = 1u << 14, threads = 0;
-  uint64_t seed = 1;
-  uint32_t ray_reuse = 1;
-  std::string normal_loss = "angle";
-  float lr = 0.01f;
-  std::string hit = "segments";
+  std::string config;  // --config FILE.json: settings under those given on the command line
+  // The settings of format/settings_table.h given on the command line (each is the option --NAME),
+  // and the presets (--quality low, --paper) as given: (option, choice; "" for a flag).
+  SettingLayer given;
+  std::vector<std::pair<std::string, std::string>> presets;
+  uint32_t threads = 0;
   std::string csv;
-  // The paper's two configurations (section 6): "high" (the defaults above) and "low", which
-  // reduces the hidden width W to 64 and the boundary points H to 10 (kLowQuality*).
-  std::string quality = "high";
-  static constexpr uint32_t kLowQualityWidth = 64, kLowQualityPoints = 10;
-  LossSettings loss;
-  bool paper = false, quiet = false;
+  bool quiet = false;
   MeshImportOptions import_options;  // --allow-outside-refs, --allow-dropped-triangles
 
-  // Registers the training options, the mesh import flags and -o/--output (described by
-  // `output_help`).
+  // Registers the training options (every setting, the presets, --config), the mesh import flags
+  // and -o/--output (described by `output_help`).
   void add_to(Args& args, const char* output_help = "output model file (.lsnif)");
-  // Builds trainer settings; returns false (message printed, naming the option) on an invalid
-  // value or combination.
+  // Builds trainer settings: defaults, then the --config file, then the command line (presets
+  // first); returns false (message printed, naming the option, or the file and the key) on an
+  // invalid value or combination.
   bool to_settings(TrainSettings& settings) const;
   // The loss curve's path: --csv, or MODEL.csv.
   std::string csv_path() const { return csv.empty() ? output + ".csv" : csv; }

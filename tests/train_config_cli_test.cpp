@@ -1,0 +1,215 @@
+// `lsnif train --config` and the settings a model records: bad config files fail with exit code 2
+// and a message naming the file and the key, options on the command line override the file, and
+// train -> info --json / --settings -> train --config reproduces the same settings (and the same
+// model bytes). Tiny models: each run takes well under a second.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "test_support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using lsnif::test::ProcessResult;
+
+const std::string kMesh = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
+
+class TrainConfigCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!fs::exists(kMesh)) GTEST_SKIP() << kMesh << " missing: run scripts/setup.sh";
+  }
+  ProcessResult lsnif(std::vector<std::string> args) {
+    args.insert(args.begin(), LSNIF_CLI);
+    return lsnif::test::run_process(args, 60);
+  }
+  // `lsnif train` of the test mesh into `model` with tiny settings, then `extra`.
+  ProcessResult train(const std::string& model, const std::vector<std::string>& extra) {
+    std::vector<std::string> args = {"train", kMesh, "-o", model, "--quiet"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return lsnif(args);
+  }
+  std::string write(const std::string& name, const std::string& text) {
+    const std::string p = dir_.path(name);
+    std::ofstream(p, std::ios::binary) << text;
+    return p;
+  }
+  static std::string read(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  // The "training" object of `lsnif info --json MODEL`.
+  nlohmann::json training_of(const std::string& model) {
+    const ProcessResult r = lsnif({"info", "--json", model});
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    const nlohmann::json j = nlohmann::json::parse(r.output, nullptr, false);
+    EXPECT_FALSE(j.is_discarded()) << r.output;
+    return j.is_object() && j.contains("training") ? j["training"] : nlohmann::json();
+  }
+
+  lsnif::test::ScopedTestDir dir_{"lsnif_train_config"};
+  // Small enough for a fraction of a second per run.
+  const std::string tiny_ = R"({"voxels": 8, "res-min": 16, "res-max": 32, "table-log2": 8, "width": 16,
+                                "points": 6, "steps": 2, "batch": 128})";
+};
+
+TEST_F(TrainConfigCli, BadConfigFilesFailNamingTheFileAndTheKey) {
+  struct Case {
+    std::string json;
+    std::vector<std::string> message;
+  };
+  const std::vector<Case> cases = {
+      {R"({"voxelz": 8})", {"\"voxelz\"", "unknown setting"}},
+      {R"({"voxels": "8"})", {"\"voxels\"", "must be an unsigned integer, not string"}},
+      {R"({"lr": "fast"})", {"\"lr\"", "must be a number, not string"}},
+      {R"({"voxels": 300})", {"\"voxels\" 300 out of range [1, 256]"}},
+      {R"({"hit": "sideways"})", {"\"hit\" must be 'segments' or 'aabb' (got 'sideways')"}},
+      {R"([{"voxels": 8}])", {"a settings file holds a JSON object", "not array"}},
+      {R"({"voxels": 8,)", {"not valid JSON"}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.json);
+    const std::string cfg = write("bad.json", c.json);
+    const ProcessResult r = train(dir_.path("m.lsnif"), {"--config", cfg});
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(cfg), std::string::npos) << r.output;
+    for (const std::string& part : c.message) EXPECT_NE(r.output.find(part), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("trained "), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir_.path("m.lsnif")));
+  }
+  const ProcessResult missing = train(dir_.path("m.lsnif"), {"--config", dir_.path("none.json")});
+  EXPECT_EQ(missing.exit_code, 2) << missing.output;
+  EXPECT_NE(missing.output.find("none.json: no such file"), std::string::npos) << missing.output;
+}
+
+TEST_F(TrainConfigCli, CommandLineOptionsOverrideTheFile) {
+  const std::string cfg = write("tiny.json", tiny_.substr(0, tiny_.size() - 1) + R"(, "seed": 5, "hit": "aabb"})");
+  const std::string model = dir_.path("m.lsnif");
+  ProcessResult r = train(model, {"--config", cfg, "--seed", "11", "--steps", "3"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  nlohmann::json s = training_of(model)["settings"];
+  EXPECT_EQ(s["seed"], 11);      // the command line
+  EXPECT_EQ(s["steps"], 3);
+  EXPECT_EQ(s["hit"], "aabb");   // the file
+  EXPECT_EQ(s["voxels"], 8);
+  EXPECT_EQ(s["lr"], 0.01);      // the default
+  // A preset on the command line overrides the file's values it sets; the file's value is
+  // checked in its own right first ("width": 16 is fine, "width": 0 is not).
+  r = train(model, {"--config", cfg, "--quality", "low"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  s = training_of(model)["settings"];
+  EXPECT_EQ(s["width"], 64);
+  EXPECT_EQ(s["points"], 10);
+  // An invalid value in the file fails even when the command line sets that setting too.
+  const std::string bad = write("bad.json", R"({"voxels": 0})");
+  r = train(model, {"--config", bad, "--voxels", "8"});
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("bad.json: \"voxels\" 0 out of range"), std::string::npos) << r.output;
+}
+
+TEST_F(TrainConfigCli, InfoSettingsRoundTripReproducesTheModel) {
+  const std::string cfg = write("tiny.json", tiny_);
+  const std::string first = dir_.path("first.lsnif"), second = dir_.path("second.lsnif");
+  ProcessResult r = train(first, {"--config", cfg, "--seed", "7", "--normal-loss", "cosine", "--lr", "0.003"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json recorded = training_of(first);
+  ASSERT_TRUE(recorded.is_object()) << recorded.dump();
+  EXPECT_EQ(recorded["settings"]["seed"], 7);
+  EXPECT_EQ(recorded["settings"]["normal-loss"], "cosine");
+  EXPECT_EQ(recorded["settings"]["lr"], 0.003);
+  EXPECT_EQ(recorded["mesh"]["name"], "elephant.off");
+  EXPECT_EQ(recorded["mesh"]["triangles"], 5558);
+  EXPECT_EQ(recorded["mesh"]["hash"].get<std::string>().rfind("fnv1a64:", 0), 0u);
+  // The settings object of `info --json`, and `info --settings`, as a --config file.
+  const std::string from_json = write("from_json.json", recorded["settings"].dump(2));
+  r = lsnif({"info", "--settings", first});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(nlohmann::json::parse(r.output), recorded["settings"]);
+  const std::string from_settings = write("from_settings.json", r.output);
+  for (const std::string& config : {from_json, from_settings}) {
+    SCOPED_TRACE(config);
+    r = train(second, {"--config", config});
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(training_of(second), recorded);
+    EXPECT_EQ(read(second), read(first));  // the same training: the same bytes
+  }
+}
+
+TEST_F(TrainConfigCli, ModelsWithoutARecordStillLoad) {
+  // A model written without a training record (the lsnif library's save_model of a Model whose
+  // record is empty, e.g. one loaded from a version 1 file) is a version 1 file.
+  const std::string model = dir_.path("m.lsnif");
+  ProcessResult r = train(model, {"--config", write("tiny.json", tiny_)});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // Strip the record: rewrite the header as version 1 and drop the training section.
+  std::string b = read(model);
+  ASSERT_EQ(b[8], 2);
+  const auto rd64 = [&b](size_t at) {
+    uint64_t v = 0;
+    for (int i = 7; i >= 0; --i) v = (v << 8) | uint8_t(b[at + size_t(i)]);
+    return v;
+  };
+  const auto wr64 = [&b](size_t at, uint64_t v) {
+    for (int i = 0; i < 8; ++i) b[at + size_t(i)] = char(uint8_t(v >> (8 * i)));
+  };
+  std::string v1 = b.substr(0, 168) + std::string(8, '\0');  // the v1 header, padded to 176
+  v1[8] = 1;
+  v1[12] = char(168);
+  for (int s = 0; s < 4; ++s) {  // each section 16 bytes earlier
+    const uint64_t at = rd64(104 + 16 * size_t(s));
+    wr64(104 + 16 * size_t(s), at - 16);
+    v1.replace(104 + 16 * size_t(s), 8, b.substr(104 + 16 * size_t(s), 8));
+  }
+  const uint64_t mlp_end = rd64(104 + 48) + 16 + rd64(104 + 56);
+  v1 += b.substr(192, mlp_end - 192);
+  v1.resize((v1.size() + 15) / 16 * 16 + 4, '\0');
+  for (int i = 0; i < 8; ++i) v1[16 + size_t(i)] = char(uint8_t(uint64_t(v1.size()) >> (8 * i)));
+  lsnif::test::fix_model_crc(v1);
+  const std::string old = write("old.lsnif", v1);
+  r = lsnif({"info", old});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("training   not recorded (format version 1)"), std::string::npos) << r.output;
+  EXPECT_TRUE(training_of(old).is_null());
+  r = lsnif({"info", "--settings", old});
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("records no training settings"), std::string::npos) << r.output;
+  r = lsnif({"eval", old, kMesh, "--rays", "200"});
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
+TEST_F(TrainConfigCli, ConvertTakesTheConfigAndRecordsTheSettings) {
+  const fs::path example =
+      fs::path(__FILE__).parent_path().parent_path() / "samples/scene/examples/bunny_on_plane.gltf";
+  fs::create_directories(dir_.path() / "out");
+  fs::copy_file(example, dir_.path() / "scene.gltf");
+  // The bunny's model only has to exist with the right magic for the scene to load.
+  write("bunny.lsnif", std::string("LSNIF\0\r\n", 8) + "rest");
+  const std::string cfg = write("tiny.json", tiny_);
+  std::vector<std::string> args = {"convert", dir_.path("scene.gltf"), "-o", dir_.path("out/s.gltf"),
+                                   "--min-triangles", "1", "--eval-rays", "0", "--quiet", "--allow-outside-refs",
+                                   "--config", cfg, "--seed", "3"};
+  ProcessResult r = lsnif(args);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json t = training_of(dir_.path("out/s.ground_quad.lsnif"));
+  ASSERT_TRUE(t.is_object()) << t.dump();
+  EXPECT_EQ(t["settings"]["seed"], 3);    // the command line
+  EXPECT_EQ(t["settings"]["voxels"], 8);  // the file
+  EXPECT_EQ(t["mesh"]["name"], "ground_quad");
+  EXPECT_EQ(t["mesh"]["triangles"], 2);
+  // The sidecar holds the same settings.
+  const nlohmann::json sidecar = nlohmann::json::parse(read(dir_.path("out/s.ground_quad.lsnif.json")));
+  EXPECT_EQ(sidecar["settings"], t["settings"]);
+  const std::string bad = write("bad.json", R"({"steps": 0})");
+  args[args.size() - 3] = bad;
+  r = lsnif(args);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("bad.json: \"steps\" (0) must be at least 1"), std::string::npos) << r.output;
+}
+
+}  // namespace
