@@ -51,7 +51,6 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_train: %s\n", s.message().c_str());
     return 1;
   }
-  settings.progress = false;
   std::printf("mesh %s (%zu triangles)\nsettings %s\n", mesh_path.c_str(), mesh.triangles.size(),
               settings.describe().c_str());
   std::printf("%6s %9s %9s %9s %9s %9s %9s\n", "step", "train_s", "acc%", "t_med%", "t_p90%", "n_med", "n_p90");

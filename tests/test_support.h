@@ -40,7 +40,6 @@ inline TrainSettings tiny_train_settings() {
   s.config.log2_table_size = 14;
   s.config.hidden_width = 64;
   s.batch_size = 2048;
-  s.progress = false;
   return s;
 }
 

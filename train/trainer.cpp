@@ -13,7 +13,6 @@
 #include "hash_grid.h"
 #include "head.h"
 #include "network.h"
-#include "progress.h"
 #include "voxelizer.h"
 
 namespace lsnif {
@@ -164,7 +163,6 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   Matrix X, O, dO, dX;
   MlpTrace trace;
   BatchCorners corners;
-  ProgressBar bar("train", settings.steps, settings.progress);
   const uint32_t tail_start = settings.steps - std::max(1u, settings.steps / 10);
   uint32_t tail_steps = 0;
   LossTerms tail;
@@ -253,11 +251,9 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
     if (settings.loss_curve)
       rep.loss_curve += format("%u,%.3f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", step, since(t_start), mean.total(),
                                mean.occlusion, mean.distance, mean.normal, mean.albedo, mean.material);
-    bar.update(step, format("loss %.4f", mean.total()));
     if (callback && !callback(step, mean, model)) break;
   }
   rep.seconds = since(t_start);
-  bar.finish(format("%.0f rays/s", rep.rays_per_second()));
   if (tail_steps) {
     const double k = 1.0 / tail_steps;
     rep.final_loss.occlusion = tail.occlusion * k; rep.final_loss.distance = tail.distance * k;

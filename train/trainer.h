@@ -30,7 +30,6 @@ struct TrainSettings {
   LossSettings loss_settings;
   SamplerSettings sampler;
   float grid_init_range = default_f32(SettingId::GridInitRange);  // hash-table entries start in U(-range, range) (paper)
-  bool progress = true;            // progress bar on stderr
   bool loss_curve = false;         // true: TrainReport::loss_curve receives the loss curve (CSV)
   std::string describe() const;
 };

@@ -1,13 +1,15 @@
 // trainer_test.cpp -- the trainer's guards on a cube: a learning rate far too high stops at the
 // first non-finite loss with an error naming the step (instead of training to the end and failing
 // at the save), invalid settings are refused before any work, and the loss curve comes back in the
-// report, one row per step, without any file being written.
+// report, one row per step, without any file being written; the trainer prints nothing (progress
+// goes to the caller's callback, step by step).
 #include "trainer.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "test_support.h"
 
@@ -101,6 +103,33 @@ TEST(Trainer, LossCurveComesBackInTheReport) {
   s.loss_curve = false;
   ASSERT_TRUE(train_model(cube(), s, model, &report));
   EXPECT_TRUE(report.loss_curve.empty());
+}
+
+TEST(Trainer, ReportsThroughTheCallbackAndPrintsNothing) {
+  TrainSettings s = small();
+  s.steps = 6;
+  std::vector<uint32_t> steps;
+  Model model;
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  Status st = train_model(cube(), s, model, nullptr, [&](uint32_t step, const LossTerms& loss, const Model&) {
+    steps.push_back(step);
+    EXPECT_TRUE(std::isfinite(loss.total()));
+    return true;
+  });
+  const std::string out = testing::internal::GetCapturedStdout(), err = testing::internal::GetCapturedStderr();
+  ASSERT_TRUE(st) << st.message();
+  EXPECT_EQ(out, "");
+  EXPECT_EQ(err, "");
+  ASSERT_EQ(steps.size(), size_t(s.steps));
+  for (uint32_t i = 0; i < s.steps; ++i) EXPECT_EQ(steps[i], i + 1);
+  // Returning false stops after that step.
+  steps.clear();
+  ASSERT_TRUE(train_model(cube(), s, model, nullptr, [&](uint32_t step, const LossTerms&, const Model&) {
+    steps.push_back(step);
+    return step < 2;
+  }));
+  EXPECT_EQ(steps.size(), 2u);
 }
 
 }  // namespace

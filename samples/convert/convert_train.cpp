@@ -171,7 +171,6 @@ void train_models(const ConvertSettings& settings, const Plan& plan, const std::
       uint64_t counted = 0;
       try {
         TrainSettings train = settings.train;
-        train.progress = false;
         train.loss_curve = false;
         Model model;
         TrainReport rep;

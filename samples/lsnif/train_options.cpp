@@ -8,6 +8,7 @@
 
 #include "atomic_file.h"
 #include "mesh.h"
+#include "progress.h"
 
 namespace lsnif::cli {
 
@@ -149,7 +150,6 @@ bool TrainOptions::to_settings(TrainSettings& s) const {
     return false;
   }
   to_train_settings(values, s);
-  s.progress = !quiet;
   s.loss_curve = true;
   return true;
 }
@@ -200,8 +200,14 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
   std::fflush(stdout);
   Model model;
   TrainReport rep;
-  if (Status s = train_model(mesh, settings, model, &rep); !s) {
-    std::fprintf(stderr, "lsnif: training failed: %s\n", s.message().c_str());
+  ProgressBar bar("train", settings.steps, !opts.quiet);
+  const Status result = train_model(mesh, settings, model, &rep, [&](uint32_t step, const LossTerms& loss, const Model&) {
+    bar.update(step, format("loss %.4f", loss.total()));
+    return true;
+  });
+  bar.finish(result ? format("%.0f rays/s", rep.rays_per_second()) : std::string("failed"));
+  if (!result) {
+    std::fprintf(stderr, "lsnif: training failed: %s\n", result.message().c_str());
     return 1;
   }
   model.training = training_record(settings, mesh, std::filesystem::path(label).filename().string(),
