@@ -51,13 +51,7 @@ using namespace gputest;
 const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
 
 // The push constant block of rt_conformance_common.glsl.
-struct RtPush {
-  uint64_t model_table = 0;
-  uint32_t model_count = 0, reserved = 0;
-  uint64_t rays = 0, hits = 0;
-  uint32_t ray_count = 0, mode = 0, ray_flags = 0, pad = 0;
-};
-static_assert(offsetof(RtPush, rays) == LSNIF_RT_PUSH_APP_OFFSET, "binding convention");
+using RtPush = RtConformancePush;
 
 vk::RtShaders shaders(LsnifModelLookup lookup, std::vector<std::vector<uint8_t>> records = {}) {
   vk::RtShaders s;

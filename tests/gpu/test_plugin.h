@@ -3,6 +3,7 @@
 // bytes and built at once, instance records from the CPU side's Transform3x4, errors as Status
 // carrying the plugin's message. Header-only; include inside no namespace.
 #pragma once
+#include <cstddef>
 #include <cstring>
 #include <vector>
 
@@ -11,6 +12,19 @@
 #include "plugin_device.h"  // volk before lsnif.h
 
 namespace lsnif::gputest {
+
+// The push constant block of tests/gpu/rt_conformance_common.glsl (model table first: the binding
+// convention of host_device.h).
+struct RtConformancePush {
+  uint64_t model_table = 0;
+  uint32_t model_count = 0, reserved = 0;
+  uint64_t rays = 0, hits = 0;
+  uint32_t ray_count = 0, mode = 0, ray_flags = 0, pad = 0;
+};
+static_assert(sizeof(RtConformancePush) == 48, "push constant layout");
+static_assert(offsetof(RtConformancePush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
+static_assert(offsetof(RtConformancePush, model_count) == LSNIF_RT_PUSH_MODEL_COUNT_OFFSET, "binding convention");
+static_assert(offsetof(RtConformancePush, rays) == LSNIF_RT_PUSH_APP_OFFSET, "binding convention");
 
 class TestPlugin {
  public:
