@@ -214,7 +214,8 @@ class PluginQuery : public ::testing::Test {
     add_lsnif(s, model_b_, b_, 1,
               transform({1, 0, 0}, -20, glm::vec3(1.5f, 0.7f, 1.1f) * (ea.x / model_b_.bounds().extent().x),
                         glm::vec3(-0.5f * ea.x, 0.3f * ea.y, 0.2f * ea.z) - model_b_.bounds().center()));
-    add_lsnif(s, model_a_, a_, 0, transform({1, 1, 0}, 50, glm::vec3(0.6f, 1.3f, 0.9f), glm::vec3(0.1f * ea.x, -0.5f * ea.y, 0.4f * ea.z)));
+    add_lsnif(s, model_a_, a_, 0,
+              transform({1, 1, 0}, 50, glm::vec3(0.6f, 1.3f, 0.9f), glm::vec3(0.1f * ea.x, -0.5f * ea.y, 0.4f * ea.z)));
     finish(s);
   }
 
@@ -223,13 +224,7 @@ class PluginQuery : public ::testing::Test {
   static std::vector<Ray> rays_at(const Scene& s, size_t count, uint32_t seed) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    auto unit_vector = [&] {
-      for (;;) {
-        const glm::vec3 v(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
-        const float l = glm::length(v);
-        if (l > 0.05f && l <= 1.0f) return v / l;
-      }
-    };
+    auto unit_vector = [&] { return random_unit_vector(rng); };
     auto in_box = [&](const Aabb& b) { return b.lo + b.extent() * glm::vec3(u(rng), u(rng), u(rng)); };
     const float diag = s.bounds.diagonal();
     std::vector<Ray> rays(count);
@@ -246,7 +241,8 @@ class PluginQuery : public ::testing::Test {
           r.direction = (0.5f + u(rng)) * unit_vector();
           break;
         default:
-          r.origin = s.bounds.center() + 1.5f * s.bounds.extent() * glm::vec3(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
+          r.origin =
+              s.bounds.center() + 1.5f * s.bounds.extent() * glm::vec3(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
           r.direction = (0.5f + u(rng)) * unit_vector();
           break;
       }
@@ -316,34 +312,17 @@ class PluginQuery : public ::testing::Test {
   }
 
   // The same rays through the ray-tracing pipeline over the scene's TLAS (closest or shadow mode).
+  // `table_count` below the table's size hides the LSNIF instances of the entries past it.
   static std::vector<LsnifReferenceHit> trace(const Scene& s, const std::vector<Ray>& rays, uint32_t mode,
-                                              uint32_t ray_flags) {
+                                              uint32_t ray_flags, uint32_t table_count = ~0u) {
     std::vector<LsnifReferenceHit> out;
-    vk::Buffer ray_buf, hit_buf;
-    Status st = vk_.create_buffer(rays.size() * sizeof(LsnifReferenceRay), ray_buf);
-    if (st) st = vk_.create_buffer(rays.size() * sizeof(LsnifReferenceHit), hit_buf);
-    if (st) {
-      auto* r = static_cast<LsnifReferenceRay*>(ray_buf.mapped);
-      for (size_t i = 0; i < rays.size(); ++i)
-        r[i] = {rays[i].origin.x, rays[i].origin.y, rays[i].origin.z, rays[i].tmin,
-                rays[i].direction.x, rays[i].direction.y, rays[i].direction.z, rays[i].tmax};
-      RtConformancePush push;
-      push.model_table = s.table.address;
-      push.model_count = uint32_t(s.table_models.size());
-      push.rays = ray_buf.address;
-      push.hits = hit_buf.address;
-      push.ray_count = uint32_t(rays.size());
-      push.mode = mode;
-      push.ray_flags = ray_flags;
-      st = tracer_.trace(rt_pipeline_, s.tlas, &push, uint32_t(rays.size()));
-    }
+    RtConformancePush push;
+    push.model_table = s.table.address;
+    push.model_count = std::min(table_count, uint32_t(s.table_models.size()));
+    push.mode = mode;
+    push.ray_flags = ray_flags;
+    const Status st = trace_reference(vk_, tracer_, rt_pipeline_, s.tlas, push, rays, out);
     EXPECT_TRUE(st) << st.message();
-    if (st) {
-      const auto* h = static_cast<const LsnifReferenceHit*>(hit_buf.mapped);
-      out.assign(h, h + rays.size());
-    }
-    vk_.destroy_buffer(ray_buf);
-    vk_.destroy_buffer(hit_buf);
     return out;
   }
 
@@ -362,7 +341,8 @@ class PluginQuery : public ::testing::Test {
     const double diag = s.bounds.diagonal();
     for (size_t i = 0; i < rays.size(); ++i) {
       const LsnifQueryResult& r = q[i];
-      EXPECT_TRUE(r.kind == LSNIF_QUERY_HIT_NONE || r.kind == LSNIF_QUERY_HIT_LSNIF || r.kind == LSNIF_QUERY_HIT_TRIANGLE)
+      EXPECT_TRUE(r.kind == LSNIF_QUERY_HIT_NONE || r.kind == LSNIF_QUERY_HIT_LSNIF ||
+                  r.kind == LSNIF_QUERY_HIT_TRIANGLE)
           << "ray " << i << " kind " << r.kind;
       a.lsnif += r.kind == LSNIF_QUERY_HIT_LSNIF;
       a.triangles += r.kind == LSNIF_QUERY_HIT_TRIANGLE;
@@ -471,6 +451,27 @@ TEST_F(PluginQuery, MixedTlasMatchesTheIntersectionShader) {
     EXPECT_EQ(q.status.dropped, 0u);
     EXPECT_EQ(q.status.incomplete_rays, 0u);
     EXPECT_EQ(q.status.capacity, 4u * kRays);
+    // One candidate per (ray, LSNIF instance) whose model box the ray crosses before its closest
+    // triangle (the shader's trace with an empty table sees the triangles only): none beyond it.
+    const std::vector<LsnifReferenceHit> triangles_only = trace(s, rays, kModeClosest, flags, 0);
+    size_t expected = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const float tmax = triangles_only[i].hit ? triangles_only[i].t : rays[i].tmax;
+      for (const LsnifInstance& li : s.lsnif) {
+        const Instance in = instance_of(li.xf);
+        const glm::vec3 o = in.A_inv * (rays[i].origin - in.T), d = in.A_inv * rays[i].direction;
+        const Aabb& b = li.model->bounds();
+        float t0 = rays[i].tmin, t1 = tmax;
+        for (int k = 0; k < 3; ++k) {
+          const float lo = (b.lo[k] - o[k]) / d[k], hi = (b.hi[k] - o[k]) / d[k];
+          t0 = std::max(t0, std::min(lo, hi));
+          t1 = std::min(t1, std::max(lo, hi));
+        }
+        expected += t0 <= t1;
+      }
+    }
+    EXPECT_NEAR(double(q.status.candidates), double(expected), 0.005 * double(expected))
+        << "candidates: one per crossed LSNIF box before the closest triangle";
     EXPECT_GT(q.status.candidates, kRays / 4);
     // Every LSNIF answer agrees with the CPU reference of the LSNIF instances where no triangle is
     // closer (the shader's truth covers the rest).
@@ -563,9 +564,11 @@ TEST_F(PluginQuery, ManyModelsInOneBatch) {
     const float scale = ba.extent().x / model.bounds().extent().x;
     add_lsnif(s, model, m, entry,
               transform({0.3f, 1, 0.1f}, 25.0f * float(k), glm::vec3(scale, scale * (0.8f + 0.05f * float(k)), scale),
-                        glm::vec3(step * float(k), 0.1f * ba.extent().y * float(k % 3), 0) - scale * model.bounds().center()));
+                        glm::vec3(step * float(k), 0.1f * ba.extent().y * float(k % 3), 0) -
+                            scale * model.bounds().center()));
   }
-  add_triangles(s, 5, transform({0, 0, 1}, 10, glm::vec3(0.7f), glm::vec3(4.0f * step, -0.6f * ba.extent().y, 0) - ba.center()));
+  add_triangles(
+      s, 5, transform({0, 0, 1}, 10, glm::vec3(0.7f), glm::vec3(4.0f * step, -0.6f * ba.extent().y, 0) - ba.center()));
   ASSERT_NO_FATAL_FAILURE(finish(s));
   const std::vector<Ray> rays = rays_at(s, kRays, 11);
   const QueryRun q = query(s, rays, {0u});
@@ -628,8 +631,9 @@ TEST_F(PluginQuery, OverflowMarksTheAffectedRays) {
       EXPECT_TRUE(same) << "ray " << i << " answered wrongly without the mark: kind " << t.kind << " vs " << f.kind;
     }
   }
-  std::printf("[overflow] %zu rays, %u candidates, capacity %u, dropped %u: %zu incomplete, %zu exact (%zu LSNIF hits)\n",
-              rays.size(), tight.status.candidates, tight.status.capacity, tight.status.dropped, incomplete, exact, lsnif);
+  std::printf(
+      "[overflow] %zu rays, %u candidates, capacity %u, dropped %u: %zu incomplete, %zu exact (%zu LSNIF hits)\n",
+      rays.size(), tight.status.candidates, tight.status.capacity, tight.status.dropped, incomplete, exact, lsnif);
   EXPECT_EQ(incomplete, tight.status.incomplete_rays);
   EXPECT_GT(incomplete, 0u);
   EXPECT_EQ(incomplete + exact, rays.size());
@@ -643,7 +647,9 @@ TEST_F(PluginQuery, EmptyBatchesAndBatchesWithoutLsnif) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
-  EXPECT_TRUE(query(s, {}, {0u}).results.empty());
+  const QueryRun empty = query(s, {}, {0u});
+  EXPECT_TRUE(empty.results.empty());
+  EXPECT_EQ(empty.status.candidates, ~0u) << "an empty batch records nothing, not even the status";
 
   // Rays from far away towards the triangle instance's box that miss every LSNIF box, and rays
   // pointing away from the scene.
@@ -754,67 +760,47 @@ TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
   ASSERT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &bigger, &more), LSNIF_SUCCESS);
   EXPECT_GT(more, need);
 
-  auto refused = [&](LsnifQueryPipeline pl, const LsnifQueryInfo& in, const char* words) {
+  // Each case changes one field of `info` (or the pipeline) and must be refused naming it.
+  const LsnifModel foreign[3] = {a_, reinterpret_cast<LsnifModel>(&need), nullptr};
+  const LsnifModel not_built[3] = {a_, b_, unbuilt};
+  struct Case {
+    const char* words;
+    std::function<void(LsnifQueryInfo&)> change;
+    LsnifQueryPipeline pipeline = pipeline_;
+  };
+  const Case cases[] = {
+      {"created without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT", [](LsnifQueryInfo&) {}, without_tlas},
+      {"not a query pipeline of this context", [](LsnifQueryInfo&) {}, reinterpret_cast<LsnifQueryPipeline>(&need)},
+      {"pInfo->candidatesPerRay 0 is not in 1 .. 32", [](LsnifQueryInfo& i) { i.candidatesPerRay = 0; }},
+      {"pInfo->candidatesPerRay 33",
+       [](LsnifQueryInfo& i) { i.candidatesPerRay = LSNIF_QUERY_MAX_CANDIDATES_PER_RAY + 1; }},
+      {"pInfo->cullMask 0x100", [](LsnifQueryInfo& i) { i.cullMask = 0x100; }},
+      {"pInfo->pNext must be NULL", [&](LsnifQueryInfo& i) { i.pNext = &info; }},
+      {"pInfo->modelCount 262145", [](LsnifQueryInfo& i) { i.modelCount = LSNIF_QUERY_MAX_MODELS + 1; }},
+      {"pInfo->pModels is NULL", [](LsnifQueryInfo& i) { i.pModels = nullptr; }},
+      {"pInfo->pModels[1] is not a model of this context", [&](LsnifQueryInfo& i) { i.pModels = foreign; }},
+      {"pInfo->pModels[2] has not been built", [&](LsnifQueryInfo& i) { i.pModels = not_built; }},
+      {"pInfo->tlas is 0", [](LsnifQueryInfo& i) { i.tlas = 0; }},
+      {"pInfo->rays is not 16-byte aligned", [](LsnifQueryInfo& i) { i.rays = 0x20008; }},
+      {"pInfo->results is 0", [](LsnifQueryInfo& i) { i.results = 0; }},
+      {"pInfo->modelTable is not 8-byte aligned", [](LsnifQueryInfo& i) { i.modelTable = 0x10004; }},
+      {"pInfo->status is not 4-byte aligned", [](LsnifQueryInfo& i) { i.status = 0x40002; }},
+      {"pInfo->scratchBuffer is VK_NULL_HANDLE", [](LsnifQueryInfo& i) { i.scratchBuffer = VK_NULL_HANDLE; }},
+      {"pInfo->scratchOffset is not a multiple of 16", [](LsnifQueryInfo& i) { i.scratchOffset = 8; }},
+      {"pInfo->scratchSize", [](LsnifQueryInfo& i) { i.scratchSize -= 4; }},
+  };
+  for (const Case& c : cases) {
+    LsnifQueryInfo bad = info;
+    c.change(bad);
     Status st = vk_.submit("refused", [&](VkCommandBuffer cmd) {
-      EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, pl, &in), LSNIF_ERROR_INVALID_ARGUMENT) << words;
+      EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, c.pipeline, &bad), LSNIF_ERROR_INVALID_ARGUMENT) << c.words;
     });
     EXPECT_TRUE(st) << st.message();
-    EXPECT_NE(last_error().find(words), std::string::npos) << last_error();
-  };
-  refused(without_tlas, info, "created without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT");
-  refused(reinterpret_cast<LsnifQueryPipeline>(&info), info, "not a query pipeline of this context");
-  LsnifQueryInfo bad = info;
-  bad.candidatesPerRay = 0;
-  refused(pipeline_, bad, "pInfo->candidatesPerRay 0 is not in 1 .. 32");
-  bad.candidatesPerRay = LSNIF_QUERY_MAX_CANDIDATES_PER_RAY + 1;
-  refused(pipeline_, bad, "pInfo->candidatesPerRay 33");
-  bad = info;
-  bad.cullMask = 0x100;
-  refused(pipeline_, bad, "pInfo->cullMask 0x100");
-  bad = info;
-  bad.pNext = &info;
-  refused(pipeline_, bad, "pInfo->pNext must be NULL");
-  bad = info;
-  bad.modelCount = LSNIF_QUERY_MAX_MODELS + 1;
-  refused(pipeline_, bad, "pInfo->modelCount 262145");
-  bad = info;
-  bad.pModels = nullptr;
-  refused(pipeline_, bad, "pInfo->pModels is NULL");
-  const LsnifModel foreign[3] = {a_, reinterpret_cast<LsnifModel>(&bad), nullptr};
-  bad = info;
-  bad.pModels = foreign;
-  refused(pipeline_, bad, "pInfo->pModels[1] is not a model of this context");
-  const LsnifModel not_built[3] = {a_, b_, unbuilt};
-  bad = info;
-  bad.pModels = not_built;
-  refused(pipeline_, bad, "pInfo->pModels[2] has not been built");
-  bad = info;
-  bad.tlas = 0;
-  refused(pipeline_, bad, "pInfo->tlas is 0");
-  bad = info;
-  bad.rays = 0x20008;
-  refused(pipeline_, bad, "pInfo->rays is not 16-byte aligned");
-  bad = info;
-  bad.results = 0;
-  refused(pipeline_, bad, "pInfo->results is 0");
-  bad = info;
-  bad.modelTable = 0x10004;
-  refused(pipeline_, bad, "pInfo->modelTable is not 8-byte aligned");
-  bad = info;
-  bad.status = 0x40002;
-  refused(pipeline_, bad, "pInfo->status is not 4-byte aligned");
-  bad = info;
-  bad.scratchBuffer = VK_NULL_HANDLE;
-  refused(pipeline_, bad, "pInfo->scratchBuffer is VK_NULL_HANDLE");
-  bad = info;
-  bad.scratchOffset = 8;
-  refused(pipeline_, bad, "pInfo->scratchOffset is not a multiple of 16");
-  bad = info;
-  bad.scratchSize = need - 4;
-  refused(pipeline_, bad, "pInfo->scratchSize");
+    EXPECT_NE(last_error().find(c.words), std::string::npos) << last_error();
+  }
   EXPECT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &info, nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
   EXPECT_EQ(lsnifGetQueryScratchSize(plugin_.context(), nullptr, &need), LSNIF_ERROR_INVALID_ARGUMENT);
-  bad = info;
+  LsnifQueryInfo bad = info;
   bad.pModels = foreign;
   EXPECT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &bad, &need), LSNIF_ERROR_INVALID_ARGUMENT);
   EXPECT_NE(last_error().find("lsnifGetQueryScratchSize: pInfo->pModels[1]"), std::string::npos) << last_error();

@@ -654,13 +654,7 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
   const float sdiag = scene.diagonal();
   std::mt19937 rng(21);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  auto unit_vector = [&] {
-    for (;;) {
-      const glm::vec3 v(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
-      const float l = glm::length(v);
-      if (l > 0.05f && l <= 1.0f) return v / l;
-    }
-  };
+  auto unit_vector = [&] { return random_unit_vector(rng); };
   constexpr size_t kMixedRays = 6000;
   for (const uint32_t mode : {kModeClosest, kModeShadow}) {
     std::vector<Ray> world(kMixedRays);
