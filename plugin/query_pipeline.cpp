@@ -104,7 +104,8 @@ void between_passes(const DeviceDispatch& vk, VkCommandBuffer cmd, bool indirect
   barrier.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
                           (indirect ? VkAccessFlags(VK_ACCESS_INDIRECT_COMMAND_READ_BIT) : VkAccessFlags(0));
   const VkPipelineStageFlags dst =
-      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | (indirect ? VkPipelineStageFlags(VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT) : VkPipelineStageFlags(0));
+      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT |
+      (indirect ? VkPipelineStageFlags(VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT) : VkPipelineStageFlags(0));
   vk.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, dst, 0, 1, &barrier, 0, nullptr, 0, nullptr);
 }
 

@@ -51,7 +51,8 @@ void lsnif_rows_mlp(LsnifBatchRows r, LsnifModel m, uint slot) {
   for (uint i = 0u; i < inputs; ++i) lsnif_act[i] = uintBitsToFloat(r.scratch.w[lsnif_rows_input(r, m, i, slot)]);
   const uint base = lsnif_mlp_forward(m);
   const uint outputs = LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(lsnif_output_dim(m));
-  for (uint k = 0u; k < outputs; ++k) r.scratch.w[lsnif_rows_output(r, m, k, slot)] = floatBitsToUint(lsnif_act[base + k]);
+  for (uint k = 0u; k < outputs; ++k)
+    r.scratch.w[lsnif_rows_output(r, m, k, slot)] = floatBitsToUint(lsnif_act[base + k]);
 }
 
 // The item of `slot`.

@@ -221,7 +221,8 @@ Status ComputeContext::init(const ContextOptions& options) {
     std::vector<VkExtensionProperties> available(n);
     vkEnumerateDeviceExtensionProperties(physical_, nullptr, &n, available.data());
     bool offered = false;
-    for (const VkExtensionProperties& e : available) offered |= std::strcmp(e.extensionName, VK_KHR_RAY_QUERY_EXTENSION_NAME) == 0;
+    for (const VkExtensionProperties& e : available)
+      offered |= std::strcmp(e.extensionName, VK_KHR_RAY_QUERY_EXTENSION_NAME) == 0;
     if (offered) {
       VkPhysicalDeviceFeatures2 q2{};
       q2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
