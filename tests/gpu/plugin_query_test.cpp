@@ -8,6 +8,7 @@
 //  - many models in one batch (a table of ten entries with holes);
 //  - an empty batch, a batch in which no ray reaches an LSNIF object;
 //  - candidate overflow: every ray whose answer could be wrong is marked incomplete and counted;
+//  - equal t resolved to the lower instance index; batches of more than one chunk;
 //  - the device check (a context whose enabled features lack rayQuery) and the argument errors.
 // Compiled into plugin_test.
 #include <gtest/gtest.h>
@@ -638,6 +639,72 @@ TEST_F(PluginQuery, OverflowMarksTheAffectedRays) {
   EXPECT_GT(incomplete, 0u);
   EXPECT_EQ(incomplete + exact, rays.size());
   EXPECT_GT(lsnif, 0u) << "kept candidates must still answer";
+}
+
+// Two instances of the same model at the same place (and a third elsewhere): every hit on them is
+// at equal t, and the lower instance index must win, whatever order the traversal and the atomics
+// took.
+TEST_F(PluginQuery, EqualTResolvesToTheLowerInstanceIndex) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  s.table_models = {nullptr, b_, a_};
+  const Transform3x4 xf = transform({0, 1, 1}, 40, glm::vec3(1.2f, 0.8f, 1.0f), glm::vec3(0.0f));
+  add_lsnif(s, model_b_, b_, 1, transform({0, 0, 1}, 0, glm::vec3(1.0f), glm::vec3(50.0f, 0, 0)));
+  add_lsnif(s, model_a_, a_, 2, xf);
+  add_lsnif(s, model_a_, a_, 2, xf);
+  ASSERT_NO_FATAL_FAILURE(finish(s));
+  s.boxes.erase(s.boxes.begin());  // aim at the pair
+  const std::vector<Ray> rays = rays_at(s, 2000, 23);
+  for (const uint32_t flags : {0u, LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT}) {
+    const QueryRun q = query(s, rays, {flags});
+    size_t hits = 0;
+    for (const LsnifQueryResult& r : q.results) {
+      if (r.kind != LSNIF_QUERY_HIT_LSNIF) continue;
+      ++hits;
+      EXPECT_EQ(r.instance_index, 1u) << "flags " << flags << ": the lower of two instances at equal t";
+      EXPECT_EQ(r.instance_custom_index, 2u);
+    }
+    EXPECT_GT(hits, 100u);
+  }
+}
+
+// More rays than one chunk (LSNIF_QUERY_CHUNK_RAYS): the scratch is sized for one chunk and reused,
+// the second chunk's rays answer exactly as in a batch of their own, and the status adds the
+// chunks' candidates.
+TEST_F(PluginQuery, BatchesOfMoreThanOneChunk) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
+  const size_t tail = 1500;
+  const std::vector<Ray> rays = rays_at(s, LSNIF_QUERY_CHUNK_RAYS + tail, 29);
+  LsnifQueryInfo one{}, big{};
+  one.rayCount = LSNIF_QUERY_CHUNK_RAYS;
+  big.rayCount = uint32_t(rays.size());
+  one.candidatesPerRay = big.candidatesPerRay = 2;
+  VkDeviceSize one_bytes = 0, big_bytes = 0;
+  ASSERT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &one, &one_bytes), LSNIF_SUCCESS);
+  ASSERT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &big, &big_bytes), LSNIF_SUCCESS);
+  EXPECT_EQ(big_bytes, one_bytes);
+  const QueryRun all = query(s, rays, {0u}, 2);
+  const std::vector<Ray> head_rays(rays.begin(), rays.begin() + tail);
+  const std::vector<Ray> tail_rays(rays.end() - tail, rays.end());
+  const QueryRun head = query(s, head_rays, {0u}, 2), last = query(s, tail_rays, {0u}, 2);
+  ASSERT_EQ(all.results.size(), rays.size());
+  EXPECT_EQ(all.status.capacity, 2u * LSNIF_QUERY_CHUNK_RAYS);
+  EXPECT_EQ(all.status.dropped, 0u);
+  EXPECT_GT(all.status.candidates, last.status.candidates + head.status.candidates);
+  size_t same = 0, tail_hits = 0;
+  for (size_t i = 0; i < tail; ++i) {
+    const LsnifQueryResult& a = all.results[i];
+    const LsnifQueryResult& t = all.results[rays.size() - tail + i];
+    same += a.kind == head.results[i].kind && a.instance_index == head.results[i].instance_index &&
+            a.t == head.results[i].t;
+    same += t.kind == last.results[i].kind && t.instance_index == last.results[i].instance_index &&
+            t.t == last.results[i].t;
+    tail_hits += t.kind != LSNIF_QUERY_HIT_NONE;
+  }
+  EXPECT_EQ(same, 2 * tail) << "the chunks' rays answer as in batches of their own";
+  EXPECT_GT(tail_hits, tail / 10) << "the second chunk must hit too";
 }
 
 // An empty batch records nothing; a batch in which no ray reaches an LSNIF object writes every
