@@ -248,14 +248,17 @@ struct LsnifQueryResult { /* 64 bytes; every field is written */
   lsnif_uint front_face;                /* 1 when front-facing: triangles by winding and instance flags,
                                            LSNIF by the predicted normal (dot(n, d) < 0 in object space) */
 };
-/* What lsnifCmdQuery counted, written to LsnifQueryInfo::status when given (16 bytes): candidates
+/* What lsnifCmdQuery counted, written to LsnifQueryInfo::status when given (20 bytes): candidates
  * the broad phase produced over all chunks, the capacity of one chunk, candidates that did not fit
- * (dropped), and rays answered LSNIF_QUERY_HIT_INCOMPLETE. */
+ * (dropped), rays answered LSNIF_QUERY_HIT_INCOMPLETE, and candidates kept but not evaluated
+ * because their model-table entry on the device is not the block of the LsnifQueryInfo::pModels
+ * entry the command was recorded with (a NULL entry, or another model). */
 struct LsnifQueryStatus {
   lsnif_uint candidates;
   lsnif_uint capacity;
   lsnif_uint dropped;
   lsnif_uint incomplete_rays;
+  lsnif_uint unevaluated;
 };
 #define LSNIF_QUERY_CHUNK_RAYS 65536u            /* rays per run of the stages; larger batches run in chunks */
 #define LSNIF_QUERY_MAX_CANDIDATES_PER_RAY 32u   /* upper bound of LsnifQueryInfo::candidatesPerRay */
@@ -269,8 +272,8 @@ struct LsnifQueryStatus {
  * LsnifQueryCandidate, the candidate indices sorted by model (one word per slot), and the batch rows
  * of the narrow phase, MLP and decode (the layout of lsnifCmdIntersectModelRays' rows, `stride`
  * words per row, each model's batch in the columns of its sorted range). */
-#define LSNIF_QUERY_STATUS_WORD 4u
-#define LSNIF_QUERY_SCATTER_ARGS_WORD 8u
+#define LSNIF_QUERY_STATUS_WORD 4u       /* 5 words, in the order of LsnifQueryStatus */
+#define LSNIF_QUERY_SCATTER_ARGS_WORD 12u
 struct LsnifQueryModelCounters { /* 40 bytes */
   lsnif_uint count;    /* candidates of the model (broad phase) */
   lsnif_uint start;    /* first sorted slot of the model (exclusive prefix sum of count) */
@@ -282,7 +285,8 @@ struct LsnifQueryModelCounters { /* 40 bytes */
 struct LsnifQueryRayState { /* 32 bytes; t values as float bits (non-negative: ordered as uint) */
   lsnif_uint best_t;            /* closest accepted t (triangle or LSNIF); +inf bits without one */
   lsnif_uint best_instance;     /* lowest instance index of the LSNIF hits at best_t; ~0u without one */
-  lsnif_uint dropped_t;         /* smallest t_enter of the ray's candidates that did not fit; +inf bits */
+  lsnif_uint missing_t;         /* smallest t_enter of the ray's candidates not evaluated (did not fit,
+                                   or their table entry is not the model recorded for it); +inf bits */
   lsnif_uint triangle_t;        /* the triangle hit's t; +inf bits without one */
   lsnif_uint triangle_instance; /* its instance index; ~0u without one */
   lsnif_uint reserved0, reserved1, reserved2;
@@ -301,7 +305,8 @@ struct LsnifQueryCandidate { /* 144 bytes: one (ray, LSNIF instance) pair of the
   float normal_x, normal_y, normal_z;                 /* world space, normalized */
   float albedo_r, albedo_g, albedo_b;
   lsnif_uint front_face;
-  lsnif_uint reserved;
+  lsnif_uint evaluated;                               /* 1: the narrow phase ran the model recorded for its
+                                                         table entry, which the table holds (0 otherwise) */
 };
 /* Push constants of lsnifCmdQuery's stages (one block for all of them, 88 bytes). */
 struct LsnifQueryPushConstants {
@@ -326,7 +331,7 @@ struct LsnifQueryPushConstants {
 static_assert(sizeof(LsnifQueryRay) == 48, "LsnifQueryRay layout");
 static_assert(sizeof(LsnifQueryHit) == 48, "LsnifQueryHit layout");
 static_assert(sizeof(LsnifQueryResult) == 64, "LsnifQueryResult layout");
-static_assert(sizeof(LsnifQueryStatus) == 16, "LsnifQueryStatus layout");
+static_assert(sizeof(LsnifQueryStatus) == 20, "LsnifQueryStatus layout");
 static_assert(sizeof(LsnifQueryModelCounters) == 40, "LsnifQueryModelCounters layout");
 static_assert(sizeof(LsnifQueryRayState) == 32, "LsnifQueryRayState layout");
 static_assert(sizeof(LsnifQueryCandidate) == 144, "LsnifQueryCandidate layout");

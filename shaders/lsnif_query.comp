@@ -13,18 +13,20 @@
 //  LSNIF_QUERY_SCAN     1 workgroup: exclusive prefix sum of the per-model counts (counting sort),
 //                       the indirect dispatches of the scatter and of every model's narrow phase.
 //  LSNIF_QUERY_SCATTER  1 invocation per candidate: its index into its model's sorted range.
-//  LSNIF_QUERY_NARROW   per model, 1 invocation per candidate of its range: the walk and encoding
-//                       (lsnif_batch_rows.glsl); candidates with boundary points take a slot of the
-//                       model's dense batch (in the columns of its range).
+//  LSNIF_QUERY_NARROW   per model, 1 invocation per candidate of its range, when the table entry
+//                       holds the model recorded for it (else its candidates stay not evaluated):
+//                       the walk and encoding (lsnif_batch_rows.glsl); candidates with boundary
+//                       points take a slot of the model's dense batch (in the columns of its range).
 //  LSNIF_QUERY_BATCH_ARGS  1 invocation per model: the indirect dispatch over its batch.
 //  LSNIF_QUERY_MLP      per model, 1 invocation per batch slot: the MLP.
 //  LSNIF_QUERY_DECODE   per model, 1 invocation per batch slot: heads and acceptance; an accepted
 //                       candidate lowers its ray's best t (atomicMin on the float bits).
 //  LSNIF_QUERY_TIE      1 invocation per candidate: the accepted candidates at their ray's best t
-//                       lower its best instance (atomicMin), so that equal t resolve by instance index.
+//                       lower its best instance (atomicMin), so that equal t resolve by instance index;
+//                       candidates not evaluated are noted in the ray's state (and counted).
 //  LSNIF_QUERY_RESOLVE_HITS  1 invocation per candidate: the winner writes its LSNIF result.
-//  LSNIF_QUERY_RESOLVE_RAYS  1 invocation per ray: rays a dropped candidate could have changed
-//                       become LSNIF_QUERY_HIT_INCOMPLETE (and are counted).
+//  LSNIF_QUERY_RESOLVE_RAYS  1 invocation per ray: rays a dropped or not evaluated candidate could
+//                       have changed become LSNIF_QUERY_HIT_INCOMPLETE (and are counted).
 //  LSNIF_QUERY_STATUS   1 invocation: the accumulated LsnifQueryStatus to the application's address.
 // Layouts: LsnifQueryRay, LsnifQueryResult, LsnifQueryStatus, LsnifQueryPushConstants and the
 // scratch (LsnifQueryModelCounters, LsnifQueryRayState, LsnifQueryCandidate) in host_device.h.
@@ -182,7 +184,7 @@ void main() {
   const uint id = gl_GlobalInvocationID.x;
 #if defined(LSNIF_QUERY_CLEAR)
   if (id < LSNIF_BATCH_HEADER_WORDS) {
-    const bool status = id >= LSNIF_QUERY_STATUS_WORD && id < LSNIF_QUERY_STATUS_WORD + 4u;
+    const bool status = id >= LSNIF_QUERY_STATUS_WORD && id < LSNIF_QUERY_STATUS_WORD + 5u;
     if (!status || pc.first_chunk != 0u) scratch.w[id] = 0u;
   } else if (id < LSNIF_BATCH_HEADER_WORDS + 10u * pc.model_count) {
     scratch.w[id] = 0u;
@@ -197,7 +199,7 @@ void main() {
   LsnifQueryRayState st;
   st.best_t = LSNIF_QUERY_INF_BITS;
   st.best_instance = LSNIF_QUERY_NONE;
-  st.dropped_t = LSNIF_QUERY_INF_BITS;
+  st.missing_t = LSNIF_QUERY_INF_BITS;
   st.triangle_t = LSNIF_QUERY_INF_BITS;
   st.triangle_instance = LSNIF_QUERY_NONE;
   st.reserved0 = 0u;
@@ -236,7 +238,7 @@ void main() {
         if (!(span.x <= span.y)) continue;
         const uint slot = atomicAdd(scratch.w[0], 1u);
         if (slot >= pc.capacity) {
-          st.dropped_t = min(st.dropped_t, lsnif_query_t_key(span.x));
+          st.missing_t = min(st.missing_t, lsnif_query_t_key(span.x));
           continue;
         }
         atomicAdd(models.c[custom].count, 1u);
@@ -269,7 +271,7 @@ void main() {
         c.albedo_g = 0.0;
         c.albedo_b = 0.0;
         c.front_face = 0u;
-        c.reserved = 0u;
+        c.evaluated = 0u;
         candidates.c[slot] = c;
       }
     }
@@ -328,8 +330,13 @@ void main() {
   const uint start = models.c[pc.bucket].start;
 #if defined(LSNIF_QUERY_NARROW)
   if (id >= models.c[pc.bucket].count) return;
+  // The table entry the broad phase read must be the model recorded for it; otherwise the
+  // candidate stays not evaluated (and its ray incomplete where it matters).
+  const uint64_t entry = LsnifQueryTableRef(lsnif_batch_address(pc.table_lo, pc.table_hi)).model[pc.bucket];
+  if (entry != lsnif_batch_address(pc.model_lo, pc.model_hi)) return;
   const uint ci = scratch.w[lsnif_query_sorted_word() + start + id];
   const LsnifQueryCandidate c = candidates.c[ci];
+  candidates.c[ci].evaluated = 1u;
   const uint points = lsnif_intersect_walk(m, vec3(c.origin_x, c.origin_y, c.origin_z),
                                            vec3(c.direction_x, c.direction_y, c.direction_z), c.tmin, c.tmax);
   if (points == 0u) return;  // a miss before the network (the candidate stays not accepted)
@@ -367,6 +374,11 @@ void main() {
 #elif defined(LSNIF_QUERY_TIE)
   if (id >= lsnif_query_kept()) return;
   const LsnifQueryCandidate c = candidates.c[id];
+  if (c.evaluated == 0u) {
+    atomicMin(states.s[c.ray].missing_t, lsnif_query_t_key(c.t_enter));
+    atomicAdd(scratch.w[LSNIF_QUERY_STATUS_WORD + 4u], 1u);
+    return;
+  }
   if (c.accepted != 0u && lsnif_query_t_key(c.t) == states.s[c.ray].best_t)
     atomicMin(states.s[c.ray].best_instance, c.instance_index);
 
@@ -399,12 +411,12 @@ void main() {
 #elif defined(LSNIF_QUERY_RESOLVE_RAYS)
   if (id >= pc.ray_count) return;
   const LsnifQueryRayState st = states.s[id];
-  if (st.dropped_t == LSNIF_QUERY_INF_BITS) return;
-  // A dropped candidate matters when it could hold a closer hit (t >= its t_enter), or, for an
-  // any-hit ray, when no hit was found at all.
+  if (st.missing_t == LSNIF_QUERY_INF_BITS) return;
+  // A candidate dropped or not evaluated matters when it could hold a closer hit (t >= its
+  // t_enter), or, for an any-hit ray, when no hit was found at all.
   const bool any_hit = (lsnif_query_flags(lsnif_query_ray(id)) & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0u;
   const bool found = st.best_t != LSNIF_QUERY_INF_BITS;
-  if (any_hit ? found : st.dropped_t > st.best_t) return;
+  if (any_hit ? found : st.missing_t > st.best_t) return;
   lsnif_query_results().r[id] = lsnif_query_no_hit(LSNIF_QUERY_HIT_INCOMPLETE);
   atomicAdd(scratch.w[LSNIF_QUERY_STATUS_WORD + 3u], 1u);
 
@@ -415,6 +427,7 @@ void main() {
   s.capacity = scratch.w[LSNIF_QUERY_STATUS_WORD + 1u];
   s.dropped = scratch.w[LSNIF_QUERY_STATUS_WORD + 2u];
   s.incomplete_rays = scratch.w[LSNIF_QUERY_STATUS_WORD + 3u];
+  s.unevaluated = scratch.w[LSNIF_QUERY_STATUS_WORD + 4u];
   LsnifQueryStatusRef(lsnif_batch_address(pc.status_lo, pc.status_hi)).s = s;
 
 #else

@@ -309,10 +309,11 @@ typedef enum LsnifQueryPipelineCreateFlagBits {
 } LsnifQueryPipelineCreateFlagBits;
 typedef VkFlags LsnifQueryPipelineCreateFlags;
 
+/* pNext and pipelineCache keep the offsets of the releases that had only them; flags was appended. */
 typedef struct LsnifQueryPipelineCreateInfo {
   const void* pNext;                          /* reserved: NULL */
-  LsnifQueryPipelineCreateFlags flags;
   VkPipelineCache pipelineCache;              /* optional */
+  LsnifQueryPipelineCreateFlags flags;        /* LsnifQueryPipelineCreateFlagBits */
 } LsnifQueryPipelineCreateInfo;
 
 /* Creates the compute pipelines of the batched path on the context's device (SPIR-V embedded in
@@ -388,8 +389,10 @@ typedef struct LsnifQueryInfo {
   VkDeviceAddress tlas;                       /* the TLAS (vkGetAccelerationStructureDeviceAddressKHR), built */
   uint32_t cullMask;                          /* instance mask of the traversal (<= 0xFF; 0xFF: every instance) */
   uint32_t modelCount;                        /* entries of the model table, <= LSNIF_QUERY_MAX_MODELS */
-  const LsnifModel* pModels;                  /* modelCount models (NULL: a hole), built; the table is
-                                                 lsnifWriteModelTable of them */
+  /* modelCount models (NULL: a hole), built; the table is lsnifWriteModelTable of them. The
+   * candidates of entry i are evaluated with pModels[i] only where the device's modelTable[i]
+   * holds that model's block when the command runs; see lsnifCmdQuery for the others. */
+  const LsnifModel* pModels;
   VkDeviceAddress modelTable;                 /* uint64_t[modelCount] as lsnifWriteModelTable wrote it, 8-byte aligned */
   VkDeviceAddress rays;                       /* LsnifQueryRay[rayCount] in world space, 16-byte aligned */
   VkDeviceAddress results;                    /* LsnifQueryResult[rayCount], written (every field), 16-byte aligned */
@@ -426,7 +429,11 @@ LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const Lsnif
  *    changed the answer (its box interval starts at or before the hit found, or, for an any-hit ray,
  *    no hit was found); the other fields are as for NONE; trace such rays again (e.g. with a larger
  *    candidatesPerRay). No ray's answer is wrong for lack of capacity without this mark, and the
- *    status (if given) counts dropped candidates and incomplete rays.
+ *    status (if given) counts dropped candidates and incomplete rays. A candidate of a table entry
+ *    whose device address (modelTable[i], read when the command runs) is not the block of
+ *    pModels[i] (pModels[i] NULL, or another model) is not evaluated: the ray is marked by the same
+ *    rule, and LsnifQueryStatus::unevaluated counts such candidates. No ray misses for such a
+ *    disagreement without this mark.
  * Hits at equal t resolve to the lower instance index. The command binds its own compute pipelines
  * and push constants (the application's compute bindings are disturbed) and records barriers
  * between its passes only: the application makes its TLAS build and ray writes visible to

@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -26,6 +27,7 @@
 #include "gpu_test_support.h"
 #include "intersector.h"
 #include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
+#include "lsnif/lsnif.hpp"
 
 #include "mesh.h"
 #include "plugin_device.h"
@@ -49,6 +51,13 @@ const std::string kMeshB = std::string(LSNIF_DATA_DIR) + "/meshes/bunny00.off";
 constexpr uint32_t kModeClosest = 0, kModeShadow = 1;  // RT_MODE_* of rt_conformance_common.glsl
 
 std::string last_error() { return lsnifGetLastErrorMessage(); }
+
+// The members of LsnifQueryPipelineCreateInfo shipped before `flags` keep their offsets.
+static_assert(offsetof(LsnifQueryPipelineCreateInfo, pNext) == 0, "shipped layout");
+static_assert(offsetof(LsnifQueryPipelineCreateInfo, pipelineCache) == sizeof(void*), "shipped layout");
+static_assert(offsetof(LsnifQueryPipelineCreateInfo, flags) ==
+                  offsetof(LsnifQueryPipelineCreateInfo, pipelineCache) + sizeof(VkPipelineCache),
+              "flags appended after the shipped members");
 
 // Object to world: rotation by `deg` degrees about `axis`, then scale `s` (per axis, applied first),
 // then translation `t`.
@@ -139,9 +148,9 @@ class PluginQuery : public ::testing::Test {
     if (status_) status_ = plugin_.upload(model_a_, a_);
     if (status_) status_ = plugin_.upload(model_b_, b_);
     if (status_) {
-      LsnifQueryPipelineCreateInfo info{};
-      info.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
-      status_ = TestPlugin::check(lsnifCreateQueryPipeline(plugin_.context(), &info, &pipeline_), "query pipeline");
+      // Through lsnif.hpp: the query() helper records with its cmd_query and sizes with query_scratch_size.
+      status_ = TestPlugin::check(pipeline_.create(plugin_.context(), LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT),
+                                  "query pipeline");
     }
     if (status_) {
       std::vector<float> positions;
@@ -152,7 +161,7 @@ class PluginQuery : public ::testing::Test {
     }
   }
   static void TearDownTestSuite() {
-    lsnifDestroyQueryPipeline(plugin_.context(), pipeline_);
+    pipeline_.reset();
     plugin_.destroy();
     tracer_.destroy(triangle_blas_);
     tracer_.destroy(rt_pipeline_);
@@ -252,26 +261,49 @@ class PluginQuery : public ::testing::Test {
     return rays;
   }
 
+  // Rays from around the scene towards points near its centre, where the boxes overlap: most cross
+  // two or three LSNIF boxes.
+  static std::vector<Ray> rays_to_centre(const Scene& s, size_t count, uint32_t seed) {
+    std::vector<Ray> rays(count);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (Ray& r : rays) {
+      glm::vec3 v(u(rng), u(rng), u(rng));
+      while (glm::length(v) < 0.1f || glm::length(v) > 1.0f) v = glm::vec3(u(rng), u(rng), u(rng));
+      r.origin = s.bounds.center() + 1.2f * s.bounds.diagonal() * glm::normalize(v);
+      r.direction = s.bounds.center() + 0.15f * s.bounds.extent() * glm::vec3(u(rng), u(rng), u(rng)) - r.origin;
+    }
+    return rays;
+  }
+  // Ray flags: every other ray any-hit.
+  static std::vector<uint32_t> every_other_any_hit(size_t count) {
+    std::vector<uint32_t> flags(count, 0u);
+    for (size_t i = 0; i < flags.size(); i += 2) flags[i] = LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT;
+    return flags;
+  }
+
   struct QueryRun {
     std::vector<LsnifQueryResult> results;
     LsnifQueryStatus status{};
   };
   // `rays` with flags[i] (or `flags[0]` for all when it has one entry) through lsnifCmdQuery. The
   // result and status buffers start as 0xFF bytes, so a field left unwritten shows.
+  // `models` (when given) replaces the scene's table models as pModels (the device table stays).
   static QueryRun query(const Scene& s, const std::vector<Ray>& rays, const std::vector<uint32_t>& flags,
-                        uint32_t per_ray = 4) {
+                        uint32_t per_ray = 4, const std::vector<LsnifModel>* models = nullptr) {
     QueryRun out;
+    if (!models) models = &s.table_models;
     const uint32_t n = uint32_t(rays.size());
     LsnifQueryInfo info{};
     info.rayCount = n;
     info.candidatesPerRay = per_ray;
     info.tlas = s.tlas.address;
     info.cullMask = 0xFF;
-    info.modelCount = uint32_t(s.table_models.size());
-    info.pModels = s.table_models.data();
+    info.modelCount = uint32_t(models->size());
+    info.pModels = models->data();
     info.modelTable = s.table.address;
     VkDeviceSize bytes = 0;
-    EXPECT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &info, &bytes), LSNIF_SUCCESS) << last_error();
+    EXPECT_EQ(plugin::query_scratch_size(plugin_.context(), info, bytes), LSNIF_SUCCESS) << last_error();
     vk::Buffer ray_buf, result_buf, status_buf, scratch;
     Status st = vk_.create_buffer(std::max<size_t>(1, n) * sizeof(LsnifQueryRay), ray_buf);
     if (st) st = vk_.create_buffer(std::max<size_t>(1, n) * sizeof(LsnifQueryResult), result_buf);
@@ -293,7 +325,7 @@ class PluginQuery : public ::testing::Test {
       info.scratchSize = bytes;
       info.status = status_buf.address;
       st = vk_.submit("lsnifCmdQuery", [&](VkCommandBuffer cmd) {
-        EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, pipeline_, &info), LSNIF_SUCCESS) << last_error();
+        EXPECT_EQ(pipeline_.cmd_query(cmd, info), LSNIF_SUCCESS) << last_error();
         VkMemoryBarrier b{};
         b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
         b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
@@ -419,7 +451,7 @@ class PluginQuery : public ::testing::Test {
   static Model model_a_, model_b_;
   static TestPlugin plugin_;
   static LsnifModel a_, b_;
-  static LsnifQueryPipeline pipeline_;
+  static plugin::QueryPipeline pipeline_;
   static vk::AccelerationStructure triangle_blas_;
 };
 vk::ComputeContext PluginQuery::vk_;
@@ -430,7 +462,7 @@ Mesh PluginQuery::mesh_;
 Model PluginQuery::model_a_, PluginQuery::model_b_;
 TestPlugin PluginQuery::plugin_;
 LsnifModel PluginQuery::a_ = nullptr, PluginQuery::b_ = nullptr;
-LsnifQueryPipeline PluginQuery::pipeline_ = nullptr;
+plugin::QueryPipeline PluginQuery::pipeline_;
 vk::AccelerationStructure PluginQuery::triangle_blas_;
 
 constexpr size_t kRays = 3000;
@@ -451,6 +483,7 @@ TEST_F(PluginQuery, MixedTlasMatchesTheIntersectionShader) {
     EXPECT_GT(a.triangles, kRays / 20) << "too few triangle hits to tell anything";
     EXPECT_EQ(q.status.dropped, 0u);
     EXPECT_EQ(q.status.incomplete_rays, 0u);
+    EXPECT_EQ(q.status.unevaluated, 0u);
     EXPECT_EQ(q.status.capacity, 4u * kRays);
     // One candidate per (ray, LSNIF instance) whose model box the ray crosses before its closest
     // triangle (the shader's trace with an empty table sees the triangles only): none beyond it.
@@ -589,20 +622,8 @@ TEST_F(PluginQuery, OverflowMarksTheAffectedRays) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
-  // Rays from around the scene towards points near its centre, where the boxes overlap: most cross
-  // two or three LSNIF boxes.
-  std::vector<Ray> rays(kRays);
-  std::mt19937 rng(13);
-  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  for (Ray& r : rays) {
-    glm::vec3 v(u(rng), u(rng), u(rng));
-    while (glm::length(v) < 0.1f || glm::length(v) > 1.0f) v = glm::vec3(u(rng), u(rng), u(rng));
-    r.origin = s.bounds.center() + 1.2f * s.bounds.diagonal() * glm::normalize(v);
-    r.direction = s.bounds.center() + 0.15f * s.bounds.extent() * glm::vec3(u(rng), u(rng), u(rng)) - r.origin;
-  }
-  // Half of them any-hit rays.
-  std::vector<uint32_t> flags(rays.size(), 0u);
-  for (size_t i = 0; i < flags.size(); i += 2) flags[i] = LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT;
+  const std::vector<Ray> rays = rays_to_centre(s, kRays, 13);
+  const std::vector<uint32_t> flags = every_other_any_hit(rays.size());
   const QueryRun full = query(s, rays, flags, 8);
   ASSERT_EQ(full.status.dropped, 0u);
   const QueryRun tight = query(s, rays, flags, 1);
@@ -639,6 +660,75 @@ TEST_F(PluginQuery, OverflowMarksTheAffectedRays) {
   EXPECT_GT(incomplete, 0u);
   EXPECT_EQ(incomplete + exact, rays.size());
   EXPECT_GT(lsnif, 0u) << "kept candidates must still answer";
+  EXPECT_EQ(tight.status.unevaluated, 0u);
+}
+
+// The device's model table disagrees with pModels: entry 0 holds model B's block while pModels[0]
+// is A, or holds A's block while pModels[0] is NULL. The candidates of entry 0 are not evaluated
+// (the status counts them exactly: all candidates but those of entry 1); every ray one of them could
+// have changed is LSNIF_QUERY_HIT_INCOMPLETE, and every other ray is answered as with a table that
+// agrees with pModels.
+TEST_F(PluginQuery, ModelTableDisagreeingWithPModelsMarksTheAffectedRays) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));  // pModels {A, B, NULL}, the table written from them
+  const std::vector<Ray> rays = rays_to_centre(s, kRays, 17);
+  const std::vector<uint32_t> flags = every_other_any_hit(rays.size());
+  auto write_table = [&](const std::vector<LsnifModel>& models) {
+    std::vector<uint64_t> table;
+    ASSERT_TRUE(plugin_.model_table(models, table));
+    std::memcpy(s.table.mapped, table.data(), table.size() * sizeof(uint64_t));
+  };
+  // The candidates of entry 1 alone (entry 0 a hole on both sides).
+  const std::vector<LsnifModel> only_b = {nullptr, b_, nullptr};
+  ASSERT_NO_FATAL_FAILURE(write_table(only_b));
+  const QueryRun entry1 = query(s, rays, flags, 8, &only_b);
+  EXPECT_EQ(entry1.status.unevaluated, 0u);
+
+  struct Case {
+    const char* what;
+    std::vector<LsnifModel> table, models, agreeing;
+  };
+  const Case cases[] = {
+      {"table B, pModels A", {b_, b_, nullptr}, {a_, b_, nullptr}, {b_, b_, nullptr}},
+      {"table A, pModels NULL", {a_, b_, nullptr}, {nullptr, b_, nullptr}, {a_, b_, nullptr}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    ASSERT_NO_FATAL_FAILURE(write_table(c.table));
+    const QueryRun agree = query(s, rays, flags, 8, &c.agreeing);
+    const QueryRun q = query(s, rays, flags, 8, &c.models);
+    ASSERT_EQ(agree.status.dropped, 0u);
+    EXPECT_EQ(agree.status.unevaluated, 0u);
+    EXPECT_EQ(agree.status.incomplete_rays, 0u);
+    EXPECT_EQ(q.status.dropped, 0u);
+    EXPECT_EQ(q.status.candidates, agree.status.candidates);
+    EXPECT_EQ(q.status.unevaluated, agree.status.candidates - entry1.status.candidates);
+    ASSERT_GT(q.status.unevaluated, kRays / 4) << "too few candidates of entry 0 to tell anything";
+    size_t incomplete = 0, exact = 0, lsnif = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const LsnifQueryResult& r = q.results[i];
+      const LsnifQueryResult& f = agree.results[i];
+      if (r.kind == LSNIF_QUERY_HIT_INCOMPLETE) {
+        ++incomplete;
+        EXPECT_EQ(r.instance_index, ~0u);
+        continue;
+      }
+      EXPECT_NE(r.instance_custom_index, 0u) << "ray " << i << " answered by an entry not evaluated";
+      lsnif += r.kind == LSNIF_QUERY_HIT_LSNIF;
+      const bool same = (flags[i] & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT)
+                            ? (r.kind == LSNIF_QUERY_HIT_NONE) == (f.kind == LSNIF_QUERY_HIT_NONE)
+                            : r.kind == f.kind && r.instance_index == f.instance_index && r.t == f.t;
+      exact += same;
+      EXPECT_TRUE(same) << "ray " << i << " answered wrongly without the mark: kind " << r.kind << " vs " << f.kind;
+    }
+    std::printf("[%s] %zu rays, %u candidates, %u not evaluated: %zu incomplete, %zu exact (%zu LSNIF hits)\n",
+                c.what, rays.size(), q.status.candidates, q.status.unevaluated, incomplete, exact, lsnif);
+    EXPECT_EQ(incomplete, q.status.incomplete_rays);
+    EXPECT_GT(incomplete, rays.size() / 10);
+    EXPECT_EQ(incomplete + exact, rays.size());
+    EXPECT_GT(lsnif, 0u) << "entry 1 must still answer";
+  }
 }
 
 // Two instances of the same model at the same place (and a third elsewhere): every hit on them is
@@ -833,7 +923,7 @@ TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
   struct Case {
     const char* words;
     std::function<void(LsnifQueryInfo&)> change;
-    LsnifQueryPipeline pipeline = pipeline_;
+    LsnifQueryPipeline pipeline = pipeline_.get();
   };
   const Case cases[] = {
       {"created without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT", [](LsnifQueryInfo&) {}, without_tlas},
@@ -875,9 +965,36 @@ TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
   LsnifQueryInfo empty{};
   empty.candidatesPerRay = 1;
   Status st = vk_.submit("empty", [&](VkCommandBuffer cmd) {
-    EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, pipeline_, &empty), LSNIF_SUCCESS) << last_error();
+    EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, pipeline_.get(), &empty), LSNIF_SUCCESS) << last_error();
   });
   EXPECT_TRUE(st) << st.message();
+
+  // lsnif.hpp's owner: a failed create holds nothing; moves carry the handle; its calls go to the
+  // C API with its context and pipeline.
+  plugin::QueryPipeline owner;
+  EXPECT_EQ(owner.create(plugin_.context(), 0x2), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_FALSE(owner);
+  ASSERT_EQ(owner.create(plugin_.context()), LSNIF_SUCCESS) << last_error();
+  plugin::QueryPipeline moved(std::move(owner));
+  EXPECT_FALSE(owner);
+  ASSERT_TRUE(moved);
+  EXPECT_EQ(moved.context(), plugin_.context());
+  st = vk_.submit("refused", [&](VkCommandBuffer cmd) {
+    EXPECT_EQ(moved.cmd_query(cmd, info), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(last_error().find("pipeline was created without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT"),
+              std::string::npos)
+        << last_error();
+    const LsnifIntersectModelRaysInfo none{};
+    EXPECT_EQ(moved.cmd_intersect_model_rays(cmd, none), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(last_error().find("lsnifCmdIntersectModelRays"), std::string::npos) << last_error();
+  });
+  EXPECT_TRUE(st) << st.message();
+  VkDeviceSize via_owner = 0;
+  EXPECT_EQ(plugin::query_scratch_size(plugin_.context(), info, via_owner), LSNIF_SUCCESS);
+  EXPECT_EQ(via_owner, need);
+  moved.reset();
+  EXPECT_FALSE(moved);
+
   lsnifDestroyModel(plugin_.context(), unbuilt);
   lsnifDestroyQueryPipeline(plugin_.context(), without_tlas);
 }
