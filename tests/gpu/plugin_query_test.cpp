@@ -344,6 +344,34 @@ class PluginQuery : public ::testing::Test {
     return out;
   }
 
+  // Counts of the rays of `q` marked LSNIF_QUERY_HIT_INCOMPLETE (every other field as for a miss),
+  // of the others answered as in `ref` (any-hit rays: a hit or a miss alike; closest: kind, instance
+  // and t), each of which must be, and of its LSNIF hits.
+  struct Marked {
+    size_t incomplete = 0, exact = 0, lsnif = 0;
+  };
+  static Marked marked_or_exact(const std::vector<uint32_t>& flags, const QueryRun& q, const QueryRun& ref) {
+    Marked m;
+    EXPECT_EQ(q.results.size(), ref.results.size());
+    for (size_t i = 0; i < std::min(q.results.size(), ref.results.size()); ++i) {
+      const LsnifQueryResult& r = q.results[i];
+      const LsnifQueryResult& f = ref.results[i];
+      if (r.kind == LSNIF_QUERY_HIT_INCOMPLETE) {
+        ++m.incomplete;
+        EXPECT_EQ(r.instance_index, ~0u);
+        EXPECT_EQ(r.t, 0.0f);
+        continue;
+      }
+      m.lsnif += r.kind == LSNIF_QUERY_HIT_LSNIF;
+      const bool same = (flags[i] & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT)
+                            ? (r.kind == LSNIF_QUERY_HIT_NONE) == (f.kind == LSNIF_QUERY_HIT_NONE)
+                            : r.kind == f.kind && r.instance_index == f.instance_index && r.t == f.t;
+      m.exact += same;
+      EXPECT_TRUE(same) << "ray " << i << " answered wrongly without the mark: kind " << r.kind << " vs " << f.kind;
+    }
+    return m;
+  }
+
   // The same rays through the ray-tracing pipeline over the scene's TLAS (closest or shadow mode).
   // `table_count` below the table's size hides the LSNIF instances of the entries past it.
   static std::vector<LsnifReferenceHit> trace(const Scene& s, const std::vector<Ray>& rays, uint32_t mode,
@@ -631,28 +659,7 @@ TEST_F(PluginQuery, OverflowMarksTheAffectedRays) {
   EXPECT_EQ(tight.status.candidates, full.status.candidates);
   EXPECT_EQ(tight.status.dropped, full.status.candidates - uint32_t(rays.size()));
   ASSERT_GT(tight.status.dropped, 0u) << "the rays must overflow one candidate per ray";
-  size_t incomplete = 0, exact = 0, lsnif = 0;
-  for (size_t i = 0; i < rays.size(); ++i) {
-    const LsnifQueryResult& t = tight.results[i];
-    const LsnifQueryResult& f = full.results[i];
-    if (t.kind == LSNIF_QUERY_HIT_INCOMPLETE) {
-      ++incomplete;
-      EXPECT_EQ(t.instance_index, ~0u);
-      EXPECT_EQ(t.t, 0.0f);
-      continue;
-    }
-    lsnif += t.kind == LSNIF_QUERY_HIT_LSNIF;
-    if (flags[i] & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT) {
-      // Any accepted hit is a right answer; a miss must be a miss.
-      const bool hit = t.kind != LSNIF_QUERY_HIT_NONE, full_hit = f.kind != LSNIF_QUERY_HIT_NONE;
-      exact += hit == full_hit;
-      EXPECT_EQ(hit, full_hit) << "any-hit ray " << i << " answered wrongly without the mark";
-    } else {
-      const bool same = t.kind == f.kind && t.instance_index == f.instance_index && t.t == f.t;
-      exact += same;
-      EXPECT_TRUE(same) << "ray " << i << " answered wrongly without the mark: kind " << t.kind << " vs " << f.kind;
-    }
-  }
+  const auto [incomplete, exact, lsnif] = marked_or_exact(flags, tight, full);
   std::printf(
       "[overflow] %zu rays, %u candidates, capacity %u, dropped %u: %zu incomplete, %zu exact (%zu LSNIF hits)\n",
       rays.size(), tight.status.candidates, tight.status.capacity, tight.status.dropped, incomplete, exact, lsnif);
@@ -705,23 +712,9 @@ TEST_F(PluginQuery, ModelTableDisagreeingWithPModelsMarksTheAffectedRays) {
     EXPECT_EQ(q.status.candidates, agree.status.candidates);
     EXPECT_EQ(q.status.unevaluated, agree.status.candidates - entry1.status.candidates);
     ASSERT_GT(q.status.unevaluated, kRays / 4) << "too few candidates of entry 0 to tell anything";
-    size_t incomplete = 0, exact = 0, lsnif = 0;
-    for (size_t i = 0; i < rays.size(); ++i) {
-      const LsnifQueryResult& r = q.results[i];
-      const LsnifQueryResult& f = agree.results[i];
-      if (r.kind == LSNIF_QUERY_HIT_INCOMPLETE) {
-        ++incomplete;
-        EXPECT_EQ(r.instance_index, ~0u);
-        continue;
-      }
-      EXPECT_NE(r.instance_custom_index, 0u) << "ray " << i << " answered by an entry not evaluated";
-      lsnif += r.kind == LSNIF_QUERY_HIT_LSNIF;
-      const bool same = (flags[i] & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT)
-                            ? (r.kind == LSNIF_QUERY_HIT_NONE) == (f.kind == LSNIF_QUERY_HIT_NONE)
-                            : r.kind == f.kind && r.instance_index == f.instance_index && r.t == f.t;
-      exact += same;
-      EXPECT_TRUE(same) << "ray " << i << " answered wrongly without the mark: kind " << r.kind << " vs " << f.kind;
-    }
+    const auto [incomplete, exact, lsnif] = marked_or_exact(flags, q, agree);
+    for (size_t i = 0; i < rays.size(); ++i)
+      EXPECT_NE(q.results[i].instance_custom_index, 0u) << "ray " << i << " answered by an entry not evaluated";
     std::printf("[%s] %zu rays, %u candidates, %u not evaluated: %zu incomplete, %zu exact (%zu LSNIF hits)\n",
                 c.what, rays.size(), q.status.candidates, q.status.unevaluated, incomplete, exact, lsnif);
     EXPECT_EQ(incomplete, q.status.incomplete_rays);
