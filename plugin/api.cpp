@@ -75,6 +75,40 @@ Outcome collect(const LsnifContext_T& ctx, uint32_t count, const LsnifModel* pMo
   return Outcome::ok();
 }
 
+// The checks lsnifGetQueryScratchSize and lsnifCmdQuery share: reserved fields, the counts, and the
+// table's models (each of this context, or null; built, with `built`), collected into `models`.
+Outcome check_query_counts(const LsnifContext_T& ctx, const LsnifQueryInfo& info, bool built,
+                           std::vector<const LsnifModel_T*>& models) {
+  if (info.pNext) return invalid("%s must be NULL", "pInfo->pNext");
+  if (info.candidatesPerRay < 1 || info.candidatesPerRay > LSNIF_QUERY_MAX_CANDIDATES_PER_RAY)
+    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->candidatesPerRay %u is not in 1 .. %u",
+                         info.candidatesPerRay, LSNIF_QUERY_MAX_CANDIDATES_PER_RAY);
+  if (info.modelCount > LSNIF_QUERY_MAX_MODELS)
+    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->modelCount %u is more than %u", info.modelCount,
+                         LSNIF_QUERY_MAX_MODELS);
+  if (info.modelCount > 0 && !info.pModels) return invalid("%s is NULL with a non-zero modelCount", "pInfo->pModels");
+  models.assign(info.modelCount, nullptr);
+  for (uint32_t i = 0; i < info.modelCount; ++i) {
+    if (!info.pModels[i]) continue;  // a hole
+    const LsnifModel_T* m = ctx.find(info.pModels[i]);
+    if (!m) return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->pModels[%u] is not a model of this context", i);
+    if (built && !m->build_recorded)
+      return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                           "pInfo->pModels[%u] has not been built (lsnifCmdBuildModels / lsnifBuildModels)", i);
+    models[i] = m;
+  }
+  return Outcome::ok();
+}
+
+// A required device address: not 0 and a multiple of `alignment`.
+Outcome check_address(const char* name, VkDeviceAddress address, VkDeviceAddress alignment) {
+  if (address == 0) return invalid("%s is 0", name);
+  if (address % alignment != 0)
+    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "%s is not %llu-byte aligned", name,
+                         static_cast<unsigned long long>(alignment));
+  return Outcome::ok();
+}
+
 }  // namespace
 
 extern "C" {
@@ -152,7 +186,7 @@ LSNIF_API LsnifResult lsnifQueryDeviceSupport(VkInstance instance, VkPhysicalDev
                   out.apiVersion = s.api_version;
                   std::strncpy(out.deviceName, s.name.c_str(), sizeof out.deviceName - 1);
                   std::strncpy(out.missing, missing.c_str(), sizeof out.missing - 1);
-                  out.rayQuery = s.ext_ray_query;
+                  out.rayQuery = s.ray_query;
                   out.cooperativeMatrixNV = s.ext_nv_cooperative_matrix;
                   out.cooperativeMatrixKHR = s.ext_khr_cooperative_matrix;
                   out.cooperativeVectorNV = s.ext_nv_cooperative_vector;
@@ -374,7 +408,8 @@ LSNIF_API LsnifResult lsnifCreateQueryPipeline(LsnifContext context, const Lsnif
                   if (pCreateInfo && pCreateInfo->pNext) return invalid("%s must be NULL", "pCreateInfo->pNext");
                   std::unique_ptr<LsnifQueryPipeline_T> p;
                   Outcome o = lsnif::plugin::create_query_pipeline(
-                      *context, pCreateInfo ? pCreateInfo->pipelineCache : VK_NULL_HANDLE, p);
+                      *context, pCreateInfo ? pCreateInfo->flags : 0,
+                      pCreateInfo ? pCreateInfo->pipelineCache : VK_NULL_HANDLE, p);
                   if (!o) return o;
                   *pPipeline = p.get();
                   context->query_pipelines.push_back(std::move(p));
@@ -436,6 +471,63 @@ LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommand
                   return Outcome::ok();
                 }),
                 "lsnifCmdIntersectModelRays", context);
+}
+
+LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const LsnifQueryInfo* pInfo, VkDeviceSize* pSize) {
+  return report(guarded([&]() -> Outcome {
+                  if (!context) return invalid("%s is NULL", "context");
+                  if (!pInfo) return invalid("%s is NULL", "pInfo");
+                  if (!pSize) return invalid("%s is NULL", "pSize");
+                  std::vector<const LsnifModel_T*> models;
+                  if (Outcome o = check_query_counts(*context, *pInfo, false, models); !o) return o;
+                  *pSize = lsnif::plugin::query_scratch_bytes(models, pInfo->modelCount, pInfo->rayCount,
+                                                              pInfo->candidatesPerRay);
+                  return Outcome::ok();
+                }),
+                "lsnifGetQueryScratchSize", context);
+}
+
+LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer commandBuffer, LsnifQueryPipeline pipeline,
+                                    const LsnifQueryInfo* pInfo) {
+  return report(guarded([&]() -> Outcome {
+                  if (!context) return invalid("%s is NULL", "context");
+                  if (!commandBuffer) return invalid("%s is VK_NULL_HANDLE", "commandBuffer");
+                  if (!pInfo) return invalid("%s is NULL", "pInfo");
+                  const LsnifQueryInfo& info = *pInfo;
+                  const LsnifQueryPipeline_T* p = context->find(pipeline);
+                  if (!p) return invalid("%s is not a query pipeline of this context", "pipeline");
+                  if (!p->has_tlas)
+                    return invalid("%s was created without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT", "pipeline");
+                  std::vector<const LsnifModel_T*> models;
+                  if (Outcome o = check_query_counts(*context, info, true, models); !o) return o;
+                  if (info.cullMask > 0xFFu)
+                    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->cullMask 0x%x does not fit its 8 bits",
+                                         info.cullMask);
+                  if (info.rayCount == 0) return Outcome::ok();
+                  if (info.tlas == 0) return invalid("%s is 0", "pInfo->tlas");
+                  for (Outcome o : {check_address("pInfo->rays", info.rays, 16),
+                                    check_address("pInfo->results", info.results, 16)})
+                    if (!o) return o;
+                  if (info.modelCount > 0) {
+                    if (Outcome o = check_address("pInfo->modelTable", info.modelTable, 8); !o) return o;
+                  }
+                  if (info.status != 0) {
+                    if (Outcome o = check_address("pInfo->status", info.status, 4); !o) return o;
+                  }
+                  if (!info.scratchBuffer) return invalid("%s is VK_NULL_HANDLE", "pInfo->scratchBuffer");
+                  if (info.scratchOffset % 16 != 0) return invalid("%s is not a multiple of 16", "pInfo->scratchOffset");
+                  const VkDeviceSize need = lsnif::plugin::query_scratch_bytes(models, info.modelCount, info.rayCount,
+                                                                               info.candidatesPerRay);
+                  if (info.scratchSize < need)
+                    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                                         "pInfo->scratchSize %llu is less than the %llu bytes this query needs "
+                                         "(lsnifGetQueryScratchSize)",
+                                         static_cast<unsigned long long>(info.scratchSize),
+                                         static_cast<unsigned long long>(need));
+                  lsnif::plugin::record_query(*context, *p, commandBuffer, models, info);
+                  return Outcome::ok();
+                }),
+                "lsnifCmdQuery", context);
 }
 
 }  // extern "C"

@@ -247,6 +247,9 @@ Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<Lsnif
                            support.name.c_str(), list.c_str());
     }
   }
+  ctx->ray_query_offered = support.ray_query;
+  ctx->ray_query_not_enabled = info.pEnabledFeatures && !ray_query_enabled(info.pEnabledFeatures);
+  ctx->device_name = support.name;
   if (const char* missing = load_device_dispatch(ctx->vki, info.device, ctx->vk))
     return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
                          "the device does not provide %s: create it with the extensions of "

@@ -56,10 +56,18 @@ struct LsnifModel_T {
   bool build_recorded = false;
 };
 
-// The compute pipelines of the batched path (shaders/lsnif_batch.comp, one per stage).
+// The compute pipelines of the batched path (shaders/lsnif_batch.comp, one per stage) and, with
+// LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT, of the TLAS query (shaders/lsnif_query.comp).
 struct LsnifQueryPipeline_T {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline clear = VK_NULL_HANDLE, narrow = VK_NULL_HANDLE, mlp = VK_NULL_HANDLE, decode = VK_NULL_HANDLE;
+  struct Tlas {
+    VkPipeline clear = VK_NULL_HANDLE, broad = VK_NULL_HANDLE, scan = VK_NULL_HANDLE, scatter = VK_NULL_HANDLE,
+               narrow = VK_NULL_HANDLE, batch_args = VK_NULL_HANDLE, mlp = VK_NULL_HANDLE, decode = VK_NULL_HANDLE,
+               tie = VK_NULL_HANDLE, resolve_hits = VK_NULL_HANDLE, resolve_rays = VK_NULL_HANDLE,
+               status = VK_NULL_HANDLE;
+  } tlas;
+  bool has_tlas = false;  // created with LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT
 };
 
 struct LsnifContext_T {
@@ -68,6 +76,11 @@ struct LsnifContext_T {
   lsnif::plugin::DeviceDispatch vk;
   VkPhysicalDeviceMemoryProperties memory{};
   VkDeviceSize scratch_alignment = 0;
+  // lsnifCmdQuery's broad phase: the physical device offers VK_KHR_ray_query and rayQuery; and,
+  // when the create info had pEnabledFeatures, that chain enabled rayQuery.
+  bool ray_query_offered = false;
+  bool ray_query_not_enabled = false;
+  std::string device_name;
   bool staging_upload = false;  // blocks always go through a staging buffer (LSNIF_CONTEXT_CREATE_STAGING_UPLOAD_BIT)
   VkCommandPool pool = VK_NULL_HANDLE;  // for the blocking calls (created on first use)
   VkFence fence = VK_NULL_HANDLE;
@@ -115,12 +128,21 @@ Outcome build_and_wait(LsnifContext_T& ctx, const std::vector<LsnifModel_T*>& mo
 void free_build_resources(LsnifContext_T& ctx, LsnifModel_T& model);
 
 // lsnifCreateQueryPipeline / lsnifDestroyQueryPipeline (query_pipeline.cpp).
-Outcome create_query_pipeline(LsnifContext_T& ctx, VkPipelineCache cache, std::unique_ptr<LsnifQueryPipeline_T>& out);
+Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags flags, VkPipelineCache cache,
+                              std::unique_ptr<LsnifQueryPipeline_T>& out);
 void destroy_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipeline_T& pipeline);
 // Bytes of scratch lsnifCmdIntersectModelRays needs for `rays` rays of `model`.
 VkDeviceSize intersect_scratch_bytes(const LsnifModel_T& model, uint32_t rays);
 // Records the stages of lsnifCmdIntersectModelRays (arguments checked by the caller).
 void record_intersect_model_rays(LsnifContext_T& ctx, const LsnifQueryPipeline_T& pipeline, VkCommandBuffer cmd,
                                  const LsnifModel_T& model, const LsnifIntersectModelRaysInfo& info);
+// Bytes of scratch lsnifCmdQuery needs for `rays` rays, `per_ray` candidates per ray, `table_entries`
+// model-table entries of which `models` (non-null) are the models.
+VkDeviceSize query_scratch_bytes(const std::vector<const LsnifModel_T*>& models, uint32_t table_entries, uint32_t rays,
+                                 uint32_t per_ray);
+// Records the stages of lsnifCmdQuery (arguments checked by the caller); models[i] is the model of
+// table entry i or null.
+void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& pipeline, VkCommandBuffer cmd,
+                  const std::vector<const LsnifModel_T*>& models, const LsnifQueryInfo& info);
 
 }  // namespace lsnif::plugin

@@ -23,6 +23,7 @@ struct FeatureStructs {
   VkBool32* buffer_device_address = nullptr;  // Vulkan12Features or BufferDeviceAddressFeatures
   VkPhysicalDeviceAccelerationStructureFeaturesKHR* acceleration_structure = nullptr;
   VkPhysicalDeviceRayTracingPipelineFeaturesKHR* ray_tracing_pipeline = nullptr;
+  VkPhysicalDeviceRayQueryFeaturesKHR* ray_query = nullptr;  // lsnifCmdQuery only
 };
 
 FeatureStructs find_feature_structs(const void* chain) {
@@ -51,6 +52,9 @@ FeatureStructs find_feature_structs(const void* chain) {
         break;
       case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR:
         f.ray_tracing_pipeline = reinterpret_cast<VkPhysicalDeviceRayTracingPipelineFeaturesKHR*>(s);
+        break;
+      case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR:
+        f.ray_query = reinterpret_cast<VkPhysicalDeviceRayQueryFeaturesKHR*>(s);
         break;
       default:
         break;
@@ -82,7 +86,7 @@ DeviceSupport query_device_support(const InstanceDispatch& vk, VkPhysicalDevice 
   s.ext_acceleration_structure = has(VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME);
   s.ext_ray_tracing_pipeline = has(VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME);
   s.ext_deferred_host_operations = has(VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME);
-  s.ext_ray_query = has("VK_KHR_ray_query");
+  s.ext_ray_query = has(VK_KHR_RAY_QUERY_EXTENSION_NAME);
   s.ext_nv_cooperative_matrix = has("VK_NV_cooperative_matrix");
   s.ext_khr_cooperative_matrix = has("VK_KHR_cooperative_matrix");
   s.ext_nv_cooperative_vector = has("VK_NV_cooperative_vector");
@@ -110,11 +114,18 @@ DeviceSupport query_device_support(const InstanceDispatch& vk, VkPhysicalDevice 
     *tail = &rt;
     tail = &rt.pNext;
   }
+  VkPhysicalDeviceRayQueryFeaturesKHR rq{};
+  rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+  if (s.ext_ray_query) {
+    *tail = &rq;
+    tail = &rq.pNext;
+  }
   if (vk.vkGetPhysicalDeviceFeatures2) vk.vkGetPhysicalDeviceFeatures2(physical, &f2);
   s.shader_int64 = f2.features.shaderInt64 == VK_TRUE;
   s.buffer_device_address = v12 && f12.bufferDeviceAddress == VK_TRUE;
   s.acceleration_structure = s.ext_acceleration_structure && as.accelerationStructure == VK_TRUE;
   s.ray_tracing_pipeline = s.ext_ray_tracing_pipeline && rt.rayTracingPipeline == VK_TRUE;
+  s.ray_query = s.ext_ray_query && rq.rayQuery == VK_TRUE;
   return s;
 }
 
@@ -153,6 +164,11 @@ std::vector<std::string> features_not_enabled(const void* chain) {
   if (!f.buffer_device_address || !*f.buffer_device_address) missing.emplace_back("feature bufferDeviceAddress");
   if (!f.core || !f.core->shaderInt64) missing.emplace_back("feature shaderInt64");
   return missing;
+}
+
+bool ray_query_enabled(const void* chain) {
+  const FeatureStructs f = find_feature_structs(chain);
+  return f.ray_query && f.ray_query->rayQuery;
 }
 
 std::vector<std::string> enable_device_features(void* chain) {

@@ -30,7 +30,8 @@ struct DeviceSupport {
   bool buffer_device_address = false;   // VkPhysicalDeviceVulkan12Features
   bool shader_int64 = false;            // VkPhysicalDeviceFeatures
   // Other paths (reported by `lsnif devices`, not required by the plugin).
-  bool ext_ray_query = false;               // VK_KHR_ray_query
+  bool ext_ray_query = false;               // VK_KHR_ray_query (lsnifCmdQuery)
+  bool ray_query = false;                   // VkPhysicalDeviceRayQueryFeaturesKHR::rayQuery
   bool ext_nv_cooperative_matrix = false;   // VK_NV_cooperative_matrix
   bool ext_khr_cooperative_matrix = false;  // VK_KHR_cooperative_matrix
   bool ext_nv_cooperative_vector = false;   // VK_NV_cooperative_vector
@@ -55,6 +56,9 @@ Status describe_device_support(const DeviceSupport& support);
 // feature struct, as given to vkCreateDevice) does not enable, as "feature NAME" in the order of
 // missing_for_ray_tracing; a feature whose struct is absent from the chain counts as not enabled.
 std::vector<std::string> features_not_enabled(const void* chain);
+
+// True when the feature chain starting at `chain` enables VkPhysicalDeviceRayQueryFeaturesKHR::rayQuery.
+bool ray_query_enabled(const void* chain);
 
 // lsnifEnableDeviceFeatures: sets LSNIF's features in the structs of the chain; returns the names
 // of the structs it needed but did not find (empty: all set).

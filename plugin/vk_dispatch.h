@@ -53,6 +53,7 @@ namespace lsnif::plugin {
   X(vkCmdBindPipeline)                            \
   X(vkCmdPushConstants)                           \
   X(vkCmdDispatch)                                \
+  X(vkCmdDispatchIndirect)                        \
   X(vkCmdWriteTimestamp)
 
 struct InstanceDispatch {

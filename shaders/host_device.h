@@ -41,6 +41,9 @@
  * facing; these are their SPIR-V values. */
 #define LSNIF_RAY_FLAG_CULL_BACK_FACING 0x10u
 #define LSNIF_RAY_FLAG_CULL_FRONT_FACING 0x20u
+/* Any-hit queries (LsnifQueryRay::flags of lsnifCmdQuery): the ray is answered by any accepted hit
+ * in its interval, not necessarily the closest (SPIR-V's TerminateOnFirstHit). */
+#define LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT 0x04u
 
 /* The self-intersection rule for rays leaving an LSNIF surface (docs/self-intersection.md): spawn
  * the ray at the predicted hit point itself (no offset), with the ray flag CullBackFacingTriangles,
@@ -183,11 +186,15 @@ struct LsnifHitAttributes {
 struct LsnifQueryRay { /* 48 bytes */
   float origin_x, origin_y, origin_z, tmin;
   float direction_x, direction_y, direction_z, tmax;
-  lsnif_uint flags;     /* LSNIF_RAY_FLAG_CULL_BACK_FACING | LSNIF_RAY_FLAG_CULL_FRONT_FACING */
+  lsnif_uint flags;     /* LSNIF_RAY_FLAG_CULL_BACK_FACING | LSNIF_RAY_FLAG_CULL_FRONT_FACING, and for
+                           lsnifCmdQuery LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT; other bits are ignored */
   lsnif_uint reserved0, reserved1, reserved2; /* zero */
 };
-#define LSNIF_QUERY_HIT_NONE 0u  /* LsnifQueryHit::kind: no accepted hit */
-#define LSNIF_QUERY_HIT_LSNIF 1u /* an accepted hit of an LSNIF model */
+#define LSNIF_QUERY_HIT_NONE 0u       /* LsnifQueryHit / LsnifQueryResult::kind: no accepted hit */
+#define LSNIF_QUERY_HIT_LSNIF 1u      /* an accepted hit of an LSNIF model */
+#define LSNIF_QUERY_HIT_TRIANGLE 2u   /* LsnifQueryResult: a triangle of the application's TLAS */
+#define LSNIF_QUERY_HIT_INCOMPLETE 3u /* LsnifQueryResult: a candidate of the ray did not fit the scratch
+                                         and could have changed the answer (lsnifCmdQuery) */
 struct LsnifQueryHit { /* 48 bytes; every field is written, also for a miss */
   float t;                              /* ray parameter (also when not accepted, if points > 0) */
   float normal_x, normal_y, normal_z;   /* object space, normalized (zero when points == 0) */
@@ -220,6 +227,117 @@ struct LsnifBatchPushConstants {
   lsnif_uint reserved0;
 };
 
+/* ---- Queries against the application's TLAS (lsnifCmdQuery, shaders/lsnif_query.comp) ----
+ * World-space LsnifQueryRay in, one LsnifQueryResult per ray out. An LSNIF hit is what the
+ * intersection shader would report for the instance (same walk, network, acceptance, culling);
+ * a triangle hit is the closest (or, with LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT, any) triangle
+ * the TLAS traversal commits, every triangle taken as opaque. The answer is the closest of both;
+ * at equal t the lower instance index wins. */
+struct LsnifQueryResult { /* 64 bytes; every field is written */
+  float t;                              /* ray parameter of the hit (0 when kind is NONE or INCOMPLETE) */
+  float normal_x, normal_y, normal_z;   /* LSNIF: world-space unit normal, normalize(A^-T n) of the
+                                           instance's object-to-world A; zero for triangles */
+  float albedo_r, albedo_g, albedo_b;   /* LSNIF: predicted albedo; zero for triangles (the application's) */
+  lsnif_uint material;                  /* LSNIF: predicted material index; 0 for triangles */
+  lsnif_uint kind;                      /* LSNIF_QUERY_HIT_NONE / _TRIANGLE / _LSNIF / _INCOMPLETE */
+  lsnif_uint instance_index;            /* index of the instance in the TLAS (gl_InstanceID); ~0u without a hit */
+  lsnif_uint instance_custom_index;     /* its instanceCustomIndex; ~0u without a hit */
+  lsnif_uint primitive_index;           /* triangle: gl_PrimitiveID; LSNIF: 0; ~0u without a hit */
+  lsnif_uint geometry_index;            /* triangle: gl_GeometryIndexEXT; LSNIF: 0; ~0u without a hit */
+  float barycentric_u, barycentric_v;   /* triangle: the hit's barycentrics (weights of vertices 1 and 2) */
+  lsnif_uint front_face;                /* 1 when front-facing: triangles by winding and instance flags,
+                                           LSNIF by the predicted normal (dot(n, d) < 0 in object space) */
+};
+/* What lsnifCmdQuery counted, written to LsnifQueryInfo::status when given (20 bytes): candidates
+ * the broad phase produced over all chunks, the capacity of one chunk, candidates that did not fit
+ * (dropped), rays answered LSNIF_QUERY_HIT_INCOMPLETE, and candidates kept but not evaluated
+ * because their model-table entry on the device is not the block of the LsnifQueryInfo::pModels
+ * entry the command was recorded with (a NULL entry, or another model). */
+struct LsnifQueryStatus {
+  lsnif_uint candidates;
+  lsnif_uint capacity;
+  lsnif_uint dropped;
+  lsnif_uint incomplete_rays;
+  lsnif_uint unevaluated;
+};
+#define LSNIF_QUERY_CHUNK_RAYS 65536u            /* rays per run of the stages; larger batches run in chunks */
+#define LSNIF_QUERY_MAX_CANDIDATES_PER_RAY 32u   /* upper bound of LsnifQueryInfo::candidatesPerRay */
+#define LSNIF_QUERY_MAX_MODELS 262144u           /* upper bound of LsnifQueryInfo::modelCount (table entries) */
+
+/* The library's scratch of lsnifCmdQuery (not an interface: the application only sizes it), in
+ * 32-bit words: LSNIF_BATCH_HEADER_WORDS of header (word 0 the candidate counter of the chunk, words
+ * LSNIF_QUERY_STATUS_WORD.. the LsnifQueryStatus accumulators, LSNIF_QUERY_SCATTER_ARGS_WORD.. the
+ * indirect dispatch of the per-candidate passes), then per model-table entry a
+ * LsnifQueryModelCounters, per ray of a chunk a LsnifQueryRayState, per candidate slot a
+ * LsnifQueryCandidate, the candidate indices sorted by model (one word per slot), and the batch rows
+ * of the narrow phase, MLP and decode (the layout of lsnifCmdIntersectModelRays' rows, `stride`
+ * words per row, each model's batch in the columns of its sorted range). */
+#define LSNIF_QUERY_STATUS_WORD 4u       /* 5 words, in the order of LsnifQueryStatus */
+#define LSNIF_QUERY_SCATTER_ARGS_WORD 12u
+struct LsnifQueryModelCounters { /* 40 bytes */
+  lsnif_uint count;    /* candidates of the model (broad phase) */
+  lsnif_uint start;    /* first sorted slot of the model (exclusive prefix sum of count) */
+  lsnif_uint cursor;   /* scatter counter */
+  lsnif_uint batch;    /* candidates with boundary points (the model's MLP batch) */
+  lsnif_uint narrow_groups_x, narrow_groups_y, narrow_groups_z; /* VkDispatchIndirectCommand over count */
+  lsnif_uint batch_groups_x, batch_groups_y, batch_groups_z;    /* VkDispatchIndirectCommand over batch */
+};
+struct LsnifQueryRayState { /* 32 bytes; t values as float bits (non-negative: ordered as uint) */
+  lsnif_uint best_t;            /* closest accepted t (triangle or LSNIF); +inf bits without one */
+  lsnif_uint best_instance;     /* lowest instance index of the LSNIF hits at best_t; ~0u without one */
+  lsnif_uint missing_t;         /* smallest t_enter of the ray's candidates not evaluated (did not fit,
+                                   or their table entry is not the model recorded for it); +inf bits */
+  lsnif_uint triangle_t;        /* the triangle hit's t; +inf bits without one */
+  lsnif_uint triangle_instance; /* its instance index; ~0u without one */
+  lsnif_uint reserved0, reserved1, reserved2;
+};
+struct LsnifQueryCandidate { /* 144 bytes: one (ray, LSNIF instance) pair of the broad phase */
+  lsnif_uint ray, instance_index, custom_index, flags;
+  float origin_x, origin_y, origin_z, tmin;           /* object space (as the intersection shader sees it) */
+  float direction_x, direction_y, direction_z, tmax;  /* tmax: the ray's, cut at the closest triangle hit */
+  float t_enter, t_exit;                              /* the ray's interval clipped to the model's box */
+  lsnif_uint accepted;                                /* set by the decode */
+  float t;
+  float normal_matrix[9];                             /* mat3 of WorldToObject, column-major */
+  lsnif_uint points;
+  float occlusion_logit;
+  lsnif_uint material;
+  float normal_x, normal_y, normal_z;                 /* world space, normalized */
+  float albedo_r, albedo_g, albedo_b;
+  lsnif_uint front_face;
+  lsnif_uint evaluated;                               /* 1: the narrow phase ran the model recorded for its
+                                                         table entry, which the table holds (0 otherwise) */
+};
+/* Push constants of lsnifCmdQuery's stages (one block for all of them, 88 bytes). */
+struct LsnifQueryPushConstants {
+  lsnif_uint tlas_lo, tlas_hi;         /* the TLAS's device address */
+  lsnif_uint table_lo, table_hi;       /* the model table (uint64 block addresses) */
+  lsnif_uint rays_lo, rays_hi;         /* LsnifQueryRay[ray_count] of the chunk */
+  lsnif_uint results_lo, results_hi;   /* LsnifQueryResult[ray_count] of the chunk */
+  lsnif_uint scratch_lo, scratch_hi;
+  lsnif_uint model_lo, model_hi;       /* the model of `bucket` (narrow phase, MLP, decode) */
+  lsnif_uint status_lo, status_hi;     /* LsnifQueryStatus or 0 */
+  lsnif_uint ray_count;                /* rays of the chunk */
+  lsnif_uint model_count;              /* entries of the model table */
+  lsnif_uint capacity;                 /* candidate slots of a chunk */
+  lsnif_uint stride;                   /* capacity rounded up to a multiple of LSNIF_BATCH_GROUP_SIZE */
+  lsnif_uint bucket;                   /* model-table index of the per-model stages */
+  lsnif_uint cull_mask;
+  lsnif_uint first_chunk;              /* 1 for the first chunk: the status accumulators start at 0 */
+  lsnif_uint reserved;
+};
+
+#if defined(__cplusplus)
+static_assert(sizeof(LsnifQueryRay) == 48, "LsnifQueryRay layout");
+static_assert(sizeof(LsnifQueryHit) == 48, "LsnifQueryHit layout");
+static_assert(sizeof(LsnifQueryResult) == 64, "LsnifQueryResult layout");
+static_assert(sizeof(LsnifQueryStatus) == 20, "LsnifQueryStatus layout");
+static_assert(sizeof(LsnifQueryModelCounters) == 40, "LsnifQueryModelCounters layout");
+static_assert(sizeof(LsnifQueryRayState) == 32, "LsnifQueryRayState layout");
+static_assert(sizeof(LsnifQueryCandidate) == 144, "LsnifQueryCandidate layout");
+static_assert(sizeof(LsnifQueryPushConstants) == 88, "LsnifQueryPushConstants layout");
+#endif
+
 #if !defined(LSNIF_GLSL) && !defined(__cplusplus)
 /* C: the structs under their plain names too, as in C++ and GLSL. */
 typedef struct LsnifGpuModelHeader LsnifGpuModelHeader;
@@ -230,6 +348,12 @@ typedef struct LsnifHitAttributes LsnifHitAttributes;
 typedef struct LsnifQueryRay LsnifQueryRay;
 typedef struct LsnifQueryHit LsnifQueryHit;
 typedef struct LsnifBatchPushConstants LsnifBatchPushConstants;
+typedef struct LsnifQueryResult LsnifQueryResult;
+typedef struct LsnifQueryStatus LsnifQueryStatus;
+typedef struct LsnifQueryModelCounters LsnifQueryModelCounters;
+typedef struct LsnifQueryRayState LsnifQueryRayState;
+typedef struct LsnifQueryCandidate LsnifQueryCandidate;
+typedef struct LsnifQueryPushConstants LsnifQueryPushConstants;
 #endif
 
 #endif

@@ -12,11 +12,11 @@
 //  LSNIF_BATCH_DECODE  1 invocation per batch slot: the heads (lsnif_head.glsl) and the acceptance
 //                      against the ray's interval and culling flags; the hit to the ray's record.
 // Layouts: LsnifQueryRay, LsnifQueryHit, LsnifBatchPushConstants and the scratch in
-// shaders/host_device.h. The scratch rows are structure-of-arrays: lane i of a dispatch reads word
-// i of a row, so neighbouring lanes read neighbouring words.
+// shaders/host_device.h; the batch rows and the per-slot steps are lsnif_batch_rows.glsl's (shared
+// with the TLAS query, lsnif_query.comp).
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#include "lsnif_intersect.glsl"
+#include "lsnif_batch_rows.glsl"
 
 layout(local_size_x = LSNIF_BATCH_GROUP_SIZE) in;
 
@@ -28,22 +28,16 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Ls
 layout(buffer_reference, std430, buffer_reference_align = 16) writeonly buffer LsnifQueryHitsRef {
   LsnifQueryHit h[];
 };
-layout(buffer_reference, std430, buffer_reference_align = 4) coherent buffer LsnifScratchRef {
-  uint w[];
-};
 
-uint64_t lsnif_batch_address(uint lo, uint hi) { return packUint2x32(uvec2(lo, hi)); }
 LsnifScratchRef lsnif_scratch() { return LsnifScratchRef(lsnif_batch_address(pc.scratch_lo, pc.scratch_hi)); }
 
-// First word of each scratch section (host_device.h).
-uint lsnif_batch_slots_row() { return LSNIF_BATCH_HEADER_WORDS; }
-uint lsnif_batch_walk_row(uint k) { return LSNIF_BATCH_HEADER_WORDS + (1u + k) * pc.stride; }
-uint lsnif_batch_input_row(LsnifModel m, uint i) {
-  return LSNIF_BATCH_HEADER_WORDS + (4u + m.h.max_points + i) * pc.stride;
-}
-uint lsnif_batch_output_row(LsnifModel m, uint k) {
-  const uint input_rows = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
-  return LSNIF_BATCH_HEADER_WORDS + (4u + m.h.max_points + input_rows + k) * pc.stride;
+// The batch rows start after the header (word 0: the batch size).
+LsnifBatchRows lsnif_batch_rows() {
+  LsnifBatchRows r;
+  r.scratch = lsnif_scratch();
+  r.base = LSNIF_BATCH_HEADER_WORDS;
+  r.stride = pc.stride;
+  return r;
 }
 
 void lsnif_batch_write_hit(uint ray, LsnifHitInfo h) {
@@ -73,6 +67,7 @@ void main() {
   if (gl_GlobalInvocationID.x == 0u) scratch.w[0] = 0u;
 #else
   LsnifModel m = lsnif_load_model(lsnif_batch_address(pc.model_lo, pc.model_hi));
+  LsnifBatchRows rows = lsnif_batch_rows();
 #if defined(LSNIF_BATCH_NARROW)
   const uint ray = gl_GlobalInvocationID.x;
   if (ray >= pc.ray_count) return;
@@ -85,14 +80,7 @@ void main() {
     return;
   }
   lsnif_encode(m);
-  const uint slot = atomicAdd(scratch.w[0], 1u);
-  scratch.w[lsnif_batch_slots_row() + slot] = ray;
-  scratch.w[lsnif_batch_walk_row(0u) + slot] = points;
-  scratch.w[lsnif_batch_walk_row(1u) + slot] = floatBitsToUint(lsnif_walk.t_enter);
-  scratch.w[lsnif_batch_walk_row(2u) + slot] = floatBitsToUint(lsnif_walk.t_exit);
-  for (uint j = 0u; j < points; ++j) scratch.w[lsnif_batch_walk_row(3u + j) + slot] = floatBitsToUint(lsnif_walk.t[j]);
-  const uint inputs = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
-  for (uint i = 0u; i < inputs; ++i) scratch.w[lsnif_batch_input_row(m, i) + slot] = floatBitsToUint(lsnif_act[i]);
+  lsnif_rows_store_narrow(rows, m, atomicAdd(scratch.w[0], 1u), ray, points);
 #else
   // Only the first `count` slots hold work, and a CPU driver hands each thread one contiguous range
   // of workgroups (lavapipe does): the blocks of slots are spread over the workgroups by a stride
@@ -101,23 +89,12 @@ void main() {
   const uint slot = block * LSNIF_BATCH_GROUP_SIZE + gl_LocalInvocationID.x;
   if (slot >= scratch.w[0]) return;
 #if defined(LSNIF_BATCH_MLP)
-  const uint inputs = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
-  for (uint i = 0u; i < inputs; ++i) lsnif_act[i] = uintBitsToFloat(scratch.w[lsnif_batch_input_row(m, i) + slot]);
-  const uint base = lsnif_mlp_forward(m);
-  const uint outputs = LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(lsnif_output_dim(m));
-  for (uint k = 0u; k < outputs; ++k) scratch.w[lsnif_batch_output_row(m, k) + slot] = floatBitsToUint(lsnif_act[base + k]);
+  lsnif_rows_mlp(rows, m, slot);
 #elif defined(LSNIF_BATCH_DECODE)
-  const uint ray = scratch.w[lsnif_batch_slots_row() + slot];
-  const uint points = scratch.w[lsnif_batch_walk_row(0u) + slot];
-  lsnif_walk.count = points;
-  lsnif_walk.t_enter = uintBitsToFloat(scratch.w[lsnif_batch_walk_row(1u) + slot]);
-  lsnif_walk.t_exit = uintBitsToFloat(scratch.w[lsnif_batch_walk_row(2u) + slot]);
-  for (uint j = 0u; j < points; ++j) lsnif_walk.t[j] = uintBitsToFloat(scratch.w[lsnif_batch_walk_row(3u + j) + slot]);
-  const uint outputs = lsnif_output_dim(m);
-  for (uint k = 0u; k < outputs; ++k) lsnif_act[k] = uintBitsToFloat(scratch.w[lsnif_batch_output_row(m, k) + slot]);
+  const uint ray = lsnif_rows_load_item(rows, slot);
   const LsnifQueryRay q = lsnif_batch_ray(ray);
   const vec3 direction = vec3(q.direction_x, q.direction_y, q.direction_z);
-  lsnif_batch_write_hit(ray, lsnif_intersect_accept(lsnif_decode(m, 0u), points, direction, q.tmin, q.tmax, q.flags));
+  lsnif_batch_write_hit(ray, lsnif_rows_decode(rows, m, slot, direction, q.tmin, q.tmax, q.flags));
 #else
 #error "compile with one of LSNIF_BATCH_CLEAR, LSNIF_BATCH_NARROW, LSNIF_BATCH_MLP, LSNIF_BATCH_DECODE"
 #endif

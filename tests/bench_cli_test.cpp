@@ -3,8 +3,8 @@
 // (the mesh file's triangle count, `lsnif bench-memory` on the same mesh and model for the memory
 // columns) and for internal consistency, plus the side-by-side image and the scene files; a second
 // run reuses the scene and the model; unknown scene names and missing data are clear errors.
-// `lsnif bench-trace` with few rays: its JSON has the batched path's and the CPU GEMM's numbers,
-// and the batched hits agree with the intersection shader's ray by ray.
+// `lsnif bench-trace` with few rays: its JSON has the batched path's, lsnifCmdQuery's and the CPU
+// GEMM's numbers, and the batched and query hits agree with the intersection shader's ray by ray.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -150,11 +150,11 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   EXPECT_TRUE(has(r.out, "model     training")) << r.out;
 }
 
-// The batched path (lsnifCmdIntersectModelRays, compute) against the intersection shader
-// (lsnif.rint in a ray-tracing pipeline) on the same rays and model: two separate implementations
-// of the same per-ray computation, so they must agree (hit or miss, t, the walk's points) up to
-// float rounding. A tiny model of the bunny, few rays, one repeat, a short GEMM: seconds.
-TEST(BenchCli, TraceBatchedPathAgreesWithTheIntersectionShader) {
+// The batched path (lsnifCmdIntersectModelRays, compute) and lsnifCmdQuery (the model as one LSNIF
+// instance of a TLAS) against the intersection shader (lsnif.rint in a ray-tracing pipeline) on the
+// same rays and model: separate implementations of the same per-ray computation, so they must agree
+// (hit or miss, t, the walk's points) up to float rounding. A tiny model of the bunny, few rays, one repeat, a short GEMM: seconds.
+TEST(BenchCli, TraceBatchedAndQueryPathsAgreeWithTheIntersectionShader) {
   if (!fs::exists(kBunny)) GTEST_SKIP() << kBunny << " missing: run scripts/setup.sh";
   lsnif::test::ScopedTestDir dir("lsnif_bench_trace_cli_test");
   const std::string model = dir.path("bunny.lsnif");
@@ -216,6 +216,33 @@ TEST(BenchCli, TraceBatchedPathAgreesWithTheIntersectionShader) {
               j["batched_network_evaluations_per_second"].get<double>() /
                   j["network_evaluations_per_second"].get<double>(),
               1e-3 * j["batched_over_inline_network_evaluations_per_second"].get<double>());
+
+  // lsnifCmdQuery: timed as the batched path, one candidate per ray crossing the box (none
+  // dropped or left unevaluated), the same hits as the intersection shader.
+  for (const char* key : {"query", "query_hits", "query_incomplete_rays", "query_candidates", "query_dropped",
+                          "query_unevaluated", "query_network_evaluations_per_second",
+                          "query_over_inline_network_evaluations_per_second", "query_inline_hit_agreement",
+                          "query_inline_both_hit", "query_inline_max_t_difference_over_diagonal"})
+    ASSERT_TRUE(j.contains(key)) << key << " missing in " << r.out;
+  const json& query = j["query"];
+  EXPECT_EQ(query["trace_seconds"].size(), 1u);
+  EXPECT_GT(query["median_trace_seconds"].get<double>(), 0.0);
+  if (j["device_timestamps"].get<bool>()) {
+    EXPECT_GT(query["median_trace_device_seconds"].get<double>(), 0.0);
+  }
+  EXPECT_NEAR(double(j["query_candidates"].get<uint32_t>()), double(j["intersection_shader_rays"].get<uint32_t>()),
+              kRays * 0.001);
+  EXPECT_EQ(j["query_dropped"].get<uint32_t>(), 0u);
+  EXPECT_EQ(j["query_unevaluated"].get<uint32_t>(), 0u);
+  EXPECT_EQ(j["query_incomplete_rays"].get<uint32_t>(), 0u);
+  EXPECT_GE(j["query_inline_hit_agreement"].get<double>(), 0.999);
+  EXPECT_NEAR(double(j["query_hits"].get<uint32_t>()), double(j["lsnif_hits"].get<uint32_t>()), kRays * 0.001);
+  EXPECT_GT(j["query_inline_both_hit"].get<uint32_t>(), kRays / 10);
+  EXPECT_LT(j["query_inline_max_t_difference_over_diagonal"].get<double>(), 1e-4);
+  EXPECT_NEAR(j["query_over_inline_network_evaluations_per_second"].get<double>(),
+              j["query_network_evaluations_per_second"].get<double>() /
+                  j["network_evaluations_per_second"].get<double>(),
+              1e-3 * j["query_over_inline_network_evaluations_per_second"].get<double>());
 }
 
 TEST(BenchCli, UnknownSceneAndMissingData) {

@@ -128,7 +128,8 @@ typedef struct LsnifDeviceSupport {
    * "feature accelerationStructure", "feature rayTracingPipeline", "feature bufferDeviceAddress",
    * "feature shaderInt64"; empty when supported. */
   char missing[512];
-  /* Other paths (not required): VK_KHR_ray_query, cooperative matrices and vectors. */
+  /* Other paths (not required): VK_KHR_ray_query with its feature rayQuery (lsnifCmdQuery),
+   * cooperative matrices and vectors. */
   VkBool32 rayQuery;
   VkBool32 cooperativeMatrixNV;
   VkBool32 cooperativeMatrixKHR;
@@ -298,13 +299,29 @@ LSNIF_API LsnifResult lsnifGetIntersectionShaderSpirv(LsnifModelLookup lookup, c
  * that accepts each prediction against its ray's interval and culling flags, with the same hit
  * semantics as the intersection shader. It needs only compute (no ray-tracing pipeline). */
 
+typedef enum LsnifQueryPipelineCreateFlagBits {
+  /* Also create the stages of lsnifCmdQuery (queries against the application's TLAS). Their broad
+   * phase uses ray queries: the device must have been created with the extension VK_KHR_ray_query
+   * and the feature VkPhysicalDeviceRayQueryFeaturesKHR::rayQuery enabled (besides what
+   * lsnifGetRequiredDeviceExtensions and lsnifInitDeviceFeatures name). */
+  LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT = 0x00000001,
+  LSNIF_QUERY_PIPELINE_CREATE_FLAG_BITS_MAX_ENUM = 0x7FFFFFFF
+} LsnifQueryPipelineCreateFlagBits;
+typedef VkFlags LsnifQueryPipelineCreateFlags;
+
+/* pNext and pipelineCache keep the offsets of the releases that had only them; flags was appended. */
 typedef struct LsnifQueryPipelineCreateInfo {
   const void* pNext;                          /* reserved: NULL */
   VkPipelineCache pipelineCache;              /* optional */
+  LsnifQueryPipelineCreateFlags flags;        /* LsnifQueryPipelineCreateFlagBits */
 } LsnifQueryPipelineCreateInfo;
 
 /* Creates the compute pipelines of the batched path on the context's device (SPIR-V embedded in
- * this library). Destroyed by lsnifDestroyQueryPipeline or with the context. */
+ * this library; pCreateInfo may be NULL: no flags, no cache). Destroyed by
+ * lsnifDestroyQueryPipeline or with the context. With LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT it fails
+ * with LSNIF_ERROR_DEVICE_UNSUPPORTED naming what is missing when the physical device does not offer
+ * VK_KHR_ray_query and rayQuery, or when the context's pEnabledFeatures chain (if it was given) does
+ * not enable rayQuery; unknown flags are LSNIF_ERROR_INVALID_ARGUMENT. */
 LSNIF_API LsnifResult lsnifCreateQueryPipeline(LsnifContext context, const LsnifQueryPipelineCreateInfo* pCreateInfo,
                                                LsnifQueryPipeline* pPipeline);
 
@@ -350,6 +367,84 @@ LSNIF_API LsnifResult lsnifGetIntersectScratchSize(LsnifContext context, LsnifMo
  * chunks, one after the other, in the same scratch. */
 LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommandBuffer commandBuffer,
                                                  LsnifQueryPipeline pipeline, const LsnifIntersectModelRaysInfo* pInfo);
+
+/* ---- Queries against the application's TLAS ------------------------------------------------- *
+ * World-space rays against the application's TLAS holding triangle instances and LSNIF instances
+ * (lsnifMakeInstance) together, the models found through the instance table of
+ * LSNIF_MODEL_LOOKUP_INSTANCE_TABLE (instanceCustomIndex -> table entry; an entry of 0 is a hole,
+ * e.g. the index of a triangle instance). The paper's section 4 pipeline, recorded as compute
+ * passes: a broad phase (ray queries; triangles committed as usual, every crossed LSNIF box up to
+ * the closest triangle hit appended as a candidate: ray, instance, model, object-space ray, its
+ * interval clipped to the box), a counting sort of the candidates by model on the device, the
+ * narrow phase, MLP and decode of lsnifCmdIntersectModelRays over each model's range (indirect
+ * dispatches), and a resolve that keeps, per ray, the closest accepted hit of either kind. */
+
+typedef struct LsnifQueryInfo {
+  const void* pNext;                          /* reserved: NULL */
+  uint32_t rayCount;                          /* 0 records nothing; more than LSNIF_QUERY_CHUNK_RAYS run in chunks */
+  /* Candidate capacity: candidatesPerRay x min(rayCount, LSNIF_QUERY_CHUNK_RAYS) (LSNIF instances
+   * whose box a ray crosses, summed over a chunk's rays), 1 .. LSNIF_QUERY_MAX_CANDIDATES_PER_RAY.
+   * Candidates past it are dropped; see lsnifCmdQuery for what the affected rays report. */
+  uint32_t candidatesPerRay;
+  VkDeviceAddress tlas;                       /* the TLAS (vkGetAccelerationStructureDeviceAddressKHR), built */
+  uint32_t cullMask;                          /* instance mask of the traversal (<= 0xFF; 0xFF: every instance) */
+  uint32_t modelCount;                        /* entries of the model table, <= LSNIF_QUERY_MAX_MODELS */
+  /* modelCount models (NULL: a hole), built; the table is lsnifWriteModelTable of them. The
+   * candidates of entry i are evaluated with pModels[i] only where the device's modelTable[i]
+   * holds that model's block when the command runs; see lsnifCmdQuery for the others. */
+  const LsnifModel* pModels;
+  VkDeviceAddress modelTable;                 /* uint64_t[modelCount] as lsnifWriteModelTable wrote it, 8-byte aligned */
+  VkDeviceAddress rays;                       /* LsnifQueryRay[rayCount] in world space, 16-byte aligned */
+  VkDeviceAddress results;                    /* LsnifQueryResult[rayCount], written (every field), 16-byte aligned */
+  /* The scratch: lsnifGetQueryScratchSize bytes of scratchBuffer from scratchOffset (a multiple of
+   * 16), not shared with commands running at the same time. The buffer's usage must include
+   * VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT and
+   * VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT (the per-model dispatches are indirect). */
+  VkBuffer scratchBuffer;
+  VkDeviceSize scratchOffset;
+  VkDeviceSize scratchSize;
+  VkDeviceAddress status;                     /* optional (0): LsnifQueryStatus, written at the end, 4-byte aligned */
+} LsnifQueryInfo;
+
+/* The scratch bytes lsnifCmdQuery needs for pInfo's rayCount, candidatesPerRay, modelCount and
+ * pModels (the addresses and the scratch fields are not read): per ray of a chunk 32 bytes, per
+ * candidate slot 148 bytes plus the batch rows of the largest model (about 4 x (4 + H + input +
+ * output) bytes), per table entry 40 bytes. Fails on the errors of lsnifCmdQuery's counts and models. */
+LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const LsnifQueryInfo* pInfo, VkDeviceSize* pSize);
+
+/* Records the query of rayCount world-space rays against the TLAS into the application's command
+ * buffer (recording, outside a render pass, queue family with compute). results[i] is the closest
+ * hit of rays[i] in [tmin, tmax] (with LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT in its flags: any hit):
+ *  - LSNIF_QUERY_HIT_LSNIF: what the intersection shader (lsnif.rint, instance-table lookup) would
+ *    report for that instance: same object-space ray (the instance's ObjectToWorld applied to the
+ *    world ray, the direction not renormalized, so t is the world ray parameter), walk, network,
+ *    acceptance (occlusion >= 0.5, tmin <= t <= tmax) and culling of the predicted facing by
+ *    LSNIF_RAY_FLAG_CULL_*_FACING; the normal in world space, albedo and material predicted;
+ *  - LSNIF_QUERY_HIT_TRIANGLE: the traversal's committed triangle (every triangle taken as opaque,
+ *    the culling flags applied as ray flags): instance, primitive, geometry, barycentrics and
+ *    facing; the application shades it (normal, albedo and material are left zero);
+ *  - LSNIF_QUERY_HIT_NONE: no accepted hit (also for a ray with a non-finite or zero direction, a
+ *    non-finite origin, tmin < 0, tmin > tmax, or NaN);
+ *  - LSNIF_QUERY_HIT_INCOMPLETE: a candidate of the ray did not fit the capacity and could have
+ *    changed the answer (its box interval starts at or before the hit found, or, for an any-hit ray,
+ *    no hit was found); the other fields are as for NONE; trace such rays again (e.g. with a larger
+ *    candidatesPerRay). No ray's answer is wrong for lack of capacity without this mark, and the
+ *    status (if given) counts dropped candidates and incomplete rays. A candidate of a table entry
+ *    whose device address (modelTable[i], read when the command runs) is not the block of
+ *    pModels[i] (pModels[i] NULL, or another model) is not evaluated: the ray is marked by the same
+ *    rule, and LsnifQueryStatus::unevaluated counts such candidates. No ray misses for such a
+ *    disagreement without this mark.
+ * Hits at equal t resolve to the lower instance index. The command binds its own compute pipelines
+ * and push constants (the application's compute bindings are disturbed) and records barriers
+ * between its passes only: the application makes its TLAS build and ray writes visible to
+ * compute-shader reads before, and waits for compute-shader writes before reading results or status.
+ * Fails, recording nothing, on an unknown pipeline or one created without
+ * LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT, a candidatesPerRay or cullMask out of range, a model not of
+ * this context or not built, a null or misaligned address, a null scratch buffer, or scratch smaller
+ * than lsnifGetQueryScratchSize. The rays of a batch of more than LSNIF_QUERY_CHUNK_RAYS run in
+ * chunks, one after the other, in the same scratch. */
+LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer commandBuffer, LsnifQueryPipeline pipeline,
+                                    const LsnifQueryInfo* pInfo);
 
 #ifdef __cplusplus
 }

@@ -1,7 +1,8 @@
 // lsnif.hpp -- a thin header-only C++ layer over the C API of lsnif.h: move-only owners of a
-// context and of a model that release them in their destructors. Nothing here throws; every call
-// returns the C API's LsnifResult (and lsnifGetLastErrorMessage() names the problem).
-// Destroy models before their context (declare the Context first).
+// context, of a model and of a query pipeline that release them in their destructors, and the
+// batched calls on the pipeline. Nothing here throws; every call returns the C API's LsnifResult
+// (and lsnifGetLastErrorMessage() names the problem).
+// Destroy models and query pipelines before their context (declare the Context first).
 #ifndef LSNIF_HPP_
 #define LSNIF_HPP_
 
@@ -110,6 +111,67 @@ class Model {
   LsnifContext context_ = nullptr;
   LsnifModel model_ = nullptr;
 };
+
+class QueryPipeline {
+ public:
+  QueryPipeline() = default;
+  QueryPipeline(const QueryPipeline&) = delete;
+  QueryPipeline& operator=(const QueryPipeline&) = delete;
+  QueryPipeline(QueryPipeline&& other) noexcept
+      : context_(std::exchange(other.context_, nullptr)), pipeline_(std::exchange(other.pipeline_, nullptr)) {}
+  QueryPipeline& operator=(QueryPipeline&& other) noexcept {
+    if (this != &other) {
+      reset();
+      context_ = std::exchange(other.context_, nullptr);
+      pipeline_ = std::exchange(other.pipeline_, nullptr);
+    }
+    return *this;
+  }
+  ~QueryPipeline() { reset(); }
+
+  // lsnifCreateQueryPipeline (destroying the pipeline held before); flags of
+  // LsnifQueryPipelineCreateFlagBits (LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT for cmd_query).
+  LsnifResult create(LsnifContext context, LsnifQueryPipelineCreateFlags flags = 0,
+                     VkPipelineCache cache = VK_NULL_HANDLE) {
+    reset();
+    LsnifQueryPipelineCreateInfo info{};
+    info.pipelineCache = cache;
+    info.flags = flags;
+    const LsnifResult r = lsnifCreateQueryPipeline(context, &info, &pipeline_);
+    if (r == LSNIF_SUCCESS) context_ = context;
+    return r;
+  }
+  // lsnifDestroyQueryPipeline (the GPU must no longer use it).
+  void reset() {
+    if (pipeline_) lsnifDestroyQueryPipeline(context_, pipeline_);
+    context_ = nullptr;
+    pipeline_ = nullptr;
+  }
+  // lsnifCmdIntersectModelRays / lsnifCmdQuery on this pipeline and its context.
+  LsnifResult cmd_intersect_model_rays(VkCommandBuffer commandBuffer, const LsnifIntersectModelRaysInfo& info) const {
+    return lsnifCmdIntersectModelRays(context_, commandBuffer, pipeline_, &info);
+  }
+  LsnifResult cmd_query(VkCommandBuffer commandBuffer, const LsnifQueryInfo& info) const {
+    return lsnifCmdQuery(context_, commandBuffer, pipeline_, &info);
+  }
+  // Gives up ownership without destroying (e.g. when lsnifDestroyContext already destroyed it).
+  LsnifQueryPipeline release() {
+    context_ = nullptr;
+    return std::exchange(pipeline_, nullptr);
+  }
+  LsnifQueryPipeline get() const { return pipeline_; }
+  LsnifContext context() const { return context_; }
+  explicit operator bool() const { return pipeline_ != nullptr; }
+
+ private:
+  LsnifContext context_ = nullptr;
+  LsnifQueryPipeline pipeline_ = nullptr;
+};
+
+// lsnifGetQueryScratchSize; `size` is written on success only.
+inline LsnifResult query_scratch_size(LsnifContext context, const LsnifQueryInfo& info, VkDeviceSize& size) {
+  return lsnifGetQueryScratchSize(context, &info, &size);
+}
 
 }  // namespace lsnif::plugin
 

@@ -213,6 +213,31 @@ Status ComputeContext::init(const ContextOptions& options) {
                          VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME,
                          VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME, VK_KHR_SPIRV_1_4_EXTENSION_NAME};
   if (options.swapchain) device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+  VkPhysicalDeviceRayQueryFeaturesKHR rq_features{};
+  rq_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+  if (ray_tracing && options.ray_query) {
+    uint32_t n = 0;
+    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &n, nullptr);
+    std::vector<VkExtensionProperties> available(n);
+    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &n, available.data());
+    bool offered = false;
+    for (const VkExtensionProperties& e : available)
+      offered |= std::strcmp(e.extensionName, VK_KHR_RAY_QUERY_EXTENSION_NAME) == 0;
+    if (offered) {
+      VkPhysicalDeviceFeatures2 q2{};
+      q2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+      q2.pNext = &rq_features;
+      vkGetPhysicalDeviceFeatures2(physical_, &q2);
+      offered = rq_features.rayQuery == VK_TRUE;
+    }
+    if (!offered)
+      return Status::error("device '%s' lacks extension VK_KHR_ray_query with feature rayQuery", device_name_.c_str());
+    device_extensions.push_back(VK_KHR_RAY_QUERY_EXTENSION_NAME);
+    rq_features = VkPhysicalDeviceRayQueryFeaturesKHR{};
+    rq_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+    rq_features.rayQuery = VK_TRUE;
+    rt_features.pNext = &rq_features;
+  }
 
   VkPhysicalDeviceVulkan12Features e12{};
   e12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;

@@ -20,7 +20,10 @@
 // (lsnifCmdIntersectModelRays with a query pipeline of the same plugin context: narrow phase, MLP
 // over the dense batch, decode, in compute; object space = world space as the instance is the
 // identity), timed like the traces and alternating with them, with per-stage device times from
-// its timestamps, and its hits compared ray by ray with the inline shader's. The CPU limit of the
+// its timestamps, and its hits compared ray by ray with the inline shader's. Likewise through
+// lsnifCmdQuery (world-space rays against the LSNIF TLAS of the traces: the model as one identity
+// instance, table entry 0): broad phase, counting sort, narrow phase / MLP / decode, resolve, with
+// device timestamps around the call. The CPU limit of the
 // network evaluation is an Eigen GEMM of the model's MLP shapes on the trainer's OpenMP threads.
 #include <omp.h>
 #include <sys/resource.h>
@@ -238,7 +241,7 @@ struct Report {
   double pipeline_create_seconds = 0, query_pipeline_create_seconds = 0;
   bool device_timestamps = false;
   bool morton_order = true;  // triangle BLAS input in Morton order of the centroids (else file order)
-  Timings lsnif, tri, batched;
+  Timings lsnif, tri, batched, query;
   uint32_t batched_calls = 0;                 // lsnifCmdIntersectModelRays calls per batched run
   StageTimes batched_first_stages;            // of the first batched run (where timestamps exist)
   std::vector<StageTimes> batched_stages;     // of the K repeats (empty without timestamps)
@@ -253,6 +256,10 @@ struct Report {
   uint32_t batched_hits = 0, batched_network_rays = 0, batched_agree = 0, batched_both_hit = 0;
   uint32_t batched_points_mismatch = 0, batched_walk_mismatch = 0;
   double batched_max_t_difference = 0;  // |t_batched - t_inline| / mesh AABB diagonal, rays both hit
+  // From the lsnifCmdQuery results of the last run against the inline shader's, and its status.
+  uint32_t query_hits = 0, query_agree = 0, query_both_hit = 0, query_incomplete = 0;
+  double query_max_t_difference = 0;  // |t_query - t_inline| / mesh AABB diagonal, rays both hit
+  LsnifQueryStatus query_status{};
   GemmReport gemm;
   uint32_t validation_warnings = 0, validation_errors = 0;
   bool validation = false;
@@ -264,6 +271,10 @@ struct Report {
   // NaN (JSON null) when no ray has boundary points.
   double batched_over_inline() const { return batched_evaluations_per_second() / evaluations_per_second(); }
   double batched_over_gemm() const { return batched_evaluations_per_second() / gemm.evaluations_per_second(); }
+  // lsnifCmdQuery evaluates the network for the same rays as the batched path (one identity
+  // instance: a candidate per ray crossing the box, evaluated where the walk has points).
+  double query_evaluations_per_second() const { return double(batched_network_rays) / query.median_host(); }
+  double query_over_inline() const { return query_evaluations_per_second() / evaluations_per_second(); }
   // The MLP stage alone: evaluations per second of its median device time (-1 without timestamps).
   double mlp_stage_evaluations_per_second() const {
     const double t = median_stage(&StageTimes::mlp);
@@ -285,14 +296,18 @@ struct DeviceState {
   vk::RayTracer tracer{ctx};
   plugin::Context plugin;
   plugin::Model model;
+  LsnifModel table_model = nullptr;  // the model table's one entry (the handle of `model`)
   vk::Buffer table, rays, lsnif_results, tri_results;
   vk::AccelerationStructure tri_blas, lsnif_tlas, tri_tlas;
   vk::RtPipeline pipeline;
   // The batched path: its pipeline, the rays as LsnifQueryRay, the hits, the scratch, and a pool of
   // LSNIF_INTERSECT_TIMESTAMP_COUNT timestamps per call (none where the queue has no timestamps).
-  LsnifQueryPipeline query = nullptr;
+  // The pipeline has the TLAS stages too (lsnifCmdQuery: its results, scratch, status and two
+  // timestamps around the call).
+  plugin::QueryPipeline query;
   vk::Buffer query_rays, query_hits, scratch;
-  VkQueryPool timestamps = VK_NULL_HANDLE;
+  vk::Buffer query_results, query_scratch, query_status;
+  VkQueryPool timestamps = VK_NULL_HANDLE, query_timestamps = VK_NULL_HANDLE;
   uint64_t timestamp_mask = 0;
   double timestamp_period = 0;  // nanoseconds per tick
 
@@ -306,26 +321,48 @@ struct DeviceState {
     tracer.destroy(lsnif_tlas);
     tracer.destroy(tri_tlas);
     tracer.destroy(tri_blas);
-    for (vk::Buffer* b : {&table, &rays, &lsnif_results, &tri_results, &query_rays, &query_hits, &scratch})
+    for (vk::Buffer* b : {&table, &rays, &lsnif_results, &tri_results, &query_rays, &query_hits, &scratch,
+                          &query_results, &query_scratch, &query_status})
       ctx.destroy_buffer(*b);
-    if (timestamps) vkDestroyQueryPool(ctx.device(), timestamps, nullptr);
-    timestamps = VK_NULL_HANDLE;
-    lsnifDestroyQueryPipeline(plugin.get(), query);
-    query = nullptr;
+    for (VkQueryPool* pool : {&timestamps, &query_timestamps}) {
+      if (*pool) vkDestroyQueryPool(ctx.device(), *pool, nullptr);
+      *pool = VK_NULL_HANDLE;
+    }
+    query.reset();
     model.reset();
     plugin.reset();
   }
 };
+
+// lsnifCmdQuery of the first `count` rays (world space = object space) against the LSNIF TLAS of the
+// traces (one identity instance, table entry 0), one candidate per ray at most; the buffers as far as
+// they exist (none for the scratch size).
+LsnifQueryInfo query_info(const DeviceState& st, uint32_t count) {
+  LsnifQueryInfo q{};
+  q.rayCount = count;
+  q.candidatesPerRay = 1;
+  q.tlas = st.lsnif_tlas.address;
+  q.cullMask = 0xFF;
+  q.modelCount = 1;
+  q.pModels = &st.table_model;
+  q.modelTable = st.table.address;
+  q.rays = st.query_rays.address;
+  q.results = st.query_results.address;
+  q.scratchBuffer = st.query_scratch.buffer;
+  q.scratchOffset = 0;
+  q.scratchSize = st.query_scratch.size;
+  q.status = st.query_status.address;
+  return q;
+}
 
 // The batched path on the plugin context of `st`: the query pipeline, the rays as LsnifQueryRay
 // (the same rays: the instance is the identity, so object space is world space; flags 0), the
 // hits, the scratch for the largest call, and the timestamp pool where the queue has timestamps.
 Status set_up_batched(DeviceState& st, const std::vector<Ray>& rays, Report& report) {
   auto plugin_error = [](const char* what) { return Status::error("%s: %s", what, lsnifGetLastErrorMessage()); };
-  LsnifQueryPipelineCreateInfo qi{};
   const auto t0 = std::chrono::steady_clock::now();
-  if (lsnifCreateQueryPipeline(st.plugin.get(), &qi, &st.query) != LSNIF_SUCCESS)
-    return plugin_error("query pipeline of the batched path");
+  if (st.query.create(st.plugin.get(), LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT) != LSNIF_SUCCESS)
+    return plugin_error("query pipeline of the batched path and lsnifCmdQuery");
   report.query_pipeline_create_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
@@ -339,6 +376,14 @@ Status set_up_batched(DeviceState& st, const std::vector<Ray>& rays, Report& rep
   if (s) s = st.ctx.create_buffer(size_t(n) * sizeof(LsnifQueryHit), st.query_hits);
   if (s) s = st.ctx.create_buffer(size_t(scratch_bytes), st.scratch);
   if (!s) return s.context("buffers of the batched path");
+  LsnifQueryInfo qi = query_info(st, n);
+  VkDeviceSize query_scratch_bytes = 0;
+  if (plugin::query_scratch_size(st.plugin.get(), qi, query_scratch_bytes) != LSNIF_SUCCESS)
+    return plugin_error("scratch size of lsnifCmdQuery");
+  s = st.ctx.create_buffer(size_t(n) * sizeof(LsnifQueryResult), st.query_results);
+  if (s) s = st.ctx.create_buffer(size_t(query_scratch_bytes), st.query_scratch, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  if (s) s = st.ctx.create_buffer(sizeof(LsnifQueryStatus), st.query_status);
+  if (!s) return s.context("buffers of lsnifCmdQuery");
   auto* out = static_cast<LsnifQueryRay*>(st.query_rays.mapped);
   for (size_t i = 0; i < rays.size(); ++i) {
     const Ray& r = rays[i];
@@ -369,6 +414,8 @@ Status set_up_batched(DeviceState& st, const std::vector<Ray>& rays, Report& rep
   qci.queryType = VK_QUERY_TYPE_TIMESTAMP;
   qci.queryCount = LSNIF_INTERSECT_TIMESTAMP_COUNT * report.batched_calls;
   LSNIF_VK_CHECK(vkCreateQueryPool(st.ctx.device(), &qci, nullptr, &st.timestamps));
+  qci.queryCount = 2;
+  LSNIF_VK_CHECK(vkCreateQueryPool(st.ctx.device(), &qci, nullptr, &st.query_timestamps));
   return Status::ok();
 }
 
@@ -377,8 +424,13 @@ Status set_up_batched(DeviceState& st, const std::vector<Ray>& rays, Report& rep
 // plugin's, or the SPIR-V file `intersection_spv` when not empty.
 Status set_up(DeviceState& st, const std::string& model_path, const Mesh& mesh, const std::vector<Ray>& rays,
               bool validation, const std::string& device, const std::string& intersection_spv, Report& report) {
-  Status s = st.ctx.init(/*ray_tracing=*/true, validation, device);
-  if (!s) return s.context("Vulkan device with ray tracing");
+  vk::ContextOptions options;
+  options.ray_tracing = true;
+  options.ray_query = true;  // lsnifCmdQuery
+  options.validation = validation;
+  options.device = device;
+  Status s = st.ctx.init(options);
+  if (!s) return s.context("Vulkan device with ray tracing and ray queries");
   report.device = st.ctx.device_name();
   if (s = st.tracer.init(); !s) return s;
   if (st.tracer.max_hit_attribute_size() < sizeof(LsnifHitAttributes))
@@ -390,6 +442,7 @@ Status set_up(DeviceState& st, const std::string& model_path, const Mesh& mesh, 
   if (st.model.create_from_file(st.plugin.get(), model_path.c_str()) != LSNIF_SUCCESS)
     return plugin_error("uploading the model");
   const LsnifModel handle = st.model.get();
+  st.table_model = handle;
   if (lsnifBuildModels(st.plugin.get(), 1, &handle) != LSNIF_SUCCESS) return plugin_error("building the model BLAS");
   if (s = st.ctx.create_buffer(sizeof(uint64_t), st.table); !s) return s;
   if (lsnifWriteModelTable(st.plugin.get(), 1, &handle, static_cast<uint64_t*>(st.table.mapped)) != LSNIF_SUCCESS)
@@ -477,6 +530,16 @@ Status timed_trace(DeviceState& st, const vk::AccelerationStructure& tlas, const
   return Status::ok();
 }
 
+// The barrier after the plugin's commands: compute-shader writes before the host reads.
+void compute_to_host(VkCommandBuffer cmd) {
+  VkMemoryBarrier barrier{};
+  barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+  barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier, 0,
+                       nullptr, 0, nullptr);
+}
+
 // One timed batched run of all rays: lsnifCmdIntersectModelRays (several calls when the rays are
 // more than one call takes, with a barrier between them as they share the scratch) in one command
 // buffer, submitted and waited for; the host time is the wall time around recording, submit and
@@ -506,11 +569,9 @@ Status timed_batched(DeviceState& st, uint32_t count, bool first, Report& report
       info.scratchSize = st.scratch.size;
       info.timestampPool = st.timestamps;
       info.firstTimestamp = LSNIF_INTERSECT_TIMESTAMP_COUNT * c;
-      result = lsnifCmdIntersectModelRays(st.plugin.get(), cmd, st.query, &info);
+      result = st.query.cmd_intersect_model_rays(cmd, info);
     }
-    barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier, 0,
-                         nullptr, 0, nullptr);
+    compute_to_host(cmd);
   });
   const double host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu_seconds = process_cpu_seconds() - cpu0;
@@ -544,10 +605,41 @@ Status timed_batched(DeviceState& st, uint32_t count, bool first, Report& report
   return Status::ok();
 }
 
-// The first trace of each kind and the first batched run, then `repeat` alternating rounds (LSNIF,
-// triangles, batched), with a progress line on stderr.
+// One timed lsnifCmdQuery of all rays in one command buffer (timestamps before and after the call
+// where the queue has them), submitted and waited for, timed as the batched runs.
+Status timed_query(DeviceState& st, uint32_t count, bool first, Report& report) {
+  const LsnifQueryInfo info = query_info(st, count);
+  LsnifResult result = LSNIF_SUCCESS;
+  const double cpu0 = process_cpu_seconds();
+  const auto t0 = std::chrono::steady_clock::now();
+  Status s = st.ctx.submit("lsnifCmdQuery", [&](VkCommandBuffer cmd) {
+    if (st.query_timestamps) {
+      vkCmdResetQueryPool(cmd, st.query_timestamps, 0, 2);
+      vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, st.query_timestamps, 0);
+    }
+    result = st.query.cmd_query(cmd, info);
+    if (st.query_timestamps) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, st.query_timestamps, 1);
+    compute_to_host(cmd);
+  });
+  const double host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double cpu_seconds = process_cpu_seconds() - cpu0;
+  if (result != LSNIF_SUCCESS) return Status::error("lsnifCmdQuery: %s", lsnifGetLastErrorMessage());
+  if (!s) return s;
+  double device_seconds = -1;
+  if (st.query_timestamps) {
+    uint64_t ticks[2] = {0, 0};
+    LSNIF_VK_CHECK(vkGetQueryPoolResults(st.ctx.device(), st.query_timestamps, 0, 2, sizeof ticks, ticks,
+                                         sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+    device_seconds = double((ticks[1] - ticks[0]) & st.timestamp_mask) * st.timestamp_period * 1e-9;
+  }
+  report.query.add(first, host_seconds, device_seconds, cpu_seconds);
+  return Status::ok();
+}
+
+// The first trace of each kind, the first batched run and the first lsnifCmdQuery, then `repeat`
+// alternating rounds (LSNIF, triangles, batched, query), with a progress line on stderr.
 Status run_traces(DeviceState& st, uint32_t count, uint32_t repeat, Report& report) {
-  ProgressBar progress("bench-trace", 3 + 3 * uint64_t(repeat));
+  ProgressBar progress("bench-trace", 4 + 4 * uint64_t(repeat));
   uint64_t done = 0;
   auto step = [&](const vk::AccelerationStructure& tlas, const vk::Buffer& results, bool first, Timings& t,
                   const char* what) {
@@ -562,19 +654,28 @@ Status run_traces(DeviceState& st, uint32_t count, uint32_t repeat, Report& repo
     ++done;
     return s ? Status::ok() : Status(s).context("batched path");
   };
+  auto query = [&](bool first) {
+    progress.update(done, format("lsnifCmdQuery%s", first ? " (first run)" : ""));
+    const Status s = timed_query(st, count, first, report);
+    ++done;
+    return s ? Status::ok() : Status(s).context("lsnifCmdQuery");
+  };
   Status s = step(st.lsnif_tlas, st.lsnif_results, true, report.lsnif, "LSNIF");
   if (s) s = step(st.tri_tlas, st.tri_results, true, report.tri, "triangles");
   if (s) s = batched(true);
+  if (s) s = query(true);
   for (uint32_t k = 0; k < repeat && s; ++k) {
     s = step(st.lsnif_tlas, st.lsnif_results, false, report.lsnif, "LSNIF");
     if (s) s = step(st.tri_tlas, st.tri_results, false, report.tri, "triangles");
     if (s) s = batched(false);
+    if (s) s = query(false);
   }
   if (!s) return s;
   report.device_timestamps =
       !report.lsnif.device.empty() && !report.tri.device.empty() && !report.batched.device.empty();
-  progress.finish(format("LSNIF %.3f s, triangles %.3f s, batched %.3f s per run (median)",
-                         report.lsnif.median_host(), report.tri.median_host(), report.batched.median_host()));
+  progress.finish(format("LSNIF %.3f s, triangles %.3f s, batched %.3f s, query %.3f s per run (median)",
+                         report.lsnif.median_host(), report.tri.median_host(), report.batched.median_host(),
+                         report.query.median_host()));
   return Status::ok();
 }
 
@@ -678,6 +779,21 @@ void compare_results(const DeviceState& st, const Model& model, const Mesh& mesh
           std::max(report.batched_max_t_difference, std::fabs(double(batched[i].t) - double(lsnif[i].t)) / diag);
     }
   }
+
+  // The lsnifCmdQuery results against the inline shader's.
+  const auto* query = static_cast<const LsnifQueryResult*>(st.query_results.mapped);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const bool qh = query[i].kind == LSNIF_QUERY_HIT_LSNIF, lh = (lsnif[i].info & kResultHit) != 0;
+    report.query_hits += qh;
+    report.query_incomplete += query[i].kind == LSNIF_QUERY_HIT_INCOMPLETE;
+    report.query_agree += qh == lh;
+    if (qh && lh) {
+      ++report.query_both_hit;
+      report.query_max_t_difference =
+          std::max(report.query_max_t_difference, std::fabs(double(query[i].t) - double(lsnif[i].t)) / diag);
+    }
+  }
+  std::memcpy(&report.query_status, st.query_status.mapped, sizeof report.query_status);
 }
 
 // "-" for a missing device time.
@@ -751,6 +867,22 @@ void print_text(const Report& r) {
   std::printf("batched walk check              %u of the %u inline hits with other points; %u rays whose points "
               "differ from the host walk\n",
               r.batched_points_mismatch, r.lsnif_hits, r.batched_walk_mismatch);
+  std::printf("\nquery path                      lsnifCmdQuery on the same rays against the LSNIF TLAS (one identity "
+              "instance), alternating with the others\n");
+  std::printf("query trace (s, host)           median %.4f, fastest %.4f, first %.4f; process CPU time %.4f (median)\n",
+              r.query.median_host(), r.query.min_host(), r.query.first_host, r.query.median_cpu());
+  std::printf("query trace (s, device)         %s (median; timestamps around the call)\n",
+              seconds_text(r.query.median_device()).c_str());
+  std::printf("query rays/s (host median)      %.4g\n", r.rays_per_second(r.query));
+  std::printf("query network evaluations/s     %.4g (%s x the inline shader's)\n", r.query_evaluations_per_second(),
+              std::isfinite(r.query_over_inline()) ? format("%.3g", r.query_over_inline()).c_str() : "-");
+  std::printf("query vs inline                 hit == hit for %.4f%% of the rays; max |t difference| %.3g%% of the "
+              "diagonal over %u rays both hit; %u hits, %u incomplete\n",
+              100.0 * r.query_agree / n, 100.0 * r.query_max_t_difference, r.query_both_hit, r.query_hits,
+              r.query_incomplete);
+  std::printf("query status                    %u candidates, capacity %u, %u dropped, %u not evaluated\n",
+              r.query_status.candidates, r.query_status.capacity, r.query_status.dropped,
+              r.query_status.unevaluated);
   std::string widths;
   for (const uint32_t w : r.gemm.widths) widths += format(widths.empty() ? "%u" : "-%u", w);
   std::printf("\nCPU limit                       Eigen GEMM %s float32 (bias + leaky ReLU included), %u OpenMP "
@@ -838,7 +970,12 @@ void print_json(const Report& r) {
       "\"batched_inline_both_hit\": %u, \"batched_inline_max_t_difference_over_diagonal\": %.6g, "
       "\"batched_inline_points_mismatches\": %u, \"batched_walk_points_mismatches\": %u, \"gemm\": %s, "
       "\"batched_over_gemm_network_evaluations_per_second\": %s, "
-      "\"batched_mlp_stage_evaluations_per_second\": %s, \"validation\": %s, "
+      "\"batched_mlp_stage_evaluations_per_second\": %s, \"query\": %s, \"query_hits\": %u, "
+      "\"query_incomplete_rays\": %u, \"query_candidates\": %u, \"query_dropped\": %u, "
+      "\"query_unevaluated\": %u, \"query_network_evaluations_per_second\": %.6g, "
+      "\"query_over_inline_network_evaluations_per_second\": %s, \"query_inline_hit_agreement\": %.6g, "
+      "\"query_inline_both_hit\": %u, \"query_inline_max_t_difference_over_diagonal\": %.6g, "
+      "\"validation\": %s, "
       "\"validation_errors\": %u, \"validation_warnings\": %u}\n",
       quoted(r.device).c_str(), quoted(r.mesh_path).c_str(), quoted(r.model_path).c_str(),
       quoted(r.intersection_spv).c_str(), r.triangles,
@@ -852,7 +989,10 @@ void print_json(const Report& r) {
       double(r.batched_agree) / double(r.rays),
       r.batched_both_hit, r.batched_max_t_difference, r.batched_points_mismatch, r.batched_walk_mismatch,
       gemm_json(r.gemm).c_str(), json_number(r.batched_over_gemm()).c_str(),
-      json_number(r.mlp_stage_evaluations_per_second()).c_str(),
+      json_number(r.mlp_stage_evaluations_per_second()).c_str(), timings_json(r, r.query).c_str(), r.query_hits,
+      r.query_incomplete, r.query_status.candidates, r.query_status.dropped, r.query_status.unevaluated,
+      r.query_evaluations_per_second(), json_number(r.query_over_inline()).c_str(),
+      double(r.query_agree) / double(r.rays), r.query_both_hit, r.query_max_t_difference,
       r.validation ? "true" : "false", r.validation_errors,
       r.validation_warnings);
 }
@@ -877,7 +1017,8 @@ int cmd_bench_trace(int argc, char** argv) {
             "LSNIF network evaluations/s, the triangle / LSNIF ratio and the hit agreement of the two.\n"
             "The same rays also go through the plugin's batched path (lsnifCmdIntersectModelRays: narrow phase,\n"
             "MLP, decode in compute), timed the same way with per-stage device times and compared ray by ray\n"
-            "with the intersection shader; and an Eigen GEMM of the model's MLP on the CPU (the trainer's\n"
+            "with the intersection shader; likewise through lsnifCmdQuery against the LSNIF TLAS (needs\n"
+            "VK_KHR_ray_query); and an Eigen GEMM of the model's MLP on the CPU (the trainer's\n"
             "OpenMP threads) gives the CPU limit of the network evaluations/s.\n"
             "MODEL must have been trained on MESH (same object space; checked by the AABB).");
   args.positional("MESH", "the mesh (.off .obj .ply .gltf .glb)", &mesh_path);

@@ -42,6 +42,16 @@ inline Instance instance_of(const Transform3x4& xf) {
   return in;
 }
 
+// A direction uniform on the unit sphere (rejection sampling in the unit ball, away from 0).
+inline glm::vec3 random_unit_vector(std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (;;) {
+    const glm::vec3 v(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
+    const float l = glm::length(v);
+    if (l > 0.05f && l <= 1.0f) return v / l;
+  }
+}
+
 enum RayKind { kOutside, kInside, kInOccupied, kAnywhere, kKinds };
 inline const char* kKindNames[kKinds] = {"from outside through the AABB", "from inside the AABB",
                                   "from inside occupied voxels", "anywhere (many miss the AABB)"};
@@ -61,13 +71,7 @@ inline void make_world_rays(const Model& model, const Instance& in, size_t count
     for (uint32_t j = 0; j < V; ++j)
       for (uint32_t i = 0; i < V; ++i)
         if (model.voxels.occupied(int(i), int(j), int(k))) occupied.emplace_back(i, j, k);
-  auto unit_vector = [&] {
-    for (;;) {
-      const glm::vec3 v(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
-      const float l = glm::length(v);
-      if (l > 0.05f && l <= 1.0f) return v / l;
-    }
-  };
+  auto unit_vector = [&] { return random_unit_vector(rng); };
   auto in_box = [&] { return b.lo + ext * glm::vec3(u(rng), u(rng), u(rng)); };
   for (size_t i = 0; i < count; ++i) {
     const int kind = int(i % kKinds);

@@ -51,13 +51,7 @@ using namespace gputest;
 const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
 
 // The push constant block of rt_conformance_common.glsl.
-struct RtPush {
-  uint64_t model_table = 0;
-  uint32_t model_count = 0, reserved = 0;
-  uint64_t rays = 0, hits = 0;
-  uint32_t ray_count = 0, mode = 0, ray_flags = 0, pad = 0;
-};
-static_assert(offsetof(RtPush, rays) == LSNIF_RT_PUSH_APP_OFFSET, "binding convention");
+using RtPush = RtConformancePush;
 
 vk::RtShaders shaders(LsnifModelLookup lookup, std::vector<std::vector<uint8_t>> records = {}) {
   vk::RtShaders s;
@@ -123,31 +117,15 @@ class PluginApi : public ::testing::Test {
                                               uint32_t ray_flags = 0) {
     std::vector<LsnifReferenceHit> out;
     vk::AccelerationStructure tlas;
-    vk::Buffer ray_buf, hit_buf;
     Status s = tracer_.build_tlas(records, tlas);
-    if (s) s = vk_.create_buffer(rays.size() * sizeof(LsnifReferenceRay), ray_buf);
-    if (s) s = vk_.create_buffer(rays.size() * sizeof(LsnifReferenceHit), hit_buf);
     if (s) {
-      auto* r = static_cast<LsnifReferenceRay*>(ray_buf.mapped);
-      for (size_t i = 0; i < rays.size(); ++i)
-        r[i] = {rays[i].origin.x, rays[i].origin.y, rays[i].origin.z, rays[i].tmin,
-                rays[i].direction.x, rays[i].direction.y, rays[i].direction.z, rays[i].tmax};
       RtPush push;
       push.model_table = table;
       push.model_count = count;
-      push.rays = ray_buf.address;
-      push.hits = hit_buf.address;
-      push.ray_count = uint32_t(rays.size());
       push.ray_flags = ray_flags;
-      s = tracer_.trace(pipeline, tlas, &push, uint32_t(rays.size()));
+      s = trace_reference(vk_, tracer_, pipeline, tlas, push, rays, out);
     }
     EXPECT_TRUE(s) << s.message();
-    if (s) {
-      const auto* h = static_cast<const LsnifReferenceHit*>(hit_buf.mapped);
-      out.assign(h, h + rays.size());
-    }
-    vk_.destroy_buffer(ray_buf);
-    vk_.destroy_buffer(hit_buf);
     tracer_.destroy(tlas);
     return out;
   }

@@ -44,17 +44,8 @@ const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.of
 #include "rt_conformance_rmiss_spirv.h"
 #include "rt_mixed_triangle_rchit_spirv.h"
 
-// The push constant block of rt_conformance_common.glsl (model table first: host_device.h).
-struct RtPush {
-  uint64_t model_table = 0;
-  uint32_t model_count = 0, reserved = 0;
-  uint64_t rays = 0, hits = 0;
-  uint32_t ray_count = 0, mode = 0, ray_flags = 0, pad = 0;
-};
-static_assert(sizeof(RtPush) == 48, "push constant layout");
-static_assert(offsetof(RtPush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
-static_assert(offsetof(RtPush, model_count) == LSNIF_RT_PUSH_MODEL_COUNT_OFFSET, "binding convention");
-static_assert(offsetof(RtPush, rays) == LSNIF_RT_PUSH_APP_OFFSET, "binding convention");
+// The push constant block of rt_conformance_common.glsl.
+using RtPush = RtConformancePush;
 
 // The pipeline's shaders, with the triangle hit group when `mixed`.
 vk::RtShaders rt_shaders(bool mixed) {
@@ -663,13 +654,7 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
   const float sdiag = scene.diagonal();
   std::mt19937 rng(21);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  auto unit_vector = [&] {
-    for (;;) {
-      const glm::vec3 v(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
-      const float l = glm::length(v);
-      if (l > 0.05f && l <= 1.0f) return v / l;
-    }
-  };
+  auto unit_vector = [&] { return random_unit_vector(rng); };
   constexpr size_t kMixedRays = 6000;
   for (const uint32_t mode : {kModeClosest, kModeShadow}) {
     std::vector<Ray> world(kMixedRays);

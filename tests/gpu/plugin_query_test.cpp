@@ -1,0 +1,996 @@
+// lsnifCmdQuery (include/lsnif/lsnif.h): world-space rays against a TLAS of triangle and LSNIF
+// instances, on the harness's device (lavapipe with VK_KHR_ray_query, validation on), against two
+// independent truths: a ray-tracing pipeline over the same TLAS (the plugin's intersection shader
+// with the instance-table lookup, a triangle hit group) and the CPU reference (core/intersector.h).
+//  - a mixed TLAS (a triangle instance, three LSNIF instances of two models: rotation, non-uniform
+//    scale, translation), closest-hit rays with and without culling, any-hit rays;
+//  - rays leaving an LSNIF surface by the self-intersection rule;
+//  - many models in one batch (a table of ten entries with holes);
+//  - an empty batch, a batch in which no ray reaches an LSNIF object;
+//  - candidate overflow: every ray whose answer could be wrong is marked incomplete and counted;
+//  - equal t resolved to the lower instance index; batches of more than one chunk;
+//  - the device check (a context whose enabled features lack rayQuery) and the argument errors.
+// Compiled into plugin_test.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "gpu_test_support.h"
+#include "intersector.h"
+#include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
+#include "lsnif/lsnif.hpp"
+
+#include "mesh.h"
+#include "plugin_device.h"
+#include "test_plugin.h"
+#include "test_support.h"
+#include "trainer.h"
+#include "vk_raytracing.h"
+
+namespace lsnif {
+namespace {
+
+using namespace gputest;
+
+#include "rt_conformance_rchit_spirv.h"
+#include "rt_conformance_rgen_spirv.h"
+#include "rt_conformance_rmiss_spirv.h"
+#include "rt_mixed_triangle_rchit_spirv.h"
+
+const std::string kMeshA = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
+const std::string kMeshB = std::string(LSNIF_DATA_DIR) + "/meshes/bunny00.off";
+constexpr uint32_t kModeClosest = 0, kModeShadow = 1;  // RT_MODE_* of rt_conformance_common.glsl
+
+std::string last_error() { return lsnifGetLastErrorMessage(); }
+
+// The members of LsnifQueryPipelineCreateInfo shipped before `flags` keep their offsets.
+static_assert(offsetof(LsnifQueryPipelineCreateInfo, pNext) == 0, "shipped layout");
+static_assert(offsetof(LsnifQueryPipelineCreateInfo, pipelineCache) == sizeof(void*), "shipped layout");
+static_assert(offsetof(LsnifQueryPipelineCreateInfo, flags) ==
+                  offsetof(LsnifQueryPipelineCreateInfo, pipelineCache) + sizeof(VkPipelineCache),
+              "flags appended after the shipped members");
+
+// Object to world: rotation by `deg` degrees about `axis`, then scale `s` (per axis, applied first),
+// then translation `t`.
+Transform3x4 transform(glm::vec3 axis, float deg, glm::vec3 s, glm::vec3 t) {
+  const float a = glm::radians(deg);
+  const glm::vec3 u = glm::normalize(axis);
+  const float c = std::cos(a), si = std::sin(a);
+  glm::mat3 R;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      R[j][i] = (i == j ? c : 0.0f) + (1 - c) * u[i] * u[j] + si * (i == 0 ? (j == 1 ? -u.z : j == 2 ? u.y : 0.0f)
+                                                                     : i == 1 ? (j == 0 ? u.z : j == 2 ? -u.x : 0.0f)
+                                                                              : (j == 0 ? -u.y : j == 1 ? u.x : 0.0f));
+  const glm::mat3 A = R * glm::mat3(glm::vec3(s.x, 0, 0), glm::vec3(0, s.y, 0), glm::vec3(0, 0, s.z));
+  Transform3x4 xf;
+  for (int r = 0; r < 3; ++r) {
+    for (int col = 0; col < 3; ++col) xf.m[r][col] = A[col][r];
+    xf.m[r][3] = t[r];
+  }
+  return xf;
+}
+
+// The world box of `b` under `xf`.
+Aabb world_box(const Aabb& b, const Transform3x4& xf) {
+  const Instance in = instance_of(xf);
+  Aabb w;
+  for (int k = 0; k < 8; ++k) {
+    const glm::vec3 p((k & 1) ? b.hi.x : b.lo.x, (k & 2) ? b.hi.y : b.lo.y, (k & 4) ? b.hi.z : b.lo.z);
+    const glm::vec3 q = in.A * p + in.T;
+    w.lo = glm::min(w.lo, q);
+    w.hi = glm::max(w.hi, q);
+  }
+  return w;
+}
+
+// One LSNIF instance of a scene, for the CPU reference.
+struct LsnifInstance {
+  const Model* model = nullptr;
+  Transform3x4 xf;
+  uint32_t index = 0;  // in the TLAS
+};
+
+// A TLAS, its model table (in a buffer) and what the CPU needs to know of it.
+struct Scene {
+  std::vector<VkAccelerationStructureInstanceKHR> records;
+  std::vector<LsnifModel> table_models;  // table entries (null: holes)
+  std::vector<LsnifInstance> lsnif;
+  std::vector<Aabb> boxes;  // world box of every instance, in TLAS order
+  Aabb bounds;
+  vk::Buffer table;
+  vk::AccelerationStructure tlas;
+};
+
+// Runs `f` when it goes out of scope (releases a scene also when an assertion ends the test).
+struct Cleanup {
+  std::function<void()> f;
+  ~Cleanup() { f(); }
+};
+
+class PluginQuery : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    vk::ContextOptions options;
+    options.ray_tracing = true;
+    options.validation = true;
+    options.device = test::kReferenceDevice;
+    options.ray_query = true;
+    status_ = vk_.init(options);
+    if (status_) status_ = tracer_.init();
+    if (status_) {
+      vk::RtShaders s;
+      s.raygen = spirv(rt_conformance_rgen_spirv, sizeof rt_conformance_rgen_spirv);
+      s.miss = spirv(rt_conformance_rmiss_spirv, sizeof rt_conformance_rmiss_spirv);
+      s.closest_hit = spirv(rt_conformance_rchit_spirv, sizeof rt_conformance_rchit_spirv);
+      s.intersection = TestPlugin::intersection_shader(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE);
+      s.triangle_closest_hit = spirv(rt_mixed_triangle_rchit_spirv, sizeof rt_mixed_triangle_rchit_spirv);
+      status_ = tracer_.create_pipeline(s, sizeof(RtConformancePush), rt_pipeline_);
+    }
+    for (const std::string* path : {&kMeshA, &kMeshB})
+      if (status_ && !std::filesystem::exists(*path))
+        status_ = Status::error("%s missing: run scripts/setup.sh", path->c_str());
+    Mesh b;
+    if (status_) status_ = load_mesh(kMeshA, mesh_);
+    if (status_) status_ = load_mesh(kMeshB, b);
+    if (status_) status_ = train_model(mesh_, tiny_settings(HitParam::VoxelSegments), model_a_);
+    if (status_) status_ = train_model(b, tiny_settings(HitParam::VoxelSegments), model_b_);
+    if (status_) status_ = plugin_.init(vk_);
+    if (status_) status_ = plugin_.upload(model_a_, a_);
+    if (status_) status_ = plugin_.upload(model_b_, b_);
+    if (status_) {
+      // Through lsnif.hpp: the query() helper records with its cmd_query and sizes with query_scratch_size.
+      status_ = TestPlugin::check(pipeline_.create(plugin_.context(), LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT),
+                                  "query pipeline");
+    }
+    if (status_) {
+      std::vector<float> positions;
+      std::vector<uint32_t> indices;
+      for (const glm::vec3& p : mesh_.positions) positions.insert(positions.end(), {p.x, p.y, p.z});
+      for (const glm::uvec3& t : mesh_.triangles) indices.insert(indices.end(), {t.x, t.y, t.z});
+      status_ = tracer_.build_triangle_blas(positions, indices, triangle_blas_);
+    }
+  }
+  static void TearDownTestSuite() {
+    pipeline_.reset();
+    plugin_.destroy();
+    tracer_.destroy(triangle_blas_);
+    tracer_.destroy(rt_pipeline_);
+    vk_.destroy_device();
+  }
+  void SetUp() override {
+    ASSERT_TRUE(status_) << status_.message();
+    vk_.reset_validation_counts();
+  }
+  void TearDown() override {
+    EXPECT_EQ(vk_.validation_errors(), 0u) << "Vulkan validation errors (printed above)";
+    EXPECT_EQ(vk_.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
+  }
+
+  // Adds an LSNIF instance of `model` (handle `handle`, table entry `entry`).
+  static void add_lsnif(Scene& s, const Model& model, LsnifModel handle, uint32_t entry, const Transform3x4& xf) {
+    VkAccelerationStructureInstanceKHR rec;
+    ASSERT_TRUE(plugin_.make_instance(handle, xf, entry, 0xFF, 0, rec));
+    s.lsnif.push_back({&model, xf, uint32_t(s.records.size())});
+    s.records.push_back(rec);
+    s.boxes.push_back(world_box(model.bounds(), xf));
+  }
+  // Adds a triangle instance of the first mesh (custom index `entry`, a hole of the table).
+  static void add_triangles(Scene& s, uint32_t entry, const Transform3x4& xf) {
+    VkAccelerationStructureInstanceKHR rec{};
+    std::memcpy(rec.transform.matrix, xf.m, sizeof rec.transform.matrix);
+    rec.instanceCustomIndex = entry & 0xffffffu;
+    rec.mask = 0xFF;
+    rec.instanceShaderBindingTableRecordOffset = rt_pipeline_.triangle_sbt_offset & 0xffffffu;
+    rec.accelerationStructureReference = triangle_blas_.address;
+    s.records.push_back(rec);
+    s.boxes.push_back(world_box(mesh_.bounds(), xf));
+  }
+  // Builds the TLAS and uploads the table.
+  static void finish(Scene& s) {
+    for (const Aabb& b : s.boxes) {
+      s.bounds.lo = glm::min(s.bounds.lo, b.lo);
+      s.bounds.hi = glm::max(s.bounds.hi, b.hi);
+    }
+    std::vector<uint64_t> table;
+    ASSERT_TRUE(plugin_.model_table(s.table_models, table));
+    ASSERT_TRUE(vk_.create_buffer(std::max<size_t>(1, table.size()) * sizeof(uint64_t), s.table));
+    if (!table.empty()) std::memcpy(s.table.mapped, table.data(), table.size() * sizeof(uint64_t));
+    ASSERT_TRUE(tracer_.build_tlas(s.records, s.tlas));
+  }
+  static void release(Scene& s) {
+    vk_.destroy_buffer(s.table);
+    tracer_.destroy(s.tlas);
+  }
+
+  // The mixed scene: a triangle instance (entry 2, a hole), model A twice (entry 0: rotated about y;
+  // rotated about a skew axis with non-uniform scale), model B once (entry 1: non-uniform scale,
+  // rotation, translation); the boxes overlap pairwise.
+  static void mixed_scene(Scene& s) {
+    const Aabb& ba = model_a_.bounds();
+    const glm::vec3 ea = ba.extent();
+    s.table_models = {a_, b_, nullptr};
+    add_lsnif(s, model_a_, a_, 0, transform({0, 1, 0}, 30, glm::vec3(1.0f), glm::vec3(0.0f)));
+    add_triangles(s, 2, transform({0, 1, 0}, 90, glm::vec3(0.8f), glm::vec3(0.6f * ea.x, 0, 0) - ba.center()));
+    add_lsnif(s, model_b_, b_, 1,
+              transform({1, 0, 0}, -20, glm::vec3(1.5f, 0.7f, 1.1f) * (ea.x / model_b_.bounds().extent().x),
+                        glm::vec3(-0.5f * ea.x, 0.3f * ea.y, 0.2f * ea.z) - model_b_.bounds().center()));
+    add_lsnif(s, model_a_, a_, 0,
+              transform({1, 1, 0}, 50, glm::vec3(0.6f, 1.3f, 0.9f), glm::vec3(0.1f * ea.x, -0.5f * ea.y, 0.4f * ea.z)));
+    finish(s);
+  }
+
+  // Rays at the scene: from a sphere around it towards a point of one instance's box (round robin),
+  // from inside an instance's box in any direction, and anywhere; 15% with a finite tmax.
+  static std::vector<Ray> rays_at(const Scene& s, size_t count, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    auto unit_vector = [&] { return random_unit_vector(rng); };
+    auto in_box = [&](const Aabb& b) { return b.lo + b.extent() * glm::vec3(u(rng), u(rng), u(rng)); };
+    const float diag = s.bounds.diagonal();
+    std::vector<Ray> rays(count);
+    for (size_t i = 0; i < count; ++i) {
+      Ray& r = rays[i];
+      const Aabb& box = s.boxes[(i / 3) % s.boxes.size()];
+      switch (i % 3) {
+        case 0:
+          r.origin = s.bounds.center() + diag * (0.8f + 0.7f * u(rng)) * unit_vector();
+          r.direction = in_box(box) - r.origin;
+          break;
+        case 1:
+          r.origin = in_box(box);
+          r.direction = (0.5f + u(rng)) * unit_vector();
+          break;
+        default:
+          r.origin =
+              s.bounds.center() + 1.5f * s.bounds.extent() * glm::vec3(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
+          r.direction = (0.5f + u(rng)) * unit_vector();
+          break;
+      }
+      if (u(rng) < 0.15f) r.tmax = 2.0f * diag / glm::length(r.direction) * u(rng);
+    }
+    return rays;
+  }
+
+  // Rays from around the scene towards points near its centre, where the boxes overlap: most cross
+  // two or three LSNIF boxes.
+  static std::vector<Ray> rays_to_centre(const Scene& s, size_t count, uint32_t seed) {
+    std::vector<Ray> rays(count);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (Ray& r : rays) {
+      glm::vec3 v(u(rng), u(rng), u(rng));
+      while (glm::length(v) < 0.1f || glm::length(v) > 1.0f) v = glm::vec3(u(rng), u(rng), u(rng));
+      r.origin = s.bounds.center() + 1.2f * s.bounds.diagonal() * glm::normalize(v);
+      r.direction = s.bounds.center() + 0.15f * s.bounds.extent() * glm::vec3(u(rng), u(rng), u(rng)) - r.origin;
+    }
+    return rays;
+  }
+  // Ray flags: every other ray any-hit.
+  static std::vector<uint32_t> every_other_any_hit(size_t count) {
+    std::vector<uint32_t> flags(count, 0u);
+    for (size_t i = 0; i < flags.size(); i += 2) flags[i] = LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT;
+    return flags;
+  }
+
+  struct QueryRun {
+    std::vector<LsnifQueryResult> results;
+    LsnifQueryStatus status{};
+  };
+  // `rays` with flags[i] (or `flags[0]` for all when it has one entry) through lsnifCmdQuery. The
+  // result and status buffers start as 0xFF bytes, so a field left unwritten shows.
+  // `models` (when given) replaces the scene's table models as pModels (the device table stays).
+  static QueryRun query(const Scene& s, const std::vector<Ray>& rays, const std::vector<uint32_t>& flags,
+                        uint32_t per_ray = 4, const std::vector<LsnifModel>* models = nullptr) {
+    QueryRun out;
+    if (!models) models = &s.table_models;
+    const uint32_t n = uint32_t(rays.size());
+    LsnifQueryInfo info{};
+    info.rayCount = n;
+    info.candidatesPerRay = per_ray;
+    info.tlas = s.tlas.address;
+    info.cullMask = 0xFF;
+    info.modelCount = uint32_t(models->size());
+    info.pModels = models->data();
+    info.modelTable = s.table.address;
+    VkDeviceSize bytes = 0;
+    EXPECT_EQ(plugin::query_scratch_size(plugin_.context(), info, bytes), LSNIF_SUCCESS) << last_error();
+    vk::Buffer ray_buf, result_buf, status_buf, scratch;
+    Status st = vk_.create_buffer(std::max<size_t>(1, n) * sizeof(LsnifQueryRay), ray_buf);
+    if (st) st = vk_.create_buffer(std::max<size_t>(1, n) * sizeof(LsnifQueryResult), result_buf);
+    if (st) st = vk_.create_buffer(sizeof(LsnifQueryStatus), status_buf);
+    if (st) st = vk_.create_buffer(size_t(bytes) + 16, scratch, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+    if (st) {
+      auto* r = static_cast<LsnifQueryRay*>(ray_buf.mapped);
+      for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t f = flags.size() == 1 ? flags[0] : i < flags.size() ? flags[i] : 0u;
+        r[i] = {rays[i].origin.x, rays[i].origin.y, rays[i].origin.z, rays[i].tmin, rays[i].direction.x,
+                rays[i].direction.y, rays[i].direction.z, rays[i].tmax, f, 0, 0, 0};
+      }
+      std::memset(result_buf.mapped, 0xFF, std::max<size_t>(1, n) * sizeof(LsnifQueryResult));
+      std::memset(status_buf.mapped, 0xFF, sizeof(LsnifQueryStatus));
+      info.rays = ray_buf.address;
+      info.results = result_buf.address;
+      info.scratchBuffer = scratch.buffer;
+      info.scratchOffset = 16;  // not at the buffer's start
+      info.scratchSize = bytes;
+      info.status = status_buf.address;
+      st = vk_.submit("lsnifCmdQuery", [&](VkCommandBuffer cmd) {
+        EXPECT_EQ(pipeline_.cmd_query(cmd, info), LSNIF_SUCCESS) << last_error();
+        VkMemoryBarrier b{};
+        b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+        b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+        b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0,
+                             nullptr, 0, nullptr);
+      });
+    }
+    EXPECT_TRUE(st) << st.message();
+    if (st) {
+      const auto* h = static_cast<const LsnifQueryResult*>(result_buf.mapped);
+      out.results.assign(h, h + n);
+      std::memcpy(&out.status, status_buf.mapped, sizeof out.status);
+    }
+    for (vk::Buffer* b : {&ray_buf, &result_buf, &status_buf, &scratch}) vk_.destroy_buffer(*b);
+    return out;
+  }
+
+  // Counts of the rays of `q` marked LSNIF_QUERY_HIT_INCOMPLETE (every other field as for a miss),
+  // of the others answered as in `ref` (any-hit rays: a hit or a miss alike; closest: kind, instance
+  // and t), each of which must be, and of its LSNIF hits.
+  struct Marked {
+    size_t incomplete = 0, exact = 0, lsnif = 0;
+  };
+  static Marked marked_or_exact(const std::vector<uint32_t>& flags, const QueryRun& q, const QueryRun& ref) {
+    Marked m;
+    EXPECT_EQ(q.results.size(), ref.results.size());
+    for (size_t i = 0; i < std::min(q.results.size(), ref.results.size()); ++i) {
+      const LsnifQueryResult& r = q.results[i];
+      const LsnifQueryResult& f = ref.results[i];
+      if (r.kind == LSNIF_QUERY_HIT_INCOMPLETE) {
+        ++m.incomplete;
+        EXPECT_EQ(r.instance_index, ~0u);
+        EXPECT_EQ(r.t, 0.0f);
+        continue;
+      }
+      m.lsnif += r.kind == LSNIF_QUERY_HIT_LSNIF;
+      const bool same = (flags[i] & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT)
+                            ? (r.kind == LSNIF_QUERY_HIT_NONE) == (f.kind == LSNIF_QUERY_HIT_NONE)
+                            : r.kind == f.kind && r.instance_index == f.instance_index && r.t == f.t;
+      m.exact += same;
+      EXPECT_TRUE(same) << "ray " << i << " answered wrongly without the mark: kind " << r.kind << " vs " << f.kind;
+    }
+    return m;
+  }
+
+  // The same rays through the ray-tracing pipeline over the scene's TLAS (closest or shadow mode).
+  // `table_count` below the table's size hides the LSNIF instances of the entries past it.
+  static std::vector<LsnifReferenceHit> trace(const Scene& s, const std::vector<Ray>& rays, uint32_t mode,
+                                              uint32_t ray_flags, uint32_t table_count = ~0u) {
+    std::vector<LsnifReferenceHit> out;
+    RtConformancePush push;
+    push.model_table = s.table.address;
+    push.model_count = std::min(table_count, uint32_t(s.table_models.size()));
+    push.mode = mode;
+    push.ray_flags = ray_flags;
+    const Status st = trace_reference(vk_, tracer_, rt_pipeline_, s.tlas, push, rays, out);
+    EXPECT_TRUE(st) << st.message();
+    return out;
+  }
+
+  // Agreement of the query with the ray-tracing pipeline (closest mode) on the same rays.
+  struct Agreement {
+    size_t rays = 0, same_hit = 0, same_instance = 0, both_hit = 0, lsnif = 0, triangles = 0, incomplete = 0;
+    double max_dt = 0, max_angle = 0, max_albedo = 0;
+  };
+  static Agreement compare(const Scene& s, const std::vector<Ray>& rays, const std::vector<LsnifQueryResult>& q,
+                           const std::vector<LsnifReferenceHit>& ref) {
+    Agreement a;
+    a.rays = rays.size();
+    EXPECT_EQ(q.size(), rays.size());
+    EXPECT_EQ(ref.size(), rays.size());
+    if (q.size() != rays.size() || ref.size() != rays.size()) return a;
+    const double diag = s.bounds.diagonal();
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const LsnifQueryResult& r = q[i];
+      EXPECT_TRUE(r.kind == LSNIF_QUERY_HIT_NONE || r.kind == LSNIF_QUERY_HIT_LSNIF ||
+                  r.kind == LSNIF_QUERY_HIT_TRIANGLE)
+          << "ray " << i << " kind " << r.kind;
+      a.lsnif += r.kind == LSNIF_QUERY_HIT_LSNIF;
+      a.triangles += r.kind == LSNIF_QUERY_HIT_TRIANGLE;
+      const bool hit = r.kind == LSNIF_QUERY_HIT_LSNIF || r.kind == LSNIF_QUERY_HIT_TRIANGLE;
+      if (!hit) {
+        EXPECT_EQ(r.instance_index, ~0u) << "ray " << i;
+        EXPECT_EQ(r.t, 0.0f) << "ray " << i;
+      }
+      a.same_hit += hit == (ref[i].hit != 0);
+      if (!hit || !ref[i].hit) continue;
+      ++a.both_hit;
+      const uint32_t ref_instance = ref[i].reserved & 0xffffu;
+      if (r.instance_index != ref_instance) continue;
+      ++a.same_instance;
+      EXPECT_EQ(r.instance_custom_index, ref[i].reserved >> 16) << "ray " << i;
+      const double len = double(glm::length(rays[i].direction));
+      a.max_dt = std::max(a.max_dt, std::fabs(double(r.t) - double(ref[i].t)) * len / diag);
+      if (r.kind == LSNIF_QUERY_HIT_TRIANGLE) {
+        EXPECT_EQ(ref[i].points, 0u) << "ray " << i << ": the shader hit an LSNIF object";
+        EXPECT_EQ(r.primitive_index, ref[i].material) << "ray " << i;
+        EXPECT_NEAR(r.barycentric_u, ref[i].albedo_x, 1e-4) << "ray " << i;
+        EXPECT_NEAR(r.barycentric_v, ref[i].albedo_y, 1e-4) << "ray " << i;
+        EXPECT_EQ(r.geometry_index, 0u);
+        continue;
+      }
+      EXPECT_GT(ref[i].points, 0u) << "ray " << i << ": the shader hit a triangle";
+      const glm::vec3 nq(r.normal_x, r.normal_y, r.normal_z), nr(ref[i].normal_x, ref[i].normal_y, ref[i].normal_z);
+      a.max_angle = std::max(a.max_angle, double(std::acos(std::clamp(glm::dot(nq, nr), -1.0f, 1.0f))) * 180.0 / M_PI);
+      a.max_albedo = std::max({a.max_albedo, std::fabs(double(r.albedo_r - ref[i].albedo_x)),
+                               std::fabs(double(r.albedo_g - ref[i].albedo_y)),
+                               std::fabs(double(r.albedo_b - ref[i].albedo_z))});
+      EXPECT_EQ(r.material, ref[i].material) << "ray " << i;
+      EXPECT_EQ(r.primitive_index, 0u);
+    }
+    return a;
+  }
+  // The shader is the truth: hit/miss and the instance on >= 99.9% of rays, t within 1e-5 of the
+  // scene's diagonal and the normal within 0.05 degrees where both hit the same instance (the same
+  // GLSL in fp32 on both sides; fp16 weights are read the same way), albedo to its unorm16 packing.
+  static void expect_agreement(const Agreement& a, const char* what) {
+    SCOPED_TRACE(what);
+    std::printf("[%s] %zu rays: LSNIF hits %zu, triangle hits %zu; hit/miss agreement %zu, same instance %zu of %zu; "
+                "max |dt| / diagonal %.3g, max normal %.3g deg, max albedo %.3g\n",
+                what, a.rays, a.lsnif, a.triangles, a.same_hit, a.same_instance, a.both_hit, a.max_dt, a.max_angle,
+                a.max_albedo);
+    EXPECT_GE(double(a.same_hit), 0.999 * double(a.rays)) << "hit/miss vs the intersection shader";
+    EXPECT_GE(double(a.same_instance), 0.999 * double(a.both_hit)) << "closest instance vs the intersection shader";
+    EXPECT_LE(a.max_dt, 1e-5) << "largest |t difference| / scene diagonal";
+    EXPECT_LE(a.max_angle, 0.05) << "largest world normal difference (degrees)";
+    EXPECT_LE(a.max_albedo, 1.0 / 65535.0 + 1e-6) << "largest albedo difference";
+  }
+
+  // CPU reference of a scene's LSNIF instances alone: the closest accepted hit over them.
+  static std::vector<LsnifHit> cpu_lsnif(const Scene& s, const std::vector<Ray>& rays, uint32_t flags,
+                                         std::vector<uint32_t>& instance) {
+    std::vector<LsnifHit> best(rays.size());
+    instance.assign(rays.size(), ~0u);
+    for (const LsnifInstance& li : s.lsnif) {
+      std::vector<LsnifHit> h(rays.size());
+      const Status st = intersect(*li.model, li.xf, rays.data(), rays.size(), h.data(), flags);
+      EXPECT_TRUE(st) << st.message();
+      for (size_t i = 0; i < rays.size(); ++i)
+        if (h[i].hit && (!best[i].hit || h[i].t < best[i].t)) best[i] = h[i], instance[i] = li.index;
+    }
+    return best;
+  }
+
+  static vk::ComputeContext vk_;
+  static vk::RayTracer tracer_;
+  static vk::RtPipeline rt_pipeline_;
+  static Status status_;
+  static Mesh mesh_;
+  static Model model_a_, model_b_;
+  static TestPlugin plugin_;
+  static LsnifModel a_, b_;
+  static plugin::QueryPipeline pipeline_;
+  static vk::AccelerationStructure triangle_blas_;
+};
+vk::ComputeContext PluginQuery::vk_;
+vk::RayTracer PluginQuery::tracer_(PluginQuery::vk_);
+vk::RtPipeline PluginQuery::rt_pipeline_;
+Status PluginQuery::status_;
+Mesh PluginQuery::mesh_;
+Model PluginQuery::model_a_, PluginQuery::model_b_;
+TestPlugin PluginQuery::plugin_;
+LsnifModel PluginQuery::a_ = nullptr, PluginQuery::b_ = nullptr;
+plugin::QueryPipeline PluginQuery::pipeline_;
+vk::AccelerationStructure PluginQuery::triangle_blas_;
+
+constexpr size_t kRays = 3000;
+
+// Closest-hit rays with no culling and with back-face culling, then any-hit rays, against the
+// intersection shader over the same mixed TLAS.
+TEST_F(PluginQuery, MixedTlasMatchesTheIntersectionShader) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
+  const std::vector<Ray> rays = rays_at(s, kRays, 3);
+  for (const uint32_t flags : {0u, LSNIF_RAY_FLAG_CULL_BACK_FACING}) {
+    SCOPED_TRACE(testing::Message() << "ray flags 0x" << std::hex << flags);
+    const QueryRun q = query(s, rays, {flags});
+    const Agreement a = compare(s, rays, q.results, trace(s, rays, kModeClosest, flags));
+    expect_agreement(a, "closest hits");
+    EXPECT_GT(a.lsnif, kRays / 10) << "too few LSNIF hits to tell anything";
+    EXPECT_GT(a.triangles, kRays / 20) << "too few triangle hits to tell anything";
+    EXPECT_EQ(q.status.dropped, 0u);
+    EXPECT_EQ(q.status.incomplete_rays, 0u);
+    EXPECT_EQ(q.status.unevaluated, 0u);
+    EXPECT_EQ(q.status.capacity, 4u * kRays);
+    // One candidate per (ray, LSNIF instance) whose model box the ray crosses before its closest
+    // triangle (the shader's trace with an empty table sees the triangles only): none beyond it.
+    const std::vector<LsnifReferenceHit> triangles_only = trace(s, rays, kModeClosest, flags, 0);
+    size_t expected = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const float tmax = triangles_only[i].hit ? triangles_only[i].t : rays[i].tmax;
+      for (const LsnifInstance& li : s.lsnif) {
+        const Instance in = instance_of(li.xf);
+        const glm::vec3 o = in.A_inv * (rays[i].origin - in.T), d = in.A_inv * rays[i].direction;
+        const Aabb& b = li.model->bounds();
+        float t0 = rays[i].tmin, t1 = tmax;
+        for (int k = 0; k < 3; ++k) {
+          const float lo = (b.lo[k] - o[k]) / d[k], hi = (b.hi[k] - o[k]) / d[k];
+          t0 = std::max(t0, std::min(lo, hi));
+          t1 = std::min(t1, std::max(lo, hi));
+        }
+        expected += t0 <= t1;
+      }
+    }
+    EXPECT_NEAR(double(q.status.candidates), double(expected), 0.005 * double(expected))
+        << "candidates: one per crossed LSNIF box before the closest triangle";
+    EXPECT_GT(q.status.candidates, kRays / 4);
+    // Every LSNIF answer agrees with the CPU reference of the LSNIF instances where no triangle is
+    // closer (the shader's truth covers the rest).
+    std::vector<uint32_t> cpu_instance;
+    const std::vector<LsnifHit> cpu = cpu_lsnif(s, rays, flags, cpu_instance);
+    size_t compared = 0, agree = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      if (q.results[i].kind == LSNIF_QUERY_HIT_TRIANGLE) continue;
+      ++compared;
+      const bool hit = q.results[i].kind == LSNIF_QUERY_HIT_LSNIF;
+      agree += hit == cpu[i].hit &&
+               (!hit || (q.results[i].instance_index == cpu_instance[i] &&
+                         std::fabs(double(q.results[i].t - cpu[i].t)) * double(glm::length(rays[i].direction)) <=
+                             2e-4 * double(s.bounds.diagonal())));
+    }
+    EXPECT_GE(double(agree), 0.999 * double(compared)) << "agreement with the CPU reference";
+  }
+
+  // Any-hit rays (15% end early): occluded or not as the shader's shadow rays; an answered hit is a
+  // real one (its kind and instance are the shader's closest where that is the only object hit).
+  const QueryRun q = query(s, rays, {LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT});
+  const std::vector<LsnifReferenceHit> shadow = trace(s, rays, kModeShadow, 0);
+  const std::vector<LsnifReferenceHit> closest = trace(s, rays, kModeClosest, 0);
+  size_t same = 0, hits = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const bool hit = q.results[i].kind == LSNIF_QUERY_HIT_LSNIF || q.results[i].kind == LSNIF_QUERY_HIT_TRIANGLE;
+    hits += hit;
+    same += hit == (shadow[i].hit != 0) && hit == (closest[i].hit != 0);
+    if (hit) {
+      EXPECT_GE(q.results[i].t, rays[i].tmin);
+      EXPECT_LE(q.results[i].t, rays[i].tmax);
+    }
+  }
+  EXPECT_GE(double(same), 0.999 * double(rays.size())) << "any-hit rays: occlusion vs the shader";
+  EXPECT_GT(hits, kRays / 5);
+}
+
+// Rays leaving the LSNIF surfaces by the self-intersection rule (origin at the hit, back-face
+// culling, tmin = leaving_tmin of the hit's instance) against the shader with the same flags.
+TEST_F(PluginQuery, RaysLeavingAnLsnifSurfaceMatchTheIntersectionShader) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
+  const std::vector<Ray> primary = rays_at(s, kRays, 7);
+  const QueryRun first = query(s, primary, {0u});
+  std::mt19937 rng(9);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  std::vector<Ray> leaving;
+  for (size_t i = 0; i < primary.size(); ++i) {
+    const LsnifQueryResult& r = first.results[i];
+    if (r.kind != LSNIF_QUERY_HIT_LSNIF) continue;
+    const LsnifInstance* li = nullptr;
+    for (const LsnifInstance& c : s.lsnif)
+      if (c.index == r.instance_index) li = &c;
+    ASSERT_NE(li, nullptr);
+    Ray l;
+    l.origin = primary[i].origin + r.t * primary[i].direction;
+    l.direction = glm::normalize(glm::vec3(g(rng), g(rng), g(rng)));
+    l.tmin = leaving_tmin(*li->model, li->xf, l.direction);
+    leaving.push_back(l);
+  }
+  ASSERT_GT(leaving.size(), kRays / 10);
+  const QueryRun q = query(s, leaving, {LSNIF_RAY_FLAG_CULL_BACK_FACING});
+  const Agreement a = compare(s, leaving, q.results, trace(s, leaving, kModeClosest, LSNIF_RAY_FLAG_CULL_BACK_FACING));
+  expect_agreement(a, "rays leaving the surface");
+  EXPECT_GT(a.lsnif + a.triangles, leaving.size() / 20) << "too few hits to tell anything";
+}
+
+// Ten table entries (models A and B uploaded again, alternating, with holes between them), nine
+// LSNIF instances in a row of overlapping boxes and one triangle instance: every model is its own
+// bucket of the counting sort and its own indirect dispatches.
+TEST_F(PluginQuery, ManyModelsInOneBatch) {
+  std::vector<LsnifModel> extra;
+  Scene s;
+  const Cleanup cleanup{[&] {
+    release(s);
+    for (LsnifModel& m : extra) plugin_.release(m);
+  }};
+  const Aabb& ba = model_a_.bounds();
+  const float step = 0.45f * ba.extent().x;
+  s.table_models.assign(12, nullptr);
+  for (uint32_t k = 0; k < 9; ++k) {
+    const bool is_a = k % 2 == 0;
+    LsnifModel m = nullptr;
+    ASSERT_TRUE(plugin_.upload(is_a ? model_a_ : model_b_, m));
+    extra.push_back(m);
+    const uint32_t entry = k + (k >= 4 ? 2u : 0u);  // entries 4 and 5 are holes
+    s.table_models[entry] = m;
+    const Model& model = is_a ? model_a_ : model_b_;
+    const float scale = ba.extent().x / model.bounds().extent().x;
+    add_lsnif(s, model, m, entry,
+              transform({0.3f, 1, 0.1f}, 25.0f * float(k), glm::vec3(scale, scale * (0.8f + 0.05f * float(k)), scale),
+                        glm::vec3(step * float(k), 0.1f * ba.extent().y * float(k % 3), 0) -
+                            scale * model.bounds().center()));
+  }
+  add_triangles(
+      s, 5, transform({0, 0, 1}, 10, glm::vec3(0.7f), glm::vec3(4.0f * step, -0.6f * ba.extent().y, 0) - ba.center()));
+  ASSERT_NO_FATAL_FAILURE(finish(s));
+  const std::vector<Ray> rays = rays_at(s, kRays, 11);
+  const QueryRun q = query(s, rays, {0u});
+  const Agreement a = compare(s, rays, q.results, trace(s, rays, kModeClosest, 0));
+  expect_agreement(a, "ten table entries");
+  std::vector<size_t> per_instance(s.records.size(), 0);
+  for (const LsnifQueryResult& r : q.results)
+    if (r.kind == LSNIF_QUERY_HIT_LSNIF) ++per_instance[r.instance_index];
+  for (const LsnifInstance& li : s.lsnif) EXPECT_GT(per_instance[li.index], 10u) << "instance " << li.index;
+  EXPECT_EQ(q.status.dropped, 0u);
+}
+
+// A capacity of one candidate per ray over rays that cross several LSNIF boxes: candidates are
+// dropped, and every ray is either answered exactly as with room for all of its candidates or marked
+// LSNIF_QUERY_HIT_INCOMPLETE; the status counts both.
+TEST_F(PluginQuery, OverflowMarksTheAffectedRays) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
+  const std::vector<Ray> rays = rays_to_centre(s, kRays, 13);
+  const std::vector<uint32_t> flags = every_other_any_hit(rays.size());
+  const QueryRun full = query(s, rays, flags, 8);
+  ASSERT_EQ(full.status.dropped, 0u);
+  const QueryRun tight = query(s, rays, flags, 1);
+  EXPECT_EQ(tight.status.capacity, uint32_t(rays.size()));
+  EXPECT_EQ(tight.status.candidates, full.status.candidates);
+  EXPECT_EQ(tight.status.dropped, full.status.candidates - uint32_t(rays.size()));
+  ASSERT_GT(tight.status.dropped, 0u) << "the rays must overflow one candidate per ray";
+  const auto [incomplete, exact, lsnif] = marked_or_exact(flags, tight, full);
+  std::printf(
+      "[overflow] %zu rays, %u candidates, capacity %u, dropped %u: %zu incomplete, %zu exact (%zu LSNIF hits)\n",
+      rays.size(), tight.status.candidates, tight.status.capacity, tight.status.dropped, incomplete, exact, lsnif);
+  EXPECT_EQ(incomplete, tight.status.incomplete_rays);
+  EXPECT_GT(incomplete, 0u);
+  EXPECT_EQ(incomplete + exact, rays.size());
+  EXPECT_GT(lsnif, 0u) << "kept candidates must still answer";
+  EXPECT_EQ(tight.status.unevaluated, 0u);
+}
+
+// The device's model table disagrees with pModels: entry 0 holds model B's block while pModels[0]
+// is A, or holds A's block while pModels[0] is NULL. The candidates of entry 0 are not evaluated
+// (the status counts them exactly: all candidates but those of entry 1); every ray one of them could
+// have changed is LSNIF_QUERY_HIT_INCOMPLETE, and every other ray is answered as with a table that
+// agrees with pModels.
+TEST_F(PluginQuery, ModelTableDisagreeingWithPModelsMarksTheAffectedRays) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));  // pModels {A, B, NULL}, the table written from them
+  const std::vector<Ray> rays = rays_to_centre(s, kRays, 17);
+  const std::vector<uint32_t> flags = every_other_any_hit(rays.size());
+  auto write_table = [&](const std::vector<LsnifModel>& models) {
+    std::vector<uint64_t> table;
+    ASSERT_TRUE(plugin_.model_table(models, table));
+    std::memcpy(s.table.mapped, table.data(), table.size() * sizeof(uint64_t));
+  };
+  // The candidates of entry 1 alone (entry 0 a hole on both sides).
+  const std::vector<LsnifModel> only_b = {nullptr, b_, nullptr};
+  ASSERT_NO_FATAL_FAILURE(write_table(only_b));
+  const QueryRun entry1 = query(s, rays, flags, 8, &only_b);
+  EXPECT_EQ(entry1.status.unevaluated, 0u);
+
+  struct Case {
+    const char* what;
+    std::vector<LsnifModel> table, models, agreeing;
+  };
+  const Case cases[] = {
+      {"table B, pModels A", {b_, b_, nullptr}, {a_, b_, nullptr}, {b_, b_, nullptr}},
+      {"table A, pModels NULL", {a_, b_, nullptr}, {nullptr, b_, nullptr}, {a_, b_, nullptr}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    ASSERT_NO_FATAL_FAILURE(write_table(c.table));
+    const QueryRun agree = query(s, rays, flags, 8, &c.agreeing);
+    const QueryRun q = query(s, rays, flags, 8, &c.models);
+    ASSERT_EQ(agree.status.dropped, 0u);
+    EXPECT_EQ(agree.status.unevaluated, 0u);
+    EXPECT_EQ(agree.status.incomplete_rays, 0u);
+    EXPECT_EQ(q.status.dropped, 0u);
+    EXPECT_EQ(q.status.candidates, agree.status.candidates);
+    EXPECT_EQ(q.status.unevaluated, agree.status.candidates - entry1.status.candidates);
+    ASSERT_GT(q.status.unevaluated, kRays / 4) << "too few candidates of entry 0 to tell anything";
+    const auto [incomplete, exact, lsnif] = marked_or_exact(flags, q, agree);
+    for (size_t i = 0; i < rays.size(); ++i)
+      EXPECT_NE(q.results[i].instance_custom_index, 0u) << "ray " << i << " answered by an entry not evaluated";
+    std::printf("[%s] %zu rays, %u candidates, %u not evaluated: %zu incomplete, %zu exact (%zu LSNIF hits)\n",
+                c.what, rays.size(), q.status.candidates, q.status.unevaluated, incomplete, exact, lsnif);
+    EXPECT_EQ(incomplete, q.status.incomplete_rays);
+    EXPECT_GT(incomplete, rays.size() / 10);
+    EXPECT_EQ(incomplete + exact, rays.size());
+    EXPECT_GT(lsnif, 0u) << "entry 1 must still answer";
+  }
+}
+
+// Two instances of the same model at the same place (and a third elsewhere): every hit on them is
+// at equal t, and the lower instance index must win, whatever order the traversal and the atomics
+// took.
+TEST_F(PluginQuery, EqualTResolvesToTheLowerInstanceIndex) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  s.table_models = {nullptr, b_, a_};
+  const Transform3x4 xf = transform({0, 1, 1}, 40, glm::vec3(1.2f, 0.8f, 1.0f), glm::vec3(0.0f));
+  add_lsnif(s, model_b_, b_, 1, transform({0, 0, 1}, 0, glm::vec3(1.0f), glm::vec3(50.0f, 0, 0)));
+  add_lsnif(s, model_a_, a_, 2, xf);
+  add_lsnif(s, model_a_, a_, 2, xf);
+  ASSERT_NO_FATAL_FAILURE(finish(s));
+  s.boxes.erase(s.boxes.begin());  // aim at the pair
+  const std::vector<Ray> rays = rays_at(s, 2000, 23);
+  for (const uint32_t flags : {0u, LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT}) {
+    const QueryRun q = query(s, rays, {flags});
+    size_t hits = 0;
+    for (const LsnifQueryResult& r : q.results) {
+      if (r.kind != LSNIF_QUERY_HIT_LSNIF) continue;
+      ++hits;
+      EXPECT_EQ(r.instance_index, 1u) << "flags " << flags << ": the lower of two instances at equal t";
+      EXPECT_EQ(r.instance_custom_index, 2u);
+    }
+    EXPECT_GT(hits, 100u);
+  }
+}
+
+// More rays than one chunk (LSNIF_QUERY_CHUNK_RAYS): the scratch is sized for one chunk and reused,
+// the second chunk's rays answer exactly as in a batch of their own, and the status adds the
+// chunks' candidates.
+TEST_F(PluginQuery, BatchesOfMoreThanOneChunk) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
+  const size_t tail = 1500;
+  const std::vector<Ray> rays = rays_at(s, LSNIF_QUERY_CHUNK_RAYS + tail, 29);
+  LsnifQueryInfo one{}, big{};
+  one.rayCount = LSNIF_QUERY_CHUNK_RAYS;
+  big.rayCount = uint32_t(rays.size());
+  one.candidatesPerRay = big.candidatesPerRay = 2;
+  VkDeviceSize one_bytes = 0, big_bytes = 0;
+  ASSERT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &one, &one_bytes), LSNIF_SUCCESS);
+  ASSERT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &big, &big_bytes), LSNIF_SUCCESS);
+  EXPECT_EQ(big_bytes, one_bytes);
+  const QueryRun all = query(s, rays, {0u}, 2);
+  const std::vector<Ray> head_rays(rays.begin(), rays.begin() + tail);
+  const std::vector<Ray> tail_rays(rays.end() - tail, rays.end());
+  const QueryRun head = query(s, head_rays, {0u}, 2), last = query(s, tail_rays, {0u}, 2);
+  ASSERT_EQ(all.results.size(), rays.size());
+  EXPECT_EQ(all.status.capacity, 2u * LSNIF_QUERY_CHUNK_RAYS);
+  EXPECT_EQ(all.status.dropped, 0u);
+  EXPECT_GT(all.status.candidates, last.status.candidates + head.status.candidates);
+  size_t same = 0, tail_hits = 0;
+  for (size_t i = 0; i < tail; ++i) {
+    const LsnifQueryResult& a = all.results[i];
+    const LsnifQueryResult& t = all.results[rays.size() - tail + i];
+    same += a.kind == head.results[i].kind && a.instance_index == head.results[i].instance_index &&
+            a.t == head.results[i].t;
+    same += t.kind == last.results[i].kind && t.instance_index == last.results[i].instance_index &&
+            t.t == last.results[i].t;
+    tail_hits += t.kind != LSNIF_QUERY_HIT_NONE;
+  }
+  EXPECT_EQ(same, 2 * tail) << "the chunks' rays answer as in batches of their own";
+  EXPECT_GT(tail_hits, tail / 10) << "the second chunk must hit too";
+}
+
+// An empty batch records nothing; a batch in which no ray reaches an LSNIF object writes every
+// field (triangle hits and misses) and produces no candidate; a scene without LSNIF instances and
+// an empty table works too.
+TEST_F(PluginQuery, EmptyBatchesAndBatchesWithoutLsnif) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
+  const QueryRun empty = query(s, {}, {0u});
+  EXPECT_TRUE(empty.results.empty());
+  EXPECT_EQ(empty.status.candidates, ~0u) << "an empty batch records nothing, not even the status";
+
+  // Rays from far away towards the triangle instance's box that miss every LSNIF box, and rays
+  // pointing away from the scene.
+  std::vector<Ray> rays;
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const Aabb& tri = s.boxes[1];
+  while (rays.size() < 600) {
+    Ray r;
+    if (rays.size() % 2 == 0) {
+      r.origin = tri.center() + glm::vec3(0, 3.0f * s.bounds.diagonal(), 0);
+      r.direction = tri.lo + tri.extent() * glm::vec3(u(rng), u(rng), u(rng)) - r.origin;
+    } else {
+      r.origin = s.bounds.hi + glm::vec3(0.1f + u(rng));
+      r.direction = glm::vec3(1.0f, 0.5f + u(rng), 0.25f);
+    }
+    bool crosses = false;
+    for (const LsnifInstance& li : s.lsnif) {
+      const Aabb& b = s.boxes[li.index];
+      const glm::vec3 inv = 1.0f / r.direction;
+      const glm::vec3 a = (b.lo - r.origin) * inv, c = (b.hi - r.origin) * inv;
+      const glm::vec3 lo = glm::min(a, c), hi = glm::max(a, c);
+      crosses |= std::max({lo.x, lo.y, lo.z, 0.0f}) <= std::min({hi.x, hi.y, hi.z});
+    }
+    if (!crosses) rays.push_back(r);
+  }
+  const QueryRun q = query(s, rays, {0u});
+  EXPECT_EQ(q.status.candidates, 0u);
+  EXPECT_EQ(q.status.dropped, 0u);
+  EXPECT_EQ(q.status.incomplete_rays, 0u);
+  const Agreement a = compare(s, rays, q.results, trace(s, rays, kModeClosest, 0));
+  expect_agreement(a, "no LSNIF object reached");
+  EXPECT_EQ(a.lsnif, 0u);
+  EXPECT_GT(a.triangles, 100u);
+  for (const LsnifQueryResult& r : q.results) {
+    if (r.kind != LSNIF_QUERY_HIT_NONE) continue;
+    EXPECT_EQ(r.material, 0u);
+    EXPECT_EQ(r.front_face, 0u);
+    EXPECT_EQ(r.primitive_index, ~0u);
+    EXPECT_EQ(r.barycentric_u, 0.0f);
+  }
+
+  // Triangles only, no table at all.
+  Scene t;
+  const Cleanup cleanup_t{[&] { release(t); }};
+  add_triangles(t, 0, Transform3x4());
+  ASSERT_NO_FATAL_FAILURE(finish(t));
+  const std::vector<Ray> at_triangles = rays_at(t, 600, 19);
+  const QueryRun qt = query(t, at_triangles, {0u});
+  const Agreement at = compare(t, at_triangles, qt.results, trace(t, at_triangles, kModeClosest, 0));
+  expect_agreement(at, "triangles only");
+  EXPECT_GT(at.triangles, 50u);
+}
+
+// The device check and the argument errors: nothing recorded, a message naming the problem.
+TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
+  // A context told (pEnabledFeatures) that the device was created without rayQuery.
+  LsnifDeviceFeatures features;
+  lsnifInitDeviceFeatures(&features, nullptr);
+  LsnifContextCreateInfo ci = vk::plugin_create_info(vk_);
+  ci.pEnabledFeatures = &features.features2;
+  LsnifContext ctx = nullptr;
+  ASSERT_EQ(lsnifCreateContext(&ci, &ctx), LSNIF_SUCCESS) << last_error();
+  LsnifQueryPipelineCreateInfo pi{};
+  pi.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
+  LsnifQueryPipeline p = nullptr;
+  EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_DEVICE_UNSUPPORTED);
+  EXPECT_NE(last_error().find("without feature rayQuery enabled"), std::string::npos) << last_error();
+  EXPECT_EQ(p, nullptr);
+  pi.flags = 0x2;
+  EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("unknown flags 0x2"), std::string::npos) << last_error();
+  VkPhysicalDeviceRayQueryFeaturesKHR rq{};
+  rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+  rq.rayQuery = VK_TRUE;
+  features.rayTracingPipeline.pNext = &rq;
+  lsnifDestroyContext(ctx);
+  ASSERT_EQ(lsnifCreateContext(&ci, &ctx), LSNIF_SUCCESS) << last_error();
+  LsnifQueryPipeline plain = nullptr;
+  ASSERT_EQ(lsnifCreateQueryPipeline(ctx, nullptr, &plain), LSNIF_SUCCESS) << last_error();
+  lsnifDestroyContext(ctx);  // the pipeline with it
+
+  LsnifQueryPipeline without_tlas = nullptr;
+  ASSERT_EQ(lsnifCreateQueryPipeline(plugin_.context(), nullptr, &without_tlas), LSNIF_SUCCESS) << last_error();
+  LsnifModel unbuilt = nullptr;
+  std::vector<uint8_t> bytes;
+  ASSERT_TRUE(save_model_to_memory(model_a_, bytes));
+  ASSERT_EQ(lsnifCreateModelFromMemory(plugin_.context(), bytes.data(), bytes.size(), &unbuilt), LSNIF_SUCCESS);
+
+  const LsnifModel models[3] = {a_, b_, nullptr};
+  LsnifQueryInfo info{};
+  info.rayCount = 1000;
+  info.candidatesPerRay = 2;
+  info.tlas = 0x100000;
+  info.cullMask = 0xFF;
+  info.modelCount = 3;
+  info.pModels = models;
+  info.modelTable = 0x10000;
+  info.rays = 0x20000;
+  info.results = 0x30000;
+  info.scratchBuffer = reinterpret_cast<VkBuffer>(uintptr_t(0x1234));  // never used: every call below fails
+  VkDeviceSize need = 0;
+  ASSERT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &info, &need), LSNIF_SUCCESS) << last_error();
+  info.scratchSize = need;
+  VkDeviceSize more = 0;
+  LsnifQueryInfo bigger = info;
+  bigger.candidatesPerRay = 3;
+  ASSERT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &bigger, &more), LSNIF_SUCCESS);
+  EXPECT_GT(more, need);
+
+  // Each case changes one field of `info` (or the pipeline) and must be refused naming it.
+  const LsnifModel foreign[3] = {a_, reinterpret_cast<LsnifModel>(&need), nullptr};
+  const LsnifModel not_built[3] = {a_, b_, unbuilt};
+  struct Case {
+    const char* words;
+    std::function<void(LsnifQueryInfo&)> change;
+    LsnifQueryPipeline pipeline = pipeline_.get();
+  };
+  const Case cases[] = {
+      {"created without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT", [](LsnifQueryInfo&) {}, without_tlas},
+      {"not a query pipeline of this context", [](LsnifQueryInfo&) {}, reinterpret_cast<LsnifQueryPipeline>(&need)},
+      {"pInfo->candidatesPerRay 0 is not in 1 .. 32", [](LsnifQueryInfo& i) { i.candidatesPerRay = 0; }},
+      {"pInfo->candidatesPerRay 33",
+       [](LsnifQueryInfo& i) { i.candidatesPerRay = LSNIF_QUERY_MAX_CANDIDATES_PER_RAY + 1; }},
+      {"pInfo->cullMask 0x100", [](LsnifQueryInfo& i) { i.cullMask = 0x100; }},
+      {"pInfo->pNext must be NULL", [&](LsnifQueryInfo& i) { i.pNext = &info; }},
+      {"pInfo->modelCount 262145", [](LsnifQueryInfo& i) { i.modelCount = LSNIF_QUERY_MAX_MODELS + 1; }},
+      {"pInfo->pModels is NULL", [](LsnifQueryInfo& i) { i.pModels = nullptr; }},
+      {"pInfo->pModels[1] is not a model of this context", [&](LsnifQueryInfo& i) { i.pModels = foreign; }},
+      {"pInfo->pModels[2] has not been built", [&](LsnifQueryInfo& i) { i.pModels = not_built; }},
+      {"pInfo->tlas is 0", [](LsnifQueryInfo& i) { i.tlas = 0; }},
+      {"pInfo->rays is not 16-byte aligned", [](LsnifQueryInfo& i) { i.rays = 0x20008; }},
+      {"pInfo->results is 0", [](LsnifQueryInfo& i) { i.results = 0; }},
+      {"pInfo->modelTable is not 8-byte aligned", [](LsnifQueryInfo& i) { i.modelTable = 0x10004; }},
+      {"pInfo->status is not 4-byte aligned", [](LsnifQueryInfo& i) { i.status = 0x40002; }},
+      {"pInfo->scratchBuffer is VK_NULL_HANDLE", [](LsnifQueryInfo& i) { i.scratchBuffer = VK_NULL_HANDLE; }},
+      {"pInfo->scratchOffset is not a multiple of 16", [](LsnifQueryInfo& i) { i.scratchOffset = 8; }},
+      {"pInfo->scratchSize", [](LsnifQueryInfo& i) { i.scratchSize -= 4; }},
+  };
+  for (const Case& c : cases) {
+    LsnifQueryInfo bad = info;
+    c.change(bad);
+    Status st = vk_.submit("refused", [&](VkCommandBuffer cmd) {
+      EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, c.pipeline, &bad), LSNIF_ERROR_INVALID_ARGUMENT) << c.words;
+    });
+    EXPECT_TRUE(st) << st.message();
+    EXPECT_NE(last_error().find(c.words), std::string::npos) << last_error();
+  }
+  EXPECT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &info, nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(lsnifGetQueryScratchSize(plugin_.context(), nullptr, &need), LSNIF_ERROR_INVALID_ARGUMENT);
+  LsnifQueryInfo bad = info;
+  bad.pModels = foreign;
+  EXPECT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &bad, &need), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("lsnifGetQueryScratchSize: pInfo->pModels[1]"), std::string::npos) << last_error();
+  // An empty batch is valid without any address.
+  LsnifQueryInfo empty{};
+  empty.candidatesPerRay = 1;
+  Status st = vk_.submit("empty", [&](VkCommandBuffer cmd) {
+    EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, pipeline_.get(), &empty), LSNIF_SUCCESS) << last_error();
+  });
+  EXPECT_TRUE(st) << st.message();
+
+  // lsnif.hpp's owner: a failed create holds nothing; moves carry the handle; its calls go to the
+  // C API with its context and pipeline.
+  plugin::QueryPipeline owner;
+  EXPECT_EQ(owner.create(plugin_.context(), 0x2), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_FALSE(owner);
+  ASSERT_EQ(owner.create(plugin_.context()), LSNIF_SUCCESS) << last_error();
+  plugin::QueryPipeline moved(std::move(owner));
+  EXPECT_FALSE(owner);
+  ASSERT_TRUE(moved);
+  EXPECT_EQ(moved.context(), plugin_.context());
+  st = vk_.submit("refused", [&](VkCommandBuffer cmd) {
+    EXPECT_EQ(moved.cmd_query(cmd, info), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(last_error().find("pipeline was created without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT"),
+              std::string::npos)
+        << last_error();
+    const LsnifIntersectModelRaysInfo none{};
+    EXPECT_EQ(moved.cmd_intersect_model_rays(cmd, none), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(last_error().find("lsnifCmdIntersectModelRays"), std::string::npos) << last_error();
+  });
+  EXPECT_TRUE(st) << st.message();
+  VkDeviceSize via_owner = 0;
+  EXPECT_EQ(plugin::query_scratch_size(plugin_.context(), info, via_owner), LSNIF_SUCCESS);
+  EXPECT_EQ(via_owner, need);
+  moved.reset();
+  EXPECT_FALSE(moved);
+
+  lsnifDestroyModel(plugin_.context(), unbuilt);
+  lsnifDestroyQueryPipeline(plugin_.context(), without_tlas);
+}
+
+}  // namespace
+}  // namespace lsnif
