@@ -405,10 +405,20 @@ LSNIF_API LsnifResult lsnifCreateQueryPipeline(LsnifContext context, const Lsnif
   return report(guarded([&]() -> Outcome {
                   if (!context) return invalid("%s is NULL", "context");
                   if (!pPipeline) return invalid("%s is NULL", "pPipeline");
-                  if (pCreateInfo && pCreateInfo->pNext) return invalid("%s must be NULL", "pCreateInfo->pNext");
+                  LsnifQueryPipelineCreateFlags flags = 0;
+                  if (pCreateInfo && pCreateInfo->pNext) {
+                    const auto* chained = static_cast<const LsnifQueryPipelineFlagsCreateInfo*>(pCreateInfo->pNext);
+                    if (chained->sType != LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO)
+                      return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                                           "pCreateInfo->pNext: unknown structure type %d (expected "
+                                           "LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO)",
+                                           static_cast<int>(chained->sType));
+                    if (chained->pNext) return invalid("%s must be NULL", "LsnifQueryPipelineFlagsCreateInfo::pNext");
+                    flags = chained->flags;
+                  }
                   std::unique_ptr<LsnifQueryPipeline_T> p;
                   Outcome o = lsnif::plugin::create_query_pipeline(
-                      *context, pCreateInfo ? pCreateInfo->flags : 0,
+                      *context, flags,
                       pCreateInfo ? pCreateInfo->pipelineCache : VK_NULL_HANDLE, p);
                   if (!o) return o;
                   *pPipeline = p.get();

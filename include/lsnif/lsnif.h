@@ -309,12 +309,25 @@ typedef enum LsnifQueryPipelineCreateFlagBits {
 } LsnifQueryPipelineCreateFlagBits;
 typedef VkFlags LsnifQueryPipelineCreateFlags;
 
-/* pNext and pipelineCache keep the offsets of the releases that had only them; flags was appended. */
+/* Types of the structures that extend another through its pNext chain (each starts with sType and
+ * pNext, as in Vulkan). */
+typedef enum LsnifStructureType {
+  LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO = 1,
+  LSNIF_STRUCTURE_TYPE_MAX_ENUM = 0x7FFFFFFF
+} LsnifStructureType;
+
 typedef struct LsnifQueryPipelineCreateInfo {
-  const void* pNext;                          /* reserved: NULL */
+  const void* pNext;                          /* NULL or a LsnifQueryPipelineFlagsCreateInfo */
   VkPipelineCache pipelineCache;              /* optional */
-  LsnifQueryPipelineCreateFlags flags;        /* LsnifQueryPipelineCreateFlagBits */
 } LsnifQueryPipelineCreateInfo;
+
+/* Chained into LsnifQueryPipelineCreateInfo::pNext (the create info keeps its layout of the
+ * releases before the flags existed). */
+typedef struct LsnifQueryPipelineFlagsCreateInfo {
+  LsnifStructureType sType;                   /* LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO */
+  const void* pNext;                          /* NULL */
+  LsnifQueryPipelineCreateFlags flags;        /* LsnifQueryPipelineCreateFlagBits */
+} LsnifQueryPipelineFlagsCreateInfo;
 
 /* Creates the compute pipelines of the batched path on the context's device (SPIR-V embedded in
  * this library; pCreateInfo may be NULL: no flags, no cache). Destroyed by

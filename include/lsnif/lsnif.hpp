@@ -134,9 +134,12 @@ class QueryPipeline {
   LsnifResult create(LsnifContext context, LsnifQueryPipelineCreateFlags flags = 0,
                      VkPipelineCache cache = VK_NULL_HANDLE) {
     reset();
+    LsnifQueryPipelineFlagsCreateInfo chained{};
+    chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
+    chained.flags = flags;
     LsnifQueryPipelineCreateInfo info{};
+    info.pNext = flags ? &chained : nullptr;
     info.pipelineCache = cache;
-    info.flags = flags;
     const LsnifResult r = lsnifCreateQueryPipeline(context, &info, &pipeline_);
     if (r == LSNIF_SUCCESS) context_ = context;
     return r;

@@ -52,12 +52,10 @@ constexpr uint32_t kModeClosest = 0, kModeShadow = 1;  // RT_MODE_* of rt_confor
 
 std::string last_error() { return lsnifGetLastErrorMessage(); }
 
-// The members of LsnifQueryPipelineCreateInfo shipped before `flags` keep their offsets.
+// LsnifQueryPipelineCreateInfo keeps the layout it shipped with (the flags are chained through pNext).
 static_assert(offsetof(LsnifQueryPipelineCreateInfo, pNext) == 0, "shipped layout");
 static_assert(offsetof(LsnifQueryPipelineCreateInfo, pipelineCache) == sizeof(void*), "shipped layout");
-static_assert(offsetof(LsnifQueryPipelineCreateInfo, flags) ==
-                  offsetof(LsnifQueryPipelineCreateInfo, pipelineCache) + sizeof(VkPipelineCache),
-              "flags appended after the shipped members");
+static_assert(sizeof(LsnifQueryPipelineCreateInfo) == sizeof(void*) + sizeof(VkPipelineCache), "shipped layout");
 
 // Object to world: rotation by `deg` degrees about `axis`, then scale `s` (per axis, applied first),
 // then translation `t`.
@@ -863,15 +861,29 @@ TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
   ci.pEnabledFeatures = &features.features2;
   LsnifContext ctx = nullptr;
   ASSERT_EQ(lsnifCreateContext(&ci, &ctx), LSNIF_SUCCESS) << last_error();
+  LsnifQueryPipelineFlagsCreateInfo chained{};
+  chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
+  chained.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
   LsnifQueryPipelineCreateInfo pi{};
-  pi.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
+  pi.pNext = &chained;
   LsnifQueryPipeline p = nullptr;
   EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_DEVICE_UNSUPPORTED);
   EXPECT_NE(last_error().find("without feature rayQuery enabled"), std::string::npos) << last_error();
   EXPECT_EQ(p, nullptr);
-  pi.flags = 0x2;
+  chained.flags = 0x2;
   EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
   EXPECT_NE(last_error().find("unknown flags 0x2"), std::string::npos) << last_error();
+  chained.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
+  chained.sType = static_cast<LsnifStructureType>(7);
+  EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("unknown structure type 7"), std::string::npos) << last_error();
+  chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
+  chained.pNext = &pi;
+  EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("LsnifQueryPipelineFlagsCreateInfo::pNext must be NULL"), std::string::npos)
+      << last_error();
+  chained.pNext = nullptr;
+  EXPECT_EQ(p, nullptr);
   VkPhysicalDeviceRayQueryFeaturesKHR rq{};
   rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
   rq.rayQuery = VK_TRUE;
