@@ -18,6 +18,7 @@
 #include "commands.h"
 #include "data_dir.h"
 #include "device_option.h"
+#include "pipeline_option.h"
 #include "render_compare.h"
 #include "scene_gltf.h"
 #include "train_options.h"
@@ -141,15 +142,12 @@ int cmd_bench(int argc, char** argv) {
   args.flag("quick", "tiny models (V=16, 2^12-entry grid, 32-wide MLP, 30 steps) and tiny images: seconds, for tests",
             &quick);
   args.flag("retrain", "train every model even when a matching one exists", &retrain);
-  args.option("pipeline", "inline or wavefront (lsnif render --pipeline)", &pipeline_name);
+  add_pipeline_option(args, &pipeline_name);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
 
   render::PathPipeline pipeline;
-  if (!render::parse_pipeline(pipeline_name, pipeline)) {
-    std::fprintf(stderr, "lsnif bench: --pipeline must be inline or wavefront, not '%s'\n", pipeline_name.c_str());
-    return 2;
-  }
+  if (!parse_pipeline_option("bench", pipeline_name, pipeline)) return 2;
   if (names.empty()) names = bench_scene_names();
   std::vector<std::string> scenes;
   for (const std::string& n : names) {

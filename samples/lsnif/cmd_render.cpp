@@ -8,6 +8,7 @@
 #include "device_option.h"
 #include "environment.h"
 #include "image_io.h"
+#include "pipeline_option.h"
 #include "progress.h"
 #include "renderer.h"
 #include "scene_args.h"
@@ -34,10 +35,7 @@ int cmd_render(int argc, char** argv) {
   args.option("height", "image height", &height);
   args.option("spp", "samples per pixel", &spp);
   args.option("bounces", "bounces after the camera ray (the paper's 4)", &bounces);
-  args.option("pipeline",
-              "inline (a ray-tracing pipeline, networks in the intersection shader) or wavefront (compute passes, "
-              "every ray cast in batches through lsnifCmdQuery; needs VK_KHR_ray_query); the same estimator",
-              &pipeline_name);
+  add_pipeline_option(args, &pipeline_name);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 on any message)", &validation);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
@@ -46,10 +44,7 @@ int cmd_render(int argc, char** argv) {
     return 2;
   }
   render::PathPipeline pipeline;
-  if (!render::parse_pipeline(pipeline_name, pipeline)) {
-    std::fprintf(stderr, "lsnif render: --pipeline must be inline or wavefront, not '%s'\n", pipeline_name.c_str());
-    return 2;
-  }
+  if (!parse_pipeline_option("render", pipeline_name, pipeline)) return 2;
 
   // The image's place is checked before the render, not after it.
   if (int r = sa.check_output("render", "-o", output)) return r;
