@@ -6,7 +6,8 @@
 // mean absolute difference stays small against the image's mean, and far below that of a render
 // with the object removed. (4) The wavefront pipeline (every ray through lsnifCmdQuery) gives the
 // inline pipeline's image: without LSNIF objects up to float rounding, with the LSNIF elephant
-// within a small fraction of the Monte Carlo noise (same estimator, same random numbers).
+// within a small fraction of the Monte Carlo noise (same estimator, same random numbers), and it
+// fails, rather than take them for misses, when queries answer rays INCOMPLETE.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -428,6 +429,39 @@ TEST_F(RenderTest, WavefrontMatchesInlineWithTheLsnifObject) {
   EXPECT_GT(d_noise, 0.0);
   EXPECT_LT(d_wave, 0.05 * d_noise);
   EXPECT_LT(f_wave.stats.mean, 0.25 * f_noise.stats.mean);
+}
+
+// More LSNIF boxes on a ray than a query has candidate room for: 33 copies of the elephant on the
+// same spot (candidatesPerRay is the instance count, at most 32) seen from a camera inside them, so
+// that every camera ray crosses all 33 boxes. The queries answer those rays INCOMPLETE; the render
+// must fail saying so rather than take them for misses.
+TEST_F(RenderTest, WavefrontFailsOnIncompleteQueries) {
+  scene::Scene crowded = scene_;
+  const scene::Instance elephant = crowded.instances[0];
+  ASSERT_GE(elephant.lsnif, 0);
+  ASSERT_GE(elephant.mesh, 0);
+  for (int k = 0; k < 32; ++k) crowded.instances.push_back(elephant);
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (const scene::Primitive& p : crowded.meshes[size_t(elephant.mesh)].primitives)
+    for (const glm::vec3& v : p.positions) {
+      lo = glm::min(lo, v);
+      hi = glm::max(hi, v);
+    }
+  crowded.cameras[0].camera_to_world = glm::translate(glm::mat4(1.0f), glm::vec3(elephant.object_to_world *
+                                                                                  glm::vec4(0.5f * (lo + hi), 1.0f)));
+  render::Renderer renderer(vk_);
+  render::RenderSettings settings = small(false);
+  settings.width = 16;
+  settings.height = 12;
+  settings.spp = 1;
+  settings.warm_up = false;
+  settings.pipeline = render::PathPipeline::wavefront;
+  image::Image out;
+  render::RenderStats stats;
+  const Status s = renderer.render(crowded, settings, out, stats);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("incomplete"), std::string::npos) << s.message();
+  EXPECT_EQ(renderer.scene_stats().lsnif_instances, 33u);
 }
 
 }  // namespace
