@@ -229,16 +229,18 @@ TEST_F(RenderTest, ProgressiveAccumulationMatchesOneShotRender) {
 
 // Moving an instance of a scene set on the device (TLAS refit, the viewer's object dragging) gives
 // the image of the scene uploaded with the instance already there, in both modes (an LSNIF instance
-// and a triangle one).
+// and a triangle one) and both pipelines (the wavefront's inverse transforms follow the move).
 TEST_F(RenderTest, MovedInstanceRendersAsIfPlacedThere) {
   glm::mat4 moved = glm::translate(glm::mat4(1.0f), glm::vec3(0.15f, 0.0f, -0.1f));
   moved = glm::rotate(moved, 0.4f, glm::vec3(0, 1, 0));
   scene::Scene placed = scene_;
   placed.instances[0].object_to_world = moved;
-  for (bool reference : {false, true}) {
+  for (int run = 0; run < 4; ++run) {
+    const bool reference = (run & 1) != 0;
     render::Renderer renderer(vk_);
     render::RenderSettings settings = small(reference);
     settings.spp = 2;
+    settings.pipeline = run < 2 ? render::PathPipeline::inline_rt : render::PathPipeline::wavefront;
     image::Image expected, got, before;
     render::RenderStats stats;
     ASSERT_TRUE(renderer.render(placed, settings, expected, stats));
@@ -248,8 +250,9 @@ TEST_F(RenderTest, MovedInstanceRendersAsIfPlacedThere) {
     ASSERT_EQ(got.rgb.size(), expected.rgb.size());
     size_t differing = 0;
     for (size_t i = 0; i < got.rgb.size(); ++i) differing += std::fabs(got.rgb[i] - expected.rgb[i]) > 1e-4f ? 1 : 0;
-    std::printf("%s: moved vs placed: %zu of %zu values differ; before vs placed: mean |d| %.4f\n",
-                reference ? "reference" : "LSNIF", differing, got.rgb.size(), mean_abs_diff(before, expected));
+    std::printf("%s, %s: moved vs placed: %zu of %zu values differ; before vs placed: mean |d| %.4f\n",
+                reference ? "reference" : "LSNIF", render::pipeline_name(settings.pipeline), differing, got.rgb.size(),
+                mean_abs_diff(before, expected));
     EXPECT_LT(double(differing), 0.002 * double(got.rgb.size()));
     EXPECT_GT(mean_abs_diff(before, expected), 0.01);  // the move is visible
     EXPECT_FALSE(renderer.move_instance(7, moved));
