@@ -38,7 +38,7 @@ vk::ContextOptions context_options(PathPipeline pipeline, bool validation, const
 struct RenderSettings {
   uint32_t width = 320, height = 240;
   uint32_t spp = 16;               // samples per pixel
-  uint32_t samples_per_pass = 4;   // per vkCmdTraceRaysKHR (keeps each submission short)
+  uint32_t samples_per_pass = 4;   // per submission (a vkCmdTraceRaysKHR or a wavefront command buffer)
   uint32_t max_bounces = 4;        // path vertices after the camera (the paper's 4)
   uint32_t rr_depth = 4;           // Russian roulette from this bounce on (only with max_bounces > 4)
   bool reference = false;          // triangles instead of LSNIF objects
