@@ -28,12 +28,6 @@ bool lsnif_facing_culled(vec3 object_normal, vec3 object_direction, uint ray_fla
          ((ray_flags & LSNIF_RAY_FLAG_CULL_FRONT_FACING) != 0u && facing < 0.0);
 }
 
-// Object units of LSNIF_LEAVING_TMIN_VOXELS voxel edges of the model (host_device.h).
-float lsnif_leaving_distance(LsnifModel m) {
-  return float(LSNIF_LEAVING_TMIN_VOXELS) * length(lsnif_bounds_hi(m) - lsnif_bounds_lo(m)) /
-         (float(m.h.voxel_resolution) * sqrt(3.0));
-}
-
 // The first half of lsnif_intersect: the walk of a valid ray (else 0 boundary points, a miss).
 // Fills lsnif_walk; returns its point count.
 uint lsnif_intersect_walk(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax) {

@@ -78,4 +78,10 @@ uint lsnif_output_dim(LsnifModel m) { return LSNIF_OUT_FIXED + m.h.material_coun
 vec3 lsnif_bounds_lo(LsnifModel m) { return vec3(m.h.bounds_lo_x, m.h.bounds_lo_y, m.h.bounds_lo_z); }
 vec3 lsnif_bounds_hi(LsnifModel m) { return vec3(m.h.bounds_hi_x, m.h.bounds_hi_y, m.h.bounds_hi_z); }
 
+// Object units of LSNIF_LEAVING_TMIN_VOXELS voxel edges of the model (host_device.h).
+float lsnif_leaving_distance(LsnifModel m) {
+  return float(LSNIF_LEAVING_TMIN_VOXELS) * length(lsnif_bounds_hi(m) - lsnif_bounds_lo(m)) /
+         (float(m.h.voxel_resolution) * sqrt(3.0));
+}
+
 #endif

@@ -1,4 +1,4 @@
-// render_common.glsl -- what the path tracer's shaders (render.rgen, render.rmiss,
+// render_common.glsl -- what the path tracer's shaders (render.rgen, render.rmiss, render_wave.comp,
 // render_triangle.rchit, render_lsnif.rchit) share: the push constants, buffer references to the
 // structs of render_host_device.h, and the payload a closest-hit shader fills for the ray
 // generation shader, which does all the shading.

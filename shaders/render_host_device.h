@@ -61,7 +61,8 @@ struct RenderFrame {
   lsnif_address textures;       /* RenderTexture[] */
   lsnif_address environment;    /* float3 radiance per texel (EnvironmentMap::radiance), 0: constant color */
   lsnif_address env_tables;     /* EnvironmentMap::packed(): marginal CDF, conditional CDFs, pdf table */
-  lsnif_address pad_address;
+  lsnif_address world_to_object; /* float3x3 (column-major) per instance custom index: the inverse of the
+                                   instance's linear part (the wavefront pipeline's gl_WorldToObjectEXT) */
   lsnif_address accumulation;   /* float4 per pixel: running sum of radiance, w = samples */
   lsnif_uint width, height;
   lsnif_uint env_width, env_height;
@@ -87,6 +88,43 @@ struct RenderPush {
   lsnif_address frame;        /* RenderFrame, at LSNIF_RT_PUSH_APP_OFFSET */
   lsnif_uint sample_index;    /* index of the first sample of this pass (per-pixel random sequences) */
   lsnif_uint samples;         /* samples per pixel in this pass */
+  lsnif_uint stage;           /* wavefront (render_wave.comp): RENDER_WAVE_* */
+  lsnif_uint bounce;          /* wavefront: the path vertex the stage works on */
+  lsnif_address wave;         /* wavefront: RenderWave */
+};
+
+/* ---- The wavefront pipeline (render_wave.comp; the rays cast by lsnifCmdQuery between stages) ----
+ * One path per pixel in flight; a stage runs one invocation per pixel. */
+#define RENDER_WAVE_CAMERA 0u     /* start the paths of sample pc.sample_index: camera rays */
+#define RENDER_WAVE_SHADE 1u      /* the path rays' results: shade, shadow rays, next path rays */
+#define RENDER_WAVE_CONNECT 2u    /* the shadow rays' results: add the unblocked light samples */
+#define RENDER_WAVE_ACCUMULATE 3u /* add each path's radiance to RenderFrame::accumulation */
+#define RENDER_WAVE_SHADOWS 2u    /* shadow rays per pixel (render_path.glsl RENDER_SHADOWS) */
+
+/* Per pixel: the path between stages. */
+struct RenderWavePath {
+  float throughput_r, throughput_g, throughput_b;
+  float radiance_r, radiance_g, radiance_b;
+  float last_pdf;
+  lsnif_uint rng_key, rng_dim;
+  lsnif_uint alive;           /* 1: the path ray of this pixel is to be cast */
+  lsnif_uint pad0, pad1;
+};
+
+/* Per shadow ray: the light sample it tests. */
+struct RenderWaveShadow {
+  float value_r, value_g, value_b;
+  lsnif_uint valid;           /* 1: add value when the ray is unblocked */
+};
+
+/* The wavefront buffers (pixels = width x height). */
+struct RenderWave {
+  lsnif_address paths;          /* RenderWavePath[pixels] */
+  lsnif_address rays;           /* LsnifQueryRay[pixels]: the path rays (world space) */
+  lsnif_address results;        /* LsnifQueryResult[pixels] */
+  lsnif_address shadow_rays;    /* LsnifQueryRay[RENDER_WAVE_SHADOWS x pixels], pixel-major */
+  lsnif_address shadow_results; /* LsnifQueryResult[RENDER_WAVE_SHADOWS x pixels] */
+  lsnif_address shadows;        /* RenderWaveShadow[RENDER_WAVE_SHADOWS x pixels] */
 };
 
 #endif

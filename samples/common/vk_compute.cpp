@@ -345,10 +345,7 @@ Status ComputeContext::load_shader_module(const std::string& spirv_path, VkShade
   if (!device_) return Status::error("load_shader_module: context not initialized");
   std::vector<uint32_t> code;
   if (Status s = read_spirv_file(spirv_path, code); !s) return s;
-  Spirv spirv;
-  spirv.code = code.data();
-  spirv.bytes = code.size() * sizeof(uint32_t);
-  return create_shader_module(spirv, out).context(spirv_path);
+  return create_shader_module(Spirv{code.data(), code.size() * sizeof(uint32_t)}, out).context(spirv_path);
 }
 
 Status ComputeContext::create_shader_module(const Spirv& code, VkShaderModule& out) {
@@ -367,8 +364,16 @@ Status ComputeContext::create_shader_module(const Spirv& code, VkShaderModule& o
 Status ComputeContext::create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out) {
   out = Pipeline();
   if (!device_) return Status::error("create_pipeline: context not initialized");
+  std::vector<uint32_t> code;
+  if (Status s = read_spirv_file(spirv_path, code); !s) return s;
+  return create_pipeline(Spirv{code.data(), code.size() * sizeof(uint32_t)}, push_size, out).context(spirv_path);
+}
+
+Status ComputeContext::create_pipeline(const Spirv& code, uint32_t push_size, Pipeline& out) {
+  out = Pipeline();
+  if (!device_) return Status::error("create_pipeline: context not initialized");
   VkShaderModule module;
-  if (Status st = load_shader_module(spirv_path, module); !st) return st;
+  if (Status st = create_shader_module(code, module); !st) return st;
 
   VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, push_size};
   VkPipelineLayoutCreateInfo lci{};
@@ -393,8 +398,7 @@ Status ComputeContext::create_pipeline(const std::string& spirv_path, uint32_t p
   vkDestroyShaderModule(device_, module, nullptr);
   if (r != VK_SUCCESS) {
     destroy_pipeline(out);
-    return Status::error("vkCreateComputePipelines(%s) failed (VkResult %d)", spirv_path.c_str(),
-                         static_cast<int>(r));
+    return Status::error("vkCreateComputePipelines failed (VkResult %d)", static_cast<int>(r));
   }
   out.push_size = push_size;
   return Status::ok();

@@ -110,6 +110,8 @@ class ComputeContext {
   // A shader module of `code` on this context's device (caller destroys it).
   Status create_shader_module(const Spirv& code, VkShaderModule& out);
   Status create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out);
+  // The same from SPIR-V in memory (a shader embedded at build time).
+  Status create_pipeline(const Spirv& code, uint32_t push_size, Pipeline& out);
   void destroy_pipeline(Pipeline& pipeline);
   // Records push constants + vkCmdDispatch(groups_x, 1, 1), submits, waits; shader writes are
   // made visible to the host before it returns.

@@ -18,6 +18,7 @@
 #include "commands.h"
 #include "data_dir.h"
 #include "device_option.h"
+#include "pipeline_option.h"
 #include "render_compare.h"
 #include "scene_gltf.h"
 #include "train_options.h"
@@ -92,8 +93,9 @@ std::string table(const std::vector<SceneRow>& rows) {
 std::string results_markdown(const std::vector<SceneRow>& rows, const render::RenderSettings& rs,
                              const std::string& device, const std::string& training) {
   std::string md = "# lsnif bench: LSNIF vs triangles on the bundled scenes (like Table 1 of the paper)\n\n";
-  md += format("Device: %s. Images %ux%u, %u samples per pixel, %u bounces. Training: %s.\n\n", device.c_str(),
-               rs.width, rs.height, rs.spp, rs.max_bounces, training.c_str());
+  md += format("Device: %s. Images %ux%u, %u samples per pixel, %u bounces, %s pipeline. Training: %s.\n\n",
+               device.c_str(), rs.width, rs.height, rs.spp, rs.max_bounces, render::pipeline_name(rs.pipeline),
+               training.c_str());
   md += table(rows);
   md += "\nLSNIF count: LSNIF instances (unique models). LSNIF: device memory of the models (model block + AABB "
         "BLAS). Triangle BLAS: the BLASes of the same objects' meshes in reference mode (one per unique mesh, "
@@ -116,7 +118,7 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
 
 int cmd_bench(int argc, char** argv) {
   std::vector<std::string> names;
-  std::string out_dir = "out/bench", data_dir = default_data_dir(), device;
+  std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "inline";
   uint32_t width = 0, height = 0, spp = 0, steps = 0, batch = 0, threads = 0;
   uint64_t seed = 1;
   bool quick = false, retrain = false;
@@ -140,9 +142,12 @@ int cmd_bench(int argc, char** argv) {
   args.flag("quick", "tiny models (V=16, 2^12-entry grid, 32-wide MLP, 30 steps) and tiny images: seconds, for tests",
             &quick);
   args.flag("retrain", "train every model even when a matching one exists", &retrain);
+  add_pipeline_option(args, &pipeline_name);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
 
+  render::PathPipeline pipeline;
+  if (!parse_pipeline_option("bench", pipeline_name, pipeline)) return 2;
   if (names.empty()) names = bench_scene_names();
   std::vector<std::string> scenes;
   for (const std::string& n : names) {
@@ -171,6 +176,7 @@ int cmd_bench(int argc, char** argv) {
   rs.width = 320;
   rs.height = 240;
   rs.spp = 16;
+  rs.pipeline = pipeline;
   const auto set = [&topt](SettingId id, uint64_t value) { topt.given.set(id, {.u = value}); };
   if (quick) {
     set(SettingId::Voxels, 16);
@@ -205,7 +211,7 @@ int cmd_bench(int argc, char** argv) {
     return 1;
   }
   vk::ComputeContext ctx;
-  if (Status s = ctx.init(/*ray_tracing=*/true, /*validation=*/false, device); !s) {
+  if (Status s = ctx.init(render::context_options(pipeline, /*validation=*/false, device)); !s) {
     std::fprintf(stderr, "lsnif bench: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
                  s.message().c_str());
     return 1;

@@ -8,6 +8,7 @@
 #include "device_option.h"
 #include "environment.h"
 #include "image_io.h"
+#include "pipeline_option.h"
 #include "progress.h"
 #include "renderer.h"
 #include "scene_args.h"
@@ -16,7 +17,7 @@
 namespace lsnif::cli {
 
 int cmd_render(int argc, char** argv) {
-  std::string output = "render.png", device;
+  std::string output = "render.png", device, pipeline_name = "inline";
   uint32_t width = 640, height = 480, spp = 64, bounces = 4;
   bool reference = false, validation = false;
   SceneArgs sa;
@@ -34,6 +35,7 @@ int cmd_render(int argc, char** argv) {
   args.option("height", "image height", &height);
   args.option("spp", "samples per pixel", &spp);
   args.option("bounces", "bounces after the camera ray (the paper's 4)", &bounces);
+  add_pipeline_option(args, &pipeline_name);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 on any message)", &validation);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
@@ -41,6 +43,8 @@ int cmd_render(int argc, char** argv) {
     std::fprintf(stderr, "lsnif render: --width and --height must be in 1..16384 and --spp positive\n");
     return 2;
   }
+  render::PathPipeline pipeline;
+  if (!parse_pipeline_option("render", pipeline_name, pipeline)) return 2;
 
   // The image's place is checked before the render, not after it.
   if (int r = sa.check_output("render", "-o", output)) return r;
@@ -49,7 +53,7 @@ int cmd_render(int argc, char** argv) {
   if (int r = sa.load("render", scene, environment)) return r;
 
   vk::ComputeContext ctx;
-  if (Status s = ctx.init(/*ray_tracing=*/true, validation, device); !s) {
+  if (Status s = ctx.init(render::context_options(pipeline, validation, device)); !s) {
     std::fprintf(stderr, "lsnif render: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
                  s.message().c_str());
     return 1;
@@ -60,6 +64,7 @@ int cmd_render(int argc, char** argv) {
   settings.spp = spp;
   settings.max_bounces = bounces;
   settings.reference = reference;
+  settings.pipeline = pipeline;
   settings.camera = sa.camera_index();
   settings.environment = environment.width ? &environment : nullptr;
   render::Renderer renderer(ctx);
@@ -76,7 +81,8 @@ int cmd_render(int argc, char** argv) {
     std::fprintf(stderr, "lsnif render: %s\n", w.message().c_str());
     return 1;
   }
-  std::printf("scene            %s (%s mode)\n", sa.scene_path.c_str(), reference ? "reference" : "LSNIF");
+  std::printf("scene            %s (%s mode, %s pipeline)\n", sa.scene_path.c_str(), reference ? "reference" : "LSNIF",
+              render::pipeline_name(pipeline));
   std::printf("device           %s\n", ctx.device_name().c_str());
   std::printf("image            %s, %ux%u, %u spp, %u bounces\n", output.c_str(), width, height, spp, bounces);
   std::printf("time             %.2f s, %.2f ms per sample (%.3g s per frame of 1 spp)\n", stats.seconds,

@@ -1,9 +1,11 @@
 // renderer.cpp -- the path tracer of renderer.h: uploads the scene (per mesh primitive a triangle
 // BLAS plus its vertex data, per LSNIF object a plugin model), builds the TLAS (one record per
 // primitive of a triangle instance, one per LSNIF instance; custom index = RenderInstance index),
-// and traces passes of shaders/render.rgen into an accumulation buffer.
+// and traces passes of shaders/render.rgen into an accumulation buffer, or (wavefront) records the
+// stages of shaders/render_wave.comp with lsnifCmdQuery between them.
 #include "renderer.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstddef>
 #include <cmath>
@@ -27,6 +29,7 @@ namespace {
 #include "render_rgen_spirv.h"
 #include "render_rmiss_spirv.h"
 #include "render_triangle_rchit_spirv.h"
+#include "render_wave_comp_spirv.h"
 
 static_assert(offsetof(RenderPush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
 static_assert(offsetof(RenderPush, model_count) == LSNIF_RT_PUSH_MODEL_COUNT_OFFSET, "binding convention");
@@ -61,6 +64,9 @@ struct DeviceScene {
     uint64_t instances = 0, material_maps = 0;  // RenderFrame::instances, material_maps of the mode
     uint64_t table_address = 0;
     uint32_t table_count = 0;              // entries of the model table
+    std::vector<LsnifModel> table_models;  // per table entry: its model, null for triangle instances
+    uint64_t world_to_object = 0;          // RenderFrame::world_to_object of the mode (per custom index)
+    glm::mat3* world_to_object_mapped = nullptr;
     RenderStats stats;                     // what the mode uses (times 0)
   };
   Mode modes[2];
@@ -68,12 +74,14 @@ struct DeviceScene {
   RenderFrame frame{};                    // the scene's part filled in; view and image set per pass
   RenderFrame* frame_on_device = nullptr;  // mapped RenderFrame buffer
   uint64_t frame_address = 0;
+  LsnifQueryPipeline query = nullptr;      // the wavefront pipeline's lsnifCmdQuery, made on first use
   glm::vec3 lo{0.0f}, hi{0.0f};           // world bounds (for a framing camera)
   std::vector<scene::Camera> cameras;
   float env_rotation = 0.0f;
   Mode& mode() { return modes[active]; }
   DeviceScene(vk::ComputeContext& c, vk::RayTracer& t) : ctx(c), tracer(t) {}
   ~DeviceScene() {
+    if (query) lsnifDestroyQueryPipeline(plugin.get(), query);
     for (Mode& m : modes) tracer.destroy(m.tlas);
     for (vk::AccelerationStructure& b : blases) tracer.destroy(b);
     for (vk::Buffer& b : buffers) ctx.destroy_buffer(b);
@@ -147,6 +155,25 @@ Renderer::~Renderer() {
   scene_.reset();
   release_accumulation();
   if (pipeline_ready_) tracer_.destroy(pipeline_);
+  ctx_.destroy_pipeline(wave_pipeline_);
+}
+
+const char* pipeline_name(PathPipeline p) { return p == PathPipeline::wavefront ? "wavefront" : "inline"; }
+
+vk::ContextOptions context_options(PathPipeline pipeline, bool validation, const std::string& device) {
+  vk::ContextOptions options;
+  options.ray_tracing = true;
+  options.ray_query = pipeline == PathPipeline::wavefront;
+  options.validation = validation;
+  options.device = device;
+  return options;
+}
+
+bool parse_pipeline(const std::string& name, PathPipeline& out) {
+  if (name == "inline") out = PathPipeline::inline_rt;
+  else if (name == "wavefront") out = PathPipeline::wavefront;
+  else return false;
+  return true;
 }
 
 Status Renderer::create_pipeline() {
@@ -340,6 +367,7 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
     std::vector<uint64_t> model_table;
     std::vector<uint32_t> material_maps;
     std::vector<VkAccelerationStructureInstanceKHR> records;
+    std::vector<glm::mat3> world_to_object;  // per record (custom index)
     for (const scene::Instance& in : scene.instances) {
       md.instance_records.emplace_back(records.size(), 0);
       if (in.lsnif >= 0 && !ref) {
@@ -356,6 +384,8 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
         if (lsnifMakeInstance(dev.plugin.get(), &info, &rec) != LSNIF_SUCCESS)
           return plugin_error(("node '" + in.node_name + "'").c_str());
         model_table.push_back(model.properties().blockAddress);
+        md.table_models.push_back(model.get());
+        world_to_object.push_back(glm::inverse(glm::mat3(in.object_to_world)));
         instances.push_back(ri);
         records.push_back(rec);
         md.record_model.push_back(int64_t(slot[size_t(in.lsnif)]));
@@ -379,6 +409,8 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
         rec.accelerationStructureReference = dev.blases[prim].address;
         instances.push_back({RENDER_INSTANCE_TRIANGLES, prim, 0, 0});
         model_table.push_back(0);
+        md.table_models.push_back(nullptr);
+        world_to_object.push_back(glm::inverse(glm::mat3(in.object_to_world)));
         records.push_back(rec);
         md.record_model.push_back(-1);
         ++md.instance_records.back().second;
@@ -400,6 +432,9 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
       return s;
     if (Status s = dev.upload(model_table, md.table_address); !s) return s;
     md.table_count = uint32_t(model_table.size());
+    static_assert(sizeof(glm::mat3) == 36, "RenderFrame::world_to_object is float3x3 per instance");
+    if (Status s = dev.upload(world_to_object, md.world_to_object); !s) return s;
+    md.world_to_object_mapped = static_cast<glm::mat3*>(dev.buffers.back().mapped);
     md.ready = true;
   }
   dev.active = reference ? 1 : 0;
@@ -507,6 +542,7 @@ Status Renderer::move_instance(size_t instance, const glm::mat4& object_to_world
       } else {
         md.records[r].transform = xf;
       }
+      md.world_to_object_mapped[r] = glm::inverse(glm::mat3(object_to_world));
     }
     if (Status s = tracer_.update_tlas(md.records, md.tlas); !s) return s;
   }
@@ -541,6 +577,175 @@ void Renderer::release_accumulation() {
   if (accumulation_.buffer) ctx_.destroy_buffer(accumulation_);
   accumulation_ = vk::Buffer();
   width_ = height_ = accumulated_ = 0;
+  release_wavefront();
+}
+
+void Renderer::release_wavefront() {
+  for (vk::Buffer& b : wave_buffers_) ctx_.destroy_buffer(b);
+  wave_buffers_.clear();
+  ctx_.destroy_buffer(wave_scratch_);
+  ctx_.destroy_buffer(wave_status_);
+  wave_address_ = 0;
+}
+
+namespace {
+
+// The queries of the wavefront pipeline over the scene's TLAS (rays, results, status and the
+// scratch fields are set per query). Candidates: one per LSNIF instance a ray can cross, so that
+// no ray runs out of capacity up to LSNIF_QUERY_MAX_CANDIDATES_PER_RAY instances.
+LsnifQueryInfo wave_query_info(const DeviceScene::Mode& md, uint32_t lsnif_instances) {
+  LsnifQueryInfo q{};
+  q.candidatesPerRay = std::clamp(lsnif_instances, 1u, LSNIF_QUERY_MAX_CANDIDATES_PER_RAY);
+  q.tlas = md.tlas.address;
+  q.cullMask = 0xFF;
+  q.modelCount = md.table_count;
+  q.pModels = md.table_models.data();
+  q.modelTable = md.table_address;
+  return q;
+}
+
+// Between the wavefront's passes: compute writes (and the queries' indirect arguments) before
+// compute reads and writes and indirect reads.
+void wave_barrier(VkCommandBuffer cmd) {
+  VkMemoryBarrier b{};
+  b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+  b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT;
+  const VkPipelineStageFlags stages = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT;
+  vkCmdPipelineBarrier(cmd, stages, stages, 0, 1, &b, 0, nullptr, 0, nullptr);
+}
+
+}  // namespace
+
+Status Renderer::prepare_wavefront(uint32_t samples, uint32_t max_bounces) {
+  DeviceScene& dev = *scene_;
+  if (!wave_pipeline_.pipeline) {
+    Status s = ctx_.create_pipeline(spirv(render_wave_comp_spirv, sizeof render_wave_comp_spirv), sizeof(RenderPush),
+                                    wave_pipeline_);
+    if (!s) return s.context("wavefront pipeline");
+  }
+  if (!dev.query) {
+    LsnifQueryPipelineFlagsCreateInfo flags{};
+    flags.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
+    flags.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
+    LsnifQueryPipelineCreateInfo info{};
+    info.pNext = &flags;
+    if (lsnifCreateQueryPipeline(dev.plugin.get(), &info, &dev.query) != LSNIF_SUCCESS)
+      return plugin_error("wavefront pipeline");
+  }
+  const size_t pixels = size_t(width_) * height_;
+  if (wave_buffers_.empty()) {
+    RenderWave w{};
+    const std::pair<uint64_t*, size_t> parts[] = {
+        {&w.paths, pixels * sizeof(RenderWavePath)},
+        {&w.rays, pixels * sizeof(LsnifQueryRay)},
+        {&w.results, pixels * sizeof(LsnifQueryResult)},
+        {&w.shadow_rays, RENDER_WAVE_SHADOWS * pixels * sizeof(LsnifQueryRay)},
+        {&w.shadow_results, RENDER_WAVE_SHADOWS * pixels * sizeof(LsnifQueryResult)},
+        {&w.shadows, RENDER_WAVE_SHADOWS * pixels * sizeof(RenderWaveShadow)}};
+    for (const auto& [address, bytes] : parts) {
+      vk::Buffer b;
+      if (Status s = ctx_.create_buffer(bytes, b); !s) return s;
+      wave_buffers_.push_back(b);
+      *address = b.address;
+    }
+    vk::Buffer b;
+    if (Status s = ctx_.create_buffer(sizeof w, b); !s) return s;
+    std::memcpy(b.mapped, &w, sizeof w);
+    wave_buffers_.push_back(b);
+    wave_address_ = b.address;
+  }
+  // The scratch of the larger batch (the shadow rays), for this scene's models and capacity.
+  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
+  q.rayCount = uint32_t(RENDER_WAVE_SHADOWS * pixels);
+  VkDeviceSize bytes = 0;
+  if (lsnifGetQueryScratchSize(dev.plugin.get(), &q, &bytes) != LSNIF_SUCCESS) return plugin_error("wavefront scratch");
+  if (wave_scratch_.size < bytes) {
+    ctx_.destroy_buffer(wave_scratch_);
+    if (Status s = ctx_.create_buffer(size_t(bytes), wave_scratch_, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT); !s) return s;
+  }
+  const size_t status_bytes = size_t(samples) * (2 * max_bounces + 1) * sizeof(LsnifQueryStatus);
+  if (wave_status_.size < status_bytes) {
+    ctx_.destroy_buffer(wave_status_);
+    if (Status s = ctx_.create_buffer(status_bytes, wave_status_); !s) return s;
+  }
+  std::memset(wave_status_.mapped, 0, status_bytes);
+  return Status::ok();
+}
+
+Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces) {
+  if (Status s = prepare_wavefront(samples, max_bounces); !s) return s;
+  DeviceScene& dev = *scene_;
+  const uint32_t pixels = width_ * height_, groups = (pixels + 63) / 64;
+  RenderWave w;
+  std::memcpy(&w, wave_buffers_.back().mapped, sizeof w);
+  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
+  q.scratchBuffer = wave_scratch_.buffer;
+  q.scratchSize = wave_scratch_.size;
+  RenderPush push{};
+  push.model_table = dev.mode().table_address;
+  push.model_count = dev.mode().table_count;
+  push.frame = dev.frame_address;
+  push.samples = 1;
+  push.wave = wave_address_;
+  LsnifResult recorded = LSNIF_SUCCESS;
+  uint32_t queries = 0;
+  Status st = ctx_.submit("wavefront pass", [&](VkCommandBuffer cmd) {
+    auto stage = [&](uint32_t which, uint32_t bounce) {
+      push.stage = which;
+      push.bounce = bounce;
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, wave_pipeline_.pipeline);  // a query binds its own
+      vkCmdPushConstants(cmd, wave_pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+      vkCmdDispatch(cmd, groups, 1, 1);
+      wave_barrier(cmd);
+    };
+    auto query = [&](uint64_t rays, uint64_t results, uint32_t count) {
+      q.rayCount = count;
+      q.rays = rays;
+      q.results = results;
+      q.status = wave_status_.address + queries++ * sizeof(LsnifQueryStatus);
+      if (recorded == LSNIF_SUCCESS) recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
+      wave_barrier(cmd);
+    };
+    // The TLAS (built or refitted before) and the frame for the first pass.
+    VkMemoryBarrier b{};
+    b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    b.srcAccessMask = VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR | VK_ACCESS_SHADER_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_ACCELERATION_STRUCTURE_READ_BIT_KHR | VK_ACCESS_SHADER_READ_BIT;
+    vkCmdPipelineBarrier(cmd,
+                         VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &b, 0, nullptr, 0, nullptr);
+    for (uint32_t s = 0; s < samples; ++s) {
+      push.sample_index = first_sample + s;
+      stage(RENDER_WAVE_CAMERA, 0);
+      for (uint32_t bounce = 0; bounce <= max_bounces; ++bounce) {
+        query(w.rays, w.results, pixels);
+        stage(RENDER_WAVE_SHADE, bounce);
+        if (bounce == max_bounces) break;  // the last vertex samples no light
+        query(w.shadow_rays, w.shadow_results, RENDER_WAVE_SHADOWS * pixels);
+        stage(RENDER_WAVE_CONNECT, bounce);
+      }
+      stage(RENDER_WAVE_ACCUMULATE, 0);
+    }
+    b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0, nullptr, 0,
+                         nullptr);
+  });
+  if (recorded != LSNIF_SUCCESS) return plugin_error("wavefront pass");
+  if (!st) return st.context("wavefront pass");
+  // INCOMPLETE answers are not misses: a render with any fails.
+  const auto* status = static_cast<const LsnifQueryStatus*>(wave_status_.mapped);
+  uint64_t incomplete = 0, dropped = 0;
+  for (uint32_t i = 0; i < queries; ++i) {
+    incomplete += status[i].incomplete_rays;
+    dropped += status[i].dropped;
+  }
+  if (incomplete > 0)
+    return Status::error("render (wavefront): %llu rays answered incomplete (%llu LSNIF candidates did not fit %u "
+                         "per ray)", static_cast<unsigned long long>(incomplete),
+                         static_cast<unsigned long long>(dropped), q.candidatesPerRay);
+  return Status::ok();
 }
 
 Status Renderer::reset_accumulation(uint32_t width, uint32_t height) {
@@ -559,7 +764,7 @@ Status Renderer::reset_accumulation(uint32_t width, uint32_t height) {
 }
 
 Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces,
-                            uint32_t rr_depth) {
+                            uint32_t rr_depth, PathPipeline pipeline) {
   if (!scene_) return Status::error("render: no scene set");
   if (!accumulation_.buffer) return Status::error("render: reset_accumulation before accumulate");
   if (samples == 0) return Status::ok();
@@ -569,6 +774,7 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   const DeviceScene::Mode& md = scene_->mode();
   frame.instances = md.instances;
   frame.material_maps = md.material_maps;
+  frame.world_to_object = md.world_to_object;
   frame.accumulation = accumulation_.address;
   frame.width = width_;
   frame.height = height_;
@@ -586,7 +792,11 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   push.frame = scene_->frame_address;
   push.sample_index = first_sample;
   push.samples = samples;
-  if (Status s = tracer_.trace(pipeline_, md.tlas, &push, width_ * height_); !s) return s.context("render pass");
+  if (pipeline == PathPipeline::wavefront) {
+    if (Status s = accumulate_wavefront(first_sample, samples, max_bounces); !s) return s;
+  } else if (Status s = tracer_.trace(pipeline_, md.tlas, &push, width_ * height_); !s) {
+    return s.context("render pass");
+  }
   accumulated_ += samples;
   return Status::ok();
 }
@@ -618,7 +828,9 @@ Status Renderer::render(const RenderSettings& settings, image::Image& out, Rende
   // A first 1-sample pass, discarded, makes the driver compile the pipeline (lavapipe does it on
   // first use), so the timed passes measure tracing only.
   if (settings.warm_up) {
-    if (Status s = accumulate(view, settings.first_sample, 1, settings.max_bounces, settings.rr_depth); !s)
+    if (Status s = accumulate(view, settings.first_sample, 1, settings.max_bounces, settings.rr_depth,
+                              settings.pipeline);
+        !s)
       return s.context("warm-up");
     if (Status s = reset_accumulation(settings.width, settings.height); !s) return s;
   }
@@ -626,7 +838,9 @@ Status Renderer::render(const RenderSettings& settings, image::Image& out, Rende
   uint32_t done = 0;
   while (done < settings.spp) {
     const uint32_t n = std::min(settings.samples_per_pass, settings.spp - done);
-    if (Status s = accumulate(view, settings.first_sample + done, n, settings.max_bounces, settings.rr_depth); !s)
+    if (Status s = accumulate(view, settings.first_sample + done, n, settings.max_bounces, settings.rr_depth,
+                              settings.pipeline);
+        !s)
       return s;
     done += n;
     if (progress) progress(done);

@@ -2,7 +2,10 @@
 // triangle BLASes and its LSNIF objects through the plugin (include/lsnif/lsnif.h), in one TLAS, traced
 // by shaders/render.rgen. Two modes over the same scene: LSNIF (every node with an LSNIF object
 // uses it) and reference (every such node uses its triangle mesh instead); both use the same
-// per-pixel random sequences, so their difference is the geometry's, not noise.
+// per-pixel random sequences, so their difference is the geometry's, not noise. Two pipelines for
+// the same estimator (shaders/render_path.glsl): inline (a ray-tracing pipeline; every ray entering
+// an LSNIF box runs the network in the intersection shader) and wavefront (compute passes; every
+// ray cast goes through the plugin's lsnifCmdQuery in batches, docs/renderer.md).
 #pragma once
 #include <cstdint>
 #include <functional>
@@ -20,13 +23,26 @@
 
 namespace lsnif::render {
 
+// How the paths are traced: the same estimator, the same per-pixel random sequences.
+enum class PathPipeline {
+  inline_rt,  // render.rgen: one ray-tracing launch per pass, networks in the intersection shader
+  wavefront,  // render_wave.comp stages with lsnifCmdQuery between them (needs ContextOptions::ray_query)
+};
+// "inline" / "wavefront".
+const char* pipeline_name(PathPipeline p);
+// Parses "inline" / "wavefront"; false on anything else.
+bool parse_pipeline(const std::string& name, PathPipeline& out);
+// What ComputeContext::init needs for a Renderer using `pipeline` on `device` (ContextOptions::device).
+vk::ContextOptions context_options(PathPipeline pipeline, bool validation, const std::string& device);
+
 struct RenderSettings {
   uint32_t width = 320, height = 240;
   uint32_t spp = 16;               // samples per pixel
-  uint32_t samples_per_pass = 4;   // per vkCmdTraceRaysKHR (keeps each submission short)
+  uint32_t samples_per_pass = 4;   // per submission (a vkCmdTraceRaysKHR or a wavefront command buffer)
   uint32_t max_bounces = 4;        // path vertices after the camera (the paper's 4)
   uint32_t rr_depth = 4;           // Russian roulette from this bounce on (only with max_bounces > 4)
   bool reference = false;          // triangles instead of LSNIF objects
+  PathPipeline pipeline = PathPipeline::inline_rt;
   bool warm_up = true;              // a discarded first pass (pipeline compile) before the timed ones
   uint32_t first_sample = 0;       // index of the first sample: per-pixel random sequences start here
                                    // (renders with disjoint ranges have independent noise)
@@ -116,14 +132,20 @@ class Renderer {
   // image; accumulate traces `samples` more samples per pixel, numbered from `first_sample`, from
   // `view` and adds them; resolve writes the mean so far (black before any sample).
   Status reset_accumulation(uint32_t width, uint32_t height);
+  // With PathPipeline::wavefront the ComputeContext needs ContextOptions::ray_query; it fails when
+  // a query answers a ray INCOMPLETE (more LSNIF boxes on one ray than the candidate capacity).
   Status accumulate(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces = 4,
-                    uint32_t rr_depth = 4);
+                    uint32_t rr_depth = 4, PathPipeline pipeline = PathPipeline::inline_rt);
   void resolve(image::Image& out) const;
   uint32_t accumulated_samples() const { return accumulated_; }
 
  private:
   Status create_pipeline();
   void release_accumulation();
+  // The wavefront pipeline's passes for `samples` samples from `first_sample` (frame set up).
+  Status accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces);
+  Status prepare_wavefront(uint32_t samples, uint32_t max_bounces);
+  void release_wavefront();
   vk::ComputeContext& ctx_;
   vk::RayTracer tracer_;
   vk::RtPipeline pipeline_{};
@@ -131,6 +153,12 @@ class Renderer {
   std::unique_ptr<DeviceScene> scene_;
   RenderStats scene_stats_;
   vk::Buffer accumulation_{};
+  vk::Pipeline wave_pipeline_{};                 // render_wave.comp
+  // The wavefront buffers (RenderWave), sized for the accumulation image; scratch and statuses of
+  // the queries (one LsnifQueryStatus per query of a pass).
+  std::vector<vk::Buffer> wave_buffers_;
+  vk::Buffer wave_scratch_{}, wave_status_{};
+  uint64_t wave_address_ = 0;
   uint32_t width_ = 0, height_ = 0, accumulated_ = 0;
   uint32_t models_loaded_ = 0, blases_built_ = 0, tlases_built_ = 0;
 };

@@ -87,11 +87,8 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
     return Status::error("viewer: the screenshot is what the window shows: write it as .png, not %s",
                          settings.screenshot.c_str());
   if (Status s = init_glfw(); !s) return s;
-  vk::ContextOptions options;
-  options.ray_tracing = true;
-  options.validation = settings.validation;
+  vk::ContextOptions options = render::context_options(settings.pipeline, settings.validation, settings.device);
   options.swapchain = true;
-  options.device = settings.device;
   if (Status s = window_instance_extensions(options.instance_extensions); !s) return s;
 
   Input input;
@@ -217,7 +214,10 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
         view.yfov = camera.yfov();
         view.env_rotation = env_rotation;
         const auto t0 = std::chrono::steady_clock::now();
-        if (Status s = renderer.accumulate(view, renderer.accumulated_samples(), 1, settings.max_bounces); !s) return s;
+        if (Status s = renderer.accumulate(view, renderer.accumulated_samples(), 1, settings.max_bounces,
+                                           render::RenderSettings().rr_depth, settings.pipeline);
+            !s)
+          return s;
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         renderer.resolve(linear);
 

@@ -14,6 +14,7 @@
 #include <glm/glm.hpp>
 
 #include "environment.h"
+#include "renderer.h"
 #include "scene.h"
 #include "status.h"
 
@@ -23,6 +24,7 @@ struct ViewerSettings {
   uint32_t width = 800, height = 600;  // window size
   uint32_t scale = 2;                  // render at window / scale (nearest upscaled): lavapipe is slow
   uint32_t max_bounces = 4;
+  render::PathPipeline pipeline = render::PathPipeline::inline_rt;  // how the renderer casts rays
   int32_t camera = 0;                  // the scene's camera; -1: frame the scene
   bool reference = false;              // start in reference mode
   float exposure = 0.0f;               // stops

@@ -4,7 +4,10 @@
 // same mode twice gives identical images, (2) a scene without LSNIF objects renders identically in
 // both modes, (3) the LSNIF render differs from the reference only where the geometry differs: its
 // mean absolute difference stays small against the image's mean, and far below that of a render
-// with the object removed.
+// with the object removed. (4) The wavefront pipeline (every ray through lsnifCmdQuery) gives the
+// inline pipeline's image: without LSNIF objects up to float rounding, with the LSNIF elephant
+// within a small fraction of the Monte Carlo noise (same estimator, same random numbers), and it
+// fails, rather than take them for misses, when queries answer rays INCOMPLETE.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -55,7 +58,11 @@ double mean(const image::Image& a) {
 class RenderTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    vk_status_ = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::kReferenceDevice);
+    vk::ContextOptions options;
+    options.ray_tracing = true;
+    options.ray_query = true;  // the wavefront pipeline's lsnifCmdQuery
+    options.device = test::kReferenceDevice;
+    vk_status_ = vk_.init(options);
     if (!vk_status_) return;
     Mesh mesh;
     if (!std::filesystem::exists(kElephant) || !load_mesh(kElephant, mesh)) {
@@ -222,16 +229,18 @@ TEST_F(RenderTest, ProgressiveAccumulationMatchesOneShotRender) {
 
 // Moving an instance of a scene set on the device (TLAS refit, the viewer's object dragging) gives
 // the image of the scene uploaded with the instance already there, in both modes (an LSNIF instance
-// and a triangle one).
+// and a triangle one) and both pipelines (the wavefront's inverse transforms follow the move).
 TEST_F(RenderTest, MovedInstanceRendersAsIfPlacedThere) {
   glm::mat4 moved = glm::translate(glm::mat4(1.0f), glm::vec3(0.15f, 0.0f, -0.1f));
   moved = glm::rotate(moved, 0.4f, glm::vec3(0, 1, 0));
   scene::Scene placed = scene_;
   placed.instances[0].object_to_world = moved;
-  for (bool reference : {false, true}) {
+  for (int run = 0; run < 4; ++run) {
+    const bool reference = (run & 1) != 0;
     render::Renderer renderer(vk_);
     render::RenderSettings settings = small(reference);
     settings.spp = 2;
+    settings.pipeline = run < 2 ? render::PathPipeline::inline_rt : render::PathPipeline::wavefront;
     image::Image expected, got, before;
     render::RenderStats stats;
     ASSERT_TRUE(renderer.render(placed, settings, expected, stats));
@@ -241,8 +250,9 @@ TEST_F(RenderTest, MovedInstanceRendersAsIfPlacedThere) {
     ASSERT_EQ(got.rgb.size(), expected.rgb.size());
     size_t differing = 0;
     for (size_t i = 0; i < got.rgb.size(); ++i) differing += std::fabs(got.rgb[i] - expected.rgb[i]) > 1e-4f ? 1 : 0;
-    std::printf("%s: moved vs placed: %zu of %zu values differ; before vs placed: mean |d| %.4f\n",
-                reference ? "reference" : "LSNIF", differing, got.rgb.size(), mean_abs_diff(before, expected));
+    std::printf("%s, %s: moved vs placed: %zu of %zu values differ; before vs placed: mean |d| %.4f\n",
+                reference ? "reference" : "LSNIF", render::pipeline_name(settings.pipeline), differing, got.rgb.size(),
+                mean_abs_diff(before, expected));
     EXPECT_LT(double(differing), 0.002 * double(got.rgb.size()));
     EXPECT_GT(mean_abs_diff(before, expected), 0.01);  // the move is visible
     EXPECT_FALSE(renderer.move_instance(7, moved));
@@ -419,6 +429,126 @@ TEST_F(RenderTest, BadScenesGiveClearErrors) {
   bad = scene_;
   bad.instances.clear();
   EXPECT_FALSE(renderer.render(bad, small(true), out, s));
+}
+
+}  // namespace
+}  // namespace lsnif
+
+namespace lsnif {
+namespace {
+
+// The elephant scene lit by a sun besides the sky, so that next-event estimation casts shadow rays
+// (the sky is a constant color without importance sampling: no light samples of its own).
+scene::Scene with_sun(scene::Scene s) {
+  s.sun.enabled = true;
+  s.sun.direction = glm::vec3(0.4f, 1.0f, 0.3f);
+  s.sun.irradiance = glm::vec3(3.0f);
+  return s;
+}
+
+double max_abs_diff(const image::Image& a, const image::Image& b) {
+  double d = 0;
+  for (size_t i = 0; i < a.rgb.size(); ++i) d = std::max(d, std::fabs(double(a.rgb[i]) - double(b.rgb[i])));
+  return d;
+}
+
+// Without LSNIF objects both pipelines see the same triangles through the same TLAS (a traceRayEXT
+// traversal and a ray query's) and shade them with the same functions and random numbers; only the
+// instance's inverse transform (the driver's gl_WorldToObjectEXT inline, glm::inverse for the
+// wavefront) can round differently. The bound: no value differs by more than 1e-5, a few float
+// ulps of radiances up to ~2 (measured: 1.2e-7), while a single path that took another branch
+// moves its pixel by about its radiance / spp (~1e-2 here).
+TEST_F(RenderTest, WavefrontMatchesInlineWithoutLsnifObjects) {
+  scene::Scene plain = with_sun(scene_);
+  plain.instances[0].lsnif = -1;
+  render::Renderer renderer(vk_);
+  render::RenderSettings settings = small(false);
+  image::Image inline_image, wave_image;
+  render::RenderStats si, sw;
+  ASSERT_TRUE(renderer.render(plain, settings, inline_image, si));
+  settings.pipeline = render::PathPipeline::wavefront;
+  ASSERT_TRUE(renderer.render(plain, settings, wave_image, sw));
+  ASSERT_EQ(wave_image.rgb.size(), inline_image.rgb.size());
+  const double d = max_abs_diff(inline_image, wave_image);
+  std::printf("no LSNIF objects: max |inline - wavefront| %.3g, mean |.| %.3g, mean image %.4f; inline %.1f "
+              "ms/sample, wavefront %.1f ms/sample\n",
+              d, mean_abs_diff(inline_image, wave_image), mean(inline_image), si.ms_per_sample, sw.ms_per_sample);
+  EXPECT_GT(mean(inline_image), 0.05);
+  EXPECT_LT(d, 1e-5);
+}
+
+// With the LSNIF elephant the pipelines evaluate the same networks on the same rays, but the
+// batched MLP (lsnifCmdQuery) and the intersection shader's round differently (summation order,
+// the hit attributes' unorm16 albedo), so a few paths may take other branches (a hit accepted at
+// occlusion ~0.5, a Russian-roulette draw at the threshold) and go on with other random numbers.
+// The difference is then the noise of those paths: if a fraction p of the N paths of a pixel
+// diverge, the pixels differ by about sqrt(p) times the difference between two renders with
+// independent random numbers (the noise floor, samples 1000.. here). The bound, mean absolute
+// difference < 0.05 x that floor, admits p up to ~0.25% of the paths; mean FLIP < 0.25 x the
+// floor's. Measured on lavapipe: 2e-7 against 0.027 (no path diverged). A wrong estimator (a light
+// sample lost, another self-intersection rule) moves every pixel it touches and fails it.
+TEST_F(RenderTest, WavefrontMatchesInlineWithTheLsnifObject) {
+  const scene::Scene lit = with_sun(scene_);
+  render::Renderer renderer(vk_);
+  render::RenderSettings settings = small(false);
+  settings.spp = 16;
+  image::Image inline_image, wave_image, independent;
+  render::RenderStats si, sw, sn;
+  ASSERT_TRUE(renderer.render(lit, settings, inline_image, si));
+  EXPECT_EQ(si.lsnif_instances, 1u);
+  settings.first_sample = 1000;
+  ASSERT_TRUE(renderer.render(settings, independent, sn));
+  settings.first_sample = 0;
+  settings.pipeline = render::PathPipeline::wavefront;
+  ASSERT_TRUE(renderer.render(settings, wave_image, sw));
+  dump(inline_image, "inline");
+  dump(wave_image, "wavefront");
+  flip::FlipSettings fs;
+  fs.heatmap = false;
+  flip::FlipResult f_wave, f_noise;
+  ASSERT_TRUE(flip::ldr_flip(inline_image, wave_image, fs, f_wave));
+  ASSERT_TRUE(flip::ldr_flip(inline_image, independent, fs, f_noise));
+  const double d_wave = mean_abs_diff(inline_image, wave_image), d_noise = mean_abs_diff(inline_image, independent);
+  std::printf("LSNIF elephant: mean |inline - wavefront| %.4g (FLIP %.4f), independent samples %.4g (FLIP %.4f), "
+              "mean image %.4f / %.4f; inline %.1f ms/sample, wavefront %.1f ms/sample\n",
+              d_wave, f_wave.stats.mean, d_noise, f_noise.stats.mean, mean(inline_image), mean(wave_image),
+              si.ms_per_sample, sw.ms_per_sample);
+  EXPECT_GT(d_noise, 0.0);
+  EXPECT_LT(d_wave, 0.05 * d_noise);
+  EXPECT_LT(f_wave.stats.mean, 0.25 * f_noise.stats.mean);
+}
+
+// More LSNIF boxes on a ray than a query has candidate room for: 33 copies of the elephant on the
+// same spot (candidatesPerRay is the instance count, at most 32) seen from a camera inside them, so
+// that every camera ray crosses all 33 boxes. The queries answer those rays INCOMPLETE; the render
+// must fail saying so rather than take them for misses.
+TEST_F(RenderTest, WavefrontFailsOnIncompleteQueries) {
+  scene::Scene crowded = scene_;
+  const scene::Instance elephant = crowded.instances[0];
+  ASSERT_GE(elephant.lsnif, 0);
+  ASSERT_GE(elephant.mesh, 0);
+  for (int k = 0; k < 32; ++k) crowded.instances.push_back(elephant);
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (const scene::Primitive& p : crowded.meshes[size_t(elephant.mesh)].primitives)
+    for (const glm::vec3& v : p.positions) {
+      lo = glm::min(lo, v);
+      hi = glm::max(hi, v);
+    }
+  crowded.cameras[0].camera_to_world = glm::translate(glm::mat4(1.0f), glm::vec3(elephant.object_to_world *
+                                                                                  glm::vec4(0.5f * (lo + hi), 1.0f)));
+  render::Renderer renderer(vk_);
+  render::RenderSettings settings = small(false);
+  settings.width = 16;
+  settings.height = 12;
+  settings.spp = 1;
+  settings.warm_up = false;
+  settings.pipeline = render::PathPipeline::wavefront;
+  image::Image out;
+  render::RenderStats stats;
+  const Status s = renderer.render(crowded, settings, out, stats);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("incomplete"), std::string::npos) << s.message();
+  EXPECT_EQ(renderer.scene_stats().lsnif_instances, 33u);
 }
 
 }  // namespace
