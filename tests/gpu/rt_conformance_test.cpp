@@ -315,7 +315,7 @@ class RtConformance : public ::testing::Test {
       }
       RtPush push;
       push.model_table = table_.address;
-      push.model_count = 2;
+      push.model_count = kModels;
       push.rays = ray_buf.address;
       push.hits = hit_buf.address;
       push.ray_count = uint32_t(count);
@@ -720,7 +720,7 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
     }
     RtPush push;
     push.model_table = table_.address;
-    push.model_count = 2;
+    push.model_count = kModels;
     push.rays = ray_buf.address;
     push.hits = hit_buf.address;
     push.ray_count = uint32_t(kMixedRays);
