@@ -51,7 +51,8 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   const std::vector<GpuLayerLayout> layers = gpu_layer_layout(c);
   const uint64_t voxel_words = model_voxel_words(c);
   const uint64_t per_word = 32u / c.grid_bits;  // fp16 pairs or 4 int8 codes
-  const uint64_t grid_words = ((c.grid_parameter_count() + per_word - 1) / per_word + 7) / 8 * 8;  // mlp 32-byte aligned
+  // The grid padded to 8 words: the mlp section stays 32-byte aligned.
+  const uint64_t grid_words = ((c.grid_parameter_count() + per_word - 1) / per_word + 7) / 8 * 8;
   const uint64_t mlp_words = layers.back().end_word;
   const uint64_t voxel_offset = LSNIF_GPU_HEADER_WORDS;
   const uint64_t grid_offset = voxel_offset + (voxel_words + 7) / 8 * 8;

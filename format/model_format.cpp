@@ -479,7 +479,8 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   p = d + l.offset[kGrid];
   if (c.grid_bits == 8) {
     for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) p[i] = static_cast<uint8_t>(contents.grid_codes[i]);
-    for (uint32_t lv = 0; lv < c.grid_levels; ++lv) put_f32(d + l.offset[kGridScales] + 4 * lv, contents.grid_scales[lv]);
+    for (uint32_t lv = 0; lv < c.grid_levels; ++lv)
+      put_f32(d + l.offset[kGridScales] + 4 * lv, contents.grid_scales[lv]);
   } else {
     for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) put_u16(p + 2 * i, contents.grid[i]);
   }

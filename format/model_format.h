@@ -84,7 +84,8 @@ struct ModelFileContents {
   float grid_scales[LSNIF_MAX_LEVELS] = {};  // grid_bits 8: per level, finite, >= 0
   const uint16_t* mlp = nullptr;        // config.mlp_parameter_count() values
   // The training record (train/settings_io.h): empty writes a version 1 file, else version 2 with
-  // a training section (grid_bits 8: always version 3, the section possibly empty) (valid UTF-8 without control characters, at most kMaxTrainingRecordBytes).
+  // a training section (valid UTF-8 without control characters, at most kMaxTrainingRecordBytes).
+  // grid_bits 8 always writes version 3, its training section possibly empty.
   std::string training;
 };
 

@@ -443,6 +443,7 @@ TEST(MutationCampaign, OptionLists) {
       {"--w-normal", {"-1e-9"}},
       {"--hit", {"bogus", ""}},
       {"--normal-loss", {"cos"}},
+      {"--grid-bits", {"12", "0", "4", "x"}},
       {"--threads", {"-1"}},
       {"--seed", {"-1", "1e3"}},
   };
