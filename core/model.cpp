@@ -1,6 +1,10 @@
 #include "model.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "half.h"
+#include "model_format.h"
 
 namespace lsnif {
 
@@ -8,8 +12,6 @@ namespace {
 
 // Words of VoxelGrid::bits for a V^3 grid: ceil(V^3 / 32).
 uint64_t voxel_word_count(const Config& config) { return (config.voxel_count() + 31u) / 32u; }
-
-uint64_t align16(uint64_t n) { return (n + 15u) & ~uint64_t(15u); }
 
 }  // namespace
 
@@ -33,6 +35,14 @@ Status Model::validate() const {
   if (grid.size() != config.grid_parameter_count())
     return Status::error("hash grid has %zu values, the config needs %llu (L*2^M*F)", grid.size(),
                          static_cast<unsigned long long>(config.grid_parameter_count()));
+  const size_t scales = config.grid_bits == 8 ? config.grid_levels : 0;
+  if (grid_scales.size() != scales)
+    return Status::error("model has %zu grid scales, %u-bit grid features need %zu", grid_scales.size(),
+                         config.grid_bits, scales);
+  for (size_t l = 0; l < grid_scales.size(); ++l)
+    if (!grid_scale_usable(grid_scales[l]))
+      return Status::error("grid scale of level %zu is %g, not a finite number >= +0 (with 127 times it finite)", l,
+                           double(grid_scales[l]));
   if (mlp.size() != config.mlp_parameter_count())
     return Status::error("MLP has %zu parameters, the config needs %llu", mlp.size(),
                          static_cast<unsigned long long>(config.mlp_parameter_count()));
@@ -40,29 +50,45 @@ Status Model::validate() const {
 }
 
 void Model::quantize() {
-  for (float& v : grid) v = round_to_half(v);
   for (float& v : mlp) v = round_to_half(v);
+  grid_scales.clear();
+  if (config.grid_bits != 8) {
+    for (float& v : grid) v = round_to_half(v);
+    return;
+  }
+  const size_t per_level = size_t(config.table_size()) * config.features;
+  for (uint32_t l = 0; l < config.grid_levels && (l + 1) * per_level <= grid.size(); ++l) {
+    float* level = grid.data() + l * per_level;
+    float max_abs = 0.0f;
+    for (size_t i = 0; i < per_level; ++i) max_abs = std::max(max_abs, std::abs(level[i]));
+    const float scale = max_abs / 127.0f;
+    grid_scales.push_back(scale);
+    for (size_t i = 0; i < per_level; ++i) {
+      const int32_t code =
+          scale > 0.0f ? static_cast<int32_t>(std::clamp(std::nearbyint(level[i] / scale), -127.0f, 127.0f)) : 0;
+      level[i] = float(code) * scale;  // +0 for code 0, never -0: the file stores codes
+    }
+  }
 }
 
-// Mirrors the file layout of docs/model-format.md (written by model_file.cpp): a 168-byte header,
-// then the materials (76 bytes each), voxel, grid and MLP sections, each starting at a 16-byte
-// aligned offset, then the 4-byte CRC at the next 16-byte aligned offset. model_file_test checks
-// that the file size equals total().
+int32_t Model::grid_code(uint64_t e) const {
+  const uint64_t per_level = uint64_t(config.table_size()) * config.features;
+  const float scale = grid_scales[size_t(e / per_level)];
+  if (!(scale > 0.0f)) return 0;
+  return static_cast<int32_t>(std::clamp(std::nearbyint(grid[size_t(e)] / scale), -127.0f, 127.0f));
+}
+
+// The sizes of the file layout (format/model_format.h) without a training record;
+// model_file_test checks that the file size equals total().
 MemoryBreakdown memory_breakdown(const Model& model) {
   MemoryBreakdown out;
   const Config& c = model.config;
   if (!c.validate()) return out;  // sizes of an invalid config are meaningless (and may overflow)
-  out.voxel_bytes = 4u * voxel_word_count(c);
-  out.grid_bytes = 2u * c.grid_parameter_count();
-  out.mlp_bytes = 2u * c.mlp_parameter_count();
-  const uint64_t header = 168, material_record = 76, crc = 4;
-  uint64_t end = align16(header);
-  end = align16(end + material_record * c.material_count);
-  end = align16(end + out.voxel_bytes);
-  end = align16(end + out.grid_bytes);
-  end = align16(end + out.mlp_bytes);
-  const uint64_t file_size = end + crc;
-  out.header_bytes = file_size - out.voxel_bytes - out.grid_bytes - out.mlp_bytes;
+  const ModelFileSizes sizes = model_file_sizes(c, 0);
+  out.voxel_bytes = sizes.voxels;
+  out.grid_bytes = sizes.grid;
+  out.mlp_bytes = sizes.mlp;
+  out.header_bytes = sizes.file - sizes.voxels - sizes.grid - sizes.mlp;
   return out;
 }
 

@@ -1,7 +1,9 @@
 // model.h -- one trained LSNIF object in memory: its config, padded AABB, material table, voxel
 // occupancy, hash tables and MLP parameters. Parameters are kept as float but, once a model has
-// been quantized (after training, or when loaded), every value is exactly an fp16 value: the
-// .lsnif file and the GPU store them as fp16.
+// been quantized (after training, or when loaded), every MLP value is exactly an fp16 value and
+// every grid value exactly what the file stores: an fp16 value (config.grid_bits 16) or an int8
+// code in [-127, 127] times its level's fp32 scale (grid_bits 8; the product in fp32, which the
+// GPU computes the same way).
 #pragma once
 #include <cstdint>
 #include <string>
@@ -23,6 +25,9 @@ struct Model {
   VoxelGrid voxels;               // resolution == config.voxel_resolution; bounds = object AABB
   std::vector<ModelMaterial> materials;  // size == config.material_count
   std::vector<float> grid;        // config.grid_parameter_count() values, hash_grid.h layout
+  // grid_bits 8: one scale per level (config.grid_levels values, finite, >= 0), set by quantize();
+  // empty for grid_bits 16.
+  std::vector<float> grid_scales;
   // MLP parameters, config.mlp_parameter_count() values. For each layer in order (hidden layers,
   // then the output layer): the weight matrix row-major [out][in], then the bias [out].
   std::vector<float> mlp;
@@ -33,8 +38,14 @@ struct Model {
   const Aabb& bounds() const { return voxels.bounds; }
   // Consistency of sizes with the config; the message names the mismatch.
   Status validate() const;
-  // Rounds grid and mlp to fp16 precision in place.
+  // Rounds mlp to fp16 precision in place, and the grid to what config.grid_bits stores: fp16, or
+  // (8) per level symmetric int8: scale = (max |value| of the level) / 127 in fp32, each value
+  // replaced by code * scale with code = round(value / scale) in [-127, 127]. A level whose values
+  // are all zero (or whose scale underflows to 0) gets scale 0 and all codes 0. Sets grid_scales.
   void quantize();
+  // grid_bits 8: the int8 code of grid value e (value / its level's scale, rounded; 0 where the
+  // scale is 0). For a quantized model code * scale == grid[e] exactly.
+  int32_t grid_code(uint64_t e) const;
 };
 
 struct MemoryBreakdown {

@@ -1,5 +1,6 @@
 // model_file.cpp -- .lsnif files to and from a Model (model.h). The bytes are read and written by
-// format/model_format.cpp; this file only converts between fp16 bits and the Model's floats.
+// format/model_format.cpp; this file only converts between fp16 bits or int8 codes and the Model's
+// floats.
 #include "atomic_file.h"
 #include "half.h"
 #include "model.h"
@@ -28,6 +29,20 @@ Status floats_to_halves(const std::vector<float>& values, const char* section, s
   return Status::ok();
 }
 
+// The int8 codes of a quantized 8-bit grid; fails on a value that is not exactly code * scale.
+Status grid_codes(const Model& model, std::vector<int8_t>& out) {
+  out.resize(model.grid.size());
+  const uint64_t per_level = uint64_t(model.config.table_size()) * model.config.features;
+  for (size_t e = 0; e < model.grid.size(); ++e) {
+    const int32_t code = model.grid_code(e);
+    if (float(code) * model.grid_scales[e / per_level] != model.grid[e])
+      return Status::error("grid value %zu (%g) is not an int8 code times its level's scale: quantize the model "
+                           "first", e, double(model.grid[e]));
+    out[e] = static_cast<int8_t>(code);
+  }
+  return Status::ok();
+}
+
 }  // namespace
 
 Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes) {
@@ -45,10 +60,17 @@ Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes) {
     for (int k = 0; k < 3; ++k) c.materials[i].base_color[k] = model.materials[i].base_color[k];
   }
   std::vector<uint16_t> grid, mlp;
-  if (Status s = floats_to_halves(model.grid, "grid", grid); !s) return s.context("cannot save model");
+  std::vector<int8_t> codes;
+  if (model.config.grid_bits == 8) {
+    if (Status s = grid_codes(model, codes); !s) return s.context("cannot save model");
+    for (size_t l = 0; l < model.grid_scales.size(); ++l) c.grid_scales[l] = model.grid_scales[l];
+  } else if (Status s = floats_to_halves(model.grid, "grid", grid); !s) {
+    return s.context("cannot save model");
+  }
   if (Status s = floats_to_halves(model.mlp, "mlp", mlp); !s) return s.context("cannot save model");
   c.voxels = model.voxels.bits.data();
   c.grid = grid.data();
+  c.grid_codes = codes.data();
   c.mlp = mlp.data();
   c.training = model.training;
   return write_model_file(c, bytes);
@@ -79,7 +101,16 @@ Status load_model_from_memory(const uint8_t* data, size_t size, Model& model) {
     m.materials[i].base_color = {v.materials[i].base_color[0], v.materials[i].base_color[1],
                                  v.materials[i].base_color[2]};
   }
-  halves_to_floats(v.grid, v.config.grid_parameter_count(), m.grid);
+  if (v.config.grid_bits == 8) {
+    const uint64_t count = v.config.grid_parameter_count();
+    const uint64_t per_level = uint64_t(v.config.table_size()) * v.config.features;
+    m.grid_scales.assign(v.grid_scales, v.grid_scales + v.config.grid_levels);
+    m.grid.resize(size_t(count));
+    for (uint64_t e = 0; e < count; ++e)
+      m.grid[size_t(e)] = float(static_cast<int8_t>(v.grid[e])) * v.grid_scales[e / per_level];
+  } else {
+    halves_to_floats(v.grid, v.config.grid_parameter_count(), m.grid);
+  }
   halves_to_floats(v.mlp, v.config.mlp_parameter_count(), m.mlp);
   m.training = std::move(v.training);
   if (Status s = m.validate(); !s) return s.context("internal error: loaded model is inconsistent");

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <vector>
 
 #include "crc32.h"
@@ -46,6 +47,14 @@ Model base_model(uint32_t V, uint32_t levels, uint32_t materials, uint64_t seed)
   for (float& v : m.grid) v = rng.next_float() - 0.5f;
   m.mlp.resize(c.mlp_parameter_count());
   for (float& v : m.mlp) v = 4.0f * rng.next_float() - 2.0f;
+  return m;
+}
+
+// The same with 8-bit grid features (a version 3 file).
+Model base_8bit_model(uint32_t V, uint32_t levels, uint32_t materials, uint64_t seed) {
+  Model m = base_model(V, levels, materials, seed);
+  m.config.grid_bits = 8;
+  m.quantize();
   return m;
 }
 
@@ -171,16 +180,17 @@ TEST(ModelFileFuzz, MutationsNeverCrashAndAcceptedFilesAreCanonical) {
       base_model(5, 2, 3, 1),  // V^3 = 125: the last voxel word has unused bits
       base_model(1, 1, 1, 2),  // the smallest possible model
       base_model(4, 4, 2, 3),
+      base_8bit_model(3, 2, 1, 5),
   };
   const int iterations = 15000;  // per model
   Tally raw, fixed;
-  for (size_t i = 0; i < 3; ++i) {
+  for (size_t i = 0; i < std::size(models); ++i) {
     fuzz(models[i], 100 + i, iterations, raw, fixed);
     if (HasFatalFailure()) return;
   }
   // Without repair almost nothing survives the checksum; with repair, mutations of parameter bytes
   // produce valid models, so both outcomes must occur for the fuzzing to reach the deep checks.
-  const int total = 3 * iterations;
+  const int total = int(std::size(models)) * iterations;
   EXPECT_GT(raw.rejected, total * 9 / 10);
   EXPECT_GT(fixed.accepted, total / 100);
   EXPECT_GT(fixed.rejected, total / 2);
@@ -189,29 +199,31 @@ TEST(ModelFileFuzz, MutationsNeverCrashAndAcceptedFilesAreCanonical) {
 }
 
 TEST(ModelFileFuzz, EveryTruncationAndEveryByteOfTheHeader) {
-  const Model model = base_model(5, 2, 3, 4);
-  Bytes base;
-  ASSERT_TRUE(save_model_to_memory(model, base));
-  Tally t;
-  for (size_t n = 0; n < base.size(); ++n) {
-    const Bytes cut(base.begin(), base.begin() + long(n));
-    check_load(cut, t);
-    check_load(repaired(cut), t);
-    if (HasFatalFailure()) return;
-  }
-  // Every header byte set to each of a few values, CRC repaired.
-  const uint8_t values[] = {0x00, 0x01, 0x10, 0x7f, 0x80, 0xff};
-  for (size_t at = 0; at < 168; ++at) {
-    for (uint8_t v : values) {
-      Bytes b = base;
-      if (b[at] == v) continue;
-      b[at] = v;
-      check_load(repaired(b), t);
+  for (const Model& model : {base_model(5, 2, 3, 4), base_8bit_model(5, 2, 3, 4)}) {
+    Bytes base;
+    ASSERT_TRUE(save_model_to_memory(model, base));
+    Tally t;
+    for (size_t n = 0; n < base.size(); ++n) {
+      const Bytes cut(base.begin(), base.begin() + long(n));
+      check_load(cut, t);
+      check_load(repaired(cut), t);
       if (HasFatalFailure()) return;
     }
+    // Every header byte set to each of a few values, CRC repaired.
+    const uint8_t values[] = {0x00, 0x01, 0x10, 0x7f, 0x80, 0xff};
+    const size_t header_bytes = base[12];  // 168 or, for 8-bit grids, 208
+    for (size_t at = 0; at < header_bytes; ++at) {
+      for (uint8_t v : values) {
+        Bytes b = base;
+        if (b[at] == v) continue;
+        b[at] = v;
+        check_load(repaired(b), t);
+        if (HasFatalFailure()) return;
+      }
+    }
+    EXPECT_EQ(t.accepted > 0, true);  // e.g. AABB or leaky-slope bytes that stay valid
+    EXPECT_GT(t.rejected, 2 * int(base.size()) - 2);
   }
-  EXPECT_EQ(t.accepted > 0, true);  // e.g. AABB or leaky-slope bytes that stay valid
-  EXPECT_GT(t.rejected, 2 * int(base.size()) - 2);
 }
 
 }  // namespace

@@ -258,6 +258,50 @@ TEST(Model, QuantizeRoundsToNearestHalf) {
   expect_same_bits(again.mlp, m.mlp, "mlp");
 }
 
+// Brute force: per level the scale max|g| / 127 (fp32), each value the nearest of all 255
+// code * scale products; an all-zero level keeps scale 0 and zero codes.
+TEST(Model, QuantizeToInt8MatchesABruteForceReference) {
+  Rng rng(31, 0, 0);
+  Config c = random_config(rng, 3, 1);
+  c.grid_bits = 8;
+  Model m = random_model(c, rng);
+  const size_t per_level = size_t(c.table_size()) * c.features;
+  for (size_t i = 0; i < per_level; ++i) m.grid[per_level + i] *= 1000.0f;  // levels of different ranges
+  for (size_t i = 0; i < per_level; ++i) m.grid[2 * per_level + i] = 0.0f;  // an all-zero level
+  m.grid[5] = -std::fabs(m.grid[5]) - 8.0f;                                  // the extreme is negative
+  const Model before = m;
+  m.quantize();
+  ASSERT_TRUE(m.validate()) << m.validate().message();
+  ASSERT_EQ(m.grid_scales.size(), 3u);
+  for (uint32_t l = 0; l < 3; ++l) {
+    float max_abs = 0.0f;
+    for (size_t i = 0; i < per_level; ++i) max_abs = std::max(max_abs, std::fabs(before.grid[l * per_level + i]));
+    const float scale = max_abs / 127.0f;
+    EXPECT_EQ(m.grid_scales[l], scale) << "level " << l;
+    for (size_t i = 0; i < per_level; ++i) {
+      const size_t e = l * per_level + i;
+      const float x = before.grid[e];
+      float best = 0.0f;
+      for (int code = -127; code <= 127; ++code)
+        if (std::fabs(float(code) * scale - x) < std::fabs(best - x)) best = float(code) * scale;
+      ASSERT_EQ(std::memcmp(&m.grid[e], &best, 4), 0) << "element " << e << ": " << m.grid[e] << " vs " << best;
+      ASSERT_EQ(float(m.grid_code(e)) * scale, m.grid[e]) << e;
+    }
+  }
+  EXPECT_EQ(m.grid_scales[2], 0.0f);
+  EXPECT_EQ(m.grid_code(5), -127);
+  for (size_t i = 0; i < m.mlp.size(); ++i) ASSERT_EQ(m.mlp[i], round_to_half(before.mlp[i])) << i;
+  Model again = m;  // idempotent
+  again.quantize();
+  expect_same_bits(again.grid, m.grid, "grid");
+  EXPECT_EQ(again.grid_scales, m.grid_scales);
+  // Back to 16 bits: fp16 values, no scales.
+  m.config.grid_bits = 16;
+  m.quantize();
+  EXPECT_TRUE(m.grid_scales.empty());
+  EXPECT_TRUE(m.validate());
+}
+
 // ---- Layout of the paper's default model (docs/model-format.md example) ---------------------------
 
 TEST(ModelFile, DefaultModelLayoutMatchesTheDocument) {
@@ -450,10 +494,10 @@ TEST(ModelFileErrors, WrongMagic) {
 
 TEST(ModelFileErrors, FutureVersion) {
   Bytes b = saved(small_model());
-  wr32(b, kVersionAt, 3);
-  expect_load_error(b, {"version 3", "versions 1 to 2"});  // reported before the checksum
+  wr32(b, kVersionAt, 4);
+  expect_load_error(b, {"version 4", "versions 1 to 3"});  // reported before the checksum
   fix_crc(b);
-  expect_load_error(b, {"version 3", "versions 1 to 2"});
+  expect_load_error(b, {"version 4", "versions 1 to 3"});
   wr32(b, kVersionAt, 0);
   fix_crc(b);
   expect_load_error(b, {"version 0"});
@@ -530,6 +574,128 @@ TEST(ModelFile, TrainingRecordMakesAVersion2File) {
   EXPECT_EQ(back.training, m.training);
   EXPECT_EQ(saved(back), b);  // one encoding
   EXPECT_EQ(memory_breakdown(back).total(), v1.size());  // the record never reaches the GPU
+}
+
+// ---- format version 3: 8-bit grid features -------------------------------------------------------
+
+constexpr size_t kGridBitsAt = 200, kV3ReservedAt = 204;
+enum { kTraining = 4, kGridScales = 5 };
+
+Model small_8bit_model(uint64_t seed = 1) {
+  Model m = small_model(seed);
+  m.config.grid_bits = 8;
+  m.quantize();
+  return m;
+}
+
+TEST(ModelFile, EightBitGridIsAVersion3FileWithCodesAndScales) {
+  for (const bool record : {false, true}) {
+    Model m = small_8bit_model();
+    if (record) m.training = R"({"settings":{"grid-bits":"8"}})";
+    const Bytes b = saved(m);
+    const Config& c = m.config;
+    EXPECT_EQ(rd32(b, kVersionAt), 3u);
+    EXPECT_EQ(rd32(b, kHeaderSizeAt), 208u);
+    EXPECT_EQ(rd64(b, kFileSizeAt), b.size());
+    EXPECT_EQ(rd32(b, kGridBitsAt), 8u);
+    EXPECT_EQ(rd32(b, kV3ReservedAt), 0u);
+    EXPECT_EQ(section_offset(b, kMaterials), 208u);
+    // The grid: one byte per value, the two's complement code; the scales: fp32 per level after
+    // the (possibly empty) training section.
+    ASSERT_EQ(section_size(b, kGrid), c.grid_parameter_count());
+    const uint64_t grid_at = section_offset(b, kGrid);
+    for (uint64_t e = 0; e < c.grid_parameter_count(); ++e)
+      ASSERT_EQ(int8_t(b[grid_at + e]), m.grid_code(e)) << e;
+    EXPECT_EQ(section_size(b, kTraining), m.training.size());
+    const uint64_t training_end = section_offset(b, kTraining) + section_size(b, kTraining);
+    ASSERT_EQ(section_size(b, kGridScales), 4u * c.grid_levels);
+    EXPECT_EQ(section_offset(b, kGridScales), (training_end + 15) / 16 * 16);
+    for (uint32_t l = 0; l < c.grid_levels; ++l) {
+      float scale;
+      const uint32_t bits = rd32(b, section_offset(b, kGridScales) + 4 * l);
+      std::memcpy(&scale, &bits, 4);
+      EXPECT_EQ(scale, m.grid_scales[l]);
+      EXPECT_GT(scale, 0.0f);
+    }
+    Model back;
+    Status s = load_model_from_memory(b.data(), b.size(), back);
+    ASSERT_TRUE(s) << s.message();
+    expect_equal(m, back);
+    EXPECT_EQ(back.config.grid_bits, 8u);
+    EXPECT_EQ(back.grid_scales, m.grid_scales);
+    EXPECT_EQ(back.training, m.training);
+    EXPECT_EQ(saved(back), b);  // one encoding
+    if (!record) {
+      EXPECT_EQ(memory_breakdown(back).total(), b.size());
+      EXPECT_EQ(memory_breakdown(back).grid_bytes, c.grid_parameter_count() + 4u * c.grid_levels);
+    }
+    // The same model with fp16 features is written exactly as before (version 1 or 2).
+    Model wide = m;
+    wide.config.grid_bits = 16;
+    wide.quantize();
+    EXPECT_EQ(rd32(saved(wide), kVersionAt), record ? 2u : 1u);
+  }
+}
+
+TEST(ModelFileErrors, EightBitGrid) {
+  const Model m = small_8bit_model();
+  const Bytes good = saved(m);
+  const uint64_t grid_at = section_offset(good, kGrid), scales_at = section_offset(good, kGridScales);
+  const uint64_t per_level = uint64_t(m.config.table_size()) * m.config.features;
+  auto with = [&](const std::function<void(Bytes&)>& change) {
+    Bytes b = good;
+    change(b);
+    fix_crc(b);
+    return b;
+  };
+  expect_load_error(with([&](Bytes& b) { b[grid_at + 3] = 0x80; }), {"grid section code 3", "-128"});
+  expect_load_error(with([&](Bytes& b) { wrf32(b, scales_at + 4, std::nanf("")); }),
+                    {"grid scale of level 1", "nan"});
+  expect_load_error(with([&](Bytes& b) { wrf32(b, scales_at, -1.0f); }), {"grid scale of level 0", "-1"});
+  expect_load_error(with([&](Bytes& b) { wrf32(b, scales_at, -0.0f); }), {"grid scale of level 0"});
+  expect_load_error(with([&](Bytes& b) { wrf32(b, scales_at, std::numeric_limits<float>::infinity()); }),
+                    {"grid scale of level 0", "inf"});
+  expect_load_error(with([&](Bytes& b) { wrf32(b, scales_at, std::numeric_limits<float>::max()); }),
+                    {"grid scale of level 0"});  // 127 times it overflows
+  expect_load_error(with([&](Bytes& b) {
+                      wrf32(b, scales_at + 4, 0.0f);
+                      b[grid_at + per_level] = 1;
+                    }),
+                    {"scale is 0"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kGridBitsAt, 16); }), {"grid bits 16", "version 3"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kGridBitsAt, 4); }), {"grid bits 4"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kV3ReservedAt, 1); }), {"reserved", "204"});
+  expect_load_error(with([&](Bytes& b) { wr64(b, kSectionsAt + 16 * kGridScales + 8, 4); }),
+                    {"section grid scales has size 4"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kHeaderSizeAt, 184); }), {"header size 184", "208"});
+  // A version 2 file claiming version 3 (or the reverse) does not parse.
+  Model wide = m;
+  wide.config.grid_bits = 16;
+  wide.quantize();
+  wide.training = "{}";
+  Bytes v2 = saved(wide);
+  wr32(v2, kVersionAt, 3);
+  fix_crc(v2);
+  expect_load_error(v2, {"header size 184", "208"});
+
+  // Saving refuses what loading would.
+  Model unquantized = small_model();
+  unquantized.config.grid_bits = 8;
+  unquantized.grid_scales = m.grid_scales;
+  Bytes out;
+  Status s = save_model_to_memory(unquantized, out);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("quantize"), std::string::npos) << s.message();
+  Model bad = m;
+  bad.grid_scales[0] = std::nanf("");
+  s = save_model_to_memory(bad, out);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("grid scale of level 0"), std::string::npos) << s.message();
+  bad = m;
+  bad.grid_scales.pop_back();
+  s = save_model_to_memory(bad, out);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("grid scales"), std::string::npos) << s.message();
 }
 
 TEST(ModelFileErrors, TrainingSection) {

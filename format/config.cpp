@@ -71,6 +71,7 @@ Status Config::validate() const {
   const SettingDef& slope = setting_def(SettingId::LeakySlope);
   if (!(leaky_slope >= slope.min && leaky_slope < slope.max))
     return Status::error("leaky ReLU slope %g out of range [%g, %g)", double(leaky_slope), slope.min, slope.max);
+  if (grid_bits != 8 && grid_bits != 16) return Status::error("grid bits %u is neither 8 nor 16", grid_bits);
   return Status::ok();
 }
 
@@ -80,9 +81,10 @@ std::string Config::describe() const {
     if (l) res.push_back(',');
     res.append(std::to_string(grid_resolution[l]));
   }
-  return format("V=%u H=%u L=%u res=%s M=%u F=%u W=%ux%u Nmat=%u hit=%s leaky=%g", voxel_resolution,
+  return format("V=%u H=%u L=%u res=%s M=%u F=%u W=%ux%u Nmat=%u hit=%s leaky=%g%s", voxel_resolution,
                 max_points, grid_levels, res.c_str(), log2_table_size, features, hidden_width,
-                hidden_layers, material_count, to_string(hit_param), double(leaky_slope));
+                hidden_layers, material_count, to_string(hit_param), double(leaky_slope),
+                grid_bits == 16 ? "" : format(" grid-bits=%u", grid_bits).c_str());
 }
 
 void set_grid_resolutions(Config& config, uint32_t coarsest, uint32_t finest) {

@@ -33,6 +33,9 @@ struct Config {
   uint32_t material_count = 1;     // Nmat
   HitParam hit_param = static_cast<HitParam>(default_u32(SettingId::Hit));
   float leaky_slope = default_f32(SettingId::LeakySlope);  // leaky ReLU negative slope
+  // Bits per stored hash-grid feature: 16 (fp16) or 8 (int8 codes times a per-level fp32 scale,
+  // Model::grid_scales; .lsnif format version 3).
+  uint32_t grid_bits = default_u32(SettingId::GridBits);
 
   uint32_t table_size() const { return 1u << log2_table_size; }
   uint32_t input_dim() const { return max_points * grid_levels * features; }

@@ -50,7 +50,9 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   if (Status s = c.validate(); !s) return s.context("packing GPU block");
   const std::vector<GpuLayerLayout> layers = gpu_layer_layout(c);
   const uint64_t voxel_words = model_voxel_words(c);
-  const uint64_t grid_words = ((c.grid_parameter_count() + 1) / 2 + 7) / 8 * 8;  // mlp 32-byte aligned
+  const uint64_t per_word = 32u / c.grid_bits;  // fp16 pairs or 4 int8 codes
+  // The grid padded to 8 words: the mlp section stays 32-byte aligned.
+  const uint64_t grid_words = ((c.grid_parameter_count() + per_word - 1) / per_word + 7) / 8 * 8;
   const uint64_t mlp_words = layers.back().end_word;
   const uint64_t voxel_offset = LSNIF_GPU_HEADER_WORDS;
   const uint64_t grid_offset = voxel_offset + (voxel_words + 7) / 8 * 8;
@@ -88,10 +90,23 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   h.voxel_offset = uint32_t(voxel_offset);
   h.grid_offset = uint32_t(grid_offset);
   h.mlp_offset = uint32_t(mlp_offset);
+  h.grid_bits = c.grid_bits;
+  if (c.grid_bits == 8) {
+    h.grid_scale0 = view.grid_scales[0];
+    h.grid_scale1 = view.grid_scales[1];
+    h.grid_scale2 = view.grid_scales[2];
+    h.grid_scale3 = view.grid_scales[3];
+  }
   std::memcpy(words.data(), &h, sizeof h);
 
   for (uint64_t w = 0; w < voxel_words; ++w) words[size_t(voxel_offset + w)] = get_u32(view.voxels + 4 * w);
-  for (uint64_t e = 0; e < c.grid_parameter_count(); ++e) put_half(words, grid_offset, e, get_u16(view.grid + 2 * e));
+  if (c.grid_bits == 8) {
+    for (uint64_t e = 0; e < c.grid_parameter_count(); ++e)
+      words[size_t(grid_offset + (e >> 2))] |= uint32_t(view.grid[e]) << ((e & 3u) * 8u);
+  } else {
+    for (uint64_t e = 0; e < c.grid_parameter_count(); ++e)
+      put_half(words, grid_offset, e, get_u16(view.grid + 2 * e));
+  }
 
   const std::vector<LayerView> views = mlp_layers(c);
   for (size_t l = 0; l < layers.size(); ++l) {

@@ -1,5 +1,5 @@
 // gpu_block.h -- the GPU block of one model: the layout of shaders/host_device.h (LsnifGpuModelHeader,
-// then voxel bits, fp16 hash tables and fp16 MLP rows) that shaders/lsnif_model.glsl reads through a
+// then voxel bits, fp16 or int8 hash tables and fp16 MLP rows) that shaders/lsnif_model.glsl reads through a
 // buffer device address, packed straight from a parsed .lsnif file (fp16 bits are moved, never
 // converted). No Vulkan here: the block is a plain vector of 32-bit words that the caller uploads.
 #pragma once

@@ -1,14 +1,16 @@
 // model_format.cpp -- reading and writing .lsnif files at the byte level (model_format.h). The byte layout is specified in
 // docs/model-format.md; in short (all little-endian, packed byte by byte, no struct copies):
 //
-//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1 or 2)
-//   12   u32 header size (168 or 184)       16  u64 total file size
+//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1, 2 or 3)
+//   12   u32 header size (168, 184, 208)    16  u64 total file size
 //   24   Config (13 x u32, leaky slope f32) 80  AABB lo.xyz, hi.xyz (6 x f32)
 //   104  section table: {u64 offset, u64 size} for materials, voxels, grid, mlp (and, in version 2,
-//        training at 168)
-//   168 or 184: zero padding to 176 or 192, then the sections in that order, each at a 16-byte
+//        training at 168; in version 3 training, possibly empty, at 168 and grid scales at 184)
+//   version 3 only: 200 u32 grid bits (8), 204 u32 zero
+//   then zero padding to a multiple of 16, then the sections in that order, each at a 16-byte
 //        aligned offset with zero padding between them, then (16-byte aligned) u32 CRC-32 of all
-//        bytes before.
+//        bytes before. Grid values are fp16 (versions 1, 2) or int8 codes in [-127, 127] (version 3,
+//        with one f32 scale per level in the grid scales section).
 //
 // The loader trusts nothing: every size is compared with the file length before it is used, and
 // memory is allocated only once the whole layout has been checked against the validated config.
@@ -30,6 +32,7 @@ namespace {
 constexpr uint8_t kMagic[8] = {'L', 'S', 'N', 'I', 'F', 0x00, '\r', '\n'};
 constexpr uint32_t kHeaderSizeV1 = 168;
 constexpr uint32_t kHeaderSizeV2 = kHeaderSizeV1 + 16;  // + the training section's {offset, size}
+constexpr uint32_t kHeaderSizeV3 = kHeaderSizeV2 + 24;  // + grid scales {offset, size}, grid bits, zero
 constexpr uint64_t kNameBytes = kModelMaterialNameBytes;
 constexpr uint64_t kMaterialRecordSize = kNameBytes + 3 * 4;  // name + base_color[3]
 constexpr uint64_t kAlignment = 16;
@@ -37,18 +40,22 @@ constexpr uint64_t kCrcSize = 4;
 
 // Header field offsets.
 constexpr size_t kOffVersion = 8, kOffHeaderSize = 12, kOffFileSize = 16, kOffConfig = 24,
-                 kOffAabb = 80, kOffSections = 104;
+                 kOffAabb = 80, kOffSections = 104, kOffGridBits = 200, kOffReserved = 204;
 
-enum Section { kMaterials = 0, kVoxels, kGrid, kMlp, kTraining, kSectionCount };
-constexpr const char* kSectionName[kSectionCount] = {"materials", "voxels", "grid", "mlp", "training"};
+enum Section { kMaterials = 0, kVoxels, kGrid, kMlp, kTraining, kGridScales, kSectionCount };
+constexpr const char* kSectionName[kSectionCount] = {"materials", "voxels", "grid", "mlp", "training", "grid scales"};
 
 uint64_t align16(uint64_t n) { return (n + kAlignment - 1) & ~(kAlignment - 1); }
 
+uint32_t header_size_of(uint32_t version) {
+  return version == 1 ? kHeaderSizeV1 : version == 2 ? kHeaderSizeV2 : kHeaderSizeV3;
+}
+
 // Where everything lives in the file of a model with this (valid) config and a training record of
-// `training_bytes` (0: none, a version 1 file).
+// `training_bytes`: version 3 for 8-bit grid features, else version 1 (no record) or 2.
 struct Layout {
   uint32_t version = 1, header_size = kHeaderSizeV1;
-  int sections = kTraining;  // kTraining in version 1, kSectionCount in version 2
+  int sections = kTraining;  // kTraining in version 1, kGridScales in 2, kSectionCount in 3
   uint64_t offset[kSectionCount] = {};
   uint64_t size[kSectionCount] = {};
   uint64_t crc_offset = 0, file_size = 0;
@@ -56,16 +63,20 @@ struct Layout {
 
 Layout layout_of(const Config& c, uint64_t training_bytes) {
   Layout l;
-  if (training_bytes) {
-    l.version = 2;
-    l.header_size = kHeaderSizeV2;
+  if (c.grid_bits == 8) {
+    l.version = 3;
     l.sections = kSectionCount;
+  } else if (training_bytes) {
+    l.version = 2;
+    l.sections = kGridScales;
   }
+  l.header_size = header_size_of(l.version);
   l.size[kMaterials] = kMaterialRecordSize * c.material_count;
   l.size[kVoxels] = 4u * ((c.voxel_count() + 31u) / 32u);
-  l.size[kGrid] = 2u * c.grid_parameter_count();
+  l.size[kGrid] = (c.grid_bits / 8u) * c.grid_parameter_count();
   l.size[kMlp] = 2u * c.mlp_parameter_count();
   l.size[kTraining] = training_bytes;
+  l.size[kGridScales] = c.grid_bits == 8 ? 4u * c.grid_levels : 0u;
   uint64_t end = l.header_size;
   for (int s = 0; s < l.sections; ++s) {
     l.offset[s] = align16(end);
@@ -188,7 +199,7 @@ Status check_preamble(const uint8_t* data, size_t size, uint32_t& version) {
   if (version < 1 || version > kModelFormatVersion)
     return Status::error("unsupported format version %u (this build supports versions 1 to %u)", version,
                          kModelFormatVersion);
-  const uint32_t expected_header = version == 1 ? kHeaderSizeV1 : kHeaderSizeV2;
+  const uint32_t expected_header = header_size_of(version);
   const uint32_t header_size = get_u32(data + kOffHeaderSize);
   if (header_size != expected_header)
     return Status::error("header size %u is wrong: format version %u has a %u-byte header", header_size, version,
@@ -223,6 +234,15 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
 
   ModelFileView v;
   v.config = read_config(data + kOffConfig);
+  if (version >= 3) {
+    v.config.grid_bits = get_u32(data + kOffGridBits);
+    if (v.config.grid_bits != 8)
+      return Status::error("grid bits %u in a version 3 file: version 3 stores 8-bit grid features",
+                           v.config.grid_bits);
+    if (get_u32(data + kOffReserved) != 0)
+      return Status::error("reserved header word at offset %zu is 0x%08x, not zero", kOffReserved,
+                           get_u32(data + kOffReserved));
+  }
   if (Status s = v.config.validate(); !s) return s.context("invalid config in header");
   const Config& c = v.config;
 
@@ -241,9 +261,10 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   uint64_t training_bytes = 0;
   if (version >= 2) {
     training_bytes = get_u64(data + kOffSections + 16 * kTraining + 8);
-    if (training_bytes < 1 || training_bytes > kMaxTrainingRecordBytes)
-      return Status::error("section training has size %llu bytes, expected 1 to %llu", ull(training_bytes),
-                           ull(kMaxTrainingRecordBytes));
+    const uint64_t least = version == 2 ? 1 : 0;  // version 3: the record is optional
+    if (training_bytes < least || training_bytes > kMaxTrainingRecordBytes)
+      return Status::error("section training has size %llu bytes, expected %llu to %llu", ull(training_bytes),
+                           ull(least), ull(kMaxTrainingRecordBytes));
   }
   const Layout expected = layout_of(c, training_bytes);
   const uint32_t header_size = expected.header_size;
@@ -301,14 +322,34 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
     return Status::error("voxels section has bits set beyond voxel %llu (V^3 = %u^3)", ull(c.voxel_count()),
                          c.voxel_resolution);
 
-  // Parameters: finite fp16 values only.
+  // Parameters: finite fp16 values only; 8-bit grids: codes in [-127, 127] and usable scales.
   v.grid = data + expected.offset[kGrid];
   v.mlp = data + expected.offset[kMlp];
+  if (c.grid_bits == 8) {
+    for (uint32_t l = 0; l < c.grid_levels; ++l) {
+      const float scale = get_f32(data + expected.offset[kGridScales] + 4 * l);
+      if (!grid_scale_usable(scale))
+        return Status::error("grid scale of level %u is %g, not a finite number >= +0 (with 127 times it finite)", l,
+                             double(scale));
+      v.grid_scales[l] = scale;
+    }
+    const uint64_t per_level = uint64_t(c.table_size()) * c.features;
+    for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) {
+      if (v.grid[i] == 0x80)
+        return Status::error("grid section code %llu (of %llu) is -128, outside the int8 codes [-127, 127]", ull(i),
+                             ull(c.grid_parameter_count()));
+      // One encoding per model: a level of scale 0 holds only zero codes.
+      if (v.grid[i] != 0 && v.grid_scales[i / per_level] == 0.0f)
+        return Status::error("grid section code %llu is %d in level %llu, whose scale is 0 (codes must be 0)", ull(i),
+                             int(static_cast<int8_t>(v.grid[i])), ull(i / per_level));
+    }
+  }
   const struct {
     const uint8_t* p;
     uint64_t count;
     const char* name;
-  } params[2] = {{v.grid, c.grid_parameter_count(), "grid"}, {v.mlp, c.mlp_parameter_count(), "mlp"}};
+  } params[2] = {{v.grid, c.grid_bits == 8 ? 0 : c.grid_parameter_count(), "grid"},
+                 {v.mlp, c.mlp_parameter_count(), "mlp"}};
   for (const auto& section : params) {
     const uint64_t i = first_non_finite_half(section.p, section.count);
     if (i == section.count) continue;
@@ -333,6 +374,19 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
 
 uint64_t model_voxel_words(const Config& config) { return (config.voxel_count() + 31u) / 32u; }
 
+bool grid_scale_usable(float scale) { return scale >= 0.0f && !std::signbit(scale) && std::isfinite(scale * 127.0f); }
+
+ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes) {
+  const Layout l = layout_of(config, training_bytes);
+  ModelFileSizes out;
+  out.voxels = l.size[kVoxels];
+  out.grid = l.size[kGrid] + l.size[kGridScales];
+  out.mlp = l.size[kMlp];
+  out.file = l.file_size;
+  out.version = l.version;
+  return out;
+}
+
 Status parse_model_file(const uint8_t* data, size_t size, ModelFileView& out) {
   if (!data && size != 0) return Status::error("no data (null pointer with size %zu)", size);
   if (size == 0) return Status::error("file is empty (0 bytes)");
@@ -347,7 +401,7 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   if (contents.materials.size() != c.material_count)
     return Status::error("cannot save model: %zu materials, the config has %u", contents.materials.size(),
                          c.material_count);
-  if (!contents.voxels || !contents.grid || !contents.mlp)
+  if (!contents.voxels || !contents.mlp || (c.grid_bits == 8 ? !contents.grid_codes : !contents.grid))
     return Status::error("cannot save model: a section has no data");
   if (contents.training.size() > kMaxTrainingRecordBytes)
     return Status::error("cannot save model: the training record is %zu bytes, at most %llu allowed",
@@ -376,7 +430,21 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
     const uint16_t* values;
     uint64_t count;
     const char* name;
-  } params[2] = {{contents.grid, c.grid_parameter_count(), "grid"}, {contents.mlp, c.mlp_parameter_count(), "mlp"}};
+  } params[2] = {{contents.grid, c.grid_bits == 8 ? 0 : c.grid_parameter_count(), "grid"},
+                 {contents.mlp, c.mlp_parameter_count(), "mlp"}};
+  if (c.grid_bits == 8) {
+    for (uint32_t l = 0; l < c.grid_levels; ++l)
+      if (!grid_scale_usable(contents.grid_scales[l]))
+        return Status::error("cannot save model: grid scale of level %u is %g, not a finite non-negative number", l,
+                             double(contents.grid_scales[l]));
+    const uint64_t per_level = uint64_t(c.table_size()) * c.features;
+    for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) {
+      if (contents.grid_codes[i] < -127)
+        return Status::error("cannot save model: grid code %llu is -128, outside [-127, 127]", ull(i));
+      if (contents.grid_codes[i] != 0 && contents.grid_scales[i / per_level] == 0.0f)
+        return Status::error("cannot save model: grid code %llu is not 0 in a level of scale 0", ull(i));
+    }
+  }
   for (const auto& section : params)
     for (uint64_t i = 0; i < section.count; ++i)
       if (!half_is_finite(section.values[i]))
@@ -391,6 +459,7 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   put_u32(d + kOffHeaderSize, l.header_size);
   put_u64(d + kOffFileSize, l.file_size);
   write_config(d + kOffConfig, c);
+  if (l.version >= 3) put_u32(d + kOffGridBits, c.grid_bits);
   for (int a = 0; a < 3; ++a) {
     put_f32(d + kOffAabb + 4 * a, contents.bounds_lo[a]);
     put_f32(d + kOffAabb + 12 + 4 * a, contents.bounds_hi[a]);
@@ -408,7 +477,13 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   p = d + l.offset[kVoxels];
   for (uint64_t w = 0; w < voxel_words; ++w) put_u32(p + 4 * w, contents.voxels[w]);
   p = d + l.offset[kGrid];
-  for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) put_u16(p + 2 * i, contents.grid[i]);
+  if (c.grid_bits == 8) {
+    for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) p[i] = static_cast<uint8_t>(contents.grid_codes[i]);
+    for (uint32_t lv = 0; lv < c.grid_levels; ++lv)
+      put_f32(d + l.offset[kGridScales] + 4 * lv, contents.grid_scales[lv]);
+  } else {
+    for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) put_u16(p + 2 * i, contents.grid[i]);
+  }
   p = d + l.offset[kMlp];
   for (uint64_t i = 0; i < c.mlp_parameter_count(); ++i) put_u16(p + 2 * i, contents.mlp[i]);
   if (!contents.training.empty())

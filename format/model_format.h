@@ -13,9 +13,10 @@
 
 namespace lsnif {
 
-// Files without a training record are written as version 1 (the layout before the record existed),
-// files with one as version 2; both are read.
-constexpr uint32_t kModelFormatVersion = 2;
+// Models with 16-bit grid features are written as version 1 without a training record (the layout
+// before the record existed) and as version 2 with one; models with 8-bit grid features as version 3
+// (int8 codes and per-level fp32 scales, the record optional). All three are read.
+constexpr uint32_t kModelFormatVersion = 3;
 // The training section (version 2): compact JSON text, at most this many bytes.
 constexpr size_t kMaxTrainingRecordBytes = 65536;
 constexpr size_t kModelMaterialNameBytes = 64;  // NUL-terminated: at most 63 bytes of name
@@ -28,27 +29,42 @@ struct ModelFileMaterial {
 };
 
 // A parsed .lsnif file. The section pointers point into the caller's bytes (which must outlive the
-// view); their contents are little-endian as in the file: voxels as u32 words, grid and mlp as
-// fp16 values (every one finite).
+// view); their contents are little-endian as in the file: voxels as u32 words, mlp as fp16 values
+// (every one finite), grid as fp16 values (config.grid_bits 16, every one finite) or int8 codes in
+// [-127, 127] (grid_bits 8, level l's codes times grid_scales[l]).
 struct ModelFileView {
   Config config;
   float bounds_lo[3] = {}, bounds_hi[3] = {};  // padded object AABB, finite, lo < hi
   std::vector<ModelFileMaterial> materials;    // config.material_count records
   const uint8_t* voxels = nullptr;             // model_voxel_words(config) u32 words
-  const uint8_t* grid = nullptr;               // config.grid_parameter_count() fp16 values
+  const uint8_t* grid = nullptr;               // config.grid_parameter_count() fp16 values or int8 codes
   const uint8_t* mlp = nullptr;                // config.mlp_parameter_count() fp16 values
-  uint32_t version = 0;                        // 1 or 2
+  float grid_scales[LSNIF_MAX_LEVELS] = {};    // grid_bits 8: per level, finite, >= 0 (else 0)
+  uint32_t version = 0;                        // 1, 2 or 3
   std::string training;                        // the training record (version 2), else empty
 };
 
 // Words of the voxel section of a model with this config: ceil(V^3 / 32).
 uint64_t model_voxel_words(const Config& config);
 
-// Parses and validates a whole .lsnif file in memory (format version 1 or 2): magic, version,
+// A per-level scale of 8-bit grid features: finite, +0 or positive, and 127 times it finite.
+bool grid_scale_usable(float scale);
+
+// Bytes of the parts of the .lsnif file of a model with this (valid) config and a training record
+// of `training_bytes`: voxel section, grid (values and, for 8-bit features, the scales), MLP, the
+// whole file, and its format version.
+struct ModelFileSizes {
+  uint64_t voxels = 0, grid = 0, mlp = 0, file = 0;
+  uint32_t version = 0;
+};
+ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes);
+
+// Parses and validates a whole .lsnif file in memory (format version 1, 2 or 3): magic, version,
 // sizes, the config, the AABB,
 // section table, zero padding, CRC-32, material names (valid UTF-8 without control characters),
 // the AABB within +-kMaxModelCoordinate, no voxel bits beyond V^3, no NaN or
-// infinite fp16 value. Never reads outside [data, data + size). Errors name the problem ("checksum
+// infinite fp16 value, int8 grid codes in [-127, 127], grid scales finite and >= 0 (127 times a
+// scale finite). Never reads outside [data, data + size). Errors name the problem ("checksum
 // mismatch ...", "truncated ...", "section grid has size ...").
 Status parse_model_file(const uint8_t* data, size_t size, ModelFileView& out);
 
@@ -63,10 +79,13 @@ struct ModelFileContents {
   float bounds_lo[3] = {}, bounds_hi[3] = {};
   std::vector<ModelFileMaterial> materials;
   const uint32_t* voxels = nullptr;     // model_voxel_words(config) words
-  const uint16_t* grid = nullptr;       // config.grid_parameter_count() values
+  const uint16_t* grid = nullptr;       // grid_bits 16: config.grid_parameter_count() values
+  const int8_t* grid_codes = nullptr;   // grid_bits 8: config.grid_parameter_count() codes in [-127, 127]
+  float grid_scales[LSNIF_MAX_LEVELS] = {};  // grid_bits 8: per level, finite, >= 0
   const uint16_t* mlp = nullptr;        // config.mlp_parameter_count() values
   // The training record (train/settings_io.h): empty writes a version 1 file, else version 2 with
   // a training section (valid UTF-8 without control characters, at most kMaxTrainingRecordBytes).
+  // grid_bits 8 always writes version 3, its training section possibly empty.
   std::string training;
 };
 

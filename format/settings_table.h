@@ -28,7 +28,7 @@ struct SettingChoice {
 
 // In table order (kSettingDefs[i].id == i).
 enum class SettingId : uint32_t {
-  Voxels, Points, Levels, ResMin, ResMax, TableLog2, Features, Width, Layers, Hit, LeakySlope,
+  Voxels, Points, Levels, ResMin, ResMax, TableLog2, Features, Width, Layers, Hit, LeakySlope, GridBits,
   Steps, Batch, Seed, RayReuse, Lr, AdamBeta1, AdamBeta2, AdamEpsilon, NormalLoss,
   WOcclusion, WDistance, WNormal, WAlbedo, WMaterial,
   SurfaceFraction, SphereScale, SurfaceOffset, GridInitRange,
@@ -50,6 +50,8 @@ struct SettingDef {
 
 inline constexpr SettingChoice kHitChoices[] = {{"segments", LSNIF_HIT_PARAM_VOXEL_SEGMENTS},
                                                 {"aabb", LSNIF_HIT_PARAM_AABB_INTERVAL}};
+// Bits per stored hash-grid feature: fp16, or int8 codes times one fp32 scale per level.
+inline constexpr SettingChoice kGridBitsChoices[] = {{"16", 16}, {"8", 8}};
 // NormalLoss (train/loss.h) values.
 inline constexpr SettingChoice kNormalLossChoices[] = {{"angle", 1}, {"cosine", 0}};
 
@@ -89,6 +91,9 @@ inline constexpr SettingDef kSettingDefs[] = {
                            "hit distance parametrization: segments (ours) or aabb (paper)"),
     setting_detail::f32(SettingId::LeakySlope, "leaky-slope", 0.01, 0, false, 1, true, "",
                         "leaky ReLU negative slope"),
+    setting_detail::choice(SettingId::GridBits, "grid-bits", 16, kGridBitsChoices,
+                           "bits per stored hash-grid feature: 16 (fp16) or 8 (int8 times a per-level scale: half "
+                           "the grid's bytes)"),
     // The training run (TrainSettings).
     setting_detail::u32(SettingId::Steps, "steps", 2000, 1, std::numeric_limits<uint32_t>::max(), "training steps"),
     // Paper: 2^18 on a GPU; 2^14 is faster per second on 2 CPU cores.

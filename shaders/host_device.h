@@ -59,8 +59,11 @@
  * the block. Sections:
  *  voxels: V^3 occupancy bits exactly as VoxelGrid::bits (voxel i + V*(j + V*k), bit idx & 31 of
  *          word idx >> 5).
- *  grid:   the hash tables as fp16, two per word (element e in word e >> 1, low half when e is even:
- *          unpackHalf2x16), element order of hash_grid.h: e = (level * 2^M + entry) * F + feature.
+ *  grid:   the hash tables, element order of hash_grid.h: e = (level * 2^M + entry) * F + feature.
+ *          grid_bits 16: fp16, two per word (element e in word e >> 1, low half when e is even:
+ *          unpackHalf2x16). grid_bits 8: int8 codes in [-127, 127], four per word (element e in
+ *          byte e & 3 of word e >> 2, two's complement), the value code * grid_scale<level> in fp32
+ *          (as Model::grid on the CPU). lsnif_grid_value (lsnif_model.glsl) reads either.
  *  mlp:    starts at a multiple of 8 words. Per layer (hidden layers, then output) with in/out as
  *          in network.h, the rows in blocks of LSNIF_GPU_ROW_BLOCK = 8 (the last block padded with
  *          zero rows) so that one 32-byte load serves 8 rows (the portable inference path, see
@@ -71,7 +74,7 @@
  *          Every layer has a multiple of 8 words.
  * All fields are 32-bit uint or float, so the struct has identical std430 layout in C++ and GLSL. */
 #define LSNIF_GPU_MAGIC 0x4647534Cu /* "LSGF" little-endian */
-#define LSNIF_GPU_VERSION 2u
+#define LSNIF_GPU_VERSION 3u
 #define LSNIF_GPU_ROW_WORDS(n) (((n) + 1u) >> 1)
 #define LSNIF_GPU_ROW_BLOCK 8u
 #define LSNIF_GPU_ROW_BLOCKS(n) (((n) + LSNIF_GPU_ROW_BLOCK - 1u) / LSNIF_GPU_ROW_BLOCK)
@@ -107,7 +110,9 @@ struct LsnifGpuModelHeader {
   lsnif_uint voxel_offset;     /* words */
   lsnif_uint grid_offset;      /* words */
   lsnif_uint mlp_offset;       /* words */
-  lsnif_uint reserved0, reserved1, reserved2, reserved3, reserved4, reserved5; /* zero; 32 words */
+  lsnif_uint grid_bits;        /* 16 (fp16 grid) or 8 (int8 codes times the level's scale) */
+  float grid_scale0, grid_scale1, grid_scale2, grid_scale3; /* grid_bits 8: per level, else 0 */
+  lsnif_uint reserved0;        /* zero; 32 words */
 };
 #define LSNIF_GPU_HEADER_WORDS 32u
 

@@ -45,7 +45,7 @@ void lsnif_encode_point(LsnifModel m, uint j) {
       const uint entry = offset + lsnif_hash_vertex(v, M);
       const float weight = ((k & 1u) != 0u ? wb : 1.0 - wb) * ((k >> 1) != 0u ? wc : 1.0 - wc);
       for (uint f = 0u; f < F; ++f)
-        lsnif_act[out_base + f] += weight * lsnif_half(m, m.h.grid_offset, entry * F + f);
+        lsnif_act[out_base + f] += weight * lsnif_grid_value(m, l, entry * F + f);
     }
   }
 }

@@ -72,6 +72,18 @@ uint lsnif_grid_resolution(LsnifModel m, uint level) {
                      : m.h.grid_resolution3;
 }
 
+// Hash-grid element e (hash_grid.h order) of level `level`: fp16, or an int8 code times the
+// level's scale (grid_bits 8), exactly Model::grid[e] on the CPU.
+float lsnif_grid_value(LsnifModel m, uint level, uint e) {
+  if (m.h.grid_bits == 16u) return lsnif_half(m, m.h.grid_offset, e);
+  const int code = bitfieldExtract(int(m.words.w[m.h.grid_offset + (e >> 2)]), int((e & 3u) * 8u), 8);
+  const float scale = level == 0u ? m.h.grid_scale0
+                    : level == 1u ? m.h.grid_scale1
+                    : level == 2u ? m.h.grid_scale2
+                                  : m.h.grid_scale3;
+  return float(code) * scale;
+}
+
 uint lsnif_input_dim(LsnifModel m) { return m.h.max_points * m.h.grid_levels * m.h.features; }
 uint lsnif_output_dim(LsnifModel m) { return LSNIF_OUT_FIXED + m.h.material_count; }
 

@@ -183,6 +183,52 @@ TEST_F(TrainConfigCli, ModelsWithoutARecordStillLoad) {
   EXPECT_EQ(r.exit_code, 0) << r.output;
 }
 
+// `--grid-bits 8`: a version 3 file whose grid takes one byte per feature (plus a 4-byte scale per
+// level); `lsnif info` reports it, the record reproduces it, and `lsnif eval` runs on it.
+TEST_F(TrainConfigCli, EightBitGridEndToEnd) {
+  const std::string cfg = write("tiny.json", tiny_);
+  const std::string wide = dir_.path("wide.lsnif"), narrow = dir_.path("narrow.lsnif");
+  ProcessResult r = train(wide, {"--config", cfg, "--seed", "5"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = train(narrow, {"--config", cfg, "--seed", "5", "--grid-bits", "8"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string w = read(wide), n = read(narrow);
+  EXPECT_EQ(w[8], 2);  // fp16 grids: format version 2 as before
+  EXPECT_EQ(n[8], 3);
+  const uint64_t features = 2 * 256 * 3;  // L * 2^M * F of tiny_
+  r = lsnif({"info", "--json", narrow});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json jn = nlohmann::json::parse(r.output);
+  r = lsnif({"info", "--json", wide});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json jw = nlohmann::json::parse(r.output);
+  EXPECT_EQ(jn["grid_bits"], 8);
+  EXPECT_EQ(jw["grid_bits"], 16);
+  EXPECT_EQ(jw["bytes"]["grid"], 2 * features);
+  EXPECT_EQ(jn["bytes"]["grid"], features + 2 * 4);
+  EXPECT_EQ(jn["bytes"]["mlp"], jw["bytes"]["mlp"]);
+  EXPECT_LT(jn["bytes"]["total"].get<uint64_t>(), jw["bytes"]["total"].get<uint64_t>() - features + 64);
+  EXPECT_EQ(jn["training"]["settings"]["grid-bits"], "8");
+  // The file: the 16-bit one less half its grid, give or take header and padding.
+  EXPECT_NEAR(double(n.size()), double(w.size() - features), 64.0);
+  r = lsnif({"info", narrow});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("grid-bits=8"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("int8 x an fp32 scale per level"), std::string::npos) << r.output;
+  // The recorded settings reproduce the model byte for byte.
+  r = lsnif({"info", "--settings", narrow});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string again = dir_.path("again.lsnif");
+  r = train(again, {"--config", write("narrow.json", r.output)});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(read(again), n);
+  r = lsnif({"eval", narrow, kMesh, "--rays", "200"});
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  r = train(narrow, {"--config", cfg, "--grid-bits", "12"});
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("grid-bits"), std::string::npos) << r.output;
+}
+
 TEST_F(TrainConfigCli, ConvertTakesTheConfigAndRecordsTheSettings) {
   const fs::path example =
       fs::path(__FILE__).parent_path().parent_path() / "samples/scene/examples/bunny_on_plane.gltf";

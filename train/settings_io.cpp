@@ -336,6 +336,7 @@ void to_train_settings(const SettingValues& v, TrainSettings& s) {
   c.hidden_layers = u32(Layers);
   c.hit_param = static_cast<HitParam>(u32(Hit));
   c.leaky_slope = v[LeakySlope].f;
+  c.grid_bits = u32(GridBits);
   s.steps = u32(Steps);
   s.batch_size = u32(Batch);
   s.seed = v[Seed].u;
@@ -371,6 +372,7 @@ SettingValues from_train_settings(const TrainSettings& s) {
   v[Layers].u = c.hidden_layers;
   v[Hit].u = static_cast<uint32_t>(c.hit_param);
   v[LeakySlope].f = c.leaky_slope;
+  v[GridBits].u = c.grid_bits;
   v[Steps].u = s.steps;
   v[Batch].u = s.batch_size;
   v[Seed].u = s.seed;

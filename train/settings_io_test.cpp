@@ -142,7 +142,7 @@ TEST(SettingsConfig, JsonAndTrainSettingsRoundTrip) {
   SettingLayer layer;
   ASSERT_TRUE(parse_settings_json(
       R"({"voxels": 16, "points": 7, "levels": 3, "res-min": 32, "res-max": 256, "table-log2": 10, "features": 2,
-          "width": 24, "layers": 3, "hit": "aabb", "leaky-slope": 0.02, "steps": 3, "batch": 100,
+          "width": 24, "layers": 3, "hit": "aabb", "leaky-slope": 0.02, "grid-bits": "8", "steps": 3, "batch": 100,
           "seed": 18446744073709551615, "ray-reuse": 2, "lr": 0.0033333333, "adam-beta1": 0.8, "adam-beta2": 0.95,
           "adam-epsilon": 1e-12, "normal-loss": "cosine", "w-occlusion": 0.5, "w-distance": 2, "w-normal": 0.1,
           "w-albedo": 0, "w-material": 3, "surface-fraction": 0.25, "sphere-scale": 2, "surface-offset": 0.001,

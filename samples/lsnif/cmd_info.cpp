@@ -92,10 +92,10 @@ int cmd_info(int argc, char** argv) {
   if (json) {
     std::printf("{\"config\": \"%s\", \"voxel_resolution\": %u, \"max_points\": %u, \"grid_levels\": %u, "
                 "\"log2_table_size\": %u, \"features\": %u, \"hidden_width\": %u, \"hidden_layers\": %u, "
-                "\"material_count\": %u, \"hit_param\": \"%s\", \"occupied_voxels\": %u, "
+                "\"material_count\": %u, \"hit_param\": \"%s\", \"grid_bits\": %u, \"occupied_voxels\": %u, "
                 "\"bytes\": {\"voxels\": %llu, \"grid\": %llu, \"mlp\": %llu, \"header\": %llu, \"total\": %llu}",
                 c.describe().c_str(), c.voxel_resolution, c.max_points, c.grid_levels, c.log2_table_size,
-                c.features, c.hidden_width, c.hidden_layers, c.material_count, to_string(c.hit_param),
+                c.features, c.hidden_width, c.hidden_layers, c.material_count, to_string(c.hit_param), c.grid_bits,
                 model.voxels.count_occupied(), (unsigned long long)m.voxel_bytes,
                 (unsigned long long)m.grid_bytes, (unsigned long long)m.mlp_bytes,
                 (unsigned long long)m.header_bytes, (unsigned long long)m.total());
@@ -118,7 +118,8 @@ int cmd_info(int argc, char** argv) {
               double(b.hi.x), double(b.hi.y), double(b.hi.z));
   std::printf("voxels     %u^3, %u occupied\n", c.voxel_resolution, model.voxels.count_occupied());
   if (training.is_null()) {
-    std::printf("training   not recorded (format version 1)\n");
+    // Only version 1 files lack the record, and version 3 files (8-bit grids) written without one.
+    std::printf("training   not recorded%s\n", c.grid_bits == 16 ? " (format version 1)" : "");
   } else {
     std::printf("settings   %s\n", settings_lines(training["settings"], "           ").c_str());
     const nlohmann::json& mesh = training.contains("mesh") ? training["mesh"] : nlohmann::json();
@@ -135,8 +136,9 @@ int cmd_info(int argc, char** argv) {
                 double(model.materials[i].base_color.r), double(model.materials[i].base_color.g),
                 double(model.materials[i].base_color.b));
   std::printf("memory     voxels %8.1f KB\n", double(m.voxel_bytes) / 1024.0);
-  std::printf("           grid   %8.1f KB (%u levels x 2^%u entries x %u features, fp16)\n",
-              double(m.grid_bytes) / 1024.0, c.grid_levels, c.log2_table_size, c.features);
+  std::printf("           grid   %8.1f KB (%u levels x 2^%u entries x %u features, %s)\n",
+              double(m.grid_bytes) / 1024.0, c.grid_levels, c.log2_table_size, c.features,
+              c.grid_bits == 8 ? "int8 x an fp32 scale per level" : "fp16");
   std::printf("           mlp    %8.1f KB (%llu parameters, fp16)\n", double(m.mlp_bytes) / 1024.0,
               (unsigned long long)c.mlp_parameter_count());
   std::printf("           header %8.1f KB\n", double(m.header_bytes) / 1024.0);

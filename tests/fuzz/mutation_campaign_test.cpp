@@ -56,7 +56,8 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 
 // ---- models ----------------------------------------------------------------------------------
 
-// A small valid model (V=4, one level, 2 materials) with parameters drawn from `seed`.
+// A small valid model (V=4, one level, 2 materials) with parameters drawn from `seed`; even seeds
+// store 8-bit grid features (format version 3).
 std::string model_bytes(uint64_t seed) {
   Model m = scene::tiny_model(glm::vec3(-1.0f), glm::vec3(1.0f, 2.0f, 1.5f), {"stone", "caf\xc3\xa9"});
   std::mt19937_64 rng(seed);
@@ -64,6 +65,10 @@ std::string model_bytes(uint64_t seed) {
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   for (float& g : m.grid) g = u(rng);
   for (float& w : m.mlp) w = u(rng);
+  if (seed % 2 == 0) {
+    m.config.grid_bits = 8;
+    m.quantize();
+  }
   std::vector<uint8_t> bytes;
   EXPECT_TRUE(save_model_to_memory(m, bytes));
   return std::string(bytes.begin(), bytes.end());
@@ -119,6 +124,24 @@ TEST(MutationCampaign, ModelFiles) {
       fields[f](b);
       test::fix_model_crc(b);
       ASSERT_FALSE(parse_model(b)) << "field case " << f;
+    }
+    if (good[8] != 3) continue;
+    // Version 3 (8-bit grid): the grid bits, the zero word, a scale, a code.
+    uint64_t grid_at = 0, scales_at = 0;
+    std::memcpy(&grid_at, &good[136], 8);
+    std::memcpy(&scales_at, &good[184], 8);
+    const std::vector<std::function<void(std::string&)>> grid_fields = {
+        [](std::string& b) { put_at<uint32_t>(b, 200, 16); },               // grid bits 16 in version 3
+        [](std::string& b) { put_at<uint32_t>(b, 204, 1); },                // the zero word
+        [&](std::string& b) { put_at<float>(b, scales_at, NAN); },          // scale not finite
+        [&](std::string& b) { put_at<float>(b, scales_at, -1.0f); },        // negative scale
+        [&](std::string& b) { put_at<uint8_t>(b, grid_at + 1, 0x80); },     // code -128
+    };
+    for (size_t f = 0; f < grid_fields.size(); ++f, ++cases) {
+      std::string b = good;
+      grid_fields[f](b);
+      test::fix_model_crc(b);
+      ASSERT_FALSE(parse_model(b)) << "8-bit field case " << f;
     }
   }
   std::printf("[ info ] models: %zu cases, %.2f s\n", cases, seconds_since(start));
@@ -420,6 +443,7 @@ TEST(MutationCampaign, OptionLists) {
       {"--w-normal", {"-1e-9"}},
       {"--hit", {"bogus", ""}},
       {"--normal-loss", {"cos"}},
+      {"--grid-bits", {"12", "0", "4", "x"}},
       {"--threads", {"-1"}},
       {"--seed", {"-1", "1e3"}},
   };

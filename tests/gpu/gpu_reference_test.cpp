@@ -170,6 +170,8 @@ void print(const char* name, const Comparison& c) {
       c.occlusion_max);
 }
 
+constexpr size_t kRaysPerInstance = 5000;  // x 2 instances x 2 models = 20k trained-model rays
+
 class GpuReference : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -277,6 +279,15 @@ class GpuReference : public ::testing::Test {
     EXPECT_EQ(c.material_mismatch, 0u);
   }
 
+  // Two comparisons of a trained model: each within the bounds, not vacuous (hits of every kind).
+  static void expect_trained_agreement(const Comparison& a, const Comparison& b) {
+    for (const Comparison* c : {&a, &b}) {
+      expect_agreement(*c);
+      EXPECT_GT(c->cpu_hits, kRaysPerInstance / 5);  // the comparison is not vacuous
+      for (size_t k = 0; k < kKinds; ++k) EXPECT_GT(c->hits_per_kind[k], 20u) << kKindNames[k];
+    }
+  }
+
   void SetUp() override {
     ASSERT_TRUE(vk_status_) << "no usable Vulkan device: " << vk_status_.message();
   }
@@ -295,54 +306,67 @@ vk::Pipeline GpuReference::pipeline_;
 Status GpuReference::vk_status_, GpuReference::train_status_;
 Model GpuReference::aabb_model_, GpuReference::segment_model_;
 
-constexpr size_t kRaysPerInstance = 5000;  // x 2 instances x 2 models = 20k trained-model rays
-
 TEST_F(GpuReference, AabbIntervalModelMatchesCpu) {
   ASSERT_TRUE(train_status_) << train_status_.message();
   const Comparison a = run(aabb_model_, Transform3x4(), kRaysPerInstance, 1, "AABB interval, identity");
   const Comparison b = run(aabb_model_, skewed_instance(), kRaysPerInstance, 2, "AABB interval, skewed instance");
-  for (const Comparison* c : {&a, &b}) {
-    expect_agreement(*c);
-    EXPECT_GT(c->cpu_hits, kRaysPerInstance / 5);  // the comparison is not vacuous
-    for (size_t k = 0; k < kKinds; ++k) EXPECT_GT(c->hits_per_kind[k], 20u) << kKindNames[k];
-  }
+  expect_trained_agreement(a, b);
 }
 
 TEST_F(GpuReference, VoxelSegmentsModelMatchesCpu) {
   ASSERT_TRUE(train_status_) << train_status_.message();
   const Comparison a = run(segment_model_, Transform3x4(), kRaysPerInstance, 3, "voxel segments, identity");
   const Comparison b = run(segment_model_, skewed_instance(), kRaysPerInstance, 4, "voxel segments, skewed instance");
-  for (const Comparison* c : {&a, &b}) {
-    expect_agreement(*c);
-    EXPECT_GT(c->cpu_hits, kRaysPerInstance / 5);
-    for (size_t k = 0; k < kKinds; ++k) EXPECT_GT(c->hits_per_kind[k], 20u) << kKindNames[k];
-  }
+  expect_trained_agreement(a, b);
+}
+
+// 8-bit grid features: the trained models' grids as int8 codes times a per-level scale. The
+// shader's lsnif_grid_value decodes them to exactly Model::grid (code * scale in fp32 on both
+// sides), so the agreement bounds are those of fp16 grids.
+Model with_8bit_grid(Model m) {
+  m.config.grid_bits = 8;
+  m.quantize();
+  return m;
+}
+
+TEST_F(GpuReference, EightBitGridModelsMatchCpu) {
+  ASSERT_TRUE(train_status_) << train_status_.message();
+  const Model aabb = with_8bit_grid(aabb_model_), segments = with_8bit_grid(segment_model_);
+  const Comparison a = run(aabb, skewed_instance(), kRaysPerInstance, 6, "8-bit grid, AABB interval, skewed instance");
+  const Comparison b = run(segments, Transform3x4(), kRaysPerInstance, 7, "8-bit grid, voxel segments, identity");
+  expect_trained_agreement(a, b);
 }
 
 // Random fp16 weights and odd sizes (input 9, width 5, 3 hidden layers, 2 materials, V = 5, R = 15):
 // exercises the half-pair padding of every row and bias, the ping-pong between layers and the
 // material argmax. Random logits are larger than trained ones, hence the same relative bounds.
 TEST_F(GpuReference, RandomOddSizedModelMatchesCpu) {
-  Model model = random_odd_model();
-  // Calibrate the occlusion bias on the CPU so that about half of the rays crossing an occupied
-  // voxel are predicted hits (random weights alone put nearly all logits on one side).
-  const Instance in = instance_of(skewed_instance());
-  std::vector<int> kinds;
-  std::vector<Ray> world;
-  make_world_rays(model, in, 4000, 5, world, kinds);
-  std::vector<LsnifHit> cpu(world.size());
-  ASSERT_TRUE(intersect(model, skewed_instance(), world.data(), world.size(), cpu.data()));
-  std::vector<float> logits;
-  for (const LsnifHit& h : cpu)
-    if (h.occlusion > 0.0f && h.occlusion < 1.0f) logits.push_back(std::log(h.occlusion / (1.0f - h.occlusion)));
-  ASSERT_GT(logits.size(), 1000u);
-  std::nth_element(logits.begin(), logits.begin() + long(logits.size() / 2), logits.end());
-  model.mlp[mlp_layers(model.config).back().bias_offset + LSNIF_OUT_OCCLUSION] -= logits[logits.size() / 2];
-  model.quantize();
-  const Comparison c = run(model, skewed_instance(), 4000, 5, "random odd-sized model, skewed instance");
-  expect_agreement(c);
-  EXPECT_GT(c.cpu_hits, 400u);
-  EXPECT_LT(c.cpu_hits, 3600u);
+  for (const uint32_t grid_bits : {16u, 8u}) {
+    SCOPED_TRACE(grid_bits);
+    Model model = random_odd_model();
+    model.config.grid_bits = grid_bits;
+    model.quantize();
+    // Calibrate the occlusion bias on the CPU so that about half of the rays crossing an occupied
+    // voxel are predicted hits (random weights alone put nearly all logits on one side).
+    const Instance in = instance_of(skewed_instance());
+    std::vector<int> kinds;
+    std::vector<Ray> world;
+    make_world_rays(model, in, 4000, 5, world, kinds);
+    std::vector<LsnifHit> cpu(world.size());
+    ASSERT_TRUE(intersect(model, skewed_instance(), world.data(), world.size(), cpu.data()));
+    std::vector<float> logits;
+    for (const LsnifHit& h : cpu)
+      if (h.occlusion > 0.0f && h.occlusion < 1.0f) logits.push_back(std::log(h.occlusion / (1.0f - h.occlusion)));
+    ASSERT_GT(logits.size(), 1000u);
+    std::nth_element(logits.begin(), logits.begin() + long(logits.size() / 2), logits.end());
+    model.mlp[mlp_layers(model.config).back().bias_offset + LSNIF_OUT_OCCLUSION] -= logits[logits.size() / 2];
+    model.quantize();
+    const char* name = grid_bits == 8 ? "random odd-sized 8-bit model" : "random odd-sized model, skewed instance";
+    const Comparison c = run(model, skewed_instance(), 4000, 5, name);
+    expect_agreement(c);
+    EXPECT_GT(c.cpu_hits, 400u);
+    EXPECT_LT(c.cpu_hits, 3600u);
+  }
 }
 
 // The zero-message assertions above mean something only if the messenger sees errors: provoke one
@@ -380,6 +404,9 @@ TEST(GpuModelPacking, EveryValueAtItsDocumentedPlace) {
   EXPECT_EQ(h.bounds_lo_y, 0.5f);
   EXPECT_EQ(h.bounds_hi_z, 4.0f);
   EXPECT_EQ(h.voxel_offset, LSNIF_GPU_HEADER_WORDS);
+  EXPECT_EQ(h.grid_bits, 16u);
+  EXPECT_EQ(h.grid_scale0, 0.0f);
+  EXPECT_EQ(h.reserved0, 0u);
   auto half_at = [&](uint32_t base, uint64_t e) {
     return half_to_float(uint16_t(words[base + (e >> 1)] >> ((e & 1u) * 16u)));
   };
@@ -425,6 +452,43 @@ TEST(GpuModelPacking, EveryValueAtItsDocumentedPlace) {
     EXPECT_EQ(g.end_word, expect_word);
   }
   EXPECT_EQ(h.mlp_offset + expect_word, h.total_words);
+}
+
+// 8-bit grid features: four two's complement codes per word (element e in byte e & 3 of word
+// e >> 2), the level scales in the header, the MLP still 32-byte aligned after the grid.
+TEST(GpuModelPacking, EightBitGridCodesFourPerWord) {
+  const Model model = with_8bit_grid(random_odd_model());
+  std::vector<uint32_t> words;
+  ASSERT_TRUE(pack_gpu_model(model, words));
+  const LsnifGpuModelHeader h = gpu_block_header(words);
+  EXPECT_EQ(h.grid_bits, 8u);
+  const float scales[4] = {h.grid_scale0, h.grid_scale1, h.grid_scale2, h.grid_scale3};
+  const Config& c = model.config;
+  for (uint32_t l = 0; l < 4; ++l) EXPECT_EQ(scales[l], l < c.grid_levels ? model.grid_scales[l] : 0.0f) << l;
+  EXPECT_EQ(h.reserved0, 0u);
+  const uint64_t count = c.grid_parameter_count(), per_level = uint64_t(c.table_size()) * c.features;
+  EXPECT_EQ(h.mlp_offset - h.grid_offset, ((count + 3) / 4 + 7) / 8 * 8);
+  for (uint64_t e = 0; e < count; ++e) {
+    const int8_t code = int8_t(uint8_t(words[h.grid_offset + e / 4] >> (8 * (e % 4))));
+    ASSERT_EQ(code, model.grid_code(e)) << e;
+    ASSERT_EQ(float(code) * scales[e / per_level], model.grid[e]) << e;
+  }
+  for (uint64_t b = count; b < 4 * uint64_t(h.mlp_offset - h.grid_offset); ++b)
+    ASSERT_EQ((words[h.grid_offset + b / 4] >> (8 * (b % 4))) & 0xffu, 0u) << "pad byte " << b;
+  // The MLP section is that of the fp16 model, moved.
+  std::vector<uint32_t> wide;
+  Model fp16 = model;
+  fp16.config.grid_bits = 16;
+  fp16.quantize();
+  ASSERT_TRUE(pack_gpu_model(fp16, wide));
+  const LsnifGpuModelHeader hw = gpu_block_header(wide);
+  ASSERT_EQ(wide.size() - hw.mlp_offset, words.size() - h.mlp_offset);
+  EXPECT_TRUE(std::equal(words.begin() + h.mlp_offset, words.end(), wide.begin() + hw.mlp_offset));
+  EXPECT_LT(words.size(), wide.size());
+  // An 8-bit model whose grid is not code * scale is refused.
+  Model off = model;
+  off.grid[1] += off.grid_scales[0] * 0.25f;
+  EXPECT_FALSE(pack_gpu_model(off, words));
 }
 
 TEST(GpuModelPacking, RejectsUnquantizedAndInconsistentModels) {

@@ -215,7 +215,8 @@ void print(const char* name, const Comparison& c) {
 
 class RtConformance : public ::testing::Test {
  protected:
-  static constexpr uint32_t kAabbIndex = 0, kSegmentIndex = 1;  // model table entries
+  // Model table entries; the third is the voxel-segments model with 8-bit grid features.
+  static constexpr uint32_t kAabbIndex = 0, kSegmentIndex = 1, kEightBitIndex = 2, kModels = 3;
 
   static void SetUpTestSuite() {
     vk_status_ = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::kReferenceDevice);
@@ -248,20 +249,23 @@ class RtConformance : public ::testing::Test {
     train_status_ = train_model(mesh, tiny_settings(HitParam::AabbInterval), models_[kAabbIndex]);
     if (train_status_) train_status_ = train_model(mesh, tiny_settings(HitParam::VoxelSegments), models_[kSegmentIndex]);
     std::printf("trained 2 tiny models in %.2f s\n", seconds_since(t0));
+    models_[kEightBitIndex] = models_[kSegmentIndex];
+    models_[kEightBitIndex].config.grid_bits = 8;
+    models_[kEightBitIndex].quantize();
     if (!train_status_ || !vk_status_) return;
 
     // Through the plugin, on the harness's device: model blocks and one AABB BLAS per model, and
     // the model table (custom index -> model address).
     train_status_ = plugin_.init(vk_);
-    for (uint32_t m = 0; m < 2 && train_status_; ++m) train_status_ = plugin_.upload(models_[m], handles_[m]);
+    for (uint32_t m = 0; m < kModels && train_status_; ++m) train_status_ = plugin_.upload(models_[m], handles_[m]);
     std::vector<uint64_t> addresses;
-    if (train_status_) train_status_ = plugin_.model_table({handles_[0], handles_[1]}, addresses);
+    if (train_status_) train_status_ = plugin_.model_table({handles_[0], handles_[1], handles_[2]}, addresses);
     if (train_status_) train_status_ = vk_.create_buffer(addresses.size() * sizeof(uint64_t), table_);
     if (train_status_) std::memcpy(table_.mapped, addresses.data(), addresses.size() * sizeof(uint64_t));
   }
 
   static void TearDownTestSuite() {
-    for (int m = 0; m < 2; ++m) plugin_.release(handles_[m]);
+    for (uint32_t m = 0; m < kModels; ++m) plugin_.release(handles_[m]);
     plugin_.destroy();
     vk_.destroy_buffer(table_);
     tracer_.destroy(pipeline_);
@@ -302,7 +306,7 @@ class RtConformance : public ::testing::Test {
       }
       RtPush push;
       push.model_table = table_.address;
-      push.model_count = 2;
+      push.model_count = kModels;
       push.rays = ray_buf.address;
       push.hits = hit_buf.address;
       push.ray_count = uint32_t(count);
@@ -373,9 +377,9 @@ class RtConformance : public ::testing::Test {
   static vk::RtPipeline pipeline_, mixed_pipeline_;
   static Mesh mesh_;
   static Status vk_status_, train_status_;
-  static Model models_[2];
+  static Model models_[kModels];
   static TestPlugin plugin_;
-  static LsnifModel handles_[2];
+  static LsnifModel handles_[kModels];
   static vk::Buffer table_;
 };
 vk::ComputeContext RtConformance::vk_;
@@ -383,9 +387,9 @@ vk::RayTracer RtConformance::tracer_(RtConformance::vk_);
 vk::RtPipeline RtConformance::pipeline_, RtConformance::mixed_pipeline_;
 Mesh RtConformance::mesh_;
 Status RtConformance::vk_status_, RtConformance::train_status_;
-Model RtConformance::models_[2];
+Model RtConformance::models_[RtConformance::kModels];
 TestPlugin RtConformance::plugin_;
-LsnifModel RtConformance::handles_[2];
+LsnifModel RtConformance::handles_[RtConformance::kModels];
 vk::Buffer RtConformance::table_;
 
 constexpr size_t kRays = 5000;  // per model and instance: 20k rays for the single-instance tests
@@ -406,6 +410,20 @@ TEST_F(RtConformance, SkewedInstanceMatchesCpu) {
       run_single(kAabbIndex, test::skewed_instance(), kRays, 2, kModeClosest, "AABB interval, skewed instance");
   const Comparison b =
       run_single(kSegmentIndex, test::skewed_instance(), kRays, 4, kModeClosest, "voxel segments, skewed instance");
+  for (const Comparison* c : {&a, &b}) {
+    expect_agreement(*c, kModeClosest);
+    EXPECT_GT(c->cpu_hits, kRays / 5);
+    for (size_t k = 0; k < kKinds; ++k) EXPECT_GT(c->hits_per_kind[k], 20u) << kKindNames[k];
+  }
+}
+
+// 8-bit grid features (int8 codes times a per-level scale, lsnif_grid_value in the shader): the same
+// agreement with the CPU reference, whose grid holds the same code * scale products.
+TEST_F(RtConformance, EightBitGridModelMatchesCpu) {
+  const Comparison a =
+      run_single(kEightBitIndex, Transform3x4(), kRays, 12, kModeClosest, "8-bit grid, voxel segments, identity");
+  const Comparison b = run_single(kEightBitIndex, test::skewed_instance(), kRays, 13, kModeClosest,
+                                  "8-bit grid, voxel segments, skewed instance");
   for (const Comparison* c : {&a, &b}) {
     expect_agreement(*c, kModeClosest);
     EXPECT_GT(c->cpu_hits, kRays / 5);
@@ -687,7 +705,7 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
     }
     RtPush push;
     push.model_table = table_.address;
-    push.model_count = 2;
+    push.model_count = kModels;
     push.rays = ray_buf.address;
     push.hits = hit_buf.address;
     push.ray_count = uint32_t(kMixedRays);
