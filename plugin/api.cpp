@@ -77,9 +77,25 @@ Outcome collect(const LsnifContext_T& ctx, uint32_t count, const LsnifModel* pMo
 
 // The checks lsnifGetQueryScratchSize and lsnifCmdQuery share: reserved fields, the counts, and the
 // table's models (each of this context, or null; built, with `built`), collected into `models`.
+// The structures chained to a LsnifQueryInfo: a LsnifQueryTimestampsInfo (into `timestamps`) or none.
+Outcome query_chain(const LsnifQueryInfo& info, const LsnifQueryTimestampsInfo*& timestamps) {
+  timestamps = nullptr;
+  if (!info.pNext) return Outcome::ok();
+  const auto* chained = static_cast<const LsnifQueryTimestampsInfo*>(info.pNext);
+  if (chained->sType != LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO)
+    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                         "pInfo->pNext: unknown structure type %d (expected LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO)",
+                         static_cast<int>(chained->sType));
+  if (chained->pNext) return invalid("%s must be NULL", "LsnifQueryTimestampsInfo::pNext");
+  if (!chained->timestampPool) return invalid("%s is VK_NULL_HANDLE", "LsnifQueryTimestampsInfo::timestampPool");
+  timestamps = chained;
+  return Outcome::ok();
+}
+
 Outcome check_query_counts(const LsnifContext_T& ctx, const LsnifQueryInfo& info, bool built,
                            std::vector<const LsnifModel_T*>& models) {
-  if (info.pNext) return invalid("%s must be NULL", "pInfo->pNext");
+  const LsnifQueryTimestampsInfo* timestamps = nullptr;
+  if (Outcome o = query_chain(info, timestamps); !o) return o;
   if (info.candidatesPerRay < 1 || info.candidatesPerRay > LSNIF_QUERY_MAX_CANDIDATES_PER_RAY)
     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->candidatesPerRay %u is not in 1 .. %u",
                          info.candidatesPerRay, LSNIF_QUERY_MAX_CANDIDATES_PER_RAY);
@@ -513,7 +529,12 @@ LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer comman
                   if (info.cullMask > 0xFFu)
                     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->cullMask 0x%x does not fit its 8 bits",
                                          info.cullMask);
-                  if (info.rayCount == 0) return Outcome::ok();
+                  const LsnifQueryTimestampsInfo* timestamps = nullptr;
+                  if (Outcome o = query_chain(info, timestamps); !o) return o;
+                  if (info.rayCount == 0) {
+                    if (timestamps) lsnif::plugin::record_query_timestamps(*context, commandBuffer, *timestamps);
+                    return Outcome::ok();
+                  }
                   if (info.tlas == 0) return invalid("%s is 0", "pInfo->tlas");
                   for (Outcome o : {check_address("pInfo->rays", info.rays, 16),
                                     check_address("pInfo->results", info.results, 16)})
@@ -534,7 +555,7 @@ LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer comman
                                          "(lsnifGetQueryScratchSize)",
                                          static_cast<unsigned long long>(info.scratchSize),
                                          static_cast<unsigned long long>(need));
-                  lsnif::plugin::record_query(*context, *p, commandBuffer, models, info);
+                  lsnif::plugin::record_query(*context, *p, commandBuffer, models, info, timestamps);
                   return Outcome::ok();
                 }),
                 "lsnifCmdQuery", context);

@@ -141,8 +141,11 @@ void record_intersect_model_rays(LsnifContext_T& ctx, const LsnifQueryPipeline_T
 VkDeviceSize query_scratch_bytes(const std::vector<const LsnifModel_T*>& models, uint32_t table_entries, uint32_t rays,
                                  uint32_t per_ray);
 // Records the stages of lsnifCmdQuery (arguments checked by the caller); models[i] is the model of
-// table entry i or null.
+// table entry i or null; `timestamps` (may be null): where the stage timestamps go.
 void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& pipeline, VkCommandBuffer cmd,
-                  const std::vector<const LsnifModel_T*>& models, const LsnifQueryInfo& info);
+                  const std::vector<const LsnifModel_T*>& models, const LsnifQueryInfo& info,
+                  const LsnifQueryTimestampsInfo* timestamps);
+// Records the LSNIF_QUERY_TIMESTAMP_COUNT timestamps of an lsnifCmdQuery that has no rays.
+void record_query_timestamps(LsnifContext_T& ctx, VkCommandBuffer cmd, const LsnifQueryTimestampsInfo& timestamps);
 
 }  // namespace lsnif::plugin

@@ -269,9 +269,23 @@ VkDeviceSize query_scratch_bytes(const std::vector<const LsnifModel_T*>& models,
   return 4u * query_layout(models, table_entries, rays, per_ray).total_words;
 }
 
+void record_query_timestamps(LsnifContext_T& ctx, VkCommandBuffer cmd, const LsnifQueryTimestampsInfo& timestamps) {
+  for (uint32_t k = 0; k < LSNIF_QUERY_TIMESTAMP_COUNT; ++k)
+    ctx.vk.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps.timestampPool,
+                               timestamps.firstQuery + k);
+}
+
 void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandBuffer cmd,
-                  const std::vector<const LsnifModel_T*>& models, const LsnifQueryInfo& info) {
+                  const std::vector<const LsnifModel_T*>& models, const LsnifQueryInfo& info,
+                  const LsnifQueryTimestampsInfo* timestamps) {
   const DeviceDispatch& vk = ctx.vk;
+  // Stage timestamp k (LSNIF_QUERY_TIMESTAMP_COUNT) if the chunk starting at ray `base` is the
+  // first: a query may be written once per reset.
+  auto timestamp = [&](uint32_t k, uint32_t base) {
+    if (timestamps && base == 0)
+      vk.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps->timestampPool,
+                             timestamps->firstQuery + k);
+  };
   const LsnifQueryPipeline_T::Tlas& st = p.tlas;
   const QueryLayout layout = query_layout(models, info.modelCount, info.rayCount, info.candidatesPerRay);
   VkBufferDeviceAddressInfo ai{};
@@ -317,6 +331,8 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
 
   // The stages run once per chunk of at most LSNIF_QUERY_CHUNK_RAYS rays, every chunk in the same
   // scratch; the status accumulators start at 0 with the first chunk and are written after the last.
+  // Timestamp 0 precedes every chunk, [1]-[4] follow the first chunk's stages, [5] the status.
+  timestamp(0, 0);
   for (uint32_t base = 0; base < info.rayCount; base += LSNIF_QUERY_CHUNK_RAYS) {
     const uint32_t n = std::min(info.rayCount - base, LSNIF_QUERY_CHUNK_RAYS);
     split(info.rays + VkDeviceAddress(base) * sizeof(LsnifQueryRay), pc.rays_lo, pc.rays_hi);
@@ -328,16 +344,20 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
     between_passes(vk, cmd, false);
     run(st.broad, groups_of(n));
     between_passes(vk, cmd, false);
+    timestamp(1, base);
     run(st.scan, 1);
     between_passes(vk, cmd, true);
     run_indirect(st.scatter, LSNIF_QUERY_SCATTER_ARGS_WORD);
     between_passes(vk, cmd, false);
+    timestamp(2, base);
     per_model(st.narrow, narrow_args);
     between_passes(vk, cmd, false);
+    timestamp(3, base);
     run(st.batch_args, groups_of(info.modelCount));
     between_passes(vk, cmd, true);
     per_model(st.mlp, batch_args);
     between_passes(vk, cmd, false);
+    timestamp(4, base);
     per_model(st.decode, batch_args);
     between_passes(vk, cmd, false);
     run_indirect(st.tie, LSNIF_QUERY_SCATTER_ARGS_WORD);
@@ -348,6 +368,7 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
   }
   between_passes(vk, cmd, false);
   run(st.status, 1);
+  timestamp(5, 0);
 }
 
 }  // namespace lsnif::plugin

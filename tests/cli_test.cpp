@@ -305,6 +305,15 @@ TEST(Cli, RenderAndDemoWithATinyModel) {
   EXPECT_TRUE(fs::exists(image));
   EXPECT_NE(r.out.find("ms per sample"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("1 LSNIF"), std::string::npos) << r.out;
+  // The wavefront pipeline's stage times: reported with --stage-times, refused for the inline one.
+  r = run_cli("render " + scene + " --lsnif bunny=" + model +
+              " --width 16 --height 12 --spp 1 --pipeline wavefront --stage-times -o " + image);
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* want : {"stages (device)", "broad phase", "encode", "MLP", "total"})
+    EXPECT_NE(r.out.find(want), std::string::npos) << want << " missing in:\n" << r.out;
+  r = run_cli("render " + scene + " --lsnif bunny=" + model + " --width 8 --height 8 --spp 1 --stage-times -o " + image);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--stage-times needs --pipeline wavefront"), std::string::npos) << r.out;
   r = run_cli("render " + scene + " --lsnif bunny=" + model + " --reference --width 8 --height 8 --spp 1 -o " + image);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("bunny"), std::string::npos) << r.out;

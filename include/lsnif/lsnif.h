@@ -313,6 +313,7 @@ typedef VkFlags LsnifQueryPipelineCreateFlags;
  * pNext, as in Vulkan). */
 typedef enum LsnifStructureType {
   LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO = 1,
+  LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO = 2,
   LSNIF_STRUCTURE_TYPE_MAX_ENUM = 0x7FFFFFFF
 } LsnifStructureType;
 
@@ -393,7 +394,7 @@ LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommand
  * dispatches), and a resolve that keeps, per ray, the closest accepted hit of either kind. */
 
 typedef struct LsnifQueryInfo {
-  const void* pNext;                          /* reserved: NULL */
+  const void* pNext;                          /* NULL or a LsnifQueryTimestampsInfo */
   uint32_t rayCount;                          /* 0 records nothing; more than LSNIF_QUERY_CHUNK_RAYS run in chunks */
   /* Candidate capacity: candidatesPerRay x min(rayCount, LSNIF_QUERY_CHUNK_RAYS) (LSNIF instances
    * whose box a ray crosses, summed over a chunk's rays), 1 .. LSNIF_QUERY_MAX_CANDIDATES_PER_RAY.
@@ -418,6 +419,28 @@ typedef struct LsnifQueryInfo {
   VkDeviceSize scratchSize;
   VkDeviceAddress status;                     /* optional (0): LsnifQueryStatus, written at the end, 4-byte aligned */
 } LsnifQueryInfo;
+
+/* Timestamps lsnifCmdQuery writes when a LsnifQueryTimestampsInfo is chained to its info, each
+ * after the barrier that ends a stage (pipeline stage bottom of pipe), so that the differences of
+ * consecutive ones are the stages' times:
+ *   [0] start, [1] broad phase done (TLAS traversal, candidates collected), [2] sort done (counting
+ *   sort by model-table entry), [3] narrow phase done (DDA walk and sparse-grid encoding), [4] MLP
+ *   done, [5] end (decoding, resolve against the triangle hits, status).
+ * A batch of more than LSNIF_QUERY_CHUNK_RAYS rays runs the stages once per chunk: [0] and [5]
+ * bracket all of them, [1]-[4] belong to the first chunk. With rayCount 0 all six are still written
+ * (equal times), so that waiting on them never blocks. */
+#define LSNIF_QUERY_TIMESTAMP_COUNT 6U
+
+/* Chained into LsnifQueryInfo::pNext: where lsnifCmdQuery writes its LSNIF_QUERY_TIMESTAMP_COUNT
+ * timestamps. The application creates the pool (VK_QUERY_TYPE_TIMESTAMP, at least firstQuery +
+ * LSNIF_QUERY_TIMESTAMP_COUNT queries), resets those queries before the command runs, and records
+ * into a queue family whose timestampValidBits is not 0. */
+typedef struct LsnifQueryTimestampsInfo {
+  LsnifStructureType sType;                   /* LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO */
+  const void* pNext;                          /* NULL */
+  VkQueryPool timestampPool;                  /* not VK_NULL_HANDLE */
+  uint32_t firstQuery;
+} LsnifQueryTimestampsInfo;
 
 /* The scratch bytes lsnifCmdQuery needs for pInfo's rayCount, candidatesPerRay, modelCount and
  * pModels (the addresses and the scratch fields are not read): per ray of a chunk 32 bytes, per
@@ -451,9 +474,11 @@ LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const Lsnif
  * and push constants (the application's compute bindings are disturbed) and records barriers
  * between its passes only: the application makes its TLAS build and ray writes visible to
  * compute-shader reads before, and waits for compute-shader writes before reading results or status.
+ * Stage times: chain a LsnifQueryTimestampsInfo (LSNIF_QUERY_TIMESTAMP_COUNT above).
  * Fails, recording nothing, on an unknown pipeline or one created without
  * LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT, a candidatesPerRay or cullMask out of range, a model not of
- * this context or not built, a null or misaligned address, a null scratch buffer, or scratch smaller
+ * this context or not built, an unknown structure in pInfo->pNext or a null timestamp pool, a null
+ * or misaligned address, a null scratch buffer, or scratch smaller
  * than lsnifGetQueryScratchSize. The rays of a batch of more than LSNIF_QUERY_CHUNK_RAYS run in
  * chunks, one after the other, in the same scratch. */
 LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer commandBuffer, LsnifQueryPipeline pipeline,

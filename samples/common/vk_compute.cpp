@@ -419,12 +419,7 @@ Status ComputeContext::dispatch(const Pipeline& pipeline, const void* push, uint
     if (pipeline.push_size > 0)
       vkCmdPushConstants(cmd, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pipeline.push_size, push);
     vkCmdDispatch(cmd, groups_x, 1, 1);
-    VkMemoryBarrier barrier{};
-    barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-    barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-    barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier,
-                         0, nullptr, 0, nullptr);
+    barrier_compute_to_host(cmd);
   });
 }
 
@@ -452,6 +447,67 @@ Status ComputeContext::submit(const char* what, const std::function<void(VkComma
   if (r == VK_SUCCESS) r = vkResetFences(device_, 1, &fence_);
   vkFreeCommandBuffers(device_, pool_, 1, &cmd);
   if (r != VK_SUCCESS) return Status::error("%s failed (VkResult %d)", what, static_cast<int>(r));
+  return Status::ok();
+}
+
+void ComputeContext::barrier_compute_to_host(VkCommandBuffer cmd) {
+  VkMemoryBarrier b{};
+  b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+  b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0, nullptr, 0,
+                       nullptr);
+}
+
+Status ComputeContext::create_timestamps(uint32_t count, Timestamps& out) {
+  out = Timestamps();
+  if (!device_) return Status::error("create_timestamps: context not initialized");
+  if (count == 0) return Status::error("create_timestamps: no queries asked for");
+  uint32_t family_count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_, &family_count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(family_count);
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_, &family_count, families.data());
+  const uint32_t bits = queue_family_ < family_count ? families[queue_family_].timestampValidBits : 0u;
+  if (bits == 0) return Status::error("device %s: its queue family has no timestamps", device_name_.c_str());
+  VkPhysicalDeviceProperties props;
+  vkGetPhysicalDeviceProperties(physical_, &props);
+  VkQueryPoolCreateInfo qci{};
+  qci.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
+  qci.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  qci.queryCount = count;
+  LSNIF_VK_CHECK(vkCreateQueryPool(device_, &qci, nullptr, &out.pool));
+  out.count = count;
+  out.ns_per_tick = double(props.limits.timestampPeriod);
+  out.valid_mask = bits >= 64 ? ~uint64_t(0) : (uint64_t(1) << bits) - 1;
+  return Status::ok();
+}
+
+void ComputeContext::destroy_timestamps(Timestamps& timestamps) {
+  if (timestamps.pool && device_) vkDestroyQueryPool(device_, timestamps.pool, nullptr);
+  timestamps = Timestamps();
+}
+
+Status ComputeContext::read_timestamps_ms(const Timestamps& timestamps, uint32_t first, uint32_t count,
+                                          std::vector<double>& ms) {
+  ms.clear();
+  if (!timestamps.pool || uint64_t(first) + count > timestamps.count)
+    return Status::error("read_timestamps_ms: queries %u..%u outside the pool of %u", first, first + count,
+                         timestamps.count);
+  if (count == 0) return Status::ok();
+  std::vector<uint64_t> ticks(2 * size_t(count));  // {timestamp, availability} per query
+  const VkResult r =
+      vkGetQueryPoolResults(device_, timestamps.pool, first, count, ticks.size() * sizeof(uint64_t), ticks.data(),
+                            2 * sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WITH_AVAILABILITY_BIT);
+  if (r != VK_SUCCESS && r != VK_NOT_READY)
+    return Status::error("vkGetQueryPoolResults (timestamps) failed (VkResult %d)", int(r));
+  ms.resize(count);
+  for (uint32_t i = 0; i < count; ++i) {
+    if (ticks[2 * i + 1] == 0) {
+      ms.clear();
+      return Status::error("timestamp query %u was not written", first + i);
+    }
+    ms[i] = double((ticks[2 * i] - ticks[0]) & timestamps.valid_mask) * timestamps.ns_per_tick * 1e-6;
+  }
   return Status::ok();
 }
 

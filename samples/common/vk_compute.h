@@ -81,6 +81,14 @@ struct ContextOptions {
 DeviceInfo query_device_info(VkPhysicalDevice physical);
 
 
+// A pool of timestamp queries on a ComputeContext's queue (create_timestamps).
+struct Timestamps {
+  VkQueryPool pool = VK_NULL_HANDLE;
+  uint32_t count = 0;
+  double ns_per_tick = 0;  // VkPhysicalDeviceLimits::timestampPeriod
+  uint64_t valid_mask = 0; // the queue family's timestampValidBits as a mask
+};
+
 class ComputeContext {
  public:
   ComputeContext() = default;
@@ -119,6 +127,18 @@ class ComputeContext {
   // Records `record` into a one-time command buffer, submits it and waits for it (`what` names the
   // work in an error message).
   Status submit(const char* what, const std::function<void(VkCommandBuffer)>& record);
+
+  // Makes compute-shader writes recorded before visible to the host after the submit.
+  static void barrier_compute_to_host(VkCommandBuffer cmd);
+
+  // A pool of `count` timestamp queries; fails when the queue family has no timestamps
+  // (timestampValidBits 0). Record vkCmdResetQueryPool before writing them.
+  Status create_timestamps(uint32_t count, Timestamps& out);
+  void destroy_timestamps(Timestamps& timestamps);
+  // Queries [first, first + count), read after the submission that wrote them finished, in
+  // milliseconds after query `first` (the differences wrapped to the valid bits). Fails naming the
+  // first query that was not written (no wait: a query never written would block forever).
+  Status read_timestamps_ms(const Timestamps& timestamps, uint32_t first, uint32_t count, std::vector<double>& ms);
 
   const std::string& device_name() const { return device_name_; }
   // Validation messages of severity warning / error seen so far.

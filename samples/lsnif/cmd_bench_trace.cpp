@@ -530,16 +530,6 @@ Status timed_trace(DeviceState& st, const vk::AccelerationStructure& tlas, const
   return Status::ok();
 }
 
-// The barrier after the plugin's commands: compute-shader writes before the host reads.
-void compute_to_host(VkCommandBuffer cmd) {
-  VkMemoryBarrier barrier{};
-  barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-  barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-  barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier, 0,
-                       nullptr, 0, nullptr);
-}
-
 // One timed batched run of all rays: lsnifCmdIntersectModelRays (several calls when the rays are
 // more than one call takes, with a barrier between them as they share the scratch) in one command
 // buffer, submitted and waited for; the host time is the wall time around recording, submit and
@@ -571,7 +561,7 @@ Status timed_batched(DeviceState& st, uint32_t count, bool first, Report& report
       info.firstTimestamp = LSNIF_INTERSECT_TIMESTAMP_COUNT * c;
       result = st.query.cmd_intersect_model_rays(cmd, info);
     }
-    compute_to_host(cmd);
+    vk::ComputeContext::barrier_compute_to_host(cmd);
   });
   const double host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu_seconds = process_cpu_seconds() - cpu0;
@@ -619,7 +609,7 @@ Status timed_query(DeviceState& st, uint32_t count, bool first, Report& report) 
     }
     result = st.query.cmd_query(cmd, info);
     if (st.query_timestamps) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, st.query_timestamps, 1);
-    compute_to_host(cmd);
+    vk::ComputeContext::barrier_compute_to_host(cmd);
   });
   const double host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu_seconds = process_cpu_seconds() - cpu0;

@@ -19,7 +19,7 @@ namespace lsnif::cli {
 int cmd_render(int argc, char** argv) {
   std::string output = "render.png", device, pipeline_name = "inline";
   uint32_t width = 640, height = 480, spp = 64, bounces = 4;
-  bool reference = false, validation = false;
+  bool reference = false, validation = false, stage_times = false;
   SceneArgs sa;
   Args args("render",
             "Path traces a glTF scene on the Vulkan device: nodes with an LSNIF object (the scene's "
@@ -36,6 +36,8 @@ int cmd_render(int argc, char** argv) {
   args.option("spp", "samples per pixel", &spp);
   args.option("bounces", "bounces after the camera ray (the paper's 4)", &bounces);
   add_pipeline_option(args, &pipeline_name);
+  args.flag("stage-times", "with --pipeline wavefront: time its stages on the device (timestamps) and report them",
+            &stage_times);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 on any message)", &validation);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
@@ -45,6 +47,10 @@ int cmd_render(int argc, char** argv) {
   }
   render::PathPipeline pipeline;
   if (!parse_pipeline_option("render", pipeline_name, pipeline)) return 2;
+  if (stage_times && pipeline != render::PathPipeline::wavefront) {
+    std::fprintf(stderr, "lsnif render: --stage-times needs --pipeline wavefront (the inline pipeline is one launch)\n");
+    return 2;
+  }
 
   // The image's place is checked before the render, not after it.
   if (int r = sa.check_output("render", "-o", output)) return r;
@@ -65,6 +71,7 @@ int cmd_render(int argc, char** argv) {
   settings.max_bounces = bounces;
   settings.reference = reference;
   settings.pipeline = pipeline;
+  settings.stage_times = stage_times;
   settings.camera = sa.camera_index();
   settings.environment = environment.width ? &environment : nullptr;
   render::Renderer renderer(ctx);
@@ -87,6 +94,8 @@ int cmd_render(int argc, char** argv) {
   std::printf("image            %s, %ux%u, %u spp, %u bounces\n", output.c_str(), width, height, spp, bounces);
   std::printf("time             %.2f s, %.2f ms per sample (%.3g s per frame of 1 spp)\n", stats.seconds,
               stats.ms_per_sample, stats.ms_per_sample / 1000.0);
+  if (stats.has_stages)
+    std::printf("stages (device)  ms per sample: %s\n", render::describe(stats.stages).c_str());
   std::printf("instances        %u triangle (BLAS records), %u LSNIF (%u models)\n", stats.triangle_instances,
               stats.lsnif_instances, stats.lsnif_models);
   std::printf("device memory    triangle BLAS %.3f MiB (%llu triangles), LSNIF models %.3f MiB, TLAS %.3f MiB\n",

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -156,6 +157,14 @@ Renderer::~Renderer() {
   release_accumulation();
   if (pipeline_ready_) tracer_.destroy(pipeline_);
   ctx_.destroy_pipeline(wave_pipeline_);
+}
+
+std::string describe(const StageTimes& t) {
+  char text[256];
+  std::snprintf(text, sizeof text,
+                "camera %.2f, broad phase %.2f, sort %.2f, encode %.2f, MLP %.2f, resolve %.2f, shade %.2f (total %.2f)",
+                t.camera, t.broad, t.sort, t.encode, t.mlp, t.resolve, t.shade, t.total());
+  return text;
 }
 
 const char* pipeline_name(PathPipeline p) { return p == PathPipeline::wavefront ? "wavefront" : "inline"; }
@@ -585,6 +594,7 @@ void Renderer::release_wavefront() {
   wave_buffers_.clear();
   ctx_.destroy_buffer(wave_scratch_);
   ctx_.destroy_buffer(wave_status_);
+  ctx_.destroy_timestamps(wave_timestamps_);
   wave_address_ = 0;
 }
 
@@ -690,23 +700,51 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
   push.wave = wave_address_;
   LsnifResult recorded = LSNIF_SUCCESS;
   uint32_t queries = 0;
+  // Stage timing: a timestamp after every stage; interval[k] is the StageTimes field that the time
+  // between timestamps k - 1 and k belongs to (interval[0] is unused: timestamp 0 starts the pass).
+  std::vector<double StageTimes::*> interval;
+  const uint32_t stamps_per_sample = 2 + (2 * max_bounces + 1) * (LSNIF_QUERY_TIMESTAMP_COUNT + 1);
+  const uint32_t stamp_count = stage_timing_ ? 1 + samples * stamps_per_sample : 0;
+  if (stamp_count > wave_timestamps_.count) {
+    ctx_.destroy_timestamps(wave_timestamps_);
+    if (Status s = ctx_.create_timestamps(stamp_count, wave_timestamps_); !s) return s.context("stage timing");
+  }
+  LsnifQueryTimestampsInfo query_stamps{};
+  query_stamps.sType = LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO;
+  query_stamps.timestampPool = wave_timestamps_.pool;
   Status st = ctx_.submit("wavefront pass", [&](VkCommandBuffer cmd) {
-    auto stage = [&](uint32_t which, uint32_t bounce) {
+    auto stamp = [&](double StageTimes::*what) {
+      if (!stage_timing_) return;
+      vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, wave_timestamps_.pool, uint32_t(interval.size()));
+      interval.push_back(what);
+    };
+    auto stage = [&](uint32_t which, uint32_t bounce, double StageTimes::*what) {
       push.stage = which;
       push.bounce = bounce;
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, wave_pipeline_.pipeline);  // a query binds its own
       vkCmdPushConstants(cmd, wave_pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
       vkCmdDispatch(cmd, groups, 1, 1);
       wave_barrier(cmd);
+      stamp(what);
     };
     auto query = [&](uint64_t rays, uint64_t results, uint32_t count) {
       q.rayCount = count;
       q.rays = rays;
       q.results = results;
       q.status = wave_status_.address + queries++ * sizeof(LsnifQueryStatus);
+      q.pNext = nullptr;
+      if (stage_timing_) {
+        // The query's timestamps [0] .. [5]: [0] follows the previous stamp (no work between).
+        query_stamps.firstQuery = uint32_t(interval.size());
+        q.pNext = &query_stamps;
+        for (double StageTimes::*what : {&StageTimes::shade, &StageTimes::broad, &StageTimes::sort,
+                                         &StageTimes::encode, &StageTimes::mlp, &StageTimes::resolve})
+          interval.push_back(what);
+      }
       if (recorded == LSNIF_SUCCESS) recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
       wave_barrier(cmd);
     };
+    if (stage_timing_) vkCmdResetQueryPool(cmd, wave_timestamps_.pool, 0, stamp_count);
     // The TLAS (built or refitted before) and the frame for the first pass.
     VkMemoryBarrier b{};
     b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
@@ -715,25 +753,30 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
     vkCmdPipelineBarrier(cmd,
                          VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &b, 0, nullptr, 0, nullptr);
+    stamp(nullptr);
     for (uint32_t s = 0; s < samples; ++s) {
       push.sample_index = first_sample + s;
-      stage(RENDER_WAVE_CAMERA, 0);
+      stage(RENDER_WAVE_CAMERA, 0, &StageTimes::camera);
       for (uint32_t bounce = 0; bounce <= max_bounces; ++bounce) {
         query(w.rays, w.results, pixels);
-        stage(RENDER_WAVE_SHADE, bounce);
+        stage(RENDER_WAVE_SHADE, bounce, &StageTimes::shade);
         if (bounce == max_bounces) break;  // the last vertex samples no light
         query(w.shadow_rays, w.shadow_results, RENDER_WAVE_SHADOWS * pixels);
-        stage(RENDER_WAVE_CONNECT, bounce);
+        stage(RENDER_WAVE_CONNECT, bounce, &StageTimes::shade);
       }
-      stage(RENDER_WAVE_ACCUMULATE, 0);
+      stage(RENDER_WAVE_ACCUMULATE, 0, &StageTimes::shade);
     }
-    b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-    b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0, nullptr, 0,
-                         nullptr);
+    vk::ComputeContext::barrier_compute_to_host(cmd);
   });
   if (recorded != LSNIF_SUCCESS) return plugin_error("wavefront pass");
   if (!st) return st.context("wavefront pass");
+  if (stage_timing_) {
+    std::vector<double> ms;
+    if (Status s = ctx_.read_timestamps_ms(wave_timestamps_, 0, uint32_t(interval.size()), ms); !s)
+      return s.context("stage timing");
+    for (size_t k = 1; k < ms.size(); ++k) stage_times_.*interval[k] += ms[k] - ms[k - 1];
+    stage_timed_samples_ += samples;
+  }
   // INCOMPLETE answers are not misses: a render with any fails.
   const auto* status = static_cast<const LsnifQueryStatus*>(wave_status_.mapped);
   uint64_t incomplete = 0, dropped = 0;
@@ -760,6 +803,8 @@ Status Renderer::reset_accumulation(uint32_t width, uint32_t height) {
     std::memset(accumulation_.mapped, 0, size_t(width) * height * 16);
   }
   accumulated_ = 0;
+  stage_times_ = StageTimes();
+  stage_timed_samples_ = 0;
   return Status::ok();
 }
 
@@ -834,19 +879,31 @@ Status Renderer::render(const RenderSettings& settings, image::Image& out, Rende
       return s.context("warm-up");
     if (Status s = reset_accumulation(settings.width, settings.height); !s) return s;
   }
+  // Stage timing for the timed passes only (the viewer's setting is restored after).
+  const bool viewer_timing = stage_timing_;
+  stage_timing_ = settings.stage_times && settings.pipeline == PathPipeline::wavefront;
   const auto t0 = std::chrono::steady_clock::now();
   uint32_t done = 0;
-  while (done < settings.spp) {
+  Status s = Status::ok();
+  while (s && done < settings.spp) {
     const uint32_t n = std::min(settings.samples_per_pass, settings.spp - done);
-    if (Status s = accumulate(view, settings.first_sample + done, n, settings.max_bounces, settings.rr_depth,
-                              settings.pipeline);
-        !s)
-      return s;
+    s = accumulate(view, settings.first_sample + done, n, settings.max_bounces, settings.rr_depth, settings.pipeline);
+    if (!s) break;
     done += n;
     if (progress) progress(done);
   }
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   stats.ms_per_sample = stats.seconds * 1000.0 / settings.spp;
+  if (s && stage_timing_) {
+    stats.has_stages = true;
+    StageTimes& per = stats.stages;
+    per = stage_times_;
+    for (double StageTimes::*f : {&StageTimes::camera, &StageTimes::broad, &StageTimes::sort, &StageTimes::encode,
+                                  &StageTimes::mlp, &StageTimes::resolve, &StageTimes::shade})
+      per.*f /= settings.spp;
+  }
+  stage_timing_ = viewer_timing;
+  if (!s) return s;
   resolve(out);
   return Status::ok();
 }

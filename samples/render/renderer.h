@@ -44,6 +44,7 @@ struct RenderSettings {
   bool reference = false;          // triangles instead of LSNIF objects
   PathPipeline pipeline = PathPipeline::inline_rt;
   bool warm_up = true;              // a discarded first pass (pipeline compile) before the timed ones
+  bool stage_times = false;         // wavefront: time its stages with timestamps (RenderStats::stages)
   uint32_t first_sample = 0;       // index of the first sample: per-pixel random sequences start here
                                    // (renders with disjoint ranges have independent noise)
   int32_t camera = 0;              // Scene::cameras index; -1 or none: a camera framing the scene
@@ -51,6 +52,22 @@ struct RenderSettings {
   // the scene's environment); null: the scene's constant environment color, no importance sampling.
   const scene::EnvironmentMap* environment = nullptr;
 };
+
+// Device time of the wavefront pipeline's stages per sample, in milliseconds (timestamps after each
+// stage; RenderSettings::stage_times). The query stages are lsnifCmdQuery's
+// (LSNIF_QUERY_TIMESTAMP_COUNT), summed over the path and the shadow rays of every bounce.
+struct StageTimes {
+  double camera = 0;   // camera rays
+  double broad = 0;    // broad phase: TLAS traversal, LSNIF candidates collected
+  double sort = 0;     // counting sort of the candidates by model
+  double encode = 0;   // narrow phase: DDA walk and sparse-grid encoding
+  double mlp = 0;      // the batched MLP
+  double resolve = 0;  // decoding and the resolve against the triangle hits
+  double shade = 0;    // shading, light connections, accumulation
+  double total() const { return camera + broad + sort + encode + mlp + resolve + shade; }
+};
+// "camera 0.13, broad 3.74, ..., shade 3.71 (total 35.34)": the stages in milliseconds.
+std::string describe(const StageTimes& t);
 
 // What one render cost and occupies on the device.
 struct RenderStats {
@@ -61,6 +78,8 @@ struct RenderStats {
   uint64_t tlas_bytes = 0;
   uint32_t triangle_instances = 0, lsnif_instances = 0, lsnif_models = 0;
   uint64_t triangles = 0;           // triangles of the meshes in use (unique, not per instance)
+  bool has_stages = false;          // `stages` measured (wavefront with RenderSettings::stage_times)
+  StageTimes stages;                // per sample
 };
 
 // Where the camera is and which way the environment faces, for one pass (a viewer changes it
@@ -138,6 +157,13 @@ class Renderer {
                     uint32_t rr_depth = 4, PathPipeline pipeline = PathPipeline::inline_rt);
   void resolve(image::Image& out) const;
   uint32_t accumulated_samples() const { return accumulated_; }
+  // With `on`, wavefront passes write timestamps after every stage and stage_times() sums them
+  // (from the next reset_accumulation on); off by default (the timestamps cost a little).
+  void set_stage_timing(bool on) { stage_timing_ = on; }
+  // The stage times of the wavefront passes accumulated since reset_accumulation, in total (not per
+  // sample), over stage_timed_samples() samples.
+  const StageTimes& stage_times() const { return stage_times_; }
+  uint32_t stage_timed_samples() const { return stage_timed_samples_; }
 
  private:
   Status create_pipeline();
@@ -159,6 +185,10 @@ class Renderer {
   std::vector<vk::Buffer> wave_buffers_;
   vk::Buffer wave_scratch_{}, wave_status_{};
   uint64_t wave_address_ = 0;
+  bool stage_timing_ = false;
+  vk::Timestamps wave_timestamps_;               // grown to what a pass needs
+  StageTimes stage_times_;
+  uint32_t stage_timed_samples_ = 0;
   uint32_t width_ = 0, height_ = 0, accumulated_ = 0;
   uint32_t models_loaded_ = 0, blases_built_ = 0, tlases_built_ = 0;
 };

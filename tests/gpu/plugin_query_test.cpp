@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
@@ -287,8 +288,11 @@ class PluginQuery : public ::testing::Test {
   // `rays` with flags[i] (or `flags[0]` for all when it has one entry) through lsnifCmdQuery. The
   // result and status buffers start as 0xFF bytes, so a field left unwritten shows.
   // `models` (when given) replaces the scene's table models as pModels (the device table stays).
+  // `stamps` (when given) gets the stage timestamps (LsnifQueryTimestampsInfo chained) as ticks,
+  // with their availability: {tick, available} per query.
   static QueryRun query(const Scene& s, const std::vector<Ray>& rays, const std::vector<uint32_t>& flags,
-                        uint32_t per_ray = 4, const std::vector<LsnifModel>* models = nullptr) {
+                        uint32_t per_ray = 4, const std::vector<LsnifModel>* models = nullptr,
+                        std::vector<std::array<uint64_t, 2>>* stamps = nullptr) {
     QueryRun out;
     if (!models) models = &s.table_models;
     const uint32_t n = uint32_t(rays.size());
@@ -303,6 +307,7 @@ class PluginQuery : public ::testing::Test {
     VkDeviceSize bytes = 0;
     EXPECT_EQ(plugin::query_scratch_size(plugin_.context(), info, bytes), LSNIF_SUCCESS) << last_error();
     vk::Buffer ray_buf, result_buf, status_buf, scratch;
+    vk::Timestamps pool;
     Status st = vk_.create_buffer(std::max<size_t>(1, n) * sizeof(LsnifQueryRay), ray_buf);
     if (st) st = vk_.create_buffer(std::max<size_t>(1, n) * sizeof(LsnifQueryResult), result_buf);
     if (st) st = vk_.create_buffer(sizeof(LsnifQueryStatus), status_buf);
@@ -322,14 +327,18 @@ class PluginQuery : public ::testing::Test {
       info.scratchOffset = 16;  // not at the buffer's start
       info.scratchSize = bytes;
       info.status = status_buf.address;
-      st = vk_.submit("lsnifCmdQuery", [&](VkCommandBuffer cmd) {
+      LsnifQueryTimestampsInfo chained{};
+      chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO;
+      chained.firstQuery = 1;  // not at the pool's start
+      if (stamps) {
+        st = vk_.create_timestamps(1 + LSNIF_QUERY_TIMESTAMP_COUNT, pool);
+        chained.timestampPool = pool.pool;
+        info.pNext = &chained;
+      }
+      if (st) st = vk_.submit("lsnifCmdQuery", [&](VkCommandBuffer cmd) {
+        if (stamps) vkCmdResetQueryPool(cmd, pool.pool, 0, pool.count);
         EXPECT_EQ(pipeline_.cmd_query(cmd, info), LSNIF_SUCCESS) << last_error();
-        VkMemoryBarrier b{};
-        b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-        b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-        b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0,
-                             nullptr, 0, nullptr);
+        vk::ComputeContext::barrier_compute_to_host(cmd);
       });
     }
     EXPECT_TRUE(st) << st.message();
@@ -338,6 +347,16 @@ class PluginQuery : public ::testing::Test {
       out.results.assign(h, h + n);
       std::memcpy(&out.status, status_buf.mapped, sizeof out.status);
     }
+    if (st && stamps) {
+      // Without WAIT: a timestamp the command failed to write reads as unavailable, not as a hang.
+      stamps->assign(LSNIF_QUERY_TIMESTAMP_COUNT, {0, 0});
+      const VkResult r = vkGetQueryPoolResults(vk_.device(), pool.pool, 1, LSNIF_QUERY_TIMESTAMP_COUNT,
+                                               stamps->size() * sizeof(stamps->front()), stamps->data(),
+                                               sizeof(stamps->front()),
+                                               VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WITH_AVAILABILITY_BIT);
+      EXPECT_TRUE(r == VK_SUCCESS || r == VK_NOT_READY) << "vkGetQueryPoolResults " << int(r);
+    }
+    vk_.destroy_timestamps(pool);
     for (vk::Buffer* b : {&ray_buf, &result_buf, &status_buf, &scratch}) vk_.destroy_buffer(*b);
     return out;
   }
@@ -788,6 +807,60 @@ TEST_F(PluginQuery, BatchesOfMoreThanOneChunk) {
   EXPECT_GT(tail_hits, tail / 10) << "the second chunk must hit too";
 }
 
+// The stage timestamps (LsnifQueryTimestampsInfo): all six written, in order, by a one-chunk, a
+// two-chunk and an empty batch, without changing any answer; a wrong chain is refused.
+TEST_F(PluginQuery, StageTimestamps) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
+  auto expect_ordered = [](const std::vector<std::array<uint64_t, 2>>& stamps, const char* what) {
+    ASSERT_EQ(stamps.size(), LSNIF_QUERY_TIMESTAMP_COUNT) << what;
+    for (uint32_t k = 0; k < LSNIF_QUERY_TIMESTAMP_COUNT; ++k) {
+      EXPECT_NE(stamps[k][1], 0u) << what << ": timestamp " << k << " was not written";
+      if (k > 0) {
+        EXPECT_LE(stamps[k - 1][0], stamps[k][0]) << what << ": timestamp " << k << " before " << k - 1;
+      }
+    }
+  };
+  const std::vector<Ray> rays = rays_at(s, 2000, 41);
+  std::vector<std::array<uint64_t, 2>> stamps;
+  const QueryRun timed = query(s, rays, {0u}, 4, nullptr, &stamps);
+  expect_ordered(stamps, "one chunk");
+  EXPECT_LT(stamps[0][0], stamps[5][0]) << "the stages take time";
+  const QueryRun plain = query(s, rays, {0u});
+  ASSERT_EQ(timed.results.size(), plain.results.size());
+  size_t same = 0;
+  for (size_t i = 0; i < rays.size(); ++i)
+    same += std::memcmp(&timed.results[i], &plain.results[i], sizeof(LsnifQueryResult)) == 0;
+  EXPECT_EQ(same, rays.size()) << "timestamps change no answer";
+
+  const std::vector<Ray> many = rays_at(s, LSNIF_QUERY_CHUNK_RAYS + 100, 43);
+  query(s, many, {0u}, 2, nullptr, &stamps);
+  expect_ordered(stamps, "two chunks");
+  query(s, {}, {0u}, 4, nullptr, &stamps);
+  expect_ordered(stamps, "empty batch");
+
+  // A wrong chain records nothing and names the problem.
+  LsnifQueryInfo info{};
+  info.candidatesPerRay = 1;
+  LsnifQueryTimestampsInfo chained{};
+  chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
+  info.pNext = &chained;
+  VkDeviceSize need = 0;
+  EXPECT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &info, &need), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("unknown structure type 1"), std::string::npos) << last_error();
+  chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO;
+  Status st = vk_.submit("refused", [&](VkCommandBuffer cmd) {
+    EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, pipeline_.get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(last_error().find("timestampPool is VK_NULL_HANDLE"), std::string::npos) << last_error();
+    LsnifQueryTimestampsInfo more = chained;
+    chained.pNext = &more;
+    EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, pipeline_.get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(last_error().find("LsnifQueryTimestampsInfo::pNext must be NULL"), std::string::npos) << last_error();
+  });
+  EXPECT_TRUE(st) << st.message();
+}
+
 // An empty batch records nothing; a batch in which no ray reaches an LSNIF object writes every
 // field (triangle hits and misses) and produces no candidate; a scene without LSNIF instances and
 // an empty table works too.
@@ -937,7 +1010,7 @@ TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
       {"pInfo->candidatesPerRay 33",
        [](LsnifQueryInfo& i) { i.candidatesPerRay = LSNIF_QUERY_MAX_CANDIDATES_PER_RAY + 1; }},
       {"pInfo->cullMask 0x100", [](LsnifQueryInfo& i) { i.cullMask = 0x100; }},
-      {"pInfo->pNext must be NULL", [&](LsnifQueryInfo& i) { i.pNext = &info; }},
+      {"pInfo->pNext: unknown structure type 1 (expected", [&](LsnifQueryInfo& i) { i.pNext = &chained; }},
       {"pInfo->modelCount 262145", [](LsnifQueryInfo& i) { i.modelCount = LSNIF_QUERY_MAX_MODELS + 1; }},
       {"pInfo->pModels is NULL", [](LsnifQueryInfo& i) { i.pModels = nullptr; }},
       {"pInfo->pModels[1] is not a model of this context", [&](LsnifQueryInfo& i) { i.pModels = foreign; }},

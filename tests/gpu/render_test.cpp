@@ -518,6 +518,39 @@ TEST_F(RenderTest, WavefrontMatchesInlineWithTheLsnifObject) {
   EXPECT_LT(f_wave.stats.mean, 0.25 * f_noise.stats.mean);
 }
 
+// Stage timing (RenderSettings::stage_times): the timestamps change no pixel; every stage of the
+// wavefront pass is accounted for, so the stage times add up to the measured wall time per sample
+// (the independent clock) less the host's submit and wait (at most half of it here; lavapipe runs
+// the passes on the CPU, so device time is wall time); the inline pipeline has no stages to report.
+TEST_F(RenderTest, WavefrontStageTimesAddUpToTheWallTime) {
+  const scene::Scene lit = with_sun(scene_);
+  render::Renderer renderer(vk_);
+  render::RenderSettings settings = small(false);
+  settings.spp = 4;
+  settings.pipeline = render::PathPipeline::wavefront;
+  image::Image plain_image, timed_image;
+  render::RenderStats plain, timed;
+  ASSERT_TRUE(renderer.render(lit, settings, plain_image, plain));
+  EXPECT_FALSE(plain.has_stages);
+  settings.stage_times = true;
+  ASSERT_TRUE(renderer.render(settings, timed_image, timed));
+  EXPECT_EQ(timed_image.rgb, plain_image.rgb) << "timestamps change no pixel";
+  ASSERT_TRUE(timed.has_stages);
+  const render::StageTimes& st = timed.stages;
+  std::printf("stages per sample (ms): camera %.2f broad %.2f sort %.2f encode %.2f mlp %.2f resolve %.2f shade %.2f "
+              "= %.2f of %.2f wall\n",
+              st.camera, st.broad, st.sort, st.encode, st.mlp, st.resolve, st.shade, st.total(), timed.ms_per_sample);
+  for (double v : {st.camera, st.sort, st.resolve}) EXPECT_GE(v, 0.0);
+  for (double v : {st.broad, st.encode, st.mlp, st.shade}) EXPECT_GT(v, 0.0);
+  EXPECT_LE(st.total(), timed.ms_per_sample * 1.001);
+  EXPECT_GE(st.total(), 0.5 * timed.ms_per_sample);
+  EXPECT_EQ(renderer.stage_timed_samples(), settings.spp);
+
+  settings.pipeline = render::PathPipeline::inline_rt;
+  ASSERT_TRUE(renderer.render(settings, timed_image, timed));
+  EXPECT_FALSE(timed.has_stages) << "the inline pipeline has one launch, no stages";
+}
+
 // More LSNIF boxes on a ray than a query has candidate room for: 33 copies of the elephant on the
 // same spot (candidatesPerRay is the instance count, at most 32) seen from a camera inside them, so
 // that every camera ray crosses all 33 boxes. The queries answer those rays INCOMPLETE; the render
