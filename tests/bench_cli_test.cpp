@@ -21,6 +21,9 @@ namespace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
+using lsnif::test::number;
+using lsnif::test::read_text;
+using lsnif::test::off_faces;
 const std::string kBunny = std::string(LSNIF_DATA_DIR) + "/meshes/bunny00.off";
 
 lsnif::test::CommandResult run_cli(const std::string& args) {
@@ -28,39 +31,6 @@ lsnif::test::CommandResult run_cli(const std::string& args) {
 }
 
 bool has(const std::string& text, const std::string& what) { return text.find(what) != std::string::npos; }
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-// The cells of the Markdown table row that starts with "| SCENE |", trimmed; empty if none.
-std::vector<std::string> table_row(const std::string& md, const std::string& scene) {
-  std::istringstream in(md);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("| " + scene + " |", 0) != 0) continue;
-    std::vector<std::string> cells;
-    size_t at = 1;
-    for (size_t bar = line.find('|', at); bar != std::string::npos; at = bar + 1, bar = line.find('|', at)) {
-      std::string cell = line.substr(at, bar - at);
-      cell.erase(0, cell.find_first_not_of(' '));
-      cell.erase(cell.find_last_not_of(' ') + 1);
-      cells.push_back(cell);
-    }
-    return cells;
-  }
-  return {};
-}
-
-double number(const std::string& cell) {
-  char* end = nullptr;
-  const double v = std::strtod(cell.c_str(), &end);
-  EXPECT_TRUE(end != cell.c_str() && *end == '\0') << "not a number: '" << cell << "'";
-  return v;
-}
 
 // Width and height from a PNG's IHDR chunk; false when the file is not a PNG.
 bool png_size(const fs::path& path, uint32_t& width, uint32_t& height) {
@@ -75,15 +45,6 @@ bool png_size(const fs::path& path, uint32_t& width, uint32_t& height) {
   return true;
 }
 
-// Triangle count from an OFF file's header ("OFF", then "vertices faces edges").
-uint64_t off_faces(const std::string& path) {
-  std::ifstream in(path);
-  std::string magic;
-  uint64_t vertices = 0, faces = 0;
-  in >> magic >> vertices >> faces;
-  return magic == "OFF" ? faces : 0;
-}
-
 TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   if (!fs::exists(kBunny)) GTEST_SKIP() << kBunny << " missing: run scripts/setup.sh";
   lsnif::test::ScopedTestDir dir("lsnif_bench_cli_test");
@@ -94,7 +55,7 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
     EXPECT_TRUE(has(r.out, want)) << want << " missing in:\n" << r.out;
 
   const std::string md = read_text(dir.path() / "results.md");
-  const std::vector<std::string> row = table_row(md, "bunny");
+  const std::vector<std::string> row = lsnif::test::table_row(md, "| bunny |");
   ASSERT_EQ(row.size(), 10u) << md;
   // Tris: every triangle of bunny00.off (all valid) on one instance.
   const uint64_t faces = off_faces(kBunny);

@@ -1,6 +1,7 @@
 // test_support.h -- pieces shared by the end-to-end, GPU and command-line tests: the device they
 // ask for, the tiny training settings they train with, one skewed instance transform, running a
-// command with its output and exit code captured, and a per-test temporary folder.
+// command with its output and exit code captured, a per-test temporary folder, and reading the
+// Markdown tables the benchmark commands write.
 #pragma once
 #include <gtest/gtest.h>
 #include <poll.h>
@@ -15,6 +16,8 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -180,5 +183,51 @@ class ScopedTestDir {
  private:
   std::filesystem::path path_;
 };
+
+// The bytes of a file; empty when it cannot be read.
+inline std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The cells of the first Markdown table row that starts with `prefix` (e.g. "| bunny |"), trimmed;
+// empty if none.
+inline std::vector<std::string> table_row(const std::string& md, const std::string& prefix) {
+  std::istringstream in(md);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(prefix, 0) != 0) continue;
+    std::vector<std::string> cells;
+    size_t at = 1;
+    for (size_t bar = line.find('|', at); bar != std::string::npos; at = bar + 1, bar = line.find('|', at)) {
+      std::string cell = line.substr(at, bar - at);
+      cell.erase(0, cell.find_first_not_of(' '));
+      cell.erase(cell.find_last_not_of(' ') + 1);
+      cells.push_back(cell);
+    }
+    return cells;
+  }
+  return {};
+}
+
+// A table cell as a number (thousands separators dropped); a test failure when it is not one.
+inline double number(std::string cell) {
+  cell.erase(std::remove(cell.begin(), cell.end(), ','), cell.end());
+  char* end = nullptr;
+  const double v = std::strtod(cell.c_str(), &end);
+  EXPECT_TRUE(end != cell.c_str() && *end == '\0') << "not a number: '" << cell << "'";
+  return v;
+}
+
+// Face count from an OFF file's header ("OFF", then "vertices faces edges"); 0 if it is not one.
+inline uint64_t off_faces(const std::string& path) {
+  std::ifstream in(path);
+  std::string magic;
+  uint64_t vertices = 0, faces = 0;
+  in >> magic >> vertices >> faces;
+  return magic == "OFF" ? faces : 0;
+}
 
 }  // namespace lsnif::test

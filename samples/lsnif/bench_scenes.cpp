@@ -134,6 +134,14 @@ uint32_t crc_of_value(const T& v, uint32_t crc) {
 
 std::string hex(uint32_t v) { return format("%08x", v); }
 
+Status require_files(const std::vector<std::string>& files) {
+  for (const std::string& f : files)
+    if (!fs::is_regular_file(f))
+      return Status::error("%s not found: run scripts/setup.sh first (it fetches the meshes and HDR environments)",
+                           f.c_str());
+  return Status::ok();
+}
+
 scene::Primitive scene_primitive(const Mesh& mesh, uint32_t material) {
   scene::Primitive p;
   p.positions = mesh.positions;
@@ -156,6 +164,43 @@ std::vector<std::string> bench_scene_inputs(const std::string& name, const std::
   for (const Source* s : scene_sources(name)) files.push_back(mesh_path(data_dir, s->file));
   if (!files.empty()) files.push_back(hdr_path(data_dir, scene_hdr(name)));
   return files;
+}
+
+namespace {
+
+// The source of a bench mesh and the scene whose environment lights it; nullptr for an unknown name.
+const Source* mesh_source(const std::string& name, const char** scene) {
+  if (name == "bunny") return *scene = "bunny", &kBunny;
+  if (name == "armadillo") return *scene = "heavy", &kArmadillo;
+  if (name == "dragon") return *scene = "dragons", &kDragon;
+  return nullptr;
+}
+
+}  // namespace
+
+const std::vector<std::string>& bench_mesh_names() {
+  static const std::vector<std::string> names = {"bunny", "armadillo", "dragon"};
+  return names;
+}
+
+std::vector<std::string> bench_mesh_inputs(const std::string& name, const std::string& data_dir) {
+  const char* scene = nullptr;
+  const Source* src = mesh_source(name, &scene);
+  if (!src) return {};
+  return {mesh_path(data_dir, src->file), hdr_path(data_dir, scene_hdr(scene))};
+}
+
+Status load_bench_mesh(const std::string& name, const std::string& data_dir, Mesh& out, std::string& hdr) {
+  const char* scene = nullptr;
+  const Source* src = mesh_source(name, &scene);
+  if (!src) {
+    std::string known;
+    for (const std::string& n : bench_mesh_names()) known += (known.empty() ? "" : ", ") + n;
+    return Status::error("unknown mesh '%s' (meshes: %s)", name.c_str(), known.c_str());
+  }
+  if (Status s = require_files(bench_mesh_inputs(name, data_dir)); !s) return s;
+  hdr = hdr_path(data_dir, scene_hdr(scene));
+  return load_source(data_dir, *src, 1.0f, out);
 }
 
 Mesh wireframe_mesh(const Mesh& mesh, float radius) {
@@ -220,10 +265,7 @@ Status make_bench_scene(const std::string& name, const std::string& data_dir, Be
     for (const std::string& n : bench_scene_names()) known += (known.empty() ? "" : ", ") + n;
     return Status::error("unknown scene '%s' (scenes: %s)", name.c_str(), known.c_str());
   }
-  for (const std::string& f : bench_scene_inputs(name, data_dir))
-    if (!fs::is_regular_file(f))
-      return Status::error("%s not found: run scripts/setup.sh first (it fetches the meshes and HDR environments)",
-                           f.c_str());
+  if (Status s = require_files(bench_scene_inputs(name, data_dir)); !s) return s;
   out.name = name;
   out.hdr = hdr_path(data_dir, scene_hdr(name));
   glm::vec3 view(0.35f, 0.3f, 1.0f);
@@ -335,13 +377,15 @@ Status write_bench_scene(const BenchScene& scene, const std::string& dir) {
   return scene::save_gltf(model, (fs::path(dir) / (scene.name + ".gltf")).string());
 }
 
-std::string object_fingerprint(const BenchObject& o) {
-  uint32_t crc = crc_of(o.mesh.positions, 0);
-  crc = crc_of(o.mesh.normals, crc);
-  crc = crc_of(o.mesh.triangles, crc);
-  for (const Material& m : o.mesh.materials) crc = crc_of_value(m.base_color, crc);
+std::string mesh_fingerprint(const Mesh& mesh) {
+  uint32_t crc = crc_of(mesh.positions, 0);
+  crc = crc_of(mesh.normals, crc);
+  crc = crc_of(mesh.triangles, crc);
+  for (const Material& m : mesh.materials) crc = crc_of_value(m.base_color, crc);
   return hex(crc);
 }
+
+std::string object_fingerprint(const BenchObject& o) { return mesh_fingerprint(o.mesh); }
 
 std::string scene_fingerprint(const BenchScene& scene) {
   uint32_t crc = 0;

@@ -51,11 +51,19 @@ Status make_bench_scene(const std::string& name, const std::string& data_dir, Be
 // the object's mesh as their reference. The models themselves are not written.
 Status write_bench_scene(const BenchScene& scene, const std::string& dir);
 
-// Fingerprints (hex CRC-32) for reuse decisions: of an object's training mesh (positions,
+// Fingerprints (hex CRC-32) for reuse decisions: of a training mesh or an object's (positions,
 // normals, triangles, colors), and of a whole scene as written (objects, placements, ground,
 // camera, environment).
-std::string object_fingerprint(const BenchObject& object);
+std::string mesh_fingerprint(const Mesh& mesh);
+std::string object_fingerprint(const BenchObject& object);  // its mesh's
 std::string scene_fingerprint(const BenchScene& scene);
+
+// The single meshes of `lsnif bench-size`: "bunny", "armadillo", "dragon", loaded as the scenes load
+// them (upright, standing on y = 0, largest extent 1, the scene's color as the only material), with
+// the HDR environment of the scene that shows them. Errors: an unknown name, a missing file.
+const std::vector<std::string>& bench_mesh_names();
+std::vector<std::string> bench_mesh_inputs(const std::string& name, const std::string& data_dir);
+Status load_bench_mesh(const std::string& name, const std::string& data_dir, Mesh& out, std::string& hdr);
 
 // Instanced triangles of the scene's objects (the ground excluded).
 uint64_t object_triangles(const BenchScene& scene);

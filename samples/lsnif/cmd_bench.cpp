@@ -7,19 +7,18 @@
 // OUT/SCENE.png (reference | LSNIF | FLIP heatmap).
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "args.h"
-#include "atomic_file.h"
 #include "bench_scenes.h"
 #include "commands.h"
 #include "data_dir.h"
 #include "device_option.h"
+#include "model_cache.h"
 #include "pipeline_option.h"
 #include "render_compare.h"
+#include "report_text.h"
 #include "scene_gltf.h"
 #include "train_options.h"
 #include "vk_compute.h"
@@ -44,26 +43,12 @@ struct SceneRow {
   std::vector<ModelRow> models;
 };
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-bool write_text(const fs::path& path, const std::string& text) {
-  const Status s = write_file_atomic(path.string(), text);
-  if (!s) std::fprintf(stderr, "lsnif bench: %s\n", s.message().c_str());
-  return bool(s);
-}
-
 std::string count_text(uint64_t n) {
   if (n >= 1000000) return format("%.2fM", double(n) / 1e6);
   if (n >= 1000) return format("%.1fk", double(n) / 1e3);
   return std::to_string(n);
 }
 
-double mib(uint64_t bytes) { return double(bytes) / 1048576.0; }
 
 // Triangle BLAS memory of the LSNIF objects' meshes: what reference mode builds beyond LSNIF mode
 // (both build the same ground).
@@ -119,9 +104,7 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
 int cmd_bench(int argc, char** argv) {
   std::vector<std::string> names;
   std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "inline";
-  uint32_t width = 0, height = 0, spp = 0, steps = 0, batch = 0, threads = 0;
-  uint64_t seed = 1;
-  bool quick = false, retrain = false;
+  BenchRunOptions run;
   Args args("bench",
             "The paper's Table 1 on the bundled scenes (docs/bench-scenes.md): builds each scene from the\n"
             "meshes and HDR images of scripts/setup.sh into OUT/SCENE/ (OUT = --out), trains its LSNIF models\n"
@@ -132,16 +115,7 @@ int cmd_bench(int argc, char** argv) {
   args.rest("SCENE", "scenes to run: " + known + " (default: all)", &names);
   args.option("out", "output folder", &out_dir);
   args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &data_dir);
-  args.option("width", "image width (0: 320, --quick 64)", &width);
-  args.option("height", "image height (0: 240, --quick 48)", &height);
-  args.option("spp", "samples per pixel (0: 16, --quick 2)", &spp);
-  args.option("steps", "training steps (0: 2000, --quick 30)", &steps);
-  args.option("batch", "training rays per step (0: 16384, --quick 1024)", &batch);
-  args.option("seed", "training seed", &seed);
-  args.option("threads", "training threads (0 = all cores)", &threads);
-  args.flag("quick", "tiny models (V=16, 2^12-entry grid, 32-wide MLP, 30 steps) and tiny images: seconds, for tests",
-            &quick);
-  args.flag("retrain", "train every model even when a matching one exists", &retrain);
+  add_bench_run_options(args, &run);
   add_pipeline_option(args, &pipeline_name);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
@@ -173,30 +147,8 @@ int cmd_bench(int argc, char** argv) {
 
   TrainOptions topt;
   render::RenderSettings rs;
-  rs.width = 320;
-  rs.height = 240;
-  rs.spp = 16;
+  apply_bench_run_options(run, topt, rs);
   rs.pipeline = pipeline;
-  const auto set = [&topt](SettingId id, uint64_t value) { topt.given.set(id, {.u = value}); };
-  if (quick) {
-    set(SettingId::Voxels, 16);
-    set(SettingId::ResMin, 32);
-    set(SettingId::ResMax, 64);
-    set(SettingId::TableLog2, 12);
-    set(SettingId::Width, 32);
-    set(SettingId::Steps, 30);
-    set(SettingId::Batch, 1024);
-    rs.width = 64;
-    rs.height = 48;
-    rs.spp = 2;
-  }
-  if (steps) set(SettingId::Steps, steps);
-  if (batch) set(SettingId::Batch, batch);
-  if (width) rs.width = width;
-  if (height) rs.height = height;
-  if (spp) rs.spp = spp;
-  set(SettingId::Seed, seed);
-  topt.threads = threads;
   // Checked (and described for results.md) before any work; to_settings wants an output name for
   // the loss-curve path it derives, nothing is written under it.
   TrainSettings train_settings;
@@ -234,14 +186,14 @@ int cmd_bench(int argc, char** argv) {
     fs::create_directories(dir, ec);
     const fs::path gltf = dir / (name + ".gltf"), scene_key = dir / "scene.key";
     const std::string fingerprint = scene_fingerprint(bench) + "\n";
-    if (fs::is_regular_file(gltf) && read_text(scene_key) == fingerprint) {
+    if (fs::is_regular_file(gltf) && read_text_file(scene_key.string()) == fingerprint) {
       std::printf("scene     reusing %s (unchanged)\n", gltf.string().c_str());
     } else {
       if (Status s = write_bench_scene(bench, dir.string()); !s) {
         std::fprintf(stderr, "lsnif bench: scene %s: %s\n", name.c_str(), s.message().c_str());
         return 1;
       }
-      if (!write_text(scene_key, fingerprint)) {
+      if (!write_text_file("bench", scene_key.string(), fingerprint)) {
         std::fprintf(stderr, "lsnif bench: cannot write %s\n", scene_key.string().c_str());
         return 1;
       }
@@ -256,25 +208,12 @@ int cmd_bench(int argc, char** argv) {
       m.triangles = o.mesh.triangles.size();
       TrainOptions mo = topt;
       mo.output = (dir / (o.name + ".lsnif")).string();
-      const fs::path key_path = mo.output + ".key";
-      TrainSettings ts;
-      if (!mo.to_settings(ts)) return 2;
-      const std::string key = "mesh " + object_fingerprint(o) + "\nsettings " + ts.describe() + "\n";
-      if (!retrain && scene::check_lsnif_file(mo.output) && read_text(key_path) == key) {
-        m.reused = true;
-        std::printf("model     reusing %s (same mesh and settings; --retrain trains it again)\n", mo.output.c_str());
-      } else {
-        std::printf("model     training %s for %s (%zu triangles)\n", mo.output.c_str(), o.name.c_str(),
-                    o.mesh.triangles.size());
-        std::fflush(stdout);
-        TrainReport rep;
-        if (int r = train_mesh(o.mesh, o.name + " (" + o.origin + ")", mo, nullptr, &rep)) return r;
-        if (!write_text(key_path, key)) {
-          std::fprintf(stderr, "lsnif bench: cannot write %s\n", key_path.string().c_str());
-          return 1;
-        }
-        m.train_seconds = rep.seconds;
-      }
+      CachedModel cached;
+      if (int r = train_or_reuse("bench", o.mesh, object_fingerprint(o), o.name + " (" + o.origin + ")", mo, run.retrain,
+                                 cached))
+        return r;
+      m.reused = cached.reused;
+      m.train_seconds = cached.train_seconds;
       row.models.push_back(m);
     }
 
@@ -294,9 +233,9 @@ int cmd_bench(int argc, char** argv) {
   }
 
   const std::string training =
-      format("%s%s", quick ? "--quick: " : "", train_settings.describe().c_str());
+      format("%s%s", run.quick ? "--quick: " : "", train_settings.describe().c_str());
   const fs::path results = fs::path(out_dir) / "results.md";
-  if (!write_text(results, results_markdown(rows, rs, ctx.device_name(), training))) {
+  if (!write_text_file("bench", results.string(), results_markdown(rows, rs, ctx.device_name(), training))) {
     std::fprintf(stderr, "lsnif bench: cannot write %s\n", results.string().c_str());
     return 1;
   }

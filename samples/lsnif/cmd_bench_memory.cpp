@@ -19,6 +19,7 @@
 #include "mesh_subdivide.h"
 #include "model.h"
 #include "plugin_device.h"
+#include "report_text.h"
 #include "vk_raytracing.h"
 
 namespace lsnif::cli {
@@ -71,16 +72,7 @@ bool parse_targets(const std::string& text, std::vector<uint64_t>& out) {
   return true;
 }
 
-std::string grouped(uint64_t v) {
-  std::string digits = std::to_string(v), out;
-  for (size_t i = 0; i < digits.size(); ++i) {
-    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
-    out += digits[i];
-  }
-  return out;
-}
 
-double mib(uint64_t bytes) { return double(bytes) / 1048576.0; }
 double ratio(uint64_t a, uint64_t b) { return b ? double(a) / double(b) : 0.0; }
 
 

@@ -13,6 +13,7 @@ int cmd_bench_memory(int argc, char** argv);
 int cmd_flip(int argc, char** argv);
 int cmd_render(int argc, char** argv);
 int cmd_bench(int argc, char** argv);
+int cmd_bench_size(int argc, char** argv);
 int cmd_view(int argc, char** argv);
 int cmd_convert(int argc, char** argv);
 }  // namespace lsnif::cli

@@ -20,6 +20,7 @@ const Command kCommands[] = {
     {"bench-trace", lsnif::cli::cmd_bench_trace, "ray-tracing throughput of a model vs the triangle BLAS of its mesh"},
     {"bench-memory", lsnif::cli::cmd_bench_memory, "device memory of a model vs the triangle BLAS of its mesh"},
     {"render", lsnif::cli::cmd_render, "path trace a glTF scene with LSNIF objects (or --reference) to an image"},
+    {"bench-size", lsnif::cli::cmd_bench_size, "model size against quality: bytes, eval metrics and FLIP per mesh and setting"},
     {"view", lsnif::cli::cmd_view, "open a window that path traces a scene progressively (LSNIF / reference toggle)"},
     {"flip", lsnif::cli::cmd_flip, "FLIP difference of a test image from a reference (LDR or HDR)"},
     {"convert", lsnif::cli::cmd_convert, "train LSNIF models for a glTF scene's heavy objects and write the converted scene"},

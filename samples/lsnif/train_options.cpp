@@ -65,6 +65,27 @@ std::string preset_help(const std::string& option) {
 
 }  // namespace
 
+bool set_setting_text(SettingLayer& layer, const SettingDef& d, const std::string& text) {
+  SettingValue v;
+  switch (d.kind) {
+    case SettingKind::U32: {
+      uint32_t x = 0;
+      if (!parse_u32(text, x)) return false;
+      v.u = x;
+      break;
+    }
+    case SettingKind::U64:
+      if (!parse_u64(text, v.u)) return false;
+      break;
+    case SettingKind::F32:
+      if (!parse_f32(text, v.f)) return false;
+      break;
+    case SettingKind::Choice: break;  // checked when resolved, naming the choices
+  }
+  layer.set(d.id, v, d.kind == SettingKind::Choice ? text : std::string());
+  return true;
+}
+
 void TrainOptions::add_to(Args& args, const char* output_help) {
   args.alias("-o", "output");
   args.option("output", output_help, &output);
@@ -72,26 +93,8 @@ void TrainOptions::add_to(Args& args, const char* output_help) {
               "given here override it", &config);
   const SettingValues defaults = SettingValues::defaults();
   for (const SettingDef& d : kSettingDefs) {
-    args.option(d.name, setting_help(d), value_name(d), setting_text(d, defaults[d.id]), [this, &d](const std::string& text) {
-      SettingValue v;
-      switch (d.kind) {
-        case SettingKind::U32: {
-          uint32_t x = 0;
-          if (!parse_u32(text, x)) return false;
-          v.u = x;
-          break;
-        }
-        case SettingKind::U64:
-          if (!parse_u64(text, v.u)) return false;
-          break;
-        case SettingKind::F32:
-          if (!parse_f32(text, v.f)) return false;
-          break;
-        case SettingKind::Choice: break;  // checked when resolved, naming the choices
-      }
-      given.set(d.id, v, d.kind == SettingKind::Choice ? text : std::string());
-      return true;
-    });
+    args.option(d.name, setting_help(d), value_name(d), setting_text(d, defaults[d.id]),
+                [this, &d](const std::string& text) { return set_setting_text(given, d, text); });
   }
   for (const Preset& p : kPresets) {
     if (&p != &kPresets[0] && std::string_view(p.option) == (&p)[-1].option) continue;  // one option per name

@@ -37,6 +37,10 @@ struct TrainOptions {
   std::string csv_path() const { return csv.empty() ? output + ".csv" : csv; }
 };
 
+// Records `text` as the value of setting `d` in `layer`, as the option --NAME does: false when it is
+// not a number of the setting's kind (a choice's name and every range are checked when resolved).
+bool set_setting_text(SettingLayer& layer, const SettingDef& d, const std::string& text);
+
 // Registers --allow-outside-refs (and, with `meshes`, --allow-dropped-triangles) into `options`:
 // the import policy flags of every command that reads a mesh or a scene.
 void add_import_flags(Args& args, MeshImportOptions* options, bool meshes = true);
