@@ -1,5 +1,6 @@
 // `lsnif bench` as a user runs it: a quick run of the bunny scene in a temporary folder (tiny
-// model, tiny images) writes results.md, whose row is checked against independent measurements
+// models of both quality presets, tiny images, both pipelines) writes results.md, whose rows are
+// checked against independent measurements
 // (the mesh file's triangle count, `lsnif bench-memory` on the same mesh and model for the memory
 // columns) and for internal consistency, plus the side-by-side image and the scene files; a second
 // run reuses the scene and the model; unknown scene names and missing data are clear errors.
@@ -49,66 +50,106 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   if (!fs::exists(kBunny)) GTEST_SKIP() << kBunny << " missing: run scripts/setup.sh";
   lsnif::test::ScopedTestDir dir("lsnif_bench_cli_test");
   const std::string out = dir.path().string();
+  // By default both quality presets (Table 1's H and L) and both pipelines: four rows.
   lsnif::test::CommandResult r = run_cli("bench bunny --quick --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* want : {"scene     wrote", "model     training", "render (LSNIF)", "LDR-FLIP", "results.md"})
     EXPECT_TRUE(has(r.out, want)) << want << " missing in:\n" << r.out;
 
   const std::string md = read_text(dir.path() / "results.md");
-  const std::vector<std::string> row = lsnif::test::table_row(md, "| bunny |");
-  ASSERT_EQ(row.size(), 10u) << md;
   // Tris: every triangle of bunny00.off (all valid) on one instance.
   const uint64_t faces = off_faces(kBunny);
   ASSERT_GT(faces, 1000u);
   char tris[32];
   std::snprintf(tris, sizeof tris, "%.1fk", double(faces) / 1e3);
-  EXPECT_EQ(row[1], tris);
-  EXPECT_EQ(row[2], "1 (1)");
-  const double lsnif_mib = number(row[3]), blas_mib = number(row[4]), ratio = number(row[5]);
-  const double t_lsnif = number(row[6]), t_ref = number(row[7]), t_ratio = number(row[8]), flip = number(row[9]);
-  EXPECT_GT(ratio, 1.0);
-  EXPECT_NEAR(ratio, blas_mib / lsnif_mib, 0.02 * ratio);
-  EXPECT_GT(t_lsnif, 0.0);
-  EXPECT_GT(t_ref, 0.0);
-  EXPECT_NEAR(t_ratio, t_lsnif / t_ref, 0.05 * t_ratio + 0.01);
-  EXPECT_GT(flip, 0.0);
-  EXPECT_LT(flip, 0.5);  // a render that lost the object entirely would be far off here
+  for (const char* preset : {"high", "low"}) {
+    // The model of the preset: the low one has the paper's H = 10 (--quick keeps its tiny width).
+    const fs::path model = dir.path() / "bunny" / (std::string(preset) == "high" ? "bunny.lsnif" : "bunny.low.lsnif");
+    ASSERT_TRUE(fs::exists(model)) << model;
+    r = lsnif::test::run_command(std::string(LSNIF_CLI) + " info " + model.string() + " 2>&1");
+    ASSERT_EQ(r.code, 0) << r.out;
+    EXPECT_TRUE(has(r.out, std::string(preset) == "high" ? " H=18 " : " H=10 ")) << r.out;
+    // The memory columns against `lsnif bench-memory` (plugin upload and the driver's size query
+    // for the same mesh and model, a separate code path from the renderer's statistics).
+    r = lsnif::test::run_command(std::string(LSNIF_CLI) + " bench-memory " + kBunny + " " + model.string() +
+                                 " --subdivide-targets '' --json 2>/dev/null");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const json mem = json::parse(r.out);
+    for (const char* pipeline : {"inline", "wavefront"}) {
+      const std::string what = std::string(preset) + " " + pipeline;
+      const std::vector<std::string> row =
+          lsnif::test::table_row(md, "| bunny | " + std::string(preset) + " | " + pipeline + " |");
+      ASSERT_EQ(row.size(), 12u) << what << "\n" << md;
+      EXPECT_EQ(row[3], tris);
+      EXPECT_EQ(row[4], "1 (1)");
+      const double lsnif_mib = number(row[5]), blas_mib = number(row[6]), ratio = number(row[7]);
+      const double t_lsnif = number(row[8]), t_ref = number(row[9]), t_ratio = number(row[10]), flip = number(row[11]);
+      EXPECT_GT(ratio, 1.0);
+      EXPECT_NEAR(ratio, blas_mib / lsnif_mib, 0.02 * ratio);
+      EXPECT_GT(t_lsnif, 0.0);
+      EXPECT_GT(t_ref, 0.0);
+      EXPECT_NEAR(t_ratio, t_lsnif / t_ref, 0.05 * t_ratio + 0.01);
+      EXPECT_GT(flip, 0.0);
+      EXPECT_LT(flip, 0.5);  // a render that lost the object entirely would be far off here
+      EXPECT_NEAR(lsnif_mib, mem["lsnif"]["total_bytes"].get<double>() / 1048576.0, 0.0006) << what;
+      EXPECT_NEAR(blas_mib, mem["triangle_blas"][0]["blas_bytes"].get<double>() / 1048576.0, 0.0006) << what;
+      EXPECT_NEAR(ratio, mem["triangle_blas"][0]["ratio_blas"].get<double>(), 0.01) << what;
 
-  // The memory columns against `lsnif bench-memory` (plugin upload and the driver's size query for
-  // the same mesh and model, a separate code path from the renderer's statistics).
-  const std::string model = (dir.path() / "bunny" / "bunny.lsnif").string();
-  ASSERT_TRUE(fs::exists(model));
-  r = lsnif::test::run_command(std::string(LSNIF_CLI) + " bench-memory " + kBunny + " " + model +
-                               " --subdivide-targets '' --json 2>/dev/null");
-  ASSERT_EQ(r.code, 0) << r.out;
-  const json mem = json::parse(r.out);
-  EXPECT_NEAR(lsnif_mib, mem["lsnif"]["total_bytes"].get<double>() / 1048576.0, 0.0006);
-  EXPECT_NEAR(blas_mib, mem["triangle_blas"][0]["blas_bytes"].get<double>() / 1048576.0, 0.0006);
-  EXPECT_NEAR(ratio, mem["triangle_blas"][0]["ratio_blas"].get<double>(), 0.01);
+      // The side-by-side picture (reference | LSNIF | FLIP) at the quick image size.
+      const std::string image =
+          std::string("bunny") + (std::string(preset) == "high" ? "" : ".low") + "." + pipeline + ".png";
+      uint32_t w = 0, h = 0;
+      ASSERT_TRUE(png_size(dir.path() / image, w, h)) << image;
+      EXPECT_EQ(w, 3u * 64u);
+      EXPECT_EQ(h, 48u);
+      EXPECT_TRUE(has(md, "(" + image + ")")) << md;
 
-  // The side-by-side picture (reference | LSNIF | FLIP) at the quick image size, and the scene.
-  uint32_t w = 0, h = 0;
-  ASSERT_TRUE(png_size(dir.path() / "bunny.png", w, h));
-  EXPECT_EQ(w, 3u * 64u);
-  EXPECT_EQ(h, 48u);
-  EXPECT_TRUE(has(md, "![bunny](bunny.png)")) << md;
+      // The wavefront renders' stages add up to at most their wall time per sample (the other
+      // clock), and to most of it (lavapipe runs the passes on the host's cores).
+      if (std::string(pipeline) != "wavefront") continue;
+      for (const auto& [mode, wall] : {std::pair{"LSNIF", t_lsnif}, std::pair{"reference", t_ref}}) {
+        const std::vector<std::string> st =
+            lsnif::test::table_row(md, "| bunny | " + std::string(preset) + " | " + mode + " |");
+        ASSERT_EQ(st.size(), 11u) << what << " " << mode << " stages\n" << md;
+        double sum = 0;
+        for (size_t k = 3; k < 10; ++k) {
+          EXPECT_GE(number(st[k]), 0.0) << st[k];
+          sum += number(st[k]);
+        }
+        EXPECT_NEAR(number(st[10]), sum, 0.1) << "the total is the stages' sum";
+        EXPECT_LE(sum, wall * 1.01 + 0.1) << what << " " << mode;
+        EXPECT_GE(sum, 0.5 * wall) << what << " " << mode;
+      }
+    }
+  }
   EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "bunny.gltf"));
   EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "bunny.bin"));
   EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "forest.exr"));
 
-  // Run again: scene and model are reused, not rebuilt or retrained.
+  // Run again, one preset and pipeline: scene and model are reused, not rebuilt or retrained.
+  const fs::path model = dir.path() / "bunny" / "bunny.lsnif";
   const auto model_time = fs::last_write_time(model);
-  r = run_cli("bench bunny --quick --spp 1 --out " + out);
+  r = run_cli("bench bunny --quick --spp 1 --quality high --pipeline inline --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(has(r.out, "scene     reusing")) << r.out;
   EXPECT_TRUE(has(r.out, "model     reusing")) << r.out;
   EXPECT_FALSE(has(r.out, "model     training")) << r.out;
   EXPECT_EQ(fs::last_write_time(model), model_time);
-  EXPECT_TRUE(has(read_text(dir.path() / "results.md"), "reused (same mesh and settings)"));
+  const std::string again = read_text(dir.path() / "results.md");
+  EXPECT_TRUE(has(again, "reused (same mesh and settings)"));
+  EXPECT_EQ(lsnif::test::table_row(again, "| bunny | high | wavefront |").size(), 0u) << again;
+  EXPECT_EQ(lsnif::test::table_row(again, "| bunny | low |").size(), 0u) << again;
   // Other training settings do not match the stored model: it is trained again.
-  r = run_cli("bench bunny --quick --steps 5 --spp 1 --out " + out);
+  r = run_cli("bench bunny --quick --steps 5 --spp 1 --quality high --pipeline inline --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(has(r.out, "model     training")) << r.out;
+  // Presets and pipelines outside the lists are usage errors.
+  r = run_cli("bench bunny --quick --quality medium --out " + out);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r.out, "--quality takes a list of high and low, not 'medium'")) << r.out;
+  r = run_cli("bench bunny --quick --pipeline sideways --out " + out);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r.out, "--pipeline must be inline, wavefront or both, not 'sideways'")) << r.out;
 }
 
 // The batched path (lsnifCmdIntersectModelRays, compute) and lsnifCmdQuery (the model as one LSNIF

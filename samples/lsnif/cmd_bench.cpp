@@ -1,10 +1,13 @@
 // lsnif bench [SCENE...]: the paper's Table 1 on the bundled scenes (bench_scenes.h,
 // docs/bench-scenes.md). Per scene: build it into OUT/SCENE/ (glTF with the LSNIF extensions) when
-// missing or changed, train every unique model it needs (or reuse one trained from the same mesh
-// with the same settings), render it in reference and LSNIF mode with the same random sequences
-// (render_compare.h), and report LSNIF count, LSNIF memory against the triangle BLAS it replaces,
-// time per sample of both modes and the LDR-FLIP of the LSNIF image. Writes OUT/results.md and
-// OUT/SCENE.png (reference | LSNIF | FLIP heatmap).
+// missing or changed; per quality preset (--quality high,low: Table 1's H and L columns) train every
+// unique model it needs (or reuse one trained from the same mesh with the same settings); per
+// pipeline (--pipeline inline|wavefront|both) render it in reference and LSNIF mode with the same
+// random sequences (render_compare.h), the wavefront renders with stage times; report LSNIF count,
+// LSNIF memory against the triangle BLAS it replaces, time per sample of both modes, the LDR-FLIP
+// of the LSNIF image and the wavefront stages. Writes OUT/results.md and per row OUT/SCENE[.low].
+// PIPELINE.png (reference | LSNIF | FLIP heatmap).
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -16,7 +19,6 @@
 #include "data_dir.h"
 #include "device_option.h"
 #include "model_cache.h"
-#include "pipeline_option.h"
 #include "render_compare.h"
 #include "report_text.h"
 #include "scene_gltf.h"
@@ -36,12 +38,20 @@ struct ModelRow {
   double train_seconds = 0;
 };
 
+// One measurement: a scene with the models of one quality preset, rendered by one pipeline.
 struct SceneRow {
-  std::string name, summary, image;
+  std::string name, summary, image, preset;
+  render::PathPipeline pipeline = render::PathPipeline::inline_rt;
   uint64_t triangles = 0;  // instanced triangles of the LSNIF objects
   CompareReport cmp;
-  std::vector<ModelRow> models;
+  std::vector<ModelRow> models;  // those trained or reused for this preset (listed once per preset)
 };
+
+// The paper's two configurations (Table 1's H and L columns): `lsnif train --quality high|low`.
+// The high models keep the plain names (OBJECT.lsnif), the low ones are OBJECT.low.lsnif.
+std::string model_file(const std::string& object, const std::string& preset) {
+  return preset == "high" ? object + ".lsnif" : object + "." + preset + ".lsnif";
+}
 
 std::string count_text(uint64_t n) {
   if (n >= 1000000) return format("%.2fM", double(n) / 1e6);
@@ -60,38 +70,63 @@ uint64_t object_blas_bytes(const CompareReport& c) {
 
 std::string table(const std::vector<SceneRow>& rows) {
   std::string t =
-      "| Scene | Tris (LSNIF objects) | LSNIF count | LSNIF (MiB) | triangle BLAS (MiB) | BLAS / LSNIF | "
-      "T LSNIF (ms/spp) | T reference (ms/spp) | T LSNIF / T reference | FLIP mean |\n"
-      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "| Scene | quality | pipeline | Tris (LSNIF objects) | LSNIF count | LSNIF (MiB) | triangle BLAS (MiB) | "
+      "BLAS / LSNIF | T LSNIF (ms/spp) | T reference (ms/spp) | T LSNIF / T reference | FLIP mean |\n"
+      "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SceneRow& r : rows) {
     const render::RenderStats& l = r.cmp.lsnif;
     const render::RenderStats& ref = r.cmp.reference;
     const uint64_t blas = object_blas_bytes(r.cmp);
-    t += format("| %s | %s | %u (%u) | %.3f | %.3f | %.2f | %.1f | %.1f | %.2f | %.4f |\n", r.name.c_str(),
-                count_text(r.triangles).c_str(), l.lsnif_instances, l.lsnif_models, mib(l.lsnif_bytes), mib(blas),
+    t += format("| %s | %s | %s | %s | %u (%u) | %.3f | %.3f | %.2f | %.1f | %.1f | %.2f | %.4f |\n", r.name.c_str(),
+                r.preset.c_str(), render::pipeline_name(r.pipeline), count_text(r.triangles).c_str(),
+                l.lsnif_instances, l.lsnif_models, mib(l.lsnif_bytes), mib(blas),
                 l.lsnif_bytes ? double(blas) / double(l.lsnif_bytes) : 0.0, l.ms_per_sample, ref.ms_per_sample,
                 ref.ms_per_sample > 0 ? l.ms_per_sample / ref.ms_per_sample : 0.0, r.cmp.flip_mean);
   }
   return t;
 }
 
+// The wavefront rows' stage times (RenderSettings::stage_times) of the LSNIF and the reference render.
+std::string stage_table(const std::vector<SceneRow>& rows) {
+  std::string t =
+      "| Scene | quality | mode | camera | broad phase | sort | encode | MLP | resolve | shade | total (ms/spp) |\n"
+      "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  bool any = false;
+  for (const SceneRow& r : rows)
+    for (const render::RenderStats* st : {&r.cmp.lsnif, &r.cmp.reference}) {
+      if (!st->has_stages) continue;
+      any = true;
+      const render::StageTimes& s = st->stages;
+      t += format("| %s | %s | %s | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.1f |\n", r.name.c_str(),
+                  r.preset.c_str(), st == &r.cmp.lsnif ? "LSNIF" : "reference", s.camera, s.broad, s.sort, s.encode,
+                  s.mlp, s.resolve, s.shade, s.total());
+    }
+  return any ? t : std::string();
+}
+
 std::string results_markdown(const std::vector<SceneRow>& rows, const render::RenderSettings& rs,
                              const std::string& device, const std::string& training) {
   std::string md = "# lsnif bench: LSNIF vs triangles on the bundled scenes (like Table 1 of the paper)\n\n";
-  md += format("Device: %s. Images %ux%u, %u samples per pixel, %u bounces, %s pipeline. Training: %s.\n\n",
-               device.c_str(), rs.width, rs.height, rs.spp, rs.max_bounces, render::pipeline_name(rs.pipeline),
-               training.c_str());
+  md += format("Device: %s. Images %ux%u, %u samples per pixel, %u bounces. Training: %s.\n\n", device.c_str(),
+               rs.width, rs.height, rs.spp, rs.max_bounces, training.c_str());
   md += table(rows);
   md += "\nLSNIF count: LSNIF instances (unique models). LSNIF: device memory of the models (model block + AABB "
         "BLAS). Triangle BLAS: the BLASes of the same objects' meshes in reference mode (one per unique mesh, "
         "instances share it). T: wall time per sample per pixel (one path per pixel), the first pass excluded. "
-        "FLIP: mean LDR-FLIP of the LSNIF image against the reference (same random numbers).\n";
+        "FLIP: mean LDR-FLIP of the LSNIF image against the reference (same random numbers). Quality: the "
+        "paper's configurations (high: the defaults; low: `--quality low`, W=64, H=10). The reference is rendered "
+        "by the row's pipeline.\n";
+  if (const std::string st = stage_table(rows); !st.empty()) {
+    md += "\n## Wavefront stages (device time per sample, timestamps)\n\n" + st;
+    md += "\nBroad phase, sort, encode (walk and sparse-grid encoding), MLP and resolve are lsnifCmdQuery's stages, "
+          "summed over the path and shadow rays of all bounces; shade includes light connections and accumulation.\n";
+  }
   md += "\n## Models\n\n| Scene | model | mesh | triangles | training |\n|---|---|---|---:|---|\n";
   for (const SceneRow& r : rows)
     for (const ModelRow& m : r.models) {
       const std::string how = m.reused ? "reused (same mesh and settings)" : format("%.0f s", m.train_seconds);
-      md += format("| %s | %s.lsnif | %s | %s | %s |\n", r.name.c_str(), m.name.c_str(), m.origin.c_str(),
-                   count_text(m.triangles).c_str(), how.c_str());
+      md += format("| %s | %s | %s | %s | %s |\n", r.name.c_str(), model_file(m.name, r.preset).c_str(),
+                   m.origin.c_str(), count_text(m.triangles).c_str(), how.c_str());
     }
   md += "\n## Images (reference | LSNIF | FLIP)\n";
   for (const SceneRow& r : rows)
@@ -103,7 +138,8 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
 
 int cmd_bench(int argc, char** argv) {
   std::vector<std::string> names;
-  std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "inline";
+  std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "both",
+              preset_names = "high,low";
   BenchRunOptions run;
   Args args("bench",
             "The paper's Table 1 on the bundled scenes (docs/bench-scenes.md): builds each scene from the\n"
@@ -116,12 +152,36 @@ int cmd_bench(int argc, char** argv) {
   args.option("out", "output folder", &out_dir);
   args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &data_dir);
   add_bench_run_options(args, &run);
-  add_pipeline_option(args, &pipeline_name);
+  args.option("pipeline", "inline, wavefront or both (docs/renderer.md): the pipelines each scene is rendered with",
+              &pipeline_name);
+  args.option("quality", "the paper's configurations to train and compare, a list: high, low (Table 1's H and L)",
+              &preset_names);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
 
-  render::PathPipeline pipeline;
-  if (!parse_pipeline_option("bench", pipeline_name, pipeline)) return 2;
+  std::vector<render::PathPipeline> pipelines;
+  if (pipeline_name == "both") {
+    pipelines = {render::PathPipeline::inline_rt, render::PathPipeline::wavefront};
+  } else {
+    render::PathPipeline one;
+    if (!render::parse_pipeline(pipeline_name, one)) {
+      std::fprintf(stderr, "lsnif bench: --pipeline must be inline, wavefront or both, not '%s'\n",
+                   printable(pipeline_name).c_str());
+      return 2;
+    }
+    pipelines = {one};
+  }
+  std::vector<std::string> presets;
+  for (size_t at = 0; at <= preset_names.size();) {
+    const size_t comma = std::min(preset_names.find(',', at), preset_names.size());
+    const std::string p = preset_names.substr(at, comma - at);
+    if (p != "high" && p != "low") {
+      std::fprintf(stderr, "lsnif bench: --quality takes a list of high and low, not '%s'\n", printable(p).c_str());
+      return 2;
+    }
+    if (std::find(presets.begin(), presets.end(), p) == presets.end()) presets.push_back(p);
+    at = comma + 1;
+  }
   if (names.empty()) names = bench_scene_names();
   std::vector<std::string> scenes;
   for (const std::string& n : names) {
@@ -148,7 +208,6 @@ int cmd_bench(int argc, char** argv) {
   TrainOptions topt;
   render::RenderSettings rs;
   apply_bench_run_options(run, topt, rs);
-  rs.pipeline = pipeline;
   // Checked (and described for results.md) before any work; to_settings wants an output name for
   // the loss-curve path it derives, nothing is written under it.
   TrainSettings train_settings;
@@ -163,7 +222,12 @@ int cmd_bench(int argc, char** argv) {
     return 1;
   }
   vk::ComputeContext ctx;
-  if (Status s = ctx.init(render::context_options(pipeline, /*validation=*/false, device)); !s) {
+  // The wavefront pipeline's options include the inline one's (ray queries besides ray tracing).
+  const bool wavefront = std::find(pipelines.begin(), pipelines.end(), render::PathPipeline::wavefront) != pipelines.end();
+  if (Status s = ctx.init(render::context_options(wavefront ? render::PathPipeline::wavefront
+                                                            : render::PathPipeline::inline_rt,
+                                                  /*validation=*/false, device));
+      !s) {
     std::fprintf(stderr, "lsnif bench: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
                  s.message().c_str());
     return 1;
@@ -178,10 +242,10 @@ int cmd_bench(int argc, char** argv) {
       std::fprintf(stderr, "lsnif bench: %s\n", s.message().c_str());
       return 1;
     }
-    SceneRow row;
-    row.name = name;
-    row.summary = bench.summary;
-    row.triangles = object_triangles(bench);
+    SceneRow base;
+    base.name = name;
+    base.summary = bench.summary;
+    base.triangles = object_triangles(bench);
     const fs::path dir = fs::path(out_dir) / name;
     fs::create_directories(dir, ec);
     const fs::path gltf = dir / (name + ".gltf"), scene_key = dir / "scene.key";
@@ -201,35 +265,59 @@ int cmd_bench(int argc, char** argv) {
     }
     std::fflush(stdout);
 
-    for (const BenchObject& o : bench.objects) {
-      ModelRow m;
-      m.name = o.name;
-      m.origin = o.origin;
-      m.triangles = o.mesh.triangles.size();
-      TrainOptions mo = topt;
-      mo.output = (dir / (o.name + ".lsnif")).string();
-      CachedModel cached;
-      if (int r = train_or_reuse("bench", o.mesh, object_fingerprint(o), o.name + " (" + o.origin + ")", mo, run.retrain,
-                                 cached))
-        return r;
-      m.reused = cached.reused;
-      m.train_seconds = cached.train_seconds;
-      row.models.push_back(m);
-    }
+    for (const std::string& preset : presets) {
+      SceneRow models = base;
+      models.preset = preset;
+      for (const BenchObject& o : bench.objects) {
+        ModelRow m;
+        m.name = o.name;
+        m.origin = o.origin;
+        m.triangles = o.mesh.triangles.size();
+        // The preset's values where the run does not set them itself (--quick keeps its tiny width).
+        TrainOptions mo = topt;
+        const Preset* quality = find_preset("quality", preset.c_str());
+        for (uint32_t v = 0; quality && v < quality->count; ++v) {
+          const PresetValue& pv = quality->values[v];
+          if (!mo.given.given[size_t(pv.id)]) mo.given.set(pv.id, {.u = uint64_t(pv.value)});
+        }
+        mo.output = (dir / model_file(o.name, preset)).string();
+        CachedModel cached;
+        if (int r = train_or_reuse("bench", o.mesh, object_fingerprint(o),
+                                   o.name + " (" + o.origin + ", " + preset + " quality)", mo, run.retrain, cached))
+          return r;
+        m.reused = cached.reused;
+        m.train_seconds = cached.train_seconds;
+        models.models.push_back(m);
+      }
 
-    scene::SceneLoadOptions lo;
-    scene::Scene sc;
-    if (Status s = scene::load_scene(gltf.string(), lo, sc); !s) {
-      std::fprintf(stderr, "lsnif bench: %s\n", s.message().c_str());
-      return 1;
+      // The scene file names the high models; the low rows trace the low ones in their place.
+      scene::SceneLoadOptions lo;
+      scene::Scene sc;
+      if (Status s = scene::load_scene(gltf.string(), lo, sc); !s) {
+        std::fprintf(stderr, "lsnif bench: %s\n", s.message().c_str());
+        return 1;
+      }
+      for (scene::LsnifObject& obj : sc.lsnif_objects) {
+        const fs::path high(obj.resolved_path);
+        obj.resolved_path = (high.parent_path() / model_file(high.stem().string(), preset)).string();
+      }
+      for (const render::PathPipeline pipeline : pipelines) {
+        SceneRow row = models;
+        if (pipeline != pipelines.front()) row.models.clear();  // listed once per preset
+        row.pipeline = pipeline;
+        row.image = name + (preset == "high" ? "" : "." + preset) + "." + render::pipeline_name(pipeline) + ".png";
+        render::RenderSettings prs = rs;
+        prs.pipeline = pipeline;
+        prs.stage_times = pipeline == render::PathPipeline::wavefront;
+        std::printf("\n-- %s, %s quality, %s pipeline\n", name.c_str(), preset.c_str(), render::pipeline_name(pipeline));
+        std::fflush(stdout);
+        if (Status s = render_compare(ctx, sc, prs, (fs::path(out_dir) / row.image).string(), row.cmp); !s) {
+          std::fprintf(stderr, "lsnif bench: scene %s: %s\n", name.c_str(), s.message().c_str());
+          return 1;
+        }
+        rows.push_back(std::move(row));
+      }
     }
-    row.image = name + ".png";
-    std::fflush(stdout);
-    if (Status s = render_compare(ctx, sc, rs, (fs::path(out_dir) / row.image).string(), row.cmp); !s) {
-      std::fprintf(stderr, "lsnif bench: scene %s: %s\n", name.c_str(), s.message().c_str());
-      return 1;
-    }
-    rows.push_back(std::move(row));
   }
 
   const std::string training =
@@ -239,7 +327,8 @@ int cmd_bench(int argc, char** argv) {
     std::fprintf(stderr, "lsnif bench: cannot write %s\n", results.string().c_str());
     return 1;
   }
-  std::printf("\n%s\nwrote %s and the images beside it\n", table(rows).c_str(), results.string().c_str());
+  std::printf("\n%s\n%s\nwrote %s and the images beside it\n", table(rows).c_str(), stage_table(rows).c_str(),
+              results.string().c_str());
   return 0;
 }
 
