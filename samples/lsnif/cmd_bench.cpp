@@ -93,9 +93,10 @@ std::string table(const std::vector<SceneRow>& rows) {
 std::string results_markdown(const std::vector<SceneRow>& rows, const render::RenderSettings& rs,
                              const std::string& device, const std::string& training) {
   std::string md = "# lsnif bench: LSNIF vs triangles on the bundled scenes (like Table 1 of the paper)\n\n";
-  md += format("Device: %s. Images %ux%u, %u samples per pixel, %u bounces, %s pipeline. Training: %s.\n\n",
+  md += format("Device: %s. Images %ux%u, %u samples per pixel, %u bounces, %s pipeline, %s primary visibility. "
+               "Training: %s.\n\n",
                device.c_str(), rs.width, rs.height, rs.spp, rs.max_bounces, render::pipeline_name(rs.pipeline),
-               training.c_str());
+               render::primary_name(rs.primary), training.c_str());
   md += table(rows);
   md += "\nLSNIF count: LSNIF instances (unique models). LSNIF: device memory of the models (model block + AABB "
         "BLAS). Triangle BLAS: the BLASes of the same objects' meshes in reference mode (one per unique mesh, "
@@ -118,7 +119,7 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
 
 int cmd_bench(int argc, char** argv) {
   std::vector<std::string> names;
-  std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "inline";
+  std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "inline", primary_name = "traced";
   uint32_t width = 0, height = 0, spp = 0, steps = 0, batch = 0, threads = 0;
   uint64_t seed = 1;
   bool quick = false, retrain = false;
@@ -143,11 +144,14 @@ int cmd_bench(int argc, char** argv) {
             &quick);
   args.flag("retrain", "train every model even when a matching one exists", &retrain);
   add_pipeline_option(args, &pipeline_name);
+  add_primary_option(args, &primary_name);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
 
   render::PathPipeline pipeline;
   if (!parse_pipeline_option("bench", pipeline_name, pipeline)) return 2;
+  render::PrimaryVisibility primary;
+  if (!parse_primary_option("bench", primary_name, primary)) return 2;
   if (names.empty()) names = bench_scene_names();
   std::vector<std::string> scenes;
   for (const std::string& n : names) {
@@ -177,6 +181,7 @@ int cmd_bench(int argc, char** argv) {
   rs.height = 240;
   rs.spp = 16;
   rs.pipeline = pipeline;
+  rs.primary = primary;
   const auto set = [&topt](SettingId id, uint64_t value) { topt.given.set(id, {.u = value}); };
   if (quick) {
     set(SettingId::Voxels, 16);

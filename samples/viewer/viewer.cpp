@@ -215,7 +215,8 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
         view.env_rotation = env_rotation;
         const auto t0 = std::chrono::steady_clock::now();
         if (Status s = renderer.accumulate(view, renderer.accumulated_samples(), 1, settings.max_bounces,
-                                           render::RenderSettings().rr_depth, settings.pipeline);
+                                           render::RenderSettings().rr_depth, settings.pipeline,
+                                           settings.primary);
             !s)
           return s;
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
