@@ -2,19 +2,17 @@
 // visibility, RenderFrame::primary_raster), for both pipelines (render.rgen, render_wave.comp):
 // the surface at the rasterized triangle's barycentrics (render_triangle_hit), at the rasterized
 // distance along the pixel's camera ray. An LSNIF record's texel is a triangle of the node's kept
-// mesh: it is shaded from the mesh (the paper's section 4), and the rays leaving it follow the LSNIF
-// leaving rule (origin on the mesh, tmin half a voxel, back faces culled: docs/self-intersection.md),
-// so that the network's own surface, which lies within about a voxel of the mesh, does not shadow it.
+// mesh: it is shaded from the mesh (the paper's section 4) and is a triangle hit in every respect,
+// so the rays leaving it start 1e-4 (relative) off the mesh along its normal, without the LSNIF
+// leaving rule's tmin and culling (docs/self-intersection.md: measured closer to the reference).
 #ifndef RENDER_VISIBILITY_GLSL
 #define RENDER_VISIBILITY_GLSL
 
 #include "render_surface.glsl"
 #include "render_path.glsl"
-#include "lsnif_model.glsl"
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer RenderVisibilityRef { RenderVisibility v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer RenderVisibilityMat3Ref { mat3 v[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 8) readonly buffer RenderVisibilityAddressRef { uint64_t v[]; };
 
 // The camera ray `ray` of sample `sample_index` at `pixel`: false when the pixel saw nothing, else
 // the surface (hit) and the point p on the ray.
@@ -28,11 +26,6 @@ bool render_visibility_hit(RenderFrame f, uint pixel, uint sample_index, RenderR
   const float t = RenderFloatRef(f.visibility_t).v[texel];
   const mat3 w2o = RenderVisibilityMat3Ref(f.world_to_object).v[custom_index];
   hit = render_triangle_hit(f, custom_index, geometry, v.primitive, vec2(v.barycentric_u, v.barycentric_v), w2o, t);
-  if (RenderInstanceRef(f.instances).v[custom_index].kind == RENDER_INSTANCE_LSNIF) {
-    LsnifModel m = lsnif_load_model(RenderVisibilityAddressRef(pc.push.model_table).v[custom_index]);
-    hit.flags = RENDER_HIT_LSNIF;
-    hit.leaving_distance = lsnif_leaving_distance(m);
-  }
   p = ray.origin + t * ray.direction;
   return true;
 }
