@@ -19,11 +19,14 @@ typedef uint64_t lsnif_address;
 #define RENDER_INSTANCE_LSNIF 1u     /* an LSNIF model through shaders/lsnif.rint */
 
 #define RENDER_NO_TEXTURE 0xffffffffu
+#define RENDER_NO_MESH 0xffffffffu
 
 /* Per TLAS instance (index = instanceCustomIndex). */
 struct RenderInstance {
   lsnif_uint kind;             /* RENDER_INSTANCE_* */
-  lsnif_uint first_primitive;  /* triangles: RenderPrimitive of geometry 0 (gl_GeometryIndexEXT adds) */
+  lsnif_uint first_primitive;  /* triangles: RenderPrimitive of geometry 0 (gl_GeometryIndexEXT adds); LSNIF: the
+                                  first RenderPrimitive of the node's kept mesh (rasterized primary visibility),
+                                  RENDER_NO_MESH without one */
   lsnif_uint material_map;     /* LSNIF: first entry in RenderFrame::material_maps (model material -> scene) */
   lsnif_uint material_count;   /* LSNIF: entries of the map */
 };
@@ -64,6 +67,8 @@ struct RenderFrame {
   lsnif_address world_to_object; /* float3x3 (column-major) per instance custom index: the inverse of the
                                    instance's linear part (the wavefront pipeline's gl_WorldToObjectEXT) */
   lsnif_address accumulation;   /* float4 per pixel: running sum of radiance, w = samples */
+  lsnif_address visibility;     /* rasterized primary visibility: RenderVisibility per (sample of the pass, pixel) */
+  lsnif_address visibility_t;   /* float per (sample of the pass, pixel): distance from the camera to the hit */
   lsnif_uint width, height;
   lsnif_uint env_width, env_height;
   float env_r, env_g, env_b, env_rotation; /* constant radiance without an image; rotation about +y (radians) */
@@ -77,6 +82,8 @@ struct RenderFrame {
   float sun_cos_max;            /* cosine of the sun disk's angular radius */
   float sun_r, sun_g, sun_b;    /* radiance of the disk = irradiance / solid angle */
   float pad_sun;
+  lsnif_uint primary_raster;    /* 1: the camera rays' hits come from `visibility` (rasterized), not traced */
+  lsnif_uint visibility_first_sample; /* sample index of the visibility buffer's first layer */
 };
 
 /* Push constants: the model table and its entry count first (LSNIF binding convention), then the
@@ -93,9 +100,36 @@ struct RenderPush {
   lsnif_address wave;         /* wavefront: RenderWave */
 };
 
+/* ---- Rasterized primary visibility (render_visibility.vert/.frag, render_visibility.glsl) ----
+ * A graphics pass draws every TLAS record's triangles (an LSNIF record: its node's kept mesh) once
+ * per sample, with that sample's camera jitter folded into the projection. */
+#define RENDER_VISIBILITY_NONE 0xffffffffu /* RenderVisibility::instance of a pixel that saw nothing */
+#define RENDER_VISIBILITY_GEOMETRY_SHIFT 24u /* instance = custom index | mesh primitive << 24 */
+
+/* One texel of the visibility buffer. */
+struct RenderVisibility {
+  lsnif_uint instance;    /* TLAS custom index | (mesh primitive of the record << 24), or RENDER_VISIBILITY_NONE */
+  lsnif_uint primitive;   /* triangle of that mesh primitive (the vertex shader's gl_VertexIndex / 3) */
+  float barycentric_u, barycentric_v;  /* weights of the triangle's vertices 1 and 2 */
+};
+
+/* Push constants of the visibility pass: one draw = one triangle list of one TLAS record. */
+struct RenderRasterPush {
+  float object_to_camera[12];  /* rows of the 3x4 object-to-camera matrix (camera looks down -z) */
+  lsnif_address positions;     /* RenderPrimitive::positions */
+  lsnif_address indices;       /* RenderPrimitive::indices */
+  lsnif_uint instance;         /* RenderVisibility::instance written by this draw */
+  lsnif_uint sample_index;     /* the sample whose camera jitter is used */
+  lsnif_uint width, height;
+  float tan_half_fov_y, aspect;
+  float near_plane;            /* closer points are clipped (reversed-z depth = near / distance along -z) */
+  lsnif_uint pad;
+};
+
 /* ---- The wavefront pipeline (render_wave.comp; the rays cast by lsnifCmdQuery between stages) ----
  * One path per pixel in flight; a stage runs one invocation per pixel. */
-#define RENDER_WAVE_CAMERA 0u     /* start the paths of sample pc.sample_index: camera rays */
+#define RENDER_WAVE_CAMERA 0u     /* start the paths of sample pc.sample_index: camera rays (with
+                                     RenderFrame::primary_raster also their first vertex, as SHADE) */
 #define RENDER_WAVE_SHADE 1u      /* the path rays' results: shade, shadow rays, next path rays */
 #define RENDER_WAVE_CONNECT 2u    /* the shadow rays' results: add the unblocked light samples */
 #define RENDER_WAVE_ACCUMULATE 3u /* add each path's radiance to RenderFrame::accumulation */

@@ -43,7 +43,8 @@ struct RenderShadow {
 #define RENDER_SHADOWS 2u  // per path vertex: the environment, the sun
 RenderShadow render_no_shadow() { return RenderShadow(RenderRay(vec3(0.0), 0.0, vec3(0.0), 0u), vec3(0.0), false); }
 
-// Starts the path of sample `sample_index` of `pixel`: its camera ray.
+// Starts the path of sample `sample_index` of `pixel`: its camera ray through the pixel at the
+// sample's sub-pixel offset (render_camera_jitter, shared by all pixels of the sample).
 RenderPath render_path_start(RenderFrame f, uint pixel, uint sample_index, out RenderRay ray) {
   RenderPath path;
   path.rng = render_rng(pixel, sample_index);
@@ -54,7 +55,7 @@ RenderPath render_path_start(RenderFrame f, uint pixel, uint sample_index, out R
   const mat4x3 cam = transpose(mat3x4(f.cam_to_world[0], f.cam_to_world[1], f.cam_to_world[2], f.cam_to_world[3],
                                       f.cam_to_world[4], f.cam_to_world[5], f.cam_to_world[6], f.cam_to_world[7],
                                       f.cam_to_world[8], f.cam_to_world[9], f.cam_to_world[10], f.cam_to_world[11]));
-  const vec2 jitter = vec2(render_rand(path.rng), render_rand(path.rng));
+  const vec2 jitter = render_camera_jitter(sample_index);
   const vec2 ndc = vec2((float(px) + jitter.x) / float(f.width), (float(py) + jitter.y) / float(f.height)) * 2.0 - 1.0;
   const vec3 dir_camera = normalize(vec3(ndc.x * f.tan_half_fov_y * f.aspect, -ndc.y * f.tan_half_fov_y, -1.0));
   ray.origin = cam[3];

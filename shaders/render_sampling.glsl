@@ -1,36 +1,14 @@
-// render_sampling.glsl -- the path tracer's sampling: counter-based random numbers, the
-// Lambert + GGX BSDF (glTF metallic-roughness) with its sampling and pdf, and the equirectangular
-// environment: lookup, importance sampling and pdf, exactly as samples/scene/environment.h specifies
-// (its CPU twins are tested there).
+// render_sampling.glsl -- the path tracer's sampling: counter-based random numbers
+// (render_random.glsl), the Lambert + GGX BSDF (glTF metallic-roughness) with its sampling and pdf,
+// and the equirectangular environment: lookup, importance sampling and pdf, exactly as
+// samples/scene/environment.h specifies (its CPU twins are tested there).
 #ifndef RENDER_SAMPLING_GLSL
 #define RENDER_SAMPLING_GLSL
 
 #define RENDER_PI 3.14159265358979
 #define RENDER_INF uintBitsToFloat(0x7f800000u)
 
-// ---- random numbers: a hash of (pixel, sample, dimension) ----
-struct RenderRng {
-  uint key;
-  uint dim;
-};
-uint render_hash(uint x) {  // a 32-bit integer finalizer (Wellons' lowbias32 constants)
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
-  return x;
-}
-RenderRng render_rng(uint pixel, uint sample_index) {
-  RenderRng r;
-  r.key = render_hash(pixel * 0x9e3779b9u ^ render_hash(sample_index + 0x632be5abu));
-  r.dim = 0u;
-  return r;
-}
-float render_rand(inout RenderRng r) {
-  const uint h = render_hash(r.key ^ render_hash(r.dim++ * 0x85ebca6bu + 0xc2b2ae35u));
-  return float(h >> 8) * (1.0 / 16777216.0);
-}
+#include "render_random.glsl"
 
 // ---- BSDF ----
 struct RenderBsdf {

@@ -2,12 +2,15 @@
 // invocation per pixel, one path per pixel in flight. The host records, per sample: CAMERA, then per
 // path vertex lsnifCmdQuery(path rays), SHADE, lsnifCmdQuery(shadow rays, any hit), CONNECT, and
 // finally ACCUMULATE. The estimator is render_path.glsl's, as in the inline render.rgen; the
-// surfaces are render_surface.glsl's, built from the queries' LsnifQueryResult.
+// surfaces are render_surface.glsl's, built from the queries' LsnifQueryResult. With
+// RenderFrame::primary_raster, CAMERA takes the camera ray's hit from the visibility buffer
+// (render_visibility.glsl) and shades it as SHADE would; the host then casts no camera rays.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_path.glsl"
 #include "render_surface.glsl"
 #include "lsnif_model.glsl"
+#include "render_visibility.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -52,6 +55,35 @@ RenderHit render_result_hit(RenderFrame f, LsnifQueryResult q) {
                           vec3(q.albedo_r, q.albedo_g, q.albedo_b), q.material, w2o, lsnif_leaving_distance(m), q.t);
 }
 
+#define RENDER_WAVE_MISS 0u
+#define RENDER_WAVE_HIT 1u
+#define RENDER_WAVE_UNKNOWN 2u  // an INCOMPLETE query answer: the host fails the render
+
+// Path vertex `bounce` of `pixel` (alive: its ray was cast; `kind` what the ray met, hit and p the
+// surface when it hit): shades it and stores the path, its next ray and its shadow rays.
+void render_wave_vertex(RenderFrame f, RenderWave w, uint pixel, RenderPath path, bool alive, uint kind, RenderHit hit,
+                        vec3 p, vec3 direction, uint bounce) {
+  RenderShadow shadow[RENDER_SHADOWS];
+  for (uint k = 0u; k < RENDER_SHADOWS; ++k) shadow[k] = render_no_shadow();
+  RenderRay next = render_no_shadow().ray;
+  bool more = false;
+  if (alive) {
+    if (kind == RENDER_WAVE_HIT)
+      more = render_path_hit(f, path, hit, p, direction, bounce, shadow, next);
+    else if (kind == RENDER_WAVE_MISS)
+      render_path_miss(f, path, direction);
+  }
+  RenderWavePathRef(w.paths).v[pixel] = render_store_path(path, more);
+  RenderQueryRayRef(w.rays).v[pixel] = render_query_ray(next, more, 0u);
+  RenderQueryRayRef shadow_rays = RenderQueryRayRef(w.shadow_rays);
+  RenderWaveShadowRef shadows = RenderWaveShadowRef(w.shadows);
+  for (uint k = 0u; k < RENDER_SHADOWS; ++k) {
+    const uint i = RENDER_WAVE_SHADOWS * pixel + k;
+    shadow_rays.v[i] = render_query_ray(shadow[k].ray, shadow[k].valid, LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT);
+    shadows.v[i] = RenderWaveShadow(shadow[k].value.r, shadow[k].value.g, shadow[k].value.b, shadow[k].valid ? 1u : 0u);
+  }
+}
+
 void main() {
   const RenderFrame f = render_frame();
   const uint pixel = gl_GlobalInvocationID.x;
@@ -64,33 +96,26 @@ void main() {
   if (pc.push.stage == RENDER_WAVE_CAMERA) {
     RenderRay ray;
     const RenderPath path = render_path_start(f, pixel, pc.push.sample_index, ray);
-    paths.v[pixel] = render_store_path(path, true);
-    rays.v[pixel] = render_query_ray(ray, true, 0u);
+    if (f.primary_raster != 0u) {
+      RenderHit hit;
+      vec3 p;
+      const bool found = render_visibility_hit(f, pixel, pc.push.sample_index, ray, hit, p);
+      render_wave_vertex(f, w, pixel, path, true, found ? RENDER_WAVE_HIT : RENDER_WAVE_MISS, hit, p, ray.direction, 0u);
+    } else {
+      paths.v[pixel] = render_store_path(path, true);
+      rays.v[pixel] = render_query_ray(ray, true, 0u);
+    }
   } else if (pc.push.stage == RENDER_WAVE_SHADE) {
-    RenderQueryRayRef shadow_rays = RenderQueryRayRef(w.shadow_rays);
-    RenderPath path = render_load_path(paths.v[pixel]);
-    RenderShadow shadow[RENDER_SHADOWS];
-    for (uint k = 0u; k < RENDER_SHADOWS; ++k) shadow[k] = render_no_shadow();
-    RenderRay next = render_no_shadow().ray;
-    bool more = false;
-    if (paths.v[pixel].alive != 0u) {
-      const LsnifQueryRay r = rays.v[pixel];
-      const vec3 origin = vec3(r.origin_x, r.origin_y, r.origin_z), direction = vec3(r.direction_x, r.direction_y, r.direction_z);
-      const LsnifQueryResult q = RenderQueryResultRef(w.results).v[pixel];
-      // INCOMPLETE is not a miss: the host fails the render on the queries' status.
-      if (q.kind == LSNIF_QUERY_HIT_TRIANGLE || q.kind == LSNIF_QUERY_HIT_LSNIF)
-        more = render_path_hit(f, path, render_result_hit(f, q), origin + q.t * direction, direction, pc.push.bounce,
-                               shadow, next);
-      else if (q.kind == LSNIF_QUERY_HIT_NONE)
-        render_path_miss(f, path, direction);
-    }
-    paths.v[pixel] = render_store_path(path, more);
-    rays.v[pixel] = render_query_ray(next, more, 0u);
-    for (uint k = 0u; k < RENDER_SHADOWS; ++k) {
-      const uint i = RENDER_WAVE_SHADOWS * pixel + k;
-      shadow_rays.v[i] = render_query_ray(shadow[k].ray, shadow[k].valid, LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT);
-      shadows.v[i] = RenderWaveShadow(shadow[k].value.r, shadow[k].value.g, shadow[k].value.b, shadow[k].valid ? 1u : 0u);
-    }
+    const LsnifQueryRay r = rays.v[pixel];
+    const vec3 origin = vec3(r.origin_x, r.origin_y, r.origin_z), direction = vec3(r.direction_x, r.direction_y, r.direction_z);
+    const LsnifQueryResult q = RenderQueryResultRef(w.results).v[pixel];
+    const bool found = q.kind == LSNIF_QUERY_HIT_TRIANGLE || q.kind == LSNIF_QUERY_HIT_LSNIF;
+    RenderHit hit;
+    if (found) hit = render_result_hit(f, q);
+    // INCOMPLETE is not a miss: the host fails the render on the queries' status.
+    const uint kind = found ? RENDER_WAVE_HIT : q.kind == LSNIF_QUERY_HIT_NONE ? RENDER_WAVE_MISS : RENDER_WAVE_UNKNOWN;
+    render_wave_vertex(f, w, pixel, render_load_path(paths.v[pixel]), paths.v[pixel].alive != 0u, kind, hit,
+                       origin + q.t * direction, direction, pc.push.bounce);
   } else if (pc.push.stage == RENDER_WAVE_CONNECT) {
     RenderQueryResultRef shadow_results = RenderQueryResultRef(w.shadow_results);
     vec3 add = vec3(0.0);

@@ -290,8 +290,9 @@ TEST(Cli, TrainInfoEvalRoundTrip) {
 }
 
 // `lsnif render` and the render part of `lsnif demo` on lavapipe with a tiny model: an image is
-// written in LSNIF mode; reference mode of a node without a mesh, a missing scene, a malformed or
-// unknown --lsnif override give clear errors with the right exit codes.
+// written in LSNIF mode; reference mode or rasterized primary visibility of a node without a mesh,
+// a bad --primary, a missing scene, a malformed or unknown --lsnif override give clear errors with
+// the right exit codes.
 TEST(Cli, RenderAndDemoWithATinyModel) {
   if (!fs::exists(kElephant)) GTEST_SKIP() << kElephant << " missing: run scripts/setup.sh";
   fs::path d = temp_dir();
@@ -317,6 +318,14 @@ TEST(Cli, RenderAndDemoWithATinyModel) {
   r = run_cli("render " + scene + " --lsnif bunny=" + model + " --reference --width 8 --height 8 --spp 1 -o " + image);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("bunny"), std::string::npos) << r.out;
+  // Rasterized primary visibility needs the LSNIF node's mesh, which this scene lacks.
+  r = run_cli("render " + scene + " --lsnif bunny=" + model + " --primary raster --width 8 --height 8 --spp 1 -o " +
+              image);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("'bunny' has no triangle mesh"), std::string::npos) << r.out;
+  r = run_cli("render " + scene + " --lsnif bunny=" + model + " --primary rasterized -o " + image);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--primary must be traced or raster"), std::string::npos) << r.out;
   r = run_cli("render " + (d / "nothing.gltf").string() + " -o " + image);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("nothing.gltf"), std::string::npos) << r.out;

@@ -19,6 +19,7 @@
 #include "data_dir.h"
 #include "device_option.h"
 #include "model_cache.h"
+#include "pipeline_option.h"
 #include "render_compare.h"
 #include "report_text.h"
 #include "scene_gltf.h"
@@ -89,16 +90,16 @@ std::string table(const std::vector<SceneRow>& rows) {
 // The wavefront rows' stage times (RenderSettings::stage_times) of the LSNIF and the reference render.
 std::string stage_table(const std::vector<SceneRow>& rows) {
   std::string t =
-      "| Scene | quality | mode | camera | broad phase | sort | encode | MLP | resolve | shade | total (ms/spp) |\n"
-      "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "| Scene | quality | mode | raster | camera | broad phase | sort | encode | MLP | resolve | shade | total (ms/spp) |\n"
+      "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   bool any = false;
   for (const SceneRow& r : rows)
     for (const render::RenderStats* st : {&r.cmp.lsnif, &r.cmp.reference}) {
       if (!st->has_stages) continue;
       any = true;
       const render::StageTimes& s = st->stages;
-      t += format("| %s | %s | %s | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.1f |\n", r.name.c_str(),
-                  r.preset.c_str(), st == &r.cmp.lsnif ? "LSNIF" : "reference", s.camera, s.broad, s.sort, s.encode,
+      t += format("| %s | %s | %s | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.1f |\n", r.name.c_str(),
+                  r.preset.c_str(), st == &r.cmp.lsnif ? "LSNIF" : "reference", s.raster, s.camera, s.broad, s.sort, s.encode,
                   s.mlp, s.resolve, s.shade, s.total());
     }
   return any ? t : std::string();
@@ -107,8 +108,9 @@ std::string stage_table(const std::vector<SceneRow>& rows) {
 std::string results_markdown(const std::vector<SceneRow>& rows, const render::RenderSettings& rs,
                              const std::string& device, const std::string& training) {
   std::string md = "# lsnif bench: LSNIF vs triangles on the bundled scenes (like Table 1 of the paper)\n\n";
-  md += format("Device: %s. Images %ux%u, %u samples per pixel, %u bounces. Training: %s.\n\n", device.c_str(),
-               rs.width, rs.height, rs.spp, rs.max_bounces, training.c_str());
+  md += format("Device: %s. Images %ux%u, %u samples per pixel, %u bounces, %s primary visibility. Training: %s.\n\n",
+               device.c_str(), rs.width, rs.height, rs.spp, rs.max_bounces, render::primary_name(rs.primary),
+               training.c_str());
   md += table(rows);
   md += "\nLSNIF count: LSNIF instances (unique models). LSNIF: device memory of the models (model block + AABB "
         "BLAS). Triangle BLAS: the BLASes of the same objects' meshes in reference mode (one per unique mesh, "
@@ -139,7 +141,7 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
 int cmd_bench(int argc, char** argv) {
   std::vector<std::string> names;
   std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "both",
-              preset_names = "high,low";
+              preset_names = "high,low", primary_name = "traced";
   BenchRunOptions run;
   Args args("bench",
             "The paper's Table 1 on the bundled scenes (docs/bench-scenes.md): builds each scene from the\n"
@@ -156,6 +158,7 @@ int cmd_bench(int argc, char** argv) {
               &pipeline_name);
   args.option("quality", "the paper's configurations to train and compare, a list: high, low (Table 1's H and L)",
               &preset_names);
+  add_primary_option(args, &primary_name);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
 
@@ -171,6 +174,8 @@ int cmd_bench(int argc, char** argv) {
     }
     pipelines = {one};
   }
+  render::PrimaryVisibility primary;
+  if (!parse_primary_option("bench", primary_name, primary)) return 2;
   std::vector<std::string> presets;
   for (size_t at = 0; at <= preset_names.size();) {
     const size_t comma = std::min(preset_names.find(',', at), preset_names.size());
@@ -208,6 +213,7 @@ int cmd_bench(int argc, char** argv) {
   TrainOptions topt;
   render::RenderSettings rs;
   apply_bench_run_options(run, topt, rs);
+  rs.primary = primary;
   // Checked (and described for results.md) before any work; to_settings wants an output name for
   // the loss-curve path it derives, nothing is written under it.
   TrainSettings train_settings;

@@ -17,7 +17,7 @@
 namespace lsnif::cli {
 
 int cmd_render(int argc, char** argv) {
-  std::string output = "render.png", device, pipeline_name = "inline";
+  std::string output = "render.png", device, pipeline_name = "inline", primary_name = "traced";
   uint32_t width = 640, height = 480, spp = 64, bounces = 4;
   bool reference = false, validation = false, stage_times = false;
   SceneArgs sa;
@@ -38,6 +38,7 @@ int cmd_render(int argc, char** argv) {
   add_pipeline_option(args, &pipeline_name);
   args.flag("stage-times", "with --pipeline wavefront: time its stages on the device (timestamps) and report them",
             &stage_times);
+  add_primary_option(args, &primary_name);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 on any message)", &validation);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
@@ -51,6 +52,8 @@ int cmd_render(int argc, char** argv) {
     std::fprintf(stderr, "lsnif render: --stage-times needs --pipeline wavefront (the inline pipeline is one launch)\n");
     return 2;
   }
+  render::PrimaryVisibility primary;
+  if (!parse_primary_option("render", primary_name, primary)) return 2;
 
   // The image's place is checked before the render, not after it.
   if (int r = sa.check_output("render", "-o", output)) return r;
@@ -72,6 +75,7 @@ int cmd_render(int argc, char** argv) {
   settings.reference = reference;
   settings.pipeline = pipeline;
   settings.stage_times = stage_times;
+  settings.primary = primary;
   settings.camera = sa.camera_index();
   settings.environment = environment.width ? &environment : nullptr;
   render::Renderer renderer(ctx);
@@ -88,8 +92,8 @@ int cmd_render(int argc, char** argv) {
     std::fprintf(stderr, "lsnif render: %s\n", w.message().c_str());
     return 1;
   }
-  std::printf("scene            %s (%s mode, %s pipeline)\n", sa.scene_path.c_str(), reference ? "reference" : "LSNIF",
-              render::pipeline_name(pipeline));
+  std::printf("scene            %s (%s mode, %s pipeline, %s primary)\n", sa.scene_path.c_str(),
+              reference ? "reference" : "LSNIF", render::pipeline_name(pipeline), render::primary_name(primary));
   std::printf("device           %s\n", ctx.device_name().c_str());
   std::printf("image            %s, %ux%u, %u spp, %u bounces\n", output.c_str(), width, height, spp, bounces);
   std::printf("time             %.2f s, %.2f ms per sample (%.3g s per frame of 1 spp)\n", stats.seconds,

@@ -43,10 +43,12 @@ int cmd_view(int argc, char** argv) {
   args.flag("quiet", "no line per frame", &vs.quiet);
   args.flag("validation", "enable the Khronos validation layer (exit 1 on any message)", &vs.validation);
   add_device_option(args, &vs.device);
-  std::string pipeline_name = "inline";
+  std::string pipeline_name = "inline", primary_name = "traced";
   add_pipeline_option(args, &pipeline_name);
+  add_primary_option(args, &primary_name);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (!parse_pipeline_option("view", pipeline_name, vs.pipeline)) return 2;
+  if (!parse_primary_option("view", primary_name, vs.primary)) return 2;
   if (vs.width == 0 || vs.height == 0 || vs.width > 16384 || vs.height > 16384 || vs.scale == 0 || vs.scale > 64 ||
       !std::isfinite(exposure)) {
     std::fprintf(stderr, "lsnif view: --width/--height must be in 1..16384, --scale in 1..64, --exposure finite\n");

@@ -69,6 +69,10 @@ struct DeviceScene {
     uint64_t world_to_object = 0;          // RenderFrame::world_to_object of the mode (per custom index)
     glm::mat3* world_to_object_mapped = nullptr;
     RenderStats stats;                     // what the mode uses (times 0)
+    // Rasterized primary visibility: every record's triangle lists (an LSNIF record: its node's
+    // mesh), or why the mode cannot be rasterized (an LSNIF node without a mesh).
+    std::vector<VisibilityDraw> raster_draws;
+    std::string raster_why_not;
   };
   Mode modes[2];
   int active = 0;
@@ -154,6 +158,7 @@ Renderer::Renderer(vk::ComputeContext& ctx) : ctx_(ctx), tracer_(ctx) {}
 
 Renderer::~Renderer() {
   scene_.reset();
+  visibility_.reset();
   release_accumulation();
   if (pipeline_ready_) tracer_.destroy(pipeline_);
   ctx_.destroy_pipeline(wave_pipeline_);
@@ -162,8 +167,9 @@ Renderer::~Renderer() {
 std::string describe(const StageTimes& t) {
   char text[256];
   std::snprintf(text, sizeof text,
-                "camera %.2f, broad phase %.2f, sort %.2f, encode %.2f, MLP %.2f, resolve %.2f, shade %.2f (total %.2f)",
-                t.camera, t.broad, t.sort, t.encode, t.mlp, t.resolve, t.shade, t.total());
+                "raster %.2f, camera %.2f, broad phase %.2f, sort %.2f, encode %.2f, MLP %.2f, resolve %.2f, shade %.2f "
+                "(total %.2f)",
+                t.raster, t.camera, t.broad, t.sort, t.encode, t.mlp, t.resolve, t.shade, t.total());
   return text;
 }
 
@@ -181,6 +187,15 @@ vk::ContextOptions context_options(PathPipeline pipeline, bool validation, const
 bool parse_pipeline(const std::string& name, PathPipeline& out) {
   if (name == "inline") out = PathPipeline::inline_rt;
   else if (name == "wavefront") out = PathPipeline::wavefront;
+  else return false;
+  return true;
+}
+
+const char* primary_name(PrimaryVisibility p) { return p == PrimaryVisibility::raster ? "raster" : "traced"; }
+
+bool parse_primary(const std::string& name, PrimaryVisibility& out) {
+  if (name == "traced") out = PrimaryVisibility::traced;
+  else if (name == "raster") out = PrimaryVisibility::raster;
   else return false;
   return true;
 }
@@ -212,7 +227,10 @@ Status Renderer::render(const scene::Scene& scene, const RenderSettings& setting
                         RenderStats& stats, const std::function<void(uint32_t)>& progress) {
   stats = RenderStats();
   out = image::Image();
-  if (Status s = set_scene(scene, settings.reference, settings.environment); !s) return s;
+  if (Status s = set_scene(scene, settings.reference, settings.environment,
+                          /*both_modes=*/settings.primary == PrimaryVisibility::raster);
+      !s)
+    return s;
   return render(settings, out, stats, progress);
 }
 
@@ -320,6 +338,7 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
 
   // Triangle primitives: vertex data for the closest-hit shader and one BLAS each (per mesh in use).
   std::vector<RenderPrimitive> primitives;
+  std::vector<uint32_t> primitive_triangles;  // per primitives entry
   std::vector<std::vector<uint32_t>> mesh_primitives(scene.meshes.size());  // -> primitives / blases index
   std::vector<bool> mesh_used(scene.meshes.size(), false);
   std::vector<uint64_t> mesh_blas_bytes(scene.meshes.size(), 0), mesh_triangles(scene.meshes.size(), 0);
@@ -358,6 +377,7 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
       dev.blases.push_back(blas);
       mesh_primitives[m].push_back(uint32_t(primitives.size()));
       primitives.push_back(rp);
+      primitive_triangles.push_back(uint32_t(p.indices.size() / 3));
     }
   }
 
@@ -381,7 +401,28 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
       md.instance_records.emplace_back(records.size(), 0);
       if (in.lsnif >= 0 && !ref) {
         const scene::LsnifObject& obj = scene.lsnif_objects[size_t(in.lsnif)];
-        RenderInstance ri{RENDER_INSTANCE_LSNIF, 0, uint32_t(material_maps.size()), uint32_t(obj.material_map.size())};
+        RenderInstance ri{RENDER_INSTANCE_LSNIF, RENDER_NO_MESH, uint32_t(material_maps.size()),
+                          uint32_t(obj.material_map.size())};
+        // Its kept mesh, for rasterized primary visibility: one draw per mesh primitive.
+        const std::vector<uint32_t>* mesh = in.mesh >= 0 ? &mesh_primitives[size_t(in.mesh)] : nullptr;
+        if (md.raster_why_not.empty()) {
+          if (!mesh)
+            md.raster_why_not = "LSNIF node '" + in.node_name +
+                                "' has no triangle mesh to rasterize (keep it with lsnif convert --keep-meshes)";
+          else if (mesh->empty())
+            md.raster_why_not = "the mesh of LSNIF node '" + in.node_name +
+                                "' was not uploaded (set_scene without both_modes)";
+          else if (mesh->size() > 255)
+            md.raster_why_not = "the mesh of LSNIF node '" + in.node_name + "' has more than 255 primitives";
+        }
+        if (mesh && !mesh->empty() && mesh->size() <= 255) {
+          ri.first_primitive = mesh->front();
+          for (size_t k = 0; k < mesh->size(); ++k) {
+            const RenderPrimitive& rp = primitives[(*mesh)[k]];
+            md.raster_draws.push_back({uint32_t(instances.size()) | uint32_t(k << RENDER_VISIBILITY_GEOMETRY_SHIFT),
+                                       rp.positions, rp.indices, primitive_triangles[(*mesh)[k]], in.object_to_world});
+          }
+        }
         material_maps.insert(material_maps.end(), obj.material_map.begin(), obj.material_map.end());
         const plugin::Model& model = dev.models[slot[size_t(in.lsnif)]];
         LsnifInstanceInfo info{};
@@ -416,6 +457,8 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
         rec.mask = 0xFF;
         rec.instanceShaderBindingTableRecordOffset = pipeline_.triangle_sbt_offset & 0xffffffu;  // triangle hit group
         rec.accelerationStructureReference = dev.blases[prim].address;
+        md.raster_draws.push_back({uint32_t(instances.size()), primitives[prim].positions, primitives[prim].indices,
+                                   primitive_triangles[prim], in.object_to_world});
         instances.push_back({RENDER_INSTANCE_TRIANGLES, prim, 0, 0});
         model_table.push_back(0);
         md.table_models.push_back(nullptr);
@@ -553,6 +596,10 @@ Status Renderer::move_instance(size_t instance, const glm::mat4& object_to_world
       }
       md.world_to_object_mapped[r] = glm::inverse(glm::mat3(object_to_world));
     }
+    for (VisibilityDraw& d : md.raster_draws) {
+      const size_t r = d.instance & ((1u << RENDER_VISIBILITY_GEOMETRY_SHIFT) - 1u);
+      if (r >= first && r < first + count) d.object_to_world = object_to_world;
+    }
     if (Status s = tracer_.update_tlas(md.records, md.tlas); !s) return s;
   }
   return Status::ok();
@@ -612,6 +659,18 @@ LsnifQueryInfo wave_query_info(const DeviceScene::Mode& md, uint32_t lsnif_insta
   q.pModels = md.table_models.data();
   q.modelTable = md.table_address;
   return q;
+}
+
+// The push constants of the wavefront stages over the active mode (stage, bounce and sample are
+// set per dispatch).
+RenderPush wave_push(DeviceScene& dev, uint64_t wave) {
+  RenderPush push{};
+  push.model_table = dev.mode().table_address;
+  push.model_count = dev.mode().table_count;
+  push.frame = dev.frame_address;
+  push.samples = 1;
+  push.wave = wave;
+  return push;
 }
 
 // Between the wavefront's passes: compute writes (and the queries' indirect arguments) before
@@ -683,7 +742,7 @@ Status Renderer::prepare_wavefront(uint32_t samples, uint32_t max_bounces) {
   return Status::ok();
 }
 
-Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces) {
+Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces, bool raster) {
   if (Status s = prepare_wavefront(samples, max_bounces); !s) return s;
   DeviceScene& dev = *scene_;
   const uint32_t pixels = width_ * height_, groups = (pixels + 63) / 64;
@@ -692,12 +751,7 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
   LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
   q.scratchBuffer = wave_scratch_.buffer;
   q.scratchSize = wave_scratch_.size;
-  RenderPush push{};
-  push.model_table = dev.mode().table_address;
-  push.model_count = dev.mode().table_count;
-  push.frame = dev.frame_address;
-  push.samples = 1;
-  push.wave = wave_address_;
+  RenderPush push = wave_push(dev, wave_address_);
   LsnifResult recorded = LSNIF_SUCCESS;
   uint32_t queries = 0;
   // Stage timing: a timestamp after every stage; interval[k] is the StageTimes field that the time
@@ -758,8 +812,10 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
       push.sample_index = first_sample + s;
       stage(RENDER_WAVE_CAMERA, 0, &StageTimes::camera);
       for (uint32_t bounce = 0; bounce <= max_bounces; ++bounce) {
-        query(w.rays, w.results, pixels);
-        stage(RENDER_WAVE_SHADE, bounce, &StageTimes::shade);
+        if (!(raster && bounce == 0)) {  // rasterized: CAMERA shaded the first vertex
+          query(w.rays, w.results, pixels);
+          stage(RENDER_WAVE_SHADE, bounce, &StageTimes::shade);
+        }
         if (bounce == max_bounces) break;  // the last vertex samples no light
         query(w.shadow_rays, w.shadow_results, RENDER_WAVE_SHADOWS * pixels);
         stage(RENDER_WAVE_CONNECT, bounce, &StageTimes::shade);
@@ -808,11 +864,8 @@ Status Renderer::reset_accumulation(uint32_t width, uint32_t height) {
   return Status::ok();
 }
 
-Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces,
-                            uint32_t rr_depth, PathPipeline pipeline) {
-  if (!scene_) return Status::error("render: no scene set");
-  if (!accumulation_.buffer) return Status::error("render: reset_accumulation before accumulate");
-  if (samples == 0) return Status::ok();
+Status Renderer::prepare_frame(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces,
+                               uint32_t rr_depth, PrimaryVisibility primary) {
   if (!finite(view.camera_to_world) || !(view.yfov > 0.0f && view.yfov < 3.1f) || !std::isfinite(view.env_rotation))
     return Status::error("render: the view has a non-finite transform or rotation or a field of view outside (0, pi)");
   RenderFrame frame = scene_->frame;
@@ -830,7 +883,38 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   frame.env_rotation = scene_->env_rotation + view.env_rotation;
   frame.max_bounces = max_bounces;
   frame.rr_depth = rr_depth;
+  if (primary == PrimaryVisibility::raster) {
+    if (!md.raster_why_not.empty())
+      return Status::error("render: rasterized primary visibility: %s", md.raster_why_not.c_str());
+    if (!visibility_) visibility_ = std::make_unique<VisibilityBuffer>(ctx_);
+    VisibilityCamera camera;
+    camera.camera_to_world = view.camera_to_world;
+    camera.tan_half_fov_y = frame.tan_half_fov_y;
+    camera.aspect = frame.aspect;
+    // Near plane: far below the scene's size (closer surfaces are clipped, which traced rays see).
+    camera.near_plane = 1e-6f * std::max(glm::length(scene_->hi - scene_->lo), 1e-6f);
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = visibility_->rasterize(md.raster_draws, camera, width_, height_, first_sample, samples); !s)
+      return s;
+    // Its own submission, waited for: its wall time is the stage's time.
+    if (stage_timing_)
+      stage_times_.raster += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    frame.visibility = visibility_->texels_address();
+    frame.visibility_t = visibility_->distances_address();
+    frame.primary_raster = 1;
+    frame.visibility_first_sample = first_sample;
+  }
   std::memcpy(scene_->frame_on_device, &frame, sizeof frame);
+  return Status::ok();
+}
+
+Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces,
+                            uint32_t rr_depth, PathPipeline pipeline, PrimaryVisibility primary) {
+  if (!scene_) return Status::error("render: no scene set");
+  if (!accumulation_.buffer) return Status::error("render: reset_accumulation before accumulate");
+  if (samples == 0) return Status::ok();
+  if (Status s = prepare_frame(view, first_sample, samples, max_bounces, rr_depth, primary); !s) return s;
+  const DeviceScene::Mode& md = scene_->mode();
   RenderPush push{};
   push.model_table = md.table_address;
   push.model_count = md.table_count;
@@ -838,11 +922,83 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   push.sample_index = first_sample;
   push.samples = samples;
   if (pipeline == PathPipeline::wavefront) {
-    if (Status s = accumulate_wavefront(first_sample, samples, max_bounces); !s) return s;
+    if (Status s = accumulate_wavefront(first_sample, samples, max_bounces, primary == PrimaryVisibility::raster); !s)
+      return s;
   } else if (Status s = tracer_.trace(pipeline_, md.tlas, &push, width_ * height_); !s) {
     return s.context("render pass");
   }
   accumulated_ += samples;
+  return Status::ok();
+}
+
+Status Renderer::primary_hits(const View& view, uint32_t sample_index, PrimaryVisibility primary,
+                              std::vector<PrimaryHit>& out) {
+  out.clear();
+  if (!scene_) return Status::error("render: no scene set");
+  if (!accumulation_.buffer) return Status::error("render: reset_accumulation before primary_hits");
+  if (Status s = prepare_frame(view, sample_index, 1, 0, 0, primary); !s) return s;
+  const size_t pixels = size_t(width_) * height_;
+  out.resize(pixels);
+  if (primary == PrimaryVisibility::raster) {
+    const RenderVisibility* v = visibility_->texels();
+    const float* t = visibility_->distances();
+    for (size_t i = 0; i < pixels; ++i) {
+      PrimaryHit& h = out[i];
+      h.hit = v[i].instance != RENDER_VISIBILITY_NONE;
+      if (!h.hit) continue;
+      h.instance = v[i].instance & ((1u << RENDER_VISIBILITY_GEOMETRY_SHIFT) - 1u);
+      h.geometry = v[i].instance >> RENDER_VISIBILITY_GEOMETRY_SHIFT;
+      h.primitive = v[i].primitive;
+      h.u = v[i].barycentric_u;
+      h.v = v[i].barycentric_v;
+      h.t = t[i];
+    }
+    return Status::ok();
+  }
+  // Traced: the wavefront's CAMERA stage and one query of the camera rays.
+  if (Status s = prepare_wavefront(1, 0); !s) return s;
+  DeviceScene& dev = *scene_;
+  RenderWave w;
+  std::memcpy(&w, wave_buffers_.back().mapped, sizeof w);
+  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
+  q.scratchBuffer = wave_scratch_.buffer;
+  q.scratchSize = wave_scratch_.size;
+  q.rayCount = uint32_t(pixels);
+  q.rays = w.rays;
+  q.results = w.results;
+  q.status = wave_status_.address;
+  RenderPush push = wave_push(dev, wave_address_);
+  push.sample_index = sample_index;
+  push.stage = RENDER_WAVE_CAMERA;
+  LsnifResult recorded = LSNIF_SUCCESS;
+  Status st = ctx_.submit("primary hits", [&](VkCommandBuffer cmd) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, wave_pipeline_.pipeline);
+    vkCmdPushConstants(cmd, wave_pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+    vkCmdDispatch(cmd, uint32_t((pixels + 63) / 64), 1, 1);
+    wave_barrier(cmd);
+    recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
+    VkMemoryBarrier b{};
+    b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0, nullptr, 0,
+                         nullptr);
+  });
+  if (recorded != LSNIF_SUCCESS) return plugin_error("primary hits");
+  if (!st) return st;
+  const auto* results = static_cast<const LsnifQueryResult*>(wave_buffers_[2].mapped);
+  for (size_t i = 0; i < pixels; ++i) {
+    const LsnifQueryResult& r = results[i];
+    PrimaryHit& h = out[i];
+    h.hit = r.kind == LSNIF_QUERY_HIT_TRIANGLE || r.kind == LSNIF_QUERY_HIT_LSNIF;
+    if (!h.hit) continue;
+    h.instance = r.instance_custom_index;
+    h.geometry = r.geometry_index;
+    h.primitive = r.primitive_index;
+    h.u = r.barycentric_u;
+    h.v = r.barycentric_v;
+    h.t = r.t;
+  }
   return Status::ok();
 }
 
@@ -874,7 +1030,7 @@ Status Renderer::render(const RenderSettings& settings, image::Image& out, Rende
   // first use), so the timed passes measure tracing only.
   if (settings.warm_up) {
     if (Status s = accumulate(view, settings.first_sample, 1, settings.max_bounces, settings.rr_depth,
-                              settings.pipeline);
+                              settings.pipeline, settings.primary);
         !s)
       return s.context("warm-up");
     if (Status s = reset_accumulation(settings.width, settings.height); !s) return s;
@@ -887,7 +1043,8 @@ Status Renderer::render(const RenderSettings& settings, image::Image& out, Rende
   Status s = Status::ok();
   while (s && done < settings.spp) {
     const uint32_t n = std::min(settings.samples_per_pass, settings.spp - done);
-    s = accumulate(view, settings.first_sample + done, n, settings.max_bounces, settings.rr_depth, settings.pipeline);
+    s = accumulate(view, settings.first_sample + done, n, settings.max_bounces, settings.rr_depth, settings.pipeline,
+                   settings.primary);
     if (!s) break;
     done += n;
     if (progress) progress(done);
@@ -898,7 +1055,7 @@ Status Renderer::render(const RenderSettings& settings, image::Image& out, Rende
     stats.has_stages = true;
     StageTimes& per = stats.stages;
     per = stage_times_;
-    for (double StageTimes::*f : {&StageTimes::camera, &StageTimes::broad, &StageTimes::sort, &StageTimes::encode,
+    for (double StageTimes::*f : {&StageTimes::raster, &StageTimes::camera, &StageTimes::broad, &StageTimes::sort, &StageTimes::encode,
                                   &StageTimes::mlp, &StageTimes::resolve, &StageTimes::shade})
       per.*f /= settings.spp;
   }

@@ -19,6 +19,7 @@
 #include "image_io.h"
 #include "scene.h"
 #include "status.h"
+#include "visibility_buffer.h"
 #include "vk_raytracing.h"
 
 namespace lsnif::render {
@@ -35,6 +36,26 @@ bool parse_pipeline(const std::string& name, PathPipeline& out);
 // What ComputeContext::init needs for a Renderer using `pipeline` on `device` (ContextOptions::device).
 vk::ContextOptions context_options(PathPipeline pipeline, bool validation, const std::string& device);
 
+// Where the camera rays' hits come from (docs/renderer.md): traced through the TLAS like every
+// other ray, or rasterized (the paper's section 4): a graphics pass draws every object's triangles
+// -- an LSNIF node's kept mesh (`lsnif convert --keep-meshes`) -- into a visibility buffer per
+// sample, the paths start from it, and only secondary and shadow rays meet the networks.
+enum class PrimaryVisibility { traced, raster };
+// "traced" / "raster".
+const char* primary_name(PrimaryVisibility p);
+// Parses "traced" / "raster"; false on anything else.
+bool parse_primary(const std::string& name, PrimaryVisibility& out);
+
+// One pixel's primary hit (Renderer::primary_hits).
+struct PrimaryHit {
+  bool hit = false;
+  uint32_t instance = 0;   // TLAS record (custom index)
+  uint32_t geometry = 0;   // mesh primitive of the record (rasterized LSNIF records; 0 for triangle records)
+  uint32_t primitive = 0;  // triangle
+  float u = 0, v = 0;      // barycentrics (weights of vertices 1 and 2)
+  float t = 0;             // distance along the (unit) camera ray
+};
+
 struct RenderSettings {
   uint32_t width = 320, height = 240;
   uint32_t spp = 16;               // samples per pixel
@@ -43,6 +64,8 @@ struct RenderSettings {
   uint32_t rr_depth = 4;           // Russian roulette from this bounce on (only with max_bounces > 4)
   bool reference = false;          // triangles instead of LSNIF objects
   PathPipeline pipeline = PathPipeline::inline_rt;
+  PrimaryVisibility primary = PrimaryVisibility::traced;  // raster: the one-shot render prepares both modes
+                                                           // (set_scene both_modes) for the LSNIF nodes' meshes
   bool warm_up = true;              // a discarded first pass (pipeline compile) before the timed ones
   bool stage_times = false;         // wavefront: time its stages with timestamps (RenderStats::stages)
   uint32_t first_sample = 0;       // index of the first sample: per-pixel random sequences start here
@@ -57,14 +80,15 @@ struct RenderSettings {
 // stage; RenderSettings::stage_times). The query stages are lsnifCmdQuery's
 // (LSNIF_QUERY_TIMESTAMP_COUNT), summed over the path and the shadow rays of every bounce.
 struct StageTimes {
-  double camera = 0;   // camera rays
+  double raster = 0;   // the visibility pass of --primary raster (its own submission: wall time)
+  double camera = 0;   // camera rays (traced primary) or the first vertex's shading (raster)
   double broad = 0;    // broad phase: TLAS traversal, LSNIF candidates collected
   double sort = 0;     // counting sort of the candidates by model
   double encode = 0;   // narrow phase: DDA walk and sparse-grid encoding
   double mlp = 0;      // the batched MLP
   double resolve = 0;  // decoding and the resolve against the triangle hits
   double shade = 0;    // shading, light connections, accumulation
-  double total() const { return camera + broad + sort + encode + mlp + resolve + shade; }
+  double total() const { return raster + camera + broad + sort + encode + mlp + resolve + shade; }
 };
 // "camera 0.13, broad 3.74, ..., shade 3.71 (total 35.34)": the stages in milliseconds.
 std::string describe(const StageTimes& t);
@@ -100,7 +124,8 @@ class Renderer {
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
 
-  // One-shot: set_scene(scene, settings.reference, settings.environment), then render(settings, ...).
+  // One-shot: set_scene(scene, settings.reference, settings.environment, both_modes = primary is
+  // raster), then render(settings, ...).
   Status render(const scene::Scene& scene, const RenderSettings& settings, image::Image& out, RenderStats& stats,
                 const std::function<void(uint32_t)>& progress = {});
 
@@ -153,8 +178,17 @@ class Renderer {
   Status reset_accumulation(uint32_t width, uint32_t height);
   // With PathPipeline::wavefront the ComputeContext needs ContextOptions::ray_query; it fails when
   // a query answers a ray INCOMPLETE (more LSNIF boxes on one ray than the candidate capacity).
+  // With PrimaryVisibility::raster it fails, naming the node, when an LSNIF node of the mode has no
+  // mesh to rasterize (none in the scene, or set_scene without both_modes did not upload it).
   Status accumulate(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces = 4,
-                    uint32_t rr_depth = 4, PathPipeline pipeline = PathPipeline::inline_rt);
+                    uint32_t rr_depth = 4, PathPipeline pipeline = PathPipeline::inline_rt,
+                    PrimaryVisibility primary = PrimaryVisibility::traced);
+  // The primary hit of every pixel of sample `sample_index` from `view` (row-major, width x height
+  // of the accumulation image): rasterized (the visibility buffer the render uses), or traced (the
+  // camera rays cast through lsnifCmdQuery; needs ContextOptions::ray_query). For tests comparing
+  // the two. Same errors as accumulate.
+  Status primary_hits(const View& view, uint32_t sample_index, PrimaryVisibility primary,
+                      std::vector<PrimaryHit>& out);
   void resolve(image::Image& out) const;
   uint32_t accumulated_samples() const { return accumulated_; }
   // With `on`, wavefront passes write timestamps after every stage and stage_times() sums them
@@ -168,8 +202,11 @@ class Renderer {
  private:
   Status create_pipeline();
   void release_accumulation();
+  // Writes the frame of `view` (and, for raster, the visibility buffer of the samples) to the device.
+  Status prepare_frame(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces,
+                       uint32_t rr_depth, PrimaryVisibility primary);
   // The wavefront pipeline's passes for `samples` samples from `first_sample` (frame set up).
-  Status accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces);
+  Status accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces, bool raster);
   Status prepare_wavefront(uint32_t samples, uint32_t max_bounces);
   void release_wavefront();
   vk::ComputeContext& ctx_;
@@ -179,6 +216,7 @@ class Renderer {
   std::unique_ptr<DeviceScene> scene_;
   RenderStats scene_stats_;
   vk::Buffer accumulation_{};
+  std::unique_ptr<VisibilityBuffer> visibility_;  // rasterized primary visibility, made on first use
   vk::Pipeline wave_pipeline_{};                 // render_wave.comp
   // The wavefront buffers (RenderWave), sized for the accumulation image; scratch and statuses of
   // the queries (one LsnifQueryStatus per query of a pass).

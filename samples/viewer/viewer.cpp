@@ -23,7 +23,7 @@ namespace {
 
 // What the window's callbacks collect between frames.
 struct Input {
-  bool toggle_mode = false, screenshot = false, home = false, select_next = false;
+  bool toggle_mode = false, toggle_primary = false, screenshot = false, home = false, select_next = false;
   int exposure_steps = 0;
   double scroll = 0;
 };
@@ -35,6 +35,7 @@ void on_key(GLFWwindow* window, int key, int /*scancode*/, int action, int /*mod
     case GLFW_KEY_TAB:
     case GLFW_KEY_M: in.toggle_mode = true; break;
     case GLFW_KEY_P: in.screenshot = true; break;
+    case GLFW_KEY_V: in.toggle_primary = true; break;
     case GLFW_KEY_HOME: in.home = true; break;
     case GLFW_KEY_N: in.select_next = true; break;
     case GLFW_KEY_EQUAL:
@@ -132,6 +133,7 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
       camera.set(home.camera_to_world, home_distance, home.yfov);
       float exposure = settings.exposure, env_rotation = settings.env_rotation;
       bool restart = true;
+      render::PrimaryVisibility primary = settings.primary;  // V toggles
       double last_x = 0, last_y = 0, frame_ms_sum = 0;
       glfwGetCursorPos(presenter.window(), &last_x, &last_y);
       image::Image linear;
@@ -152,6 +154,12 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
           } else {
             reference = !reference;
           }
+          restart = true;
+        }
+        if (input.toggle_primary) {  // traced <-> rasterized primary visibility
+          input.toggle_primary = false;
+          primary = primary == render::PrimaryVisibility::raster ? render::PrimaryVisibility::traced
+                                                                 : render::PrimaryVisibility::raster;
           restart = true;
         }
         if (input.home) {
@@ -215,9 +223,16 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
         view.env_rotation = env_rotation;
         const auto t0 = std::chrono::steady_clock::now();
         if (Status s = renderer.accumulate(view, renderer.accumulated_samples(), 1, settings.max_bounces,
-                                           render::RenderSettings().rr_depth, settings.pipeline);
-            !s)
-          return s;
+                                           render::RenderSettings().rr_depth, settings.pipeline, primary);
+            !s) {
+          // Rasterizing a scene with an LSNIF node without a mesh: say so and trace instead (when
+          // the viewer started traced; a --primary raster start fails).
+          if (primary == settings.primary) return s;
+          std::fprintf(stderr, "lsnif view: cannot rasterize the primary visibility: %s\n", s.message().c_str());
+          primary = settings.primary;
+          restart = true;
+          continue;
+        }
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         renderer.resolve(linear);
 
@@ -225,8 +240,8 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
         tone_map(linear, exposure, presenter.width(), presenter.height(), rgba);
         const uint32_t hud = presenter.width() >= 800 ? 2 : 1;
         char status[256];
-        std::snprintf(status, sizeof status, "%s  %.0f MS/FRAME  %u SPP  %ux%u  EXPOSURE %+.1f  ENV %.0f DEG  SEL %s",
-                      reference ? "REFERENCE" : "LSNIF", ms, renderer.accumulated_samples(), rw, rh, exposure,
+        std::snprintf(status, sizeof status, "%s%s  %.0f MS/FRAME  %u SPP  %ux%u  EXPOSURE %+.1f  ENV %.0f DEG  SEL %s",
+                      reference ? "REFERENCE" : "LSNIF", primary == render::PrimaryVisibility::raster ? " RASTER" : "", ms, renderer.accumulated_samples(), rw, rh, exposure,
                       double(env_rotation) * 180.0 / 3.14159265358979,
                       selected >= 0 ? edited.instances[size_t(selected)].node_name.c_str() : "-");
         draw_hud_text(rgba.data(), presenter.width(), presenter.height(), 0, 0, status, hud);

@@ -25,6 +25,7 @@ struct ViewerSettings {
   uint32_t scale = 2;                  // render at window / scale (nearest upscaled): lavapipe is slow
   uint32_t max_bounces = 4;
   render::PathPipeline pipeline = render::PathPipeline::inline_rt;  // how the renderer casts rays
+  render::PrimaryVisibility primary = render::PrimaryVisibility::traced;  // camera rays traced or rasterized
   int32_t camera = 0;                  // the scene's camera; -1: frame the scene
   bool reference = false;              // start in reference mode
   float exposure = 0.0f;               // stops

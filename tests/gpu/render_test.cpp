@@ -545,6 +545,18 @@ TEST_F(RenderTest, WavefrontStageTimesAddUpToTheWallTime) {
   EXPECT_LE(st.total(), timed.ms_per_sample * 1.001);
   EXPECT_GE(st.total(), 0.5 * timed.ms_per_sample);
   EXPECT_EQ(renderer.stage_timed_samples(), settings.spp);
+  EXPECT_EQ(st.raster, 0.0) << "traced primary visibility";
+
+  // Rasterized primary visibility: the visibility pass is a stage of its own.
+  settings.primary = render::PrimaryVisibility::raster;
+  ASSERT_TRUE(renderer.render(lit, settings, timed_image, timed));
+  ASSERT_TRUE(timed.has_stages);
+  std::printf("raster primary, stages per sample (ms): %s of %.2f wall\n", render::describe(timed.stages).c_str(),
+              timed.ms_per_sample);
+  EXPECT_GT(timed.stages.raster, 0.0);
+  EXPECT_LE(timed.stages.total(), timed.ms_per_sample * 1.001);
+  EXPECT_GE(timed.stages.total(), 0.5 * timed.ms_per_sample);
+  settings.primary = render::PrimaryVisibility::traced;
 
   settings.pipeline = render::PathPipeline::inline_rt;
   ASSERT_TRUE(renderer.render(settings, timed_image, timed));
@@ -582,6 +594,174 @@ TEST_F(RenderTest, WavefrontFailsOnIncompleteQueries) {
   ASSERT_FALSE(s);
   EXPECT_NE(s.message().find("incomplete"), std::string::npos) << s.message();
   EXPECT_EQ(renderer.scene_stats().lsnif_instances, 33u);
+}
+
+// ---- Rasterized primary visibility (PrimaryVisibility::raster, samples/render/visibility_buffer.h) ----
+
+// Mean LDR-FLIP between two renders.
+double flip_mean(const image::Image& a, const image::Image& b) {
+  flip::FlipSettings fs;
+  fs.heatmap = false;
+  flip::FlipResult r;
+  EXPECT_TRUE(flip::ldr_flip(a, b, fs, r));
+  return r.stats.mean;
+}
+
+// Per pixel of one sample, the traced camera ray's hit (a ray query through the TLAS) against the
+// rasterized one (the visibility buffer), in reference mode (triangles only). Both see the pixel at
+// the same sub-pixel offset, so they name the same record and triangle, except where the sample
+// point lies so close to a triangle edge that the rasterizer's fixed-point edge functions (vertex
+// positions snapped to 1/256 pixel on lavapipe) and the ray-triangle test decide differently. Such
+// a pixel is accepted only when the point is within kEdge (barycentric units) of an edge of the
+// triangle either side found; at 64x48 the elephant's triangles are down to ~0.3 pixel tall, so a
+// 1/256-pixel snap moves the edge by up to ~0.013 in barycentrics: kEdge = 0.02. Those pixels must
+// stay a small fraction (< 1%). Where both agree, the barycentrics and distances agree to 1e-3 and
+// 1e-4 (relative): the same point, up to interpolation rounding.
+TEST_F(RenderTest, RasterPrimaryHitsMatchTracedForTriangles) {
+  render::Renderer renderer(vk_);
+  ASSERT_TRUE(renderer.set_scene(scene_, /*reference=*/true, nullptr));
+  ASSERT_TRUE(renderer.reset_accumulation(64, 48));
+  render::View view;
+  ASSERT_TRUE(renderer.camera_view(0, view));
+  const float kEdge = 0.02f;
+  auto near_edge = [&](const render::PrimaryHit& h) {
+    return h.hit && std::min({1.0f - h.u - h.v, h.u, h.v}) < kEdge;
+  };
+  size_t pixels = 0, hits = 0, elephant = 0, edge = 0;
+  float max_duv = 0, max_dt = 0;
+  for (uint32_t sample : {0u, 1u, 2u, 3u}) {
+    std::vector<render::PrimaryHit> traced, raster;
+    ASSERT_TRUE(renderer.primary_hits(view, sample, render::PrimaryVisibility::traced, traced));
+    ASSERT_TRUE(renderer.primary_hits(view, sample, render::PrimaryVisibility::raster, raster));
+    ASSERT_EQ(traced.size(), size_t(64 * 48));
+    ASSERT_EQ(raster.size(), traced.size());
+    for (size_t i = 0; i < traced.size(); ++i) {
+      const render::PrimaryHit &a = traced[i], &b = raster[i];
+      ++pixels;
+      hits += a.hit;
+      elephant += a.hit && a.instance == 0;
+      const bool same = a.hit == b.hit && (!a.hit || (a.instance == b.instance && a.geometry == b.geometry &&
+                                                      a.primitive == b.primitive));
+      if (!same) {
+        ++edge;
+        EXPECT_TRUE(near_edge(a) || near_edge(b))
+            << "sample " << sample << " pixel " << i << ": traced " << a.hit << " " << a.instance << "/" << a.primitive
+            << " (" << a.u << ", " << a.v << "), raster " << b.hit << " " << b.instance << "/" << b.primitive << " ("
+            << b.u << ", " << b.v << ")";
+        continue;
+      }
+      if (!a.hit) continue;
+      max_duv = std::max({max_duv, std::fabs(a.u - b.u), std::fabs(a.v - b.v)});
+      max_dt = std::max(max_dt, std::fabs(a.t - b.t) / a.t);
+    }
+  }
+  std::printf("raster vs traced primary: %zu pixel samples, %zu hits (%zu on the elephant), %zu differ at edges; "
+              "max |d barycentric| %.3g, max |d t| / t %.3g\n",
+              pixels, hits, elephant, edge, max_duv, max_dt);
+  EXPECT_GT(elephant, pixels / 20);  // the elephant covers a good part of the view (~11%)
+  EXPECT_GT(hits, elephant);        // and the ground the rest
+  EXPECT_LT(edge, pixels / 100);
+  EXPECT_LT(max_duv, 1e-3f);
+  EXPECT_LT(max_dt, 1e-4f);
+}
+
+// Reference mode (triangles only) rendered from rasterized and traced primary hits, both pipelines:
+// the same paths with the same random numbers, except the few pixel samples whose primary hit
+// differs at a triangle edge (previous test) and then goes on with another path. Against the noise
+// floor (the difference to a render with independent random numbers, ~sigma sqrt(2 / N) per pixel
+// at N spp), a fraction p << 1 / N of diverging paths moves the mean absolute difference by about
+// p N sigma sqrt(2) / N: p sqrt(N) x the floor. The previous test's p < 1% at N = 8 gives < 0.03
+// x the floor, the bound (measured: 0.0016 x, p = 0.04%); mean FLIP < 0.25 x the floor's. A camera
+// jitter differing between the two moves most pixels (measured 7.6 x the floor), swapped
+// barycentrics (wrong shading normals) 0.056 x.
+TEST_F(RenderTest, RasterPrimaryReferenceRenderMatchesTraced) {
+  const scene::Scene lit = with_sun(scene_);
+  render::Renderer renderer(vk_);
+  for (render::PathPipeline pipeline : {render::PathPipeline::inline_rt, render::PathPipeline::wavefront}) {
+    render::RenderSettings settings = small(true);
+    settings.pipeline = pipeline;
+    image::Image traced, raster, independent;
+    render::RenderStats st, sr, sn;
+    ASSERT_TRUE(renderer.render(lit, settings, traced, st));
+    settings.primary = render::PrimaryVisibility::raster;
+    ASSERT_TRUE(renderer.render(lit, settings, raster, sr));
+    settings.primary = render::PrimaryVisibility::traced;
+    settings.first_sample = 1000;
+    ASSERT_TRUE(renderer.render(lit, settings, independent, sn));
+    const double f_raster = flip_mean(traced, raster), f_noise = flip_mean(traced, independent);
+    const double d = mean_abs_diff(traced, raster), d_noise = mean_abs_diff(traced, independent);
+    std::printf("reference, %s: mean |traced - raster primary| %.4g (FLIP %.4f), independent %.4g (FLIP %.4f); "
+                "traced %.1f ms/sample, raster %.1f ms/sample\n",
+                render::pipeline_name(pipeline), d, f_raster, d_noise, f_noise, st.ms_per_sample, sr.ms_per_sample);
+    EXPECT_GT(mean(raster), 0.05);
+    EXPECT_LT(d, 0.03 * d_noise);
+    EXPECT_LT(f_raster, 0.25 * f_noise);
+  }
+}
+
+// LSNIF mode: rasterized, the primary hit is the elephant's mesh (shaded from it), traced it is the
+// network's surface; the secondary and shadow rays meet the network either way. The bounds: the
+// raster-primary LSNIF render is closer to the traced one than an independent render is (the
+// primary hits' geometric difference is below this sample count's Monte Carlo noise; measured FLIP
+// 0.029 against 0.052), and closer to the reference than the traced LSNIF render (its primary hits
+// are the reference's; measured 0.020 against 0.041). A jitter that differs from the traced
+// camera's fails both (0.39 and 0.38).
+TEST_F(RenderTest, RasterPrimaryLsnifRenderMatchesTraced) {
+  const scene::Scene lit = with_sun(scene_);
+  render::Renderer renderer(vk_);
+  for (render::PathPipeline pipeline : {render::PathPipeline::inline_rt, render::PathPipeline::wavefront}) {
+    render::RenderSettings settings = small(false);
+    settings.pipeline = pipeline;
+    image::Image traced, raster, reference, independent;
+    render::RenderStats st, sr, sn;
+    ASSERT_TRUE(renderer.render(lit, settings, traced, st));
+    settings.primary = render::PrimaryVisibility::raster;
+    ASSERT_TRUE(renderer.render(lit, settings, raster, sr));
+    EXPECT_EQ(sr.lsnif_instances, 1u);
+    settings.primary = render::PrimaryVisibility::traced;
+    settings.reference = true;
+    ASSERT_TRUE(renderer.render(lit, settings, reference, sn));
+    settings.first_sample = 1000;
+    settings.reference = false;
+    ASSERT_TRUE(renderer.render(lit, settings, independent, sn));
+    dump(raster, pipeline == render::PathPipeline::inline_rt ? "raster_lsnif_inline" : "raster_lsnif_wavefront");
+    const double f_raster = flip_mean(traced, raster), f_noise = flip_mean(traced, independent);
+    const double f_raster_ref = flip_mean(reference, raster), f_traced_ref = flip_mean(reference, traced);
+    std::printf("LSNIF, %s: FLIP traced vs raster primary %.4f, independent %.4f; vs reference: raster %.4f, traced "
+                "%.4f; mean |traced - raster| %.4g; traced %.1f ms/sample, raster %.1f ms/sample\n",
+                render::pipeline_name(pipeline), f_raster, f_noise, f_raster_ref, f_traced_ref,
+                mean_abs_diff(traced, raster), st.ms_per_sample, sr.ms_per_sample);
+    EXPECT_LT(f_raster, f_noise);
+    EXPECT_LT(f_raster_ref, f_traced_ref);
+  }
+}
+
+// Rasterized primary visibility needs every LSNIF node's mesh: a node without one is an error
+// naming it (and the option that keeps meshes); so is a mesh set_scene did not upload.
+TEST_F(RenderTest, RasterPrimaryNeedsTheLsnifNodesMeshes) {
+  scene::Scene meshless = scene_;
+  meshless.instances[0].mesh = -1;
+  render::Renderer renderer(vk_);
+  render::RenderSettings settings = small(false);
+  settings.primary = render::PrimaryVisibility::raster;
+  settings.spp = 1;
+  image::Image out;
+  render::RenderStats stats;
+  Status s = renderer.render(meshless, settings, out, stats);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("'elephant'"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("--keep-meshes"), std::string::npos) << s.message();
+  settings.primary = render::PrimaryVisibility::traced;  // the same scene traces fine
+  EXPECT_TRUE(renderer.render(meshless, settings, out, stats));
+  // A mesh the scene has but set_scene (one mode only) did not upload.
+  ASSERT_TRUE(renderer.set_scene(scene_, /*reference=*/false, nullptr));
+  ASSERT_TRUE(renderer.reset_accumulation(8, 6));
+  render::View view;
+  ASSERT_TRUE(renderer.camera_view(0, view));
+  s = renderer.accumulate(view, 0, 1, 4, 4, render::PathPipeline::inline_rt, render::PrimaryVisibility::raster);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("'elephant'"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("both_modes"), std::string::npos) << s.message();
 }
 
 }  // namespace
