@@ -136,7 +136,7 @@ int cmd_bench(int argc, char** argv) {
   args.option("height", "image height (0: 240, --quick 48)", &height);
   args.option("spp", "samples per pixel (0: 16, --quick 2)", &spp);
   args.option("steps", "training steps (0: 2000, --quick 30)", &steps);
-  args.option("batch", "training rays per step (0: 16384, --quick 1024)", &batch);
+  args.option("batch", "training rays per step (0: the default of lsnif train, --quick 1024)", &batch);
   args.option("seed", "training seed", &seed);
   args.option("threads", "training threads (0 = all cores)", &threads);
   args.flag("quick", "tiny models (V=16, 2^12-entry grid, 32-wide MLP, 30 steps) and tiny images: seconds, for tests",
