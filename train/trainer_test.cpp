@@ -112,6 +112,8 @@ TEST(Trainer, StepsUseTheScheduledLearningRate) {
   scheduled.steps = constant.steps = 1;
   scheduled.lr_schedule.schedule = LrSchedule::Exponential;
   scheduled.lr_schedule.final_fraction = 0.25f;
+  scheduled.lr_schedule.warm_fraction = 0.0f;
+  constant.lr_schedule.schedule = LrSchedule::Constant;
   constant.adam.learning_rate = scheduled.adam.learning_rate * 0.25f;
   const std::vector<float> a = trained_parameters(scheduled), b = trained_parameters(constant);
   ASSERT_EQ(a.size(), b.size());
@@ -121,6 +123,7 @@ TEST(Trainer, StepsUseTheScheduledLearningRate) {
   // 0.1 x lr is not.
   scheduled = constant = small();
   scheduled.steps = constant.steps = 6;
+  constant.lr_schedule.schedule = LrSchedule::Constant;
   scheduled.lr_schedule.schedule = LrSchedule::Cosine;
   scheduled.lr_schedule.final_fraction = 1.0f;
   EXPECT_EQ(trained_parameters(scheduled), trained_parameters(constant));
