@@ -161,9 +161,11 @@ TEST(BenchCli, TraceBatchedAndQueryPathsAgreeWithTheIntersectionShader) {
   if (!fs::exists(kBunny)) GTEST_SKIP() << kBunny << " missing: run scripts/setup.sh";
   lsnif::test::ScopedTestDir dir("lsnif_bench_trace_cli_test");
   const std::string model = dir.path("bunny.lsnif");
+  // 60 steps at the full learning rate (no decay) give a model that hits a useful share of the rays.
   lsnif::test::CommandResult r = run_cli("train " + kBunny + " -o " + model +
                                          " --voxels 16 --points 9 --levels 1 --res-min 32 --res-max 64"
-                                         " --table-log2 12 --width 32 --steps 60 --batch 1024 --quiet");
+                                         " --table-log2 12 --width 32 --steps 60 --batch 1024 --lr-schedule constant"
+                                         " --quiet");
   ASSERT_EQ(r.code, 0) << r.out;
   constexpr uint32_t kRays = 4096;
   r = lsnif::test::run_command(std::string(LSNIF_CLI) + " bench-trace " + kBunny + " " + model + " --rays " +

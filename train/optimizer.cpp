@@ -14,12 +14,12 @@ std::string AdamSettings::describe() const {
 Adam::Adam(size_t parameter_count, AdamSettings settings)
     : s_(settings), m_(parameter_count, 0.0f), v_(parameter_count, 0.0f) {}
 
-void Adam::step(float* params, const float* gradients) {
+void Adam::step(float* params, const float* gradients, float learning_rate) {
   ++t_;
   const float b1 = s_.beta1, b2 = s_.beta2;
   const float c1 = 1.0f / (1.0f - std::pow(b1, float(t_)));
   const float c2 = 1.0f / (1.0f - std::pow(b2, float(t_)));
-  const float lr = s_.learning_rate, eps = s_.epsilon;
+  const float lr = learning_rate, eps = s_.epsilon;
   const long n = long(m_.size());
   float* m = m_.data();
   float* v = v_.data();

@@ -20,8 +20,10 @@ struct AdamSettings {  // defaults: settings_table.h
 class Adam {
  public:
   Adam(size_t parameter_count, AdamSettings settings);
-  // One step: params -= lr * mhat / (sqrt(vhat) + eps). Parallel (OpenMP), deterministic.
-  void step(float* params, const float* gradients);
+  // One step: params -= lr * mhat / (sqrt(vhat) + eps) with the settings' learning rate, or with
+  // `learning_rate` (a schedule's rate for this step). Parallel (OpenMP), deterministic.
+  void step(float* params, const float* gradients) { step(params, gradients, s_.learning_rate); }
+  void step(float* params, const float* gradients, float learning_rate);
   size_t steps_taken() const { return t_; }
 
  private:

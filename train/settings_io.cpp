@@ -342,6 +342,9 @@ void to_train_settings(const SettingValues& v, TrainSettings& s) {
   s.seed = v[Seed].u;
   s.ray_reuse = u32(RayReuse);
   s.adam.learning_rate = v[Lr].f;
+  s.lr_schedule.schedule = static_cast<lsnif::LrSchedule>(u32(LrSchedule));
+  s.lr_schedule.final_fraction = v[LrFinal].f;
+  s.lr_schedule.warm_fraction = v[LrWarm].f;
   s.adam.beta1 = v[AdamBeta1].f;
   s.adam.beta2 = v[AdamBeta2].f;
   s.adam.epsilon = v[AdamEpsilon].f;
@@ -378,6 +381,9 @@ SettingValues from_train_settings(const TrainSettings& s) {
   v[Seed].u = s.seed;
   v[RayReuse].u = s.ray_reuse;
   v[Lr].f = s.adam.learning_rate;
+  v[LrSchedule].u = static_cast<uint32_t>(s.lr_schedule.schedule);
+  v[LrFinal].f = s.lr_schedule.final_fraction;
+  v[LrWarm].f = s.lr_schedule.warm_fraction;
   v[AdamBeta1].f = s.adam.beta1;
   v[AdamBeta2].f = s.adam.beta2;
   v[AdamEpsilon].f = s.adam.epsilon;

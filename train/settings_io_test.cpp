@@ -86,6 +86,10 @@ TEST(SettingsTable, EveryPresetIsValidAndChangesWhatItNames) {
   to_train_settings(v, s);
   EXPECT_EQ(s.config.hit_param, HitParam::AabbInterval);
   EXPECT_EQ(s.loss_settings.normal_loss, NormalLoss::Cosine);
+  // The paper's optimization (5.2, 6): Adam at a constant 0.01 for 2000 steps.
+  EXPECT_EQ(s.steps, 2000u);
+  for (uint32_t step : {1u, 1001u, 1999u, 2000u})
+    EXPECT_EQ(scheduled_learning_rate(s.lr_schedule, s.adam.learning_rate, step, s.steps), 0.01f) << step;
 }
 
 TEST(SettingsConfig, ErrorsNameTheFileTheKeyAndTheProblem) {
@@ -100,6 +104,9 @@ TEST(SettingsConfig, ErrorsNameTheFileTheKeyAndTheProblem) {
   expect_error(R"({"lr": 0})", {"cfg.json", "\"lr\" 0 must be a positive, finite learning rate"});
   expect_error(R"({"lr": 1e39})", {"cfg.json", "\"lr\"", "beyond the range of a 32-bit float"});
   expect_error(R"({"lr": true})", {"cfg.json", "\"lr\"", "a number", "not boolean"});
+  expect_error(R"({"lr-final": 0})", {"cfg.json", "\"lr-final\" 0 out of range (0, 1]"});
+  expect_error(R"({"lr-warm": 1})", {"cfg.json", "\"lr-warm\" 1 out of range [0, 1)"});
+  expect_error(R"({"lr-schedule": "linear"})", {"cfg.json", "\"lr-schedule\"", "'constant', 'exponential' or 'cosine'"});
   expect_error(R"({"w-normal": -1})", {"cfg.json", "\"w-normal\" -1 must be a finite weight >= 0"});
   expect_error(R"({"adam-beta1": 1})", {"cfg.json", "\"adam-beta1\" 1 out of range [0, 1)"});
   expect_error(R"({"hit": "sideways"})", {"cfg.json", "\"hit\" must be 'segments' or 'aabb' (got 'sideways')"});
@@ -143,7 +150,8 @@ TEST(SettingsConfig, JsonAndTrainSettingsRoundTrip) {
   ASSERT_TRUE(parse_settings_json(
       R"({"voxels": 16, "points": 7, "levels": 3, "res-min": 32, "res-max": 256, "table-log2": 10, "features": 2,
           "width": 24, "layers": 3, "hit": "aabb", "leaky-slope": 0.02, "grid-bits": "8", "steps": 3, "batch": 100,
-          "seed": 18446744073709551615, "ray-reuse": 2, "lr": 0.0033333333, "adam-beta1": 0.8, "adam-beta2": 0.95,
+          "seed": 18446744073709551615, "ray-reuse": 2, "lr": 0.0033333333, "lr-schedule": "cosine",
+          "lr-final": 0.05, "lr-warm": 0.3, "adam-beta1": 0.8, "adam-beta2": 0.95,
           "adam-epsilon": 1e-12, "normal-loss": "cosine", "w-occlusion": 0.5, "w-distance": 2, "w-normal": 0.1,
           "w-albedo": 0, "w-material": 3, "surface-fraction": 0.25, "sphere-scale": 2, "surface-offset": 0.001,
           "grid-init-range": 0.01})",
@@ -177,6 +185,21 @@ TEST(SettingsConfig, TrainingRecordHoldsTheSettingsAndTheMesh) {
   EXPECT_EQ(j["mesh"]["name"], "tri?.obj");  // control characters replaced
   EXPECT_EQ(j["mesh"]["triangles"], 1);
   EXPECT_EQ(j["threads"], 3);
+  // The record's settings restore the training settings, the learning-rate schedule included.
+  s.lr_schedule.schedule = LrSchedule::Cosine;
+  s.lr_schedule.final_fraction = 0.125f;
+  s.lr_schedule.warm_fraction = 0.3f;
+  SettingLayer layer;
+  ASSERT_TRUE(parse_settings_json(nlohmann::json::parse(training_record(s, mesh, "tri.obj", 1))["settings"].dump(),
+                                  "record", layer));
+  SettingValues v;
+  ASSERT_TRUE(resolve_settings({&layer}, v));
+  TrainSettings restored;
+  to_train_settings(v, restored);
+  EXPECT_EQ(restored.lr_schedule.schedule, LrSchedule::Cosine);
+  EXPECT_EQ(restored.lr_schedule.final_fraction, 0.125f);
+  EXPECT_EQ(restored.lr_schedule.warm_fraction, 0.3f);
+  EXPECT_EQ(restored.seed, 42u);
   const std::string hash = j["mesh"]["hash"];
   Mesh moved = mesh;
   moved.positions[2].y = 2;

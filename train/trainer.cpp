@@ -18,9 +18,9 @@
 namespace lsnif {
 
 std::string TrainSettings::describe() const {
-  return format("%s | steps=%u batch=%u ray_reuse=%u seed=%llu | %s | %s", config.describe().c_str(), steps,
+  return format("%s | steps=%u batch=%u ray_reuse=%u seed=%llu | %s, %s | %s", config.describe().c_str(), steps,
                 batch_size, ray_reuse, (unsigned long long)seed, adam.describe().c_str(),
-                loss_settings.describe().c_str());
+                lr_schedule.describe().c_str(), loss_settings.describe().c_str());
 }
 
 namespace {
@@ -124,6 +124,12 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
                          settings.batch_size);
   if (!(settings.adam.learning_rate > 0.0f) || !std::isfinite(settings.adam.learning_rate))
     return Status::error("learning rate %g must be positive and finite", double(settings.adam.learning_rate));
+  const LrScheduleSettings& ls = settings.lr_schedule;
+  if (uint32_t(ls.schedule) > uint32_t(LrSchedule::Cosine))
+    return Status::error("unknown learning-rate schedule %u", uint32_t(ls.schedule));
+  if (!(ls.final_fraction > 0.0f && ls.final_fraction <= 1.0f) || !(ls.warm_fraction >= 0.0f && ls.warm_fraction < 1.0f))
+    return Status::error("learning-rate schedule: the final fraction %g must be in (0, 1] and the warm share %g in "
+                         "[0, 1)", double(ls.final_fraction), double(ls.warm_fraction));
   const LossSettings& w = settings.loss_settings;
   for (float weight : {w.occlusion, w.distance, w.normal, w.albedo, w.material})
     if (!(weight >= 0.0f) || !std::isfinite(weight))
@@ -239,8 +245,9 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
     rep.seconds_encoding += since(t0);
 
     t0 = Clock::now();
-    mlp_adam.step(model.mlp.data(), d_mlp.data());
-    grid_adam.step(model.grid.data(), d_grid.data());
+    const float lr = scheduled_learning_rate(settings.lr_schedule, settings.adam.learning_rate, step, settings.steps);
+    mlp_adam.step(model.mlp.data(), d_mlp.data(), lr);
+    grid_adam.step(model.grid.data(), d_grid.data(), lr);
     rep.seconds_optimizer += since(t0);
 
     rep.rays += B;

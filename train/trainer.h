@@ -8,6 +8,7 @@
 
 #include "config.h"
 #include "loss.h"
+#include "lr_schedule.h"
 #include "mesh.h"
 #include "model.h"
 #include "optimizer.h"
@@ -19,14 +20,15 @@ namespace lsnif {
 struct TrainSettings {
   Config config;
   uint32_t steps = default_u32(SettingId::Steps);
-  uint32_t batch_size = default_u32(SettingId::Batch);  // paper: 2^18 on a GPU; 2^14 is faster per second on 2 CPU cores
+  uint32_t batch_size = default_u32(SettingId::Batch);  // paper: 2^18 on a GPU; see settings_table.h
   uint64_t seed = default_u64(SettingId::Seed);
   // Each training ray is used in this many consecutive steps: every step replaces 1/ray_reuse of
   // the batch with fresh rays (round robin). 1 = fresh rays every step (default: on the bunny, 2
   // saved ~10% of the training time but raised the median normal error from 5.2 to 6.5 degrees
   // and the t error from 0.39% to 0.57%).
   uint32_t ray_reuse = default_u32(SettingId::RayReuse);
-  AdamSettings adam;
+  AdamSettings adam;               // adam.learning_rate: the rate the schedule starts from
+  LrScheduleSettings lr_schedule;
   LossSettings loss_settings;
   SamplerSettings sampler;
   float grid_init_range = default_f32(SettingId::GridInitRange);  // hash-table entries start in U(-range, range) (paper)

@@ -2,7 +2,7 @@
 // first non-finite loss with an error naming the step (instead of training to the end and failing
 // at the save), invalid settings are refused before any work, and the loss curve comes back in the
 // report, one row per step, without any file being written; the trainer prints nothing (progress
-// goes to the caller's callback, step by step).
+// goes to the caller's callback, step by step); each step runs at the learning-rate schedule's rate.
 #include "trainer.h"
 
 #include <gtest/gtest.h>
@@ -71,6 +71,10 @@ TEST(Trainer, InvalidSettingsAreRefusedBeforeTraining) {
        },
        "every loss weight is 0"},
       {"batch 0", [](TrainSettings& s) { s.batch_size = 0; }, "batch size (0)"},
+      {"lr final 0", [](TrainSettings& s) { s.lr_schedule.final_fraction = 0.0f; }, "final fraction 0"},
+      {"lr warm 1", [](TrainSettings& s) { s.lr_schedule.warm_fraction = 1.0f; }, "warm share 1"},
+      {"lr schedule 7", [](TrainSettings& s) { s.lr_schedule.schedule = static_cast<LrSchedule>(7); },
+       "unknown learning-rate schedule 7"},
   };
   for (const Case& c : cases) {
     TrainSettings s = small();
@@ -85,6 +89,46 @@ TEST(Trainer, InvalidSettingsAreRefusedBeforeTraining) {
     EXPECT_NE(st.message().find(c.expected), std::string::npos) << c.name << ": " << st.message();
     EXPECT_EQ(steps_run, 0u) << c.name;
   }
+}
+
+// The fp32 parameters (grid, then MLP) after the last step.
+std::vector<float> trained_parameters(const TrainSettings& s) {
+  std::vector<float> params;
+  Model model;
+  EXPECT_TRUE(train_model(cube(), s, model, nullptr, [&](uint32_t step, const LossTerms&, const Model& m) {
+    if (step == s.steps) {
+      params = m.grid;
+      params.insert(params.end(), m.mlp.begin(), m.mlp.end());
+    }
+    return true;
+  }));
+  return params;
+}
+
+TEST(Trainer, StepsUseTheScheduledLearningRate) {
+  // One step of a decaying schedule runs at final * lr: the same parameters as a constant rate of
+  // final * lr (same initialization and rays).
+  TrainSettings scheduled = small(), constant = small();
+  scheduled.steps = constant.steps = 1;
+  scheduled.lr_schedule.schedule = LrSchedule::Exponential;
+  scheduled.lr_schedule.final_fraction = 0.25f;
+  scheduled.lr_schedule.warm_fraction = 0.0f;
+  constant.lr_schedule.schedule = LrSchedule::Constant;
+  constant.adam.learning_rate = scheduled.adam.learning_rate * 0.25f;
+  const std::vector<float> a = trained_parameters(scheduled), b = trained_parameters(constant);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_FALSE(a.empty());
+  for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a[i], b[i], 1e-7f) << i;
+  // A schedule decaying to 1 x lr is the constant rate, bit for bit, over many steps; decaying to
+  // 0.1 x lr is not.
+  scheduled = constant = small();
+  scheduled.steps = constant.steps = 6;
+  constant.lr_schedule.schedule = LrSchedule::Constant;
+  scheduled.lr_schedule.schedule = LrSchedule::Cosine;
+  scheduled.lr_schedule.final_fraction = 1.0f;
+  EXPECT_EQ(trained_parameters(scheduled), trained_parameters(constant));
+  scheduled.lr_schedule.final_fraction = 0.1f;
+  EXPECT_NE(trained_parameters(scheduled), trained_parameters(constant));
 }
 
 TEST(Trainer, LossCurveComesBackInTheReport) {
