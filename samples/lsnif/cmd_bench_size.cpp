@@ -167,7 +167,10 @@ std::string heavy_table(const std::vector<HeavyRow>& rows) {
   std::string t = "| setting | LSNIF per model (device bytes) | triangles | triangle BLAS (MiB) | BLAS / one model | "
                   "BLAS / the scene's models |\n|---|---:|---:|---:|---:|---:|\n";
   for (const HeavyRow& h : rows)
-    t += format("| %s | %s | %s | %.2f | %.1f | %.1f (%llu models) |\n", h.setting.c_str(),
+    if (!h.device_bytes)  // no model of the setting measured yet (an interrupted run)
+      t += format("| %s | - | %s | %.2f | - | - |\n", h.setting.c_str(), grouped(h.triangles).c_str(), mib(h.blas_bytes));
+    else
+      t += format("| %s | %s | %s | %.2f | %.1f | %.1f (%llu models) |\n", h.setting.c_str(),
                 grouped(h.device_bytes).c_str(), grouped(h.triangles).c_str(), mib(h.blas_bytes),
                 h.device_bytes ? double(h.blas_bytes) / double(h.device_bytes) : 0.0, h.ratio(),
                 static_cast<unsigned long long>(h.models));
