@@ -977,12 +977,7 @@ Status Renderer::primary_hits(const View& view, uint32_t sample_index, PrimaryVi
     vkCmdDispatch(cmd, uint32_t((pixels + 63) / 64), 1, 1);
     wave_barrier(cmd);
     recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
-    VkMemoryBarrier b{};
-    b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-    b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-    b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0, nullptr, 0,
-                         nullptr);
+    vk::ComputeContext::barrier_compute_to_host(cmd);
   });
   if (recorded != LSNIF_SUCCESS) return plugin_error("primary hits");
   if (!st) return st;
