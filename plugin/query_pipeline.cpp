@@ -279,12 +279,12 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
                   const std::vector<const LsnifModel_T*>& models, const LsnifQueryInfo& info,
                   const LsnifQueryTimestampsInfo* timestamps) {
   const DeviceDispatch& vk = ctx.vk;
-  // Stage timestamp k (LSNIF_QUERY_TIMESTAMP_COUNT) if the chunk starting at ray `base` is the
-  // first: a query may be written once per reset.
+  // Stage timestamp k (1 .. LSNIF_QUERY_TIMESTAMPS_PER_CHUNK) of the chunk starting at ray `base`
+  // (timestamp 0, the start, with k = 0 and base = 0).
   auto timestamp = [&](uint32_t k, uint32_t base) {
-    if (timestamps && base == 0)
+    if (timestamps)
       vk.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps->timestampPool,
-                             timestamps->firstQuery + k);
+                             timestamps->firstQuery + LSNIF_QUERY_TIMESTAMPS_PER_CHUNK * (base / LSNIF_QUERY_CHUNK_RAYS) + k);
   };
   const LsnifQueryPipeline_T::Tlas& st = p.tlas;
   const QueryLayout layout = query_layout(models, info.modelCount, info.rayCount, info.candidatesPerRay);
@@ -331,15 +331,15 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
 
   // The stages run once per chunk of at most LSNIF_QUERY_CHUNK_RAYS rays, every chunk in the same
   // scratch; the status accumulators start at 0 with the first chunk and are written after the last.
-  // Timestamp 0 precedes every chunk, [1]-[4] follow the first chunk's stages, [5] the status.
+  // Timestamp 0 precedes every chunk, each chunk writes its five (the last one's fifth after the status).
   timestamp(0, 0);
+  uint32_t last_base = 0;
   for (uint32_t base = 0; base < info.rayCount; base += LSNIF_QUERY_CHUNK_RAYS) {
     const uint32_t n = std::min(info.rayCount - base, LSNIF_QUERY_CHUNK_RAYS);
     split(info.rays + VkDeviceAddress(base) * sizeof(LsnifQueryRay), pc.rays_lo, pc.rays_hi);
     split(info.results + VkDeviceAddress(base) * sizeof(LsnifQueryResult), pc.results_lo, pc.results_hi);
     pc.ray_count = n;
     pc.first_chunk = base == 0 ? 1u : 0u;
-    if (base > 0) between_passes(vk, cmd, true);
     run(st.clear, groups_of(LSNIF_BATCH_HEADER_WORDS + counters_words * info.modelCount));
     between_passes(vk, cmd, false);
     run(st.broad, groups_of(n));
@@ -365,10 +365,15 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
     run_indirect(st.resolve_hits, LSNIF_QUERY_SCATTER_ARGS_WORD);
     between_passes(vk, cmd, false);
     run(st.resolve_rays, groups_of(n));
+    if (base + n < info.rayCount) {  // the next chunk reuses the scratch
+      between_passes(vk, cmd, true);
+      timestamp(5, base);
+    }
+    last_base = base;
   }
   between_passes(vk, cmd, false);
   run(st.status, 1);
-  timestamp(5, 0);
+  timestamp(5, last_base);
 }
 
 }  // namespace lsnif::plugin

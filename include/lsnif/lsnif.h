@@ -422,18 +422,28 @@ typedef struct LsnifQueryInfo {
 
 /* Timestamps lsnifCmdQuery writes when a LsnifQueryTimestampsInfo is chained to its info, each
  * after the barrier that ends a stage (pipeline stage bottom of pipe), so that the differences of
- * consecutive ones are the stages' times:
- *   [0] start, [1] broad phase done (TLAS traversal, candidates collected), [2] sort done (counting
- *   sort by model-table entry), [3] narrow phase done (DDA walk and sparse-grid encoding), [4] MLP
- *   done, [5] end (decoding, resolve against the triangle hits, status).
- * A batch of more than LSNIF_QUERY_CHUNK_RAYS rays runs the stages once per chunk: [0] and [5]
- * bracket all of them, [1]-[4] belong to the first chunk. With rayCount 0 all six are still written
- * (equal times), so that waiting on them never blocks. */
+ * consecutive ones are the stages' times. The stages run once per chunk of at most
+ * LSNIF_QUERY_CHUNK_RAYS rays; [0] is the start, then chunk c (0, 1, ...) writes
+ * LSNIF_QUERY_TIMESTAMPS_PER_CHUNK of them:
+ *   [1 + 5c] broad phase done (TLAS traversal, candidates collected), [2 + 5c] sort done (counting
+ *   sort by model-table entry), [3 + 5c] narrow phase done (DDA walk and sparse-grid encoding),
+ *   [4 + 5c] MLP done, [5 + 5c] chunk done (decoding, resolve against the triangle hits; after the
+ *   last chunk also the status).
+ * A query of rayCount rays writes LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(rayCount) timestamps: 6
+ * (LSNIF_QUERY_TIMESTAMP_COUNT) for at most one chunk, 11 for two, and so on. With rayCount 0 all
+ * six are still written (equal times), so that waiting on them never blocks. */
 #define LSNIF_QUERY_TIMESTAMP_COUNT 6U
+#define LSNIF_QUERY_TIMESTAMPS_PER_CHUNK 5U
+/* The chunks a query of rayCount rays runs in (1 for rayCount 0) and the timestamps it writes.
+ * Macros: rayCount is evaluated more than once. */
+#define LSNIF_QUERY_CHUNK_COUNT(rayCount) ((rayCount) == 0U ? 1U : ((rayCount) - 1U) / LSNIF_QUERY_CHUNK_RAYS + 1U)
+#define LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(rayCount) \
+  (1U + LSNIF_QUERY_TIMESTAMPS_PER_CHUNK * LSNIF_QUERY_CHUNK_COUNT(rayCount))
 
-/* Chained into LsnifQueryInfo::pNext: where lsnifCmdQuery writes its LSNIF_QUERY_TIMESTAMP_COUNT
- * timestamps. The application creates the pool (VK_QUERY_TYPE_TIMESTAMP, at least firstQuery +
- * LSNIF_QUERY_TIMESTAMP_COUNT queries), resets those queries before the command runs, and records
+/* Chained into LsnifQueryInfo::pNext: where lsnifCmdQuery writes its
+ * LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(rayCount) timestamps. The application creates the pool
+ * (VK_QUERY_TYPE_TIMESTAMP, at least firstQuery + LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(rayCount)
+ * queries), resets those queries before the command runs, and records
  * into a queue family whose timestampValidBits is not 0. */
 typedef struct LsnifQueryTimestampsInfo {
   LsnifStructureType sType;                   /* LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO */
@@ -474,7 +484,7 @@ LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const Lsnif
  * and push constants (the application's compute bindings are disturbed) and records barriers
  * between its passes only: the application makes its TLAS build and ray writes visible to
  * compute-shader reads before, and waits for compute-shader writes before reading results or status.
- * Stage times: chain a LsnifQueryTimestampsInfo (LSNIF_QUERY_TIMESTAMP_COUNT above).
+ * Stage times: chain a LsnifQueryTimestampsInfo (LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS above).
  * Fails, recording nothing, on an unknown pipeline or one created without
  * LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT, a candidatesPerRay or cullMask out of range, a model not of
  * this context or not built, an unknown structure in pInfo->pNext or a null timestamp pool, a null

@@ -757,7 +757,11 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
   // Stage timing: a timestamp after every stage; interval[k] is the StageTimes field that the time
   // between timestamps k - 1 and k belongs to (interval[0] is unused: timestamp 0 starts the pass).
   std::vector<double StageTimes::*> interval;
-  const uint32_t stamps_per_sample = 2 + (2 * max_bounces + 1) * (LSNIF_QUERY_TIMESTAMP_COUNT + 1);
+  // Per sample: the camera, path and shadow queries (each followed by its shade or connect stage,
+  // one stamp) and the accumulation.
+  const uint32_t path_stamps = LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(pixels) + 1;
+  const uint32_t shadow_stamps = LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(RENDER_WAVE_SHADOWS * pixels) + 1;
+  const uint32_t stamps_per_sample = 2 + (max_bounces + 1) * path_stamps + max_bounces * shadow_stamps;
   const uint32_t stamp_count = stage_timing_ ? 1 + samples * stamps_per_sample : 0;
   if (stamp_count > wave_timestamps_.count) {
     ctx_.destroy_timestamps(wave_timestamps_);
@@ -788,12 +792,15 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
       q.status = wave_status_.address + queries++ * sizeof(LsnifQueryStatus);
       q.pNext = nullptr;
       if (stage_timing_) {
-        // The query's timestamps [0] .. [5]: [0] follows the previous stamp (no work between).
+        // The query's timestamps: [0] follows the previous stamp (no work between), then five per
+        // chunk of rays.
         query_stamps.firstQuery = uint32_t(interval.size());
         q.pNext = &query_stamps;
-        for (double StageTimes::*what : {&StageTimes::shade, &StageTimes::broad, &StageTimes::sort,
-                                         &StageTimes::encode, &StageTimes::mlp, &StageTimes::resolve})
-          interval.push_back(what);
+        interval.push_back(&StageTimes::shade);
+        for (uint32_t c = 0; c < LSNIF_QUERY_CHUNK_COUNT(count); ++c)
+          for (double StageTimes::*what :
+               {&StageTimes::broad, &StageTimes::sort, &StageTimes::encode, &StageTimes::mlp, &StageTimes::resolve})
+            interval.push_back(what);
       }
       if (recorded == LSNIF_SUCCESS) recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
       wave_barrier(cmd);

@@ -78,7 +78,8 @@ struct RenderSettings {
 
 // Device time of the wavefront pipeline's stages per sample, in milliseconds (timestamps after each
 // stage; RenderSettings::stage_times). The query stages are lsnifCmdQuery's
-// (LSNIF_QUERY_TIMESTAMP_COUNT), summed over the path and the shadow rays of every bounce.
+// (LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS: every chunk of every query), summed over the path and the
+// shadow rays of every bounce.
 struct StageTimes {
   double raster = 0;   // the visibility pass of --primary raster (its own submission: wall time)
   double camera = 0;   // camera rays (traced primary) or the first vertex's shading (raster)

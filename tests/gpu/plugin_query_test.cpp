@@ -331,7 +331,7 @@ class PluginQuery : public ::testing::Test {
       chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO;
       chained.firstQuery = 1;  // not at the pool's start
       if (stamps) {
-        st = vk_.create_timestamps(1 + LSNIF_QUERY_TIMESTAMP_COUNT, pool);
+        st = vk_.create_timestamps(1 + LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(uint32_t(n)), pool);
         chained.timestampPool = pool.pool;
         info.pNext = &chained;
       }
@@ -349,8 +349,8 @@ class PluginQuery : public ::testing::Test {
     }
     if (st && stamps) {
       // Without WAIT: a timestamp the command failed to write reads as unavailable, not as a hang.
-      stamps->assign(LSNIF_QUERY_TIMESTAMP_COUNT, {0, 0});
-      const VkResult r = vkGetQueryPoolResults(vk_.device(), pool.pool, 1, LSNIF_QUERY_TIMESTAMP_COUNT,
+      stamps->assign(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(uint32_t(n)), {0, 0});
+      const VkResult r = vkGetQueryPoolResults(vk_.device(), pool.pool, 1, uint32_t(stamps->size()),
                                                stamps->size() * sizeof(stamps->front()), stamps->data(),
                                                sizeof(stamps->front()),
                                                VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WITH_AVAILABILITY_BIT);
@@ -807,15 +807,20 @@ TEST_F(PluginQuery, BatchesOfMoreThanOneChunk) {
   EXPECT_GT(tail_hits, tail / 10) << "the second chunk must hit too";
 }
 
-// The stage timestamps (LsnifQueryTimestampsInfo): all six written, in order, by a one-chunk, a
-// two-chunk and an empty batch, without changing any answer; a wrong chain is refused.
+// The stage timestamps (LsnifQueryTimestampsInfo): all written, in order, by a one-chunk batch (6),
+// a two-chunk batch (11: five per chunk) and an empty batch (6), without changing any answer; a
+// wrong chain is refused.
 TEST_F(PluginQuery, StageTimestamps) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
-  auto expect_ordered = [](const std::vector<std::array<uint64_t, 2>>& stamps, const char* what) {
-    ASSERT_EQ(stamps.size(), LSNIF_QUERY_TIMESTAMP_COUNT) << what;
-    for (uint32_t k = 0; k < LSNIF_QUERY_TIMESTAMP_COUNT; ++k) {
+  EXPECT_EQ(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(0u), LSNIF_QUERY_TIMESTAMP_COUNT);
+  EXPECT_EQ(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(LSNIF_QUERY_CHUNK_RAYS), LSNIF_QUERY_TIMESTAMP_COUNT);
+  EXPECT_EQ(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(LSNIF_QUERY_CHUNK_RAYS + 1u), 11u);
+  EXPECT_EQ(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(0xffffffffu), 1u + 5u * 65536u);
+  auto expect_ordered = [](const std::vector<std::array<uint64_t, 2>>& stamps, uint32_t count, const char* what) {
+    ASSERT_EQ(stamps.size(), count) << what;
+    for (uint32_t k = 0; k < count; ++k) {
       EXPECT_NE(stamps[k][1], 0u) << what << ": timestamp " << k << " was not written";
       if (k > 0) {
         EXPECT_LE(stamps[k - 1][0], stamps[k][0]) << what << ": timestamp " << k << " before " << k - 1;
@@ -825,7 +830,7 @@ TEST_F(PluginQuery, StageTimestamps) {
   const std::vector<Ray> rays = rays_at(s, 2000, 41);
   std::vector<std::array<uint64_t, 2>> stamps;
   const QueryRun timed = query(s, rays, {0u}, 4, nullptr, &stamps);
-  expect_ordered(stamps, "one chunk");
+  expect_ordered(stamps, 6, "one chunk");
   EXPECT_LT(stamps[0][0], stamps[5][0]) << "the stages take time";
   const QueryRun plain = query(s, rays, {0u});
   ASSERT_EQ(timed.results.size(), plain.results.size());
@@ -836,9 +841,14 @@ TEST_F(PluginQuery, StageTimestamps) {
 
   const std::vector<Ray> many = rays_at(s, LSNIF_QUERY_CHUNK_RAYS + 100, 43);
   query(s, many, {0u}, 2, nullptr, &stamps);
-  expect_ordered(stamps, "two chunks");
+  expect_ordered(stamps, 11, "two chunks");
+  if (stamps.size() == 11) {
+    // Each chunk's stages are its own: the first chunk's broad phase traverses 65,536 rays, the
+    // second's 100 (the same rays' distribution), so the first takes longer.
+    EXPECT_GT(stamps[1][0] - stamps[0][0], stamps[6][0] - stamps[5][0]) << "broad phases of the two chunks";
+  }
   query(s, {}, {0u}, 4, nullptr, &stamps);
-  expect_ordered(stamps, "empty batch");
+  expect_ordered(stamps, 6, "empty batch");
 
   // A wrong chain records nothing and names the problem.
   LsnifQueryInfo info{};
