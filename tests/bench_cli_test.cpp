@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -62,6 +63,7 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   ASSERT_GT(faces, 1000u);
   char tris[32];
   std::snprintf(tris, sizeof tris, "%.1fk", double(faces) / 1e3);
+  std::map<std::string, std::string> reference_cell;  // per pipeline: the high row's T reference
   for (const char* preset : {"high", "low"}) {
     // The model of the preset: the low one has the paper's H = 10 (--quick keeps its tiny width).
     const fs::path model = dir.path() / "bunny" / (std::string(preset) == "high" ? "bunny.lsnif" : "bunny.low.lsnif");
@@ -89,6 +91,11 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
       EXPECT_GT(t_lsnif, 0.0);
       EXPECT_GT(t_ref, 0.0);
       EXPECT_NEAR(t_ratio, t_lsnif / t_ref, 0.05 * t_ratio + 0.01);
+      // One reference render per pipeline, shared by both quality rows (it traces only meshes).
+      if (std::string(preset) == "high")
+        reference_cell[pipeline] = row[9];
+      else
+        EXPECT_EQ(row[9], reference_cell[pipeline]) << what << ": the reference render is shared";
       EXPECT_GT(flip, 0.0);
       EXPECT_LT(flip, 0.5);  // a render that lost the object entirely would be far off here
       EXPECT_NEAR(lsnif_mib, mem["lsnif"]["total_bytes"].get<double>() / 1048576.0, 0.0006) << what;

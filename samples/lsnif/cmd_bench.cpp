@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -117,7 +118,7 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
         "instances share it). T: wall time per sample per pixel (one path per pixel), the first pass excluded. "
         "FLIP: mean LDR-FLIP of the LSNIF image against the reference (same random numbers). Quality: the "
         "paper's configurations (high: the defaults; low: `--quality low`, W=64, H=10). The reference is rendered "
-        "by the row's pipeline.\n";
+        "by the row's pipeline, once per scene and pipeline: both quality rows compare against the same render.\n";
   if (const std::string st = stage_table(rows); !st.empty()) {
     md += "\n## Wavefront stages (device time per sample, timestamps)\n\n" + st;
     md += "\nBroad phase, sort, encode (walk and sparse-grid encoding), MLP and resolve are lsnifCmdQuery's stages, "
@@ -271,6 +272,8 @@ int cmd_bench(int argc, char** argv) {
     }
     std::fflush(stdout);
 
+    // The reference render of each pipeline, shared by the quality rows (it traces only meshes).
+    std::map<render::PathPipeline, ReferenceRender> references;
     for (const std::string& preset : presets) {
       SceneRow models = base;
       models.preset = preset;
@@ -317,7 +320,9 @@ int cmd_bench(int argc, char** argv) {
         prs.stage_times = pipeline == render::PathPipeline::wavefront;
         std::printf("\n-- %s, %s quality, %s pipeline\n", name.c_str(), preset.c_str(), render::pipeline_name(pipeline));
         std::fflush(stdout);
-        if (Status s = render_compare(ctx, sc, prs, (fs::path(out_dir) / row.image).string(), row.cmp); !s) {
+        if (Status s = render_compare(ctx, sc, prs, (fs::path(out_dir) / row.image).string(), row.cmp,
+                                  &references[pipeline]);
+            !s) {
           std::fprintf(stderr, "lsnif bench: scene %s: %s\n", name.c_str(), s.message().c_str());
           return 1;
         }

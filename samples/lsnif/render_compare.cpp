@@ -78,7 +78,7 @@ image::Image clamped(const image::Image& img) {
 }  // namespace
 
 Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render::RenderSettings settings,
-                      const std::string& side_by_side, CompareReport& report) {
+                      const std::string& side_by_side, CompareReport& report, ReferenceRender* shared_reference) {
   report = CompareReport();
   scene::EnvironmentMap env;
   if (!scene.environment.path.empty()) {
@@ -87,7 +87,14 @@ Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render
   }
   render::Renderer renderer(ctx);
   image::Image ref, lsnif;
+  const bool reuse = shared_reference && !shared_reference->image.rgb.empty();
+  if (reuse) {
+    ref = shared_reference->image;
+    report.reference = shared_reference->stats;
+    std::printf("render (reference): the same scene's reference render is reused\n");
+  }
   for (const bool reference : {true, false}) {
+    if (reference && reuse) continue;
     settings.reference = reference;
     ProgressBar bar(reference ? "render (reference)" : "render (LSNIF)", settings.spp);
     if (Status s = renderer.render(scene, settings, reference ? ref : lsnif, reference ? report.reference : report.lsnif,
@@ -96,6 +103,7 @@ Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render
       return s;
     bar.finish();
   }
+  if (shared_reference && !reuse) *shared_reference = {ref, report.reference};
   const image::Image ref_c = clamped(ref), lsnif_c = clamped(lsnif);
   flip::FlipSettings fs;
   flip::FlipResult fr;

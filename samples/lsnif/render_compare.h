@@ -21,9 +21,19 @@ struct CompareReport {
   double flip_mean = 0, flip_median = 0;  // LDR-FLIP of the LSNIF image against the reference
 };
 
+// A reference render that several comparisons of the same scene, settings and pipeline share (it
+// traces only the meshes, so it does not depend on the models).
+struct ReferenceRender {
+  image::Image image;  // empty until rendered
+  render::RenderStats stats;
+};
+
 // Renders `scene` in both modes with `settings` (its `reference` field is ignored), computes
 // LDR-FLIP (images clamped to [0, 1] as displayed), writes `side_by_side` (.png) and prints the rows.
+// With `shared_reference`, the reference render is taken from it when it holds one, else rendered
+// and kept there for the next comparison.
 Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render::RenderSettings settings,
-                      const std::string& side_by_side, CompareReport& report);
+                      const std::string& side_by_side, CompareReport& report,
+                      ReferenceRender* shared_reference = nullptr);
 
 }  // namespace lsnif::cli
