@@ -41,6 +41,9 @@ const NamedSetting kNamedSettings[] = {
     {"b8", "grid-bits=8"},
     {"b8-m16", "grid-bits=8+table-log2=16"},
     {"b8-m16-w64", "grid-bits=8+table-log2=16+width=64"},
+    // Per-level table sizes: the coarse level (R=64) needs far fewer entries than the fine one.
+    {"b8-m15-17", "grid-bits=8+table-log2=15,17"},
+    {"b8-m16-17", "grid-bits=8+table-log2=16,17"},
 };
 constexpr const char* kDefaultSettings = "default,b8,b8-m16,b8-m16-w64";
 
