@@ -391,6 +391,30 @@ TEST(ModelFile, DefaultModelLayoutMatchesTheDocument) {
   expect_equal(back, m);
 }
 
+// The document's version 4 example: the same model with 8-bit features and tables of 2^15 + 2^17.
+TEST(ModelFile, PerLevelTablesExampleMatchesTheDocument) {
+  Model m;
+  m.voxels.resolution = 32;
+  m.voxels.bounds.lo = glm::vec3(-1.0f);
+  m.voxels.bounds.hi = glm::vec3(1.0f);
+  m.voxels.bits.assign(32 * 32 * 32 / 32, 0u);
+  m.materials.resize(1);
+  const uint32_t sizes[2] = {15, 17};
+  set_table_log2(m.config, sizes, 2);
+  m.config.grid_bits = 8;
+  m.grid.assign(m.config.grid_parameter_count(), 0.0f);
+  m.mlp.assign(m.config.mlp_parameter_count(), 0.0f);
+  m.quantize();
+  const Bytes b = saved(m);
+  EXPECT_EQ(b.size(), 559204u);
+  EXPECT_EQ(memory_breakdown(m).total(), 559204u);
+  const uint64_t sections[6][2] = {{224, 76}, {304, 4096}, {4400, 491520}, {495920, 63250}, {559184, 0}, {559184, 8}};
+  for (int sec = 0; sec < 6; ++sec) {
+    EXPECT_EQ(section_offset(b, sec), sections[sec][0]) << "section " << sec;
+    EXPECT_EQ(section_size(b, sec), sections[sec][1]) << "section " << sec;
+  }
+}
+
 // ---- Round trips ------------------------------------------------------------------------------------
 
 TEST(ModelFile, RoundTripOfRandomConfigs) {
