@@ -247,6 +247,7 @@ TEST_F(TrainConfigCli, TableSizesPerLevelEndToEnd) {
   r = lsnif({"info", "--grid-usage", model});
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("M=6,8 "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(" table-log2=6,8 "), std::string::npos) << r.output;  // the recorded settings
   EXPECT_NE(r.output.find("(2 levels: 2^6 + 2^8 entries x 3 features, int8"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(" of 64 entries used"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(" of 256 entries used"), std::string::npos) << r.output;

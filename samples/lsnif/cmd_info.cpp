@@ -27,14 +27,22 @@ Status read_training(const Model& model, nlohmann::json& out) {
 // "name=value" of every recorded setting, in table order, wrapped to lines of about 100 columns;
 // keys the table does not know (a newer writer's) after them.
 std::string settings_lines(const nlohmann::json& settings, const char* indent) {
+  // As an option takes it: strings bare, lists (one value per level) joined by commas.
+  const auto text = [](const nlohmann::json& v) {
+    if (v.is_string()) return v.get<std::string>();
+    if (!v.is_array()) return v.dump();
+    std::string joined;
+    for (const nlohmann::json& e : v) {
+      if (!joined.empty()) joined += ',';
+      joined += e.is_string() ? e.get<std::string>() : e.dump();
+    }
+    return joined;
+  };
   std::vector<std::string> items;
   for (const SettingDef& d : kSettingDefs)
-    if (settings.contains(d.name)) {
-      const nlohmann::json& v = settings[d.name];
-      items.push_back(std::string(d.name) + "=" + (v.is_string() ? v.get<std::string>() : v.dump()));
-    }
+    if (settings.contains(d.name)) items.push_back(std::string(d.name) + "=" + text(settings[d.name]));
   for (const auto& [key, v] : settings.items())
-    if (!find_setting(key)) items.push_back(key + "=" + (v.is_string() ? v.get<std::string>() : v.dump()));
+    if (!find_setting(key)) items.push_back(key + "=" + text(v));
   std::string out, line;
   for (const std::string& item : items) {
     if (!line.empty() && line.size() + item.size() > 90) {
