@@ -15,7 +15,7 @@ std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& vo
   for (uint32_t level = 0; level < config.grid_levels; ++level) {
     GridLevelUsage u;
     u.resolution = config.grid_resolution[level];
-    u.table_entries = uint64_t(1) << config.log2_table_size;
+    u.table_entries = config.table_size(level);
     const uint32_t n = u.resolution / V;
     auto pack = [](uint64_t x, uint64_t y, uint64_t z) { return x | y << 21 | z << 42; };
     std::vector<uint64_t> found;
@@ -44,7 +44,7 @@ std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& vo
     std::vector<uint32_t> per_entry(size_t(u.table_entries), 0);
     for (const uint64_t p : found) {
       const uint32_t x = uint32_t(p & 0x1fffff), y = uint32_t(p >> 21 & 0x1fffff), z = uint32_t(p >> 42);
-      ++per_entry[hash_vertex(x, y, z, config.log2_table_size)];
+      ++per_entry[hash_vertex(x, y, z, config.table_log2[level])];
     }
     for (const uint32_t count : per_entry) {
       u.entries_used += count > 0;

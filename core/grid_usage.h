@@ -1,7 +1,7 @@
 // grid_usage.h -- how a model's sparse hash grid is used (paper 3.2): a boundary point lies on a
 // face of an occupied voxel, so the encoding only ever reads the grid vertices on those faces (the
 // corners with a non-zero bilinear weight). Per level, how many such vertices there are, how many
-// of the 2^M table entries they hash to, and how many entries two or more of them share (hash
+// of the level's 2^M_l table entries they hash to, and how many entries two or more of them share (hash
 // collisions: those vertices are forced to the same features). The numbers a smaller table has to
 // be judged by.
 #pragma once
@@ -16,7 +16,7 @@ namespace lsnif {
 struct GridLevelUsage {
   uint32_t resolution = 0;         // R_l
   uint64_t vertices = 0;           // distinct vertices on faces of occupied voxels
-  uint64_t table_entries = 0;      // 2^M
+  uint64_t table_entries = 0;      // 2^M_l
   uint64_t entries_used = 0;       // entries at least one of those vertices hashes to
   uint64_t entries_shared = 0;     // entries two or more of them hash to
   uint64_t vertices_in_shared = 0; // vertices that hash to a shared entry

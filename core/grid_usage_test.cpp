@@ -23,13 +23,15 @@ VoxelGrid grid_of(uint32_t V) {
   return g;
 }
 
-Config config_of(uint32_t V, uint32_t n0, uint32_t n1, uint32_t log2_entries) {
+// Level 0 has 2^log2_entries table entries, level 1 2^log2_entries1 (the same when 0).
+Config config_of(uint32_t V, uint32_t n0, uint32_t n1, uint32_t log2_entries, uint32_t log2_entries1 = 0) {
   Config c;
   c.voxel_resolution = V;
   c.grid_levels = 2;
   c.grid_resolution[0] = V * n0;
   c.grid_resolution[1] = V * n1;
-  c.log2_table_size = log2_entries;
+  c.table_log2[0] = log2_entries;
+  c.table_log2[1] = log2_entries1 ? log2_entries1 : log2_entries;
   return c;
 }
 
@@ -65,8 +67,8 @@ void expect_matches_brute_force(const Config& c, const VoxelGrid& g) {
   for (uint32_t l = 0; l < c.grid_levels; ++l) {
     SCOPED_TRACE(testing::Message() << "level " << l);
     const std::vector<glm::uvec3> truth = face_vertices(g, c.grid_resolution[l]);
-    std::vector<uint32_t> per_entry(size_t(1) << c.log2_table_size, 0);
-    for (const glm::uvec3& v : truth) ++per_entry[hash_vertex(v.x, v.y, v.z, c.log2_table_size)];
+    std::vector<uint32_t> per_entry(size_t(1) << c.table_log2[l], 0);
+    for (const glm::uvec3& v : truth) ++per_entry[hash_vertex(v.x, v.y, v.z, c.table_log2[l])];
     uint64_t used = 0, shared = 0, in_shared = 0;
     for (uint32_t k : per_entry) {
       used += k > 0;
@@ -76,7 +78,7 @@ void expect_matches_brute_force(const Config& c, const VoxelGrid& g) {
     const GridLevelUsage& u = usage[l];
     EXPECT_EQ(u.resolution, c.grid_resolution[l]);
     EXPECT_EQ(u.vertices, truth.size());
-    EXPECT_EQ(u.table_entries, uint64_t(1) << c.log2_table_size);
+    EXPECT_EQ(u.table_entries, uint64_t(1) << c.table_log2[l]);
     EXPECT_EQ(u.entries_used, used);
     EXPECT_EQ(u.entries_shared, shared);
     EXPECT_EQ(u.vertices_in_shared, in_shared);
@@ -106,6 +108,8 @@ TEST(GridUsage, NeighboursShareTheirFacesAndTinyTablesCollide) {
           if (rng() % 3 == 0) g.set(i, j, k);
     expect_matches_brute_force(config_of(6, 1, 2, 16), g);
     expect_matches_brute_force(config_of(6, 2, 3, 3), g);  // 8 entries: nearly all shared
+    expect_matches_brute_force(config_of(6, 1, 2, 4, 12), g);  // level 0 small, level 1 large
+    expect_matches_brute_force(config_of(6, 1, 2, 12, 5), g);
   }
 }
 
@@ -118,12 +122,12 @@ TEST(GridUsage, TheEncoderReadsOnlyCountedVertices) {
     for (uint32_t j = 0; j < 8; ++j)
       for (uint32_t i = 0; i < 8; ++i)
         if (rng() % 4 == 0) g.set(i, j, k);
-  Config c = config_of(8, 2, 4, 20);
+  Config c = config_of(8, 2, 4, 14, 18);  // level 1 starts after level 0's 2^14 entries
   c.max_points = LSNIF_MAX_POINTS;
   std::set<uint32_t> domain[2];
   for (uint32_t l = 0; l < 2; ++l)
     for (const glm::uvec3& v : face_vertices(g, c.grid_resolution[l]))
-      domain[l].insert((l << c.log2_table_size) + hash_vertex(v.x, v.y, v.z, c.log2_table_size));
+      domain[l].insert((l ? 1u << c.table_log2[0] : 0u) + hash_vertex(v.x, v.y, v.z, c.table_log2[l]));
   std::uniform_real_distribution<float> u(-0.5f, 1.5f);
   size_t reads = 0;
   for (int r = 0; r < 3000; ++r) {

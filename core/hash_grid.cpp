@@ -16,13 +16,13 @@ void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint
   float xb = std::clamp(p[b] * Rf, 0.0f, Rf), xc = std::clamp(p[c] * Rf, 0.0f, Rf);
   uint32_t ib = std::min(uint32_t(xb), R - 1), ic = std::min(uint32_t(xc), R - 1);
   float wb = xb - float(ib), wc = xc - float(ic);
-  const uint32_t offset = level << config.log2_table_size;
+  const uint32_t offset = uint32_t(config.level_entry_offset(level)), M = config.table_log2[level];
   for (uint32_t k = 0; k < 4; ++k) {
     uint32_t v[3];
     v[a] = ia;
     v[b] = ib + (k & 1u);
     v[c] = ic + (k >> 1);
-    out.entry[k] = offset + hash_vertex(v[0], v[1], v[2], config.log2_table_size);
+    out.entry[k] = offset + hash_vertex(v[0], v[1], v[2], M);
     out.weight[k] = ((k & 1u) ? wb : 1.0f - wb) * ((k >> 1) ? wc : 1.0f - wc);
   }
 }

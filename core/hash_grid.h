@@ -1,11 +1,12 @@
 // hash_grid.h -- sparse multi-resolution hash-grid encoding (paper 3.2). Level l has resolution
-// R_l (a multiple of V, so voxel faces lie on grid planes) and a table of 2^M entries of F
-// features. A boundary point lies on a plane of one axis, so it is interpolated bilinearly from
+// R_l (a multiple of V, so voxel faces lie on grid planes) and a table of 2^M_l entries
+// (Config::table_log2[l]) of F features. A boundary point lies on a plane of one axis, so it is interpolated bilinearly from
 // the 4 corners of the face cell that contains it (not the 8 of a dense grid): only vertices on
 // voxel faces are ever touched.
 //
 // Layouts (shared with the .lsnif file and the shaders):
-//   table:    [level][entry][feature]  -> table[(l * 2^M + entry) * F + f]
+//   table:    [level][entry][feature]  -> table[(offset_l + entry) * F + f], offset_l the entries of
+//             the levels before l (Config::level_entry_offset: sum of 2^M_k, k < l)
 //   features: [point][level][feature]  -> in[(j * L + l) * F + f], zero for j >= walk.count
 #pragma once
 #include <cstdint>
@@ -22,7 +23,7 @@ inline uint32_t hash_vertex(uint32_t x, uint32_t y, uint32_t z, uint32_t log2_si
 }
 
 struct FaceCorners {
-  uint32_t entry[4];  // table entries (already offset by level * 2^M)
+  uint32_t entry[4];  // table entries (already offset by the level's offset_l)
   float weight[4];    // bilinear weights, sum to 1
 };
 

@@ -1,6 +1,7 @@
 // Sparse hash-grid encoding vs an independent dense computation: a point on a voxel face, looked up
 // trilinearly over the 8 corners of its cell in a dense hashed grid, must give the same features
-// as the 4-corner face lookup; and encode_backward must match finite differences.
+// as the 4-corner face lookup; and encode_backward must match finite differences. Each with every
+// level's table of one size and with tables of different sizes per level.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,7 +13,8 @@
 namespace lsnif {
 namespace {
 
-Config small_config() {
+// Level l's table has 2^log2[l] entries.
+Config small_config(const uint32_t (&log2)[3] = {10, 10, 10}) {
   Config c;
   c.voxel_resolution = 8;
   c.max_points = 5;
@@ -20,9 +22,19 @@ Config small_config() {
   c.grid_resolution[0] = 8;
   c.grid_resolution[1] = 16;
   c.grid_resolution[2] = 32;
-  c.log2_table_size = 10;
+  for (uint32_t l = 0; l < 3; ++l) c.table_log2[l] = log2[l];
   c.features = 3;
   return c;
+}
+
+// Unequal sizes: the middle level smallest, so no level's offset is a multiple of its own size.
+constexpr uint32_t kUnequal[3] = {9, 5, 11};
+
+// Where level `level`'s table starts: the entries of the levels before it, counted here.
+uint32_t first_entry(const Config& c, uint32_t level) {
+  uint32_t first = 0;
+  for (uint32_t l = 0; l < level; ++l) first += 1u << c.table_log2[l];
+  return first;
 }
 
 // Dense trilinear lookup with the same hash: 8 corners, weights from all three fractions.
@@ -46,7 +58,8 @@ std::vector<float> dense_lookup(const Config& c, const std::vector<float>& table
       v[a] = uint32_t(i0[a] + bit);
     }
     if (w == 0.0) continue;
-    uint32_t e = (level << c.log2_table_size) + hash_vertex(v[0], v[1], v[2], c.log2_table_size);
+    const uint32_t h = (v[0] * LSNIF_HASH_PRIME_X) ^ (v[1] * LSNIF_HASH_PRIME_Y) ^ (v[2] * LSNIF_HASH_PRIME_Z);
+    const uint32_t e = first_entry(c, level) + h % (1u << c.table_log2[level]);
     for (uint32_t f = 0; f < c.features; ++f) out[f] += float(w) * table[size_t(e) * c.features + f];
   }
   return out;
@@ -68,8 +81,7 @@ RayWalk random_walk(const Config& c, std::mt19937& rng, uint32_t count) {
   return w;
 }
 
-TEST(HashGrid, FaceLookupEqualsDenseTrilinearOnFaces) {
-  Config c = small_config();
+void expect_face_lookup_equals_dense(const Config& c) {
   ASSERT_TRUE(c.validate()) << c.validate().message();
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
@@ -90,8 +102,15 @@ TEST(HashGrid, FaceLookupEqualsDenseTrilinearOnFaces) {
   }
 }
 
-TEST(HashGrid, CornerWeightsArePartitionOfUnityAndTouchOnlyFaceVertices) {
-  Config c = small_config();
+TEST(HashGrid, FaceLookupEqualsDenseTrilinearOnFaces) { expect_face_lookup_equals_dense(small_config()); }
+
+TEST(HashGrid, FaceLookupEqualsDenseTrilinearWithTablesOfDifferentSizes) {
+  const Config c = small_config(kUnequal);
+  EXPECT_EQ(c.grid_parameter_count(), uint64_t(512 + 32 + 2048) * c.features);
+  expect_face_lookup_equals_dense(c);
+}
+
+void expect_corners_in_own_level(const Config& c) {
   std::mt19937 rng(3);
   for (int trial = 0; trial < 1000; ++trial) {
     RayWalk w = random_walk(c, rng, 1);
@@ -105,15 +124,19 @@ TEST(HashGrid, CornerWeightsArePartitionOfUnityAndTouchOnlyFaceVertices) {
       }
       EXPECT_NEAR(sum, 1.0f, 1e-6f);
       for (uint32_t e : fc.entry) {
-        EXPECT_GE(e, l << c.log2_table_size);
-        EXPECT_LT(e, (l + 1) << c.log2_table_size);
+        EXPECT_GE(e, first_entry(c, l));
+        EXPECT_LT(e, first_entry(c, l + 1));
       }
     }
   }
 }
 
-TEST(HashGrid, BackwardMatchesFiniteDifferences) {
-  Config c = small_config();
+TEST(HashGrid, CornerWeightsArePartitionOfUnityAndTouchOnlyFaceVertices) {
+  expect_corners_in_own_level(small_config());
+  expect_corners_in_own_level(small_config(kUnequal));
+}
+
+void expect_backward_matches_finite_differences(const Config& c) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   std::vector<float> table(c.grid_parameter_count());
@@ -142,6 +165,11 @@ TEST(HashGrid, BackwardMatchesFiniteDifferences) {
     ++checked;
   }
   EXPECT_GT(checked, 50);
+}
+
+TEST(HashGrid, BackwardMatchesFiniteDifferences) {
+  expect_backward_matches_finite_differences(small_config());
+  expect_backward_matches_finite_differences(small_config(kUnequal));
 }
 
 TEST(HashGrid, DefaultConfigMemoryMatchesPaper) {

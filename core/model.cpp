@@ -33,7 +33,7 @@ Status Model::validate() const {
     return Status::error("model has %zu materials, the config's material count is %u", materials.size(),
                          config.material_count);
   if (grid.size() != config.grid_parameter_count())
-    return Status::error("hash grid has %zu values, the config needs %llu (L*2^M*F)", grid.size(),
+    return Status::error("hash grid has %zu values, the config needs %llu (sum of 2^M_l, times F)", grid.size(),
                          static_cast<unsigned long long>(config.grid_parameter_count()));
   const size_t scales = config.grid_bits == 8 ? config.grid_levels : 0;
   if (grid_scales.size() != scales)
@@ -56,9 +56,10 @@ void Model::quantize() {
     for (float& v : grid) v = round_to_half(v);
     return;
   }
-  const size_t per_level = size_t(config.table_size()) * config.features;
-  for (uint32_t l = 0; l < config.grid_levels && (l + 1) * per_level <= grid.size(); ++l) {
-    float* level = grid.data() + l * per_level;
+  for (uint32_t l = 0; l < config.grid_levels && config.level_entry_offset(l + 1) * config.features <= grid.size();
+       ++l) {
+    const size_t per_level = size_t(config.table_size(l)) * config.features;
+    float* level = grid.data() + config.level_entry_offset(l) * config.features;
     float max_abs = 0.0f;
     for (size_t i = 0; i < per_level; ++i) max_abs = std::max(max_abs, std::abs(level[i]));
     const float scale = max_abs / 127.0f;
@@ -72,8 +73,7 @@ void Model::quantize() {
 }
 
 int32_t Model::grid_code(uint64_t e) const {
-  const uint64_t per_level = uint64_t(config.table_size()) * config.features;
-  const float scale = grid_scales[size_t(e / per_level)];
+  const float scale = grid_scales[config.level_of_entry(e / config.features)];
   if (!(scale > 0.0f)) return 0;
   return static_cast<int32_t>(std::clamp(std::nearbyint(grid[size_t(e)] / scale), -127.0f, 127.0f));
 }

@@ -32,10 +32,10 @@ Status floats_to_halves(const std::vector<float>& values, const char* section, s
 // The int8 codes of a quantized 8-bit grid; fails on a value that is not exactly code * scale.
 Status grid_codes(const Model& model, std::vector<int8_t>& out) {
   out.resize(model.grid.size());
-  const uint64_t per_level = uint64_t(model.config.table_size()) * model.config.features;
+  const Config& c = model.config;
   for (size_t e = 0; e < model.grid.size(); ++e) {
     const int32_t code = model.grid_code(e);
-    if (float(code) * model.grid_scales[e / per_level] != model.grid[e])
+    if (float(code) * model.grid_scales[c.level_of_entry(e / c.features)] != model.grid[e])
       return Status::error("grid value %zu (%g) is not an int8 code times its level's scale: quantize the model "
                            "first", e, double(model.grid[e]));
     out[e] = static_cast<int8_t>(code);
@@ -103,11 +103,12 @@ Status load_model_from_memory(const uint8_t* data, size_t size, Model& model) {
   }
   if (v.config.grid_bits == 8) {
     const uint64_t count = v.config.grid_parameter_count();
-    const uint64_t per_level = uint64_t(v.config.table_size()) * v.config.features;
-    m.grid_scales.assign(v.grid_scales, v.grid_scales + v.config.grid_levels);
+    const Config& c = v.config;
+    m.grid_scales.assign(v.grid_scales, v.grid_scales + c.grid_levels);
     m.grid.resize(size_t(count));
-    for (uint64_t e = 0; e < count; ++e)
-      m.grid[size_t(e)] = float(static_cast<int8_t>(v.grid[e])) * v.grid_scales[e / per_level];
+    for (uint32_t l = 0; l < c.grid_levels; ++l)
+      for (uint64_t e = c.level_entry_offset(l) * c.features; e < c.level_entry_offset(l + 1) * c.features; ++e)
+        m.grid[size_t(e)] = float(static_cast<int8_t>(v.grid[e])) * v.grid_scales[l];
   } else {
     halves_to_floats(v.grid, v.config.grid_parameter_count(), m.grid);
   }

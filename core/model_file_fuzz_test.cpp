@@ -20,7 +20,8 @@ namespace {
 
 using Bytes = std::vector<uint8_t>;
 
-Model base_model(uint32_t V, uint32_t levels, uint32_t materials, uint64_t seed) {
+// Every level's table has 2^4 entries, or (unequal) level l 2^(4 + l): a version 4 file.
+Model base_model(uint32_t V, uint32_t levels, uint32_t materials, uint64_t seed, bool unequal = false) {
   Rng rng(seed, 1, 0);
   Model m;
   Config& c = m.config;
@@ -28,7 +29,7 @@ Model base_model(uint32_t V, uint32_t levels, uint32_t materials, uint64_t seed)
   c.max_points = 2;
   c.grid_levels = levels;
   for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) c.grid_resolution[l] = l < levels ? V * (l + 1) : 0u;
-  c.log2_table_size = 4;
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) c.table_log2[l] = l < levels ? 4u + (unequal ? l : 0u) : 0u;
   c.features = 2;
   c.hidden_width = 3;
   c.hidden_layers = 2;
@@ -181,6 +182,7 @@ TEST(ModelFileFuzz, MutationsNeverCrashAndAcceptedFilesAreCanonical) {
       base_model(1, 1, 1, 2),  // the smallest possible model
       base_model(4, 4, 2, 3),
       base_8bit_model(3, 2, 1, 5),
+      base_model(3, 3, 1, 6, true),  // tables of different sizes: version 4
   };
   const int iterations = 15000;  // per model
   Tally raw, fixed;
@@ -199,7 +201,7 @@ TEST(ModelFileFuzz, MutationsNeverCrashAndAcceptedFilesAreCanonical) {
 }
 
 TEST(ModelFileFuzz, EveryTruncationAndEveryByteOfTheHeader) {
-  for (const Model& model : {base_model(5, 2, 3, 4), base_8bit_model(5, 2, 3, 4)}) {
+  for (const Model& model : {base_model(5, 2, 3, 4), base_8bit_model(5, 2, 3, 4), base_model(5, 2, 3, 4, true)}) {
     Bytes base;
     ASSERT_TRUE(save_model_to_memory(model, base));
     Tally t;
@@ -211,7 +213,7 @@ TEST(ModelFileFuzz, EveryTruncationAndEveryByteOfTheHeader) {
     }
     // Every header byte set to each of a few values, CRC repaired.
     const uint8_t values[] = {0x00, 0x01, 0x10, 0x7f, 0x80, 0xff};
-    const size_t header_bytes = base[12];  // 168 or, for 8-bit grids, 208
+    const size_t header_bytes = base[12];  // 168, for 8-bit grids 208, for tables of different sizes 224
     for (size_t at = 0; at < header_bytes; ++at) {
       for (uint8_t v : values) {
         Bytes b = base;

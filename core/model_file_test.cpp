@@ -71,7 +71,7 @@ Config random_config(Rng& rng, uint32_t levels, uint32_t materials) {
   c.grid_levels = levels;
   for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l)
     c.grid_resolution[l] = l < levels ? c.voxel_resolution * (1 + rng.next_u32() % 8u) : 0u;
-  c.log2_table_size = 4 + rng.next_u32() % 7u;
+  set_table_log2(c, 4 + rng.next_u32() % 7u);
   c.features = 1 + rng.next_u32() % LSNIF_MAX_FEATURES;
   c.hidden_width = 1 + rng.next_u32() % 40u;
   c.hidden_layers = 1 + rng.next_u32() % LSNIF_MAX_HIDDEN_LAYERS;
@@ -124,6 +124,7 @@ void expect_same_bits(const std::vector<float>& a, const std::vector<float>& b, 
 void expect_equal(const Model& a, const Model& b) {
   EXPECT_EQ(a.config.describe(), b.config.describe());
   for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) EXPECT_EQ(a.config.grid_resolution[l], b.config.grid_resolution[l]);
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) EXPECT_EQ(a.config.table_log2[l], b.config.table_log2[l]);
   EXPECT_EQ(a.config.leaky_slope, b.config.leaky_slope);
   EXPECT_EQ(a.voxels.resolution, b.voxels.resolution);
   EXPECT_EQ(a.voxels.bounds.lo, b.voxels.bounds.lo);
@@ -143,6 +144,18 @@ Bytes saved(const Model& m) {
   Status s = save_model_to_memory(m, b);
   EXPECT_TRUE(s) << s.message();
   return b;
+}
+
+// Loads `b`, which `m` was saved as: the same model and record, saved again as the same bytes (one
+// encoding per model). Returns the loaded model.
+Model expect_round_trip(const Model& m, const Bytes& b) {
+  Model back;
+  Status s = load_model_from_memory(b.data(), b.size(), back);
+  EXPECT_TRUE(s) << s.message();
+  expect_equal(m, back);
+  EXPECT_EQ(back.training, m.training);
+  EXPECT_EQ(saved(back), b);
+  return back;
 }
 
 // Loads `b`, expects failure with a message containing every key word; the target model must stay
@@ -264,10 +277,13 @@ TEST(Model, QuantizeToInt8MatchesABruteForceReference) {
   Rng rng(31, 0, 0);
   Config c = random_config(rng, 3, 1);
   c.grid_bits = 8;
+  const uint32_t sizes[3] = {6, 4, 5};  // tables of different sizes: level l's values start at first[l]
+  set_table_log2(c, sizes, 3);
   Model m = random_model(c, rng);
-  const size_t per_level = size_t(c.table_size()) * c.features;
-  for (size_t i = 0; i < per_level; ++i) m.grid[per_level + i] *= 1000.0f;  // levels of different ranges
-  for (size_t i = 0; i < per_level; ++i) m.grid[2 * per_level + i] = 0.0f;  // an all-zero level
+  const size_t first[4] = {0, 64 * c.features, 80 * c.features, 112 * c.features};
+  ASSERT_EQ(m.grid.size(), first[3]);
+  for (size_t i = first[1]; i < first[2]; ++i) m.grid[i] *= 1000.0f;  // levels of different ranges
+  for (size_t i = first[2]; i < first[3]; ++i) m.grid[i] = 0.0f;      // an all-zero level
   m.grid[5] = -std::fabs(m.grid[5]) - 8.0f;                                  // the extreme is negative
   const Model before = m;
   m.quantize();
@@ -275,11 +291,10 @@ TEST(Model, QuantizeToInt8MatchesABruteForceReference) {
   ASSERT_EQ(m.grid_scales.size(), 3u);
   for (uint32_t l = 0; l < 3; ++l) {
     float max_abs = 0.0f;
-    for (size_t i = 0; i < per_level; ++i) max_abs = std::max(max_abs, std::fabs(before.grid[l * per_level + i]));
+    for (size_t e = first[l]; e < first[l + 1]; ++e) max_abs = std::max(max_abs, std::fabs(before.grid[e]));
     const float scale = max_abs / 127.0f;
     EXPECT_EQ(m.grid_scales[l], scale) << "level " << l;
-    for (size_t i = 0; i < per_level; ++i) {
-      const size_t e = l * per_level + i;
+    for (size_t e = first[l]; e < first[l + 1]; ++e) {
       const float x = before.grid[e];
       float best = 0.0f;
       for (int code = -127; code <= 127; ++code)
@@ -376,6 +391,30 @@ TEST(ModelFile, DefaultModelLayoutMatchesTheDocument) {
   expect_equal(back, m);
 }
 
+// The document's version 4 example: the same model with 8-bit features and tables of 2^15 + 2^17.
+TEST(ModelFile, PerLevelTablesExampleMatchesTheDocument) {
+  Model m;
+  m.voxels.resolution = 32;
+  m.voxels.bounds.lo = glm::vec3(-1.0f);
+  m.voxels.bounds.hi = glm::vec3(1.0f);
+  m.voxels.bits.assign(32 * 32 * 32 / 32, 0u);
+  m.materials.resize(1);
+  const uint32_t sizes[2] = {15, 17};
+  set_table_log2(m.config, sizes, 2);
+  m.config.grid_bits = 8;
+  m.grid.assign(m.config.grid_parameter_count(), 0.0f);
+  m.mlp.assign(m.config.mlp_parameter_count(), 0.0f);
+  m.quantize();
+  const Bytes b = saved(m);
+  EXPECT_EQ(b.size(), 559204u);
+  EXPECT_EQ(memory_breakdown(m).total(), 559204u);
+  const uint64_t sections[6][2] = {{224, 76}, {304, 4096}, {4400, 491520}, {495920, 63250}, {559184, 0}, {559184, 8}};
+  for (int sec = 0; sec < 6; ++sec) {
+    EXPECT_EQ(section_offset(b, sec), sections[sec][0]) << "section " << sec;
+    EXPECT_EQ(section_size(b, sec), sections[sec][1]) << "section " << sec;
+  }
+}
+
 // ---- Round trips ------------------------------------------------------------------------------------
 
 TEST(ModelFile, RoundTripOfRandomConfigs) {
@@ -386,6 +425,8 @@ TEST(ModelFile, RoundTripOfRandomConfigs) {
       for (int rep = 0; rep < 2; ++rep, ++variants) {
         Config c = random_config(rng, levels, materials);
         c.hit_param = rep == 0 ? HitParam::AabbInterval : HitParam::VoxelSegments;
+        // The second of each pair has tables of different sizes (from 2 levels on): a version 4 file.
+        for (uint32_t l = 1; l < levels && rep == 1; ++l) c.table_log2[l] = 4 + (c.table_log2[0] + l) % 7u;
         ASSERT_TRUE(c.validate()) << c.validate().message();
         const Model original = random_model(c, rng);
         Model quantized = original;
@@ -398,6 +439,7 @@ TEST(ModelFile, RoundTripOfRandomConfigs) {
         EXPECT_EQ(mb.mlp_bytes, 2 * c.mlp_parameter_count());
         EXPECT_EQ(mb.voxel_bytes, 4 * ((c.voxel_count() + 31) / 32));
         EXPECT_EQ(saved(quantized), b);
+        EXPECT_EQ(rd32(b, kVersionAt), c.uniform_table_log2() ? 1u : 4u) << c.describe();
 
         Model loaded;
         Status s = load_model_from_memory(b.data(), b.size(), loaded);
@@ -494,10 +536,10 @@ TEST(ModelFileErrors, WrongMagic) {
 
 TEST(ModelFileErrors, FutureVersion) {
   Bytes b = saved(small_model());
-  wr32(b, kVersionAt, 4);
-  expect_load_error(b, {"version 4", "versions 1 to 3"});  // reported before the checksum
+  wr32(b, kVersionAt, 5);
+  expect_load_error(b, {"version 5", "versions 1 to 4"});  // reported before the checksum
   fix_crc(b);
-  expect_load_error(b, {"version 4", "versions 1 to 3"});
+  expect_load_error(b, {"version 5", "versions 1 to 4"});
   wr32(b, kVersionAt, 0);
   fix_crc(b);
   expect_load_error(b, {"version 0"});
@@ -567,12 +609,7 @@ TEST(ModelFile, TrainingRecordMakesAVersion2File) {
     EXPECT_EQ(section_offset(b, sec), section_offset(v1, sec) + 16);
     EXPECT_EQ(section_size(b, sec), section_size(v1, sec));
   }
-  Model back;
-  Status s = load_model_from_memory(b.data(), b.size(), back);
-  ASSERT_TRUE(s) << s.message();
-  expect_equal(m, back);
-  EXPECT_EQ(back.training, m.training);
-  EXPECT_EQ(saved(back), b);  // one encoding
+  const Model back = expect_round_trip(m, b);
   EXPECT_EQ(memory_breakdown(back).total(), v1.size());  // the record never reaches the GPU
 }
 
@@ -617,14 +654,9 @@ TEST(ModelFile, EightBitGridIsAVersion3FileWithCodesAndScales) {
       EXPECT_EQ(scale, m.grid_scales[l]);
       EXPECT_GT(scale, 0.0f);
     }
-    Model back;
-    Status s = load_model_from_memory(b.data(), b.size(), back);
-    ASSERT_TRUE(s) << s.message();
-    expect_equal(m, back);
+    const Model back = expect_round_trip(m, b);
     EXPECT_EQ(back.config.grid_bits, 8u);
     EXPECT_EQ(back.grid_scales, m.grid_scales);
-    EXPECT_EQ(back.training, m.training);
-    EXPECT_EQ(saved(back), b);  // one encoding
     if (!record) {
       EXPECT_EQ(memory_breakdown(back).total(), b.size());
       EXPECT_EQ(memory_breakdown(back).grid_bytes, c.grid_parameter_count() + 4u * c.grid_levels);
@@ -641,7 +673,7 @@ TEST(ModelFileErrors, EightBitGrid) {
   const Model m = small_8bit_model();
   const Bytes good = saved(m);
   const uint64_t grid_at = section_offset(good, kGrid), scales_at = section_offset(good, kGridScales);
-  const uint64_t per_level = uint64_t(m.config.table_size()) * m.config.features;
+  const uint64_t per_level = uint64_t(m.config.table_size(0)) * m.config.features;
   auto with = [&](const std::function<void(Bytes&)>& change) {
     Bytes b = good;
     change(b);
@@ -696,6 +728,91 @@ TEST(ModelFileErrors, EightBitGrid) {
   s = save_model_to_memory(bad, out);
   ASSERT_FALSE(s);
   EXPECT_NE(s.message().find("grid scales"), std::string::npos) << s.message();
+}
+
+// ---- format version 4: hash tables of different sizes per level ---------------------------------
+
+constexpr size_t kTableLog2At = 208, kConfigMAt = 52;
+
+// A random model of 3 levels with tables of 2^5, 2^7 and 2^4 entries.
+Model unequal_model(uint32_t grid_bits, uint64_t seed = 1) {
+  Rng rng(seed, 0, 0);
+  Config c = random_config(rng, 3, 2);
+  const uint32_t sizes[3] = {5, 7, 4};
+  set_table_log2(c, sizes, 3);
+  c.grid_bits = grid_bits;
+  Model m = random_model(c, rng);
+  m.quantize();
+  return m;
+}
+
+TEST(ModelFile, TablesOfDifferentSizesAreAVersion4File) {
+  for (const uint32_t bits : {16u, 8u}) {
+    for (const bool record : {false, true}) {
+      SCOPED_TRACE(testing::Message() << bits << "-bit grid, record " << record);
+      Model m = unequal_model(bits);
+      if (record) m.training = R"({"settings":{"table-log2":[5,7,4]}})";
+      const Bytes b = saved(m);
+      const Config& c = m.config;
+      EXPECT_EQ(rd32(b, kVersionAt), 4u);
+      EXPECT_EQ(rd32(b, kHeaderSizeAt), 224u);
+      EXPECT_EQ(rd32(b, kConfigMAt), 0u);  // the per-level sizes replace the one M
+      EXPECT_EQ(rd32(b, kGridBitsAt), bits);
+      EXPECT_EQ(rd32(b, kV3ReservedAt), 0u);
+      const uint32_t sizes[4] = {5, 7, 4, 0};
+      for (uint32_t l = 0; l < 4; ++l) EXPECT_EQ(rd32(b, kTableLog2At + 4 * l), sizes[l]) << "level " << l;
+      EXPECT_EQ(section_offset(b, kMaterials), 224u);
+      // The levels' tables one after another: 32 + 128 + 16 entries of F values.
+      EXPECT_EQ(c.grid_parameter_count(), (32u + 128u + 16u) * c.features);
+      EXPECT_EQ(section_size(b, kGrid), c.grid_parameter_count() * bits / 8);
+      EXPECT_EQ(section_size(b, kTraining), m.training.size());
+      EXPECT_EQ(section_size(b, kGridScales), bits == 8 ? 12u : 0u);
+      if (bits == 8) {
+        const uint64_t grid_at = section_offset(b, kGrid);
+        for (uint64_t e = 0; e < c.grid_parameter_count(); ++e) ASSERT_EQ(int8_t(b[grid_at + e]), m.grid_code(e)) << e;
+      }
+      const Model back = expect_round_trip(m, b);
+      EXPECT_EQ(back.grid_scales, m.grid_scales);
+      if (!record) {
+        EXPECT_EQ(memory_breakdown(back).total(), b.size());
+      }
+      // The same model with every table of one size is written as before.
+      Model same = m;
+      set_table_log2(same.config, 5);
+      same.grid.assign(same.config.grid_parameter_count(), 0.0f);
+      same.quantize();
+      EXPECT_EQ(rd32(saved(same), kVersionAt), bits == 8 ? 3u : record ? 2u : 1u);
+    }
+  }
+}
+
+TEST(ModelFileErrors, TablesOfDifferentSizes) {
+  const Model m = unequal_model(8);
+  const Bytes good = saved(m);
+  auto with = [&](const std::function<void(Bytes&)>& change) {
+    Bytes b = good;
+    change(b);
+    fix_crc(b);
+    return b;
+  };
+  expect_load_error(with([&](Bytes& b) { wr32(b, kConfigMAt, 5); }), {"M", "version 4", "must be 0"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kTableLog2At + 4, 25); }), {"M=25 of level 1", "out of range"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kTableLog2At + 4, 3); }), {"M=3 of level 1", "out of range"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kTableLog2At + 12, 5); }), {"unused level 3"});
+  // A size changed to another valid one no longer matches the grid section.
+  expect_load_error(with([&](Bytes& b) { wr32(b, kTableLog2At + 8, 6); }), {"section grid has size"});
+  // Every level the same size: such a model is written as version 1 to 3, never 4.
+  expect_load_error(with([&](Bytes& b) {
+                      for (uint32_t l = 0; l < 3; ++l) wr32(b, kTableLog2At + 4 * l, 5);
+                    }),
+                    {"version 4", "all have 2^5"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kHeaderSizeAt, 208); }), {"header size 208", "224"});
+  // A version 3 file claiming version 4 (or the reverse) does not parse.
+  Bytes v3 = saved(small_8bit_model());
+  wr32(v3, kVersionAt, 4);
+  fix_crc(v3);
+  expect_load_error(v3, {"header size 208", "224"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kVersionAt, 3); }), {"header size 224", "208"});
 }
 
 TEST(ModelFileErrors, TrainingSection) {

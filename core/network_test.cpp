@@ -16,6 +16,7 @@ Config tiny_config() {
   c.grid_levels = 1;
   c.grid_resolution[0] = 2;
   c.grid_resolution[1] = 0;
+  c.table_log2[1] = 0;
   c.features = 3;          // input 6
   c.hidden_width = 5;
   c.hidden_layers = 2;

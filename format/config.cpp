@@ -60,7 +60,12 @@ Status Config::validate() const {
   }
   for (uint32_t l = grid_levels; l < LSNIF_MAX_LEVELS; ++l)
     if (grid_resolution[l] != 0) return Status::error("grid resolution of unused level %u is not 0", l);
-  if (Status s = check_range(SettingId::TableLog2, log2_table_size, "hash table size (log2 entries) M"); !s) return s;
+  for (uint32_t l = 0; l < grid_levels; ++l)
+    if (table_log2[l] < min_u32(SettingId::TableLog2) || table_log2[l] > max_u32(SettingId::TableLog2))
+      return Status::error("hash table size (log2 entries) M=%u of level %u out of range [%u, %u]", table_log2[l], l,
+                           min_u32(SettingId::TableLog2), max_u32(SettingId::TableLog2));
+  for (uint32_t l = grid_levels; l < LSNIF_MAX_LEVELS; ++l)
+    if (table_log2[l] != 0) return Status::error("hash table size (log2 entries) of unused level %u is not 0", l);
   if (Status s = check_range(SettingId::Features, features, "features F"); !s) return s;
   if (Status s = check_range(SettingId::Width, hidden_width, "hidden width W"); !s) return s;
   if (Status s = check_range(SettingId::Layers, hidden_layers, "hidden layers"); !s) return s;
@@ -75,14 +80,33 @@ Status Config::validate() const {
   return Status::ok();
 }
 
+uint64_t Config::level_entry_offset(uint32_t level) const {
+  uint64_t n = 0;
+  for (uint32_t l = 0; l < level && l < LSNIF_MAX_LEVELS; ++l) n += uint64_t(1) << table_log2[l];
+  return n;
+}
+
+uint32_t Config::level_of_entry(uint64_t entry) const {
+  uint32_t l = 0;
+  while (l + 1 < grid_levels && entry >= level_entry_offset(l + 1)) ++l;
+  return l;
+}
+
+bool Config::uniform_table_log2() const {
+  for (uint32_t l = 1; l < grid_levels && l < LSNIF_MAX_LEVELS; ++l)
+    if (table_log2[l] != table_log2[0]) return false;
+  return true;
+}
+
 std::string Config::describe() const {
-  std::string res;
-  for (uint32_t l = 0; l < grid_levels; ++l) {
+  std::string res, m;
+  for (uint32_t l = 0; l < grid_levels && l < LSNIF_MAX_LEVELS; ++l) {
     if (l) res.push_back(',');
     res.append(std::to_string(grid_resolution[l]));
+    if (l == 0 || !uniform_table_log2()) m.append(l ? "," : "").append(std::to_string(table_log2[l]));
   }
-  return format("V=%u H=%u L=%u res=%s M=%u F=%u W=%ux%u Nmat=%u hit=%s leaky=%g%s", voxel_resolution,
-                max_points, grid_levels, res.c_str(), log2_table_size, features, hidden_width,
+  return format("V=%u H=%u L=%u res=%s M=%s F=%u W=%ux%u Nmat=%u hit=%s leaky=%g%s", voxel_resolution,
+                max_points, grid_levels, res.c_str(), m.c_str(), features, hidden_width,
                 hidden_layers, material_count, to_string(hit_param), double(leaky_slope),
                 grid_bits == 16 ? "" : format(" grid-bits=%u", grid_bits).c_str());
 }
@@ -96,6 +120,12 @@ void set_grid_resolutions(Config& config, uint32_t coarsest, uint32_t finest) {
     uint32_t rounded = static_cast<uint32_t>(std::lround(r / V)) * V;
     config.grid_resolution[l] = rounded < V ? V : rounded;
   }
+}
+
+void set_table_log2(Config& config, const uint32_t* log2_sizes, uint32_t count) {
+  const uint32_t L = config.grid_levels;
+  if (L > LSNIF_MAX_LEVELS || (count != 1 && count != L)) return;
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) config.table_log2[l] = l < L ? log2_sizes[count == 1 ? 0 : l] : 0;
 }
 
 }  // namespace lsnif

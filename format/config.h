@@ -26,7 +26,10 @@ struct Config {
   // Per level; multiples of V. The default: set_grid_resolutions(res-min, res-max) of the default
   // 2 levels (config.cpp checks the level count).
   uint32_t grid_resolution[LSNIF_MAX_LEVELS] = {default_u32(SettingId::ResMin), default_u32(SettingId::ResMax), 0, 0};
-  uint32_t log2_table_size = default_u32(SettingId::TableLog2);  // M: 2^M entries per level
+  // Per level l < L: level l's hash table has 2^table_log2[l] entries (M_l); the levels' tables lie
+  // one after another (hash_grid.h). 0 for unused levels. The default: every level
+  // default_u32(TableLog2) (set_table_log2 of one value for all levels).
+  uint32_t table_log2[LSNIF_MAX_LEVELS] = {default_u32(SettingId::TableLog2), default_u32(SettingId::TableLog2), 0, 0};
   uint32_t features = default_u32(SettingId::Features);           // F: features per entry
   uint32_t hidden_width = default_u32(SettingId::Width);          // W
   uint32_t hidden_layers = default_u32(SettingId::Layers);
@@ -37,7 +40,16 @@ struct Config {
   // Model::grid_scales; .lsnif format version 3).
   uint32_t grid_bits = default_u32(SettingId::GridBits);
 
-  uint32_t table_size() const { return 1u << log2_table_size; }
+  // Entries of level l's table: 2^table_log2[l].
+  uint32_t table_size(uint32_t level) const { return 1u << table_log2[level]; }
+  // Entries of the tables of the levels before `level`: where level `level`'s table starts.
+  uint64_t level_entry_offset(uint32_t level) const;
+  // Entries of all levels' tables together.
+  uint64_t grid_entry_count() const { return level_entry_offset(grid_levels); }
+  // The level whose table holds entry `entry` (< grid_entry_count()).
+  uint32_t level_of_entry(uint64_t entry) const;
+  // Every level's table has the same size (the layout before per-level sizes: any .lsnif version).
+  bool uniform_table_log2() const;
   uint32_t input_dim() const { return max_points * grid_levels * features; }
   uint32_t output_dim() const { return LSNIF_OUT_FIXED + material_count; }
   uint64_t voxel_count() const {
@@ -45,10 +57,8 @@ struct Config {
   }
   // Number of MLP parameters (weights and biases of all layers).
   uint64_t mlp_parameter_count() const;
-  // Number of hash-grid parameters (L * 2^M * F).
-  uint64_t grid_parameter_count() const {
-    return uint64_t(grid_levels) * table_size() * features;
-  }
+  // Number of hash-grid parameters (sum over the levels of 2^M_l, times F).
+  uint64_t grid_parameter_count() const { return grid_entry_count() * features; }
 
   // Checks ranges and consistency (for example every grid resolution a multiple of V so that voxel
   // faces lie on grid planes). The message names the offending field.
@@ -69,5 +79,11 @@ std::vector<LayerView> mlp_layers(const Config& config);
 // Fills grid_resolution[0..L) geometrically from `coarsest` to `finest` (which should be multiples
 // of V); the levels in between are rounded to the nearest multiple of V.
 void set_grid_resolutions(Config& config, uint32_t coarsest, uint32_t finest);
+
+// Sets table_log2 of levels [0, L) to the `count` values of `log2_sizes`: one value for every level,
+// or one per level (count == L); unused levels get 0. Call after setting grid_levels. A count that is
+// neither 1 nor L leaves table_log2 as it was (Config::validate then reports the levels).
+void set_table_log2(Config& config, const uint32_t* log2_sizes, uint32_t count);
+inline void set_table_log2(Config& config, uint32_t log2_size) { set_table_log2(config, &log2_size, 1); }
 
 }  // namespace lsnif

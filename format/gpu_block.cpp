@@ -74,7 +74,7 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   h.grid_resolution1 = c.grid_resolution[1];
   h.grid_resolution2 = c.grid_resolution[2];
   h.grid_resolution3 = c.grid_resolution[3];
-  h.log2_table_size = c.log2_table_size;
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) h.table_log2 |= c.table_log2[l] << (8u * l);
   h.features = c.features;
   h.hidden_width = c.hidden_width;
   h.hidden_layers = c.hidden_layers;

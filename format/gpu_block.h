@@ -40,7 +40,7 @@ LsnifGpuModelHeader gpu_block_header(const std::vector<uint32_t>& words);
 
 // Ok when `words` starts with a header of this build's layout (magic LSNIF_GPU_MAGIC, version
 // LSNIF_GPU_VERSION) whose total_words equals words.size(); else an error naming the mismatch
-// (e.g. "GPU block layout version 3, this build reads version 2").
+// (e.g. "GPU block layout version 3, this build reads version 4").
 Status check_gpu_block_header(const std::vector<uint32_t>& words);
 
 }  // namespace lsnif

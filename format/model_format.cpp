@@ -1,16 +1,18 @@
 // model_format.cpp -- reading and writing .lsnif files at the byte level (model_format.h). The byte layout is specified in
 // docs/model-format.md; in short (all little-endian, packed byte by byte, no struct copies):
 //
-//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1, 2 or 3)
-//   12   u32 header size (168, 184, 208)    16  u64 total file size
+//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1 to 4)
+//   12   u32 header size (168, 184, 208, 224) 16 u64 total file size
 //   24   Config (13 x u32, leaky slope f32) 80  AABB lo.xyz, hi.xyz (6 x f32)
 //   104  section table: {u64 offset, u64 size} for materials, voxels, grid, mlp (and, in version 2,
-//        training at 168; in version 3 training, possibly empty, at 168 and grid scales at 184)
-//   version 3 only: 200 u32 grid bits (8), 204 u32 zero
+//        training at 168; in versions 3 and 4 training, possibly empty, at 168 and grid scales at 184)
+//   versions 3 and 4: 200 u32 grid bits (8; version 4: 8 or 16), 204 u32 zero
+//   version 4 only: 208 u32 table_log2 of each of the 4 levels (0 for unused levels; the Config's M
+//        field at 52 is 0): the levels' tables differ in size. Equal sizes are written as before.
 //   then zero padding to a multiple of 16, then the sections in that order, each at a 16-byte
 //        aligned offset with zero padding between them, then (16-byte aligned) u32 CRC-32 of all
 //        bytes before. Grid values are fp16 (versions 1, 2) or int8 codes in [-127, 127] (version 3,
-//        with one f32 scale per level in the grid scales section).
+//        with one f32 scale per level in the grid scales section; version 4: either).
 //
 // The loader trusts nothing: every size is compared with the file length before it is used, and
 // memory is allocated only once the whole layout has been checked against the validated config.
@@ -33,6 +35,7 @@ constexpr uint8_t kMagic[8] = {'L', 'S', 'N', 'I', 'F', 0x00, '\r', '\n'};
 constexpr uint32_t kHeaderSizeV1 = 168;
 constexpr uint32_t kHeaderSizeV2 = kHeaderSizeV1 + 16;  // + the training section's {offset, size}
 constexpr uint32_t kHeaderSizeV3 = kHeaderSizeV2 + 24;  // + grid scales {offset, size}, grid bits, zero
+constexpr uint32_t kHeaderSizeV4 = kHeaderSizeV3 + 4 * LSNIF_MAX_LEVELS;  // + table_log2 per level
 constexpr uint64_t kNameBytes = kModelMaterialNameBytes;
 constexpr uint64_t kMaterialRecordSize = kNameBytes + 3 * 4;  // name + base_color[3]
 constexpr uint64_t kAlignment = 16;
@@ -40,7 +43,9 @@ constexpr uint64_t kCrcSize = 4;
 
 // Header field offsets.
 constexpr size_t kOffVersion = 8, kOffHeaderSize = 12, kOffFileSize = 16, kOffConfig = 24,
-                 kOffAabb = 80, kOffSections = 104, kOffGridBits = 200, kOffReserved = 204;
+                 kOffAabb = 80, kOffSections = 104, kOffGridBits = 200, kOffReserved = 204, kOffTableLog2 = 208;
+// The Config's M field (offset 52 of the file): the size of every level's table in versions 1 to 3.
+constexpr size_t kConfigTableLog2 = 28;
 
 enum Section { kMaterials = 0, kVoxels, kGrid, kMlp, kTraining, kGridScales, kSectionCount };
 constexpr const char* kSectionName[kSectionCount] = {"materials", "voxels", "grid", "mlp", "training", "grid scales"};
@@ -48,14 +53,15 @@ constexpr const char* kSectionName[kSectionCount] = {"materials", "voxels", "gri
 uint64_t align16(uint64_t n) { return (n + kAlignment - 1) & ~(kAlignment - 1); }
 
 uint32_t header_size_of(uint32_t version) {
-  return version == 1 ? kHeaderSizeV1 : version == 2 ? kHeaderSizeV2 : kHeaderSizeV3;
+  return version == 1 ? kHeaderSizeV1 : version == 2 ? kHeaderSizeV2 : version == 3 ? kHeaderSizeV3 : kHeaderSizeV4;
 }
 
 // Where everything lives in the file of a model with this (valid) config and a training record of
-// `training_bytes`: version 3 for 8-bit grid features, else version 1 (no record) or 2.
+// `training_bytes`: version 4 when the levels' tables differ in size, else version 3 for 8-bit grid
+// features, else version 1 (no record) or 2.
 struct Layout {
   uint32_t version = 1, header_size = kHeaderSizeV1;
-  int sections = kTraining;  // kTraining in version 1, kGridScales in 2, kSectionCount in 3
+  int sections = kTraining;  // kTraining in version 1, kGridScales in 2, kSectionCount in 3 and 4
   uint64_t offset[kSectionCount] = {};
   uint64_t size[kSectionCount] = {};
   uint64_t crc_offset = 0, file_size = 0;
@@ -63,7 +69,10 @@ struct Layout {
 
 Layout layout_of(const Config& c, uint64_t training_bytes) {
   Layout l;
-  if (c.grid_bits == 8) {
+  if (!c.uniform_table_log2()) {
+    l.version = 4;
+    l.sections = kSectionCount;
+  } else if (c.grid_bits == 8) {
     l.version = 3;
     l.sections = kSectionCount;
   } else if (training_bytes) {
@@ -94,7 +103,7 @@ uint64_t max_file_size() {
   c.voxel_resolution = max_u32(SettingId::Voxels);
   c.max_points = max_u32(SettingId::Points);
   c.grid_levels = max_u32(SettingId::Levels);
-  c.log2_table_size = max_u32(SettingId::TableLog2);
+  set_table_log2(c, max_u32(SettingId::TableLog2));
   c.features = max_u32(SettingId::Features);
   c.hidden_width = max_u32(SettingId::Width);
   c.hidden_layers = max_u32(SettingId::Layers);
@@ -152,24 +161,27 @@ bool aabb_usable(const float lo[3], const float hi[3]) {
   return true;
 }
 
-// Config fields in file order (docs/model-format.md, offsets 24..79).
+// Config fields in file order (docs/model-format.md, offsets 24..79); M is 0 when the levels'
+// tables differ in size (version 4 stores them per level).
 void write_config(uint8_t* p, const Config& c) {
+  const uint32_t M = c.uniform_table_log2() ? c.table_log2[0] : 0;
   const uint32_t fields[13] = {c.voxel_resolution, c.max_points,        c.grid_levels,
                                c.grid_resolution[0], c.grid_resolution[1], c.grid_resolution[2],
-                               c.grid_resolution[3], c.log2_table_size,   c.features,
+                               c.grid_resolution[3], M,                   c.features,
                                c.hidden_width,      c.hidden_layers,     c.material_count,
                                static_cast<uint32_t>(c.hit_param)};
   for (int i = 0; i < 13; ++i) put_u32(p + 4 * i, fields[i]);
   put_f32(p + 52, c.leaky_slope);
 }
 
+// The fields but the table sizes (table_log2 left 0: the version decides where they are).
 Config read_config(const uint8_t* p) {
   Config c;
+  for (uint32_t& m : c.table_log2) m = 0;
   c.voxel_resolution = get_u32(p + 0);
   c.max_points = get_u32(p + 4);
   c.grid_levels = get_u32(p + 8);
   for (int l = 0; l < 4; ++l) c.grid_resolution[l] = get_u32(p + 12 + 4 * l);
-  c.log2_table_size = get_u32(p + 28);
   c.features = get_u32(p + 32);
   c.hidden_width = get_u32(p + 36);
   c.hidden_layers = get_u32(p + 40);
@@ -234,9 +246,20 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
 
   ModelFileView v;
   v.config = read_config(data + kOffConfig);
+  const uint32_t stored_m = get_u32(data + kOffConfig + kConfigTableLog2);
+  if (version <= 3) {
+    // One size for every level; a level count out of range is reported by validate().
+    if (v.config.grid_levels <= LSNIF_MAX_LEVELS) set_table_log2(v.config, stored_m);
+  } else {
+    if (stored_m != 0)
+      return Status::error("config field M (offset %zu) is %u in a version 4 file: version 4 stores the table "
+                           "sizes per level at offset %zu, M must be 0", kOffConfig + kConfigTableLog2, stored_m,
+                           kOffTableLog2);
+    for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) v.config.table_log2[l] = get_u32(data + kOffTableLog2 + 4 * l);
+  }
   if (version >= 3) {
     v.config.grid_bits = get_u32(data + kOffGridBits);
-    if (v.config.grid_bits != 8)
+    if (version == 3 && v.config.grid_bits != 8)
       return Status::error("grid bits %u in a version 3 file: version 3 stores 8-bit grid features",
                            v.config.grid_bits);
     if (get_u32(data + kOffReserved) != 0)
@@ -245,6 +268,9 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   }
   if (Status s = v.config.validate(); !s) return s.context("invalid config in header");
   const Config& c = v.config;
+  if (version == 4 && c.uniform_table_log2())
+    return Status::error("version 4 file whose %u levels all have 2^%u table entries (such a model is stored as "
+                         "version 1, 2 or 3)", c.grid_levels, c.table_log2[0]);
 
   for (int a = 0; a < 3; ++a) {
     v.bounds_lo[a] = get_f32(data + kOffAabb + 4 * a);
@@ -261,7 +287,7 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   uint64_t training_bytes = 0;
   if (version >= 2) {
     training_bytes = get_u64(data + kOffSections + 16 * kTraining + 8);
-    const uint64_t least = version == 2 ? 1 : 0;  // version 3: the record is optional
+    const uint64_t least = version == 2 ? 1 : 0;  // versions 3 and 4: the record is optional
     if (training_bytes < least || training_bytes > kMaxTrainingRecordBytes)
       return Status::error("section training has size %llu bytes, expected %llu to %llu", ull(training_bytes),
                            ull(least), ull(kMaxTrainingRecordBytes));
@@ -333,15 +359,17 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
                              double(scale));
       v.grid_scales[l] = scale;
     }
-    const uint64_t per_level = uint64_t(c.table_size()) * c.features;
-    for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) {
-      if (v.grid[i] == 0x80)
-        return Status::error("grid section code %llu (of %llu) is -128, outside the int8 codes [-127, 127]", ull(i),
-                             ull(c.grid_parameter_count()));
-      // One encoding per model: a level of scale 0 holds only zero codes.
-      if (v.grid[i] != 0 && v.grid_scales[i / per_level] == 0.0f)
-        return Status::error("grid section code %llu is %d in level %llu, whose scale is 0 (codes must be 0)", ull(i),
-                             int(static_cast<int8_t>(v.grid[i])), ull(i / per_level));
+    for (uint32_t l = 0; l < c.grid_levels; ++l) {
+      const uint64_t first = c.level_entry_offset(l) * c.features, last = c.level_entry_offset(l + 1) * c.features;
+      for (uint64_t i = first; i < last; ++i) {
+        if (v.grid[i] == 0x80)
+          return Status::error("grid section code %llu (of %llu) is -128, outside the int8 codes [-127, 127]", ull(i),
+                               ull(c.grid_parameter_count()));
+        // One encoding per model: a level of scale 0 holds only zero codes.
+        if (v.grid[i] != 0 && v.grid_scales[l] == 0.0f)
+          return Status::error("grid section code %llu is %d in level %u, whose scale is 0 (codes must be 0)", ull(i),
+                               int(static_cast<int8_t>(v.grid[i])), l);
+      }
     }
   }
   const struct {
@@ -437,13 +465,13 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
       if (!grid_scale_usable(contents.grid_scales[l]))
         return Status::error("cannot save model: grid scale of level %u is %g, not a finite non-negative number", l,
                              double(contents.grid_scales[l]));
-    const uint64_t per_level = uint64_t(c.table_size()) * c.features;
-    for (uint64_t i = 0; i < c.grid_parameter_count(); ++i) {
-      if (contents.grid_codes[i] < -127)
-        return Status::error("cannot save model: grid code %llu is -128, outside [-127, 127]", ull(i));
-      if (contents.grid_codes[i] != 0 && contents.grid_scales[i / per_level] == 0.0f)
-        return Status::error("cannot save model: grid code %llu is not 0 in a level of scale 0", ull(i));
-    }
+    for (uint32_t lv = 0; lv < c.grid_levels; ++lv)
+      for (uint64_t i = c.level_entry_offset(lv) * c.features; i < c.level_entry_offset(lv + 1) * c.features; ++i) {
+        if (contents.grid_codes[i] < -127)
+          return Status::error("cannot save model: grid code %llu is -128, outside [-127, 127]", ull(i));
+        if (contents.grid_codes[i] != 0 && contents.grid_scales[lv] == 0.0f)
+          return Status::error("cannot save model: grid code %llu is not 0 in a level of scale 0", ull(i));
+      }
   }
   for (const auto& section : params)
     for (uint64_t i = 0; i < section.count; ++i)
@@ -460,6 +488,8 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   put_u64(d + kOffFileSize, l.file_size);
   write_config(d + kOffConfig, c);
   if (l.version >= 3) put_u32(d + kOffGridBits, c.grid_bits);
+  if (l.version >= 4)
+    for (uint32_t lv = 0; lv < LSNIF_MAX_LEVELS; ++lv) put_u32(d + kOffTableLog2 + 4 * lv, c.table_log2[lv]);
   for (int a = 0; a < 3; ++a) {
     put_f32(d + kOffAabb + 4 * a, contents.bounds_lo[a]);
     put_f32(d + kOffAabb + 12 + 4 * a, contents.bounds_hi[a]);

@@ -15,8 +15,10 @@ namespace lsnif {
 
 // Models with 16-bit grid features are written as version 1 without a training record (the layout
 // before the record existed) and as version 2 with one; models with 8-bit grid features as version 3
-// (int8 codes and per-level fp32 scales, the record optional). All three are read.
-constexpr uint32_t kModelFormatVersion = 3;
+// (int8 codes and per-level fp32 scales, the record optional); models whose levels' hash tables
+// differ in size (Config::table_log2) as version 4 (the layout of version 3 plus the size of every
+// level's table; 16- or 8-bit features). All four are read.
+constexpr uint32_t kModelFormatVersion = 4;
 // The training section (version 2): compact JSON text, at most this many bytes.
 constexpr size_t kMaxTrainingRecordBytes = 65536;
 constexpr size_t kModelMaterialNameBytes = 64;  // NUL-terminated: at most 63 bytes of name
@@ -40,7 +42,7 @@ struct ModelFileView {
   const uint8_t* grid = nullptr;               // config.grid_parameter_count() fp16 values or int8 codes
   const uint8_t* mlp = nullptr;                // config.mlp_parameter_count() fp16 values
   float grid_scales[LSNIF_MAX_LEVELS] = {};    // grid_bits 8: per level, finite, >= 0 (else 0)
-  uint32_t version = 0;                        // 1, 2 or 3
+  uint32_t version = 0;                        // 1 to 4
   std::string training;                        // the training record (version 2), else empty
 };
 
@@ -59,7 +61,7 @@ struct ModelFileSizes {
 };
 ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes);
 
-// Parses and validates a whole .lsnif file in memory (format version 1, 2 or 3): magic, version,
+// Parses and validates a whole .lsnif file in memory (format version 1 to 4): magic, version,
 // sizes, the config, the AABB,
 // section table, zero padding, CRC-32, material names (valid UTF-8 without control characters),
 // the AABB within +-kMaxModelCoordinate, no voxel bits beyond V^3, no NaN or
@@ -85,7 +87,8 @@ struct ModelFileContents {
   const uint16_t* mlp = nullptr;        // config.mlp_parameter_count() values
   // The training record (train/settings_io.h): empty writes a version 1 file, else version 2 with
   // a training section (valid UTF-8 without control characters, at most kMaxTrainingRecordBytes).
-  // grid_bits 8 always writes version 3, its training section possibly empty.
+  // grid_bits 8 always writes version 3, its training section possibly empty; levels with tables of
+  // different sizes version 4 (its training section possibly empty).
   std::string training;
 };
 

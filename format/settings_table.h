@@ -16,6 +16,7 @@ namespace lsnif {
 
 enum class SettingKind : uint8_t {
   U32,     // unsigned integer in [min, max]
+  U32PerLevel,  // U32 for every grid level, or a list of one per level (each in [min, max])
   U64,     // any unsigned 64-bit integer (min, max unused)
   F32,     // finite float in [min, max], either end open with min_open / max_open
   Choice,  // one of `choices` by name; the value is the choice's `value`
@@ -65,6 +66,11 @@ namespace setting_detail {
 constexpr SettingDef u32(SettingId id, const char* name, uint32_t def, uint32_t min, uint32_t max, const char* help) {
   return {id, name, SettingKind::U32, double(def), double(min), double(max), false, false, nullptr, 0, "", help};
 }
+constexpr SettingDef u32_per_level(SettingId id, const char* name, uint32_t def, uint32_t min, uint32_t max,
+                                   const char* help) {
+  return {id, name, SettingKind::U32PerLevel, double(def), double(min), double(max), false, false, nullptr, 0, "",
+          help};
+}
 constexpr SettingDef f32(SettingId id, const char* name, double def, double min, bool min_open, double max,
                          bool max_open, const char* noun, const char* help) {
   return {id, name, SettingKind::F32, def, min, max, min_open, max_open, nullptr, 0, noun, help};
@@ -85,7 +91,9 @@ inline constexpr SettingDef kSettingDefs[] = {
                         "coarsest grid resolution (a multiple of the voxel resolution)"),
     setting_detail::u32(SettingId::ResMax, "res-max", 128, 1, kMaxGridResolution,
                         "finest grid resolution (a multiple of the voxel resolution)"),
-    setting_detail::u32(SettingId::TableLog2, "table-log2", 17, 4, 24, "log2 hash-table entries per level M"),
+    setting_detail::u32_per_level(SettingId::TableLog2, "table-log2", 17, 4, 24,
+                                  "log2 hash-table entries M of every level, or a comma list of one per level "
+                                  "(e.g. 15,17)"),
     setting_detail::u32(SettingId::Features, "features", 3, 1, LSNIF_MAX_FEATURES, "features per entry F"),
     setting_detail::u32(SettingId::Width, "width", 128, 1, LSNIF_MAX_HIDDEN_WIDTH, "hidden layer width W"),
     setting_detail::u32(SettingId::Layers, "layers", 2, 1, LSNIF_MAX_HIDDEN_LAYERS, "hidden layers"),

@@ -59,7 +59,8 @@
  * the block. Sections:
  *  voxels: V^3 occupancy bits exactly as VoxelGrid::bits (voxel i + V*(j + V*k), bit idx & 31 of
  *          word idx >> 5).
- *  grid:   the hash tables, element order of hash_grid.h: e = (level * 2^M + entry) * F + feature.
+ *  grid:   the hash tables, element order of hash_grid.h: e = (offset_l + entry) * F + feature,
+ *          offset_l = sum of 2^M_k over the levels k < l (level l's table has 2^M_l entries).
  *          grid_bits 16: fp16, two per word (element e in word e >> 1, low half when e is even:
  *          unpackHalf2x16). grid_bits 8: int8 codes in [-127, 127], four per word (element e in
  *          byte e & 3 of word e >> 2, two's complement), the value code * grid_scale<level> in fp32
@@ -74,8 +75,10 @@
  *          Every layer has a multiple of 8 words.
  * All fields are 32-bit uint or float, so the struct has identical std430 layout in C++ and GLSL. */
 #define LSNIF_GPU_MAGIC 0x4647534Cu /* "LSGF" little-endian */
-#define LSNIF_GPU_VERSION 3u
+#define LSNIF_GPU_VERSION 4u
 #define LSNIF_GPU_ROW_WORDS(n) (((n) + 1u) >> 1)
+/* M_l of level l from LsnifGpuModelHeader::table_log2. */
+#define LSNIF_GPU_TABLE_LOG2(packed, level) (((packed) >> (8u * (level))) & 0xffu)
 #define LSNIF_GPU_ROW_BLOCK 8u
 #define LSNIF_GPU_ROW_BLOCKS(n) (((n) + LSNIF_GPU_ROW_BLOCK - 1u) / LSNIF_GPU_ROW_BLOCK)
 
@@ -98,7 +101,7 @@ struct LsnifGpuModelHeader {
   lsnif_uint max_points;       /* H */
   lsnif_uint grid_levels;      /* L */
   lsnif_uint grid_resolution0, grid_resolution1, grid_resolution2, grid_resolution3; /* R_l, 0 unused */
-  lsnif_uint log2_table_size;  /* M */
+  lsnif_uint table_log2;       /* M_l of level l in bits [8l, 8l + 8): LSNIF_GPU_TABLE_LOG2 */
   lsnif_uint features;         /* F */
   lsnif_uint hidden_width;     /* W */
   lsnif_uint hidden_layers;

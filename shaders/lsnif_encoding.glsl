@@ -22,11 +22,12 @@ uint lsnif_hash_vertex(uvec3 v, uint log2_size) {
 
 // encode + face_corners: accumulates point j's features at every level into lsnif_act.
 void lsnif_encode_point(LsnifModel m, uint j) {
-  const uint L = m.h.grid_levels, F = m.h.features, M = m.h.log2_table_size;
+  const uint L = m.h.grid_levels, F = m.h.features;
   const vec3 p = lsnif_walk.p[j];
   const uint a = lsnif_walk.axis[j], b = (a + 1u) % 3u, c = (a + 2u) % 3u;
+  uint offset = 0u;  // entries of the levels before l
   for (uint l = 0u; l < L; ++l) {
-    const uint R = lsnif_grid_resolution(m, l);
+    const uint R = lsnif_grid_resolution(m, l), M = LSNIF_GPU_TABLE_LOG2(m.h.table_log2, l);
     const float Rf = float(R);
     // The plane coordinate is (up to rounding) an integer; std::lround of a non-negative value.
     const float xa = clamp(p[a] * Rf, 0.0, Rf);
@@ -35,7 +36,6 @@ void lsnif_encode_point(LsnifModel m, uint j) {
     const float xb = clamp(p[b] * Rf, 0.0, Rf), xc = clamp(p[c] * Rf, 0.0, Rf);
     const uint ib = min(uint(xb), R - 1u), ic = min(uint(xc), R - 1u);
     const float wb = xb - float(ib), wc = xc - float(ic);
-    const uint offset = l << M;
     const uint out_base = (j * L + l) * F;
     for (uint k = 0u; k < 4u; ++k) {
       uvec3 v;
@@ -47,6 +47,7 @@ void lsnif_encode_point(LsnifModel m, uint j) {
       for (uint f = 0u; f < F; ++f)
         lsnif_act[out_base + f] += weight * lsnif_grid_value(m, l, entry * F + f);
     }
+    offset += 1u << M;
   }
 }
 

@@ -36,7 +36,9 @@ TEST(BenchSizeCli, QuickBunnyTableMatchesTheFilesAndTheDevice) {
     if (!fs::exists(kData + "/meshes/" + f)) GTEST_SKIP() << f << " missing: run scripts/setup.sh";
   lsnif::test::ScopedTestDir dir("lsnif_bench_size_cli_test");
   const std::string out = dir.path().string();
-  const std::string settings = "default,grid-bits=8+table-log2=11";
+  // The second setting's list value keeps its comma; its levels' tables differ in size (version 4).
+  const std::string small_name = "grid-bits=8+table-log2=10,12";
+  const std::string settings = "default," + small_name;
   lsnif::test::CommandResult r = run_cli("bench-size bunny --quick --settings " + settings + " --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* want : {"model     training", "render (LSNIF)", "LDR-FLIP", "results.md"})
@@ -44,17 +46,18 @@ TEST(BenchSizeCli, QuickBunnyTableMatchesTheFilesAndTheDevice) {
 
   const std::string md = read_text(dir.path() / "results.md");
   const std::vector<std::string> base = table_row(md, "| bunny | default |");
-  const std::vector<std::string> small = table_row(md, "| bunny | grid-bits=8+table-log2=11 |");
+  const std::vector<std::string> small = table_row(md, "| bunny | " + small_name + " |");
   ASSERT_EQ(base.size(), 9u) << md;
   ASSERT_EQ(small.size(), 9u) << md;
   // Model bytes: the files themselves.
   const fs::path base_model = dir.path() / "bunny" / "default.lsnif";
-  const fs::path small_model = dir.path() / "bunny" / "grid-bits=8+table-log2=11.lsnif";
+  const fs::path small_model = dir.path() / "bunny" / (small_name + ".lsnif");
   ASSERT_TRUE(fs::exists(base_model) && fs::exists(small_model)) << md;
   EXPECT_EQ(number(base[2]), double(fs::file_size(base_model)));
   EXPECT_EQ(number(small[2]), double(fs::file_size(small_model)));
-  // Half the table entries at a byte each instead of two: the grid is a quarter of the default's.
+  // 2^10 + 2^12 entries instead of 2 x 2^12 (--quick), at a byte each instead of two.
   EXPECT_LT(fs::file_size(small_model), fs::file_size(base_model));
+  EXPECT_EQ(read_text(small_model)[8], 4);
   EXPECT_EQ(base[3], "1.00x");
   EXPECT_NEAR(number(small[3].substr(0, small[3].size() - 1)),
               double(fs::file_size(base_model)) / double(fs::file_size(small_model)), 0.006);
@@ -78,7 +81,7 @@ TEST(BenchSizeCli, QuickBunnyTableMatchesTheFilesAndTheDevice) {
                                    off_faces(kData + "/meshes/ChineseDragon-10kv.off") * 64;
   ASSERT_GT(heavy_triangles, 1000000u);
   for (const auto& [name, model] : {std::pair{std::string("default"), base_model},
-                                    std::pair{std::string("grid-bits=8+table-log2=11"), small_model}}) {
+                                    std::pair{small_name, small_model}}) {
     const std::vector<std::string> h = table_row(md, "| " + name + " | ");
     ASSERT_EQ(h.size(), 6u) << md;
     r = lsnif::test::run_command(std::string(LSNIF_CLI) + " bench-memory " + kBunny + " " + model.string() +
@@ -122,6 +125,9 @@ TEST(BenchSizeCli, BadSettingsMeshesAndMissingData) {
       {"--settings colour=8", "unknown setting 'colour'"},
       {"--settings table-log2=many", "invalid value 'many' for table-log2"},
       {"--settings table-log2=30", "table-log2"},
+      {"--settings table-log2=15,30", "table-log2 15,30: 30 (level 1) out of range"},
+      {"--settings table-log2=15,16,17", "table-log2 15,16,17 gives 3 values for 2 levels"},
+      {"--settings default,17", "unknown setting '17'"},
       {"unicorn", "unknown mesh 'unicorn'"},
   };
   for (const Case& c : cases) {

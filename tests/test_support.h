@@ -40,7 +40,7 @@ inline TrainSettings tiny_train_settings() {
   s.config.voxel_resolution = 16;
   s.config.max_points = 12;
   set_grid_resolutions(s.config, 32, 64);
-  s.config.log2_table_size = 14;
+  set_table_log2(s.config, 14);
   s.config.hidden_width = 64;
   s.batch_size = 2048;
   return s;

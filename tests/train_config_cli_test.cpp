@@ -229,6 +229,65 @@ TEST_F(TrainConfigCli, EightBitGridEndToEnd) {
   EXPECT_NE(r.output.find("grid-bits"), std::string::npos) << r.output;
 }
 
+// `--table-log2 6,8`: level 0's table 2^6 entries, level 1's 2^8, a version 4 file; `lsnif info`
+// reports the sizes, the record reproduces the model, and bad lists fail naming the option.
+TEST_F(TrainConfigCli, TableSizesPerLevelEndToEnd) {
+  const std::string cfg = write("tiny.json", tiny_);
+  const std::string model = dir_.path("levels.lsnif"), same = dir_.path("same.lsnif");
+  ProcessResult r = train(model, {"--config", cfg, "--seed", "5", "--table-log2", "6,8", "--grid-bits", "8"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string b = read(model);
+  EXPECT_EQ(b[8], 4);
+  r = lsnif({"info", "--json", model});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["table_log2"], nlohmann::json::array({6, 8}));
+  EXPECT_EQ(j["bytes"]["grid"], (64 + 256) * 3 + 2 * 4);  // one byte per feature, a scale per level
+  EXPECT_EQ(j["training"]["settings"]["table-log2"], nlohmann::json::array({6, 8}));
+  r = lsnif({"info", "--grid-usage", model});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("M=6,8 "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(" table-log2=6,8 "), std::string::npos) << r.output;  // the recorded settings
+  EXPECT_NE(r.output.find("(2 levels: 2^6 + 2^8 entries x 3 features, int8"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(" of 64 entries used"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(" of 256 entries used"), std::string::npos) << r.output;
+  // The recorded settings reproduce the model byte for byte.
+  r = lsnif({"info", "--settings", model});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = train(same, {"--config", write("levels.json", r.output)});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(read(same), b);
+  r = lsnif({"eval", model, kMesh, "--rays", "200"});
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  // One value per level, all equal: the model of one value, written as before (version 2).
+  ProcessResult one = train(same, {"--config", cfg, "--seed", "5", "--table-log2", "8,8"});
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  const std::string equal_list = read(same);
+  one = train(same, {"--config", cfg, "--seed", "5", "--table-log2", "8"});
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  EXPECT_EQ(equal_list[8], 2);
+  EXPECT_EQ(read(same), equal_list);
+  const struct {
+    std::vector<std::string> args;
+    std::string message;
+  } bad[] = {
+      {{"--table-log2", "6,8,10"}, "--table-log2 6,8,10 gives 3 values for 2 levels (--levels)"},
+      {{"--table-log2", "6,30"}, "--table-log2 6,30: 30 (level 1) out of range [4, 24]"},
+      {{"--table-log2", "6,"}, "--table-log2"},
+      {{"--table-log2", "6,x"}, "--table-log2"},
+      {{"--table-log2", "1,2,3,4,5"}, "--table-log2"},
+      {{"--levels", "3", "--table-log2", "6,8"}, "2 values for 3 levels"},
+  };
+  for (const auto& c : bad) {
+    std::vector<std::string> args = {"--config", cfg};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    r = train(dir_.path("bad.lsnif"), args);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(c.message), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir_.path("bad.lsnif")));
+  }
+}
+
 TEST_F(TrainConfigCli, ConvertTakesTheConfigAndRecordsTheSettings) {
   const fs::path example =
       fs::path(__FILE__).parent_path().parent_path() / "samples/scene/examples/bunny_on_plane.gltf";

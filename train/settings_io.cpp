@@ -72,6 +72,19 @@ Status check_range(const SettingDef& d, const SettingValue& v, const std::string
                              uint32_t(d.max));
       return Status::ok();
     }
+    case SettingKind::U32PerLevel: {
+      if (v.level_count == 0) {
+        if (v.u < uint64_t(d.min) || v.u > uint64_t(d.max))
+          return Status::error("%s %llu out of range [%u, %u]", label.c_str(), (unsigned long long)v.u,
+                               uint32_t(d.min), uint32_t(d.max));
+        return Status::ok();
+      }
+      for (uint32_t l = 0; l < v.level_count; ++l)
+        if (v.per_level[l] < uint32_t(d.min) || v.per_level[l] > uint32_t(d.max))
+          return Status::error("%s %s: %u (level %u) out of range [%u, %u]", label.c_str(), setting_text(d, v).c_str(),
+                               v.per_level[l], l, uint32_t(d.min), uint32_t(d.max));
+      return Status::ok();
+    }
     case SettingKind::F32: {
       const double x = v.f;
       const bool ok = std::isfinite(v.f) && (d.min_open ? x > d.min : x >= d.min) && (d.max_open ? x < d.max : x <= d.max);
@@ -146,6 +159,11 @@ Status check_together(const SettingValues& v, const Origins& origin) {
                          "must lie on grid planes)",
                          file_prefix(origin, {ResMin, ResMax, Voxels}).c_str(), label(ResMin).c_str(), u32(ResMin),
                          label(ResMax).c_str(), u32(ResMax), u32(Voxels), label(Voxels).c_str());
+  if (v[TableLog2].level_count != 0 && v[TableLog2].level_count != u32(Levels))
+    return Status::error("%s%s %s gives %u values for %u levels (%s): give one value for every level or one per level",
+                         file_prefix(origin, {TableLog2, Levels}).c_str(), label(TableLog2).c_str(),
+                         setting_text(setting_def(TableLog2), v[TableLog2]).c_str(), v[TableLog2].level_count,
+                         u32(Levels), label(Levels).c_str());
   if (u32(RayReuse) > u32(Batch))
     return Status::error("%s%s %u must be in [1, %s %u]", file_prefix(origin, {RayReuse, Batch}).c_str(),
                          label(RayReuse).c_str(), u32(RayReuse), label(Batch).c_str(), u32(Batch));
@@ -170,6 +188,22 @@ Status json_value(const SettingDef& d, const nlohmann::json& j, SettingValue& ou
       if (d.kind == SettingKind::U32 && out.u > 0xffffffffull)
         return Status::error("%llu is larger than %u", (unsigned long long)out.u, uint32_t(kU32Max));
       return Status::ok();
+    case SettingKind::U32PerLevel: {
+      if (j.is_number_unsigned() && j.get<uint64_t>() <= 0xffffffffull) {
+        out.u = j.get<uint64_t>();
+        return Status::ok();
+      }
+      uint32_t values[LSNIF_MAX_LEVELS] = {};
+      bool ok = j.is_array() && !j.empty() && j.size() <= LSNIF_MAX_LEVELS;
+      for (size_t i = 0; ok && i < j.size(); ++i) {
+        ok = j[i].is_number_unsigned() && j[i].get<uint64_t>() <= 0xffffffffull;
+        if (ok) values[i] = static_cast<uint32_t>(j[i].get<uint64_t>());
+      }
+      if (!ok || !per_level_value(values, j.size(), out))
+        return Status::error("must be an unsigned integer or a list of 1 to %u of them (one per level), not %s",
+                             LSNIF_MAX_LEVELS, printable(j.dump()).c_str());
+      return Status::ok();
+    }
     case SettingKind::F32: {
       if (!j.is_number()) return type_error("a number");
       const double x = j.get<double>();
@@ -219,6 +253,18 @@ SettingValue setting_value(const SettingDef& d, double value) {
   if (d.kind == SettingKind::F32) v.f = static_cast<float>(value);
   else v.u = static_cast<uint64_t>(value);
   return v;
+}
+
+bool per_level_value(const uint32_t* values, size_t count, SettingValue& out) {
+  if (count == 0 || count > LSNIF_MAX_LEVELS) return false;
+  out = SettingValue();
+  if (count == 1) {
+    out.u = values[0];
+    return true;
+  }
+  out.level_count = static_cast<uint32_t>(count);
+  for (size_t l = 0; l < count; ++l) out.per_level[l] = values[l];
+  return true;
 }
 
 SettingValues SettingValues::defaults() {
@@ -330,7 +376,10 @@ void to_train_settings(const SettingValues& v, TrainSettings& s) {
   c.max_points = u32(Points);
   c.grid_levels = u32(Levels);
   set_grid_resolutions(c, u32(ResMin), u32(ResMax));
-  c.log2_table_size = u32(TableLog2);
+  const SettingValue& m = v[TableLog2];
+  const uint32_t every_level = static_cast<uint32_t>(m.u);
+  if (m.level_count) set_table_log2(c, m.per_level.data(), m.level_count);
+  else set_table_log2(c, every_level);
   c.features = u32(Features);
   c.hidden_width = u32(Width);
   c.hidden_layers = u32(Layers);
@@ -369,7 +418,8 @@ SettingValues from_train_settings(const TrainSettings& s) {
   v[Levels].u = c.grid_levels;
   v[ResMin].u = c.grid_resolution[0];
   v[ResMax].u = c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS ? c.grid_resolution[c.grid_levels - 1] : 0;
-  v[TableLog2].u = c.log2_table_size;
+  if (c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS)
+    per_level_value(c.table_log2, c.uniform_table_log2() ? 1 : c.grid_levels, v[TableLog2]);
   v[Features].u = c.features;
   v[Width].u = c.hidden_width;
   v[Layers].u = c.hidden_layers;
@@ -404,6 +454,15 @@ std::string setting_text(const SettingDef& d, const SettingValue& v) {
   switch (d.kind) {
     case SettingKind::U32:
     case SettingKind::U64: return std::to_string(v.u);
+    case SettingKind::U32PerLevel: {
+      if (v.level_count == 0) return std::to_string(v.u);
+      std::string text;
+      for (uint32_t l = 0; l < v.level_count && l < LSNIF_MAX_LEVELS; ++l) {
+        if (l) text += ',';
+        text += std::to_string(v.per_level[l]);
+      }
+      return text;
+    }
     case SettingKind::F32: return float_text(v.f);
     case SettingKind::Choice:
       for (uint32_t c = 0; c < d.choice_count; ++c)
@@ -420,6 +479,10 @@ nlohmann::ordered_json settings_to_json(const SettingValues& values) {
     switch (d.kind) {
       case SettingKind::U32:
       case SettingKind::U64: j[d.name] = v.u; break;
+      case SettingKind::U32PerLevel:
+        if (v.level_count == 0) j[d.name] = v.u;
+        else j[d.name] = std::vector<uint32_t>(v.per_level.begin(), v.per_level.begin() + v.level_count);
+        break;
       // The shortest decimal of the float as a double: 0.01f is written 0.01, and reads back as 0.01f.
       case SettingKind::F32: j[d.name] = std::strtod(float_text(v.f).c_str(), nullptr); break;
       case SettingKind::Choice: j[d.name] = setting_text(d, v); break;

@@ -19,15 +19,22 @@
 
 namespace lsnif {
 
-// One setting's value: U32, U64 and Choice (the choice's value) in `u`, F32 in `f`.
+// One setting's value: U32, U64 and Choice (the choice's value) in `u`, F32 in `f`. U32PerLevel:
+// one value for every level in `u` (level_count 0), or level_count (>= 2) values, one per level, in
+// per_level.
 struct SettingValue {
   uint64_t u = 0;
   float f = 0.0f;
+  uint32_t level_count = 0;
+  std::array<uint32_t, LSNIF_MAX_LEVELS> per_level{};
   bool operator==(const SettingValue&) const = default;
 };
 
 // A number of the table (a default, a bound, a preset's value) as a value of setting `def`.
 SettingValue setting_value(const SettingDef& def, double value);
+// A U32PerLevel value from `count` numbers (at most LSNIF_MAX_LEVELS; one: every level). False when
+// `count` is 0 or more than LSNIF_MAX_LEVELS.
+bool per_level_value(const uint32_t* values, size_t count, SettingValue& out);
 
 // Every setting's value, indexed by SettingId.
 struct SettingValues {
@@ -77,7 +84,7 @@ SettingValues from_train_settings(const TrainSettings& settings);
 // The settings as a JSON object in table order, the form a `--config` file takes; floats written as
 // the shortest decimal that reads back as the same float.
 nlohmann::ordered_json settings_to_json(const SettingValues& values);
-// One value as text: "32", "0.01", "segments".
+// One value as text: "32", "0.01", "segments", "15,17".
 std::string setting_text(const SettingDef& def, const SettingValue& value);
 
 // 64-bit FNV-1a of `bytes`.

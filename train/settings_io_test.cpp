@@ -35,6 +35,7 @@ TEST(SettingsTable, EveryDefaultIsInItsRangeAndTheDefaultsAreValid) {
     EXPECT_FALSE(std::string(d.help).empty());
     switch (d.kind) {
       case SettingKind::U32:
+      case SettingKind::U32PerLevel:
         EXPECT_LE(d.min, d.def);
         EXPECT_LE(d.def, d.max);
         EXPECT_LE(d.max, kU32Max);
@@ -148,7 +149,7 @@ TEST(SettingsConfig, JsonAndTrainSettingsRoundTrip) {
   // Every setting away from its default, floats that are not short decimals included.
   SettingLayer layer;
   ASSERT_TRUE(parse_settings_json(
-      R"({"voxels": 16, "points": 7, "levels": 3, "res-min": 32, "res-max": 256, "table-log2": 10, "features": 2,
+      R"({"voxels": 16, "points": 7, "levels": 3, "res-min": 32, "res-max": 256, "table-log2": [10, 9, 11], "features": 2,
           "width": 24, "layers": 3, "hit": "aabb", "leaky-slope": 0.02, "grid-bits": "8", "steps": 3, "batch": 100,
           "seed": 18446744073709551615, "ray-reuse": 2, "lr": 0.0033333333, "lr-schedule": "cosine",
           "lr-final": 0.05, "lr-warm": 0.3, "adam-beta1": 0.8, "adam-beta2": 0.95,
@@ -172,6 +173,48 @@ TEST(SettingsConfig, JsonAndTrainSettingsRoundTrip) {
   SettingValues w;
   ASSERT_TRUE(resolve_settings({&again}, w));
   EXPECT_EQ(w, v);
+}
+
+// table-log2: one value for every level (the form before per-level sizes) or a list of one per level.
+TEST(SettingsConfig, TableSizesPerLevel) {
+  SettingValues v;
+  TrainSettings s;
+  ASSERT_EQ(config_error(R"({"table-log2": 15})", &v), "");
+  to_train_settings(v, s);
+  EXPECT_EQ(s.config.table_log2[0], 15u);
+  EXPECT_EQ(s.config.table_log2[1], 15u);
+  EXPECT_EQ(s.config.table_log2[2], 0u);
+  EXPECT_EQ(settings_to_json(v)["table-log2"], 15);  // written as before
+  ASSERT_EQ(config_error(R"({"table-log2": [15, 17]})", &v), "");
+  to_train_settings(v, s);
+  EXPECT_EQ(s.config.table_log2[0], 15u);
+  EXPECT_EQ(s.config.table_log2[1], 17u);
+  ASSERT_TRUE(s.config.validate());
+  EXPECT_EQ(s.config.grid_parameter_count(), uint64_t((1u << 15) + (1u << 17)) * 3);
+  EXPECT_EQ(from_train_settings(s), v);
+  EXPECT_EQ(settings_to_json(v)["table-log2"], nlohmann::json::array({15, 17}));
+  EXPECT_EQ(setting_text(setting_def(SettingId::TableLog2), v[SettingId::TableLog2]), "15,17");
+  // Three levels, three sizes; a list of one is every level.
+  ASSERT_EQ(config_error(R"({"levels": 3, "table-log2": [12, 14, 16]})", &v), "");
+  to_train_settings(v, s);
+  EXPECT_EQ(s.config.describe().find("M=12,14,16 "), s.config.describe().find("M=")) << s.config.describe();
+  ASSERT_EQ(config_error(R"({"levels": 3, "table-log2": [13]})", &v), "");
+  to_train_settings(v, s);
+  for (uint32_t l = 0; l < 3; ++l) EXPECT_EQ(s.config.table_log2[l], 13u);
+  // Equal values per level are the same model as one value: recorded as one.
+  ASSERT_EQ(config_error(R"({"table-log2": [16, 16]})", &v), "");
+  to_train_settings(v, s);
+  EXPECT_EQ(settings_to_json(from_train_settings(s))["table-log2"], 16);
+  // Errors name the key, the list and the problem.
+  expect_error(R"({"table-log2": [15, 16, 17]})",
+               {"cfg.json", "\"table-log2\" 15,16,17 gives 3 values for 2 levels", "one per level"});
+  expect_error(R"({"levels": 3, "table-log2": [15, 17]})", {"cfg.json", "2 values for 3 levels", "\"levels\""});
+  expect_error(R"({"table-log2": [15, 30]})", {"cfg.json", "\"table-log2\" 15,30: 30 (level 1) out of range [4, 24]"});
+  expect_error(R"({"table-log2": 3})", {"cfg.json", "\"table-log2\" 3 out of range [4, 24]"});
+  expect_error(R"({"table-log2": []})", {"cfg.json", "\"table-log2\"", "list of 1 to 4"});
+  expect_error(R"({"table-log2": [15, "17"]})", {"cfg.json", "\"table-log2\"", "unsigned integer or a list"});
+  expect_error(R"({"table-log2": [1, 2, 3, 4, 5]})", {"cfg.json", "\"table-log2\"", "list of 1 to 4"});
+  expect_error(R"({"table-log2": -2})", {"cfg.json", "\"table-log2\"", "unsigned integer"});
 }
 
 TEST(SettingsConfig, TrainingRecordHoldsTheSettingsAndTheMesh) {

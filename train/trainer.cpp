@@ -79,10 +79,9 @@ void encode_batch_backward(const Config& config, const std::vector<RayWalk>& wal
   {
     const size_t nt = size_t(omp_get_num_threads()), t = size_t(omp_get_thread_num());
     const uint32_t lo = uint32_t(entries * t / nt), hi = uint32_t(entries * (t + 1) / nt);
-    // Levels whose entries overlap [lo, hi): with as many threads as levels (the default 2 and 2),
-    // each thread owns exactly one level and the range test below never fails.
-    const uint32_t T = config.table_size();
-    const uint32_t l_first = lo / T, l_last = std::min(L - 1, (hi - 1) / T);
+    // Levels whose entries overlap [lo, hi): with as many threads as levels of equal table sizes (the
+    // default 2 and 2), each thread owns exactly one level and the range test below never fails.
+    const uint32_t l_first = config.level_of_entry(lo), l_last = std::min(L - 1, config.level_of_entry(hi - 1));
     if (lo < hi) {
       for (size_t r = 0; r < walks.size(); ++r) {
         const uint32_t n = std::min(walks[r].count, H);

@@ -97,7 +97,7 @@ inline ConvertSettings tiny_settings(const std::string& in, const std::string& o
   s.output = out;
   s.train = lsnif::test::tiny_train_settings();
   s.train.config.hidden_width = 32;
-  s.train.config.log2_table_size = 12;
+  set_table_log2(s.train.config, 12);
   s.train.steps = 30;
   s.train.batch_size = 1024;
   s.eval_rays = 2000;

@@ -6,6 +6,7 @@
 // the `heavy` scene's triangle BLASes (~3M triangles) to that many LSNIF models of the setting.
 // Writes OUT/results.md and OUT/MESH-SETTING.png (reference | LSNIF | FLIP).
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -41,6 +42,9 @@ const NamedSetting kNamedSettings[] = {
     {"b8", "grid-bits=8"},
     {"b8-m16", "grid-bits=8+table-log2=16"},
     {"b8-m16-w64", "grid-bits=8+table-log2=16+width=64"},
+    // Per-level table sizes: the coarse level (R=64) needs far fewer entries than the fine one.
+    {"b8-m15-17", "grid-bits=8+table-log2=15,17"},
+    {"b8-m16-17", "grid-bits=8+table-log2=16,17"},
 };
 constexpr const char* kDefaultSettings = "default,b8,b8-m16,b8-m16-w64";
 
@@ -97,14 +101,25 @@ bool parse_setting(const std::string& entry, SizeSetting& out) {
   return true;
 }
 
-// Comma-separated entries, each once, in order.
+// Comma-separated entries, each once, in order. A piece of digits alone continues the list value
+// that ends the entry before it (`table-log2=15,17`): no setting name or pair is only digits.
 bool parse_settings(const std::string& text, std::vector<SizeSetting>& out) {
   out.clear();
+  std::vector<std::string> entries;
   size_t at = 0;
   while (at <= text.size()) {
     size_t comma = text.find(',', at);
     if (comma == std::string::npos) comma = text.size();
-    const std::string entry = text.substr(at, comma - at);
+    const std::string piece = text.substr(at, comma - at);
+    const bool digits = !piece.empty() && piece.find_first_not_of("0123456789") == std::string::npos;
+    if (digits && !entries.empty() && entries.back().find('=') != std::string::npos &&
+        std::isdigit(static_cast<unsigned char>(entries.back().back())))
+      entries.back() += "," + piece;
+    else
+      entries.push_back(piece);
+    at = comma + 1;
+  }
+  for (const std::string& entry : entries) {
     if (entry.empty()) {
       std::fprintf(stderr, "lsnif bench-size: empty entry in --settings '%s'\n", printable(text).c_str());
       return false;
@@ -117,7 +132,6 @@ bool parse_settings(const std::string& text, std::vector<SizeSetting>& out) {
         return false;
       }
     out.push_back(std::move(s));
-    at = comma + 1;
   }
   return true;
 }
@@ -244,7 +258,8 @@ int cmd_bench_size(int argc, char** argv) {
   for (const std::string& n : bench_mesh_names()) known += (known.empty() ? "" : ", ") + n;
   args.rest("MESH", "meshes to run: " + known + " (default: all)", &names);
   args.option("settings", "comma-separated settings, the first being the baseline of the ratios: named ones, " +
-              named + ", or NAME=VALUE pairs of `lsnif train` options joined by '+'", &settings_text);
+              named + ", or NAME=VALUE pairs of `lsnif train` options joined by '+' (a list value such as "
+              "table-log2=15,17 keeps its commas)", &settings_text);
   args.option("out", "output folder", &out_dir);
   args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &data_dir);
   args.option("rays", "held-out eval rays (0: 100000, --quick 4000)", &rays);

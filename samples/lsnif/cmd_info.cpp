@@ -27,14 +27,22 @@ Status read_training(const Model& model, nlohmann::json& out) {
 // "name=value" of every recorded setting, in table order, wrapped to lines of about 100 columns;
 // keys the table does not know (a newer writer's) after them.
 std::string settings_lines(const nlohmann::json& settings, const char* indent) {
+  // As an option takes it: strings bare, lists (one value per level) joined by commas.
+  const auto text = [](const nlohmann::json& v) {
+    if (v.is_string()) return v.get<std::string>();
+    if (!v.is_array()) return v.dump();
+    std::string joined;
+    for (const nlohmann::json& e : v) {
+      if (!joined.empty()) joined += ',';
+      joined += e.is_string() ? e.get<std::string>() : e.dump();
+    }
+    return joined;
+  };
   std::vector<std::string> items;
   for (const SettingDef& d : kSettingDefs)
-    if (settings.contains(d.name)) {
-      const nlohmann::json& v = settings[d.name];
-      items.push_back(std::string(d.name) + "=" + (v.is_string() ? v.get<std::string>() : v.dump()));
-    }
+    if (settings.contains(d.name)) items.push_back(std::string(d.name) + "=" + text(settings[d.name]));
   for (const auto& [key, v] : settings.items())
-    if (!find_setting(key)) items.push_back(key + "=" + (v.is_string() ? v.get<std::string>() : v.dump()));
+    if (!find_setting(key)) items.push_back(key + "=" + text(v));
   std::string out, line;
   for (const std::string& item : items) {
     if (!line.empty() && line.size() + item.size() > 90) {
@@ -89,12 +97,19 @@ int cmd_info(int argc, char** argv) {
   const std::vector<GridLevelUsage> levels = usage ? grid_usage(model.config, model.voxels) : std::vector<GridLevelUsage>();
   const Config& c = model.config;
   const Aabb& b = model.bounds();
+  // Per level: "[15, 17]" (JSON) and "2^15 + 2^17" (text).
+  std::string table_log2_json = "[", table_entries_text;
+  for (uint32_t l = 0; l < c.grid_levels; ++l) {
+    table_log2_json += format("%s%u", l ? ", " : "", c.table_log2[l]);
+    table_entries_text += format("%s2^%u", l ? " + " : "", c.table_log2[l]);
+  }
+  table_log2_json += "]";
   if (json) {
     std::printf("{\"config\": \"%s\", \"voxel_resolution\": %u, \"max_points\": %u, \"grid_levels\": %u, "
-                "\"log2_table_size\": %u, \"features\": %u, \"hidden_width\": %u, \"hidden_layers\": %u, "
+                "\"table_log2\": %s, \"features\": %u, \"hidden_width\": %u, \"hidden_layers\": %u, "
                 "\"material_count\": %u, \"hit_param\": \"%s\", \"grid_bits\": %u, \"occupied_voxels\": %u, "
                 "\"bytes\": {\"voxels\": %llu, \"grid\": %llu, \"mlp\": %llu, \"header\": %llu, \"total\": %llu}",
-                c.describe().c_str(), c.voxel_resolution, c.max_points, c.grid_levels, c.log2_table_size,
+                c.describe().c_str(), c.voxel_resolution, c.max_points, c.grid_levels, table_log2_json.c_str(),
                 c.features, c.hidden_width, c.hidden_layers, c.material_count, to_string(c.hit_param), c.grid_bits,
                 model.voxels.count_occupied(), (unsigned long long)m.voxel_bytes,
                 (unsigned long long)m.grid_bytes, (unsigned long long)m.mlp_bytes,
@@ -118,8 +133,8 @@ int cmd_info(int argc, char** argv) {
               double(b.hi.x), double(b.hi.y), double(b.hi.z));
   std::printf("voxels     %u^3, %u occupied\n", c.voxel_resolution, model.voxels.count_occupied());
   if (training.is_null()) {
-    // Only version 1 files lack the record, and version 3 files (8-bit grids) written without one.
-    std::printf("training   not recorded%s\n", c.grid_bits == 16 ? " (format version 1)" : "");
+    // Only version 1 files lack the record, and version 3 and 4 files written without one.
+    std::printf("training   not recorded%s\n", c.grid_bits == 16 && c.uniform_table_log2() ? " (format version 1)" : "");
   } else {
     std::printf("settings   %s\n", settings_lines(training["settings"], "           ").c_str());
     const nlohmann::json& mesh = training.contains("mesh") ? training["mesh"] : nlohmann::json();
@@ -136,8 +151,11 @@ int cmd_info(int argc, char** argv) {
                 double(model.materials[i].base_color.r), double(model.materials[i].base_color.g),
                 double(model.materials[i].base_color.b));
   std::printf("memory     voxels %8.1f KB\n", double(m.voxel_bytes) / 1024.0);
-  std::printf("           grid   %8.1f KB (%u levels x 2^%u entries x %u features, %s)\n",
-              double(m.grid_bytes) / 1024.0, c.grid_levels, c.log2_table_size, c.features,
+  const std::string tables = c.uniform_table_log2() ? format("%u levels x 2^%u entries", c.grid_levels, c.table_log2[0])
+                                                    : format("%u levels: %s entries", c.grid_levels,
+                                                             table_entries_text.c_str());
+  std::printf("           grid   %8.1f KB (%s x %u features, %s)\n", double(m.grid_bytes) / 1024.0, tables.c_str(),
+              c.features,
               c.grid_bits == 8 ? "int8 x an fp32 scale per level" : "fp16");
   std::printf("           mlp    %8.1f KB (%llu parameters, fp16)\n", double(m.mlp_bytes) / 1024.0,
               (unsigned long long)c.mlp_parameter_count());

@@ -17,6 +17,7 @@ namespace {
 // "N", "X" or "segments|aabb": what a setting's option takes.
 std::string value_name(const SettingDef& d) {
   if (d.kind == SettingKind::F32) return "X";
+  if (d.kind == SettingKind::U32PerLevel) return "N[,N...]";
   if (d.kind != SettingKind::Choice) return "N";
   std::string s;
   for (uint32_t c = 0; c < d.choice_count; ++c) {
@@ -29,7 +30,7 @@ std::string value_name(const SettingDef& d) {
 // The help of a setting's option: its text and, where bounded, its range.
 std::string setting_help(const SettingDef& d) {
   std::string help = d.help;
-  if (d.kind == SettingKind::U32 && d.max < kU32Max)
+  if ((d.kind == SettingKind::U32 || d.kind == SettingKind::U32PerLevel) && d.max < kU32Max)
     help += format(" [%u, %u]", uint32_t(d.min), uint32_t(d.max));
   else if (d.kind == SettingKind::U32)
     help += format(" (at least %u)", uint32_t(d.min));
@@ -72,6 +73,19 @@ bool set_setting_text(SettingLayer& layer, const SettingDef& d, const std::strin
       uint32_t x = 0;
       if (!parse_u32(text, x)) return false;
       v.u = x;
+      break;
+    }
+    case SettingKind::U32PerLevel: {
+      uint32_t values[LSNIF_MAX_LEVELS];
+      size_t count = 0, at = 0;
+      while (at <= text.size()) {
+        size_t comma = text.find(',', at);
+        if (comma == std::string::npos) comma = text.size();
+        if (count == LSNIF_MAX_LEVELS || !parse_u32(text.substr(at, comma - at), values[count])) return false;
+        ++count;
+        at = comma + 1;
+      }
+      if (!per_level_value(values, count, v)) return false;
       break;
     }
     case SettingKind::U64:

@@ -35,7 +35,7 @@ inline Model tiny_model(glm::vec3 lo, glm::vec3 hi, const std::vector<std::strin
   m.config.max_points = 4;
   m.config.grid_levels = 1;
   set_grid_resolutions(m.config, 8, 8);
-  m.config.log2_table_size = 5;
+  set_table_log2(m.config, 5);
   m.config.features = 2;
   m.config.hidden_width = 8;
   m.config.hidden_layers = 1;

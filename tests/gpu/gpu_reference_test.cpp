@@ -1,7 +1,8 @@
 // The device LSNIF math (shaders/lsnif_*.glsl, run as tests/gpu/lsnif_reference.comp through Vulkan
 // compute, lavapipe on machines without a GPU) against the CPU reference intersector
 // (core/intersector.cpp), ray by ray, on tiny models trained in-process for both hit
-// parametrizations and on a random model with odd layer sizes, with an identity and a
+// parametrizations and with hash tables of different sizes per level, and on a random model with
+// odd layer sizes, with an identity and a
 // rotated/non-uniformly scaled/translated instance. Also checks the GPU block packing
 // (plugin/gpu_model.cpp) value by value, and that the validation layer reported nothing.
 #include <gtest/gtest.h>
@@ -51,7 +52,7 @@ Model random_odd_model() {
   c.grid_levels = 1;
   c.grid_resolution[0] = 15;
   c.grid_resolution[1] = 0;
-  c.log2_table_size = 5;
+  set_table_log2(c, 5);
   c.features = 3;
   c.hidden_width = 5;
   c.hidden_layers = 3;
@@ -199,7 +200,8 @@ class GpuReference : public ::testing::Test {
     const auto t0 = std::chrono::steady_clock::now();
     train_status_ = train_model(mesh, tiny_settings(HitParam::AabbInterval), aabb_model_);
     if (train_status_) train_status_ = train_model(mesh, tiny_settings(HitParam::VoxelSegments), segment_model_);
-    std::printf("trained 2 tiny models in %.2f s\n", seconds_since(t0));
+    if (train_status_) train_status_ = train_model(mesh, unequal_tables_settings(), unequal_model_);
+    std::printf("trained 3 tiny models in %.2f s\n", seconds_since(t0));
   }
   static void TearDownTestSuite() { vk_.destroy_pipeline(pipeline_); }
 
@@ -299,12 +301,20 @@ class GpuReference : public ::testing::Test {
   static vk::ComputeContext vk_;
   static vk::Pipeline pipeline_;
   static Status vk_status_, train_status_;
-  static Model aabb_model_, segment_model_;
+  static Model aabb_model_, segment_model_, unequal_model_;
+
+  // tiny_settings with level 0's table (R = 32) 2^10 entries and level 1's (R = 64) 2^14.
+  static TrainSettings unequal_tables_settings() {
+    TrainSettings s = tiny_settings(HitParam::VoxelSegments);
+    const uint32_t sizes[2] = {10, 14};
+    set_table_log2(s.config, sizes, 2);
+    return s;
+  }
 };
 vk::ComputeContext GpuReference::vk_;
 vk::Pipeline GpuReference::pipeline_;
 Status GpuReference::vk_status_, GpuReference::train_status_;
-Model GpuReference::aabb_model_, GpuReference::segment_model_;
+Model GpuReference::aabb_model_, GpuReference::segment_model_, GpuReference::unequal_model_;
 
 TEST_F(GpuReference, AabbIntervalModelMatchesCpu) {
   ASSERT_TRUE(train_status_) << train_status_.message();
@@ -334,6 +344,19 @@ TEST_F(GpuReference, EightBitGridModelsMatchCpu) {
   const Model aabb = with_8bit_grid(aabb_model_), segments = with_8bit_grid(segment_model_);
   const Comparison a = run(aabb, skewed_instance(), kRaysPerInstance, 6, "8-bit grid, AABB interval, skewed instance");
   const Comparison b = run(segments, Transform3x4(), kRaysPerInstance, 7, "8-bit grid, voxel segments, identity");
+  expect_trained_agreement(a, b);
+}
+
+// Level 0's table smaller than level 1's: the levels' tables one after another (level 1 starting at
+// entry 2^10), each hashed into its own size; fp16 and 8-bit features.
+TEST_F(GpuReference, TablesOfDifferentSizesPerLevelMatchCpu) {
+  ASSERT_TRUE(train_status_) << train_status_.message();
+  ASSERT_EQ(unequal_model_.config.table_log2[0], 10u);
+  ASSERT_EQ(unequal_model_.config.table_log2[1], 14u);
+  const Comparison a = run(unequal_model_, skewed_instance(), kRaysPerInstance, 8,
+                           "tables 2^10 + 2^14, voxel segments, skewed instance");
+  const Comparison b = run(with_8bit_grid(unequal_model_), Transform3x4(), kRaysPerInstance, 9,
+                           "tables 2^10 + 2^14, 8-bit grid, identity");
   expect_trained_agreement(a, b);
 }
 
@@ -397,6 +420,7 @@ TEST(GpuModelPacking, EveryValueAtItsDocumentedPlace) {
   EXPECT_EQ(h.voxel_resolution, 5u);
   EXPECT_EQ(h.max_points, 3u);
   EXPECT_EQ(h.grid_resolution0, 15u);
+  EXPECT_EQ(h.table_log2, 5u);  // M_0 = 5 in the low byte, no other level
   EXPECT_EQ(h.hidden_layers, 3u);
   EXPECT_EQ(h.material_count, 2u);
   EXPECT_EQ(h.hit_param, LSNIF_HIT_PARAM_VOXEL_SEGMENTS);
@@ -466,12 +490,12 @@ TEST(GpuModelPacking, EightBitGridCodesFourPerWord) {
   const Config& c = model.config;
   for (uint32_t l = 0; l < 4; ++l) EXPECT_EQ(scales[l], l < c.grid_levels ? model.grid_scales[l] : 0.0f) << l;
   EXPECT_EQ(h.reserved0, 0u);
-  const uint64_t count = c.grid_parameter_count(), per_level = uint64_t(c.table_size()) * c.features;
+  const uint64_t count = c.grid_parameter_count();
   EXPECT_EQ(h.mlp_offset - h.grid_offset, ((count + 3) / 4 + 7) / 8 * 8);
   for (uint64_t e = 0; e < count; ++e) {
     const int8_t code = int8_t(uint8_t(words[h.grid_offset + e / 4] >> (8 * (e % 4))));
     ASSERT_EQ(code, model.grid_code(e)) << e;
-    ASSERT_EQ(float(code) * scales[e / per_level], model.grid[e]) << e;
+    ASSERT_EQ(float(code) * scales[c.level_of_entry(e / c.features)], model.grid[e]) << e;
   }
   for (uint64_t b = count; b < 4 * uint64_t(h.mlp_offset - h.grid_offset); ++b)
     ASSERT_EQ((words[h.grid_offset + b / 4] >> (8 * (b % 4))) & 0xffu, 0u) << "pad byte " << b;
@@ -489,6 +513,43 @@ TEST(GpuModelPacking, EightBitGridCodesFourPerWord) {
   Model off = model;
   off.grid[1] += off.grid_scales[0] * 0.25f;
   EXPECT_FALSE(pack_gpu_model(off, words));
+}
+
+// Tables of different sizes: the header holds M_l byte by byte, the levels' values one after another
+// (level l from element F * (2^M_0 + ... + 2^M_{l-1})), each level's codes times its own scale.
+TEST(GpuModelPacking, TablesOfDifferentSizesPerLevel) {
+  Model model = random_odd_model();
+  Config& c = model.config;
+  c.grid_levels = 3;
+  c.grid_resolution[1] = 30;
+  c.grid_resolution[2] = 45;
+  const uint32_t sizes[3] = {6, 4, 9};
+  set_table_log2(c, sizes, 3);
+  c.grid_bits = 8;
+  c.max_points = 1;  // input 1 * 3 * 3 = 9, the MLP as before
+  ASSERT_TRUE(c.validate()) << c.validate().message();
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  model.grid.resize(size_t(c.grid_parameter_count()));
+  const size_t first[4] = {0, 64 * 3, (64 + 16) * 3, (64 + 16 + 512) * 3};
+  ASSERT_EQ(model.grid.size(), first[3]);
+  for (uint32_t l = 0; l < 3; ++l)
+    for (size_t e = first[l]; e < first[l + 1]; ++e) model.grid[e] = u(rng) * float(1u << (4 * l));  // own ranges
+  model.quantize();
+  std::vector<uint32_t> words;
+  ASSERT_TRUE(pack_gpu_model(model, words));
+  const LsnifGpuModelHeader h = gpu_block_header(words);
+  EXPECT_EQ(h.table_log2, 6u | 4u << 8 | 9u << 16);
+  for (uint32_t l = 0; l < 3; ++l) EXPECT_EQ(LSNIF_GPU_TABLE_LOG2(h.table_log2, l), sizes[l]);
+  const float scales[3] = {h.grid_scale0, h.grid_scale1, h.grid_scale2};
+  for (uint32_t l = 0; l < 3; ++l) {
+    EXPECT_EQ(scales[l], model.grid_scales[l]);
+    for (size_t e = first[l]; e < first[l + 1]; ++e) {
+      const int8_t code = int8_t(uint8_t(words[h.grid_offset + e / 4] >> (8 * (e % 4))));
+      ASSERT_EQ(float(code) * scales[l], model.grid[e]) << "level " << l << " element " << e;
+    }
+  }
+  EXPECT_EQ(h.mlp_offset - h.grid_offset, ((first[3] + 3) / 4 + 7) / 8 * 8);
 }
 
 TEST(GpuModelPacking, RejectsUnquantizedAndInconsistentModels) {

@@ -2,8 +2,9 @@
 // instances, on the harness's device (lavapipe with VK_KHR_ray_query, validation on), against two
 // independent truths: a ray-tracing pipeline over the same TLAS (the plugin's intersection shader
 // with the instance-table lookup, a triangle hit group) and the CPU reference (core/intersector.h).
-//  - a mixed TLAS (a triangle instance, three LSNIF instances of two models: rotation, non-uniform
-//    scale, translation), closest-hit rays with and without culling, any-hit rays;
+//  - a mixed TLAS (a triangle instance, three LSNIF instances of two models, one with hash tables of
+//    different sizes per level: rotation, non-uniform scale, translation), closest-hit rays with and
+//    without culling, any-hit rays;
 //  - rays leaving an LSNIF surface by the self-intersection rule;
 //  - many models in one batch (a table of ten entries with holes);
 //  - an empty batch, a batch in which no ray reaches an LSNIF object;
@@ -142,7 +143,12 @@ class PluginQuery : public ::testing::Test {
     if (status_) status_ = load_mesh(kMeshA, mesh_);
     if (status_) status_ = load_mesh(kMeshB, b);
     if (status_) status_ = train_model(mesh_, tiny_settings(HitParam::VoxelSegments), model_a_);
-    if (status_) status_ = train_model(b, tiny_settings(HitParam::VoxelSegments), model_b_);
+    // Model b's levels have hash tables of different sizes (2^10 and 2^14 entries): the batched path
+    // and the intersection shader decode the per-level layout as the CPU reference does.
+    TrainSettings unequal_tables = tiny_settings(HitParam::VoxelSegments);
+    const uint32_t table_log2[2] = {10, 14};
+    set_table_log2(unequal_tables.config, table_log2, 2);
+    if (status_) status_ = train_model(b, unequal_tables, model_b_);
     if (status_) status_ = plugin_.init(vk_);
     if (status_) status_ = plugin_.upload(model_a_, a_);
     if (status_) status_ = plugin_.upload(model_b_, b_);
