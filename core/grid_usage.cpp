@@ -9,43 +9,47 @@
 
 namespace lsnif {
 
+std::vector<GridVertex> readable_vertices(const VoxelGrid& voxels, uint32_t resolution) {
+  const uint32_t V = voxels.resolution, n = resolution / V;
+  auto pack = [](uint64_t x, uint64_t y, uint64_t z) { return x | y << 21 | z << 42; };
+  std::vector<uint64_t> found;
+  for (uint32_t k = 0; k < V; ++k)
+    for (uint32_t j = 0; j < V; ++j)
+      for (uint32_t i = 0; i < V; ++i) {
+        if (!voxels.occupied(int(i), int(j), int(k))) continue;
+        const uint32_t cell[3] = {i, j, k};
+        for (uint32_t a = 0; a < 3; ++a) {
+          const uint32_t b = (a + 1) % 3, c = (a + 2) % 3;
+          for (uint32_t side = 0; side < 2; ++side) {  // the voxel's two faces of axis a
+            uint32_t v[3];
+            v[a] = (cell[a] + side) * n;
+            for (uint32_t db = 0; db <= n; ++db)
+              for (uint32_t dc = 0; dc <= n; ++dc) {
+                v[b] = cell[b] * n + db;
+                v[c] = cell[c] * n + dc;
+                found.push_back(pack(v[0], v[1], v[2]));
+              }
+          }
+        }
+      }
+  std::sort(found.begin(), found.end());
+  found.erase(std::unique(found.begin(), found.end()), found.end());
+  std::vector<GridVertex> out(found.size());
+  for (size_t i = 0; i < found.size(); ++i)
+    out[i] = GridVertex{uint32_t(found[i] & 0x1fffff), uint32_t(found[i] >> 21 & 0x1fffff), uint32_t(found[i] >> 42)};
+  return out;
+}
+
 std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& voxels) {
   std::vector<GridLevelUsage> out;
-  const uint32_t V = voxels.resolution;
   for (uint32_t level = 0; level < config.grid_levels; ++level) {
     GridLevelUsage u;
     u.resolution = config.grid_resolution[level];
     u.table_entries = config.table_size(level);
-    const uint32_t n = u.resolution / V;
-    auto pack = [](uint64_t x, uint64_t y, uint64_t z) { return x | y << 21 | z << 42; };
-    std::vector<uint64_t> found;
-    for (uint32_t k = 0; k < V; ++k)
-      for (uint32_t j = 0; j < V; ++j)
-        for (uint32_t i = 0; i < V; ++i) {
-          if (!voxels.occupied(int(i), int(j), int(k))) continue;
-          const uint32_t cell[3] = {i, j, k};
-          for (uint32_t a = 0; a < 3; ++a) {
-            const uint32_t b = (a + 1) % 3, c = (a + 2) % 3;
-            for (uint32_t side = 0; side < 2; ++side) {  // the voxel's two faces of axis a
-              uint32_t v[3];
-              v[a] = (cell[a] + side) * n;
-              for (uint32_t db = 0; db <= n; ++db)
-                for (uint32_t dc = 0; dc <= n; ++dc) {
-                  v[b] = cell[b] * n + db;
-                  v[c] = cell[c] * n + dc;
-                  found.push_back(pack(v[0], v[1], v[2]));
-                }
-            }
-          }
-        }
-    std::sort(found.begin(), found.end());
-    found.erase(std::unique(found.begin(), found.end()), found.end());
+    const std::vector<GridVertex> found = readable_vertices(voxels, u.resolution);
     u.vertices = found.size();
     std::vector<uint32_t> per_entry(size_t(u.table_entries), 0);
-    for (const uint64_t p : found) {
-      const uint32_t x = uint32_t(p & 0x1fffff), y = uint32_t(p >> 21 & 0x1fffff), z = uint32_t(p >> 42);
-      ++per_entry[hash_vertex(x, y, z, config.table_log2[level])];
-    }
+    for (const GridVertex& v : found) ++per_entry[hash_vertex(v.x, v.y, v.z, config.table_log2[level])];
     for (const uint32_t count : per_entry) {
       u.entries_used += count > 0;
       if (count > 1) {

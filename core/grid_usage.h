@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "config.h"
+#include "perfect_hash.h"
 #include "voxel_grid.h"
 
 namespace lsnif {
@@ -21,6 +22,10 @@ struct GridLevelUsage {
   uint64_t entries_shared = 0;     // entries two or more of them hash to
   uint64_t vertices_in_shared = 0; // vertices that hash to a shared entry
 };
+
+// The distinct grid vertices of resolution R (a multiple of voxels.resolution) on faces of occupied
+// voxels, sorted by (z, y, x): the only vertices the encoder reads with a non-zero weight.
+std::vector<GridVertex> readable_vertices(const VoxelGrid& voxels, uint32_t resolution);
 
 // One record per level of `config`, for the occupancy `voxels` (resolution config.voxel_resolution).
 std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& voxels);
