@@ -6,7 +6,7 @@
 namespace lsnif {
 
 void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint32_t axis,
-                  FaceCorners& out) {
+                  FaceCorners& out, const GridLayout& layout) {
   const uint32_t R = config.grid_resolution[level];
   const float Rf = float(R);
   const uint32_t a = axis, b = (axis + 1) % 3, c = (axis + 2) % 3;
@@ -16,25 +16,27 @@ void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint
   float xb = std::clamp(p[b] * Rf, 0.0f, Rf), xc = std::clamp(p[c] * Rf, 0.0f, Rf);
   uint32_t ib = std::min(uint32_t(xb), R - 1), ic = std::min(uint32_t(xc), R - 1);
   float wb = xb - float(ib), wc = xc - float(ic);
-  const uint32_t offset = uint32_t(config.level_entry_offset(level)), M = config.table_log2[level];
+  const uint32_t offset = uint32_t(layout.level_offset(config, level)), M = config.table_log2[level];
+  const PerfectHash* indexed = layout.indexed[level];
   for (uint32_t k = 0; k < 4; ++k) {
     uint32_t v[3];
     v[a] = ia;
     v[b] = ib + (k & 1u);
     v[c] = ic + (k >> 1);
-    out.entry[k] = offset + hash_vertex(v[0], v[1], v[2], M);
+    out.entry[k] = offset + (indexed ? perfect_hash_slot(*indexed, v[0], v[1], v[2]) : hash_vertex(v[0], v[1], v[2], M));
     out.weight[k] = ((k & 1u) ? wb : 1.0f - wb) * ((k >> 1) ? wc : 1.0f - wc);
   }
 }
 
-void encode(const Config& config, const float* table, const RayWalk& walk, float* features) {
+void encode(const Config& config, const float* table, const RayWalk& walk, float* features,
+            const GridLayout& layout) {
   const uint32_t L = config.grid_levels, F = config.features;
   const uint32_t n = std::min(walk.count, config.max_points);
   std::fill(features, features + config.input_dim(), 0.0f);
   FaceCorners fc;
   for (uint32_t j = 0; j < n; ++j) {
     for (uint32_t l = 0; l < L; ++l) {
-      face_corners(config, l, walk.p[j], walk.axis[j], fc);
+      face_corners(config, l, walk.p[j], walk.axis[j], fc, layout);
       float* out = features + (j * L + l) * F;
       for (uint32_t k = 0; k < 4; ++k)
         for (uint32_t f = 0; f < F; ++f) out[f] += fc.weight[k] * table[size_t(fc.entry[k]) * F + f];
@@ -43,13 +45,13 @@ void encode(const Config& config, const float* table, const RayWalk& walk, float
 }
 
 void encode_backward(const Config& config, const RayWalk& walk, const float* d_features,
-                     float* d_table) {
+                     float* d_table, const GridLayout& layout) {
   const uint32_t L = config.grid_levels, F = config.features;
   const uint32_t n = std::min(walk.count, config.max_points);
   FaceCorners fc;
   for (uint32_t j = 0; j < n; ++j) {
     for (uint32_t l = 0; l < L; ++l) {
-      face_corners(config, l, walk.p[j], walk.axis[j], fc);
+      face_corners(config, l, walk.p[j], walk.axis[j], fc, layout);
       const float* d = d_features + (j * L + l) * F;
       for (uint32_t k = 0; k < 4; ++k)
         for (uint32_t f = 0; f < F; ++f) d_table[size_t(fc.entry[k]) * F + f] += fc.weight[k] * d[f];

@@ -4,10 +4,13 @@
 // level's table of one size and with tables of different sizes per level.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <map>
 #include <random>
 #include <vector>
 
+#include "grid_usage.h"
 #include "hash_grid.h"
 
 namespace lsnif {
@@ -37,9 +40,10 @@ uint32_t first_entry(const Config& c, uint32_t level) {
   return first;
 }
 
-// Dense trilinear lookup with the same hash: 8 corners, weights from all three fractions.
-std::vector<float> dense_lookup(const Config& c, const std::vector<float>& table, uint32_t level,
-                                const glm::vec3& p) {
+// Dense trilinear interpolation over the 8 corners of p's cell, weights from all three fractions;
+// corner(v) gives vertex v's F features (it is asked only for corners of non-zero weight).
+template <class Corner>
+std::vector<float> dense_trilinear(const Config& c, uint32_t level, const glm::vec3& p, Corner corner) {
   const uint32_t R = c.grid_resolution[level];
   std::vector<float> out(c.features, 0.0f);
   double x[3];
@@ -58,11 +62,22 @@ std::vector<float> dense_lookup(const Config& c, const std::vector<float>& table
       v[a] = uint32_t(i0[a] + bit);
     }
     if (w == 0.0) continue;
-    const uint32_t h = (v[0] * LSNIF_HASH_PRIME_X) ^ (v[1] * LSNIF_HASH_PRIME_Y) ^ (v[2] * LSNIF_HASH_PRIME_Z);
-    const uint32_t e = first_entry(c, level) + h % (1u << c.table_log2[level]);
-    for (uint32_t f = 0; f < c.features; ++f) out[f] += float(w) * table[size_t(e) * c.features + f];
+    const float* t = corner(v);
+    for (uint32_t f = 0; f < c.features; ++f) out[f] += float(w) * t[f];
   }
   return out;
+}
+
+// Dense trilinear lookup with the same hash; the level's table starts at entry `first` (default:
+// first_entry, every level hashed).
+std::vector<float> dense_lookup(const Config& c, const std::vector<float>& table, uint32_t level,
+                                const glm::vec3& p, uint32_t first = ~0u) {
+  if (first == ~0u) first = first_entry(c, level);
+  return dense_trilinear(c, level, p, [&](const uint32_t* v) {
+    const uint32_t h = (v[0] * LSNIF_HASH_PRIME_X) ^ (v[1] * LSNIF_HASH_PRIME_Y) ^ (v[2] * LSNIF_HASH_PRIME_Z);
+    const uint32_t e = first + h % (1u << c.table_log2[level]);
+    return table.data() + size_t(e) * c.features;
+  });
 }
 
 RayWalk random_walk(const Config& c, std::mt19937& rng, uint32_t count) {
@@ -136,23 +151,23 @@ TEST(HashGrid, CornerWeightsArePartitionOfUnityAndTouchOnlyFaceVertices) {
   expect_corners_in_own_level(small_config(kUnequal));
 }
 
-void expect_backward_matches_finite_differences(const Config& c) {
+void expect_backward_matches_finite_differences(const Config& c, const GridLayout& layout = GridLayout{}) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  std::vector<float> table(c.grid_parameter_count());
+  std::vector<float> table(layout.entry_count(c) * c.features);
   for (float& v : table) v = u(rng);
   RayWalk w = random_walk(c, rng, c.max_points);
   std::vector<float> coeff(c.input_dim());
   for (float& v : coeff) v = u(rng);
   auto loss = [&](const std::vector<float>& t) {
     std::vector<float> f(c.input_dim());
-    encode(c, t.data(), w, f.data());
+    encode(c, t.data(), w, f.data(), layout);
     double s = 0;
     for (size_t i = 0; i < f.size(); ++i) s += double(coeff[i]) * f[i];
     return s;
   };
   std::vector<float> grad(table.size(), 0.0f);
-  encode_backward(c, w, coeff.data(), grad.data());
+  encode_backward(c, w, coeff.data(), grad.data(), layout);
   // The loss is linear in the table: check every touched entry and a sample of untouched ones.
   int checked = 0;
   for (size_t i = 0; i < table.size(); ++i) {
@@ -170,6 +185,84 @@ void expect_backward_matches_finite_differences(const Config& c) {
 TEST(HashGrid, BackwardMatchesFiniteDifferences) {
   expect_backward_matches_finite_differences(small_config());
   expect_backward_matches_finite_differences(small_config(kUnequal));
+}
+
+// Random occupancy of c's voxels (about a third occupied).
+VoxelGrid random_voxels(const Config& c, std::mt19937& rng) {
+  VoxelGrid g;
+  g.resolution = c.voxel_resolution;
+  g.bounds = Aabb{glm::vec3(0.0f), glm::vec3(1.0f)};
+  g.bits.assign((c.voxel_count() + 31) / 32, 0u);
+  for (uint64_t i = 0; i < c.voxel_count(); ++i)
+    if (rng() % 3 == 0) g.bits[i / 32] |= 1u << (i % 32);
+  return g;
+}
+
+// Points on faces of occupied voxels: the only points a walk records.
+RayWalk walk_on_occupied_faces(const VoxelGrid& g, std::mt19937& rng, uint32_t count) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const int V = int(g.resolution);
+  RayWalk w;
+  w.count = count;
+  for (uint32_t j = 0; j < count; ++j) {
+    int cell[3];
+    do {
+      for (int& x : cell) x = int(rng() % uint32_t(V));
+    } while (!g.occupied(cell[0], cell[1], cell[2]));
+    const uint32_t a = uint32_t(rng() % 3);
+    glm::vec3 p;
+    for (uint32_t b = 0; b < 3; ++b) p[b] = (float(cell[b]) + (b == a ? float(rng() % 2) : u(rng))) / float(V);
+    w.p[j] = p;
+    w.axis[j] = uint8_t(a);
+    w.t[j] = float(j);
+  }
+  return w;
+}
+
+// An indexed level against brute force: each readable vertex's features kept in a map keyed by the
+// vertex (no hashing), the table filled from the map through the perfect hash. The encoding of points
+// on faces of occupied voxels must equal trilinear interpolation over the map, which holds only when
+// no two readable vertices share a slot and every corner read with a non-zero weight is readable.
+TEST(HashGrid, IndexedLevelEqualsPerVertexFeatures) {
+  const Config c = small_config(kUnequal);
+  std::mt19937 rng(21);
+  const VoxelGrid voxels = random_voxels(c, rng);
+  const std::vector<GridVertex> keys = readable_vertices(voxels, c.grid_resolution[1]);
+  PerfectHash hash;
+  ASSERT_TRUE(build_perfect_hash(keys, perfect_hash_default_slots(keys.size()), hash).is_ok());
+  GridLayout layout;
+  layout.indexed[1] = &hash;
+  ASSERT_EQ(layout.entry_count(c), 512u + hash.slots + 2048u);
+  EXPECT_LT(hash.slots, 17u * 17u * 17u);  // below the dense grid's vertices
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<float> table(layout.entry_count(c) * c.features);
+  for (float& v : table) v = u(rng);
+  std::map<std::array<uint32_t, 3>, std::vector<float>> own;
+  for (const GridVertex& v : keys) {
+    std::vector<float>& f = own[{v.x, v.y, v.z}];
+    for (uint32_t i = 0; i < c.features; ++i) {
+      f.push_back(u(rng));
+      table[(512u + perfect_hash_slot(hash, v.x, v.y, v.z)) * c.features + i] = f.back();
+    }
+  }
+  std::vector<float> features(c.input_dim());
+  for (int trial = 0; trial < 2000; ++trial) {
+    const RayWalk w = walk_on_occupied_faces(voxels, rng, 1 + uint32_t(trial) % c.max_points);
+    encode(c, table.data(), w, features.data(), layout);
+    for (uint32_t j = 0; j < w.count; ++j)
+      for (uint32_t l = 0; l < c.grid_levels; ++l) {
+        const std::vector<float> expect =
+            l != 1 ? dense_lookup(c, table, l, w.p[j], l == 0 ? 0u : 512u + hash.slots) : dense_trilinear(c, l, w.p[j], [&](const uint32_t* v) {
+              const auto it = own.find({v[0], v[1], v[2]});
+              EXPECT_NE(it, own.end()) << "vertex " << v[0] << "," << v[1] << "," << v[2] << " is not readable";
+              return it == own.end() ? table.data() : it->second.data();
+            });
+        for (uint32_t f = 0; f < c.features; ++f)
+          ASSERT_NEAR(features[(j * c.grid_levels + l) * c.features + f], expect[f], 1e-5f)
+              << "point " << j << " level " << l;
+      }
+  }
+  expect_backward_matches_finite_differences(c, layout);
 }
 
 TEST(HashGrid, DefaultConfigMemoryMatchesPaper) {
