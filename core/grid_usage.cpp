@@ -57,6 +57,11 @@ std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& vo
         u.vertices_in_shared += count;
       }
     }
+    PerfectHash index;
+    if (build_level_index(found, index).is_ok()) {
+      u.indexed_slots = index.slots;
+      u.indexed_buckets = index.displacement.size();
+    }
     out.push_back(u);
   }
   return out;

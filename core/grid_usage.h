@@ -21,6 +21,9 @@ struct GridLevelUsage {
   uint64_t entries_used = 0;       // entries at least one of those vertices hashes to
   uint64_t entries_shared = 0;     // entries two or more of them hash to
   uint64_t vertices_in_shared = 0; // vertices that hash to a shared entry
+  // The collision-free alternative (perfect_hash.h, build_level_index of the vertices): its table
+  // entries and its displacements (2 bytes each); 0 when it could not be built.
+  uint64_t indexed_slots = 0, indexed_buckets = 0;
 };
 
 // The distinct grid vertices of resolution R (a multiple of voxels.resolution) on faces of occupied

@@ -4,6 +4,7 @@
 // reads with a non-zero weight along random walks is one of those vertices.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <random>
 #include <set>
 #include <vector>
@@ -82,6 +83,21 @@ void expect_matches_brute_force(const Config& c, const VoxelGrid& g) {
     EXPECT_EQ(u.entries_used, used);
     EXPECT_EQ(u.entries_shared, shared);
     EXPECT_EQ(u.vertices_in_shared, in_shared);
+    std::vector<GridVertex> readable = readable_vertices(g, c.grid_resolution[l]);
+    ASSERT_EQ(readable.size(), truth.size());
+    std::set<std::array<uint32_t, 3>> truth_set;
+    for (const glm::uvec3& v : truth) truth_set.insert({v.x, v.y, v.z});
+    for (const GridVertex& v : readable) EXPECT_EQ(truth_set.count({v.x, v.y, v.z}), 1u);
+    // The indexed alternative: one slot per vertex, all distinct.
+    PerfectHash index;
+    ASSERT_TRUE(build_level_index(readable, index).is_ok());
+    EXPECT_EQ(u.indexed_slots, index.slots);
+    EXPECT_EQ(u.indexed_buckets, perfect_hash_buckets(truth.size()));
+    EXPECT_GE(u.indexed_slots, truth.size());
+    EXPECT_LE(u.indexed_slots, truth.size() + truth.size() / 10 + 1);
+    std::set<uint32_t> slots;
+    for (const glm::uvec3& v : truth) slots.insert(perfect_hash_slot(index, v.x, v.y, v.z));
+    EXPECT_EQ(slots.size(), truth.size());
     EXPECT_EQ(u.vertices, u.entries_used - u.entries_shared + u.vertices_in_shared);
   }
 }

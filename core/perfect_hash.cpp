@@ -68,4 +68,15 @@ Status build_perfect_hash(const std::vector<GridVertex>& keys, uint32_t slots, P
   return Status::ok();
 }
 
+Status build_level_index(const std::vector<GridVertex>& keys, PerfectHash& out) {
+  uint64_t slots = perfect_hash_default_slots(keys.size());
+  Status s = Status::ok();
+  for (int attempt = 0; attempt < 8; ++attempt, slots += (keys.size() + 99) / 100) {
+    if (slots >= (uint64_t(1) << 32)) break;
+    s = build_perfect_hash(keys, uint32_t(slots), out);
+    if (s.is_ok()) return s;
+  }
+  return s;
+}
+
 }  // namespace lsnif

@@ -62,4 +62,8 @@ uint32_t perfect_hash_default_slots(uint64_t keys);
 // may succeed); `out` is left empty on error.
 Status build_perfect_hash(const std::vector<GridVertex>& keys, uint32_t slots, PerfectHash& out);
 
+// The index of one level: build_perfect_hash of `keys` into perfect_hash_default_slots(N) slots, and
+// on failure into 1% more slots at a time (up to 8 tries); the last error otherwise.
+Status build_level_index(const std::vector<GridVertex>& keys, PerfectHash& out);
+
 }  // namespace lsnif

@@ -279,9 +279,11 @@ TEST(Cli, TrainInfoEvalRoundTrip) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("\"grid_usage\": [{\"resolution\": 32, \"vertices\": "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("}, {\"resolution\": 64, "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(", \"indexed_slots\": "), std::string::npos) << r.out;
   r = run_cli("info --grid-usage " + model);
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("level 1 (R=64)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("collision-free (indexed): "), std::string::npos) << r.out;
   r = run_cli("eval " + model + " " + kElephant + " --rays 2000 --json");
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("\"voxel_baseline\""), std::string::npos) << r.out;

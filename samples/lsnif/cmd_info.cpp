@@ -118,10 +118,12 @@ int cmd_info(int argc, char** argv) {
       std::printf(", \"grid_usage\": [");
       for (size_t l = 0; l < levels.size(); ++l)
         std::printf("%s{\"resolution\": %u, \"vertices\": %llu, \"table_entries\": %llu, \"entries_used\": %llu, "
-                    "\"entries_shared\": %llu, \"vertices_in_shared\": %llu}",
+                    "\"entries_shared\": %llu, \"vertices_in_shared\": %llu, \"indexed_slots\": %llu, "
+                    "\"indexed_buckets\": %llu}",
                     l ? ", " : "", levels[l].resolution, (unsigned long long)levels[l].vertices,
                     (unsigned long long)levels[l].table_entries, (unsigned long long)levels[l].entries_used,
-                    (unsigned long long)levels[l].entries_shared, (unsigned long long)levels[l].vertices_in_shared);
+                    (unsigned long long)levels[l].entries_shared, (unsigned long long)levels[l].vertices_in_shared,
+                    (unsigned long long)levels[l].indexed_slots, (unsigned long long)levels[l].indexed_buckets);
       std::printf("]");
     }
     std::printf(", \"training\": %s}\n", training.dump().c_str());
@@ -164,11 +166,13 @@ int cmd_info(int argc, char** argv) {
   for (size_t l = 0; l < levels.size(); ++l) {
     const GridLevelUsage& u = levels[l];
     std::printf("%s level %zu (R=%u): %llu vertices on occupied voxel faces -> %llu of %llu entries used (%.1f%%), "
-                "%llu shared by 2+ vertices (%.1f%% of the vertices)\n",
+                "%llu shared by 2+ vertices (%.1f%% of the vertices); collision-free (indexed): %llu entries + %llu "
+                "2-byte displacements\n",
                 l ? "          " : "grid use  ", l, u.resolution, (unsigned long long)u.vertices,
                 (unsigned long long)u.entries_used, (unsigned long long)u.table_entries,
                 100.0 * double(u.entries_used) / double(u.table_entries), (unsigned long long)u.entries_shared,
-                u.vertices ? 100.0 * double(u.vertices_in_shared) / double(u.vertices) : 0.0);
+                u.vertices ? 100.0 * double(u.vertices_in_shared) / double(u.vertices) : 0.0,
+                (unsigned long long)u.indexed_slots, (unsigned long long)u.indexed_buckets);
   }
   return 0;
 }
