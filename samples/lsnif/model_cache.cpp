@@ -27,7 +27,7 @@ void add_bench_run_options(Args& args, BenchRunOptions* o) {
   args.option("width", "image width (0: 320, --quick 64)", &o->width);
   args.option("height", "image height (0: 240, --quick 48)", &o->height);
   args.option("spp", "samples per pixel (0: 16, --quick 2)", &o->spp);
-  args.option("steps", "training steps (0: 2000, --quick 30)", &o->steps);
+  args.option("steps", "training steps (0: the default of lsnif train, --quick 30)", &o->steps);
   args.option("batch", "training rays per step (0: the default of lsnif train, --quick 1024)", &o->batch);
   args.option("seed", "training seed", &o->seed);
   args.option("threads", "training threads (0 = all cores)", &o->threads);
