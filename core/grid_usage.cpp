@@ -48,6 +48,13 @@ std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& vo
     u.table_entries = config.table_size(level);
     const std::vector<GridVertex> found = readable_vertices(voxels, u.resolution);
     u.vertices = found.size();
+    if (config.indexed(level)) {
+      u.entries_used = u.vertices;
+      u.indexed_slots = config.index_slots[level];
+      u.indexed_buckets = config.index_buckets[level];
+      out.push_back(u);
+      continue;
+    }
     std::vector<uint32_t> per_entry(size_t(u.table_entries), 0);
     for (const GridVertex& v : found) ++per_entry[hash_vertex(v.x, v.y, v.z, config.table_log2[level])];
     for (const uint32_t count : per_entry) {
@@ -65,6 +72,30 @@ std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& vo
     out.push_back(u);
   }
   return out;
+}
+
+}  // namespace lsnif
+
+namespace lsnif {
+
+Status index_grid_levels(const VoxelGrid& voxels, const bool* indexed, Config& config,
+                         std::vector<uint16_t>& grid_index) {
+  Config c = config;
+  std::vector<uint16_t> index;
+  for (uint32_t l = 0; l < config.grid_levels && l < LSNIF_MAX_LEVELS; ++l) {
+    c.index_slots[l] = c.index_buckets[l] = 0;
+    if (!indexed[l]) continue;
+    PerfectHash hash;
+    const std::vector<GridVertex> keys = readable_vertices(voxels, config.grid_resolution[l]);
+    if (Status s = build_level_index(keys, hash); !s) return s.context(format("indexing grid level %u", l));
+    c.index_slots[l] = hash.slots;
+    c.index_buckets[l] = uint32_t(hash.displacement.size());
+    index.insert(index.end(), hash.displacement.begin(), hash.displacement.end());
+  }
+  if (Status s = c.validate(); !s) return s.context("indexing the grid");
+  config = c;
+  grid_index = std::move(index);
+  return Status::ok();
 }
 
 }  // namespace lsnif

@@ -31,6 +31,16 @@ struct GridLevelUsage {
 std::vector<GridVertex> readable_vertices(const VoxelGrid& voxels, uint32_t resolution);
 
 // One record per level of `config`, for the occupancy `voxels` (resolution config.voxel_resolution).
+// A hashed level's record says what its own index would cost (indexed_slots, indexed_buckets); an
+// indexed level's (Config::indexed) is its index: table_entries = entries_used = index_slots would
+// hold every vertex, no entry shared (by construction, checked in grid_usage_test).
 std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& voxels);
+
+// Makes the levels l < config.grid_levels with indexed[l] indexed for `voxels`: builds each one's
+// perfect hash of its readable vertices (build_level_index), sets config.index_slots[l] and
+// index_buckets[l], and replaces `grid_index` with the displacements in level order (Model::grid_index).
+// Every other level is left hashed. On error (naming the level) config and grid_index are unchanged.
+Status index_grid_levels(const VoxelGrid& voxels, const bool* indexed, Config& config,
+                         std::vector<uint16_t>& grid_index);
 
 }  // namespace lsnif

@@ -24,6 +24,16 @@ VoxelGrid grid_of(uint32_t V) {
   return g;
 }
 
+// A V^3 grid with each voxel occupied with probability 1 / one_in.
+VoxelGrid random_grid(std::mt19937& rng, uint32_t V, uint32_t one_in) {
+  VoxelGrid g = grid_of(V);
+  for (uint32_t k = 0; k < V; ++k)
+    for (uint32_t j = 0; j < V; ++j)
+      for (uint32_t i = 0; i < V; ++i)
+        if (rng() % one_in == 0) g.set(i, j, k);
+  return g;
+}
+
 // Level 0 has 2^log2_entries table entries, level 1 2^log2_entries1 (the same when 0).
 Config config_of(uint32_t V, uint32_t n0, uint32_t n1, uint32_t log2_entries, uint32_t log2_entries1 = 0) {
   Config c;
@@ -117,11 +127,7 @@ TEST(GridUsage, OneVoxelIsTheSurfaceOfItsCells) {
 TEST(GridUsage, NeighboursShareTheirFacesAndTinyTablesCollide) {
   std::mt19937 rng(3);
   for (int trial = 0; trial < 4; ++trial) {
-    VoxelGrid g = grid_of(6);
-    for (uint32_t k = 0; k < 6; ++k)
-      for (uint32_t j = 0; j < 6; ++j)
-        for (uint32_t i = 0; i < 6; ++i)
-          if (rng() % 3 == 0) g.set(i, j, k);
+    const VoxelGrid g = random_grid(rng, 6, 3);
     expect_matches_brute_force(config_of(6, 1, 2, 16), g);
     expect_matches_brute_force(config_of(6, 2, 3, 3), g);  // 8 entries: nearly all shared
     expect_matches_brute_force(config_of(6, 1, 2, 4, 12), g);  // level 0 small, level 1 large
@@ -133,11 +139,7 @@ TEST(GridUsage, NeighboursShareTheirFacesAndTinyTablesCollide) {
 // vertex counted by grid_usage hashes to (the vertices are the encoder's whole domain).
 TEST(GridUsage, TheEncoderReadsOnlyCountedVertices) {
   std::mt19937 rng(5);
-  VoxelGrid g = grid_of(8);
-  for (uint32_t k = 0; k < 8; ++k)
-    for (uint32_t j = 0; j < 8; ++j)
-      for (uint32_t i = 0; i < 8; ++i)
-        if (rng() % 4 == 0) g.set(i, j, k);
+  const VoxelGrid g = random_grid(rng, 8, 4);
   Config c = config_of(8, 2, 4, 14, 18);  // level 1 starts after level 0's 2^14 entries
   c.max_points = LSNIF_MAX_POINTS;
   std::set<uint32_t> domain[2];
@@ -156,7 +158,7 @@ TEST(GridUsage, TheEncoderReadsOnlyCountedVertices) {
     for (uint32_t j = 0; j < walk.count; ++j)
       for (uint32_t l = 0; l < 2; ++l) {
         FaceCorners fc;
-        face_corners(c, l, walk.p[j], walk.axis[j], fc);
+        face_corners(c, l, walk.p[j], walk.axis[j], fc, GridLayout{});
         for (int k = 0; k < 4; ++k) {
           if (fc.weight[k] == 0.0f) continue;
           ++reads;
@@ -165,6 +167,45 @@ TEST(GridUsage, TheEncoderReadsOnlyCountedVertices) {
       }
   }
   EXPECT_GT(reads, 10000u);
+}
+
+// index_grid_levels against brute force: every vertex on a face of an occupied voxel (face_vertices)
+// gets its own slot of its level, the config and the displacements agree, hashed levels stay hashed.
+TEST(GridUsage, IndexedLevelsGiveEveryReadableVertexItsOwnEntry) {
+  std::mt19937 rng(9);
+  const VoxelGrid g = random_grid(rng, 6, 3);
+  for (const bool level0 : {true, false}) {
+    SCOPED_TRACE(level0);
+    Config c = config_of(6, 1, 2, 4);
+    const bool indexed[LSNIF_MAX_LEVELS] = {level0, true};
+    std::vector<uint16_t> index(3, 7);  // replaced
+    ASSERT_TRUE(index_grid_levels(g, indexed, c, index));
+    EXPECT_EQ(c.indexed(0), level0);
+    ASSERT_TRUE(c.indexed(1));
+    EXPECT_EQ(index.size(), c.grid_index_count());
+    const GridLayout layout = grid_layout(c, index.data());
+    for (uint32_t l = 0; l < 2; ++l) {
+      if (!c.indexed(l)) {
+        EXPECT_EQ(layout.indexed[l].displacement, nullptr);
+        EXPECT_EQ(c.table_size(l), 16u);
+        continue;
+      }
+      const std::vector<glm::uvec3> truth = face_vertices(g, c.grid_resolution[l]);
+      EXPECT_GE(c.index_slots[l], truth.size());
+      EXPECT_EQ(c.index_buckets[l], (truth.size() + 3) / 4);
+      std::set<uint32_t> slots;
+      for (const glm::uvec3& v : truth) {
+        const uint32_t slot = perfect_hash_slot(layout.indexed[l], v.x, v.y, v.z);
+        EXPECT_LT(slot, c.index_slots[l]);
+        slots.insert(slot);
+      }
+      EXPECT_EQ(slots.size(), truth.size()) << "level " << l << ": two readable vertices share a slot";
+    }
+    const std::vector<GridLevelUsage> u = grid_usage(c, g);
+    EXPECT_EQ(u[1].entries_shared, 0u);
+    EXPECT_EQ(u[1].table_entries, c.index_slots[1]);
+    EXPECT_EQ(u[1].indexed_slots, c.index_slots[1]);
+  }
 }
 
 }  // namespace

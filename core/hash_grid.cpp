@@ -5,6 +5,17 @@
 
 namespace lsnif {
 
+GridLayout grid_layout(const Config& config, const uint16_t* grid_index) {
+  GridLayout layout;
+  uint64_t at = 0;
+  for (uint32_t l = 0; l < config.grid_levels && l < LSNIF_MAX_LEVELS; ++l) {
+    if (!config.indexed(l)) continue;
+    layout.indexed[l] = {config.index_slots[l], config.index_buckets[l], grid_index + at};
+    at += config.index_buckets[l];
+  }
+  return layout;
+}
+
 void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint32_t axis,
                   FaceCorners& out, const GridLayout& layout) {
   const uint32_t R = config.grid_resolution[level];
@@ -16,14 +27,14 @@ void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint
   float xb = std::clamp(p[b] * Rf, 0.0f, Rf), xc = std::clamp(p[c] * Rf, 0.0f, Rf);
   uint32_t ib = std::min(uint32_t(xb), R - 1), ic = std::min(uint32_t(xc), R - 1);
   float wb = xb - float(ib), wc = xc - float(ic);
-  const uint32_t offset = uint32_t(layout.level_offset(config, level)), M = config.table_log2[level];
-  const PerfectHash* indexed = layout.indexed[level];
+  const uint32_t offset = uint32_t(config.level_entry_offset(level)), M = config.table_log2[level];
+  const PerfectHashView& indexed = layout.indexed[level];
   for (uint32_t k = 0; k < 4; ++k) {
     uint32_t v[3];
     v[a] = ia;
     v[b] = ib + (k & 1u);
     v[c] = ic + (k >> 1);
-    out.entry[k] = offset + (indexed ? perfect_hash_slot(*indexed, v[0], v[1], v[2]) : hash_vertex(v[0], v[1], v[2], M));
+    out.entry[k] = offset + (indexed.displacement ? perfect_hash_slot(indexed, v[0], v[1], v[2]) : hash_vertex(v[0], v[1], v[2], M));
     out.weight[k] = ((k & 1u) ? wb : 1.0f - wb) * ((k >> 1) ? wc : 1.0f - wc);
   }
 }

@@ -6,8 +6,7 @@
 //
 // Layouts (shared with the .lsnif file and the shaders):
 //   table:    [level][entry][feature]  -> table[(offset_l + entry) * F + f], offset_l the entries of
-//             the levels before l (Config::level_entry_offset: sum of 2^M_k, k < l; with indexed
-//             levels GridLayout::level_offset)
+//             the levels before l (Config::level_entry_offset: the sum of their table sizes)
 //   features: [point][level][feature]  -> in[(j * L + l) * F + f], zero for j >= walk.count
 #pragma once
 #include <cstdint>
@@ -24,23 +23,17 @@ inline uint32_t hash_vertex(uint32_t x, uint32_t y, uint32_t z, uint32_t log2_si
   return h & ((1u << log2_size) - 1u);
 }
 
-// How each level's table is addressed: hashed (hash_vertex into 2^M_l entries, the default) or
-// indexed (the perfect hash of the level's readable vertices, perfect_hash.h: hash.slots entries,
-// every readable vertex its own). The levels' tables lie one after another either way.
+// How each level's table is addressed: hashed (hash_vertex into 2^M_l entries) or indexed
+// (Config::indexed: the perfect hash of the level's readable vertices, perfect_hash.h, every
+// readable vertex its own entry). The levels' tables lie one after another either way
+// (Config::level_entry_offset).
 struct GridLayout {
-  const PerfectHash* indexed[LSNIF_MAX_LEVELS] = {};  // per level: nullptr = hashed
-  // Entries of level l's table.
-  uint64_t level_entries(const Config& config, uint32_t level) const {
-    return indexed[level] ? indexed[level]->slots : config.table_size(level);
-  }
-  // Where level l's table starts: the entries of the levels before it.
-  uint64_t level_offset(const Config& config, uint32_t level) const {
-    uint64_t n = 0;
-    for (uint32_t l = 0; l < level; ++l) n += level_entries(config, l);
-    return n;
-  }
-  uint64_t entry_count(const Config& config) const { return level_offset(config, config.grid_levels); }
+  PerfectHashView indexed[LSNIF_MAX_LEVELS];  // per level: displacement nullptr = hashed
 };
+// The layout of a model with this config and displacements `grid_index` (Model::grid_index:
+// config.grid_index_count() values, the indexed levels' in level order; may be null when no level is
+// indexed).
+GridLayout grid_layout(const Config& config, const uint16_t* grid_index);
 
 struct FaceCorners {
   uint32_t entry[4];  // table entries (already offset by the level's offset_l)
@@ -50,16 +43,17 @@ struct FaceCorners {
 // The 4 corners of the face cell at `level` that contains unit-cube point p lying on a grid plane
 // of `axis`. The plane coordinate is rounded to the nearest grid plane; the two in-plane
 // coordinates are clamped to [0, R].
-// Entries follow `layout` (offsets included).
+// Entries follow `layout` (offsets included), which must be grid_layout of the model (GridLayout{}
+// serves a model without indexed levels).
 void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint32_t axis,
-                  FaceCorners& out, const GridLayout& layout = GridLayout{});
+                  FaceCorners& out, const GridLayout& layout);
 
 // Encodes a walk into config.input_dim() floats (layout above).
 void encode(const Config& config, const float* table, const RayWalk& walk, float* features,
-            const GridLayout& layout = GridLayout{});
+            const GridLayout& layout);
 
 // Accumulates d(loss)/d(table) given d(loss)/d(features) for one walk (not thread-safe).
 void encode_backward(const Config& config, const RayWalk& walk, const float* d_features,
-                     float* d_table, const GridLayout& layout = GridLayout{});
+                     float* d_table, const GridLayout& layout);
 
 }  // namespace lsnif

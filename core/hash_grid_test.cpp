@@ -105,7 +105,7 @@ void expect_face_lookup_equals_dense(const Config& c) {
   std::vector<float> features(c.input_dim());
   for (int trial = 0; trial < 2000; ++trial) {
     RayWalk w = random_walk(c, rng, 1 + uint32_t(trial) % c.max_points);
-    encode(c, table.data(), w, features.data());
+    encode(c, table.data(), w, features.data(), GridLayout{});
     for (uint32_t j = 0; j < c.max_points; ++j)
       for (uint32_t l = 0; l < c.grid_levels; ++l) {
         std::vector<float> expect(c.features, 0.0f);
@@ -131,7 +131,7 @@ void expect_corners_in_own_level(const Config& c) {
     RayWalk w = random_walk(c, rng, 1);
     for (uint32_t l = 0; l < c.grid_levels; ++l) {
       FaceCorners fc;
-      face_corners(c, l, w.p[0], w.axis[0], fc);
+      face_corners(c, l, w.p[0], w.axis[0], fc, GridLayout{});
       float sum = 0;
       for (float x : fc.weight) {
         EXPECT_GE(x, 0.0f);
@@ -154,7 +154,7 @@ TEST(HashGrid, CornerWeightsArePartitionOfUnityAndTouchOnlyFaceVertices) {
 void expect_backward_matches_finite_differences(const Config& c, const GridLayout& layout = GridLayout{}) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  std::vector<float> table(layout.entry_count(c) * c.features);
+  std::vector<float> table(c.grid_entry_count() * c.features);
   for (float& v : table) v = u(rng);
   RayWalk w = random_walk(c, rng, c.max_points);
   std::vector<float> coeff(c.input_dim());
@@ -224,18 +224,20 @@ RayWalk walk_on_occupied_faces(const VoxelGrid& g, std::mt19937& rng, uint32_t c
 // on faces of occupied voxels must equal trilinear interpolation over the map, which holds only when
 // no two readable vertices share a slot and every corner read with a non-zero weight is readable.
 TEST(HashGrid, IndexedLevelEqualsPerVertexFeatures) {
-  const Config c = small_config(kUnequal);
+  Config c = small_config(kUnequal);
   std::mt19937 rng(21);
   const VoxelGrid voxels = random_voxels(c, rng);
   const std::vector<GridVertex> keys = readable_vertices(voxels, c.grid_resolution[1]);
   PerfectHash hash;
   ASSERT_TRUE(build_perfect_hash(keys, perfect_hash_default_slots(keys.size()), hash).is_ok());
-  GridLayout layout;
-  layout.indexed[1] = &hash;
-  ASSERT_EQ(layout.entry_count(c), 512u + hash.slots + 2048u);
+  c.index_slots[1] = hash.slots;
+  c.index_buckets[1] = uint32_t(hash.displacement.size());
+  ASSERT_TRUE(c.validate().is_ok());
+  const GridLayout layout = grid_layout(c, hash.displacement.data());
+  ASSERT_EQ(c.grid_entry_count(), 512u + hash.slots + 2048u);
   EXPECT_LT(hash.slots, 17u * 17u * 17u);  // below the dense grid's vertices
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  std::vector<float> table(layout.entry_count(c) * c.features);
+  std::vector<float> table(c.grid_entry_count() * c.features);
   for (float& v : table) v = u(rng);
   std::map<std::array<uint32_t, 3>, std::vector<float>> own;
   for (const GridVertex& v : keys) {

@@ -80,9 +80,10 @@ Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, si
   if (active.empty()) return Status::ok();
 
   Matrix X(config.input_dim(), long(active.size())), O;
+  const GridLayout layout = model.layout();
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < long(active.size()); ++k)
-    encode(config, model.grid.data(), walks[active[size_t(k)]], X.data() + size_t(k) * config.input_dim());
+    encode(config, model.grid.data(), walks[active[size_t(k)]], X.data() + size_t(k) * config.input_dim(), layout);
   mlp_forward(config, model.mlp.data(), X, O);
 
 #pragma omp parallel for schedule(static)

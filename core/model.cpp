@@ -35,6 +35,9 @@ Status Model::validate() const {
   if (grid.size() != config.grid_parameter_count())
     return Status::error("hash grid has %zu values, the config needs %llu (sum of 2^M_l, times F)", grid.size(),
                          static_cast<unsigned long long>(config.grid_parameter_count()));
+  if (grid_index.size() != config.grid_index_count())
+    return Status::error("model has %zu grid index displacements, its indexed levels need %llu", grid_index.size(),
+                         static_cast<unsigned long long>(config.grid_index_count()));
   const size_t scales = config.grid_bits == 8 ? config.grid_levels : 0;
   if (grid_scales.size() != scales)
     return Status::error("model has %zu grid scales, %u-bit grid features need %zu", grid_scales.size(),

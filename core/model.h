@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "config.h"
+#include "hash_grid.h"
 #include "status.h"
 #include "voxel_grid.h"
 
@@ -28,6 +29,9 @@ struct Model {
   // grid_bits 8: one scale per level (config.grid_levels values, finite, >= 0), set by quantize();
   // empty for grid_bits 16.
   std::vector<float> grid_scales;
+  // The displacements of the indexed levels' perfect hashes (Config::index_buckets of each, in level
+  // order; core/perfect_hash.h); empty when no level is indexed.
+  std::vector<uint16_t> grid_index;
   // MLP parameters, config.mlp_parameter_count() values. For each layer in order (hidden layers,
   // then the output layer): the weight matrix row-major [out][in], then the bias [out].
   std::vector<float> mlp;
@@ -36,6 +40,8 @@ struct Model {
   std::string training;
 
   const Aabb& bounds() const { return voxels.bounds; }
+  // How the encoder addresses this model's tables (hash_grid.h).
+  GridLayout layout() const { return grid_layout(config, grid_index.data()); }
   // Consistency of sizes with the config; the message names the mismatch.
   Status validate() const;
   // Rounds mlp to fp16 precision in place, and the grid to what config.grid_bits stores: fp16, or

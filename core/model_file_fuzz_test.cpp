@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "crc32.h"
+#include "grid_usage.h"
 #include "model.h"
 #include "rng.h"
 
@@ -59,6 +60,19 @@ Model base_8bit_model(uint32_t V, uint32_t levels, uint32_t materials, uint64_t 
   return m;
 }
 
+// The same with its last level indexed for its voxels (a version 5 file).
+Model base_indexed_model(uint32_t V, uint32_t levels, uint32_t materials, uint64_t seed) {
+  Model m = base_model(V, levels, materials, seed);
+  bool indexed[LSNIF_MAX_LEVELS] = {};
+  indexed[levels - 1] = true;
+  const Status s = index_grid_levels(m.voxels, indexed, m.config, m.grid_index);
+  EXPECT_TRUE(s) << s.message();
+  Rng rng(seed, 2, 0);
+  m.grid.resize(m.config.grid_parameter_count());
+  for (float& v : m.grid) v = rng.next_float() - 0.5f;
+  return m;
+}
+
 void put_u32(Bytes& b, size_t at, uint32_t v) {
   for (int i = 0; i < 4; ++i) b[at + i] = uint8_t(v >> (8 * i));
 }
@@ -101,9 +115,9 @@ Bytes mutate(const Bytes& original, Rng& rng) {
         b[rng.next_u32() % b.size()] = (rng.next_u32() & 1u) ? uint8_t(rng.next_u32()) : extremes[rng.next_u32() % 7u];
       break;
     }
-    case 2: {  // a header field (aligned u32 among the first 168 bytes) gets an interesting value
-      const size_t at = 4 * (rng.next_u32() % 42u);
-      put_u32(b, at, interesting_u32(rng, b.size()));
+    case 2: {  // a header field (aligned u32 among the first 272 bytes, within the file) gets an interesting value
+      const size_t at = 4 * (rng.next_u32() % 68u);
+      if (at + 4 <= b.size()) put_u32(b, at, interesting_u32(rng, b.size()));
       break;
     }
     case 3: {  // a section table entry (u64) gets an interesting value
@@ -183,6 +197,7 @@ TEST(ModelFileFuzz, MutationsNeverCrashAndAcceptedFilesAreCanonical) {
       base_model(4, 4, 2, 3),
       base_8bit_model(3, 2, 1, 5),
       base_model(3, 3, 1, 6, true),  // tables of different sizes: version 4
+      base_indexed_model(4, 2, 1, 7),  // level 1 indexed: version 5
   };
   const int iterations = 15000;  // per model
   Tally raw, fixed;
@@ -201,7 +216,8 @@ TEST(ModelFileFuzz, MutationsNeverCrashAndAcceptedFilesAreCanonical) {
 }
 
 TEST(ModelFileFuzz, EveryTruncationAndEveryByteOfTheHeader) {
-  for (const Model& model : {base_model(5, 2, 3, 4), base_8bit_model(5, 2, 3, 4), base_model(5, 2, 3, 4, true)}) {
+  for (const Model& model : {base_model(5, 2, 3, 4), base_8bit_model(5, 2, 3, 4), base_model(5, 2, 3, 4, true),
+                             base_indexed_model(5, 2, 3, 4)}) {
     Bytes base;
     ASSERT_TRUE(save_model_to_memory(model, base));
     Tally t;
@@ -213,7 +229,8 @@ TEST(ModelFileFuzz, EveryTruncationAndEveryByteOfTheHeader) {
     }
     // Every header byte set to each of a few values, CRC repaired.
     const uint8_t values[] = {0x00, 0x01, 0x10, 0x7f, 0x80, 0xff};
-    const size_t header_bytes = base[12];  // 168, for 8-bit grids 208, for tables of different sizes 224
+    // 168, for 8-bit grids 208, for tables of different sizes 224, with an indexed level 272
+    const size_t header_bytes = size_t(base[12]) | size_t(base[13]) << 8;
     for (size_t at = 0; at < header_bytes; ++at) {
       for (uint8_t v : values) {
         Bytes b = base;

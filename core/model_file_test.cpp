@@ -56,6 +56,13 @@ void wrf32(Bytes& b, size_t off, float f) {
 }
 // Recomputes the trailer so that only the structural checks can catch a change.
 void fix_crc(Bytes& b) { wr32(b, b.size() - 4, crc32_bitwise(b.data(), b.size() - 4)); }
+// `good` with `change` applied and the trailer recomputed.
+Bytes changed(const Bytes& good, const std::function<void(Bytes&)>& change) {
+  Bytes b = good;
+  change(b);
+  fix_crc(b);
+  return b;
+}
 
 // Documented offsets (docs/model-format.md).
 constexpr size_t kVersionAt = 8, kHeaderSizeAt = 12, kFileSizeAt = 16, kVAt = 24, kGridResAt = 36,
@@ -125,6 +132,11 @@ void expect_equal(const Model& a, const Model& b) {
   EXPECT_EQ(a.config.describe(), b.config.describe());
   for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) EXPECT_EQ(a.config.grid_resolution[l], b.config.grid_resolution[l]);
   for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) EXPECT_EQ(a.config.table_log2[l], b.config.table_log2[l]);
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) {
+    EXPECT_EQ(a.config.index_slots[l], b.config.index_slots[l]);
+    EXPECT_EQ(a.config.index_buckets[l], b.config.index_buckets[l]);
+  }
+  EXPECT_EQ(a.grid_index, b.grid_index);
   EXPECT_EQ(a.config.leaky_slope, b.config.leaky_slope);
   EXPECT_EQ(a.voxels.resolution, b.voxels.resolution);
   EXPECT_EQ(a.voxels.bounds.lo, b.voxels.bounds.lo);
@@ -536,10 +548,10 @@ TEST(ModelFileErrors, WrongMagic) {
 
 TEST(ModelFileErrors, FutureVersion) {
   Bytes b = saved(small_model());
-  wr32(b, kVersionAt, 5);
-  expect_load_error(b, {"version 5", "versions 1 to 4"});  // reported before the checksum
+  wr32(b, kVersionAt, 6);
+  expect_load_error(b, {"version 6", "versions 1 to 5"});  // reported before the checksum
   fix_crc(b);
-  expect_load_error(b, {"version 5", "versions 1 to 4"});
+  expect_load_error(b, {"version 6", "versions 1 to 5"});
   wr32(b, kVersionAt, 0);
   fix_crc(b);
   expect_load_error(b, {"version 0"});
@@ -674,12 +686,7 @@ TEST(ModelFileErrors, EightBitGrid) {
   const Bytes good = saved(m);
   const uint64_t grid_at = section_offset(good, kGrid), scales_at = section_offset(good, kGridScales);
   const uint64_t per_level = uint64_t(m.config.table_size(0)) * m.config.features;
-  auto with = [&](const std::function<void(Bytes&)>& change) {
-    Bytes b = good;
-    change(b);
-    fix_crc(b);
-    return b;
-  };
+  const auto with = [&](const std::function<void(Bytes&)>& change) { return changed(good, change); };
   expect_load_error(with([&](Bytes& b) { b[grid_at + 3] = 0x80; }), {"grid section code 3", "-128"});
   expect_load_error(with([&](Bytes& b) { wrf32(b, scales_at + 4, std::nanf("")); }),
                     {"grid scale of level 1", "nan"});
@@ -789,12 +796,7 @@ TEST(ModelFile, TablesOfDifferentSizesAreAVersion4File) {
 TEST(ModelFileErrors, TablesOfDifferentSizes) {
   const Model m = unequal_model(8);
   const Bytes good = saved(m);
-  auto with = [&](const std::function<void(Bytes&)>& change) {
-    Bytes b = good;
-    change(b);
-    fix_crc(b);
-    return b;
-  };
+  const auto with = [&](const std::function<void(Bytes&)>& change) { return changed(good, change); };
   expect_load_error(with([&](Bytes& b) { wr32(b, kConfigMAt, 5); }), {"M", "version 4", "must be 0"});
   expect_load_error(with([&](Bytes& b) { wr32(b, kTableLog2At + 4, 25); }), {"M=25 of level 1", "out of range"});
   expect_load_error(with([&](Bytes& b) { wr32(b, kTableLog2At + 4, 3); }), {"M=3 of level 1", "out of range"});
@@ -813,6 +815,91 @@ TEST(ModelFileErrors, TablesOfDifferentSizes) {
   fix_crc(v3);
   expect_load_error(v3, {"header size 208", "224"});
   expect_load_error(with([&](Bytes& b) { wr32(b, kVersionAt, 3); }), {"header size 224", "208"});
+}
+
+// ---- format version 5: indexed levels ------------------------------------------------------------
+
+constexpr size_t kGridIndexEntryAt = 224, kIndexSlotsAt = 240, kIndexBucketsAt = 256;
+
+// unequal_model with level 1 indexed: 50 slots, 13 random displacements (the format does not
+// require them to be a perfect hash of anything: any displacement addresses a slot).
+Model indexed_model(uint32_t grid_bits, uint64_t seed = 2) {
+  Model m = unequal_model(grid_bits, seed);
+  Rng rng(seed, 1, 0);
+  m.config.index_slots[1] = 50;
+  m.config.index_buckets[1] = 13;
+  m.grid.resize(m.config.grid_parameter_count());
+  for (float& v : m.grid) v = rng.next_float() - 0.5f;
+  m.grid_index.resize(13);
+  for (uint16_t& d : m.grid_index) d = uint16_t(rng.next_u32());
+  m.quantize();
+  return m;
+}
+
+TEST(ModelFile, IndexedLevelIsAVersion5File) {
+  for (const uint32_t bits : {16u, 8u}) {
+    SCOPED_TRACE(testing::Message() << bits << "-bit grid");
+    const Model m = indexed_model(bits);
+    ASSERT_TRUE(m.validate()) << m.validate().message();
+    const Bytes b = saved(m);
+    const Config& c = m.config;
+    EXPECT_EQ(rd32(b, kVersionAt), 5u);
+    EXPECT_EQ(rd32(b, kHeaderSizeAt), 272u);
+    EXPECT_EQ(rd32(b, kConfigMAt), 0u);
+    const uint32_t slots[4] = {0, 50, 0, 0}, buckets[4] = {0, 13, 0, 0};
+    for (uint32_t l = 0; l < 4; ++l) {
+      EXPECT_EQ(rd32(b, kIndexSlotsAt + 4 * l), slots[l]) << "level " << l;
+      EXPECT_EQ(rd32(b, kIndexBucketsAt + 4 * l), buckets[l]) << "level " << l;
+    }
+    // Level 1's table has its 50 slots between level 0's 2^5 entries and level 2's 2^4.
+    EXPECT_EQ(c.grid_parameter_count(), (32u + 50u + 16u) * c.features);
+    EXPECT_EQ(section_size(b, kGrid), c.grid_parameter_count() * bits / 8);
+    // The grid index section: last, after the grid scales, 16-byte aligned, 13 little-endian u16.
+    const uint64_t index_at = rd64(b, kGridIndexEntryAt);
+    EXPECT_EQ(rd64(b, kGridIndexEntryAt + 8), 26u);
+    EXPECT_EQ(index_at % 16, 0u);
+    EXPECT_EQ(index_at, (section_offset(b, 5) + section_size(b, 5) + 15) / 16 * 16);
+    for (size_t i = 0; i < 13; ++i) EXPECT_EQ(uint16_t(b[index_at + 2 * i] | b[index_at + 2 * i + 1] << 8), m.grid_index[i]);
+    EXPECT_EQ(b.size(), (index_at + 26 + 15) / 16 * 16 + 4);
+    expect_round_trip(m, b);
+    EXPECT_EQ(memory_breakdown(m).total(), b.size());
+    // Without the index the same model is a version 4 file again.
+    Model hashed = m;
+    hashed.config.index_slots[1] = hashed.config.index_buckets[1] = 0;
+    hashed.grid_index.clear();
+    hashed.grid.assign(hashed.config.grid_parameter_count(), 0.0f);
+    hashed.quantize();
+    EXPECT_EQ(rd32(saved(hashed), kVersionAt), 4u);
+  }
+}
+
+TEST(ModelFileErrors, IndexedLevels) {
+  const Model m = indexed_model(8);
+  const Bytes good = saved(m);
+  const auto with = [&](const std::function<void(Bytes&)>& change) { return changed(good, change); };
+  expect_load_error(with([&](Bytes& b) { wr32(b, kIndexBucketsAt + 4, 0); }), {"level 1", "50 slots and 0 buckets"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kIndexBucketsAt + 4, 51); }), {"level 1", "one bucket per slot"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kIndexSlotsAt + 4, (1u << 24) + 1); }), {"level 1", "at most 2^24"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kIndexSlotsAt + 12, 1); wr32(b, kIndexBucketsAt + 12, 1); }),
+                    {"unused level 3", "index"});
+  // Sizes changed to other valid ones no longer match the sections.
+  expect_load_error(with([&](Bytes& b) { wr32(b, kIndexSlotsAt + 4, 49); }), {"section grid has size"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kIndexBucketsAt + 4, 12); }), {"section grid index has size"});
+  expect_load_error(with([&](Bytes& b) { wr64(b, kGridIndexEntryAt, 8); }), {"section grid index", "outside"});
+  // No indexed level: such a model is written as version 1 to 4, never 5.
+  expect_load_error(with([&](Bytes& b) {
+                      wr32(b, kIndexSlotsAt + 4, 0);
+                      wr32(b, kIndexBucketsAt + 4, 0);
+                    }),
+                    {"version 5", "without an indexed grid level"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kVersionAt, 4); }), {"header size 272", "224"});
+  // A model whose index does not match its config is not saved.
+  Model short_index = m;
+  short_index.grid_index.pop_back();
+  Bytes out;
+  const Status s = save_model_to_memory(short_index, out);
+  EXPECT_FALSE(s);
+  EXPECT_NE(s.message().find("grid index"), std::string::npos) << s.message();
 }
 
 TEST(ModelFileErrors, TrainingSection) {

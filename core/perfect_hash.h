@@ -26,6 +26,15 @@ struct PerfectHash {
   std::vector<uint16_t> displacement;  // one per bucket (B = size)
 };
 
+// A perfect hash as stored in a model (Config::index_slots / index_buckets, Model::grid_index).
+struct PerfectHashView {
+  uint32_t slots = 0, buckets = 0;
+  const uint16_t* displacement = nullptr;  // `buckets` values; nullptr: no index
+};
+inline PerfectHashView view_of(const PerfectHash& hash) {
+  return {hash.slots, uint32_t(hash.displacement.size()), hash.displacement.data()};
+}
+
 // The murmur3 32-bit finalizer (a bijection on 32 bits).
 inline uint32_t perfect_hash_mix(uint32_t h) {
   h ^= h >> 16;
@@ -45,10 +54,14 @@ inline uint32_t perfect_hash_bucket(uint32_t buckets, uint32_t x, uint32_t y, ui
 inline uint32_t perfect_hash_place(uint32_t h2, uint32_t d, uint32_t slots) {
   return perfect_hash_mix(h2 + d * 0x9e3779b9u) % slots;
 }
-// The slot of any vertex, in [0, hash.slots). hash.displacement must not be empty.
-inline uint32_t perfect_hash_slot(const PerfectHash& hash, uint32_t x, uint32_t y, uint32_t z) {
-  const uint32_t b = perfect_hash_bucket(uint32_t(hash.displacement.size()), x, y, z);
+// The slot of any vertex, in [0, hash.slots) (shaders/lsnif_perfect_hash.glsl: the GPU twin). The
+// hash must have at least one bucket.
+inline uint32_t perfect_hash_slot(const PerfectHashView& hash, uint32_t x, uint32_t y, uint32_t z) {
+  const uint32_t b = perfect_hash_bucket(hash.buckets, x, y, z);
   return perfect_hash_place(perfect_hash_key(1, x, y, z), hash.displacement[b], hash.slots);
+}
+inline uint32_t perfect_hash_slot(const PerfectHash& hash, uint32_t x, uint32_t y, uint32_t z) {
+  return perfect_hash_slot(view_of(hash), x, y, z);
 }
 
 // Buckets for N keys: ceil(N / 4), at least 1.

@@ -77,12 +77,36 @@ Status Config::validate() const {
   if (!(leaky_slope >= slope.min && leaky_slope < slope.max))
     return Status::error("leaky ReLU slope %g out of range [%g, %g)", double(leaky_slope), slope.min, slope.max);
   if (grid_bits != 8 && grid_bits != 16) return Status::error("grid bits %u is neither 8 nor 16", grid_bits);
+  const uint32_t max_slots = 1u << max_u32(SettingId::TableLog2);
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) {
+    const uint32_t slots = index_slots[l], buckets = index_buckets[l];
+    if (l >= grid_levels && (slots || buckets))
+      return Status::error("unused level %u has an index (%u slots, %u buckets)", l, slots, buckets);
+    if ((slots == 0) != (buckets == 0))
+      return Status::error("level %u's index has %u slots and %u buckets (both 0 for a hashed level, else both "
+                           "positive)", l, slots, buckets);
+    if (slots > max_slots || buckets > slots)
+      return Status::error("level %u's index has %u slots and %u buckets: at most 2^%u slots and at most one bucket "
+                           "per slot", l, slots, buckets, max_u32(SettingId::TableLog2));
+  }
   return Status::ok();
 }
 
 uint64_t Config::level_entry_offset(uint32_t level) const {
   uint64_t n = 0;
-  for (uint32_t l = 0; l < level && l < LSNIF_MAX_LEVELS; ++l) n += uint64_t(1) << table_log2[l];
+  for (uint32_t l = 0; l < level && l < LSNIF_MAX_LEVELS; ++l) n += table_size(l);
+  return n;
+}
+
+bool Config::any_indexed() const {
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l)
+    if (indexed(l)) return true;
+  return false;
+}
+
+uint64_t Config::grid_index_count() const {
+  uint64_t n = 0;
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) n += index_buckets[l];
   return n;
 }
 
@@ -93,6 +117,7 @@ uint32_t Config::level_of_entry(uint64_t entry) const {
 }
 
 bool Config::uniform_table_log2() const {
+  if (any_indexed()) return false;
   for (uint32_t l = 1; l < grid_levels && l < LSNIF_MAX_LEVELS; ++l)
     if (table_log2[l] != table_log2[0]) return false;
   return true;
@@ -103,7 +128,8 @@ std::string Config::describe() const {
   for (uint32_t l = 0; l < grid_levels && l < LSNIF_MAX_LEVELS; ++l) {
     if (l) res.push_back(',');
     res.append(std::to_string(grid_resolution[l]));
-    if (l == 0 || !uniform_table_log2()) m.append(l ? "," : "").append(std::to_string(table_log2[l]));
+    if (l == 0 || !uniform_table_log2())
+      m.append(l ? "," : "").append(indexed(l) ? format("indexed:%u", index_slots[l]) : std::to_string(table_log2[l]));
   }
   return format("V=%u H=%u L=%u res=%s M=%s F=%u W=%ux%u Nmat=%u hit=%s leaky=%g%s", voxel_resolution,
                 max_points, grid_levels, res.c_str(), m.c_str(), features, hidden_width,

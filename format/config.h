@@ -39,16 +39,28 @@ struct Config {
   // Bits per stored hash-grid feature: 16 (fp16) or 8 (int8 codes times a per-level fp32 scale,
   // Model::grid_scales; .lsnif format version 3).
   uint32_t grid_bits = default_u32(SettingId::GridBits);
+  // Per level l < L: 0 for a hashed level (hash_vertex into 2^table_log2[l] entries), else the level
+  // is indexed (core/perfect_hash.h): its table has index_slots[l] entries, one for every vertex the
+  // encoder can read (and a few spare), addressed through index_buckets[l] displacements
+  // (Model::grid_index). Both are set together by index_grid_levels (core/grid_usage.h) from the
+  // voxels; an indexed level's table_log2 is unused. 0 for unused levels.
+  uint32_t index_slots[LSNIF_MAX_LEVELS] = {};
+  uint32_t index_buckets[LSNIF_MAX_LEVELS] = {};
 
-  // Entries of level l's table: 2^table_log2[l].
-  uint32_t table_size(uint32_t level) const { return 1u << table_log2[level]; }
+  bool indexed(uint32_t level) const { return index_slots[level] != 0; }
+  bool any_indexed() const;
+  // Displacements of all indexed levels together (Model::grid_index).
+  uint64_t grid_index_count() const;
+  // Entries of level l's table: 2^table_log2[l], or index_slots[l] for an indexed level.
+  uint32_t table_size(uint32_t level) const { return indexed(level) ? index_slots[level] : 1u << table_log2[level]; }
   // Entries of the tables of the levels before `level`: where level `level`'s table starts.
   uint64_t level_entry_offset(uint32_t level) const;
   // Entries of all levels' tables together.
   uint64_t grid_entry_count() const { return level_entry_offset(grid_levels); }
   // The level whose table holds entry `entry` (< grid_entry_count()).
   uint32_t level_of_entry(uint64_t entry) const;
-  // Every level's table has the same size (the layout before per-level sizes: any .lsnif version).
+  // Every level's table has the same size 2^M (the layout before per-level sizes: any .lsnif
+  // version); false when a level is indexed.
   bool uniform_table_log2() const;
   uint32_t input_dim() const { return max_points * grid_levels * features; }
   uint32_t output_dim() const { return LSNIF_OUT_FIXED + material_count; }

@@ -6,7 +6,7 @@
 
 namespace lsnif {
 
-static_assert(sizeof(LsnifGpuModelHeader) == LSNIF_GPU_HEADER_WORDS * 4, "header must be 32 words");
+static_assert(sizeof(LsnifGpuModelHeader) == LSNIF_GPU_HEADER_WORDS * 4, "header must be LSNIF_GPU_HEADER_WORDS words");
 static_assert(sizeof(LsnifReferenceRay) == 32 && sizeof(LsnifReferenceHit) == 52, "test structs");
 
 std::vector<GpuLayerLayout> gpu_layer_layout(const Config& config) {
@@ -37,6 +37,15 @@ uint32_t get_u32(const uint8_t* p) {
 }
 
 // Stores fp16 bits `h` as element `element` of the fp16 pairs starting at word `word_base`.
+// The header's four per-level fields from the levels' values.
+template <class T>
+void set_levels(T& level0, T& level1, T& level2, T& level3, const T (&values)[LSNIF_MAX_LEVELS]) {
+  level0 = values[0];
+  level1 = values[1];
+  level2 = values[2];
+  level3 = values[3];
+}
+
 void put_half(std::vector<uint32_t>& words, uint64_t word_base, uint64_t element, uint16_t h) {
   words[size_t(word_base + (element >> 1))] |= uint32_t(h) << ((element & 1u) * 16u);
 }
@@ -54,9 +63,12 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   // The grid padded to 8 words: the mlp section stays 32-byte aligned.
   const uint64_t grid_words = ((c.grid_parameter_count() + per_word - 1) / per_word + 7) / 8 * 8;
   const uint64_t mlp_words = layers.back().end_word;
+  // The displacements, two per word, padded to 8 words (none without an indexed level).
+  const uint64_t index_words = ((c.grid_index_count() + 1) / 2 + 7) / 8 * 8;
   const uint64_t voxel_offset = LSNIF_GPU_HEADER_WORDS;
   const uint64_t grid_offset = voxel_offset + (voxel_words + 7) / 8 * 8;
-  const uint64_t mlp_offset = grid_offset + grid_words;
+  const uint64_t index_offset = grid_offset + grid_words;
+  const uint64_t mlp_offset = index_offset + index_words;
   const uint64_t total = mlp_offset + mlp_words;
   if (total > 0xffffffffull)
     return Status::error("packing GPU block: %llu words exceed the 32-bit word addressing",
@@ -70,10 +82,7 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   h.voxel_resolution = c.voxel_resolution;
   h.max_points = c.max_points;
   h.grid_levels = c.grid_levels;
-  h.grid_resolution0 = c.grid_resolution[0];
-  h.grid_resolution1 = c.grid_resolution[1];
-  h.grid_resolution2 = c.grid_resolution[2];
-  h.grid_resolution3 = c.grid_resolution[3];
+  set_levels(h.grid_resolution0, h.grid_resolution1, h.grid_resolution2, h.grid_resolution3, c.grid_resolution);
   for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) h.table_log2 |= c.table_log2[l] << (8u * l);
   h.features = c.features;
   h.hidden_width = c.hidden_width;
@@ -91,12 +100,11 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   h.grid_offset = uint32_t(grid_offset);
   h.mlp_offset = uint32_t(mlp_offset);
   h.grid_bits = c.grid_bits;
-  if (c.grid_bits == 8) {
-    h.grid_scale0 = view.grid_scales[0];
-    h.grid_scale1 = view.grid_scales[1];
-    h.grid_scale2 = view.grid_scales[2];
-    h.grid_scale3 = view.grid_scales[3];
-  }
+  if (c.any_indexed()) h.index_offset = uint32_t(index_offset);
+  set_levels(h.index_slots0, h.index_slots1, h.index_slots2, h.index_slots3, c.index_slots);
+  set_levels(h.index_buckets0, h.index_buckets1, h.index_buckets2, h.index_buckets3, c.index_buckets);
+  if (c.grid_bits == 8)
+    set_levels(h.grid_scale0, h.grid_scale1, h.grid_scale2, h.grid_scale3, view.grid_scales);
   std::memcpy(words.data(), &h, sizeof h);
 
   for (uint64_t w = 0; w < voxel_words; ++w) words[size_t(voxel_offset + w)] = get_u32(view.voxels + 4 * w);
@@ -107,6 +115,8 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
     for (uint64_t e = 0; e < c.grid_parameter_count(); ++e)
       put_half(words, grid_offset, e, get_u16(view.grid + 2 * e));
   }
+
+  for (uint64_t i = 0; i < c.grid_index_count(); ++i) put_half(words, index_offset, i, get_u16(view.grid_index + 2 * i));
 
   const std::vector<LayerView> views = mlp_layers(c);
   for (size_t l = 0; l < layers.size(); ++l) {

@@ -1,14 +1,18 @@
 // model_format.cpp -- reading and writing .lsnif files at the byte level (model_format.h). The byte layout is specified in
 // docs/model-format.md; in short (all little-endian, packed byte by byte, no struct copies):
 //
-//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1 to 4)
-//   12   u32 header size (168, 184, 208, 224) 16 u64 total file size
+//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1 to 5)
+//   12   u32 header size (168, 184, 208, 224, 272) 16 u64 total file size
 //   24   Config (13 x u32, leaky slope f32) 80  AABB lo.xyz, hi.xyz (6 x f32)
 //   104  section table: {u64 offset, u64 size} for materials, voxels, grid, mlp (and, in version 2,
 //        training at 168; in versions 3 and 4 training, possibly empty, at 168 and grid scales at 184)
 //   versions 3 and 4: 200 u32 grid bits (8; version 4: 8 or 16), 204 u32 zero
-//   version 4 only: 208 u32 table_log2 of each of the 4 levels (0 for unused levels; the Config's M
-//        field at 52 is 0): the levels' tables differ in size. Equal sizes are written as before.
+//   versions 4 and 5: 208 u32 table_log2 of each of the 4 levels (0 for unused levels; the Config's
+//        M field at 52 is 0): the levels' tables differ in size. Equal sizes are written as before.
+//   version 5 only: 224 {u64 offset, u64 size} of the grid index section, 240 u32 index slots of
+//        each of the 4 levels, 256 u32 index buckets of each (0 for hashed and unused levels): at
+//        least one level is indexed (Config::index_slots); the grid index section after the grid
+//        scales holds the indexed levels' displacements (u16 each, level order).
 //   then zero padding to a multiple of 16, then the sections in that order, each at a 16-byte
 //        aligned offset with zero padding between them, then (16-byte aligned) u32 CRC-32 of all
 //        bytes before. Grid values are fp16 (versions 1, 2) or int8 codes in [-127, 127] (version 3,
@@ -36,6 +40,8 @@ constexpr uint32_t kHeaderSizeV1 = 168;
 constexpr uint32_t kHeaderSizeV2 = kHeaderSizeV1 + 16;  // + the training section's {offset, size}
 constexpr uint32_t kHeaderSizeV3 = kHeaderSizeV2 + 24;  // + grid scales {offset, size}, grid bits, zero
 constexpr uint32_t kHeaderSizeV4 = kHeaderSizeV3 + 4 * LSNIF_MAX_LEVELS;  // + table_log2 per level
+// + the grid index {offset, size}, index slots and buckets per level
+constexpr uint32_t kHeaderSizeV5 = kHeaderSizeV4 + 16 + 8 * LSNIF_MAX_LEVELS;
 constexpr uint64_t kNameBytes = kModelMaterialNameBytes;
 constexpr uint64_t kMaterialRecordSize = kNameBytes + 3 * 4;  // name + base_color[3]
 constexpr uint64_t kAlignment = 16;
@@ -43,25 +49,33 @@ constexpr uint64_t kCrcSize = 4;
 
 // Header field offsets.
 constexpr size_t kOffVersion = 8, kOffHeaderSize = 12, kOffFileSize = 16, kOffConfig = 24,
-                 kOffAabb = 80, kOffSections = 104, kOffGridBits = 200, kOffReserved = 204, kOffTableLog2 = 208;
+                 kOffAabb = 80, kOffSections = 104, kOffGridBits = 200, kOffReserved = 204, kOffTableLog2 = 208,
+                 kOffGridIndexEntry = 224, kOffIndexSlots = 240, kOffIndexBuckets = 256;
 // The Config's M field (offset 52 of the file): the size of every level's table in versions 1 to 3.
 constexpr size_t kConfigTableLog2 = 28;
 
-enum Section { kMaterials = 0, kVoxels, kGrid, kMlp, kTraining, kGridScales, kSectionCount };
-constexpr const char* kSectionName[kSectionCount] = {"materials", "voxels", "grid", "mlp", "training", "grid scales"};
+enum Section { kMaterials = 0, kVoxels, kGrid, kMlp, kTraining, kGridScales, kGridIndex, kSectionCount };
+constexpr const char* kSectionName[kSectionCount] = {"materials", "voxels",      "grid",      "mlp",
+                                                     "training",  "grid scales", "grid index"};
+// Where section s's {offset, size} entry lies in the header.
+size_t section_entry(int s) { return s == kGridIndex ? kOffGridIndexEntry : kOffSections + 16 * size_t(s); }
 
 uint64_t align16(uint64_t n) { return (n + kAlignment - 1) & ~(kAlignment - 1); }
 
 uint32_t header_size_of(uint32_t version) {
-  return version == 1 ? kHeaderSizeV1 : version == 2 ? kHeaderSizeV2 : version == 3 ? kHeaderSizeV3 : kHeaderSizeV4;
+  return version == 1 ? kHeaderSizeV1
+       : version == 2 ? kHeaderSizeV2
+       : version == 3 ? kHeaderSizeV3
+       : version == 4 ? kHeaderSizeV4
+                      : kHeaderSizeV5;
 }
 
 // Where everything lives in the file of a model with this (valid) config and a training record of
-// `training_bytes`: version 4 when the levels' tables differ in size, else version 3 for 8-bit grid
-// features, else version 1 (no record) or 2.
+// `training_bytes`: version 5 when a level is indexed, else version 4 when the levels' tables differ
+// in size, else version 3 for 8-bit grid features, else version 1 (no record) or 2.
 struct Layout {
   uint32_t version = 1, header_size = kHeaderSizeV1;
-  int sections = kTraining;  // kTraining in version 1, kGridScales in 2, kSectionCount in 3 and 4
+  int sections = kTraining;  // kTraining in version 1, kGridScales in 2, kGridIndex in 3 and 4, all in 5
   uint64_t offset[kSectionCount] = {};
   uint64_t size[kSectionCount] = {};
   uint64_t crc_offset = 0, file_size = 0;
@@ -69,12 +83,15 @@ struct Layout {
 
 Layout layout_of(const Config& c, uint64_t training_bytes) {
   Layout l;
-  if (!c.uniform_table_log2()) {
-    l.version = 4;
+  if (c.any_indexed()) {
+    l.version = 5;
     l.sections = kSectionCount;
+  } else if (!c.uniform_table_log2()) {
+    l.version = 4;
+    l.sections = kGridIndex;
   } else if (c.grid_bits == 8) {
     l.version = 3;
-    l.sections = kSectionCount;
+    l.sections = kGridIndex;
   } else if (training_bytes) {
     l.version = 2;
     l.sections = kGridScales;
@@ -86,6 +103,7 @@ Layout layout_of(const Config& c, uint64_t training_bytes) {
   l.size[kMlp] = 2u * c.mlp_parameter_count();
   l.size[kTraining] = training_bytes;
   l.size[kGridScales] = c.grid_bits == 8 ? 4u * c.grid_levels : 0u;
+  l.size[kGridIndex] = 2u * c.grid_index_count();
   uint64_t end = l.header_size;
   for (int s = 0; s < l.sections; ++s) {
     l.offset[s] = align16(end);
@@ -108,7 +126,9 @@ uint64_t max_file_size() {
   c.hidden_width = max_u32(SettingId::Width);
   c.hidden_layers = max_u32(SettingId::Layers);
   c.material_count = LSNIF_MAX_MATERIALS;
-  return layout_of(c, kMaxTrainingRecordBytes).file_size;
+  const uint64_t largest = layout_of(c, kMaxTrainingRecordBytes).file_size;
+  // Indexed levels: tables of at most 2^M entries (as hashed ones), plus a displacement per slot.
+  return largest + 2u * c.grid_levels * (uint64_t(1) << max_u32(SettingId::TableLog2)) + kHeaderSizeV5;
 }
 
 // ---- little-endian packing ----------------------------------------------------------------------
@@ -252,11 +272,16 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
     if (v.config.grid_levels <= LSNIF_MAX_LEVELS) set_table_log2(v.config, stored_m);
   } else {
     if (stored_m != 0)
-      return Status::error("config field M (offset %zu) is %u in a version 4 file: version 4 stores the table "
-                           "sizes per level at offset %zu, M must be 0", kOffConfig + kConfigTableLog2, stored_m,
-                           kOffTableLog2);
+      return Status::error("config field M (offset %zu) is %u in a version %u file: versions 4 and 5 store the "
+                           "table sizes per level at offset %zu, M must be 0", kOffConfig + kConfigTableLog2,
+                           stored_m, version, kOffTableLog2);
     for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) v.config.table_log2[l] = get_u32(data + kOffTableLog2 + 4 * l);
   }
+  if (version >= 5)
+    for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) {
+      v.config.index_slots[l] = get_u32(data + kOffIndexSlots + 4 * l);
+      v.config.index_buckets[l] = get_u32(data + kOffIndexBuckets + 4 * l);
+    }
   if (version >= 3) {
     v.config.grid_bits = get_u32(data + kOffGridBits);
     if (version == 3 && v.config.grid_bits != 8)
@@ -271,6 +296,8 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   if (version == 4 && c.uniform_table_log2())
     return Status::error("version 4 file whose %u levels all have 2^%u table entries (such a model is stored as "
                          "version 1, 2 or 3)", c.grid_levels, c.table_log2[0]);
+  if (version == 5 && !c.any_indexed())
+    return Status::error("version 5 file without an indexed grid level (such a model is stored as version 1 to 4)");
 
   for (int a = 0; a < 3; ++a) {
     v.bounds_lo[a] = get_f32(data + kOffAabb + 4 * a);
@@ -295,8 +322,8 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   const Layout expected = layout_of(c, training_bytes);
   const uint32_t header_size = expected.header_size;
   for (int s = 0; s < expected.sections; ++s) {
-    const uint64_t offset = get_u64(data + kOffSections + 16 * s);
-    const uint64_t bytes = get_u64(data + kOffSections + 16 * s + 8);
+    const uint64_t offset = get_u64(data + section_entry(s));
+    const uint64_t bytes = get_u64(data + section_entry(s) + 8);
     if (offset < header_size || offset > crc_offset || bytes > crc_offset - offset)
       return Status::error("section %s [offset %llu, size %llu] lies outside the file's data bytes [%u, %llu)",
                            kSectionName[s], ull(offset), ull(bytes), header_size, ull(crc_offset));
@@ -351,6 +378,8 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   // Parameters: finite fp16 values only; 8-bit grids: codes in [-127, 127] and usable scales.
   v.grid = data + expected.offset[kGrid];
   v.mlp = data + expected.offset[kMlp];
+  // Any displacement is valid: a slot is taken modulo the level's slots.
+  v.grid_index = version >= 5 ? data + expected.offset[kGridIndex] : nullptr;
   if (c.grid_bits == 8) {
     for (uint32_t l = 0; l < c.grid_levels; ++l) {
       const float scale = get_f32(data + expected.offset[kGridScales] + 4 * l);
@@ -408,7 +437,7 @@ ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes) {
   const Layout l = layout_of(config, training_bytes);
   ModelFileSizes out;
   out.voxels = l.size[kVoxels];
-  out.grid = l.size[kGrid] + l.size[kGridScales];
+  out.grid = l.size[kGrid] + l.size[kGridScales] + l.size[kGridIndex];
   out.mlp = l.size[kMlp];
   out.file = l.file_size;
   out.version = l.version;
@@ -429,7 +458,8 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   if (contents.materials.size() != c.material_count)
     return Status::error("cannot save model: %zu materials, the config has %u", contents.materials.size(),
                          c.material_count);
-  if (!contents.voxels || !contents.mlp || (c.grid_bits == 8 ? !contents.grid_codes : !contents.grid))
+  if (!contents.voxels || !contents.mlp || (c.grid_bits == 8 ? !contents.grid_codes : !contents.grid) ||
+      (c.any_indexed() && !contents.grid_index))
     return Status::error("cannot save model: a section has no data");
   if (contents.training.size() > kMaxTrainingRecordBytes)
     return Status::error("cannot save model: the training record is %zu bytes, at most %llu allowed",
@@ -490,13 +520,18 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   if (l.version >= 3) put_u32(d + kOffGridBits, c.grid_bits);
   if (l.version >= 4)
     for (uint32_t lv = 0; lv < LSNIF_MAX_LEVELS; ++lv) put_u32(d + kOffTableLog2 + 4 * lv, c.table_log2[lv]);
+  if (l.version >= 5)
+    for (uint32_t lv = 0; lv < LSNIF_MAX_LEVELS; ++lv) {
+      put_u32(d + kOffIndexSlots + 4 * lv, c.index_slots[lv]);
+      put_u32(d + kOffIndexBuckets + 4 * lv, c.index_buckets[lv]);
+    }
   for (int a = 0; a < 3; ++a) {
     put_f32(d + kOffAabb + 4 * a, contents.bounds_lo[a]);
     put_f32(d + kOffAabb + 12 + 4 * a, contents.bounds_hi[a]);
   }
   for (int s = 0; s < l.sections; ++s) {
-    put_u64(d + kOffSections + 16 * s, l.offset[s]);
-    put_u64(d + kOffSections + 16 * s + 8, l.size[s]);
+    put_u64(d + section_entry(s), l.offset[s]);
+    put_u64(d + section_entry(s) + 8, l.size[s]);
   }
   uint8_t* p = d + l.offset[kMaterials];
   for (const ModelFileMaterial& mat : contents.materials) {
@@ -518,6 +553,8 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   for (uint64_t i = 0; i < c.mlp_parameter_count(); ++i) put_u16(p + 2 * i, contents.mlp[i]);
   if (!contents.training.empty())
     std::memcpy(d + l.offset[kTraining], contents.training.data(), contents.training.size());
+  p = d + l.offset[kGridIndex];
+  for (uint64_t i = 0; i < c.grid_index_count(); ++i) put_u16(p + 2 * i, contents.grid_index[i]);
   put_u32(d + l.crc_offset, crc32(d, l.crc_offset));
   bytes = std::move(out);
   return Status::ok();

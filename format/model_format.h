@@ -17,8 +17,10 @@ namespace lsnif {
 // before the record existed) and as version 2 with one; models with 8-bit grid features as version 3
 // (int8 codes and per-level fp32 scales, the record optional); models whose levels' hash tables
 // differ in size (Config::table_log2) as version 4 (the layout of version 3 plus the size of every
-// level's table; 16- or 8-bit features). All four are read.
-constexpr uint32_t kModelFormatVersion = 4;
+// level's table; 16- or 8-bit features); models with an indexed grid level (Config::index_slots) as
+// version 5 (the layout of version 4 plus every level's index sizes and the grid index section). All
+// five are read.
+constexpr uint32_t kModelFormatVersion = 5;
 // The training section (version 2): compact JSON text, at most this many bytes.
 constexpr size_t kMaxTrainingRecordBytes = 65536;
 constexpr size_t kModelMaterialNameBytes = 64;  // NUL-terminated: at most 63 bytes of name
@@ -42,7 +44,8 @@ struct ModelFileView {
   const uint8_t* grid = nullptr;               // config.grid_parameter_count() fp16 values or int8 codes
   const uint8_t* mlp = nullptr;                // config.mlp_parameter_count() fp16 values
   float grid_scales[LSNIF_MAX_LEVELS] = {};    // grid_bits 8: per level, finite, >= 0 (else 0)
-  uint32_t version = 0;                        // 1 to 4
+  const uint8_t* grid_index = nullptr;         // version 5: config.grid_index_count() u16 displacements
+  uint32_t version = 0;                        // 1 to 5
   std::string training;                        // the training record (version 2), else empty
 };
 
@@ -53,15 +56,15 @@ uint64_t model_voxel_words(const Config& config);
 bool grid_scale_usable(float scale);
 
 // Bytes of the parts of the .lsnif file of a model with this (valid) config and a training record
-// of `training_bytes`: voxel section, grid (values and, for 8-bit features, the scales), MLP, the
-// whole file, and its format version.
+// of `training_bytes`: voxel section, grid (values and, for 8-bit features, the scales;
+// for indexed levels also the displacements), MLP, the whole file, and its format version.
 struct ModelFileSizes {
   uint64_t voxels = 0, grid = 0, mlp = 0, file = 0;
   uint32_t version = 0;
 };
 ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes);
 
-// Parses and validates a whole .lsnif file in memory (format version 1 to 4): magic, version,
+// Parses and validates a whole .lsnif file in memory (format version 1 to 5): magic, version,
 // sizes, the config, the AABB,
 // section table, zero padding, CRC-32, material names (valid UTF-8 without control characters),
 // the AABB within +-kMaxModelCoordinate, no voxel bits beyond V^3, no NaN or
@@ -84,11 +87,12 @@ struct ModelFileContents {
   const uint16_t* grid = nullptr;       // grid_bits 16: config.grid_parameter_count() values
   const int8_t* grid_codes = nullptr;   // grid_bits 8: config.grid_parameter_count() codes in [-127, 127]
   float grid_scales[LSNIF_MAX_LEVELS] = {};  // grid_bits 8: per level, finite, >= 0
+  const uint16_t* grid_index = nullptr;  // config.grid_index_count() displacements (an indexed level)
   const uint16_t* mlp = nullptr;        // config.mlp_parameter_count() values
   // The training record (train/settings_io.h): empty writes a version 1 file, else version 2 with
   // a training section (valid UTF-8 without control characters, at most kMaxTrainingRecordBytes).
   // grid_bits 8 always writes version 3, its training section possibly empty; levels with tables of
-  // different sizes version 4 (its training section possibly empty).
+  // different sizes version 4 (its training section possibly empty); an indexed level version 5.
   std::string training;
 };
 

@@ -29,7 +29,7 @@ struct SettingChoice {
 
 // In table order (kSettingDefs[i].id == i).
 enum class SettingId : uint32_t {
-  Voxels, Points, Levels, ResMin, ResMax, TableLog2, Features, Width, Layers, Hit, LeakySlope, GridBits,
+  Voxels, Points, Levels, ResMin, ResMax, TableLog2, Features, Width, Layers, Hit, LeakySlope, GridBits, Indexed,
   Steps, Batch, Seed, RayReuse, Lr, LrSchedule, LrFinal, LrWarm, AdamBeta1, AdamBeta2, AdamEpsilon, NormalLoss,
   WOcclusion, WDistance, WNormal, WAlbedo, WMaterial,
   SurfaceFraction, SphereScale, SurfaceOffset, GridInitRange,
@@ -104,6 +104,10 @@ inline constexpr SettingDef kSettingDefs[] = {
     setting_detail::choice(SettingId::GridBits, "grid-bits", 16, kGridBitsChoices,
                            "bits per stored hash-grid feature: 16 (fp16) or 8 (int8 times a per-level scale: half "
                            "the grid's bytes)"),
+    setting_detail::u32_per_level(SettingId::Indexed, "indexed", 0, 0, 1,
+                                  "1: the level's table is indexed (a perfect hash of the grid vertices the model "
+                                  "can read: no collisions, sized to the mesh), 0: hashed into 2^table-log2 entries; "
+                                  "one value for every level or a comma list of one per level (e.g. 1,0)"),
     // The training run (TrainSettings).
     setting_detail::u32(SettingId::Steps, "steps", 2400, 1, std::numeric_limits<uint32_t>::max(), "training steps"),
     // Paper: 2^18 on a GPU. On 2 CPU cores the quality per step hardly depends on the batch, so a

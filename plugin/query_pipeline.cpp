@@ -333,7 +333,6 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
   // scratch; the status accumulators start at 0 with the first chunk and are written after the last.
   // Timestamp 0 precedes every chunk, each chunk writes its five (the last one's fifth after the status).
   timestamp(0, 0);
-  uint32_t last_base = 0;
   for (uint32_t base = 0; base < info.rayCount; base += LSNIF_QUERY_CHUNK_RAYS) {
     const uint32_t n = std::min(info.rayCount - base, LSNIF_QUERY_CHUNK_RAYS);
     split(info.rays + VkDeviceAddress(base) * sizeof(LsnifQueryRay), pc.rays_lo, pc.rays_hi);
@@ -369,11 +368,10 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
       between_passes(vk, cmd, true);
       timestamp(5, base);
     }
-    last_base = base;
   }
   between_passes(vk, cmd, false);
   run(st.status, 1);
-  timestamp(5, last_base);
+  timestamp(5, (LSNIF_QUERY_CHUNK_COUNT(info.rayCount) - 1) * LSNIF_QUERY_CHUNK_RAYS);  // the last chunk's base
 }
 
 }  // namespace lsnif::plugin

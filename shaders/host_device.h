@@ -60,11 +60,16 @@
  *  voxels: V^3 occupancy bits exactly as VoxelGrid::bits (voxel i + V*(j + V*k), bit idx & 31 of
  *          word idx >> 5).
  *  grid:   the hash tables, element order of hash_grid.h: e = (offset_l + entry) * F + feature,
- *          offset_l = sum of 2^M_k over the levels k < l (level l's table has 2^M_l entries).
+ *          offset_l = the entries of the levels k < l (level l's table has 2^M_l entries, or
+ *          index_slots<l> for an indexed level).
  *          grid_bits 16: fp16, two per word (element e in word e >> 1, low half when e is even:
  *          unpackHalf2x16). grid_bits 8: int8 codes in [-127, 127], four per word (element e in
  *          byte e & 3 of word e >> 2, two's complement), the value code * grid_scale<level> in fp32
  *          (as Model::grid on the CPU). lsnif_grid_value (lsnif_model.glsl) reads either.
+ *  index:  (only with an indexed level) starts at a multiple of 8 words: the indexed levels'
+ *          displacements (Model::grid_index, index_buckets<l> per indexed level in level order) as
+ *          u16, two per word (element i in word i >> 1, low half when i is even). The slot of a
+ *          vertex: core/perfect_hash.h, shaders/lsnif_perfect_hash.glsl.
  *  mlp:    starts at a multiple of 8 words. Per layer (hidden layers, then output) with in/out as
  *          in network.h, the rows in blocks of LSNIF_GPU_ROW_BLOCK = 8 (the last block padded with
  *          zero rows) so that one 32-byte load serves 8 rows (the portable inference path, see
@@ -75,7 +80,7 @@
  *          Every layer has a multiple of 8 words.
  * All fields are 32-bit uint or float, so the struct has identical std430 layout in C++ and GLSL. */
 #define LSNIF_GPU_MAGIC 0x4647534Cu /* "LSGF" little-endian */
-#define LSNIF_GPU_VERSION 4u
+#define LSNIF_GPU_VERSION 5u
 #define LSNIF_GPU_ROW_WORDS(n) (((n) + 1u) >> 1)
 /* M_l of level l from LsnifGpuModelHeader::table_log2. */
 #define LSNIF_GPU_TABLE_LOG2(packed, level) (((packed) >> (8u * (level))) & 0xffu)
@@ -115,9 +120,12 @@ struct LsnifGpuModelHeader {
   lsnif_uint mlp_offset;       /* words */
   lsnif_uint grid_bits;        /* 16 (fp16 grid) or 8 (int8 codes times the level's scale) */
   float grid_scale0, grid_scale1, grid_scale2, grid_scale3; /* grid_bits 8: per level, else 0 */
-  lsnif_uint reserved0;        /* zero; 32 words */
+  lsnif_uint index_offset;     /* words: the indexed levels' displacements (0 when none is indexed) */
+  /* Per level: 0 for a hashed level, else its perfect hash (Config::index_slots / index_buckets). */
+  lsnif_uint index_slots0, index_slots1, index_slots2, index_slots3;
+  lsnif_uint index_buckets0, index_buckets1, index_buckets2, index_buckets3; /* 40 words */
 };
-#define LSNIF_GPU_HEADER_WORDS 32u
+#define LSNIF_GPU_HEADER_WORDS 40u
 
 /* Test interface of tests/gpu/lsnif_reference.comp: one world-space ray in, one result out. */
 struct LsnifReferenceRay {

@@ -1,10 +1,12 @@
 // lsnif_encoding.glsl -- sparse hash-grid encoding of a walk (core/hash_grid.cpp: face_corners,
 // hash_vertex, encode): each boundary point is interpolated bilinearly from the 4 corners of the
-// face cell containing it, per level. Writes the network input into lsnif_act[0, input_dim),
+// face cell containing it, per level; an indexed level addresses its table through its perfect hash
+// (lsnif_perfect_hash.glsl). Writes the network input into lsnif_act[0, input_dim),
 // layout [point][level][feature], zero for points j >= walk.count.
 #ifndef LSNIF_ENCODING_GLSL
 #define LSNIF_ENCODING_GLSL
 
+#include "lsnif_perfect_hash.glsl"
 #include "lsnif_walk.glsl"
 
 // The MLP's private activation storage: the input (up to LSNIF_MAX_INPUT values) lives at
@@ -25,9 +27,11 @@ void lsnif_encode_point(LsnifModel m, uint j) {
   const uint L = m.h.grid_levels, F = m.h.features;
   const vec3 p = lsnif_walk.p[j];
   const uint a = lsnif_walk.axis[j], b = (a + 1u) % 3u, c = (a + 2u) % 3u;
-  uint offset = 0u;  // entries of the levels before l
+  uint offset = 0u;       // entries of the levels before l
+  uint index_first = 0u;  // displacements of the indexed levels before l
   for (uint l = 0u; l < L; ++l) {
     const uint R = lsnif_grid_resolution(m, l), M = LSNIF_GPU_TABLE_LOG2(m.h.table_log2, l);
+    const uint slots = lsnif_index_slots(m, l), buckets = lsnif_index_buckets(m, l);
     const float Rf = float(R);
     // The plane coordinate is (up to rounding) an integer; std::lround of a non-negative value.
     const float xa = clamp(p[a] * Rf, 0.0, Rf);
@@ -42,12 +46,14 @@ void lsnif_encode_point(LsnifModel m, uint j) {
       v[a] = ia;
       v[b] = ib + (k & 1u);
       v[c] = ic + (k >> 1);
-      const uint entry = offset + lsnif_hash_vertex(v, M);
+      const uint entry =
+          offset + (slots != 0u ? lsnif_perfect_hash_slot(m, index_first, slots, buckets, v) : lsnif_hash_vertex(v, M));
       const float weight = ((k & 1u) != 0u ? wb : 1.0 - wb) * ((k >> 1) != 0u ? wc : 1.0 - wc);
       for (uint f = 0u; f < F; ++f)
         lsnif_act[out_base + f] += weight * lsnif_grid_value(m, l, entry * F + f);
     }
-    offset += 1u << M;
+    offset += slots != 0u ? slots : 1u << M;
+    index_first += buckets;
   }
 }
 

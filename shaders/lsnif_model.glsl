@@ -72,6 +72,20 @@ uint lsnif_grid_resolution(LsnifModel m, uint level) {
                      : m.h.grid_resolution3;
 }
 
+// Config::index_slots[level] and index_buckets[level] (0: a hashed level).
+uint lsnif_index_slots(LsnifModel m, uint level) {
+  return level == 0u ? m.h.index_slots0
+       : level == 1u ? m.h.index_slots1
+       : level == 2u ? m.h.index_slots2
+                     : m.h.index_slots3;
+}
+uint lsnif_index_buckets(LsnifModel m, uint level) {
+  return level == 0u ? m.h.index_buckets0
+       : level == 1u ? m.h.index_buckets1
+       : level == 2u ? m.h.index_buckets2
+                     : m.h.index_buckets3;
+}
+
 // Hash-grid element e (hash_grid.h order) of level `level`: fp16, or an int8 code times the
 // level's scale (grid_bits 8), exactly Model::grid[e] on the CPU.
 float lsnif_grid_value(LsnifModel m, uint level, uint e) {

@@ -53,6 +53,31 @@ class TrainConfigCli : public ::testing::Test {
     return j.is_object() && j.contains("training") ? j["training"] : nlohmann::json();
   }
 
+  // `lsnif info --settings MODEL` as a --config file trains `model`'s bytes again.
+  void expect_record_reproduces(const std::string& model) {
+    ProcessResult r = lsnif({"info", "--settings", model});
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const std::string again = dir_.path("again.lsnif");
+    r = train(again, {"--config", write("recorded.json", r.output)});
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(read(again), read(model));
+  }
+  struct BadArgs {
+    std::vector<std::string> args;
+    std::string message;
+  };
+  // Each `lsnif train --config cfg ARGS` is a usage error (exit 2) naming `message`, writing nothing.
+  void expect_usage_errors(const std::string& cfg, const std::vector<BadArgs>& cases) {
+    for (const BadArgs& c : cases) {
+      std::vector<std::string> args = {"--config", cfg};
+      args.insert(args.end(), c.args.begin(), c.args.end());
+      const ProcessResult r = train(dir_.path("bad.lsnif"), args);
+      EXPECT_EQ(r.exit_code, 2) << r.output;
+      EXPECT_NE(r.output.find(c.message), std::string::npos) << r.output;
+      EXPECT_FALSE(fs::exists(dir_.path("bad.lsnif")));
+    }
+  }
+
   lsnif::test::ScopedTestDir dir_{"lsnif_train_config"};
   // Small enough for a fraction of a second per run.
   const std::string tiny_ = R"({"voxels": 8, "res-min": 16, "res-max": 32, "table-log2": 8, "width": 16,
@@ -251,12 +276,7 @@ TEST_F(TrainConfigCli, TableSizesPerLevelEndToEnd) {
   EXPECT_NE(r.output.find("(2 levels: 2^6 + 2^8 entries x 3 features, int8"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(" of 64 entries used"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(" of 256 entries used"), std::string::npos) << r.output;
-  // The recorded settings reproduce the model byte for byte.
-  r = lsnif({"info", "--settings", model});
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  r = train(same, {"--config", write("levels.json", r.output)});
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_EQ(read(same), b);
+  expect_record_reproduces(model);
   r = lsnif({"eval", model, kMesh, "--rays", "200"});
   EXPECT_EQ(r.exit_code, 0) << r.output;
   // One value per level, all equal: the model of one value, written as before (version 2).
@@ -267,25 +287,52 @@ TEST_F(TrainConfigCli, TableSizesPerLevelEndToEnd) {
   ASSERT_EQ(one.exit_code, 0) << one.output;
   EXPECT_EQ(equal_list[8], 2);
   EXPECT_EQ(read(same), equal_list);
-  const struct {
-    std::vector<std::string> args;
-    std::string message;
-  } bad[] = {
+  expect_usage_errors(cfg, {
       {{"--table-log2", "6,8,10"}, "--table-log2 6,8,10 gives 3 values for 2 levels (--levels)"},
       {{"--table-log2", "6,30"}, "--table-log2 6,30: 30 (level 1) out of range [4, 24]"},
       {{"--table-log2", "6,"}, "--table-log2"},
       {{"--table-log2", "6,x"}, "--table-log2"},
       {{"--table-log2", "1,2,3,4,5"}, "--table-log2"},
       {{"--levels", "3", "--table-log2", "6,8"}, "2 values for 3 levels"},
-  };
-  for (const auto& c : bad) {
-    std::vector<std::string> args = {"--config", cfg};
-    args.insert(args.end(), c.args.begin(), c.args.end());
-    r = train(dir_.path("bad.lsnif"), args);
-    EXPECT_EQ(r.exit_code, 2) << r.output;
-    EXPECT_NE(r.output.find(c.message), std::string::npos) << r.output;
-    EXPECT_FALSE(fs::exists(dir_.path("bad.lsnif")));
-  }
+  });
+}
+
+// `--indexed 1,0`: level 0's table indexed (one entry per vertex it can read, a few spare), level 1
+// hashed; a version 5 file whose index `lsnif info` reports, the record reproduces the model, and
+// bad lists fail naming the option.
+TEST_F(TrainConfigCli, IndexedLevelEndToEnd) {
+  const std::string cfg = write("tiny.json", tiny_);
+  const std::string model = dir_.path("indexed.lsnif");
+  ProcessResult r = train(model, {"--config", cfg, "--seed", "5", "--indexed", "1,0", "--grid-bits", "8"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string b = read(model);
+  EXPECT_EQ(b[8], 5);
+  r = lsnif({"info", "--json", "--grid-usage", model});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["table_log2"], nlohmann::json::parse("[null, 8]"));
+  const uint64_t vertices = j["grid_usage"][0]["vertices"], slots = j["index_slots"][0];
+  const uint64_t displacements = j["index_displacements"];
+  EXPECT_EQ(j["index_slots"][1], 0);
+  EXPECT_GE(slots, vertices);  // every readable vertex its own entry
+  EXPECT_LE(slots, vertices + vertices / 100 * 8 + 8);  // at most 8 tries of 1% more
+  EXPECT_EQ(displacements, (vertices + 3) / 4);
+  EXPECT_EQ(j["grid_usage"][0]["entries_shared"], 0);
+  EXPECT_EQ(j["bytes"]["grid"], (slots + 256) * 3 + 2 * 4 + 2 * displacements);
+  EXPECT_EQ(j["training"]["settings"]["indexed"], nlohmann::json::array({1, 0}));
+  r = lsnif({"info", model});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find(lsnif::format("M=indexed:%llu,8 ", (unsigned long long)slots)), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(lsnif::format("(2 levels: %llu (indexed) + 2^8 entries", (unsigned long long)slots)),
+            std::string::npos) << r.output;
+  expect_record_reproduces(model);
+  r = lsnif({"eval", model, kMesh, "--rays", "200"});
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  expect_usage_errors(cfg, {
+      {{"--indexed", "1,0,1"}, "--indexed 1,0,1 gives 3 values for 2 levels (--levels)"},
+      {{"--indexed", "2"}, "--indexed"},
+      {{"--indexed", "1,"}, "--indexed"},
+  });
 }
 
 TEST_F(TrainConfigCli, ConvertTakesTheConfigAndRecordsTheSettings) {

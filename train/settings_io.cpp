@@ -164,6 +164,11 @@ Status check_together(const SettingValues& v, const Origins& origin) {
                          file_prefix(origin, {TableLog2, Levels}).c_str(), label(TableLog2).c_str(),
                          setting_text(setting_def(TableLog2), v[TableLog2]).c_str(), v[TableLog2].level_count,
                          u32(Levels), label(Levels).c_str());
+  if (v[Indexed].level_count != 0 && v[Indexed].level_count != u32(Levels))
+    return Status::error("%s%s %s gives %u values for %u levels (%s): give one value for every level or one per level",
+                         file_prefix(origin, {Indexed, Levels}).c_str(), label(Indexed).c_str(),
+                         setting_text(setting_def(Indexed), v[Indexed]).c_str(), v[Indexed].level_count,
+                         u32(Levels), label(Levels).c_str());
   if (u32(RayReuse) > u32(Batch))
     return Status::error("%s%s %u must be in [1, %s %u]", file_prefix(origin, {RayReuse, Batch}).c_str(),
                          label(RayReuse).c_str(), u32(RayReuse), label(Batch).c_str(), u32(Batch));
@@ -386,6 +391,9 @@ void to_train_settings(const SettingValues& v, TrainSettings& s) {
   c.hit_param = static_cast<HitParam>(u32(Hit));
   c.leaky_slope = v[LeakySlope].f;
   c.grid_bits = u32(GridBits);
+  const SettingValue& ix = v[Indexed];
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l)
+    s.indexed[l] = l < c.grid_levels && (ix.level_count ? l < ix.level_count && ix.per_level[l] : ix.u) != 0;
   s.steps = u32(Steps);
   s.batch_size = u32(Batch);
   s.seed = v[Seed].u;
@@ -426,6 +434,15 @@ SettingValues from_train_settings(const TrainSettings& s) {
   v[Hit].u = static_cast<uint32_t>(c.hit_param);
   v[LeakySlope].f = c.leaky_slope;
   v[GridBits].u = c.grid_bits;
+  if (c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS) {
+    uint32_t indexed[LSNIF_MAX_LEVELS] = {};
+    bool uniform = true;
+    for (uint32_t l = 0; l < c.grid_levels; ++l) {
+      indexed[l] = s.indexed[l] ? 1 : 0;
+      uniform = uniform && indexed[l] == indexed[0];
+    }
+    per_level_value(indexed, uniform ? 1 : c.grid_levels, v[Indexed]);
+  }
   v[Steps].u = s.steps;
   v[Batch].u = s.batch_size;
   v[Seed].u = s.seed;

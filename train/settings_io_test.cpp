@@ -149,7 +149,7 @@ TEST(SettingsConfig, JsonAndTrainSettingsRoundTrip) {
   // Every setting away from its default, floats that are not short decimals included.
   SettingLayer layer;
   ASSERT_TRUE(parse_settings_json(
-      R"({"voxels": 16, "points": 7, "levels": 3, "res-min": 32, "res-max": 256, "table-log2": [10, 9, 11], "features": 2,
+      R"({"voxels": 16, "points": 7, "levels": 3, "res-min": 32, "res-max": 256, "table-log2": [10, 9, 11], "indexed": [1, 0, 1], "features": 2,
           "width": 24, "layers": 3, "hit": "aabb", "leaky-slope": 0.02, "grid-bits": "8", "steps": 3, "batch": 100,
           "seed": 18446744073709551615, "ray-reuse": 2, "lr": 0.0033333333, "lr-schedule": "cosine",
           "lr-final": 0.05, "lr-warm": 0.3, "adam-beta1": 0.8, "adam-beta2": 0.95,

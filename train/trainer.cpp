@@ -9,6 +9,7 @@
 #include <memory>
 #include <random>
 
+#include "grid_usage.h"
 #include "ground_truth.h"
 #include "hash_grid.h"
 #include "head.h"
@@ -35,8 +36,8 @@ struct BatchCorners {
 };
 
 // Encodes a batch into X (input_dim x B) and remembers the corners for the backward pass.
-void encode_batch(const Config& config, const float* table, const std::vector<RayWalk>& walks,
-                  Matrix& X, BatchCorners& corners) {
+void encode_batch(const Config& config, const GridLayout& layout, const float* table,
+                  const std::vector<RayWalk>& walks, Matrix& X, BatchCorners& corners) {
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
   const long B = long(walks.size());
   const size_t per_ray = size_t(H) * L * 4;
@@ -55,7 +56,7 @@ void encode_batch(const Config& config, const float* table, const std::vector<Ra
     FaceCorners fc;
     for (uint32_t j = 0; j < n; ++j)
       for (uint32_t l = 0; l < L; ++l) {
-        face_corners(config, l, w.p[j], w.axis[j], fc);
+        face_corners(config, l, w.p[j], w.axis[j], fc, layout);
         const size_t slot = size_t(j) * L + l;
         for (uint32_t k = 0; k < 4; ++k) {
           ce[slot * 4 + k] = fc.entry[k];
@@ -142,6 +143,9 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   const uint32_t occupied = model.voxels.count_occupied();
   if (occupied == 0) return Status::error("voxelization produced no occupied voxel");
   for (const Material& m : mesh.materials) model.materials.push_back({m.name, m.base_color});
+  if (Status s = index_grid_levels(model.voxels, settings.indexed, config, model.grid_index); !s) return s;
+  model.config = config;
+  const GridLayout layout = model.layout();
 
   GroundTruth truth;
   if (Status s = truth.build(mesh); !s) return s.context("building the Embree reference");
@@ -198,7 +202,7 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
     }
 
     t0 = Clock::now();
-    encode_batch(config, model.grid.data(), walks, X, corners);
+    encode_batch(config, layout, model.grid.data(), walks, X, corners);
     rep.seconds_encoding += since(t0);
 
     t0 = Clock::now();

@@ -19,6 +19,8 @@ namespace lsnif {
 // The defaults and ranges are those of settings_table.h; settings_io.h reads and writes them.
 struct TrainSettings {
   Config config;
+  // Levels whose table is indexed (Config::index_slots; the trainer builds the index from the voxels).
+  bool indexed[LSNIF_MAX_LEVELS] = {};
   uint32_t steps = default_u32(SettingId::Steps);
   uint32_t batch_size = default_u32(SettingId::Batch);  // paper: 2^18 on a GPU; see settings_table.h
   uint64_t seed = default_u64(SettingId::Seed);

@@ -97,20 +97,25 @@ int cmd_info(int argc, char** argv) {
   const std::vector<GridLevelUsage> levels = usage ? grid_usage(model.config, model.voxels) : std::vector<GridLevelUsage>();
   const Config& c = model.config;
   const Aabb& b = model.bounds();
-  // Per level: "[15, 17]" (JSON) and "2^15 + 2^17" (text).
-  std::string table_log2_json = "[", table_entries_text;
+  // Per level: "[15, 17]" (JSON; null for an indexed level), "[43190, 0]" (index slots) and
+  // "2^15 + 2^17" or "43190 (indexed) + 2^17" (text).
+  std::string table_log2_json = "[", index_slots_json = "[", table_entries_text;
   for (uint32_t l = 0; l < c.grid_levels; ++l) {
-    table_log2_json += format("%s%u", l ? ", " : "", c.table_log2[l]);
-    table_entries_text += format("%s2^%u", l ? " + " : "", c.table_log2[l]);
+    const char* sep = l ? ", " : "";
+    table_log2_json += c.indexed(l) ? format("%snull", sep) : format("%s%u", sep, c.table_log2[l]);
+    index_slots_json += format("%s%u", sep, c.index_slots[l]);
+    table_entries_text += c.indexed(l) ? format("%s%u (indexed)", l ? " + " : "", c.index_slots[l])
+                                       : format("%s2^%u", l ? " + " : "", c.table_log2[l]);
   }
   table_log2_json += "]";
+  index_slots_json += "]";
   if (json) {
     std::printf("{\"config\": \"%s\", \"voxel_resolution\": %u, \"max_points\": %u, \"grid_levels\": %u, "
-                "\"table_log2\": %s, \"features\": %u, \"hidden_width\": %u, \"hidden_layers\": %u, "
+                "\"table_log2\": %s, \"index_slots\": %s, \"index_displacements\": %llu, \"features\": %u, \"hidden_width\": %u, \"hidden_layers\": %u, "
                 "\"material_count\": %u, \"hit_param\": \"%s\", \"grid_bits\": %u, \"occupied_voxels\": %u, "
                 "\"bytes\": {\"voxels\": %llu, \"grid\": %llu, \"mlp\": %llu, \"header\": %llu, \"total\": %llu}",
                 c.describe().c_str(), c.voxel_resolution, c.max_points, c.grid_levels, table_log2_json.c_str(),
-                c.features, c.hidden_width, c.hidden_layers, c.material_count, to_string(c.hit_param), c.grid_bits,
+                index_slots_json.c_str(), (unsigned long long)c.grid_index_count(), c.features, c.hidden_width, c.hidden_layers, c.material_count, to_string(c.hit_param), c.grid_bits,
                 model.voxels.count_occupied(), (unsigned long long)m.voxel_bytes,
                 (unsigned long long)m.grid_bytes, (unsigned long long)m.mlp_bytes,
                 (unsigned long long)m.header_bytes, (unsigned long long)m.total());
@@ -156,9 +161,10 @@ int cmd_info(int argc, char** argv) {
   const std::string tables = c.uniform_table_log2() ? format("%u levels x 2^%u entries", c.grid_levels, c.table_log2[0])
                                                     : format("%u levels: %s entries", c.grid_levels,
                                                              table_entries_text.c_str());
-  std::printf("           grid   %8.1f KB (%s x %u features, %s)\n", double(m.grid_bytes) / 1024.0, tables.c_str(),
-              c.features,
-              c.grid_bits == 8 ? "int8 x an fp32 scale per level" : "fp16");
+  std::printf("           grid   %8.1f KB (%s x %u features, %s%s)\n", double(m.grid_bytes) / 1024.0, tables.c_str(),
+              c.features, c.grid_bits == 8 ? "int8 x an fp32 scale per level" : "fp16",
+              c.any_indexed() ? format(", %llu 2-byte displacements", (unsigned long long)c.grid_index_count()).c_str()
+                              : "");
   std::printf("           mlp    %8.1f KB (%llu parameters, fp16)\n", double(m.mlp_bytes) / 1024.0,
               (unsigned long long)c.mlp_parameter_count());
   std::printf("           header %8.1f KB\n", double(m.header_bytes) / 1024.0);

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "gpu_model.h"
+#include "grid_usage.h"
 #include "test_support.h"
 #include "half.h"
 #include "intersector.h"
@@ -76,6 +77,20 @@ Model random_odd_model() {
   mlp_init_kaiming(c, 5, m.mlp.data());
   for (const LayerView& v : mlp_layers(c))
     for (uint32_t i = 0; i < v.out; ++i) m.mlp[v.bias_offset + i] = 0.3f * u(rng);
+  m.quantize();
+  return m;
+}
+
+// random_odd_model with its level indexed (R = 15 over V = 5) and the table's random values redrawn.
+Model random_odd_indexed_model() {
+  Model m = random_odd_model();
+  const bool indexed[LSNIF_MAX_LEVELS] = {true};
+  const Status s = index_grid_levels(m.voxels, indexed, m.config, m.grid_index);
+  EXPECT_TRUE(s) << s.message();
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  m.grid.resize(size_t(m.config.grid_parameter_count()));
+  for (float& v : m.grid) v = u(rng);
   m.quantize();
   return m;
 }
@@ -201,7 +216,8 @@ class GpuReference : public ::testing::Test {
     train_status_ = train_model(mesh, tiny_settings(HitParam::AabbInterval), aabb_model_);
     if (train_status_) train_status_ = train_model(mesh, tiny_settings(HitParam::VoxelSegments), segment_model_);
     if (train_status_) train_status_ = train_model(mesh, unequal_tables_settings(), unequal_model_);
-    std::printf("trained 3 tiny models in %.2f s\n", seconds_since(t0));
+    if (train_status_) train_status_ = train_model(mesh, indexed_level_settings(), indexed_model_);
+    std::printf("trained 4 tiny models in %.2f s\n", seconds_since(t0));
   }
   static void TearDownTestSuite() { vk_.destroy_pipeline(pipeline_); }
 
@@ -301,7 +317,7 @@ class GpuReference : public ::testing::Test {
   static vk::ComputeContext vk_;
   static vk::Pipeline pipeline_;
   static Status vk_status_, train_status_;
-  static Model aabb_model_, segment_model_, unequal_model_;
+  static Model aabb_model_, segment_model_, unequal_model_, indexed_model_;
 
   // tiny_settings with level 0's table (R = 32) 2^10 entries and level 1's (R = 64) 2^14.
   static TrainSettings unequal_tables_settings() {
@@ -310,11 +326,18 @@ class GpuReference : public ::testing::Test {
     set_table_log2(s.config, sizes, 2);
     return s;
   }
+  // tiny_settings with level 0 indexed (its perfect hash built from the voxels), level 1 hashed.
+  static TrainSettings indexed_level_settings() {
+    TrainSettings s = tiny_settings(HitParam::VoxelSegments);
+    s.indexed[0] = true;
+    return s;
+  }
 };
 vk::ComputeContext GpuReference::vk_;
 vk::Pipeline GpuReference::pipeline_;
 Status GpuReference::vk_status_, GpuReference::train_status_;
-Model GpuReference::aabb_model_, GpuReference::segment_model_, GpuReference::unequal_model_;
+Model GpuReference::aabb_model_, GpuReference::segment_model_, GpuReference::unequal_model_,
+    GpuReference::indexed_model_;
 
 TEST_F(GpuReference, AabbIntervalModelMatchesCpu) {
   ASSERT_TRUE(train_status_) << train_status_.message();
@@ -360,13 +383,30 @@ TEST_F(GpuReference, TablesOfDifferentSizesPerLevelMatchCpu) {
   expect_trained_agreement(a, b);
 }
 
+// Level 0 indexed: its entries through the perfect hash (lsnif_perfect_hash.glsl against
+// core/perfect_hash.h), level 1's table after level 0's index_slots entries, the displacements in
+// the block's index section; fp16 and 8-bit features.
+TEST_F(GpuReference, IndexedLevelModelMatchesCpu) {
+  ASSERT_TRUE(train_status_) << train_status_.message();
+  const Config& c = indexed_model_.config;
+  ASSERT_TRUE(c.indexed(0));
+  ASSERT_FALSE(c.indexed(1));
+  ASSERT_EQ(indexed_model_.grid_index.size(), c.index_buckets[0]);
+  const Comparison a = run(indexed_model_, skewed_instance(), kRaysPerInstance, 10,
+                           "level 0 indexed, voxel segments, skewed instance");
+  const Comparison b = run(with_8bit_grid(indexed_model_), Transform3x4(), kRaysPerInstance, 11,
+                           "level 0 indexed, 8-bit grid, identity");
+  expect_trained_agreement(a, b);
+}
+
 // Random fp16 weights and odd sizes (input 9, width 5, 3 hidden layers, 2 materials, V = 5, R = 15):
 // exercises the half-pair padding of every row and bias, the ping-pong between layers and the
 // material argmax. Random logits are larger than trained ones, hence the same relative bounds.
 TEST_F(GpuReference, RandomOddSizedModelMatchesCpu) {
-  for (const uint32_t grid_bits : {16u, 8u}) {
-    SCOPED_TRACE(grid_bits);
-    Model model = random_odd_model();
+  for (const uint32_t variant : {16u, 8u, 0u}) {  // 0: fp16, the level indexed
+    const uint32_t grid_bits = variant ? variant : 16u;
+    SCOPED_TRACE(variant);
+    Model model = variant ? random_odd_model() : random_odd_indexed_model();
     model.config.grid_bits = grid_bits;
     model.quantize();
     // Calibrate the occlusion bias on the CPU so that about half of the rays crossing an occupied
@@ -384,7 +424,9 @@ TEST_F(GpuReference, RandomOddSizedModelMatchesCpu) {
     std::nth_element(logits.begin(), logits.begin() + long(logits.size() / 2), logits.end());
     model.mlp[mlp_layers(model.config).back().bias_offset + LSNIF_OUT_OCCLUSION] -= logits[logits.size() / 2];
     model.quantize();
-    const char* name = grid_bits == 8 ? "random odd-sized 8-bit model" : "random odd-sized model, skewed instance";
+    const char* name = variant == 8u   ? "random odd-sized 8-bit model"
+                       : variant == 0u ? "random odd-sized indexed model, skewed instance"
+                                       : "random odd-sized model, skewed instance";
     const Comparison c = run(model, skewed_instance(), 4000, 5, name);
     expect_agreement(c);
     EXPECT_GT(c.cpu_hits, 400u);
@@ -430,7 +472,8 @@ TEST(GpuModelPacking, EveryValueAtItsDocumentedPlace) {
   EXPECT_EQ(h.voxel_offset, LSNIF_GPU_HEADER_WORDS);
   EXPECT_EQ(h.grid_bits, 16u);
   EXPECT_EQ(h.grid_scale0, 0.0f);
-  EXPECT_EQ(h.reserved0, 0u);
+  EXPECT_EQ(h.index_offset, 0u);  // no indexed level, no index section
+  EXPECT_EQ(h.index_slots0 | h.index_buckets0, 0u);
   auto half_at = [&](uint32_t base, uint64_t e) {
     return half_to_float(uint16_t(words[base + (e >> 1)] >> ((e & 1u) * 16u)));
   };
@@ -489,7 +532,7 @@ TEST(GpuModelPacking, EightBitGridCodesFourPerWord) {
   const float scales[4] = {h.grid_scale0, h.grid_scale1, h.grid_scale2, h.grid_scale3};
   const Config& c = model.config;
   for (uint32_t l = 0; l < 4; ++l) EXPECT_EQ(scales[l], l < c.grid_levels ? model.grid_scales[l] : 0.0f) << l;
-  EXPECT_EQ(h.reserved0, 0u);
+  EXPECT_EQ(h.index_offset, 0u);
   const uint64_t count = c.grid_parameter_count();
   EXPECT_EQ(h.mlp_offset - h.grid_offset, ((count + 3) / 4 + 7) / 8 * 8);
   for (uint64_t e = 0; e < count; ++e) {
@@ -550,6 +593,28 @@ TEST(GpuModelPacking, TablesOfDifferentSizesPerLevel) {
     }
   }
   EXPECT_EQ(h.mlp_offset - h.grid_offset, ((first[3] + 3) / 4 + 7) / 8 * 8);
+}
+
+// An indexed level: its slots and buckets in the header, the displacements two per word in the
+// index section between the grid and the MLP (each 8-word aligned), the grid as long as the slots.
+TEST(GpuModelPacking, IndexedLevelDisplacementsTwoPerWord) {
+  const Model model = random_odd_indexed_model();
+  const Config& c = model.config;
+  ASSERT_TRUE(c.indexed(0));
+  std::vector<uint32_t> words;
+  ASSERT_TRUE(pack_gpu_model(model, words));
+  const LsnifGpuModelHeader h = gpu_block_header(words);
+  EXPECT_EQ(h.index_slots0, c.index_slots[0]);
+  EXPECT_EQ(h.index_buckets0, c.index_buckets[0]);
+  EXPECT_EQ(h.index_slots1 | h.index_buckets1 | h.index_slots2 | h.index_buckets2, 0u);
+  EXPECT_EQ(model.grid.size(), size_t(c.index_slots[0]) * c.features);
+  EXPECT_EQ(h.index_offset, h.grid_offset + ((model.grid.size() + 1) / 2 + 7) / 8 * 8);  // fp16 pairs
+  EXPECT_EQ(h.index_offset % 8, 0u);
+  EXPECT_EQ(h.mlp_offset, h.index_offset + ((model.grid_index.size() + 1) / 2 + 7) / 8 * 8);
+  for (size_t i = 0; i < model.grid_index.size(); ++i)
+    ASSERT_EQ(uint16_t(words[h.index_offset + i / 2] >> (16 * (i % 2))), model.grid_index[i]) << i;
+  for (size_t i = model.grid_index.size(); i < 2 * size_t(h.mlp_offset - h.index_offset); ++i)
+    ASSERT_EQ(uint16_t(words[h.index_offset + i / 2] >> (16 * (i % 2))), 0u) << "pad " << i;
 }
 
 TEST(GpuModelPacking, RejectsUnquantizedAndInconsistentModels) {
