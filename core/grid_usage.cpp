@@ -74,10 +74,6 @@ std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& vo
   return out;
 }
 
-}  // namespace lsnif
-
-namespace lsnif {
-
 Status index_grid_levels(const VoxelGrid& voxels, const bool* indexed, Config& config,
                          std::vector<uint16_t>& grid_index) {
   Config c = config;

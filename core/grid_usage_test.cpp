@@ -142,6 +142,7 @@ TEST(GridUsage, TheEncoderReadsOnlyCountedVertices) {
   const VoxelGrid g = random_grid(rng, 8, 4);
   Config c = config_of(8, 2, 4, 14, 18);  // level 1 starts after level 0's 2^14 entries
   c.max_points = LSNIF_MAX_POINTS;
+  const GridLayout layout(c, nullptr);
   std::set<uint32_t> domain[2];
   for (uint32_t l = 0; l < 2; ++l)
     for (const glm::uvec3& v : face_vertices(g, c.grid_resolution[l]))
@@ -158,7 +159,7 @@ TEST(GridUsage, TheEncoderReadsOnlyCountedVertices) {
     for (uint32_t j = 0; j < walk.count; ++j)
       for (uint32_t l = 0; l < 2; ++l) {
         FaceCorners fc;
-        face_corners(c, l, walk.p[j], walk.axis[j], fc, GridLayout{});
+        face_corners(c, l, walk.p[j], walk.axis[j], fc, layout);
         for (int k = 0; k < 4; ++k) {
           if (fc.weight[k] == 0.0f) continue;
           ++reads;
@@ -183,7 +184,7 @@ TEST(GridUsage, IndexedLevelsGiveEveryReadableVertexItsOwnEntry) {
     EXPECT_EQ(c.indexed(0), level0);
     ASSERT_TRUE(c.indexed(1));
     EXPECT_EQ(index.size(), c.grid_index_count());
-    const GridLayout layout = grid_layout(c, index.data());
+    const GridLayout layout(c, index.data());
     for (uint32_t l = 0; l < 2; ++l) {
       if (!c.indexed(l)) {
         EXPECT_EQ(layout.indexed[l].displacement, nullptr);

@@ -5,15 +5,14 @@
 
 namespace lsnif {
 
-GridLayout grid_layout(const Config& config, const uint16_t* grid_index) {
-  GridLayout layout;
+GridLayout::GridLayout(const Config& config, const uint16_t* grid_index) {
   uint64_t at = 0;
   for (uint32_t l = 0; l < config.grid_levels && l < LSNIF_MAX_LEVELS; ++l) {
+    level_offset[l] = uint32_t(config.level_entry_offset(l));
     if (!config.indexed(l)) continue;
-    layout.indexed[l] = {config.index_slots[l], config.index_buckets[l], grid_index + at};
+    indexed[l] = {config.index_slots[l], config.index_buckets[l], grid_index + at};
     at += config.index_buckets[l];
   }
-  return layout;
 }
 
 void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint32_t axis,
@@ -27,7 +26,7 @@ void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint
   float xb = std::clamp(p[b] * Rf, 0.0f, Rf), xc = std::clamp(p[c] * Rf, 0.0f, Rf);
   uint32_t ib = std::min(uint32_t(xb), R - 1), ic = std::min(uint32_t(xc), R - 1);
   float wb = xb - float(ib), wc = xc - float(ic);
-  const uint32_t offset = uint32_t(config.level_entry_offset(level)), M = config.table_log2[level];
+  const uint32_t offset = layout.level_offset[level], M = config.table_log2[level];
   const PerfectHashView& indexed = layout.indexed[level];
   for (uint32_t k = 0; k < 4; ++k) {
     uint32_t v[3];

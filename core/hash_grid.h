@@ -27,13 +27,15 @@ inline uint32_t hash_vertex(uint32_t x, uint32_t y, uint32_t z, uint32_t log2_si
 // (Config::indexed: the perfect hash of the level's readable vertices, perfect_hash.h, every
 // readable vertex its own entry). The levels' tables lie one after another either way
 // (Config::level_entry_offset).
+// Computed once per model, so that face_corners (the encoder's inner loop) only reads it.
 struct GridLayout {
-  PerfectHashView indexed[LSNIF_MAX_LEVELS];  // per level: displacement nullptr = hashed
+  // The layout of a model with this config and displacements `grid_index` (Model::grid_index:
+  // config.grid_index_count() values, the indexed levels' in level order; may be null when no level
+  // is indexed).
+  GridLayout(const Config& config, const uint16_t* grid_index);
+  uint32_t level_offset[LSNIF_MAX_LEVELS] = {};  // Config::level_entry_offset of each level
+  PerfectHashView indexed[LSNIF_MAX_LEVELS];     // per level: displacement nullptr = hashed
 };
-// The layout of a model with this config and displacements `grid_index` (Model::grid_index:
-// config.grid_index_count() values, the indexed levels' in level order; may be null when no level is
-// indexed).
-GridLayout grid_layout(const Config& config, const uint16_t* grid_index);
 
 struct FaceCorners {
   uint32_t entry[4];  // table entries (already offset by the level's offset_l)
@@ -43,8 +45,8 @@ struct FaceCorners {
 // The 4 corners of the face cell at `level` that contains unit-cube point p lying on a grid plane
 // of `axis`. The plane coordinate is rounded to the nearest grid plane; the two in-plane
 // coordinates are clamped to [0, R].
-// Entries follow `layout` (offsets included), which must be grid_layout of the model (GridLayout{}
-// serves a model without indexed levels).
+// Entries follow `layout` (offsets included), which must be the GridLayout of `config` and the
+// model's displacements.
 void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint32_t axis,
                   FaceCorners& out, const GridLayout& layout);
 

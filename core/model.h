@@ -41,7 +41,7 @@ struct Model {
 
   const Aabb& bounds() const { return voxels.bounds; }
   // How the encoder addresses this model's tables (hash_grid.h).
-  GridLayout layout() const { return grid_layout(config, grid_index.data()); }
+  GridLayout layout() const { return GridLayout(config, grid_index.data()); }
   // Consistency of sizes with the config; the message names the mismatch.
   Status validate() const;
   // Rounds mlp to fp16 precision in place, and the grid to what config.grid_bits stores: fp16, or

@@ -159,16 +159,12 @@ Status check_together(const SettingValues& v, const Origins& origin) {
                          "must lie on grid planes)",
                          file_prefix(origin, {ResMin, ResMax, Voxels}).c_str(), label(ResMin).c_str(), u32(ResMin),
                          label(ResMax).c_str(), u32(ResMax), u32(Voxels), label(Voxels).c_str());
-  if (v[TableLog2].level_count != 0 && v[TableLog2].level_count != u32(Levels))
-    return Status::error("%s%s %s gives %u values for %u levels (%s): give one value for every level or one per level",
-                         file_prefix(origin, {TableLog2, Levels}).c_str(), label(TableLog2).c_str(),
-                         setting_text(setting_def(TableLog2), v[TableLog2]).c_str(), v[TableLog2].level_count,
-                         u32(Levels), label(Levels).c_str());
-  if (v[Indexed].level_count != 0 && v[Indexed].level_count != u32(Levels))
-    return Status::error("%s%s %s gives %u values for %u levels (%s): give one value for every level or one per level",
-                         file_prefix(origin, {Indexed, Levels}).c_str(), label(Indexed).c_str(),
-                         setting_text(setting_def(Indexed), v[Indexed]).c_str(), v[Indexed].level_count,
-                         u32(Levels), label(Levels).c_str());
+  for (const SettingId id : {TableLog2, Indexed})  // the per-level settings
+    if (v[id].level_count != 0 && v[id].level_count != u32(Levels))
+      return Status::error("%s%s %s gives %u values for %u levels (%s): give one value for every level or one per "
+                           "level", file_prefix(origin, {id, Levels}).c_str(), label(id).c_str(),
+                           setting_text(setting_def(id), v[id]).c_str(), v[id].level_count, u32(Levels),
+                           label(Levels).c_str());
   if (u32(RayReuse) > u32(Batch))
     return Status::error("%s%s %u must be in [1, %s %u]", file_prefix(origin, {RayReuse, Batch}).c_str(),
                          label(RayReuse).c_str(), u32(RayReuse), label(Batch).c_str(), u32(Batch));
