@@ -23,12 +23,12 @@
 #include <string>
 #include <vector>
 
-#include "ground_truth.h"
-#include "host_device.h"
-#include "intersector.h"
-#include "mesh.h"
-#include "model.h"
-#include "rng.h"
+#include "lsnif/train/ground_truth.h"
+#include "lsnif/host_device.h"
+#include "lsnif/core/intersector.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/core/model.h"
+#include "lsnif/core/rng.h"
 
 using namespace lsnif;
 

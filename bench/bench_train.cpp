@@ -21,10 +21,10 @@
 #include <string>
 #include <vector>
 
-#include "evaluate.h"
-#include "mesh.h"
-#include "settings_io.h"
-#include "trainer.h"
+#include "lsnif/train/evaluate.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/train/settings_io.h"
+#include "lsnif/train/trainer.h"
 
 using namespace lsnif;
 

@@ -2,8 +2,11 @@
 # lsnif::core, lsnif::import, lsnif::train), the pkg-config file (lsnif.pc) and the CPack DEB
 # packages, one per install component:
 #   runtime    liblsnif-vk0        lib/liblsnif_vk.so.0*
-#   dev        liblsnif-dev        headers + GLSL includes (include/lsnif), liblsnif_vk.so, cmake config, lsnif.pc
-#   train-dev  liblsnif-train-dev  the static CPU libraries and their headers (include/lsnif/<folder>)
+#   dev        liblsnif-dev        headers + GLSL includes (include/lsnif/*), liblsnif_vk.so, cmake config, lsnif.pc
+#   train-dev  liblsnif-train-dev  the static CPU libraries and their headers (include/lsnif/<folder>/*)
+# Installed headers keep their source paths under one root: src/lsnif/core/model.h is
+# include/lsnif/core/model.h, included as "lsnif/core/model.h", so no installed name can shadow a
+# consumer's own config.h, model.h or host_device.h.
 #   tools      lsnif-tools         bin/lsnif
 # Every installed file is relocatable: the config and lsnif.pc locate the prefix from their own path.
 include(CMakePackageConfigHelpers)
@@ -21,17 +24,16 @@ endif()
 
 set(LSNIF_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/lsnif)
 set(LSNIF_INSTALL_INCLUDEDIR ${CMAKE_INSTALL_INCLUDEDIR}/lsnif)
-# lsnif_hit.glsl includes host_device.h; both sit beside lsnif.h.
-set(LSNIF_INSTALL_GLSLDIR ${LSNIF_INSTALL_INCLUDEDIR})
+# GLSL includes them by the same paths: `#include "lsnif/lsnif_hit.glsl"` with -I include.
+set(LSNIF_INSTALL_GLSLDIR ${CMAKE_INSTALL_INCLUDEDIR})
 
 # ---- the plugin: lsnif::vk
 set_target_properties(lsnif_vk PROPERTIES EXPORT_NAME vk)
 install(TARGETS lsnif_vk EXPORT lsnifTargets
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT runtime NAMELINK_COMPONENT dev)
-install(FILES ${PROJECT_SOURCE_DIR}/include/lsnif/lsnif.h ${PROJECT_SOURCE_DIR}/include/lsnif/lsnif.hpp
-  ${PROJECT_BINARY_DIR}/include/lsnif/lsnif_version.h ${PROJECT_SOURCE_DIR}/shaders/host_device.h
-  DESTINATION ${LSNIF_INSTALL_INCLUDEDIR} COMPONENT dev)
-install(FILES ${PROJECT_SOURCE_DIR}/shaders/lsnif_hit.glsl DESTINATION ${LSNIF_INSTALL_GLSLDIR} COMPONENT dev)
+install(FILES ${LSNIF_SOURCE_ROOT}/lsnif/lsnif.h ${LSNIF_SOURCE_ROOT}/lsnif/lsnif.hpp
+  ${LSNIF_GENERATED_ROOT}/lsnif/lsnif_version.h ${LSNIF_SOURCE_ROOT}/lsnif/host_device.h
+  ${LSNIF_SOURCE_ROOT}/lsnif/lsnif_hit.glsl DESTINATION ${LSNIF_INSTALL_INCLUDEDIR} COMPONENT dev)
 install(EXPORT lsnifTargets NAMESPACE lsnif:: DESTINATION ${LSNIF_INSTALL_CMAKEDIR} COMPONENT dev)
 
 # ---- the CPU libraries: COMPONENTS train. lsnif_format is exported here only: lsnif::vk links it
@@ -39,14 +41,12 @@ install(EXPORT lsnifTargets NAMESPACE lsnif:: DESTINATION ${LSNIF_INSTALL_CMAKED
 if(LSNIF_BUILD_TRAIN)
   foreach(folder format core import train)
     set_target_properties(lsnif_${folder} PROPERTIES EXPORT_NAME ${folder})
-    # The sources include each other's headers by file name: one include folder per library.
-    target_include_directories(lsnif_${folder} INTERFACE $<INSTALL_INTERFACE:${LSNIF_INSTALL_INCLUDEDIR}/${folder}>)
-    file(GLOB headers ${PROJECT_SOURCE_DIR}/${folder}/*.h)
-    list(FILTER headers EXCLUDE REGEX "(_test|fuzz_support)\\.h$")  # test helpers
+    # Every header of the folder: test helpers live in src/lsnif/testing/, which is not installed.
+    file(GLOB headers ${LSNIF_SOURCE_ROOT}/lsnif/${folder}/*.h)
     install(FILES ${headers} DESTINATION ${LSNIF_INSTALL_INCLUDEDIR}/${folder} COMPONENT train-dev)
   endforeach()
-  # format's headers include host_device.h (installed by the dev component).
-  target_include_directories(lsnif_format INTERFACE $<INSTALL_INTERFACE:${LSNIF_INSTALL_INCLUDEDIR}>)
+  # The one include root; format's headers include lsnif/host_device.h (installed by the dev component).
+  target_include_directories(lsnif_format INTERFACE $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   install(TARGETS lsnif_format lsnif_core lsnif_import lsnif_train EXPORT lsnifTrainTargets
     ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT train-dev)
   install(EXPORT lsnifTrainTargets NAMESPACE lsnif:: DESTINATION ${LSNIF_INSTALL_CMAKEDIR} COMPONENT train-dev)
@@ -108,7 +108,7 @@ set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
 set(CPACK_COMPONENT_DEV_DESCRIPTION "LSNIF Vulkan plugin: headers, GLSL includes, CMake and pkg-config files
  find_package(lsnif) gives lsnif::vk, pkg-config --cflags --libs lsnif the flags; the GLSL
- includes for closest-hit shaders (lsnif_hit.glsl) are in /usr/include/lsnif.")
+ includes for closest-hit shaders (lsnif/lsnif_hit.glsl) are in /usr/include/lsnif.")
 set(CPACK_COMPONENT_DEV_DEPENDS runtime)
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "libvulkan-dev")
 

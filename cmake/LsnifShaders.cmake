@@ -1,12 +1,13 @@
 # lsnif_spirv_header(OUTPUT header NAME symbol SOURCE shader [DEFINES -D...] [INCLUDES dir...]
 #                    [DEPENDS file...]): compiles one GLSL shader (glslangValidator, Vulkan 1.2) at
 # build time into a header that defines `const uint32_t symbol[]`, so that programs carry their
-# SPIR-V instead of reading it from the build tree. The shared GLSL of shaders/ is always a
-# dependency and on the include path.
+# SPIR-V instead of reading it from the build tree. Shaders include by path from the one source root
+# (`#include "lsnif/shaders/lsnif_walk.glsl"`), which is always on the include path; the SDK's GLSL
+# (src/lsnif/*.glsl, *.h and src/lsnif/shaders/) is always a dependency.
 find_program(LSNIF_GLSLANG_VALIDATOR glslangValidator REQUIRED)
-file(GLOB LSNIF_SHARED_SHADER_INCLUDES CONFIGURE_DEPENDS ${CMAKE_CURRENT_LIST_DIR}/../shaders/*.glsl
-  ${CMAKE_CURRENT_LIST_DIR}/../shaders/*.h)
-set(LSNIF_SHARED_SHADER_DIR ${CMAKE_CURRENT_LIST_DIR}/../shaders)
+set(LSNIF_SHARED_SHADER_DIR ${CMAKE_CURRENT_LIST_DIR}/../src)
+file(GLOB LSNIF_SHARED_SHADER_INCLUDES CONFIGURE_DEPENDS ${LSNIF_SHARED_SHADER_DIR}/lsnif/*.glsl
+  ${LSNIF_SHARED_SHADER_DIR}/lsnif/*.h ${LSNIF_SHARED_SHADER_DIR}/lsnif/shaders/*.glsl)
 function(lsnif_spirv_header)
   cmake_parse_arguments(A "" "OUTPUT;NAME;SOURCE" "DEFINES;INCLUDES;DEPENDS" ${ARGN})
   get_filename_component(dir ${A_OUTPUT} DIRECTORY)

@@ -14,7 +14,7 @@
 #include <sstream>
 #include <string>
 
-#include "test_support.h"
+#include "lsnif/testing/test_support.h"
 
 namespace {
 

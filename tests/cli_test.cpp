@@ -1,4 +1,4 @@
-// The `lsnif` program as a user runs it: --help everywhere, a small train/info/eval round trip,
+// The `lsnif` program as a user runs it: --help everywhere, a small src/lsnif/train/info/eval round trip,
 // and clear errors with the right exit codes for bad input.
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include <fstream>
 #include <string>
 
-#include "test_support.h"
+#include "lsnif/testing/test_support.h"
 
 namespace {
 
@@ -167,7 +167,7 @@ TEST(Cli, DeviceChoice) {
   r = train_tiny(model);
   ASSERT_EQ(r.code, 0) << r.out;
   const std::string render = "render " + std::string(LSNIF_DATA_DIR) +
-                             "/../samples/scene/examples/bunny_on_plane.gltf --lsnif bunny=" + model +
+                             "/../samples/scenes/bunny_on_plane.gltf --lsnif bunny=" + model +
                              " --width 8 --height 8 --spp 1 -o " + image + " --device ";
   r = run_cli(render + "99");
   EXPECT_EQ(r.code, 1) << r.out;
@@ -301,7 +301,7 @@ TEST(Cli, RenderAndDemoWithATinyModel) {
   const std::string model = (d / "elephant.lsnif").string();
   CliResult r = train_tiny(model);
   ASSERT_EQ(r.code, 0) << r.out;
-  const std::string scene = std::string(LSNIF_DATA_DIR) + "/../samples/scene/examples/bunny_on_plane.gltf";
+  const std::string scene = std::string(LSNIF_DATA_DIR) + "/../samples/scenes/bunny_on_plane.gltf";
   const std::string image = (d / "render.png").string();
   r = run_cli("render " + scene + " --lsnif bunny=" + model + " --width 32 --height 24 --spp 2 -o " + image);
   ASSERT_EQ(r.code, 0) << r.out;

@@ -1,4 +1,4 @@
-// `lsnif convert` as a user runs it, on the bundled example scene (samples/scene/examples): the
+// `lsnif convert` as a user runs it, on the bundled example scene (src/lsnif/renderer/examples): the
 // ground quad becomes an LSNIF object with a tiny model, the bunny (already an LSNIF object) keeps
 // its model, which now lies in another folder; a second run trains nothing; a dry run writes
 // nothing; bad options and a missing input end with the documented exit codes.
@@ -10,8 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "mesh.h"
-#include "test_support.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/testing/test_support.h"
 
 namespace {
 
@@ -19,7 +19,7 @@ namespace fs = std::filesystem;
 using lsnif::test::CommandResult;
 
 const fs::path kExample =
-    fs::path(__FILE__).parent_path().parent_path() / "samples/scene/examples/bunny_on_plane.gltf";
+    fs::path(__FILE__).parent_path().parent_path() / "samples/scenes/bunny_on_plane.gltf";
 const std::string kTiny =
     " --min-triangles 1 --voxels 16 --res-min 32 --res-max 64 --table-log2 12 --width 32 --steps 30 --batch 1024"
     " --eval-rays 1000 --quiet";

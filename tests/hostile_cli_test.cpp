@@ -19,9 +19,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "fuzz_support.h"
-#include "mesh.h"
-#include "test_support.h"
+#include "lsnif/testing/fuzz_support.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/testing/test_support.h"
 
 namespace {
 

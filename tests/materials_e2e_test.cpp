@@ -5,10 +5,10 @@
 
 #include <cmath>
 
-#include "evaluate.h"
-#include "mesh.h"
-#include "test_support.h"
-#include "trainer.h"
+#include "lsnif/train/evaluate.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/testing/test_support.h"
+#include "lsnif/train/trainer.h"
 
 namespace lsnif {
 namespace {

@@ -1,4 +1,4 @@
-// Render-time scene edits through `lsnif render` (samples/scene/scene_edit.h via --node-transform,
+// Render-time scene edits through `lsnif render` (src/lsnif/renderer/scene_edit.h via --node-transform,
 // --add, --at, --look-from, --sun) on lavapipe with a tiny model: added copies of a model share one model on the
 // device, and bad edits give clear errors with the right exit codes (2: malformed option, 1: the
 // scene cannot take it).
@@ -6,9 +6,9 @@
 
 #include <string>
 
-#include "mesh.h"
-#include "model.h"
-#include "test_support.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/core/model.h"
+#include "lsnif/testing/test_support.h"
 
 namespace lsnif {
 namespace {
@@ -25,7 +25,7 @@ TEST(SceneEditCli, AddedModelsAndMovedNodesRender) {
   const std::string m = dir.path("bunny.lsnif");
   ASSERT_TRUE(save_model(model, m));
   const std::string render = std::string(LSNIF_CLI) + " render " + std::string(LSNIF_DATA_DIR) +
-                             "/../samples/scene/examples/bunny_on_plane.gltf --lsnif bunny=" + m +
+                             "/../samples/scenes/bunny_on_plane.gltf --lsnif bunny=" + m +
                              " --width 24 --height 16 --spp 1 -o " + dir.path("out.png");
 
   test::CommandResult r = test::run_command(render + " --add '" + m + ";" + m +

@@ -11,7 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "test_support.h"
+#include "lsnif/testing/test_support.h"
 
 namespace {
 
@@ -337,7 +337,7 @@ TEST_F(TrainConfigCli, IndexedLevelEndToEnd) {
 
 TEST_F(TrainConfigCli, ConvertTakesTheConfigAndRecordsTheSettings) {
   const fs::path example =
-      fs::path(__FILE__).parent_path().parent_path() / "samples/scene/examples/bunny_on_plane.gltf";
+      fs::path(__FILE__).parent_path().parent_path() / "samples/scenes/bunny_on_plane.gltf";
   fs::create_directories(dir_.path() / "out");
   fs::copy_file(example, dir_.path() / "scene.gltf");
   // The bunny's model only has to exist with the right magic for the scene to load.

@@ -9,12 +9,12 @@
 #include <filesystem>
 #include <random>
 
-#include "evaluate.h"
-#include "host_device.h"
-#include "intersector.h"
-#include "mesh.h"
-#include "test_support.h"
-#include "trainer.h"
+#include "lsnif/train/evaluate.h"
+#include "lsnif/host_device.h"
+#include "lsnif/core/intersector.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/testing/test_support.h"
+#include "lsnif/train/trainer.h"
 
 namespace lsnif {
 namespace {

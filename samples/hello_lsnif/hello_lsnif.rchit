@@ -5,7 +5,7 @@
 #extension GL_EXT_ray_tracing : require
 #extension GL_GOOGLE_include_directive : require
 #include "hello_common.glsl"
-#include "lsnif_hit.glsl"
+#include "lsnif/lsnif_hit.glsl"
 
 layout(location = 0) rayPayloadInEXT HelloPixel payload;
 hitAttributeEXT LsnifHitAttributes lsnif_attributes;

@@ -27,14 +27,14 @@
 
 #include <nlohmann/json.hpp>
 
-#include "fuzz_support.h"
-#include "mesh.h"
-#include "mesh_formats.h"
-#include "model.h"
-#include "model_format.h"
-#include "scene_gltf.h"
-#include "test_support.h"                       // tests/: run_process, ScopedTestDir
-#include "../../samples/scene/test_support.h"  // check_scene
+#include "lsnif/testing/fuzz_support.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/import/mesh_formats.h"
+#include "lsnif/core/model.h"
+#include "lsnif/format/model_format.h"
+#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/testing/test_support.h"                       // tests/: run_process, ScopedTestDir
+#include "lsnif/testing/scene_test_support.h"  // check_scene
 
 namespace lsnif {
 namespace {

@@ -1,10 +1,10 @@
-// The device LSNIF math (shaders/lsnif_*.glsl, run as tests/gpu/lsnif_reference.comp through Vulkan
+// The device LSNIF math (src/lsnif/shaders/lsnif_*.glsl, run as tests/gpu/lsnif_reference.comp through Vulkan
 // compute, lavapipe on machines without a GPU) against the CPU reference intersector
-// (core/intersector.cpp), ray by ray, on tiny models trained in-process for both hit
+// (src/lsnif/core/intersector.cpp), ray by ray, on tiny models trained in-process for both hit
 // parametrizations and with hash tables of different sizes per level, and on a random model with
 // odd layer sizes, with an identity and a
 // rotated/non-uniformly scaled/translated instance. Also checks the GPU block packing
-// (plugin/gpu_model.cpp) value by value, and that the validation layer reported nothing.
+// (src/lsnif/plugin/gpu_model.cpp) value by value, and that the validation layer reported nothing.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,17 +16,17 @@
 #include <random>
 #include <vector>
 
-#include "gpu_model.h"
-#include "grid_usage.h"
-#include "test_support.h"
-#include "half.h"
-#include "intersector.h"
-#include "mesh.h"
-#include "network.h"
-#include "ray_walk.h"
-#include "trainer.h"
-#include "vk_compute.h"
-#include "gpu_test_support.h"
+#include "lsnif/testing/gpu_model.h"
+#include "lsnif/core/grid_usage.h"
+#include "lsnif/testing/test_support.h"
+#include "lsnif/core/half.h"
+#include "lsnif/core/intersector.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/core/network.h"
+#include "lsnif/core/ray_walk.h"
+#include "lsnif/train/trainer.h"
+#include "lsnif/harness/vk_compute.h"
+#include "lsnif/testing/gpu_test_support.h"
 
 namespace lsnif {
 namespace {
@@ -384,7 +384,7 @@ TEST_F(GpuReference, TablesOfDifferentSizesPerLevelMatchCpu) {
 }
 
 // Level 0 indexed: its entries through the perfect hash (lsnif_perfect_hash.glsl against
-// core/perfect_hash.h), level 1's table after level 0's index_slots entries, the displacements in
+// src/lsnif/core/perfect_hash.h), level 1's table after level 0's index_slots entries, the displacements in
 // the block's index section; fp16 and 8-bit features.
 TEST_F(GpuReference, IndexedLevelModelMatchesCpu) {
   ASSERT_TRUE(train_status_) << train_status_.message();

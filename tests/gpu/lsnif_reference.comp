@@ -1,12 +1,12 @@
 // lsnif_reference.comp -- evaluates a buffer of world-space rays against one instance of one LSNIF
-// model with shaders/lsnif_intersect.glsl, for comparison with the CPU reference
-// (core/intersector.cpp). Everything is addressed by buffer device addresses in the push constant.
+// model with src/lsnif/shaders/lsnif_intersect.glsl, for comparison with the CPU reference
+// (src/lsnif/core/intersector.cpp). Everything is addressed by buffer device addresses in the push constant.
 // The instance: object-to-world A x + T (rows of the 3x4 VkTransformMatrixKHR layout) and A^-1
 // (computed on the host exactly as the CPU reference does, as a driver provides
 // gl_WorldToObjectEXT): object ray = A^-1 (o - T), A^-1 d; world normal = normalize(A^-T n).
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#include "lsnif_intersect.glsl"
+#include "lsnif/shaders/lsnif_intersect.glsl"
 
 layout(local_size_x = 64) in;
 

@@ -1,7 +1,7 @@
-// lsnifCmdQuery (include/lsnif/lsnif.h): world-space rays against a TLAS of triangle and LSNIF
+// lsnifCmdQuery (src/lsnif/lsnif.h): world-space rays against a TLAS of triangle and LSNIF
 // instances, on the harness's device (lavapipe with VK_KHR_ray_query, validation on), against two
 // independent truths: a ray-tracing pipeline over the same TLAS (the plugin's intersection shader
-// with the instance-table lookup, a triangle hit group) and the CPU reference (core/intersector.h).
+// with the instance-table lookup, a triangle hit group) and the CPU reference (src/lsnif/core/intersector.h).
 //  - a mixed TLAS (a triangle instance, three LSNIF instances of two models, one with hash tables of
 //    different sizes per level: rotation, non-uniform scale, translation), closest-hit rays with and
 //    without culling, any-hit rays;
@@ -26,17 +26,17 @@
 #include <string>
 #include <vector>
 
-#include "gpu_test_support.h"
-#include "intersector.h"
+#include "lsnif/testing/gpu_test_support.h"
+#include "lsnif/core/intersector.h"
 #include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
 #include "lsnif/lsnif.hpp"
 
-#include "mesh.h"
-#include "plugin_device.h"
-#include "test_plugin.h"
-#include "test_support.h"
-#include "trainer.h"
-#include "vk_raytracing.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/harness/plugin_device.h"
+#include "lsnif/testing/test_plugin.h"
+#include "lsnif/testing/test_support.h"
+#include "lsnif/train/trainer.h"
+#include "lsnif/harness/vk_raytracing.h"
 
 namespace lsnif {
 namespace {

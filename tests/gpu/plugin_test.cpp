@@ -1,4 +1,4 @@
-// The plugin's C API (include/lsnif/lsnif.h) on the harness's device (lavapipe, validation on):
+// The plugin's C API (src/lsnif/lsnif.h) on the harness's device (lavapipe, validation on):
 //  - device support, context creation and its errors (null handles, reserved fields, a queue family
 //    without compute, an enabled-feature chain that lacks a feature, a real device created without
 //    VK_KHR_acceleration_structure), the error callback and the thread's last message;
@@ -24,18 +24,18 @@
 #include <string>
 #include <vector>
 
-#include "gpu_model.h"
-#include "gpu_test_support.h"
-#include "intersector.h"
+#include "lsnif/testing/gpu_model.h"
+#include "lsnif/testing/gpu_test_support.h"
+#include "lsnif/core/intersector.h"
 #include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
 
 #include "lsnif/lsnif.hpp"
-#include "mesh.h"
-#include "plugin_device.h"
-#include "test_plugin.h"
-#include "test_support.h"
-#include "trainer.h"
-#include "vk_raytracing.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/harness/plugin_device.h"
+#include "lsnif/testing/test_plugin.h"
+#include "lsnif/testing/test_support.h"
+#include "lsnif/train/trainer.h"
+#include "lsnif/harness/vk_raytracing.h"
 
 namespace lsnif {
 namespace {

@@ -1,4 +1,4 @@
-// The path tracer (samples/render/renderer.h) on lavapipe with validation on: a scene of a ground
+// The path tracer (src/lsnif/renderer/renderer.h) on lavapipe with validation on: a scene of a ground
 // quad and the elephant, whose node carries both its triangle mesh and a tiny LSNIF model trained
 // here. Reference and LSNIF renders use the same per-pixel random sequences, so (1) rendering the
 // same mode twice gives identical images, (2) a scene without LSNIF objects renders identically in
@@ -18,13 +18,13 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "flip.h"
-#include "gpu_test_support.h"
-#include "render_test_scene.h"
-#include "mesh.h"
-#include "model.h"
-#include "renderer.h"
-#include "trainer.h"
+#include "lsnif/apps/flip/flip.h"
+#include "lsnif/testing/gpu_test_support.h"
+#include "lsnif/testing/render_test_scene.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/core/model.h"
+#include "lsnif/renderer/renderer.h"
+#include "lsnif/train/trainer.h"
 
 namespace lsnif {
 namespace {
@@ -596,7 +596,7 @@ TEST_F(RenderTest, WavefrontFailsOnIncompleteQueries) {
   EXPECT_EQ(renderer.scene_stats().lsnif_instances, 33u);
 }
 
-// ---- Rasterized primary visibility (PrimaryVisibility::raster, samples/render/visibility_buffer.h) ----
+// ---- Rasterized primary visibility (PrimaryVisibility::raster, src/lsnif/renderer/visibility_buffer.h) ----
 
 // Mean LDR-FLIP between two renders.
 double flip_mean(const image::Image& a, const image::Image& b) {

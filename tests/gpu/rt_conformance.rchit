@@ -1,10 +1,10 @@
-// rt_conformance.rchit -- the closest hit of an LSNIF object, decoded with shaders/lsnif_hit.glsl
+// rt_conformance.rchit -- the closest hit of an LSNIF object, decoded with src/lsnif/lsnif_hit.glsl
 // as an application would: world normal, albedo, material; plus t, the walk's points, the logit
 // and the instance (reserved = gl_InstanceID | gl_InstanceCustomIndexEXT << 16).
 #version 460
 #extension GL_EXT_ray_tracing : require
 #extension GL_GOOGLE_include_directive : require
-#include "lsnif_hit.glsl"
+#include "lsnif/lsnif_hit.glsl"
 
 layout(location = 0) rayPayloadInEXT LsnifReferenceHit payload;
 hitAttributeEXT LsnifHitAttributes attributes;

@@ -1,13 +1,13 @@
 // rt_conformance_common.glsl -- what the ray-tracing conformance shaders (rt_conformance.rgen,
 // .rmiss, .rchit) share: the push constant block (LSNIF model table first, as the binding
-// convention of shaders/host_device.h requires; the C++ twin is RtPush in rt_conformance_test.cpp)
+// convention of src/lsnif/host_device.h requires; the C++ twin is RtPush in rt_conformance_test.cpp)
 // and the payload, one LsnifReferenceHit per ray.
 #ifndef RT_CONFORMANCE_COMMON_GLSL
 #define RT_CONFORMANCE_COMMON_GLSL
 
 #extension GL_EXT_buffer_reference : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
-#include "host_device.h"
+#include "lsnif/host_device.h"
 
 #define RT_MODE_CLOSEST 0u  // closest hit: t, world normal, albedo, material, instance
 #define RT_MODE_SHADOW 1u   // TerminateOnFirstHit | SkipClosestHitShader: hit = occluded only

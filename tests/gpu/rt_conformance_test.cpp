@@ -1,6 +1,6 @@
 // LSNIF objects as procedural AABB geometry traced by a real Vulkan ray-tracing pipeline
-// (shaders/lsnif.rint + tests/gpu/rt_conformance.{rgen,rmiss,rchit}, lavapipe on machines without
-// a GPU) against the CPU reference intersector (core/intersector.cpp), ray by ray: tiny models of
+// (src/lsnif/shaders/lsnif.rint + tests/gpu/rt_conformance.{rgen,rmiss,rchit}, lavapipe on machines without
+// a GPU) against the CPU reference intersector (src/lsnif/core/intersector.cpp), ray by ray: tiny models of
 // both hit parametrizations trained in-process as in gpu_reference_test, one instance (identity,
 // then rotated / non-uniformly scaled / translated), two instances of one model in one TLAS (the
 // closer one must be reported, with its instance id), and shadow rays (TerminateOnFirstHit |
@@ -21,16 +21,16 @@
 #include <random>
 #include <vector>
 
-#include "ground_truth.h"
-#include "intersector.h"
-#include "mesh.h"
-#include "ray_walk.h"
-#include "test_support.h"
-#include "trainer.h"
-#include "plugin_device.h"
-#include "vk_raytracing.h"
-#include "gpu_test_support.h"
-#include "test_plugin.h"
+#include "lsnif/train/ground_truth.h"
+#include "lsnif/core/intersector.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/core/ray_walk.h"
+#include "lsnif/testing/test_support.h"
+#include "lsnif/train/trainer.h"
+#include "lsnif/harness/plugin_device.h"
+#include "lsnif/harness/vk_raytracing.h"
+#include "lsnif/testing/gpu_test_support.h"
+#include "lsnif/testing/test_plugin.h"
 
 namespace lsnif {
 namespace {

@@ -5,7 +5,7 @@
 #version 460
 #extension GL_EXT_ray_tracing : require
 #extension GL_GOOGLE_include_directive : require
-#include "host_device.h"
+#include "lsnif/host_device.h"
 
 layout(location = 0) rayPayloadInEXT LsnifReferenceHit payload;
 hitAttributeEXT vec2 barycentrics;

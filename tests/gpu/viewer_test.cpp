@@ -1,4 +1,4 @@
-// The viewer (`lsnif view`, samples/viewer/) under Xvfb on lavapipe with validation on: it opens a
+// The viewer (`lsnif view`, src/lsnif/renderer/viewer/) under Xvfb on lavapipe with validation on: it opens a
 // window, renders frames, and what it presented (read back from the swapchain) is the path
 // tracer's image of the same scene and samples, computed here in-process (the independent truth),
 // in LSNIF mode and after a toggle in reference mode; the screenshot is not blank. Without a
@@ -11,15 +11,15 @@
 #include <filesystem>
 #include <string>
 
-#include "gltf_build.h"
-#include "gpu_test_support.h"
-#include "image_io.h"
-#include "mesh.h"
-#include "model.h"
-#include "render_test_scene.h"
-#include "renderer.h"
-#include "scene_gltf.h"
-#include "trainer.h"
+#include "lsnif/renderer/gltf_build.h"
+#include "lsnif/testing/gpu_test_support.h"
+#include "lsnif/image/image_io.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/core/model.h"
+#include "lsnif/testing/render_test_scene.h"
+#include "lsnif/renderer/renderer.h"
+#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/train/trainer.h"
 
 namespace lsnif {
 namespace {

@@ -26,12 +26,13 @@
 
 #include <glm/glm.hpp>
 
-#include "evaluate.h"
-#include "intersector.h"
-#include "mesh.h"
-#include "model.h"
-#include "test_support.h"
-#include "trainer.h"
+#include "lsnif/core/intersector.h"
+#include "lsnif/core/model.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/host_device.h"
+#include "lsnif/testing/test_support.h"
+#include "lsnif/train/evaluate.h"
+#include "lsnif/train/trainer.h"
 
 namespace lsnif {
 namespace {
@@ -404,7 +405,7 @@ TEST_F(Package, HelloThroughPkgConfig) {
   const std::string pc = "PKG_CONFIG_PATH=" + quote(prefix_ / kLibDir / "pkgconfig") + " pkg-config ";
   test::CommandResult r = sh(pc + "--variable=glsldir lsnif");
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_EQ(real_path(r.out.substr(0, r.out.find('\n'))), real_path(prefix_ / "include/lsnif"));
+  EXPECT_EQ(real_path(r.out.substr(0, r.out.find('\n'))), real_path(prefix_ / "include"));
   r = sh(pc + "--libs lsnif");
   EXPECT_TRUE(contains(r.out, "-llsnif_vk")) << r.out;
   run_and_compare(exe, "pkg_config");
@@ -546,34 +547,44 @@ TEST_F(Package, AddSubdirectoryBuildsThePluginOnly) {
   run_and_compare((dir / "hello_lsnif" / "hello_lsnif").string(), "add_subdirectory");
 }
 
-// The CPU libraries as a C++ project gets them (find_package(lsnif COMPONENTS train): lsnif::train with
-// its dependencies): tests/package/train_consumer evaluates the model on the bunny through them, and
-// its counts are those of the same evaluation in this process.
-TEST_F(Package, TrainComponentThroughFindPackage) {
-  const fs::path dir = root_ / "train_consumer";
-  test::CommandResult r = sh(quote(kCmake) + " -S " + quote(kSourceDir + "/tests/package/train_consumer") + " -B " +
+// The CPU libraries and the plugin as a renderer's project gets them (find_package(lsnif COMPONENTS
+// train)), with its own config.h, status.h, mesh.h, model.h and host_device.h on its include path
+// ahead of LSNIF's and behind it (tests/package/consumer): every program compiles only with its own
+// headers (an #error otherwise), the C++ one evaluates the model on the bunny with the counts of the
+// same evaluation in this process, and the C one reads LSNIF's host_device.h through lsnif/lsnif.h.
+TEST_F(Package, ConsumerWithHeadersOfTheSameNames) {
+  const fs::path dir = root_ / "consumer";
+  test::CommandResult r = sh(quote(kCmake) + " -S " + quote(kSourceDir + "/tests/package/consumer") + " -B " +
                              quote(dir) + " -G " + quote(kGenerator) + " -DCMAKE_BUILD_TYPE=Release " +
                              "-DCMAKE_PREFIX_PATH=" + quote(prefix_));
-  ASSERT_EQ(r.code, 0) << "configuring train_consumer failed:\n" << r.out;
+  ASSERT_EQ(r.code, 0) << "configuring the consumer failed:\n" << r.out;
   r = sh(quote(kCmake) + " --build " + quote(dir));
-  ASSERT_EQ(r.code, 0) << "building train_consumer failed:\n" << r.out;
+  ASSERT_EQ(r.code, 0) << "building the consumer failed:\n" << r.out;
+  for (const char* order : {"own_first", "lsnif_first"})
+    EXPECT_TRUE(fs::exists(dir / ("consumer_" + std::string(order) + ".rchit.spv"))) << order;
   constexpr size_t kRays = 2000;
-  r = sh(quote((dir / "train_consumer").string()) + " " + quote(model_path_) + " " + quote(kBunny) + " " +
-         std::to_string(kRays));
-  ASSERT_EQ(r.code, 0) << r.out;
   EvalSettings settings;
   settings.rays = kRays;
   EvalReport report;
   const Status s = evaluate_model(model_, mesh_, settings, report);
   ASSERT_TRUE(s) << s.message();
   const EvalMetrics& m = report.model;
-  char want[256];
-  std::snprintf(want, sizeof want, "rays %llu\ntrue_hits %llu\nfalse_hits %llu\ntrue_misses %llu\nfalse_misses %llu\n",
+  char want[320];
+  std::snprintf(want, sizeof want,
+                "rays %llu\ntrue_hits %llu\nfalse_hits %llu\ntrue_misses %llu\nfalse_misses %llu\nplugin %s\n",
                 static_cast<unsigned long long>(m.rays), static_cast<unsigned long long>(m.true_hits),
                 static_cast<unsigned long long>(m.false_hits), static_cast<unsigned long long>(m.true_misses),
-                static_cast<unsigned long long>(m.false_misses));
-  EXPECT_EQ(r.out, want);
+                static_cast<unsigned long long>(m.false_misses), kVersion.c_str());
   EXPECT_GT(m.true_hits, kRays / 10);  // a real evaluation
+  for (const char* order : {"own_first", "lsnif_first"}) {
+    r = sh(quote((dir / ("consumer_" + std::string(order))).string()) + " " + quote(model_path_) + " " +
+           quote(kBunny) + " " + std::to_string(kRays));
+    ASSERT_EQ(r.code, 0) << order << ": " << r.out;
+    EXPECT_EQ(r.out, want) << order;
+    r = sh(quote((dir / ("consumer_c_" + std::string(order))).string()));
+    ASSERT_EQ(r.code, 0) << order << ": " << r.out;
+    EXPECT_EQ(r.out, "plugin " + kVersion + "\nmax_points " + std::to_string(LSNIF_MAX_POINTS) + "\n") << order;
+  }
 }
 
 // The installed lsnif program runs from the prefix and names nothing of the build tree.
@@ -587,7 +598,7 @@ TEST_F(Package, InstalledToolIsRelocatable) {
   for (std::string line; std::getline(lines, line);) {
     EXPECT_FALSE(contains(line, kBuildDir)) << "the build folder in the installed lsnif: " << line;
     // The one source-tree path: the default of --data (scripts/setup.sh fetches the data there), a
-    // NUL-terminated string of its own (samples/lsnif/data_dir.cpp; `strings` may print other
+    // NUL-terminated string of its own (src/lsnif/apps/lsnif/data_dir.cpp; `strings` may print other
     // printable bytes before it on the same line).
     if (contains(line, kSourceDir)) {
       EXPECT_EQ(line.substr(line.find(kSourceDir)), std::string(LSNIF_DATA_DIR)) << line;

@@ -1,0 +1,247 @@
+// convert.cpp -- the conversion run and its report (convert.h).
+#include "lsnif/apps/convert/convert.h"
+
+#include <filesystem>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "lsnif/format/atomic_file.h"
+
+#include "lsnif/renderer/scene_gltf.h"
+
+namespace lsnif::convert {
+namespace fs = std::filesystem;
+
+namespace {
+
+double mib(uint64_t bytes) { return double(bytes) / 1048576.0; }
+
+// "140 B", "12.5 KiB", "1.564 MiB".
+std::string size_text(uint64_t bytes) {
+  if (bytes < 1024) return format("%llu B", (unsigned long long)bytes);
+  if (bytes < 1048576) return format("%.1f KiB", double(bytes) / 1024.0);
+  return format("%.3f MiB", mib(bytes));
+}
+
+std::string eval_text(const ModelResult& r) {
+  if (!r.evaluated) return "";
+  return format("accuracy %.2f%%, median t error %.2f%% of the diagonal, median normal error %.1f deg (%llu rays)",
+                100.0 * r.metrics.accuracy, 100.0 * r.metrics.t_error_median, r.metrics.normal_error_median,
+                (unsigned long long)r.metrics.rays);
+}
+
+const char* state_text(const ModelResult& r, bool dry_run) {
+  if (r.state == ModelState::Failed) return "FAILED";
+  if (dry_run) return r.up_to_date_on_disk ? "up to date, would be kept" : "would be trained";
+  switch (r.state) {
+    case ModelState::Trained: return "trained";
+    case ModelState::UpToDate: return "up to date, not retrained";
+    default: return "not trained";
+  }
+}
+
+void print_plan(const ConvertSettings& s, const ConvertResult& res, FILE* out) {
+  const Plan& plan = res.plan;
+  std::fprintf(out, "input     %s: %zu mesh nodes in the %s\n", s.input.c_str(), plan.nodes.size(),
+               plan.scene >= 0 ? format("scene %d", plan.scene).c_str() : "root nodes");
+  for (const PlannedNode& n : plan.nodes) {
+    std::string target;
+    if (n.model >= 0) target = " -> model '" + plan.models[size_t(n.model)].name + "'";
+    std::fprintf(out, "  node '%s' (mesh '%s', %llu triangles): %s%s\n", printable(n.name).c_str(),
+                 printable(n.mesh_name).c_str(),
+                 (unsigned long long)n.triangles, decision_text(n.decision), target.c_str());
+  }
+}
+
+void print_models(const ConvertSettings& s, const ConvertResult& res, FILE* out) {
+  const Plan& plan = res.plan;
+  uint64_t total = 0;
+  std::fprintf(out, "models    %zu for %zu instances\n", plan.models.size(), plan.instances_converted());
+  for (size_t i = 0; i < plan.models.size(); ++i) {
+    const PlannedModel& m = plan.models[i];
+    const ModelResult& r = res.models[i];
+    const uint64_t bytes = r.bytes ? r.bytes : estimated_model_bytes(s.train, planned_material_count(plan, m));
+    if (r.state != ModelState::Failed) total += bytes;
+    const std::string what = m.group.empty()
+                                 ? format("mesh '%s'", printable(plan.nodes[size_t(m.nodes[0])].mesh_name).c_str())
+                                 : format("group '%s'", printable(m.group).c_str());
+    std::fprintf(out, "  model '%s' (%s, %llu triangles, %zu materials): %zu %s, %.3f MiB, %s [%s]", m.name.c_str(),
+                 what.c_str(), (unsigned long long)m.triangles,
+                 r.mesh.materials.empty() ? size_t(planned_material_count(plan, m)) : r.mesh.materials.size(),
+                 m.nodes.size(), m.group.empty() ? (m.nodes.size() == 1 ? "instance" : "instances sharing it")
+                                                 : (m.nodes.size() == 1 ? "node" : "nodes in one object"),
+                 mib(bytes), m.file.c_str(), state_text(r, s.dry_run));
+    if (r.state == ModelState::Trained) std::fprintf(out, " in %.1f s", r.seconds);
+    std::fprintf(out, "\n");
+    if (std::string e = eval_text(r); !e.empty()) std::fprintf(out, "      %s\n", e.c_str());
+  }
+  std::fprintf(out, "memory    %.3f MiB of models%s\n", mib(total), s.dry_run ? " (estimated from the settings)" : "");
+}
+
+// The granularity trade of each group: one model instead of one per distinct member mesh.
+void print_groups(const ConvertSettings& s, const ConvertResult& res, FILE* out) {
+  const Plan& plan = res.plan;
+  std::map<int, size_t> mesh_model;
+  for (size_t i = 0; i < plan.models.size(); ++i)
+    if (plan.models[i].group.empty()) mesh_model[plan.models[i].mesh] = i;
+  for (size_t i = 0; i < plan.models.size(); ++i) {
+    const PlannedModel& m = plan.models[i];
+    if (m.group.empty()) continue;
+    std::set<int> meshes;
+    for (int ni : m.nodes) meshes.insert(plan.nodes[size_t(ni)].mesh);
+    uint64_t separate = 0;
+    for (int mesh : meshes) {
+      PlannedModel one;
+      one.mesh = mesh;
+      separate += estimated_model_bytes(s.train, planned_material_count(plan, one));
+    }
+    const ModelResult& r = res.models[i];
+    const uint64_t grouped = r.bytes ? r.bytes : estimated_model_bytes(s.train, planned_material_count(plan, m));
+    std::fprintf(out, "group     '%s': 1 model (%.3f MiB) for %zu nodes instead of %zu models, one per distinct mesh "
+                      "(%.3f MiB): %.1fx less memory",
+                 printable(m.group).c_str(), mib(grouped), m.nodes.size(), meshes.size(), mib(separate),
+                 grouped ? double(separate) / double(grouped) : 0.0);
+    if (std::string e = eval_text(r); !e.empty()) std::fprintf(out, "; its error: %s", e.c_str());
+    std::fprintf(out, "\n");
+    for (int mesh : meshes) {
+      auto it = mesh_model.find(mesh);
+      if (it == mesh_model.end()) continue;
+      if (std::string e = eval_text(res.models[it->second]); !e.empty())
+        std::fprintf(out, "          per-object model '%s' of a member mesh: %s\n", plan.models[it->second].name.c_str(),
+                     e.c_str());
+    }
+    if (!r.evaluated)
+      std::fprintf(out, "          (%s)\n", s.dry_run ? "its error is measured once it is trained"
+                                                     : "no error measured: --eval-rays 0");
+  }
+}
+
+// The output files are none of the files the input uses, and can be written (the folder is made):
+// checked before training.
+Status check_outputs(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir) {
+  const std::string bin = (fs::path(out_dir) / (fs::path(settings.output).stem().string() + ".bin")).string();
+  for (const std::string& input : referenced_files(plan, settings.input))
+    for (const std::string& output : {settings.output, bin})
+      if (fs::path(output).lexically_normal().string() == input || same_file(output, input))
+        return Status::error("%s would overwrite %s, which the input scene %s uses; write the output elsewhere",
+                             output.c_str(), input.c_str(), settings.input.c_str());
+  if (settings.dry_run) return Status::ok();
+  if (!out_dir.empty()) {
+    std::error_code ec;
+    fs::create_directories(out_dir, ec);
+    if (ec) return Status::error("%s: cannot create the output folder: %s", out_dir.c_str(), ec.message().c_str());
+  }
+  if (Status s = check_output_path(settings.output); !s) return s;
+  return check_output_path(bin);
+}
+
+Status validate_output(const ConvertSettings& settings, const ConvertResult& result, const std::string& out_dir) {
+  tinygltf::Model out;
+  WriteReport unused;
+  if (Status s = build_output(settings, result.plan, result.models, true, out, unused); !s) return s;
+  if (!out.buffers.empty() && out.buffers[0].data.empty()) out.buffers.clear();  // as save_gltf writes it
+  std::ostringstream text;  // buffers embedded as data URIs: nothing is written
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&out, text, /*prettyPrint=*/false, /*writeBinary=*/false))
+    return Status::error("%s: tinygltf could not serialize the scene", settings.output.c_str());
+  const std::string base = out_dir.empty() ? std::string(".") : out_dir;
+  scene::SceneLoadOptions options;
+  options.quiet = true;
+  options.allow_outside_refs = settings.import_options.allow_outside_refs;
+  for (size_t i = 0; i < result.plan.models.size(); ++i)
+    if (result.models[i].state != ModelState::Failed)
+      options.pending_models.push_back((fs::path(base) / result.plan.models[i].file).lexically_normal().string());
+  scene::Scene scene;
+  return scene::load_scene_from_memory(text.str(), false, settings.output, base, options, scene);
+}
+
+}  // namespace
+
+int run_convert(const ConvertSettings& settings, ConvertResult& result, FILE* out, FILE* err) {
+  result = ConvertResult();
+  if (settings.input.empty() || settings.output.empty()) {
+    std::fprintf(err, "lsnif convert: need an input and an output file\n");
+    return 2;
+  }
+  if (fs::path(settings.output).extension() != ".gltf") {
+    std::fprintf(err, "lsnif convert: %s: the output must be a .gltf file\n", settings.output.c_str());
+    return 2;
+  }
+  if (Status s = check_settings(settings); !s) {
+    std::fprintf(err, "lsnif convert: %s\n", s.message().c_str());
+    return 2;
+  }
+  if (Status s = settings.train.config.validate(); !s) {
+    std::fprintf(err, "lsnif convert: invalid model settings: %s\n", s.message().c_str());
+    return 2;
+  }
+  if (Status s = make_plan(settings, result.plan); !s) {
+    std::fprintf(err, "lsnif convert: %s\n", s.message().c_str());
+    return 1;
+  }
+  for (const std::string& w : result.plan.warnings) std::fprintf(err, "lsnif convert: warning: %s\n", w.c_str());
+  print_plan(settings, result, out);
+  std::fflush(out);
+
+  const std::string out_dir = fs::path(settings.output).parent_path().string();
+  if (Status s = check_outputs(settings, result.plan, out_dir); !s) {
+    std::fprintf(err, "lsnif convert: %s\n", s.message().c_str());
+    return 1;
+  }
+  prepare_models(settings, result.plan, out_dir, result.models);
+  // The scene about to be written must load in the renderer before any model is trained, in a dry
+  // run too (a missing environment image, a broken camera or transform, a missing model).
+  if (Status s = validate_output(settings, result, out_dir); !s) {
+    // The objects that already failed may be why (their nodes are left out).
+    for (const ModelResult& r : result.models)
+      if (r.state == ModelState::Failed) std::fprintf(err, "lsnif convert: error: %s\n", r.error.c_str());
+    std::fprintf(err, "lsnif convert: error: the converted scene would not load: %s\n", s.message().c_str());
+    return 1;
+  }
+  train_models(settings, result.plan, out_dir, result.models);
+  for (size_t i = 0; i < result.models.size(); ++i) {
+    const ModelResult& r = result.models[i];
+    result.trained += r.state == ModelState::Trained;
+    result.up_to_date += r.state == ModelState::UpToDate;
+    result.failed += r.state == ModelState::Failed;
+    for (const std::string& w : r.warnings)
+      std::fprintf(err, "lsnif convert: warning: model '%s': %s\n", result.plan.models[i].name.c_str(), w.c_str());
+    if (r.state == ModelState::Failed) std::fprintf(err, "lsnif convert: error: %s\n", r.error.c_str());
+  }
+  print_models(settings, result, out);
+  print_groups(settings, result, out);
+  size_t unique_meshes = 0, group_models = 0;
+  for (const PlannedModel& m : result.plan.models) (m.group.empty() ? unique_meshes : group_models) += 1;
+  std::fprintf(out, "instances %zu nodes become LSNIF objects: %zu mesh models (each trained once however many "
+                    "nodes use it) + %zu group models\n",
+               result.plan.instances_converted(), unique_meshes, group_models);
+  if (settings.dry_run) {
+    std::fprintf(out, "dry run   nothing trained or written\n");
+    return result.failed ? 1 : 0;
+  }
+  std::fprintf(out, "trained   %zu, up to date %zu, failed %zu\n", result.trained, result.up_to_date, result.failed);
+  if (Status s = write_output(settings, result.plan, result.models, result.written); !s) {
+    std::fprintf(err, "lsnif convert: %s\n", s.message().c_str());
+    return 1;
+  }
+  result.wrote_output = true;
+  for (const std::string& n : result.written.notes) std::fprintf(err, "lsnif convert: warning: %s\n", n.c_str());
+  // The renderer must be able to read what was written.
+  scene::Scene check;
+  scene::SceneLoadOptions quiet;
+  quiet.quiet = true;
+  quiet.allow_outside_refs = settings.import_options.allow_outside_refs;
+  if (Status s = scene::load_scene(settings.output, quiet, check); !s) {
+    std::fprintf(err, "lsnif convert: error: the written scene does not load: %s\n", s.message().c_str());
+    result.output_loads = false;
+  }
+  std::fprintf(out, "wrote     %s: %zu LSNIF nodes (%zu group nodes), %zu meshes removed%s, binary data %s -> %s\n",
+               settings.output.c_str(), result.written.converted_nodes, result.written.group_nodes,
+               result.written.meshes_removed, settings.keep_meshes ? " (--keep-meshes)" : "",
+               size_text(result.written.buffer_bytes_in).c_str(), size_text(result.written.buffer_bytes_out).c_str());
+  std::fflush(out);
+  return result.failed || !result.output_loads ? 1 : 0;
+}
+
+}  // namespace lsnif::convert

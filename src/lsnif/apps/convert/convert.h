@@ -1,0 +1,34 @@
+// convert.h -- `lsnif convert IN.gltf -o OUT.gltf` as a library call (docs/convert.md): plan,
+// train (or skip up-to-date models), write, and report. The command line (src/lsnif/apps/lsnif/
+// cmd_convert.cpp) only parses options into ConvertSettings.
+#pragma once
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "lsnif/apps/convert/convert_plan.h"
+#include "lsnif/apps/convert/convert_settings.h"
+#include "lsnif/apps/convert/convert_train.h"
+#include "lsnif/apps/convert/convert_write.h"
+
+namespace lsnif::convert {
+
+// Everything a run found out, for the report and for tests.
+struct ConvertResult {
+  Plan plan;
+  std::vector<ModelResult> models;  // one per plan.models
+  WriteReport written;
+  size_t trained = 0, up_to_date = 0, failed = 0;
+  bool wrote_output = false;
+  bool output_loads = true;  // load_scene (the renderer's loader) accepts the written scene
+};
+
+// Runs the conversion. The plan and report go to `out`, errors (one line per failed object, each
+// naming it) to `err`. Returns the exit code: 0 when every selected object was converted (or, with
+// dry_run, could be), 1 when the input could not be read or written, an output would overwrite a
+// file the input uses, the scene to be written would not load in the renderer's loader (checked
+// before any training, in a dry run too), any object failed (the good ones are still trained and
+// written) or the written scene does not load (load_scene), 2 for invalid settings.
+int run_convert(const ConvertSettings& settings, ConvertResult& result, FILE* out, FILE* err);
+
+}  // namespace lsnif::convert

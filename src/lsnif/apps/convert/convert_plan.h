@@ -1,0 +1,92 @@
+// convert_plan.h -- the converter's first stage: read the input glTF and decide, node by node,
+// what becomes an LSNIF object and which model each one uses (one model per glTF mesh however many
+// nodes use it; one per --group), with the checks that make an object fail on its own (missing or
+// outside buffers, non-triangle modes, unsupported primitives) instead of the whole run.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "lsnif/apps/convert/convert_settings.h"
+#include "lsnif/import/gltf_access.h"
+#include "lsnif/format/status.h"
+
+namespace lsnif::convert {
+
+enum class Decision {
+  Convert,         // becomes (part of) an LSNIF object
+  BelowThreshold,  // fewer triangles than --min-triangles
+  NotSelected,     // --select matches neither the node nor the mesh name
+  Excluded,        // --exclude matches the node or the mesh name
+  TaggedOff,       // node extras {"lsnif": false}
+  AlreadyLsnif,    // the node already carries LSNIF_neural_object; left as it is
+  Failed,          // selected, but its mesh cannot be converted (PlannedModel::error)
+};
+const char* decision_text(Decision d);
+
+// TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN (-1, glTF's default, is TRIANGLES): the primitive modes
+// the importer turns into triangles.
+bool is_triangle_mode(int mode);
+
+// One node of the default scene that has a mesh.
+struct PlannedNode {
+  int node = -1;
+  std::string name;       // node name ("node<N>" when unnamed)
+  int mesh = -1;
+  std::string mesh_name;  // mesh name ("mesh<M>" when unnamed)
+  uint64_t triangles = 0;  // of its mesh (triangle modes only)
+  glm::dmat4 world{1.0};   // node-to-world transform in the default scene
+  Decision decision = Decision::BelowThreshold;
+  int model = -1;          // index into Plan::models when Convert or Failed
+};
+
+// One model to make: a glTF mesh (shared by all its converted nodes) or a group.
+struct PlannedModel {
+  std::string name;   // unique, file-name safe
+  std::string file;   // .lsnif file name, in the output's folder
+  std::string group;  // group name; empty for a mesh model
+  int mesh = -1;      // the glTF mesh of a mesh model
+  std::vector<int> nodes;  // the PlannedNode indices it replaces (its instances / group members)
+  uint64_t triangles = 0;  // of the object (a group: all members)
+  std::string error;       // non-empty: bad input, the model is not made (names the object)
+};
+
+struct Plan {
+  tinygltf::Model gltf;      // the input, as read
+  std::string input_dir;     // folder of the input file
+  int scene = -1;            // the default scene converted (-1: the file's root nodes)
+  std::vector<PlannedNode> nodes;
+  std::vector<PlannedModel> models;
+  std::vector<std::string> bad_buffers;  // per glTF buffer: why its data is missing ("" = fine)
+  std::vector<std::string> warnings;
+
+  size_t instances_converted() const;  // nodes that become LSNIF objects
+  size_t failed_models() const;
+};
+
+// Every file the input scene `input` refers to, resolved against its folder (buffers, images, the
+// models of LSNIF nodes, the environment image) and the input itself: what the converter must
+// never overwrite.
+std::vector<std::string> referenced_files(const Plan& plan, const std::string& input);
+
+// The settings' own errors: an invalid regular expression or a --group without NAME or REGEX.
+Status check_settings(const ConvertSettings& settings);
+
+// Reads settings.input and makes the plan. Errors (the whole run stops): an unreadable or broken
+// file (too deeply nested JSON, an LSNIF extension that is not an object, an image leaving the
+// scene's folder), an invalid regular expression, a malformed --group, a cyclic node hierarchy.
+// Model file names are unique and never name a file the input refers to (referenced_files). A bad object
+// is not an error here: its model carries `error`.
+Status make_plan(const ConvertSettings& settings, Plan& plan);
+
+// The model's size on disk and on the GPU, known from the settings before training
+// (memory_breakdown of a model with `material_count` materials).
+uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_count);
+
+// Distinct materials the model of `m` will have (its primitives' materials, the default counted
+// once), as the mesh importer creates them.
+uint32_t planned_material_count(const Plan& plan, const PlannedModel& m);
+
+}  // namespace lsnif::convert

@@ -1,0 +1,45 @@
+// convert_settings.h -- every option of the scene converter (`lsnif convert`, docs/convert.md) in
+// one struct, as gltfpack keeps its Settings.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "lsnif/train/trainer.h"
+
+namespace lsnif::convert {
+
+// `--group NAME=REGEX`: the selected mesh nodes whose name matches REGEX become one LSNIF object
+// named NAME (their meshes flattened into world space, one model for all of them).
+struct GroupRule {
+  std::string name;
+  std::string pattern;  // RE2 regular expression, searched in the node name
+};
+
+struct ConvertSettings {
+  std::string input;   // IN.gltf or IN.glb
+  std::string output;  // OUT.gltf; the .lsnif files go beside it
+  // The paper's face-count threshold: meshes (groups: all members together) with fewer triangles
+  // stay triangle meshes. Node extras {"lsnif": true} overrides it.
+  uint64_t min_triangles = 1000;
+  // RE2 regular expressions (linear-time matching: node names are untrusted input) searched in the
+  // node name and the mesh name; empty: no rule.
+  // A node is a candidate when `select` is empty or matches, and `exclude` is empty or matches
+  // neither name.
+  std::string select, exclude;
+  std::vector<GroupRule> groups;
+  bool keep_meshes = false;  // keep the converted nodes' triangles (the renderer's reference mode)
+  bool dry_run = false;      // print the plan, train and write nothing
+  bool force = false;        // retrain even models whose .lsnif is up to date
+  uint32_t jobs = 1;         // models trained at the same time
+  uint32_t eval_rays = 20000;  // held-out rays per trained model for the report (0: no evaluation)
+  bool progress = true;      // one overall progress bar on stderr
+  // --allow-outside-refs (buffers, images, models and the HDR of the input, and the references
+  // of the written scene, may leave their folder) and --allow-dropped-triangles.
+  MeshImportOptions import_options;
+  // Training of every model (TrainSettings::progress and loss_csv are ignored: the converter
+  // draws one bar for all models and writes no loss curves).
+  TrainSettings train;
+};
+
+}  // namespace lsnif::convert

@@ -1,0 +1,194 @@
+#include "lsnif/apps/lsnif/args.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+namespace lsnif::cli {
+
+void Args::alias(const std::string& short_name, const std::string& long_name) {
+  aliases_.push_back({short_name, long_name});
+}
+
+void Args::positional(const std::string& name, const std::string& help, std::string* out, bool required) {
+  pos_.push_back({name, help, out, required});
+}
+
+void Args::rest(const std::string& name, const std::string& help, std::vector<std::string>* out) {
+  rest_name_ = name;
+  rest_help_ = help;
+  rest_ = out;
+}
+
+void Args::option(const std::string& name, const std::string& help, std::string* out) {
+  opts_.push_back({name, help, "TEXT", out->empty() ? "" : *out, false, [out](const std::string& v) {
+                     *out = v;
+                     return true;
+                   }});
+}
+
+bool parse_u64(const std::string& v, uint64_t& out) {
+  errno = 0;
+  char* end = nullptr;
+  unsigned long long x = std::strtoull(v.c_str(), &end, 0);
+  if (errno || end == v.c_str() || *end || v[0] == '-') return false;
+  out = uint64_t(x);
+  return true;
+}
+
+bool parse_u32(const std::string& v, uint32_t& out) {
+  uint64_t x = 0;
+  if (!parse_u64(v, x) || x > 0xffffffffull) return false;
+  out = uint32_t(x);
+  return true;
+}
+
+bool parse_f32(const std::string& v, float& out) {
+  char* end = nullptr;
+  float x = std::strtof(v.c_str(), &end);
+  if (end == v.c_str() || *end || !std::isfinite(x)) return false;
+  out = x;
+  return true;
+}
+
+void Args::option(const std::string& name, const std::string& help, uint32_t* out) {
+  option(name, help, "N", std::to_string(*out), [out](const std::string& v) { return parse_u32(v, *out); });
+}
+
+void Args::option(const std::string& name, const std::string& help, uint64_t* out) {
+  option(name, help, "N", std::to_string(*out), [out](const std::string& v) { return parse_u64(v, *out); });
+}
+
+void Args::option(const std::string& name, const std::string& help, float* out) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", double(*out));
+  option(name, help, "X", buf, [out](const std::string& v) { return parse_f32(v, *out); });
+}
+
+void Args::option(const std::string& name, const std::string& help, const std::string& value_name,
+                  const std::string& default_text, std::function<bool(const std::string&)> set) {
+  opts_.push_back({name, help, value_name, default_text, value_name.empty(), std::move(set)});
+}
+
+void Args::flag(const std::string& name, const std::string& help, bool* out) {
+  opts_.push_back({name, help, "", "", true, [out](const std::string&) {
+                     *out = true;
+                     return true;
+                   }});
+}
+
+std::string Args::help() const {
+  std::string s = "usage: lsnif " + command_;
+  for (const Pos& p : pos_) s += p.required ? " " + p.name : " [" + p.name + "]";
+  if (rest_) s += " [" + rest_name_ + "...]";
+  s += " [options]\n\n" + summary_ + "\n";
+  if (!pos_.empty() || rest_) s += "\narguments:\n";
+  for (const Pos& p : pos_) s += "  " + p.name + std::string(p.name.size() < 22 ? 22 - p.name.size() : 1, ' ') + p.help + "\n";
+  if (rest_)
+    s += "  " + rest_name_ + "..." + std::string(rest_name_.size() + 3 < 22 ? 22 - rest_name_.size() - 3 : 1, ' ') +
+         rest_help_ + "\n";
+  s += "\noptions:\n";
+  for (const Opt& o : opts_) {
+    std::string left = "--" + o.name + (o.is_flag ? "" : " " + o.value_name);
+    for (const auto& [short_name, long_name] : aliases_)
+      if (long_name == o.name) left = short_name + ", " + left;
+    s += "  " + left + std::string(left.size() < 22 ? 22 - left.size() : 1, ' ') + o.help;
+    if (!o.is_flag && !o.default_text.empty()) s += " (default " + o.default_text + ")";
+    s += "\n";
+  }
+  s += "  --help                show this help\n";
+  return s;
+}
+
+int Args::parse(int argc, char** argv) {
+  // Two options of one name would silently share the command line (the last registered wins).
+  for (size_t i = 0; i < opts_.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (opts_[i].name == opts_[j].name) {
+        std::fprintf(stderr, "lsnif %s: internal error: option --%s is registered twice\n", command_.c_str(),
+                     opts_[i].name.c_str());
+        return 2;
+      }
+  size_t next_pos = 0;
+  for (int i = 0; i < argc; ++i) {
+    std::string a = argv[i];
+    for (const auto& [short_name, long_name] : aliases_)
+      if (a == short_name) a = "--" + long_name;
+    if (a == "--help" || a == "-h") {
+      std::fputs(help().c_str(), stdout);
+      return 1;
+    }
+    if (a.size() > 2 && a.compare(0, 2, "--") == 0) {
+      std::string name = a.substr(2), value;
+      bool has_value = false;
+      if (size_t eq = name.find('='); eq != std::string::npos) {
+        value = name.substr(eq + 1);
+        name = name.substr(0, eq);
+        has_value = true;
+      }
+      const Opt* opt = nullptr;
+      for (const Opt& o : opts_)
+        if (o.name == name) opt = &o;
+      if (!opt) {
+        std::fprintf(stderr, "lsnif %s: unknown option --%s (see --help)\n", command_.c_str(), name.c_str());
+        return 2;
+      }
+      if (opt->is_flag) {
+        if (has_value) {
+          std::fprintf(stderr, "lsnif %s: --%s takes no value\n", command_.c_str(), name.c_str());
+          return 2;
+        }
+        opt->set("");
+        continue;
+      }
+      if (!has_value) {
+        if (i + 1 >= argc) {
+          std::fprintf(stderr, "lsnif %s: --%s needs a value\n", command_.c_str(), name.c_str());
+          return 2;
+        }
+        value = argv[++i];
+      }
+      if (!opt->set(value)) {
+        std::fprintf(stderr, "lsnif %s: invalid value '%s' for --%s (%s expected)\n", command_.c_str(),
+                     value.c_str(), name.c_str(), opt->value_name.c_str());
+        return 2;
+      }
+      continue;
+    }
+    if (next_pos >= pos_.size() && rest_) {
+      rest_->push_back(a);
+      continue;
+    }
+    if (next_pos >= pos_.size()) {
+      std::fprintf(stderr, "lsnif %s: unexpected argument '%s' (see --help)\n", command_.c_str(), a.c_str());
+      return 2;
+    }
+    *pos_[next_pos++].out = a;
+  }
+  for (size_t p = next_pos; p < pos_.size(); ++p)
+    if (pos_[p].required) {
+      std::fprintf(stderr, "lsnif %s: missing argument %s (see --help)\n", command_.c_str(), pos_[p].name.c_str());
+      return 2;
+    }
+  return 0;
+}
+
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (const char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof(buf), "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+}  // namespace lsnif::cli

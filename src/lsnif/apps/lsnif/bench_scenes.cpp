@@ -1,0 +1,416 @@
+// bench_scenes.cpp -- see bench_scenes.h; the scenes are described in docs/bench-scenes.md.
+#include "lsnif/apps/lsnif/bench_scenes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <utility>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "lsnif/format/crc32.h"
+#include "lsnif/renderer/gltf_build.h"
+#include "lsnif/import/mesh_subdivide.h"
+
+namespace lsnif::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr float kAspect = 4.0f / 3.0f;  // the framing assumes the default 320 x 240 image shape
+
+struct Source {
+  const char* file;  // under data/meshes
+  glm::vec3 color;
+  float roughness;
+  float x_rotation_degrees;  // turns the file's up axis into +y
+};
+const Source kBunny{"bunny00.off", {0.80f, 0.45f, 0.30f}, 0.5f, 0.0f};
+const Source kDragon{"ChineseDragon-10kv.off", {0.30f, 0.62f, 0.42f}, 0.35f, 0.0f};
+const Source kArmadillo{"armadillo.off", {0.55f, 0.58f, 0.80f}, 0.5f, 0.0f};
+const Source kElephant{"elephant.off", {0.35f, 0.60f, 0.22f}, 0.6f, -90.0f};
+
+std::string mesh_path(const std::string& data_dir, const char* file) { return data_dir + "/meshes/" + file; }
+std::string hdr_path(const std::string& data_dir, const char* file) { return data_dir + "/hdr/" + file; }
+
+const char* scene_hdr(const std::string& name) {
+  if (name == "bunny") return "forest.exr";
+  if (name == "dragons") return "sunset.exr";
+  if (name == "heavy") return "city.exr";
+  return "sunrise.exr";
+}
+
+std::vector<const Source*> scene_sources(const std::string& name) {
+  if (name == "bunny") return {&kBunny};
+  if (name == "dragons") return {&kDragon};
+  if (name == "heavy") return {&kBunny, &kArmadillo, &kDragon};
+  if (name == "foliage") return {&kElephant};
+  return {};
+}
+
+// Loads a source mesh, turns it upright, gives it the source's color as its only material and scales and moves it
+// so that it stands on y = 0, centred on the y axis, its largest extent `size`.
+Status load_source(const std::string& data_dir, const Source& src, float size, Mesh& out) {
+  MeshImportReport report;
+  if (Status s = load_mesh(mesh_path(data_dir, src.file), out, &report); !s) return s;
+  if (src.x_rotation_degrees != 0.0f) {
+    const glm::mat3 r(glm::rotate(glm::mat4(1.0f), glm::radians(src.x_rotation_degrees), glm::vec3(1, 0, 0)));
+    for (glm::vec3& p : out.positions) p = r * p;
+    for (glm::vec3& n : out.normals) n = r * n;
+  }
+  const Aabb b = out.bounds();
+  const glm::vec3 extent = b.hi - b.lo;
+  const float scale = size / std::max({extent.x, extent.y, extent.z});
+  const glm::vec3 base(0.5f * (b.lo.x + b.hi.x), b.lo.y, 0.5f * (b.lo.z + b.hi.z));
+  for (glm::vec3& p : out.positions) p = (p - base) * scale;
+  out.colors.clear();
+  out.uvs.clear();
+  out.textures.clear();
+  Material m;
+  m.name = fs::path(src.file).stem().string();
+  m.base_color = src.color;
+  out.materials = {m};
+  out.triangle_material.assign(out.triangles.size(), 0);
+  return Status::ok();
+}
+
+scene::Material scene_material(const Source& src) {
+  scene::Material m;
+  m.name = fs::path(src.file).stem().string();
+  m.base_color = glm::vec4(src.color, 1.0f);
+  m.metallic = 0.0f;
+  m.roughness = src.roughness;
+  return m;
+}
+
+glm::mat4 placement(glm::vec3 translation, float degrees_about_y, float scale) {
+  glm::mat4 m = glm::translate(glm::mat4(1.0f), translation);
+  m = glm::rotate(m, glm::radians(degrees_about_y), glm::vec3(0, 1, 0));
+  return glm::scale(m, glm::vec3(scale));
+}
+
+// World bounds of every instance's mesh bounds.
+void world_bounds(const std::vector<BenchObject>& objects, glm::vec3& lo, glm::vec3& hi) {
+  lo = glm::vec3(std::numeric_limits<float>::infinity());
+  hi = -lo;
+  for (const BenchObject& o : objects) {
+    const Aabb b = o.mesh.bounds();
+    for (const glm::mat4& m : o.placements)
+      for (int corner = 0; corner < 8; ++corner) {
+        const glm::vec3 p((corner & 1) ? b.hi.x : b.lo.x, (corner & 2) ? b.hi.y : b.lo.y,
+                          (corner & 4) ? b.hi.z : b.lo.z);
+        const glm::vec3 w(m * glm::vec4(p, 1.0f));
+        lo = glm::min(lo, w);
+        hi = glm::max(hi, w);
+      }
+  }
+}
+
+// A camera looking at the centre of [lo, hi] from `direction`, far enough that the box's bounding
+// sphere (times `fill`) fits the narrower field of view of a kAspect image.
+scene::Camera framing_camera(glm::vec3 lo, glm::vec3 hi, glm::vec3 direction, float yfov, float fill) {
+  const glm::vec3 c = 0.5f * (lo + hi);
+  const float radius = 0.5f * glm::length(hi - lo) * fill;
+  const float xfov = 2.0f * std::atan(kAspect * std::tan(0.5f * yfov));
+  const float distance = radius / std::sin(0.5f * std::min(yfov, xfov));
+  const glm::vec3 eye = c + distance * glm::normalize(direction);
+  scene::Camera cam;
+  cam.name = "bench";
+  cam.yfov = yfov;
+  cam.camera_to_world = glm::inverse(glm::lookAt(eye, c, glm::vec3(0, 1, 0)));
+  return cam;
+}
+
+template <typename T>
+uint32_t crc_of(const std::vector<T>& v, uint32_t crc) {
+  return v.empty() ? crc : crc32(reinterpret_cast<const uint8_t*>(v.data()), v.size() * sizeof(T), crc);
+}
+
+template <typename T>
+uint32_t crc_of_value(const T& v, uint32_t crc) {
+  return crc32(reinterpret_cast<const uint8_t*>(&v), sizeof(T), crc);
+}
+
+std::string hex(uint32_t v) { return format("%08x", v); }
+
+Status require_files(const std::vector<std::string>& files) {
+  for (const std::string& f : files)
+    if (!fs::is_regular_file(f))
+      return Status::error("%s not found: run scripts/setup.sh first (it fetches the meshes and HDR environments)",
+                           f.c_str());
+  return Status::ok();
+}
+
+scene::Primitive scene_primitive(const Mesh& mesh, uint32_t material) {
+  scene::Primitive p;
+  p.positions = mesh.positions;
+  p.normals = mesh.normals;
+  p.indices.reserve(3 * mesh.triangles.size());
+  for (const glm::uvec3& t : mesh.triangles) p.indices.insert(p.indices.end(), {t.x, t.y, t.z});
+  p.material = material;
+  return p;
+}
+
+}  // namespace
+
+const std::vector<std::string>& bench_scene_names() {
+  static const std::vector<std::string> names = {"bunny", "dragons", "heavy", "foliage"};
+  return names;
+}
+
+std::vector<std::string> bench_scene_inputs(const std::string& name, const std::string& data_dir) {
+  std::vector<std::string> files;
+  for (const Source* s : scene_sources(name)) files.push_back(mesh_path(data_dir, s->file));
+  if (!files.empty()) files.push_back(hdr_path(data_dir, scene_hdr(name)));
+  return files;
+}
+
+namespace {
+
+// The source of a bench mesh and the scene whose environment lights it; nullptr for an unknown name.
+const Source* mesh_source(const std::string& name, const char** scene) {
+  if (name == "bunny") return *scene = "bunny", &kBunny;
+  if (name == "armadillo") return *scene = "heavy", &kArmadillo;
+  if (name == "dragon") return *scene = "dragons", &kDragon;
+  return nullptr;
+}
+
+}  // namespace
+
+const std::vector<std::string>& bench_mesh_names() {
+  static const std::vector<std::string> names = {"bunny", "armadillo", "dragon"};
+  return names;
+}
+
+std::vector<std::string> bench_mesh_inputs(const std::string& name, const std::string& data_dir) {
+  const char* scene = nullptr;
+  const Source* src = mesh_source(name, &scene);
+  if (!src) return {};
+  return {mesh_path(data_dir, src->file), hdr_path(data_dir, scene_hdr(scene))};
+}
+
+Status load_bench_mesh(const std::string& name, const std::string& data_dir, Mesh& out, std::string& hdr) {
+  const char* scene = nullptr;
+  const Source* src = mesh_source(name, &scene);
+  if (!src) {
+    std::string known;
+    for (const std::string& n : bench_mesh_names()) known += (known.empty() ? "" : ", ") + n;
+    return Status::error("unknown mesh '%s' (meshes: %s)", name.c_str(), known.c_str());
+  }
+  if (Status s = require_files(bench_mesh_inputs(name, data_dir)); !s) return s;
+  hdr = hdr_path(data_dir, scene_hdr(scene));
+  return load_source(data_dir, *src, 1.0f, out);
+}
+
+Mesh wireframe_mesh(const Mesh& mesh, float radius) {
+  std::vector<std::pair<uint32_t, uint32_t>> edges;
+  edges.reserve(3 * mesh.triangles.size());
+  for (const glm::uvec3& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = t[k], b = t[(k + 1) % 3];
+      edges.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+
+  Mesh out;
+  out.materials = mesh.materials;
+  constexpr float kTwoPi = 6.28318530718f;
+  for (const auto& [ia, ib] : edges) {
+    const glm::vec3 a = mesh.positions[ia], b = mesh.positions[ib];
+    const float length = glm::length(b - a);
+    if (!(length > 0.0f)) continue;
+    const glm::vec3 d = (b - a) / length;
+    const glm::vec3 helper = std::abs(d.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+    const glm::vec3 u = glm::normalize(glm::cross(d, helper)), v = glm::cross(d, u);
+    glm::vec3 radial[3];
+    for (int k = 0; k < 3; ++k) radial[k] = std::cos(kTwoPi * float(k) / 3.0f) * u + std::sin(kTwoPi * float(k) / 3.0f) * v;
+    const uint32_t base = uint32_t(out.positions.size());
+    // 0..2: ring at a, 3..5: ring at b (radial normals); 6..8, 9..11: the caps' copies.
+    for (const glm::vec3& end : {a, b})
+      for (int k = 0; k < 3; ++k) {
+        out.positions.push_back(end + radius * radial[k]);
+        out.normals.push_back(radial[k]);
+      }
+    for (int e = 0; e < 2; ++e)
+      for (int k = 0; k < 3; ++k) {
+        out.positions.push_back(out.positions[base + uint32_t(3 * e + k)]);
+        out.normals.push_back(e == 0 ? -d : d);
+      }
+    auto add = [&](uint32_t i, uint32_t j, uint32_t l, const glm::vec3& outward) {
+      const glm::vec3 n = glm::cross(out.positions[base + j] - out.positions[base + i],
+                                     out.positions[base + l] - out.positions[base + i]);
+      if (glm::dot(n, outward) < 0.0f) std::swap(j, l);
+      out.triangles.push_back(glm::uvec3(base + i, base + j, base + l));
+    };
+    for (uint32_t k = 0; k < 3; ++k) {
+      const uint32_t k1 = (k + 1) % 3;
+      const glm::vec3 side = radial[k] + radial[k1];
+      add(k, k1, 3 + k1, side);
+      add(k, 3 + k1, 3 + k, side);
+    }
+    add(6, 7, 8, -d);
+    add(9, 10, 11, d);
+  }
+  out.triangle_material.assign(out.triangles.size(), 0);
+  return out;
+}
+
+Status make_bench_scene(const std::string& name, const std::string& data_dir, BenchScene& out) {
+  out = BenchScene();
+  const std::vector<const Source*> sources = scene_sources(name);
+  if (sources.empty()) {
+    std::string known;
+    for (const std::string& n : bench_scene_names()) known += (known.empty() ? "" : ", ") + n;
+    return Status::error("unknown scene '%s' (scenes: %s)", name.c_str(), known.c_str());
+  }
+  if (Status s = require_files(bench_scene_inputs(name, data_dir)); !s) return s;
+  out.name = name;
+  out.hdr = hdr_path(data_dir, scene_hdr(name));
+  glm::vec3 view(0.35f, 0.3f, 1.0f);
+  float fill = 0.75f;
+  auto add = [&](const Source& src, const std::string& object_name, uint32_t levels, float size,
+                 std::vector<glm::mat4> placements) -> Status {
+    BenchObject o;
+    o.name = object_name;
+    if (Status s = load_source(data_dir, src, size, o.mesh); !s) return s;
+    o.origin = src.file;
+    if (levels > 0) {
+      Mesh fine;
+      if (Status s = subdivide_midpoint(o.mesh, levels, fine); !s) return s.context(src.file);
+      o.mesh = std::move(fine);
+      o.origin += format(" subdivided %ux (1-to-4 midpoint)", levels);
+    }
+    o.material = scene_material(src);
+    o.placements = std::move(placements);
+    out.objects.push_back(std::move(o));
+    return Status::ok();
+  };
+  Status s;
+  if (name == "bunny") {
+    out.summary = "the Stanford bunny on a ground quad";
+    s = add(kBunny, "bunny", 0, 1.0f, {glm::mat4(1.0f)});
+  } else if (name == "dragons") {
+    out.summary = "one dragon model, instanced three times with different transforms";
+    s = add(kDragon, "dragon", 0, 1.0f,
+            {placement({0.0f, 0.0f, 0.0f}, -20.0f, 1.0f), placement({-1.05f, 0.0f, -0.75f}, 35.0f, 0.8f),
+             placement({1.05f, 0.0f, -0.75f}, -75.0f, 0.8f)});
+    view = glm::vec3(0.1f, 0.35f, 1.0f);
+    fill = 0.6f;
+  } else if (name == "heavy") {
+    out.summary = "three meshes subdivided to millions of triangles (one model each, trained on the subdivided mesh)";
+    s = add(kBunny, "bunny", 2, 1.0f, {placement({-1.15f, 0.0f, 0.0f}, 10.0f, 1.0f)});
+    if (s) s = add(kArmadillo, "armadillo", 2, 1.0f, {placement({0.0f, 0.0f, -0.2f}, 180.0f, 1.0f)});
+    if (s) s = add(kDragon, "dragon", 3, 1.0f, {placement({1.15f, 0.0f, 0.0f}, -30.0f, 1.0f)});
+    view = glm::vec3(0.05f, 0.3f, 1.0f);
+    fill = 0.7f;
+    out.env_intensity = 0.6f;  // the overcast city sky would wash the ground out at 1
+  } else {
+    out.summary = "thin geometry: every edge of the elephant mesh as a thin closed prism (a wire sculpture)";
+    BenchObject o;
+    o.name = "elephant_wire";
+    s = load_source(data_dir, kElephant, 1.0f, o.mesh);
+    if (s) {
+      o.mesh = wireframe_mesh(o.mesh, 0.0025f);
+      o.origin = std::string(kElephant.file) + " edges as prisms of radius 0.25% of its size";
+      o.material = scene_material(kElephant);
+      o.material.name = o.name;
+      o.placements = {placement({0, 0, 0}, 25.0f, 1.0f)};
+      out.objects.push_back(std::move(o));
+      fill = 0.65f;
+    }
+  }
+  if (!s) {
+    out = BenchScene();
+    return s;
+  }
+  glm::vec3 lo, hi;
+  world_bounds(out.objects, lo, hi);
+  out.camera = framing_camera(lo, hi, view, 0.6f, fill);
+  out.ground_center = glm::vec3(0.5f * (lo.x + hi.x), 0.0f, 0.5f * (lo.z + hi.z));
+  out.ground_half_size = 4.0f * glm::length(hi - lo);
+  return Status::ok();
+}
+
+Status write_bench_scene(const BenchScene& scene, const std::string& dir) {
+  tinygltf::Model model = scene::new_gltf_model("lsnif bench (src/lsnif/apps/lsnif/bench_scenes.cpp)");
+  scene::Material ground;
+  ground.name = "ground";
+  ground.base_color = glm::vec4(0.45f, 0.45f, 0.45f, 1.0f);
+  ground.metallic = 0.0f;
+  ground.roughness = 0.8f;
+  const int ground_material = scene::add_material(model, ground);
+  scene::Mesh quad;
+  quad.name = "ground";
+  scene::Primitive q;
+  const glm::vec3 c = scene.ground_center;
+  const float r = scene.ground_half_size;
+  q.positions = {{c.x - r, 0, c.z - r}, {c.x + r, 0, c.z - r}, {c.x + r, 0, c.z + r}, {c.x - r, 0, c.z + r}};
+  q.normals.assign(4, glm::vec3(0, 1, 0));
+  q.indices = {0, 2, 1, 0, 3, 2};
+  q.material = uint32_t(ground_material);
+  quad.primitives = {q};
+  int mesh = -1;
+  if (Status s = scene::add_mesh(model, quad, mesh); !s) return s;
+  scene::add_node(model, "ground", mesh, glm::mat4(1.0f));
+  for (const BenchObject& o : scene.objects) {
+    const int material = scene::add_material(model, o.material);
+    scene::Mesh m;
+    m.name = o.name;
+    m.primitives = {scene_primitive(o.mesh, uint32_t(material))};
+    if (Status s = scene::add_mesh(model, m, mesh); !s) return s;
+    for (size_t i = 0; i < o.placements.size(); ++i) {
+      const int node = scene::add_node(model, i ? format("%s_%zu", o.name.c_str(), i) : o.name, mesh, o.placements[i]);
+      scene::set_neural_object(model, node, o.name + ".lsnif", {uint32_t(material)});
+    }
+  }
+  scene::add_camera(model, scene.camera, 0.01f, 1000.0f);
+  scene::EnvironmentSpec env;
+  env.hdr = fs::path(scene.hdr).filename().string();
+  env.intensity = scene.env_intensity;
+  env.rotation_degrees = scene.env_rotation_degrees;
+  scene::set_environment(model, env);
+  std::error_code ec;
+  fs::copy_file(scene.hdr, fs::path(dir) / env.hdr, fs::copy_options::overwrite_existing, ec);
+  if (ec) return Status::error("copying %s into %s: %s", scene.hdr.c_str(), dir.c_str(), ec.message().c_str());
+  return scene::save_gltf(model, (fs::path(dir) / (scene.name + ".gltf")).string());
+}
+
+std::string mesh_fingerprint(const Mesh& mesh) {
+  uint32_t crc = crc_of(mesh.positions, 0);
+  crc = crc_of(mesh.normals, crc);
+  crc = crc_of(mesh.triangles, crc);
+  for (const Material& m : mesh.materials) crc = crc_of_value(m.base_color, crc);
+  return hex(crc);
+}
+
+std::string object_fingerprint(const BenchObject& o) { return mesh_fingerprint(o.mesh); }
+
+std::string scene_fingerprint(const BenchScene& scene) {
+  uint32_t crc = 0;
+  for (const BenchObject& o : scene.objects) {
+    crc = crc32(reinterpret_cast<const uint8_t*>(o.name.data()), o.name.size(), crc);
+    const std::string f = object_fingerprint(o);
+    crc = crc32(reinterpret_cast<const uint8_t*>(f.data()), f.size(), crc);
+    crc = crc_of(o.placements, crc);
+    crc = crc_of_value(o.material.base_color, crc);
+    crc = crc_of_value(o.material.roughness, crc);
+  }
+  crc = crc_of_value(scene.ground_center, crc);
+  crc = crc_of_value(scene.ground_half_size, crc);
+  crc = crc_of_value(scene.camera.camera_to_world, crc);
+  crc = crc_of_value(scene.camera.yfov, crc);
+  crc = crc32(reinterpret_cast<const uint8_t*>(scene.hdr.data()), scene.hdr.size(), crc);
+  crc = crc_of_value(scene.env_intensity, crc);
+  crc = crc_of_value(scene.env_rotation_degrees, crc);
+  return hex(crc);
+}
+
+uint64_t object_triangles(const BenchScene& scene) {
+  uint64_t n = 0;
+  for (const BenchObject& o : scene.objects) n += uint64_t(o.mesh.triangles.size()) * o.placements.size();
+  return n;
+}
+
+}  // namespace lsnif::cli

@@ -1,0 +1,91 @@
+// lsnif convert IN.gltf -o OUT.gltf: train LSNIF models for a glTF scene's heavy objects and write
+// the scene with LSNIF_neural_object on them (samples/convert, docs/convert.md).
+#include <omp.h>
+
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "lsnif/apps/lsnif/args.h"
+#include "lsnif/apps/lsnif/commands.h"
+#include "lsnif/apps/convert/convert.h"
+#include "lsnif/apps/lsnif/train_options.h"
+
+namespace lsnif::cli {
+
+namespace {
+// Takes every "--group NAME=REGEX" / "--group=NAME=REGEX" out of argv (Args keeps one value per
+// option); returns false with a message when one has no value or no '='.
+bool take_groups(int& argc, char** argv, std::vector<convert::GroupRule>& groups) {
+  int w = 0;
+  for (int i = 0; i < argc; ++i) {
+    std::string a = argv[i], value;
+    if (a == "--group") {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "lsnif convert: --group needs a value NAME=REGEX\n");
+        return false;
+      }
+      value = argv[++i];
+    } else if (a.rfind("--group=", 0) == 0) {
+      value = a.substr(8);
+    } else {
+      argv[w++] = argv[i];
+      continue;
+    }
+    const size_t eq = value.find('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == value.size()) {
+      std::fprintf(stderr, "lsnif convert: --group '%s': expected NAME=REGEX\n", value.c_str());
+      return false;
+    }
+    groups.push_back({value.substr(0, eq), value.substr(eq + 1)});
+  }
+  argc = w;
+  return true;
+}
+}  // namespace
+
+int cmd_convert(int argc, char** argv) {
+  convert::ConvertSettings cs;
+  TrainOptions opts;
+  std::string group_help;  // shown in --help only; the values are taken by take_groups
+  uint64_t min_triangles = cs.min_triangles;
+  uint32_t jobs = cs.jobs, eval_rays = cs.eval_rays;
+  Args args("convert",
+            "Converts a glTF scene for LSNIF rendering: trains one model per selected glTF mesh (instances\n"
+            "share it) or per --group, writes OUT.gltf (-o, must end in .gltf) with the LSNIF_neural_object\n"
+            "extension on the converted nodes, OUT.bin and the models OUT.NAME.lsnif (+ .json sidecar with\n"
+            "the content hash: unchanged models are not retrained). Node extras {\"lsnif\": true|false}\n"
+            "force a node in or out; {\"lsnif_group\": \"NAME\"} puts it in a group. See docs/convert.md.\n"
+            "The training options are those of `lsnif train`.");
+  args.positional("IN", "input scene (.gltf or .glb)", &cs.input);
+  args.option("min-triangles", "meshes with fewer triangles stay triangle meshes", &min_triangles);
+  args.option("select", "convert only nodes whose node or mesh name matches this regex (RE2 syntax)", &cs.select);
+  args.option("exclude", "never convert nodes whose node or mesh name matches this regex", &cs.exclude);
+  args.option("group", "NAME=REGEX: one model for all selected nodes whose name matches (repeatable)", &group_help);
+  args.option("jobs", "models trained at the same time", &jobs);
+  args.option("eval-rays", "held-out rays to measure each trained model for the report (0 = none)", &eval_rays);
+  args.flag("keep-meshes", "keep the converted nodes' triangles (needed by `lsnif render --reference`)",
+            &cs.keep_meshes);
+  args.flag("dry-run", "print the plan (models, instances, memory) without training or writing", &cs.dry_run);
+  args.flag("force", "retrain every model, even up-to-date ones", &cs.force);
+  opts.add_to(args, "output scene (.gltf); the .lsnif models are written beside it");
+  if (!take_groups(argc, argv, cs.groups)) return 2;
+  if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
+  if (opts.output.empty()) {
+    std::fprintf(stderr, "lsnif convert: missing -o OUT.gltf\n");
+    return 2;
+  }
+  if (!opts.to_settings(cs.train)) return 2;
+  if (opts.threads) omp_set_num_threads(int(opts.threads));
+  cs.output = opts.output;
+  cs.min_triangles = min_triangles;
+  cs.jobs = jobs < 1 ? 1 : jobs;
+  cs.eval_rays = eval_rays;
+  cs.progress = !opts.quiet;
+  cs.import_options = opts.import_options;
+  convert::ConvertResult result;
+  return convert::run_convert(cs, result, stdout, stderr);
+}
+
+}  // namespace lsnif::cli

@@ -1,0 +1,198 @@
+// lsnif devices: the Vulkan devices of this machine, which LSNIF paths each one supports, and which
+// one the other commands use (the harness's choice for ray tracing, src/lsnif/harness/device_choice.h,
+// automatic or by --device). The CLI creates its own instance here (an application's instance is
+// not involved); the per-device check is the plugin's (lsnifQueryDeviceSupport of lsnif.h).
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <volk.h>
+
+#include "lsnif/apps/lsnif/args.h"
+#include "lsnif/apps/lsnif/commands.h"
+#include "lsnif/apps/lsnif/device_option.h"
+#include "lsnif/lsnif.h"
+#include "lsnif/harness/vk_compute.h"
+
+namespace lsnif::cli {
+
+namespace {
+
+struct DeviceReport {
+  LsnifDeviceSupport support{};
+  vk::DeviceInfo info;  // what the harness's device choice looks at
+  std::string type, driver, driver_info;
+  std::vector<std::string> missing;
+};
+
+std::string api_version_string(uint32_t v) {
+  return format("%u.%u.%u", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v), VK_API_VERSION_PATCH(v));
+}
+
+// "a, b, c" -> {"a", "b", "c"}; "" -> {}.
+std::vector<std::string> split_list(const std::string& list) {
+  std::vector<std::string> items;
+  size_t at = 0;
+  while (at < list.size()) {
+    size_t comma = list.find(", ", at);
+    if (comma == std::string::npos) comma = list.size();
+    items.push_back(list.substr(at, comma - at));
+    at = comma + 2;
+  }
+  return items;
+}
+
+Status report(VkInstance instance, VkPhysicalDevice physical, DeviceReport& r) {
+  if (lsnifQueryDeviceSupport(instance, physical, vkGetInstanceProcAddr, &r.support) != LSNIF_SUCCESS)
+    return Status::error("%s", lsnifGetLastErrorMessage());
+  r.info = vk::query_device_info(physical);
+  r.type = vk::device_type_name(r.info.type);
+  VkPhysicalDeviceProperties props;
+  vkGetPhysicalDeviceProperties(physical, &props);
+  if (VK_API_VERSION_MAJOR(props.apiVersion) > 1 || VK_API_VERSION_MINOR(props.apiVersion) >= 2) {
+    VkPhysicalDeviceDriverProperties driver{};
+    driver.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES;
+    VkPhysicalDeviceProperties2 p2{};
+    p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    p2.pNext = &driver;
+    vkGetPhysicalDeviceProperties2(physical, &p2);
+    r.driver = driver.driverName;
+    r.driver_info = driver.driverInfo;
+  } else {
+    r.driver = "driver version " + std::to_string(props.driverVersion);
+  }
+  r.missing = split_list(r.support.missing);
+  return Status::ok();
+}
+
+std::string joined(const std::vector<std::string>& items) {
+  std::string s;
+  for (const std::string& i : items) s += (s.empty() ? "" : ", ") + i;
+  return s;
+}
+
+}  // namespace
+
+int cmd_devices(int argc, char** argv) {
+  bool json = false;
+  std::string selector;
+  Args args("devices",
+            "Lists the Vulkan devices and which LSNIF paths each supports: the ray-tracing pipeline (with what is "
+            "missing), ray query, NV / KHR cooperative matrix and NV cooperative vector.\n"
+            "Marks the device that render, view, bench, bench-trace, bench-memory and demo use with the same\n"
+            "--device (text: '*', JSON: \"selected\": true). Exit code 1 when there is no Vulkan driver or no\n"
+            "device, or when --device names no usable device.");
+  args.flag("json", "print JSON instead of text", &json);
+  add_device_option(args, &selector);
+  if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
+
+  if (volkInitialize() != VK_SUCCESS) {
+    std::fprintf(stderr, "lsnif devices: no Vulkan loader (libvulkan.so.1) found; install a Vulkan driver\n");
+    return 1;
+  }
+  uint32_t loader_version = VK_API_VERSION_1_0;
+  if (vkEnumerateInstanceVersion) vkEnumerateInstanceVersion(&loader_version);
+  VkApplicationInfo app{};
+  app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+  app.pApplicationName = "lsnif devices";
+  app.apiVersion = loader_version;
+  VkInstanceCreateInfo ici{};
+  ici.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+  ici.pApplicationInfo = &app;
+  VkInstance instance = VK_NULL_HANDLE;
+  const VkResult created = vkCreateInstance(&ici, nullptr, &instance);
+  if (created != VK_SUCCESS) {
+    std::fprintf(stderr, "lsnif devices: cannot create a Vulkan instance (VkResult %d%s)\n", static_cast<int>(created),
+                 created == VK_ERROR_INCOMPATIBLE_DRIVER ? ": no Vulkan driver installed" : "");
+    return 1;
+  }
+  volkLoadInstanceOnly(instance);
+  uint32_t count = 0;
+  vkEnumeratePhysicalDevices(instance, &count, nullptr);
+  std::vector<VkPhysicalDevice> physicals(count);
+  if (count > 0) vkEnumeratePhysicalDevices(instance, &count, physicals.data());
+  std::vector<DeviceReport> reports(physicals.size());
+  Status queried = Status::ok();
+  for (size_t i = 0; i < physicals.size() && queried; ++i) queried = report(instance, physicals[i], reports[i]);
+  vkDestroyInstance(instance, nullptr);
+  if (!queried) {
+    std::fprintf(stderr, "lsnif devices: %s\n", queried.message().c_str());
+    return 1;
+  }
+  if (reports.empty()) {
+    std::fprintf(stderr, "lsnif devices: the Vulkan loader found no physical device (is a driver such as "
+                         "mesa-vulkan-drivers installed?)\n");
+    return 1;
+  }
+  // The device the ray-tracing commands would use. An explicit --device that names no usable device
+  // is an error as it is for them; with none qualifying for the automatic choice, the list still
+  // shows what each device lacks.
+  std::vector<vk::DeviceInfo> infos;
+  for (const DeviceReport& r : reports) infos.push_back(r.info);
+  vk::DeviceNeeds needs;
+  needs.ray_tracing = true;
+  size_t chosen = 0;
+  const Status choice = vk::choose_device(infos, needs, selector, chosen);
+  if (!choice && !selector.empty()) {
+    std::fprintf(stderr, "lsnif devices: %s\n", choice.message().c_str());
+    return 1;
+  }
+  auto selected = [&](size_t i) { return choice && i == chosen; };
+
+  if (json) {
+    std::printf("{\"loader_api_version\": \"%s\", \"selected_index\": %s, \"selection\": %s,%s "
+                "\"devices\": [",
+                api_version_string(loader_version).c_str(),
+                choice ? std::to_string(chosen).c_str() : "null",
+                json_string(selector.empty() ? "automatic" : selector).c_str(),
+                choice ? "" : (" \"selection_error\": " + json_string(choice.message()) + ",").c_str());
+    for (size_t i = 0; i < reports.size(); ++i) {
+      const DeviceReport& r = reports[i];
+      const LsnifDeviceSupport& s = r.support;
+      std::string missing = "[";
+      for (size_t k = 0; k < r.missing.size(); ++k) missing += (k ? ", " : "") + json_string(r.missing[k]);
+      missing += "]";
+      std::printf("%s\n  {\"index\": %zu, \"name\": %s, \"type\": %s, \"driver\": %s, \"driver_info\": %s, "
+                  "\"api_version\": \"%s\", \"ray_tracing_pipeline\": %s, \"ray_tracing_pipeline_missing\": %s, "
+                  "\"ray_query\": %s, \"nv_cooperative_matrix\": %s, \"khr_cooperative_matrix\": %s, "
+                  "\"nv_cooperative_vector\": %s, \"selected\": %s}",
+                  i ? "," : "", i, json_string(s.deviceName).c_str(), json_string(r.type).c_str(),
+                  json_string(r.driver).c_str(), json_string(r.driver_info).c_str(),
+                  api_version_string(s.apiVersion).c_str(), s.supported ? "true" : "false", missing.c_str(),
+                  s.rayQuery ? "true" : "false", s.cooperativeMatrixNV ? "true" : "false",
+                  s.cooperativeMatrixKHR ? "true" : "false", s.cooperativeVectorNV ? "true" : "false",
+                  selected(i) ? "true" : "false");
+    }
+    std::printf("\n]}\n");
+    return 0;
+  }
+  auto yes_no = [](bool b) { return b ? "yes" : "no"; };
+  for (size_t i = 0; i < reports.size(); ++i) {
+    const DeviceReport& r = reports[i];
+    const LsnifDeviceSupport& s = r.support;
+    std::printf("%s device %zu: %s\n", selected(i) ? "*" : " ", i, s.deviceName);
+    std::printf("  type                    %s\n", r.type.c_str());
+    std::printf("  driver                  %s%s%s\n", r.driver.c_str(), r.driver_info.empty() ? "" : " ",
+                r.driver_info.c_str());
+    std::printf("  Vulkan                  %s\n", api_version_string(s.apiVersion).c_str());
+    if (s.supported)
+      std::printf("  ray-tracing pipeline    yes\n");
+    else
+      std::printf("  ray-tracing pipeline    no (missing: %s)\n", joined(r.missing).c_str());
+    std::printf("  ray query               %s\n", yes_no(s.rayQuery));
+    std::printf("  NV cooperative matrix   %s\n", yes_no(s.cooperativeMatrixNV));
+    std::printf("  KHR cooperative matrix  %s\n", yes_no(s.cooperativeMatrixKHR));
+    std::printf("  NV cooperative vector   %s\n", yes_no(s.cooperativeVectorNV));
+  }
+  if (choice)
+    std::printf("\n* used by render, view, bench, bench-trace, bench-memory and demo (%s)\n",
+                selector.empty()
+                    ? "automatic choice: discrete GPU, then integrated, virtual, CPU; --device to pick one"
+                    : ("--device " + selector).c_str());
+  else
+    std::printf("\nno device is usable by render, view, bench, bench-trace, bench-memory and demo: %s\n",
+                choice.message().c_str());
+  return 0;
+}
+
+}  // namespace lsnif::cli

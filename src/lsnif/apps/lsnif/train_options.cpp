@@ -1,0 +1,256 @@
+#include "lsnif/apps/lsnif/train_options.h"
+
+#include <omp.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <utility>
+
+#include "lsnif/format/atomic_file.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/apps/common/progress.h"
+
+namespace lsnif::cli {
+
+namespace {
+
+// "N", "X" or "segments|aabb": what a setting's option takes.
+std::string value_name(const SettingDef& d) {
+  if (d.kind == SettingKind::F32) return "X";
+  if (d.kind == SettingKind::U32PerLevel) return "N[,N...]";
+  if (d.kind != SettingKind::Choice) return "N";
+  std::string s;
+  for (uint32_t c = 0; c < d.choice_count; ++c) {
+    if (c) s += '|';
+    s += d.choices[c].name;
+  }
+  return s;
+}
+
+// The help of a setting's option: its text and, where bounded, its range.
+std::string setting_help(const SettingDef& d) {
+  std::string help = d.help;
+  if ((d.kind == SettingKind::U32 || d.kind == SettingKind::U32PerLevel) && d.max < kU32Max)
+    help += format(" [%u, %u]", uint32_t(d.min), uint32_t(d.max));
+  else if (d.kind == SettingKind::U32)
+    help += format(" (at least %u)", uint32_t(d.min));
+  if (d.kind == SettingKind::F32 && d.max < kF32Max)
+    help += format(" %c%g, %g%c", d.min_open ? '(' : '[', d.min, d.max, d.max_open ? ')' : ']');
+  return help;
+}
+
+// The help of a preset option: its text, then what each choice sets ("high or low (--width 64 ...)").
+std::string preset_help(const std::string& option) {
+  std::string help, choices;
+  for (const Preset& p : kPresets) {
+    if (option != p.option) continue;
+    if (help.empty()) help = p.help;
+    std::string sets;
+    for (uint32_t k = 0; k < p.count; ++k) {
+      const SettingDef& d = setting_def(p.values[k].id);
+      sets += k ? " --" : "--";
+      sets += d.name;
+      sets += ' ';
+      sets += setting_text(d, setting_value(d, p.values[k].value));
+    }
+    if (p.choice) {
+      choices += choices.empty() ? ": " : " or ";
+      choices += p.choice;
+      if (!sets.empty()) choices += " (" + sets + ")";
+    } else {
+      choices = ": " + sets;
+    }
+  }
+  return help + choices;
+}
+
+}  // namespace
+
+bool set_setting_text(SettingLayer& layer, const SettingDef& d, const std::string& text) {
+  SettingValue v;
+  switch (d.kind) {
+    case SettingKind::U32: {
+      uint32_t x = 0;
+      if (!parse_u32(text, x)) return false;
+      v.u = x;
+      break;
+    }
+    case SettingKind::U32PerLevel: {
+      uint32_t values[LSNIF_MAX_LEVELS];
+      size_t count = 0, at = 0;
+      while (at <= text.size()) {
+        size_t comma = text.find(',', at);
+        if (comma == std::string::npos) comma = text.size();
+        if (count == LSNIF_MAX_LEVELS || !parse_u32(text.substr(at, comma - at), values[count])) return false;
+        ++count;
+        at = comma + 1;
+      }
+      if (!per_level_value(values, count, v)) return false;
+      break;
+    }
+    case SettingKind::U64:
+      if (!parse_u64(text, v.u)) return false;
+      break;
+    case SettingKind::F32:
+      if (!parse_f32(text, v.f)) return false;
+      break;
+    case SettingKind::Choice: break;  // checked when resolved, naming the choices
+  }
+  layer.set(d.id, v, d.kind == SettingKind::Choice ? text : std::string());
+  return true;
+}
+
+void TrainOptions::add_to(Args& args, const char* output_help) {
+  args.alias("-o", "output");
+  args.option("output", output_help, &output);
+  args.option("config", "JSON file of settings (name -> value, as `lsnif info --settings` prints); the options "
+              "given here override it", &config);
+  const SettingValues defaults = SettingValues::defaults();
+  for (const SettingDef& d : kSettingDefs) {
+    args.option(d.name, setting_help(d), value_name(d), setting_text(d, defaults[d.id]),
+                [this, &d](const std::string& text) { return set_setting_text(given, d, text); });
+  }
+  for (const Preset& p : kPresets) {
+    if (&p != &kPresets[0] && std::string_view(p.option) == (&p)[-1].option) continue;  // one option per name
+    const bool flag = p.choice == nullptr;
+    args.option(p.option, preset_help(p.option), flag ? "" : "TEXT", flag ? "" : p.choice, [this, &p](const std::string& text) {
+      presets.emplace_back(p.option, text);
+      return true;
+    });
+  }
+  args.option("threads", "worker threads (0 = all cores)", &threads);
+  args.option("csv", "loss curve CSV (default: MODEL.csv)", &csv);
+  args.flag("quiet", "no progress bar", &quiet);
+  add_import_flags(args, &import_options);
+}
+
+void add_import_flags(Args& args, MeshImportOptions* options, bool meshes) {
+  args.flag("allow-outside-refs",
+            "let files the input refers to (buffers, images, mtllib, models, HDR) lie outside its folder",
+            &options->allow_outside_refs);
+  if (meshes)
+    args.flag("allow-dropped-triangles", "import a mesh even when most of its triangles are degenerate or invalid",
+              &options->allow_dropping_most);
+}
+
+bool TrainOptions::to_settings(TrainSettings& s) const {
+  SettingLayer command_line = given;
+  for (const auto& [option, choice] : presets) {
+    const bool flag = find_preset(option, nullptr) != nullptr;
+    const Preset* p = find_preset(option, flag ? nullptr : choice.c_str());
+    if (!p) {
+      std::string names;
+      for (const Preset& q : kPresets)
+        if (option == q.option) {
+          names += names.empty() ? "'" : "' or '";
+          names += q.choice;
+        }
+      std::fprintf(stderr, "lsnif: --%s must be %s' (got '%s')\n", option.c_str(), names.c_str(),
+                   printable(choice).c_str());
+      return false;
+    }
+    command_line.presets.push_back(p);
+  }
+  std::vector<const SettingLayer*> layers;
+  SettingLayer file;
+  if (!config.empty()) {
+    if (Status st = read_settings_file(config, file); !st) {
+      std::fprintf(stderr, "lsnif: %s\n", st.message().c_str());
+      return false;
+    }
+    layers.push_back(&file);
+  }
+  layers.push_back(&command_line);
+  SettingValues values;
+  if (Status st = resolve_settings(layers, values); !st) {
+    std::fprintf(stderr, "lsnif: %s\n", st.message().c_str());
+    return false;
+  }
+  to_train_settings(values, s);
+  s.loss_curve = true;
+  return true;
+}
+
+namespace {
+
+// The model and the CSV can be written, and neither is the mesh or the other: checked before the
+// work, so that a bad -o fails in a second, not after the training.
+int check_outputs(const TrainOptions& opts, const std::string& mesh_path) {
+  const std::string csv = opts.csv_path();
+  Status s = check_not_an_input(opts.output, "-o", {mesh_path});
+  if (s) s = check_not_an_input(csv, "--csv", {mesh_path, opts.output});
+  if (s && csv == opts.output) s = Status::error("--csv and -o name the same file '%s'", csv.c_str());
+  if (s) s = check_output_path(opts.output).context("-o");
+  if (s) s = check_output_path(csv).context("--csv");
+  if (!s) {
+    std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* trained) {
+  TrainSettings settings;
+  if (!opts.to_settings(settings)) return 2;
+  if (int r = check_outputs(opts, mesh_path)) return r;
+  Mesh mesh;
+  MeshImportReport import;
+  if (Status s = load_mesh(mesh_path, mesh, &import, opts.import_options); !s) {
+    std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
+    return 1;
+  }
+  for (const std::string& w : import.warnings) std::fprintf(stderr, "lsnif: warning: %s\n", w.c_str());
+  return train_mesh(mesh, mesh_path, opts, trained);
+}
+
+int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& opts, Model* trained,
+               TrainReport* report) {
+  TrainSettings settings;
+  if (!opts.to_settings(settings)) return 2;
+  if (int r = check_outputs(opts, "")) return r;
+  if (opts.threads) omp_set_num_threads(int(opts.threads));
+  std::printf("mesh      %s: %zu triangles, %zu materials\n", label.c_str(), mesh.triangles.size(),
+              mesh.materials.size());
+  std::printf("settings  %s (%d threads)\n", settings.describe().c_str(), omp_get_max_threads());
+  std::fflush(stdout);
+  Model model;
+  TrainReport rep;
+  ProgressBar bar("train", settings.steps, !opts.quiet);
+  const Status result = train_model(mesh, settings, model, &rep, [&](uint32_t step, const LossTerms& loss, const Model&) {
+    bar.update(step, format("loss %.4f", loss.total()));
+    return true;
+  });
+  bar.finish(result ? format("%.0f rays/s", rep.rays_per_second()) : std::string("failed"));
+  if (!result) {
+    std::fprintf(stderr, "lsnif: training failed: %s\n", result.message().c_str());
+    return 1;
+  }
+  model.training = training_record(settings, mesh, std::filesystem::path(label).filename().string(),
+                                   omp_get_max_threads());
+  if (Status s = save_model(model, opts.output); !s) {
+    std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
+    return 1;
+  }
+  if (Status s = write_file_atomic(opts.csv_path(), rep.loss_curve); !s) {
+    std::fprintf(stderr, "lsnif: loss curve: %s\n", s.message().c_str());
+    return 1;
+  }
+  const MemoryBreakdown mem = memory_breakdown(model);
+  std::printf("trained   %u steps x %u rays in %.1f s (%.0f rays/s): sampling %.1f s, encoding %.1f s, "
+              "MLP %.1f s, loss %.1f s, Adam %.1f s\n",
+              settings.steps, settings.batch_size, rep.seconds, rep.rays_per_second(), rep.seconds_sampling,
+              rep.seconds_encoding, rep.seconds_mlp, rep.seconds_loss, rep.seconds_optimizer);
+  std::printf("loss      final %.4f (occlusion %.4f distance %.4f normal %.4f albedo %.4f material %.4f)\n",
+              rep.final_loss.total(), rep.final_loss.occlusion, rep.final_loss.distance, rep.final_loss.normal,
+              rep.final_loss.albedo, rep.final_loss.material);
+  std::printf("wrote     %s (%.3f MiB, %u occupied voxels) and %s\n", opts.output.c_str(), double(mem.total()) / 1048576.0,
+              rep.occupied_voxels, opts.csv_path().c_str());
+  std::fflush(stdout);
+  if (trained) *trained = std::move(model);
+  if (report) *report = rep;
+  return 0;
+}
+
+}  // namespace lsnif::cli

@@ -1,0 +1,72 @@
+#include "lsnif/core/hash_grid.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace lsnif {
+
+GridLayout::GridLayout(const Config& config, const uint16_t* grid_index) {
+  uint64_t at = 0;
+  for (uint32_t l = 0; l < config.grid_levels && l < LSNIF_MAX_LEVELS; ++l) {
+    level_offset[l] = uint32_t(config.level_entry_offset(l));
+    if (!config.indexed(l)) continue;
+    indexed[l] = {config.index_slots[l], config.index_buckets[l], grid_index + at};
+    at += config.index_buckets[l];
+  }
+}
+
+void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint32_t axis,
+                  FaceCorners& out, const GridLayout& layout) {
+  const uint32_t R = config.grid_resolution[level];
+  const float Rf = float(R);
+  const uint32_t a = axis, b = (axis + 1) % 3, c = (axis + 2) % 3;
+  // The plane coordinate is (up to rounding) an integer: voxel faces lie on grid planes.
+  float xa = std::clamp(p[a] * Rf, 0.0f, Rf);
+  uint32_t ia = uint32_t(std::lround(xa));
+  float xb = std::clamp(p[b] * Rf, 0.0f, Rf), xc = std::clamp(p[c] * Rf, 0.0f, Rf);
+  uint32_t ib = std::min(uint32_t(xb), R - 1), ic = std::min(uint32_t(xc), R - 1);
+  float wb = xb - float(ib), wc = xc - float(ic);
+  const uint32_t offset = layout.level_offset[level], M = config.table_log2[level];
+  const PerfectHashView& indexed = layout.indexed[level];
+  for (uint32_t k = 0; k < 4; ++k) {
+    uint32_t v[3];
+    v[a] = ia;
+    v[b] = ib + (k & 1u);
+    v[c] = ic + (k >> 1);
+    out.entry[k] = offset + (indexed.displacement ? perfect_hash_slot(indexed, v[0], v[1], v[2]) : hash_vertex(v[0], v[1], v[2], M));
+    out.weight[k] = ((k & 1u) ? wb : 1.0f - wb) * ((k >> 1) ? wc : 1.0f - wc);
+  }
+}
+
+void encode(const Config& config, const float* table, const RayWalk& walk, float* features,
+            const GridLayout& layout) {
+  const uint32_t L = config.grid_levels, F = config.features;
+  const uint32_t n = std::min(walk.count, config.max_points);
+  std::fill(features, features + config.input_dim(), 0.0f);
+  FaceCorners fc;
+  for (uint32_t j = 0; j < n; ++j) {
+    for (uint32_t l = 0; l < L; ++l) {
+      face_corners(config, l, walk.p[j], walk.axis[j], fc, layout);
+      float* out = features + (j * L + l) * F;
+      for (uint32_t k = 0; k < 4; ++k)
+        for (uint32_t f = 0; f < F; ++f) out[f] += fc.weight[k] * table[size_t(fc.entry[k]) * F + f];
+    }
+  }
+}
+
+void encode_backward(const Config& config, const RayWalk& walk, const float* d_features,
+                     float* d_table, const GridLayout& layout) {
+  const uint32_t L = config.grid_levels, F = config.features;
+  const uint32_t n = std::min(walk.count, config.max_points);
+  FaceCorners fc;
+  for (uint32_t j = 0; j < n; ++j) {
+    for (uint32_t l = 0; l < L; ++l) {
+      face_corners(config, l, walk.p[j], walk.axis[j], fc, layout);
+      const float* d = d_features + (j * L + l) * F;
+      for (uint32_t k = 0; k < 4; ++k)
+        for (uint32_t f = 0; f < F; ++f) d_table[size_t(fc.entry[k]) * F + f] += fc.weight[k] * d[f];
+    }
+  }
+}
+
+}  // namespace lsnif

@@ -1,0 +1,108 @@
+#include "lsnif/core/intersector.h"
+
+#include <cmath>
+#include <vector>
+
+#include "lsnif/core/hash_grid.h"
+#include "lsnif/core/head.h"
+#include "lsnif/host_device.h"
+#include "lsnif/core/network.h"
+#include "lsnif/core/ray_walk.h"
+
+namespace lsnif {
+
+namespace {
+bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// The linear part A and translation T of `xf`, and A^-1; fails on a non-finite or singular transform.
+Status split_transform(const Transform3x4& xf, glm::mat3& A, glm::vec3& T, glm::mat3& A_inv) {
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      if (!std::isfinite(xf.m[r][c])) return Status::error("instance transform has a non-finite entry");
+      A[c][r] = xf.m[r][c];  // glm is column-major
+    }
+    if (!std::isfinite(xf.m[r][3])) return Status::error("instance transform has a non-finite entry");
+    T[r] = xf.m[r][3];
+  }
+  const float det = glm::determinant(A);
+  if (!(std::fabs(det) > 1e-20f)) return Status::error("instance transform is singular (det %g)", double(det));
+  A_inv = glm::inverse(A);
+  return Status::ok();
+}
+
+bool facing_culled(const glm::vec3& object_normal, const glm::vec3& object_direction, uint32_t ray_flags) {
+  const float facing = glm::dot(object_normal, object_direction);
+  return ((ray_flags & LSNIF_RAY_FLAG_CULL_BACK_FACING) && facing > 0.0f) ||
+         ((ray_flags & LSNIF_RAY_FLAG_CULL_FRONT_FACING) && facing < 0.0f);
+}
+
+}  // namespace
+
+float leaving_tmin(const Model& model, const Transform3x4& xf, glm::vec3 world_direction) {
+  glm::mat3 A, A_inv;
+  glm::vec3 T;
+  if (!split_transform(xf, A, T, A_inv) || !finite(world_direction)) return 0.0f;
+  const float len = glm::length(A_inv * world_direction);
+  if (!(len > 0.0f) || model.config.voxel_resolution == 0) return 0.0f;
+  const float edge = model.voxels.bounds.diagonal() / (float(model.config.voxel_resolution) * std::sqrt(3.0f));
+  return float(LSNIF_LEAVING_TMIN_VOXELS) * edge / len;
+}
+
+Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, size_t count,
+                 LsnifHit* hits, uint32_t ray_flags) {
+  if (Status s = model.validate(); !s) return s.context("intersect");
+  glm::mat3 A, A_inv;
+  glm::vec3 T;
+  if (Status s = split_transform(xf, A, T, A_inv); !s) return s;
+  const glm::mat3 normal_to_world = glm::transpose(A_inv);
+
+  const Config& config = model.config;
+  std::vector<RayWalk> walks(count);
+  std::vector<size_t> active;
+  const long n = long(count);
+#pragma omp parallel for schedule(dynamic, 256)
+  for (long i = 0; i < n; ++i) {
+    const Ray& ray = rays[i];
+    hits[i] = LsnifHit();
+    walks[size_t(i)].count = 0;
+    if (!finite(ray.origin) || !finite(ray.direction) || ray.direction == glm::vec3(0.0f) ||
+        std::isnan(ray.tmin) || std::isnan(ray.tmax))
+      continue;
+    Ray o;
+    o.origin = A_inv * (ray.origin - T);
+    o.direction = A_inv * ray.direction;
+    o.tmin = ray.tmin;
+    o.tmax = std::numeric_limits<float>::infinity();
+    walk_ray(model.voxels, o, config.max_points, walks[size_t(i)]);
+  }
+  for (size_t i = 0; i < count; ++i)
+    if (walks[i].count > 0) active.push_back(i);
+  if (active.empty()) return Status::ok();
+
+  Matrix X(config.input_dim(), long(active.size())), O;
+  const GridLayout layout = model.layout();
+#pragma omp parallel for schedule(static)
+  for (long k = 0; k < long(active.size()); ++k)
+    encode(config, model.grid.data(), walks[active[size_t(k)]], X.data() + size_t(k) * config.input_dim(), layout);
+  mlp_forward(config, model.mlp.data(), X, O);
+
+#pragma omp parallel for schedule(static)
+  for (long k = 0; k < long(active.size()); ++k) {
+    const size_t i = active[size_t(k)];
+    const Prediction p = decode(config, O.data() + size_t(k) * config.output_dim(), walks[i]);
+    LsnifHit& h = hits[i];
+    h.occlusion = p.occlusion;
+    if (!p.hit || !(p.t >= rays[i].tmin && p.t <= rays[i].tmax)) continue;
+    if (ray_flags && facing_culled(p.normal, A_inv * rays[i].direction, ray_flags)) continue;
+    h.hit = true;
+    h.t = p.t;
+    const glm::vec3 nw = normal_to_world * p.normal;
+    const float len = glm::length(nw);
+    h.normal = len > 0.0f ? nw / len : glm::vec3(0.0f);
+    h.albedo = p.albedo;
+    h.material = p.material;
+  }
+  return Status::ok();
+}
+
+}  // namespace lsnif

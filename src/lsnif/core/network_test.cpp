@@ -1,0 +1,128 @@
+// MLP forward against a naive per-ray loop, and backward against central finite differences.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "lsnif/core/network.h"
+
+namespace lsnif {
+namespace {
+
+Config tiny_config() {
+  Config c;
+  c.voxel_resolution = 2;
+  c.max_points = 2;
+  c.grid_levels = 1;
+  c.grid_resolution[0] = 2;
+  c.grid_resolution[1] = 0;
+  c.table_log2[1] = 0;
+  c.features = 3;          // input 6
+  c.hidden_width = 5;
+  c.hidden_layers = 2;
+  c.material_count = 3;    // output 11
+  c.leaky_slope = 0.1f;
+  return c;
+}
+
+// Independent forward: plain loops over the flat parameter layout documented in model.h.
+std::vector<double> naive_forward(const Config& c, const std::vector<float>& p, const std::vector<double>& x) {
+  std::vector<double> cur = x;
+  size_t off = 0;
+  uint32_t in = c.input_dim();
+  for (uint32_t l = 0; l <= c.hidden_layers; ++l) {
+    uint32_t out = l < c.hidden_layers ? c.hidden_width : c.output_dim();
+    std::vector<double> next(out);
+    for (uint32_t o = 0; o < out; ++o) {
+      double s = p[off + size_t(in) * out + o];
+      for (uint32_t i = 0; i < in; ++i) s += double(p[off + size_t(o) * in + i]) * cur[i];
+      next[o] = (l < c.hidden_layers && s <= 0) ? c.leaky_slope * s : s;
+    }
+    off += size_t(in) * out + out;
+    in = out;
+    cur = next;
+  }
+  return cur;
+}
+
+TEST(Network, ForwardMatchesNaiveLoops) {
+  Config c = tiny_config();
+  std::vector<float> p(c.mlp_parameter_count());
+  mlp_init_kaiming(c, 5, p.data());
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (float& v : p) v += 0.1f * u(rng);  // non-zero biases too
+  const int B = 7;
+  Matrix X(c.input_dim(), B), O;
+  for (int i = 0; i < X.size(); ++i) X.data()[i] = u(rng);
+  mlp_forward(c, p.data(), X, O);
+  ASSERT_EQ(O.rows(), c.output_dim());
+  ASSERT_EQ(O.cols(), B);
+  for (int b = 0; b < B; ++b) {
+    std::vector<double> x(c.input_dim());
+    for (uint32_t i = 0; i < c.input_dim(); ++i) x[i] = X(i, b);
+    std::vector<double> ref = naive_forward(c, p, x);
+    for (uint32_t o = 0; o < c.output_dim(); ++o) EXPECT_NEAR(O(o, b), ref[o], 1e-5) << o;
+  }
+}
+
+TEST(Network, BackwardMatchesFiniteDifferences) {
+  Config c = tiny_config();
+  std::vector<float> p(c.mlp_parameter_count());
+  mlp_init_kaiming(c, 9, p.data());
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (float& v : p) v += 0.1f * u(rng);
+  const int B = 4;
+  Matrix X(c.input_dim(), B), G(c.output_dim(), B);
+  for (int i = 0; i < X.size(); ++i) X.data()[i] = u(rng);
+  for (int i = 0; i < G.size(); ++i) G.data()[i] = u(rng);
+  // loss = sum(G .* out), computed in double by the naive forward.
+  auto loss = [&](const std::vector<float>& params, const Matrix& input) {
+    double s = 0;
+    for (int b = 0; b < B; ++b) {
+      std::vector<double> x(c.input_dim());
+      for (uint32_t i = 0; i < c.input_dim(); ++i) x[i] = input(i, b);
+      std::vector<double> o = naive_forward(c, params, x);
+      for (uint32_t k = 0; k < c.output_dim(); ++k) s += G(k, b) * o[k];
+    }
+    return s;
+  };
+  Matrix O, dX;
+  MlpTrace trace;
+  mlp_forward(c, p.data(), X, O, &trace);
+  std::vector<float> dp(p.size(), 0.0f);
+  mlp_backward(c, p.data(), trace, G, dp.data(), &dX);
+  const float h = 1e-3f;
+  for (size_t i = 0; i < p.size(); ++i) {
+    std::vector<float> pp = p, pm = p;
+    pp[i] += h;
+    pm[i] -= h;
+    double fd = (loss(pp, X) - loss(pm, X)) / (2.0 * h);
+    ASSERT_NEAR(dp[i], fd, 2e-3 + 2e-3 * std::fabs(fd)) << "parameter " << i;
+  }
+  for (int i = 0; i < X.size(); ++i) {
+    Matrix Xp = X, Xm = X;
+    Xp.data()[i] += h;
+    Xm.data()[i] -= h;
+    double fd = (loss(p, Xp) - loss(p, Xm)) / (2.0 * h);
+    ASSERT_NEAR(dX.data()[i], fd, 2e-3 + 2e-3 * std::fabs(fd)) << "input " << i;
+  }
+}
+
+TEST(Network, KaimingInitHasExpectedScale) {
+  Config c;  // defaults: 108 -> 128 -> 128 -> 9
+  std::vector<float> p(c.mlp_parameter_count());
+  mlp_init_kaiming(c, 1, p.data());
+  auto layers = mlp_layers(c);
+  const LayerView& v = layers[1];
+  double s2 = 0;
+  for (size_t i = 0; i < size_t(v.in) * v.out; ++i) s2 += double(p[v.weight_offset + i]) * p[v.weight_offset + i];
+  double std_measured = std::sqrt(s2 / double(v.in * v.out));
+  double expected = std::sqrt(2.0 / (1.0 + 0.01 * 0.01)) / std::sqrt(double(v.in));
+  EXPECT_NEAR(std_measured, expected, 0.03 * expected);
+  for (uint32_t i = 0; i < v.out; ++i) EXPECT_EQ(p[v.bias_offset + i], 0.0f);
+}
+
+}  // namespace
+}  // namespace lsnif

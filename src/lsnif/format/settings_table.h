@@ -1,0 +1,202 @@
+// settings_table.h -- the one definition of every setting of a trained model: its name (the flag
+// `--NAME` of `lsnif train` / `lsnif convert` and the key of `--config` files and of the settings
+// recorded in a model), default, range and help text, and the presets (--quality, --paper) as
+// lists of values. Config (config.h), TrainSettings and its parts (src/lsnif/train/) and the command line
+// take their defaults and ranges from here; src/lsnif/train/settings_io.h reads and writes the values.
+// Plain constexpr data, no dependencies beyond the shader limits.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <iterator>
+#include <limits>
+
+#include "lsnif/host_device.h"
+
+namespace lsnif {
+
+enum class SettingKind : uint8_t {
+  U32,     // unsigned integer in [min, max]
+  U32PerLevel,  // U32 for every grid level, or a list of one per level (each in [min, max])
+  U64,     // any unsigned 64-bit integer (min, max unused)
+  F32,     // finite float in [min, max], either end open with min_open / max_open
+  Choice,  // one of `choices` by name; the value is the choice's `value`
+};
+
+struct SettingChoice {
+  const char* name;
+  uint32_t value;
+};
+
+// In table order (kSettingDefs[i].id == i).
+enum class SettingId : uint32_t {
+  Voxels, Points, Levels, ResMin, ResMax, TableLog2, Features, Width, Layers, Hit, LeakySlope, GridBits, Indexed,
+  Steps, Batch, Seed, RayReuse, Lr, LrSchedule, LrFinal, LrWarm, AdamBeta1, AdamBeta2, AdamEpsilon, NormalLoss,
+  WOcclusion, WDistance, WNormal, WAlbedo, WMaterial,
+  SurfaceFraction, SphereScale, SurfaceOffset, GridInitRange,
+  Count
+};
+inline constexpr size_t kSettingCount = static_cast<size_t>(SettingId::Count);
+
+struct SettingDef {
+  SettingId id;
+  const char* name;
+  SettingKind kind;
+  double def, min, max;  // Choice: def is a choice's value
+  bool min_open, max_open;
+  const SettingChoice* choices;
+  uint32_t choice_count;
+  const char* noun;  // F32 with an open upper end: what the value is, for messages ("learning rate")
+  const char* help;
+};
+
+inline constexpr SettingChoice kHitChoices[] = {{"segments", LSNIF_HIT_PARAM_VOXEL_SEGMENTS},
+                                                {"aabb", LSNIF_HIT_PARAM_AABB_INTERVAL}};
+// Bits per stored hash-grid feature: fp16, or int8 codes times one fp32 scale per level.
+inline constexpr SettingChoice kGridBitsChoices[] = {{"16", 16}, {"8", 8}};
+// NormalLoss (src/lsnif/train/loss.h) values.
+inline constexpr SettingChoice kNormalLossChoices[] = {{"angle", 1}, {"cosine", 0}};
+// LrSchedule (src/lsnif/train/lr_schedule.h) values.
+inline constexpr SettingChoice kLrScheduleChoices[] = {{"constant", 0}, {"exponential", 1}, {"cosine", 2}};
+
+inline constexpr double kU32Max = std::numeric_limits<uint32_t>::max();
+inline constexpr uint32_t kMaxGridResolution = 4096;
+inline constexpr double kF32Max = std::numeric_limits<float>::max();
+
+namespace setting_detail {
+constexpr SettingDef u32(SettingId id, const char* name, uint32_t def, uint32_t min, uint32_t max, const char* help) {
+  return {id, name, SettingKind::U32, double(def), double(min), double(max), false, false, nullptr, 0, "", help};
+}
+constexpr SettingDef u32_per_level(SettingId id, const char* name, uint32_t def, uint32_t min, uint32_t max,
+                                   const char* help) {
+  return {id, name, SettingKind::U32PerLevel, double(def), double(min), double(max), false, false, nullptr, 0, "",
+          help};
+}
+constexpr SettingDef f32(SettingId id, const char* name, double def, double min, bool min_open, double max,
+                         bool max_open, const char* noun, const char* help) {
+  return {id, name, SettingKind::F32, def, min, max, min_open, max_open, nullptr, 0, noun, help};
+}
+template <size_t N>
+constexpr SettingDef choice(SettingId id, const char* name, uint32_t def, const SettingChoice (&c)[N],
+                            const char* help) {
+  return {id, name, SettingKind::Choice, double(def), 0, 0, false, false, c, uint32_t(N), "", help};
+}
+}  // namespace setting_detail
+
+inline constexpr SettingDef kSettingDefs[] = {
+    // The model (Config, stored in the .lsnif header).
+    setting_detail::u32(SettingId::Voxels, "voxels", 32, 1, 256, "voxel resolution V"),
+    setting_detail::u32(SettingId::Points, "points", 18, 1, LSNIF_MAX_POINTS, "max boundary points H"),
+    setting_detail::u32(SettingId::Levels, "levels", 2, 1, LSNIF_MAX_LEVELS, "hash-grid levels L"),
+    setting_detail::u32(SettingId::ResMin, "res-min", 64, 1, kMaxGridResolution,
+                        "coarsest grid resolution (a multiple of the voxel resolution)"),
+    setting_detail::u32(SettingId::ResMax, "res-max", 128, 1, kMaxGridResolution,
+                        "finest grid resolution (a multiple of the voxel resolution)"),
+    setting_detail::u32_per_level(SettingId::TableLog2, "table-log2", 17, 4, 24,
+                                  "log2 hash-table entries M of every level, or a comma list of one per level "
+                                  "(e.g. 15,17)"),
+    setting_detail::u32(SettingId::Features, "features", 3, 1, LSNIF_MAX_FEATURES, "features per entry F"),
+    setting_detail::u32(SettingId::Width, "width", 128, 1, LSNIF_MAX_HIDDEN_WIDTH, "hidden layer width W"),
+    setting_detail::u32(SettingId::Layers, "layers", 2, 1, LSNIF_MAX_HIDDEN_LAYERS, "hidden layers"),
+    setting_detail::choice(SettingId::Hit, "hit", LSNIF_HIT_PARAM_VOXEL_SEGMENTS, kHitChoices,
+                           "hit distance parametrization: segments (ours) or aabb (paper)"),
+    setting_detail::f32(SettingId::LeakySlope, "leaky-slope", 0.01, 0, false, 1, true, "",
+                        "leaky ReLU negative slope"),
+    setting_detail::choice(SettingId::GridBits, "grid-bits", 16, kGridBitsChoices,
+                           "bits per stored hash-grid feature: 16 (fp16) or 8 (int8 times a per-level scale: half "
+                           "the grid's bytes)"),
+    setting_detail::u32_per_level(SettingId::Indexed, "indexed", 0, 0, 1,
+                                  "1: the level's table is indexed (a perfect hash of the grid vertices the model "
+                                  "can read: no collisions, sized to the mesh), 0: hashed into 2^table-log2 entries; "
+                                  "one value for every level or a comma list of one per level (e.g. 1,0)"),
+    // The training run (TrainSettings).
+    setting_detail::u32(SettingId::Steps, "steps", 2400, 1, std::numeric_limits<uint32_t>::max(), "training steps"),
+    // Paper: 2^18 on a GPU. On 2 CPU cores the quality per step hardly depends on the batch, so a
+    // small one with a decaying learning rate trains fastest (docs/results.md: 2^12 with the
+    // default schedule reaches the quality of 2^14 at a constant rate in ~41% of its time).
+    setting_detail::u32(SettingId::Batch, "batch", 1u << 12, 1, std::numeric_limits<uint32_t>::max(), "rays per step"),
+    {SettingId::Seed, "seed", SettingKind::U64, 1, 0, 0, false, false, nullptr, 0, "", "random seed"},
+    // Up to --batch (a cross check): each ray serves this many consecutive steps.
+    setting_detail::u32(SettingId::RayReuse, "ray-reuse", 1, 1, std::numeric_limits<uint32_t>::max(),
+                        "steps each training ray is used in (1 = fresh rays every step)"),
+    setting_detail::f32(SettingId::Lr, "lr", 0.01, 0, true, kF32Max, false, "learning rate", "Adam learning rate"),
+    setting_detail::choice(SettingId::LrSchedule, "lr-schedule", kLrScheduleChoices[1].value, kLrScheduleChoices,
+                           "learning rate over the steps: constant (paper), or held at --lr for --lr-warm of the "
+                           "steps, then exponential or cosine decay to --lr-final times --lr"),
+    setting_detail::f32(SettingId::LrFinal, "lr-final", 0.1, 0, true, 1, false, "",
+                        "learning rate at the last step as a fraction of --lr (with a decaying --lr-schedule)"),
+    setting_detail::f32(SettingId::LrWarm, "lr-warm", 0.5, 0, false, 1, true, "",
+                        "share of the steps at the full --lr before the decay (with a decaying --lr-schedule)"),
+    setting_detail::f32(SettingId::AdamBeta1, "adam-beta1", 0.9, 0, false, 1, true, "", "Adam beta1"),
+    setting_detail::f32(SettingId::AdamBeta2, "adam-beta2", 0.99, 0, false, 1, true, "", "Adam beta2"),
+    setting_detail::f32(SettingId::AdamEpsilon, "adam-epsilon", 1e-15, 0, true, 1, false, "", "Adam epsilon"),
+    setting_detail::choice(SettingId::NormalLoss, "normal-loss", kNormalLossChoices[0].value, kNormalLossChoices,
+                           "normal loss: angle (ours) or cosine (paper)"),
+    setting_detail::f32(SettingId::WOcclusion, "w-occlusion", 1, 0, false, kF32Max, false, "weight",
+                        "loss weight of occlusion"),
+    setting_detail::f32(SettingId::WDistance, "w-distance", 1, 0, false, kF32Max, false, "weight",
+                        "loss weight of hit distance"),
+    setting_detail::f32(SettingId::WNormal, "w-normal", 1, 0, false, kF32Max, false, "weight",
+                        "loss weight of the normal"),
+    setting_detail::f32(SettingId::WAlbedo, "w-albedo", 1, 0, false, kF32Max, false, "weight",
+                        "loss weight of albedo"),
+    setting_detail::f32(SettingId::WMaterial, "w-material", 1, 0, false, kF32Max, false, "weight",
+                        "loss weight of the material"),
+    setting_detail::f32(SettingId::SurfaceFraction, "surface-fraction", 0.5, 0, false, 1, false, "",
+                        "share of training rays starting on the surface"),
+    setting_detail::f32(SettingId::SphereScale, "sphere-scale", 1, 0, true, 100, false, "",
+                        "radius of the sphere other training rays start on, in half diagonals of the padded AABB"),
+    setting_detail::f32(SettingId::SurfaceOffset, "surface-offset", 1e-4, 0, false, 1, false, "",
+                        "surface ray origins pushed off by this times the AABB diagonal"),
+    setting_detail::f32(SettingId::GridInitRange, "grid-init-range", 1e-4, 0, false, 1, false, "",
+                        "hash-table entries start uniform in (-range, range)"),
+};
+static_assert(std::size(kSettingDefs) == kSettingCount, "one definition per SettingId");
+
+constexpr const SettingDef& setting_def(SettingId id) { return kSettingDefs[static_cast<size_t>(id)]; }
+constexpr uint32_t default_u32(SettingId id) { return static_cast<uint32_t>(setting_def(id).def); }
+constexpr uint64_t default_u64(SettingId id) { return static_cast<uint64_t>(setting_def(id).def); }
+constexpr float default_f32(SettingId id) { return static_cast<float>(setting_def(id).def); }
+constexpr uint32_t min_u32(SettingId id) { return static_cast<uint32_t>(setting_def(id).min); }
+constexpr uint32_t max_u32(SettingId id) { return static_cast<uint32_t>(setting_def(id).max); }
+
+namespace setting_detail {
+constexpr bool table_in_id_order() {
+  for (size_t i = 0; i < kSettingCount; ++i)
+    if (static_cast<size_t>(kSettingDefs[i].id) != i) return false;
+  return true;
+}
+}  // namespace setting_detail
+static_assert(setting_detail::table_in_id_order(), "kSettingDefs must list the settings in SettingId order");
+
+// A preset sets several settings at once: `--quality low` (option "quality", choice "low") or the
+// flag `--paper` (choice nullptr). In a `--config` file: "quality": "low", "paper": true.
+struct PresetValue {
+  SettingId id;
+  double value;  // Choice: the choice's value
+};
+struct Preset {
+  const char* option;
+  const char* choice;  // nullptr: a flag
+  const PresetValue* values;
+  uint32_t count;
+  const char* help;
+};
+
+// The paper's two configurations (section 6): "high" is the defaults, "low" reduces the hidden width
+// W and the boundary points H.
+inline constexpr PresetValue kLowQualityValues[] = {{SettingId::Width, 64}, {SettingId::Points, 10}};
+// The paper's training: its 2000 steps, batch, constant learning rate, hit parametrization and
+// normal loss (slow on a CPU).
+inline constexpr PresetValue kPaperValues[] = {{SettingId::Steps, 2000},
+                                               {SettingId::Batch, 1u << 18},
+                                               {SettingId::LrSchedule, kLrScheduleChoices[0].value},
+                                               {SettingId::Hit, LSNIF_HIT_PARAM_AABB_INTERVAL},
+                                               {SettingId::NormalLoss, kNormalLossChoices[1].value},
+                                               {SettingId::RayReuse, 1}};
+inline constexpr Preset kPresets[] = {
+    {"quality", "high", nullptr, 0, "the paper's configuration"},
+    {"quality", "low", kLowQualityValues, uint32_t(std::size(kLowQualityValues)), ""},
+    {"paper", nullptr, kPaperValues, uint32_t(std::size(kPaperValues)), "the paper's training settings"},
+};
+
+}  // namespace lsnif

@@ -1,0 +1,207 @@
+// The device choice of the harness (device_choice.h) on hand-built device lists: the automatic
+// ranking, qualification, selection by index and by name, and the errors.
+#include "lsnif/harness/device_choice.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace lsnif::vk {
+namespace {
+
+const char* kLavapipe = "llvmpipe (LLVM 15.0.6, 256 bits)";
+
+// A device that offers everything the harness can ask for (ray tracing and a swapchain).
+DeviceInfo full(const std::string& name, DeviceType type) {
+  DeviceInfo d;
+  d.name = name;
+  d.type = type;
+  d.compute_queue = true;
+  d.vulkan_1_2 = d.buffer_device_address = d.shader_int64 = d.scalar_block_layout = true;
+  d.ext_acceleration_structure = d.ext_ray_tracing_pipeline = d.ext_deferred_host_operations = true;
+  d.ext_spirv_1_4 = d.acceleration_structure = d.ray_tracing_pipeline = d.ext_swapchain = true;
+  return d;
+}
+
+// A device with compute but without any ray-tracing extension or feature.
+DeviceInfo compute_only(const std::string& name, DeviceType type) {
+  DeviceInfo d = full(name, type);
+  d.ext_acceleration_structure = d.ext_ray_tracing_pipeline = d.ext_deferred_host_operations = false;
+  d.ext_spirv_1_4 = d.acceleration_structure = d.ray_tracing_pipeline = false;
+  return d;
+}
+
+DeviceNeeds ray_tracing() {
+  DeviceNeeds needs;
+  needs.ray_tracing = true;
+  return needs;
+}
+
+// The index choose_device picks; fails the test with its message on an error.
+size_t chosen(const std::vector<DeviceInfo>& devices, const DeviceNeeds& needs,
+              const std::string& selector = "") {
+  size_t index = 99;
+  const Status s = choose_device(devices, needs, selector, index);
+  EXPECT_TRUE(s) << s.message();
+  return index;
+}
+
+// The error message of a choice that must fail; `chosen` must stay untouched.
+std::string refusal(const std::vector<DeviceInfo>& devices, const DeviceNeeds& needs,
+                    const std::string& selector) {
+  size_t index = 77;
+  const Status s = choose_device(devices, needs, selector, index);
+  EXPECT_FALSE(s) << "selector '" << selector << "' chose device " << index;
+  EXPECT_EQ(index, 77u);
+  return s.message();
+}
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+TEST(DeviceChoice, PrefersDiscreteThenIntegratedThenVirtualThenCpu) {
+  std::vector<DeviceInfo> devices = {full(kLavapipe, DeviceType::cpu),
+                                     full("Virtio GPU", DeviceType::virtual_gpu),
+                                     full("Intel UHD 770", DeviceType::integrated_gpu),
+                                     full("NVIDIA RTX 4090", DeviceType::discrete_gpu)};
+  EXPECT_EQ(chosen(devices, ray_tracing()), 3u);
+  devices.pop_back();
+  EXPECT_EQ(chosen(devices, ray_tracing()), 2u);
+  devices.pop_back();
+  EXPECT_EQ(chosen(devices, ray_tracing()), 1u);
+  devices.pop_back();
+  EXPECT_EQ(chosen(devices, ray_tracing()), 0u);
+  // A device of another type only when nothing else qualifies.
+  devices = {full("Mystery", DeviceType::other), full(kLavapipe, DeviceType::cpu)};
+  EXPECT_EQ(chosen(devices, ray_tracing()), 1u);
+  devices = {full("Mystery", DeviceType::other)};
+  EXPECT_EQ(chosen(devices, ray_tracing()), 0u);
+}
+
+TEST(DeviceChoice, AmongEqualsTheFirstEnumerated) {
+  const std::vector<DeviceInfo> devices = {full(kLavapipe, DeviceType::cpu),
+                                           full("AMD RX 7900", DeviceType::discrete_gpu),
+                                           full("NVIDIA RTX 4090", DeviceType::discrete_gpu)};
+  EXPECT_EQ(chosen(devices, ray_tracing()), 1u);
+}
+
+TEST(DeviceChoice, SkipsDevicesLackingWhatIsNeeded) {
+  std::vector<DeviceInfo> devices = {compute_only("Old GPU", DeviceType::discrete_gpu),
+                                     full(kLavapipe, DeviceType::cpu)};
+  EXPECT_EQ(chosen(devices, ray_tracing()), 1u);
+  EXPECT_EQ(chosen(devices, DeviceNeeds()), 0u);  // compute alone: the GPU qualifies
+  devices[0] = full("GPU without spirv 1.4", DeviceType::discrete_gpu);
+  devices[0].ext_spirv_1_4 = false;
+  EXPECT_EQ(chosen(devices, ray_tracing()), 1u);
+  devices[0] = full("GPU without a compute queue", DeviceType::discrete_gpu);
+  devices[0].compute_queue = false;
+  EXPECT_EQ(chosen(devices, DeviceNeeds()), 1u);
+  devices[0] = full("Headless GPU", DeviceType::discrete_gpu);
+  devices[0].ext_swapchain = false;
+  DeviceNeeds window = ray_tracing();
+  window.swapchain = true;
+  EXPECT_EQ(chosen(devices, window), 1u);
+  EXPECT_EQ(chosen(devices, ray_tracing()), 0u);
+}
+
+TEST(DeviceChoice, MissingListsEveryPieceInOrder) {
+  DeviceInfo d;
+  d.name = "Bare";
+  DeviceNeeds needs = ray_tracing();
+  needs.swapchain = true;
+  const std::vector<std::string> want = {
+      "a compute queue", "Vulkan 1.2", "feature bufferDeviceAddress", "feature shaderInt64",
+      "extension VK_KHR_acceleration_structure", "extension VK_KHR_ray_tracing_pipeline",
+      "extension VK_KHR_deferred_host_operations", "extension VK_KHR_spirv_1_4",
+      "feature accelerationStructure", "feature rayTracingPipeline", "extension VK_KHR_swapchain"};
+  EXPECT_EQ(missing_for(d, needs), want);
+  EXPECT_EQ(missing_for(d, DeviceNeeds()), std::vector<std::string>(want.begin(), want.begin() + 4));
+  EXPECT_TRUE(missing_for(full("All", DeviceType::cpu), needs).empty());
+  // scalarBlockLayout is used where offered, never required.
+  DeviceInfo no_scalar = full("No scalar layout", DeviceType::cpu);
+  no_scalar.scalar_block_layout = false;
+  EXPECT_TRUE(missing_for(no_scalar, needs).empty());
+}
+
+TEST(DeviceChoice, NoQualifyingDeviceNamesEachAndWhatItLacks) {
+  DeviceInfo int64_less = full(kLavapipe, DeviceType::cpu);
+  int64_less.shader_int64 = false;
+  const std::vector<DeviceInfo> devices = {compute_only("Old GPU", DeviceType::discrete_gpu), int64_less};
+  const std::string m = refusal(devices, ray_tracing(), "");
+  EXPECT_TRUE(contains(m, "no Vulkan device can be used for ray tracing")) << m;
+  EXPECT_TRUE(contains(m, "0 'Old GPU' (discrete GPU) lacks extension VK_KHR_acceleration_structure")) << m;
+  EXPECT_TRUE(contains(m, "feature rayTracingPipeline")) << m;
+  EXPECT_TRUE(contains(m, std::string("1 '") + kLavapipe + "' (CPU) lacks feature shaderInt64")) << m;
+
+  const std::string none = refusal({}, ray_tracing(), "");
+  EXPECT_TRUE(contains(none, "no Vulkan physical device")) << none;
+}
+
+TEST(DeviceChoice, SelectsByIndexWhateverTheRanking) {
+  const std::vector<DeviceInfo> devices = {full(kLavapipe, DeviceType::cpu),
+                                           full("NVIDIA RTX 4090", DeviceType::discrete_gpu)};
+  EXPECT_EQ(chosen(devices, ray_tracing(), "0"), 0u);
+  EXPECT_EQ(chosen(devices, ray_tracing(), "1"), 1u);
+  EXPECT_EQ(chosen(devices, ray_tracing()), 1u);
+  for (const char* bad : {"2", "99", "123456789012345678901234567890"}) {
+    const std::string m = refusal(devices, ray_tracing(), bad);
+    EXPECT_TRUE(contains(m, std::string("there is no device ") + bad)) << m;
+    const std::string list = std::string("0 '") + kLavapipe + "' (CPU), 1 'NVIDIA RTX 4090' (discrete GPU)";
+    EXPECT_TRUE(contains(m, list)) << m;
+  }
+}
+
+TEST(DeviceChoice, SelectsByPartOfTheNameIgnoringCase) {
+  const std::vector<DeviceInfo> devices = {full("NVIDIA RTX 4090", DeviceType::discrete_gpu),
+                                           full(kLavapipe, DeviceType::cpu),
+                                           full("Intel UHD 770", DeviceType::integrated_gpu)};
+  EXPECT_EQ(chosen(devices, ray_tracing(), "llvmpipe"), 1u);
+  EXPECT_EQ(chosen(devices, ray_tracing(), "LLVMpipe"), 1u);
+  EXPECT_EQ(chosen(devices, ray_tracing(), "lavapipe"), 1u);  // Mesa's name for its Vulkan llvmpipe
+  EXPECT_EQ(chosen(devices, ray_tracing(), "cpu"), 1u);       // the type word
+  EXPECT_EQ(chosen(devices, ray_tracing(), "rtx 40"), 0u);
+  EXPECT_EQ(chosen(devices, ray_tracing(), "Integrated"), 2u);
+}
+
+TEST(DeviceChoice, AmbiguousOrUnknownNamesListTheDevices) {
+  const std::vector<DeviceInfo> devices = {full("NVIDIA RTX 4090", DeviceType::discrete_gpu),
+                                           full(kLavapipe, DeviceType::cpu),
+                                           full("NVIDIA RTX A2000", DeviceType::discrete_gpu)};
+  std::string m = refusal(devices, ray_tracing(), "nvidia");
+  EXPECT_TRUE(contains(m, "'nvidia' matches 2 devices: 0 'NVIDIA RTX 4090' (discrete GPU), "
+                          "2 'NVIDIA RTX A2000' (discrete GPU)")) << m;
+  EXPECT_FALSE(contains(m, "llvmpipe")) << m;
+  m = refusal(devices, ray_tracing(), "discrete");
+  EXPECT_TRUE(contains(m, "matches 2 devices")) << m;
+  m = refusal(devices, ray_tracing(), "no-such-gpu");
+  EXPECT_TRUE(contains(m, "'no-such-gpu' matches no device")) << m;
+  for (const char* name : {"0 'NVIDIA RTX 4090'", "1 'llvmpipe", "2 'NVIDIA RTX A2000'"})
+    EXPECT_TRUE(contains(m, name)) << name << " in: " << m;
+}
+
+TEST(DeviceChoice, ASelectedDeviceLackingSomethingIsAnErrorNotAFallback) {
+  DeviceInfo bda_less = full("Intel UHD 770", DeviceType::integrated_gpu);
+  bda_less.buffer_device_address = false;
+  const std::vector<DeviceInfo> devices = {compute_only("Old GPU", DeviceType::discrete_gpu),
+                                           full(kLavapipe, DeviceType::cpu), bda_less};
+  std::string m = refusal(devices, ray_tracing(), "old");
+  EXPECT_TRUE(contains(m, "device 0 'Old GPU' (discrete GPU), selected by 'old', cannot be used for ray "
+                          "tracing: it lacks extension VK_KHR_acceleration_structure")) << m;
+  EXPECT_TRUE(contains(m, "feature rayTracingPipeline")) << m;
+  EXPECT_FALSE(contains(m, "bufferDeviceAddress")) << m;
+  EXPECT_EQ(chosen(devices, DeviceNeeds(), "0"), 0u);  // compute alone is fine
+  m = refusal(devices, DeviceNeeds(), "2");
+  EXPECT_TRUE(contains(m, "'Intel UHD 770' (integrated GPU), selected by '2', cannot be used for compute: "
+                          "it lacks feature bufferDeviceAddress")) << m;
+  DeviceNeeds window = ray_tracing();
+  window.swapchain = true;
+  DeviceInfo headless = full(kLavapipe, DeviceType::cpu);
+  headless.ext_swapchain = false;
+  m = refusal({headless}, window, "llvmpipe");
+  EXPECT_TRUE(contains(m, "for ray tracing with a swapchain: it lacks extension VK_KHR_swapchain")) << m;
+}
+
+}  // namespace
+}  // namespace lsnif::vk

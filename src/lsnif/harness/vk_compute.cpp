@@ -1,0 +1,514 @@
+// vk_compute.cpp -- the harness of vk_compute.h.
+#include "lsnif/harness/vk_compute.h"
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <utility>
+#include <vector>
+
+
+namespace lsnif::vk {
+
+namespace {
+
+constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
+
+DeviceType device_type(VkPhysicalDeviceType type) {
+  switch (type) {
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return DeviceType::integrated_gpu;
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return DeviceType::discrete_gpu;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return DeviceType::virtual_gpu;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return DeviceType::cpu;
+    default: return DeviceType::other;
+  }
+}
+
+}  // namespace
+
+DeviceInfo query_device_info(VkPhysicalDevice physical) {
+  // What the harness enables (device_choice.h): extensions, features, the type and the queues.
+  DeviceInfo info;
+  VkPhysicalDeviceProperties props;
+  vkGetPhysicalDeviceProperties(physical, &props);
+  info.name = props.deviceName;
+  info.type = device_type(props.deviceType);
+  info.vulkan_1_2 = VK_API_VERSION_MAJOR(props.apiVersion) > 1 || VK_API_VERSION_MINOR(props.apiVersion) >= 2;
+
+  uint32_t count = 0;
+  vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
+  std::vector<VkExtensionProperties> extensions(count);
+  vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, extensions.data());
+  extensions.resize(count);
+  auto offers = [&](const char* name) {
+    for (const VkExtensionProperties& e : extensions)
+      if (std::strcmp(e.extensionName, name) == 0) return true;
+    return false;
+  };
+  info.ext_acceleration_structure = offers(VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME);
+  info.ext_ray_tracing_pipeline = offers(VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME);
+  info.ext_deferred_host_operations = offers(VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME);
+  info.ext_spirv_1_4 = offers(VK_KHR_SPIRV_1_4_EXTENSION_NAME);
+  info.ext_swapchain = offers(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+
+  // Feature structs only for what the device knows (an unknown struct in pNext is invalid usage).
+  VkPhysicalDeviceFeatures2 f2{};
+  f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  VkPhysicalDeviceVulkan12Features f12{};
+  f12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
+  as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+  rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+  void** tail = &f2.pNext;
+  for (auto [wanted, s] : {std::pair<bool, VkBaseOutStructure*>{info.vulkan_1_2, reinterpret_cast<VkBaseOutStructure*>(&f12)},
+                           {info.ext_acceleration_structure, reinterpret_cast<VkBaseOutStructure*>(&as)},
+                           {info.ext_ray_tracing_pipeline, reinterpret_cast<VkBaseOutStructure*>(&rt)}}) {
+    if (!wanted) continue;
+    *tail = s;
+    tail = reinterpret_cast<void**>(&s->pNext);
+  }
+  vkGetPhysicalDeviceFeatures2(physical, &f2);
+  info.shader_int64 = f2.features.shaderInt64 == VK_TRUE;
+  info.buffer_device_address = info.vulkan_1_2 && f12.bufferDeviceAddress == VK_TRUE;
+  info.scalar_block_layout = info.vulkan_1_2 && f12.scalarBlockLayout == VK_TRUE;
+  info.acceleration_structure = info.ext_acceleration_structure && as.accelerationStructure == VK_TRUE;
+  info.ray_tracing_pipeline = info.ext_ray_tracing_pipeline && rt.rayTracingPipeline == VK_TRUE;
+
+  uint32_t family_count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(physical, &family_count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(family_count);
+  vkGetPhysicalDeviceQueueFamilyProperties(physical, &family_count, families.data());
+  for (uint32_t q = 0; q < family_count && !info.compute_queue; ++q)
+    if (families[q].queueFlags & VK_QUEUE_COMPUTE_BIT) {
+      info.compute_queue = true;
+      info.compute_queue_family = q;
+    }
+  return info;
+}
+
+VKAPI_ATTR VkBool32 VKAPI_CALL ComputeContext::on_message(
+    VkDebugUtilsMessageSeverityFlagBitsEXT severity, VkDebugUtilsMessageTypeFlagsEXT,
+    const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
+  auto* self = static_cast<ComputeContext*>(user);
+  const bool error = severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  if (error) ++self->errors_;
+  else ++self->warnings_;
+  std::fprintf(stderr, "[vulkan validation %s] %s\n", error ? "error" : "warning",
+               data && data->pMessage ? data->pMessage : "(no message)");
+  return VK_FALSE;
+}
+
+void ComputeContext::destroy_device() {
+  if (device_) {
+    vkDeviceWaitIdle(device_);
+    if (fence_) vkDestroyFence(device_, fence_, nullptr);
+    if (pool_) vkDestroyCommandPool(device_, pool_, nullptr);
+    vkDestroyDevice(device_, nullptr);
+  }
+  fence_ = VK_NULL_HANDLE;
+  pool_ = VK_NULL_HANDLE;
+  queue_ = VK_NULL_HANDLE;
+  device_ = VK_NULL_HANDLE;
+}
+
+ComputeContext::~ComputeContext() {
+  destroy_device();
+  if (messenger_) vkDestroyDebugUtilsMessengerEXT(instance_, messenger_, nullptr);
+  if (instance_) vkDestroyInstance(instance_, nullptr);
+}
+
+Status ComputeContext::init(bool ray_tracing, bool validation, const std::string& device) {
+  ContextOptions options;
+  options.ray_tracing = ray_tracing;
+  options.validation = validation;
+  options.device = device;
+  return init(options);
+}
+
+Status ComputeContext::init(const ContextOptions& options) {
+  const bool ray_tracing = options.ray_tracing, validation = options.validation;
+  if (volkInitialize() != VK_SUCCESS) return Status::error("no Vulkan loader (libvulkan.so.1) found");
+
+  if (validation) {
+    uint32_t layer_count = 0;
+    vkEnumerateInstanceLayerProperties(&layer_count, nullptr);
+    std::vector<VkLayerProperties> layers(layer_count);
+    vkEnumerateInstanceLayerProperties(&layer_count, layers.data());
+    bool has_validation = false;
+    for (const VkLayerProperties& l : layers) has_validation |= std::strcmp(l.layerName, kValidationLayer) == 0;
+    if (!has_validation)
+      return Status::error("Vulkan layer %s is not installed (package vulkan-validationlayers)", kValidationLayer);
+  }
+
+  VkDebugUtilsMessengerCreateInfoEXT messenger_info{};
+  messenger_info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
+  messenger_info.messageSeverity =
+      VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  messenger_info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
+                               VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                               VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+  messenger_info.pfnUserCallback = &ComputeContext::on_message;
+  messenger_info.pUserData = this;
+
+  VkApplicationInfo app{};
+  app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+  app.pApplicationName = "lsnif";
+  app.apiVersion = VK_API_VERSION_1_2;
+  std::vector<const char*> extensions;
+  if (validation) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  {
+    uint32_t n = 0;
+    vkEnumerateInstanceExtensionProperties(nullptr, &n, nullptr);
+    std::vector<VkExtensionProperties> available(n);
+    vkEnumerateInstanceExtensionProperties(nullptr, &n, available.data());
+    for (const std::string& name : options.instance_extensions) {
+      bool found = false;
+      for (const VkExtensionProperties& e : available) found |= name == e.extensionName;
+      if (!found) return Status::error("the Vulkan loader lacks the instance extension %s", name.c_str());
+      extensions.push_back(name.c_str());
+    }
+  }
+  VkInstanceCreateInfo ici{};
+  ici.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+  ici.pNext = validation ? &messenger_info : nullptr;  // also report problems of instance creation
+  ici.pApplicationInfo = &app;
+  ici.enabledLayerCount = validation ? 1 : 0;
+  ici.ppEnabledLayerNames = validation ? &kValidationLayer : nullptr;
+  ici.enabledExtensionCount = uint32_t(extensions.size());
+  ici.ppEnabledExtensionNames = extensions.empty() ? nullptr : extensions.data();
+  LSNIF_VK_CHECK(vkCreateInstance(&ici, nullptr, &instance_));
+  volkLoadInstance(instance_);
+  if (validation)
+    LSNIF_VK_CHECK(vkCreateDebugUtilsMessengerEXT(instance_, &messenger_info, nullptr, &messenger_));
+
+  uint32_t count = 0;
+  vkEnumeratePhysicalDevices(instance_, &count, nullptr);
+  std::vector<VkPhysicalDevice> devices(count);
+  if (count > 0) vkEnumeratePhysicalDevices(instance_, &count, devices.data());
+  std::vector<DeviceInfo> infos;
+  for (VkPhysicalDevice d : devices) infos.push_back(query_device_info(d));
+  DeviceNeeds needs;
+  needs.ray_tracing = ray_tracing;
+  needs.swapchain = options.swapchain;
+  size_t chosen = 0;
+  if (Status s = choose_device(infos, needs, options.device, chosen); !s) return s;
+  physical_ = devices[chosen];
+  queue_family_ = infos[chosen].compute_queue_family;
+  device_name_ = infos[chosen].name;
+
+  // choose_device checked that the device offers every extension and feature enabled here.
+  std::vector<const char*> device_extensions;
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR as_features{};
+  as_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+  as_features.accelerationStructure = VK_TRUE;
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt_features{};
+  rt_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+  rt_features.rayTracingPipeline = VK_TRUE;
+  as_features.pNext = &rt_features;
+  // Vulkan 1.2 covers descriptor indexing, buffer device address and float controls.
+  if (ray_tracing)
+    device_extensions = {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME,
+                         VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME,
+                         VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME, VK_KHR_SPIRV_1_4_EXTENSION_NAME};
+  if (options.swapchain) device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+  VkPhysicalDeviceRayQueryFeaturesKHR rq_features{};
+  rq_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+  if (ray_tracing && options.ray_query) {
+    uint32_t n = 0;
+    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &n, nullptr);
+    std::vector<VkExtensionProperties> available(n);
+    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &n, available.data());
+    bool offered = false;
+    for (const VkExtensionProperties& e : available)
+      offered |= std::strcmp(e.extensionName, VK_KHR_RAY_QUERY_EXTENSION_NAME) == 0;
+    if (offered) {
+      VkPhysicalDeviceFeatures2 q2{};
+      q2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+      q2.pNext = &rq_features;
+      vkGetPhysicalDeviceFeatures2(physical_, &q2);
+      offered = rq_features.rayQuery == VK_TRUE;
+    }
+    if (!offered)
+      return Status::error("device '%s' lacks extension VK_KHR_ray_query with feature rayQuery", device_name_.c_str());
+    device_extensions.push_back(VK_KHR_RAY_QUERY_EXTENSION_NAME);
+    rq_features = VkPhysicalDeviceRayQueryFeaturesKHR{};
+    rq_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+    rq_features.rayQuery = VK_TRUE;
+    rt_features.pNext = &rq_features;
+  }
+
+  VkPhysicalDeviceVulkan12Features e12{};
+  e12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+  e12.pNext = ray_tracing ? &as_features : nullptr;
+  e12.bufferDeviceAddress = VK_TRUE;
+  // Enabled where offered: the path tracer's shaders use scalar layout.
+  e12.scalarBlockLayout = infos[chosen].scalar_block_layout ? VK_TRUE : VK_FALSE;
+  scalar_block_layout_ = infos[chosen].scalar_block_layout;
+  VkPhysicalDeviceFeatures2 e2{};
+  e2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  e2.pNext = &e12;
+  e2.features.shaderInt64 = VK_TRUE;
+  const float priority = 1.0f;
+  VkDeviceQueueCreateInfo qci{};
+  qci.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+  qci.queueFamilyIndex = queue_family_;
+  qci.queueCount = 1;
+  qci.pQueuePriorities = &priority;
+  VkDeviceCreateInfo dci{};
+  dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  dci.pNext = &e2;
+  dci.queueCreateInfoCount = 1;
+  dci.pQueueCreateInfos = &qci;
+  dci.enabledExtensionCount = uint32_t(device_extensions.size());
+  dci.ppEnabledExtensionNames = device_extensions.empty() ? nullptr : device_extensions.data();
+  LSNIF_VK_CHECK(vkCreateDevice(physical_, &dci, nullptr, &device_));
+  volkLoadDevice(device_);
+  vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
+
+  VkCommandPoolCreateInfo pci{};
+  pci.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pci.queueFamilyIndex = queue_family_;
+  LSNIF_VK_CHECK(vkCreateCommandPool(device_, &pci, nullptr, &pool_));
+  VkFenceCreateInfo fci{};
+  fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+  LSNIF_VK_CHECK(vkCreateFence(device_, &fci, nullptr, &fence_));
+  return Status::ok();
+}
+
+Status ComputeContext::create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage) {
+  out = Buffer();
+  if (!device_) return Status::error("create_buffer: context not initialized");
+  VkBufferCreateInfo bci{};
+  bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+  bci.size = bytes > 0 ? bytes : 4;
+  bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT | extra_usage;
+  bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  LSNIF_VK_CHECK(vkCreateBuffer(device_, &bci, nullptr, &out.buffer));
+  VkMemoryRequirements req;
+  vkGetBufferMemoryRequirements(device_, out.buffer, &req);
+  VkPhysicalDeviceMemoryProperties mem;
+  vkGetPhysicalDeviceMemoryProperties(physical_, &mem);
+  const VkMemoryPropertyFlags want = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  uint32_t type = UINT32_MAX;
+  for (uint32_t i = 0; i < mem.memoryTypeCount && type == UINT32_MAX; ++i)
+    if ((req.memoryTypeBits & (1u << i)) && (mem.memoryTypes[i].propertyFlags & want) == want) type = i;
+  if (type == UINT32_MAX) {
+    destroy_buffer(out);
+    return Status::error("no host-visible coherent memory type for a %zu-byte buffer", bytes);
+  }
+  VkMemoryAllocateFlagsInfo flags{};
+  flags.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO;
+  flags.flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT;
+  VkMemoryAllocateInfo mai{};
+  mai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+  mai.pNext = &flags;
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = type;
+  LSNIF_VK_CHECK(vkAllocateMemory(device_, &mai, nullptr, &out.memory));
+  LSNIF_VK_CHECK(vkBindBufferMemory(device_, out.buffer, out.memory, 0));
+  LSNIF_VK_CHECK(vkMapMemory(device_, out.memory, 0, VK_WHOLE_SIZE, 0, &out.mapped));
+  std::memset(out.mapped, 0, bci.size);
+  out.size = bci.size;
+  VkBufferDeviceAddressInfo ai{};
+  ai.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO;
+  ai.buffer = out.buffer;
+  out.address = vkGetBufferDeviceAddress(device_, &ai);
+  return Status::ok();
+}
+
+void ComputeContext::destroy_buffer(Buffer& buffer) {
+  if (device_) {
+    if (buffer.buffer) vkDestroyBuffer(device_, buffer.buffer, nullptr);
+    if (buffer.memory) vkFreeMemory(device_, buffer.memory, nullptr);  // also unmaps
+  }
+  buffer = Buffer();
+}
+
+Status read_spirv_file(const std::string& path, std::vector<uint32_t>& code) {
+  std::ifstream file(path, std::ios::binary | std::ios::ate);
+  if (!file) return Status::error("cannot open SPIR-V file %s", path.c_str());
+  const std::streamsize size = file.tellg();
+  if (size <= 0 || size % 4 != 0)
+    return Status::error("SPIR-V file %s has %lld bytes (not a positive multiple of 4)", path.c_str(),
+                         static_cast<long long>(size));
+  code.assign(size_t(size) / 4, 0u);
+  file.seekg(0);
+  if (!file.read(reinterpret_cast<char*>(code.data()), size))
+    return Status::error("cannot read SPIR-V file %s", path.c_str());
+  return Status::ok();
+}
+
+Status ComputeContext::load_shader_module(const std::string& spirv_path, VkShaderModule& out) {
+  if (!device_) return Status::error("load_shader_module: context not initialized");
+  std::vector<uint32_t> code;
+  if (Status s = read_spirv_file(spirv_path, code); !s) return s;
+  return create_shader_module(Spirv{code.data(), code.size() * sizeof(uint32_t)}, out).context(spirv_path);
+}
+
+Status ComputeContext::create_shader_module(const Spirv& code, VkShaderModule& out) {
+  if (!device_) return Status::error("create_shader_module: context not initialized");
+  if (!code.code || code.bytes == 0 || code.bytes % 4 != 0 || code.code[0] != 0x07230203u)
+    return Status::error("not SPIR-V (%zu bytes, a positive multiple of 4 starting with the magic 0x07230203 expected)",
+                         code.bytes);
+  VkShaderModuleCreateInfo smi{};
+  smi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+  smi.codeSize = code.bytes;
+  smi.pCode = code.code;
+  LSNIF_VK_CHECK(vkCreateShaderModule(device_, &smi, nullptr, &out));
+  return Status::ok();
+}
+
+Status ComputeContext::create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out) {
+  out = Pipeline();
+  if (!device_) return Status::error("create_pipeline: context not initialized");
+  std::vector<uint32_t> code;
+  if (Status s = read_spirv_file(spirv_path, code); !s) return s;
+  return create_pipeline(Spirv{code.data(), code.size() * sizeof(uint32_t)}, push_size, out).context(spirv_path);
+}
+
+Status ComputeContext::create_pipeline(const Spirv& code, uint32_t push_size, Pipeline& out) {
+  out = Pipeline();
+  if (!device_) return Status::error("create_pipeline: context not initialized");
+  VkShaderModule module;
+  if (Status st = create_shader_module(code, module); !st) return st;
+
+  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, push_size};
+  VkPipelineLayoutCreateInfo lci{};
+  lci.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+  lci.pushConstantRangeCount = push_size > 0 ? 1 : 0;
+  lci.pPushConstantRanges = &range;
+  VkResult r = vkCreatePipelineLayout(device_, &lci, nullptr, &out.layout);
+  if (r != VK_SUCCESS) {
+    vkDestroyShaderModule(device_, module, nullptr);
+    return Status::error("vkCreatePipelineLayout failed (VkResult %d)", static_cast<int>(r));
+  }
+  VkComputePipelineCreateInfo cpi{};
+  cpi.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+  cpi.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  cpi.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  cpi.stage.module = module;
+  cpi.stage.pName = "main";
+  cpi.layout = out.layout;
+  const auto t0 = std::chrono::steady_clock::now();
+  r = vkCreateComputePipelines(device_, VK_NULL_HANDLE, 1, &cpi, nullptr, &out.pipeline);
+  out.create_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  vkDestroyShaderModule(device_, module, nullptr);
+  if (r != VK_SUCCESS) {
+    destroy_pipeline(out);
+    return Status::error("vkCreateComputePipelines failed (VkResult %d)", static_cast<int>(r));
+  }
+  out.push_size = push_size;
+  return Status::ok();
+}
+
+void ComputeContext::destroy_pipeline(Pipeline& pipeline) {
+  if (device_) {
+    if (pipeline.pipeline) vkDestroyPipeline(device_, pipeline.pipeline, nullptr);
+    if (pipeline.layout) vkDestroyPipelineLayout(device_, pipeline.layout, nullptr);
+  }
+  pipeline = Pipeline();
+}
+
+Status ComputeContext::dispatch(const Pipeline& pipeline, const void* push, uint32_t groups_x) {
+  if (!device_ || !pipeline.pipeline) return Status::error("dispatch: no device or pipeline");
+  return submit("compute dispatch", [&](VkCommandBuffer cmd) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
+    if (pipeline.push_size > 0)
+      vkCmdPushConstants(cmd, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pipeline.push_size, push);
+    vkCmdDispatch(cmd, groups_x, 1, 1);
+    barrier_compute_to_host(cmd);
+  });
+}
+
+Status ComputeContext::submit(const char* what, const std::function<void(VkCommandBuffer)>& record) {
+  if (!device_) return Status::error("%s: context not initialized", what);
+  VkCommandBufferAllocateInfo cai{};
+  cai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+  cai.commandPool = pool_;
+  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cai.commandBufferCount = 1;
+  VkCommandBuffer cmd;
+  LSNIF_VK_CHECK(vkAllocateCommandBuffers(device_, &cai, &cmd));
+  VkCommandBufferBeginInfo bi{};
+  bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  vkBeginCommandBuffer(cmd, &bi);
+  record(cmd);
+  vkEndCommandBuffer(cmd);
+  VkSubmitInfo si{};
+  si.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+  si.commandBufferCount = 1;
+  si.pCommandBuffers = &cmd;
+  VkResult r = vkQueueSubmit(queue_, 1, &si, fence_);
+  if (r == VK_SUCCESS) r = vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX);
+  if (r == VK_SUCCESS) r = vkResetFences(device_, 1, &fence_);
+  vkFreeCommandBuffers(device_, pool_, 1, &cmd);
+  if (r != VK_SUCCESS) return Status::error("%s failed (VkResult %d)", what, static_cast<int>(r));
+  return Status::ok();
+}
+
+void ComputeContext::barrier_compute_to_host(VkCommandBuffer cmd) {
+  VkMemoryBarrier b{};
+  b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+  b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0, nullptr, 0,
+                       nullptr);
+}
+
+Status ComputeContext::create_timestamps(uint32_t count, Timestamps& out) {
+  out = Timestamps();
+  if (!device_) return Status::error("create_timestamps: context not initialized");
+  if (count == 0) return Status::error("create_timestamps: no queries asked for");
+  uint32_t family_count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_, &family_count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(family_count);
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_, &family_count, families.data());
+  const uint32_t bits = queue_family_ < family_count ? families[queue_family_].timestampValidBits : 0u;
+  if (bits == 0) return Status::error("device %s: its queue family has no timestamps", device_name_.c_str());
+  VkPhysicalDeviceProperties props;
+  vkGetPhysicalDeviceProperties(physical_, &props);
+  VkQueryPoolCreateInfo qci{};
+  qci.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
+  qci.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  qci.queryCount = count;
+  LSNIF_VK_CHECK(vkCreateQueryPool(device_, &qci, nullptr, &out.pool));
+  out.count = count;
+  out.ns_per_tick = double(props.limits.timestampPeriod);
+  out.valid_mask = bits >= 64 ? ~uint64_t(0) : (uint64_t(1) << bits) - 1;
+  return Status::ok();
+}
+
+void ComputeContext::destroy_timestamps(Timestamps& timestamps) {
+  if (timestamps.pool && device_) vkDestroyQueryPool(device_, timestamps.pool, nullptr);
+  timestamps = Timestamps();
+}
+
+Status ComputeContext::read_timestamps_ms(const Timestamps& timestamps, uint32_t first, uint32_t count,
+                                          std::vector<double>& ms) {
+  ms.clear();
+  if (!timestamps.pool || uint64_t(first) + count > timestamps.count)
+    return Status::error("read_timestamps_ms: queries %u..%u outside the pool of %u", first, first + count,
+                         timestamps.count);
+  if (count == 0) return Status::ok();
+  std::vector<uint64_t> ticks(2 * size_t(count));  // {timestamp, availability} per query
+  const VkResult r =
+      vkGetQueryPoolResults(device_, timestamps.pool, first, count, ticks.size() * sizeof(uint64_t), ticks.data(),
+                            2 * sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WITH_AVAILABILITY_BIT);
+  if (r != VK_SUCCESS && r != VK_NOT_READY)
+    return Status::error("vkGetQueryPoolResults (timestamps) failed (VkResult %d)", int(r));
+  ms.resize(count);
+  for (uint32_t i = 0; i < count; ++i) {
+    if (ticks[2 * i + 1] == 0) {
+      ms.clear();
+      return Status::error("timestamp query %u was not written", first + i);
+    }
+    ms[i] = double((ticks[2 * i] - ticks[0]) & timestamps.valid_mask) * timestamps.ns_per_tick * 1e-6;
+  }
+  return Status::ok();
+}
+
+}  // namespace lsnif::vk

@@ -1,0 +1,178 @@
+// vk_compute.h -- a minimal headless Vulkan compute harness for the GPU tests, the benchmarks and
+// the samples (volk): an instance, with the Khronos validation layer and a debug-utils messenger
+// that counts (and prints) every warning and error unless validation is turned off, a device with
+// bufferDeviceAddress, shaderInt64 (and scalarBlockLayout where offered), host-visible buffers
+// addressed by device address, one compute pipeline from a SPIR-V file with a push-constant range,
+// dispatch and wait. Optionally (init(true)) the device also has the ray-tracing extensions and
+// features that src/lsnif/harness/vk_raytracing.h uses.
+// The device: ContextOptions::device selects one (an index in `lsnif devices` order or a part of
+// its name; the GPU tests name lavapipe, "llvmpipe", their reference platform); left empty, the
+// first discrete GPU that offers what is needed, else an integrated, virtual GPU, else a CPU device
+// (device_choice.h). A device lacking something needed is skipped by the automatic choice and is
+// an error when selected.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <volk.h>
+
+#include "lsnif/harness/device_choice.h"
+#include "lsnif/format/status.h"
+
+// In a function returning Status: returns an error naming the call and its VkResult unless it
+// returned VK_SUCCESS.
+#define LSNIF_VK_CHECK(call)                                                          \
+  do {                                                                                \
+    const VkResult result_ = (call);                                                  \
+    if (result_ != VK_SUCCESS) return Status::error("%s failed (VkResult %d)", #call, \
+                                                    static_cast<int>(result_));      \
+  } while (0)
+
+namespace lsnif::vk {
+
+struct Buffer {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  void* mapped = nullptr;         // persistently mapped, host-coherent
+  VkDeviceSize size = 0;
+  VkDeviceAddress address = 0;    // vkGetBufferDeviceAddress
+};
+
+// SPIR-V words in memory (a shader embedded at build time, or lsnifGetIntersectionShaderSpirv).
+struct Spirv {
+  const uint32_t* code = nullptr;
+  size_t bytes = 0;
+};
+
+// Reads a SPIR-V file into `code` (replaced); errors name the file.
+Status read_spirv_file(const std::string& path, std::vector<uint32_t>& code);
+
+struct Pipeline {
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  uint32_t push_size = 0;
+  double create_seconds = 0;      // vkCreateComputePipelines wall time (lavapipe compiles here)
+};
+
+// What ComputeContext::init creates besides compute.
+struct ContextOptions {
+  bool ray_tracing = false;  // the ray-tracing extensions and features (vk_raytracing.h)
+  bool validation = true;    // the Khronos validation layer and a counting messenger
+  // Instance extensions to enable (e.g. what glfwGetRequiredInstanceExtensions names for a window
+  // surface); an error names one the loader lacks.
+  std::vector<std::string> instance_extensions;
+  bool swapchain = false;    // VK_KHR_swapchain on the device (presenting to a window)
+  // VK_KHR_ray_query with its feature rayQuery (with ray_tracing; the plugin's lsnifCmdQuery); an
+  // error names the chosen device when it lacks them.
+  bool ray_query = false;
+  // Which device: "" chooses automatically (a discrete GPU first, then integrated, virtual, CPU);
+  // else an index in vkEnumeratePhysicalDevices order or a case-insensitive part of the name
+  // (device_choice.h).
+  std::string device;
+};
+
+// What `physical` offers, for choose_device (device_choice.h). The instance-level functions of
+// the instance that owns it must be loaded into volk (volkLoadInstance or volkLoadInstanceOnly),
+// and that instance must be created for Vulkan 1.2 or later (the 1.2 features are queried on 1.2+
+// devices).
+DeviceInfo query_device_info(VkPhysicalDevice physical);
+
+
+// A pool of timestamp queries on a ComputeContext's queue (create_timestamps).
+struct Timestamps {
+  VkQueryPool pool = VK_NULL_HANDLE;
+  uint32_t count = 0;
+  double ns_per_tick = 0;  // VkPhysicalDeviceLimits::timestampPeriod
+  uint64_t valid_mask = 0; // the queue family's timestampValidBits as a mask
+};
+
+class ComputeContext {
+ public:
+  ComputeContext() = default;
+  ComputeContext(const ComputeContext&) = delete;
+  ComputeContext& operator=(const ComputeContext&) = delete;
+  ~ComputeContext();
+
+  // Creates instance (validation layer required with `validation`: an error when it is missing),
+  // messenger and the device `device` selects (ContextOptions::device; "" chooses automatically).
+  // Errors name the missing piece (no Vulkan loader, no device, no qualifying device with what each
+  // lacks, a selector naming no device or several, a selected device that lacks something).
+  // With `ray_tracing`, the device must offer VK_KHR_acceleration_structure,
+  // VK_KHR_ray_tracing_pipeline (and their dependencies) and they are enabled with the features
+  // accelerationStructure and rayTracingPipeline.
+  // With `validation` false (benchmarks, samples), no layer and no messenger are used and the
+  // validation counts stay 0.
+  Status init(bool ray_tracing = false, bool validation = true, const std::string& device = "");
+  // init with more options (window-system extensions for a viewer).
+  Status init(const ContextOptions& options);
+  // A host-visible storage buffer of `bytes` with a device address (contents zeroed), with the
+  // usage bits `extra_usage` added (e.g. acceleration-structure storage, shader binding table).
+  Status create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage = 0);
+  void destroy_buffer(Buffer& buffer);
+  // A compute pipeline (entry "main", no descriptor sets) from a SPIR-V file.
+  // Reads a SPIR-V file and creates a shader module on this context's device (caller destroys it).
+  Status load_shader_module(const std::string& spirv_path, VkShaderModule& out);
+  // A shader module of `code` on this context's device (caller destroys it).
+  Status create_shader_module(const Spirv& code, VkShaderModule& out);
+  Status create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out);
+  // The same from SPIR-V in memory (a shader embedded at build time).
+  Status create_pipeline(const Spirv& code, uint32_t push_size, Pipeline& out);
+  void destroy_pipeline(Pipeline& pipeline);
+  // Records push constants + vkCmdDispatch(groups_x, 1, 1), submits, waits; shader writes are
+  // made visible to the host before it returns.
+  Status dispatch(const Pipeline& pipeline, const void* push, uint32_t groups_x);
+  // Records `record` into a one-time command buffer, submits it and waits for it (`what` names the
+  // work in an error message).
+  Status submit(const char* what, const std::function<void(VkCommandBuffer)>& record);
+
+  // Makes compute-shader writes recorded before visible to the host after the submit.
+  static void barrier_compute_to_host(VkCommandBuffer cmd);
+
+  // A pool of `count` timestamp queries; fails when the queue family has no timestamps
+  // (timestampValidBits 0). Record vkCmdResetQueryPool before writing them.
+  Status create_timestamps(uint32_t count, Timestamps& out);
+  void destroy_timestamps(Timestamps& timestamps);
+  // Queries [first, first + count), read after the submission that wrote them finished, in
+  // milliseconds after query `first` (the differences wrapped to the valid bits). Fails naming the
+  // first query that was not written (no wait: a query never written would block forever).
+  Status read_timestamps_ms(const Timestamps& timestamps, uint32_t first, uint32_t count, std::vector<double>& ms);
+
+  const std::string& device_name() const { return device_name_; }
+  // Validation messages of severity warning / error seen so far.
+  uint32_t validation_warnings() const { return warnings_; }
+  uint32_t validation_errors() const { return errors_; }
+  void reset_validation_counts() { warnings_ = errors_ = 0; }
+  VkDevice device() const { return device_; }
+  VkInstance instance() const { return instance_; }
+  VkQueue queue() const { return queue_; }
+  uint32_t queue_family() const { return queue_family_; }
+  // Destroys the device (after waiting for it), keeping the instance and the messenger, so that
+  // what validation reports at vkDestroyDevice (leaked objects) is counted. init() is not
+  // possible afterwards; everything created on the device must be released before.
+  void destroy_device();
+  VkPhysicalDevice physical_device() const { return physical_; }
+  // Whether the device was created with the scalarBlockLayout feature (enabled when offered).
+  bool scalar_block_layout() const { return scalar_block_layout_; }
+
+ private:
+  static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                    VkDebugUtilsMessageTypeFlagsEXT types,
+                                                    const VkDebugUtilsMessengerCallbackDataEXT* data,
+                                                    void* user);
+  VkInstance instance_ = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
+  VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkQueue queue_ = VK_NULL_HANDLE;
+  uint32_t queue_family_ = 0;
+  VkCommandPool pool_ = VK_NULL_HANDLE;
+  VkFence fence_ = VK_NULL_HANDLE;
+  std::string device_name_;
+  uint32_t warnings_ = 0, errors_ = 0;
+  bool scalar_block_layout_ = false;
+};
+
+}  // namespace lsnif::vk

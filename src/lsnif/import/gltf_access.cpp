@@ -1,0 +1,481 @@
+// gltf_access.cpp -- checked glTF access (gltf_access.h). The implementations of tinygltf and of
+// the stb_image functions it needs live in this file only, once in any program.
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <type_traits>
+
+// Third-party single-header libraries. The stb functions are static (no clash with another
+// stb_image in the same program) and limited to the two image formats core glTF allows.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wpedantic"
+#pragma GCC diagnostic ignored "-Wunused-function"
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+#pragma GCC diagnostic ignored "-Wunused-variable"
+#pragma GCC diagnostic ignored "-Wunused-but-set-variable"
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
+#pragma GCC diagnostic ignored "-Wimplicit-fallthrough"
+#pragma GCC diagnostic ignored "-Wtype-limits"
+#pragma GCC diagnostic ignored "-Wsign-compare"
+#pragma GCC diagnostic ignored "-Wdouble-promotion"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#define STB_IMAGE_STATIC
+#define STBI_ONLY_PNG
+#define STBI_ONLY_JPEG
+#define STBI_MAX_DIMENSIONS (1 << 15)
+#define STB_IMAGE_IMPLEMENTATION
+#define TINYGLTF_IMPLEMENTATION
+// gltf_access.h sets TINYGLTF_NO_STB_IMAGE_WRITE and includes tiny_gltf.h, which includes
+// <stb_image.h> itself (found through the stb system include folder).
+#include "lsnif/import/gltf_access.h"
+#pragma GCC diagnostic pop
+
+#include "lsnif/import/json_text.h"
+#include "lsnif/import/resolve_path.h"
+
+namespace lsnif::gltf {
+namespace {
+
+constexpr size_t kMaxSparseOnlyCount = size_t(1) << 20;  // accessor without a bufferView
+
+// Decodes PNG/JPEG bytes to RGBA8 into `image` (at most `max_pixels` pixels). A failure leaves
+// the image empty and explains why in `why`.
+bool decode_image(tinygltf::Image& image, const unsigned char* bytes, size_t size,
+                  uint64_t max_pixels, std::string& why) {
+  image.image.clear();
+  if (size == 0 || size > size_t(std::numeric_limits<int>::max())) {
+    why = "empty or oversized image data";
+    return false;
+  }
+  int w = 0, h = 0, comp = 0;
+  const int n = static_cast<int>(size);
+  if (!stbi_info_from_memory(bytes, n, &w, &h, &comp)) {
+    why = std::string("not a decodable PNG/JPEG (") + stbi_failure_reason() + ")";
+    return false;
+  }
+  if (w <= 0 || h <= 0 || uint64_t(w) * uint64_t(h) > max_pixels) {
+    why = format("unsupported image size %dx%d", w, h);
+    return false;
+  }
+  unsigned char* px = stbi_load_from_memory(bytes, n, &w, &h, &comp, 4);
+  if (!px) {
+    why = std::string("decoding failed (") + stbi_failure_reason() + ")";
+    return false;
+  }
+  image.image.assign(px, px + size_t(w) * size_t(h) * 4);
+  stbi_image_free(px);
+  image.width = w;
+  image.height = h;
+  image.component = 4;
+  image.bits = 8;
+  image.pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+  return true;
+}
+
+// tinygltf image callback (data URIs, external files, GLB-embedded images); `user` points to the
+// LoadOptions. Images stored in a bufferView are left for resolve_image(): tinygltf 2.7 hands
+// them over without checking the view against its buffer. Undecodable images are not fatal: they
+// stay empty and are reported when a material uses them.
+bool load_image_callback(tinygltf::Image* image, const int index, std::string* /*err*/,
+                         std::string* warn, int, int, const unsigned char* bytes, int size,
+                         void* user) {
+  if (image->bufferView >= 0) return true;
+  const uint64_t max_pixels = static_cast<const LoadOptions*>(user)->max_pixels;
+  std::string why;
+  if (size < 0 || !decode_image(*image, bytes, size_t(size), max_pixels, why))
+    if (warn) *warn += format("image %d: %s\n", index, why.c_str());
+  return true;
+}
+
+// Checks the GLB container's header and chunk table against the data (tinygltf 2.7 reads the BIN
+// chunk header without checking it lies inside the file). Returns the container length.
+Status check_glb(std::string_view data, const char* file, uint32_t& length) {
+  auto u32 = [&](size_t o) {
+    uint32_t v;
+    std::memcpy(&v, data.data() + o, 4);
+    return v;
+  };
+  if (data.size() < 20 || std::memcmp(data.data(), "glTF", 4) != 0)
+    return Status::error("%s: not a binary glTF file (bad magic or shorter than 20 bytes)", file);
+  if (u32(4) != 2) return Status::error("%s: unsupported GLB version %u", file, u32(4));
+  length = u32(8);
+  if (length > data.size() || length < 20)
+    return Status::error("%s: GLB length %u does not match the file size %zu", file, length,
+                         data.size());
+  const uint64_t json_end = 20ull + u32(12);
+  if (u32(16) != 0x4E4F534Au || json_end > length)
+    return Status::error("%s: bad GLB JSON chunk", file);
+  if (json_end < length) {
+    if (json_end + 8 > length) return Status::error("%s: truncated GLB chunk header", file);
+    const uint64_t bin_end = json_end + 8 + u32(size_t(json_end));
+    if (bin_end > length)
+      return Status::error("%s: GLB chunk of %u bytes runs past the end of the file", file,
+                           u32(size_t(json_end)));
+  }
+  return Status::ok();
+}
+
+size_t component_size(int ct) {
+  switch (ct) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_INT: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return 8;
+    default: return 0;
+  }
+}
+
+bool is_integer_type(int ct) {
+  return ct != TINYGLTF_COMPONENT_TYPE_FLOAT && ct != TINYGLTF_COMPONENT_TYPE_DOUBLE;
+}
+
+// An integer component of type T at `p` as a double; normalized, unsigned values map to [0, 1]
+// and signed ones to [-1, 1] (the most negative value clamped to -1).
+template <typename T>
+double read_integer(const unsigned char* p, bool normalized) {
+  T v;
+  std::memcpy(&v, p, sizeof(T));
+  if (!normalized) return v;
+  constexpr double kMax = static_cast<double>(std::numeric_limits<T>::max());
+  if constexpr (std::is_signed_v<T>) return std::max(v / kMax, -1.0);
+  else return v / kMax;
+}
+
+// One component at `p` as a double; normalized integers map to [0, 1] or [-1, 1].
+double read_component(const unsigned char* p, int ct, bool normalized) {
+  switch (ct) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: return read_integer<int8_t>(p, normalized);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return read_integer<uint8_t>(p, normalized);
+    case TINYGLTF_COMPONENT_TYPE_SHORT: return read_integer<int16_t>(p, normalized);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return read_integer<uint16_t>(p, normalized);
+    case TINYGLTF_COMPONENT_TYPE_INT: return read_integer<int32_t>(p, normalized);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return read_integer<uint32_t>(p, normalized);
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: { float v; std::memcpy(&v, p, 4); return v; }
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: { double v; std::memcpy(&v, p, 8); return v; }
+    default: return 0.0;
+  }
+}
+
+// What the file-system callbacks of one load know: the folder external files are resolved against,
+// the reference policy, and the references it refused.
+struct FsContext {
+  std::string base_dir;
+  bool allow_outside = false;
+  std::vector<std::string> refused;
+  std::map<std::string, std::string> resolved;  // tinygltf's joined path -> the file it names
+};
+
+// tinygltf's FileExists callback. tinygltf joins the folder and the (URL-decoded) URI and also
+// tries the working folder ("./URI"); only the first is a file of the scene, so the URI is taken
+// back from the joined path and checked against the reference policy, and nothing else exists.
+bool file_exists_callback(const std::string& joined, void* user) {
+  FsContext& ctx = *static_cast<FsContext*>(user);
+  const std::string prefix = ctx.base_dir.back() == '/' ? ctx.base_dir : ctx.base_dir + "/";
+  if (joined.compare(0, prefix.size(), prefix) != 0) return false;
+  std::string resolved;
+  Status s = resolve_reference(ctx.base_dir, joined.substr(prefix.size()), ctx.allow_outside, "external file",
+                               resolved);
+  if (!s) {
+    if (std::find(ctx.refused.begin(), ctx.refused.end(), s.message()) == ctx.refused.end())
+      ctx.refused.push_back(s.message());
+    return false;
+  }
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(resolved, ec)) return false;
+  ctx.resolved[joined] = resolved;
+  return true;
+}
+
+// tinygltf's ReadWholeFile callback: reads the file file_exists_callback resolved the joined path to
+// (an absolute URI is not under the folder; "out/../in/a.bin" reads in/a.bin even before "out"
+// exists). Nothing else is read.
+bool read_file_callback(std::vector<unsigned char>* out, std::string* err, const std::string& joined, void* user) {
+  const FsContext& ctx = *static_cast<const FsContext*>(user);
+  const auto it = ctx.resolved.find(joined);
+  if (it == ctx.resolved.end()) {
+    if (err) *err += "not resolved: " + joined + "\n";
+    return false;
+  }
+  return read_whole_file(out, err, it->second, nullptr);
+}
+
+}  // namespace
+
+std::string trim_message(std::string s, size_t max_chars) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  for (char& c : s)
+    if (c == '\n') c = ';';
+  if (s.size() > max_chars) s = s.substr(0, max_chars) + "...";
+  return s;
+}
+
+bool read_whole_file(std::vector<unsigned char>* out, std::string* err, const std::string& path,
+                     void* /*user*/) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    if (err) *err += "missing or not a regular file: " + path + "\n";
+    return false;
+  }
+  const uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec || size > (uintmax_t(1) << 32)) {
+    if (err) *err += "cannot size or too large: " + path + "\n";
+    return false;
+  }
+  std::ifstream in(path, std::ios::binary);
+  out->resize(static_cast<size_t>(size));
+  in.read(reinterpret_cast<char*>(out->data()), static_cast<std::streamsize>(size));
+  if (!in || static_cast<uintmax_t>(in.gcount()) != size) {
+    if (err) *err += "read error: " + path + "\n";
+    return false;
+  }
+  return true;
+}
+
+Status load_model(std::string_view data, bool binary, const std::string& name,
+                  const std::string& base_dir, const LoadOptions& options, tinygltf::Model& model,
+                  std::vector<std::string>& warnings) {
+  const char* file = name.c_str();
+  if (data.size() >= std::numeric_limits<uint32_t>::max())
+    return Status::error("%s: file too large for glTF", file);
+  uint32_t length = static_cast<uint32_t>(data.size());
+  if (binary) {
+    Status s = check_glb(data, file, length);
+    if (!s) return s;
+    uint32_t json_length;
+    std::memcpy(&json_length, data.data() + 12, 4);
+    if (Status d = json::check_depth(data.substr(20, json_length), name); !d) return d;
+  } else if (Status d = json::check_depth(data, name); !d) {
+    return d;
+  }
+  FsContext context;
+  context.base_dir = base_dir.empty() ? std::string(".") : base_dir;
+  context.allow_outside = options.allow_outside_refs;
+  tinygltf::TinyGLTF loader;
+  tinygltf::FsCallbacks fs{&file_exists_callback, &tinygltf::ExpandFilePath, &read_file_callback,
+                           &tinygltf::WriteWholeFile, &context};
+  loader.SetFsCallbacks(fs);
+  loader.SetStoreOriginalJSONForExtrasAndExtensions(options.keep_extension_json);
+  // tinygltf keeps the pointer only for the duration of the Load call below.
+  loader.SetImageLoader(&load_image_callback, const_cast<LoadOptions*>(&options));
+  std::string err, warn;
+  const bool ok =
+      binary ? loader.LoadBinaryFromMemory(&model, &err, &warn,
+                                           reinterpret_cast<const unsigned char*>(data.data()), length,
+                                           context.base_dir)
+             : loader.LoadASCIIFromString(&model, &err, &warn, data.data(), length, context.base_dir);
+  // A refused reference is an error even where tinygltf only warns (images).
+  if (!context.refused.empty()) return Status::error("%s: %s", file, context.refused.front().c_str());
+  if (!warn.empty()) warnings.push_back(name + ": " + trim_message(warn, options.max_message_chars));
+  if (!ok) {
+    // tinygltf rejects Draco primitives' bufferView-less accessors before we can name the cause.
+    const bool draco = data.find("KHR_draco_mesh_compression") != std::string_view::npos;
+    return Status::error("%s: invalid glTF: %s%s", file,
+                         err.empty() ? "(no details)"
+                                     : trim_message(err, options.max_message_chars).c_str(),
+                         draco ? " (the file uses KHR_draco_mesh_compression, which is not supported)"
+                               : "");
+  }
+  return Status::ok();
+}
+
+bool resolve_image(const tinygltf::Model& model, tinygltf::Image& image, uint64_t max_pixels,
+                   std::string& why) {
+  if (image.image.empty() && image.bufferView >= 0) {
+    const unsigned char* bytes = nullptr;
+    const bool view_ok = size_t(image.bufferView) < model.bufferViews.size();
+    const size_t length = view_ok ? model.bufferViews[size_t(image.bufferView)].byteLength : 0;
+    Status s = view_ok ? view_range(model, image.bufferView, 0, length, bytes)
+                       : Status::error("bufferView %d does not exist", image.bufferView);
+    if (!s) why = s.message();
+    else decode_image(image, bytes, length, max_pixels, why);
+  }
+  const size_t expected = size_t(std::max(image.width, 0)) * size_t(std::max(image.height, 0)) * 4;
+  return !image.image.empty() && image.component == 4 && image.bits == 8 &&
+         image.image.size() == expected && expected != 0;
+}
+
+Status view_range(const tinygltf::Model& model, int view, size_t offset, uint64_t needed,
+                  const unsigned char*& out) {
+  if (view < 0 || size_t(view) >= model.bufferViews.size())
+    return Status::error("bufferView %d does not exist", view);
+  const tinygltf::BufferView& bv = model.bufferViews[size_t(view)];
+  if (bv.buffer < 0 || size_t(bv.buffer) >= model.buffers.size())
+    return Status::error("bufferView %d references missing buffer %d", view, bv.buffer);
+  const std::vector<unsigned char>& data = model.buffers[size_t(bv.buffer)].data;
+  if (bv.byteOffset > data.size() || bv.byteLength > data.size() - bv.byteOffset)
+    return Status::error("bufferView %d (offset %zu, length %zu) exceeds buffer %d of %zu bytes",
+                         view, bv.byteOffset, bv.byteLength, bv.buffer, data.size());
+  if (offset > bv.byteLength || needed > bv.byteLength - offset)
+    return Status::error("%llu bytes at offset %zu exceed bufferView %d of %zu bytes",
+                         static_cast<unsigned long long>(needed), offset, view, bv.byteLength);
+  out = data.data() + bv.byteOffset + offset;
+  return Status::ok();
+}
+
+int components_of(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    default: return 0;  // matrices: no attribute read here uses them
+  }
+}
+
+int find_attribute(const tinygltf::Primitive& prim, const std::string& key) {
+  auto it = prim.attributes.find(key);
+  return it == prim.attributes.end() ? -1 : it->second;
+}
+
+const char* mode_name(int mode) {
+  switch (mode) {
+    case TINYGLTF_MODE_POINTS: return "POINTS";
+    case TINYGLTF_MODE_LINE: return "LINES";
+    case TINYGLTF_MODE_LINE_LOOP: return "LINE_LOOP";
+    case TINYGLTF_MODE_LINE_STRIP: return "LINE_STRIP";
+    case TINYGLTF_MODE_TRIANGLES: return "TRIANGLES";
+    case TINYGLTF_MODE_TRIANGLE_STRIP: return "TRIANGLE_STRIP";
+    case TINYGLTF_MODE_TRIANGLE_FAN: return "TRIANGLE_FAN";
+    default: return "unknown";
+  }
+}
+
+std::vector<int> parentless_nodes(const tinygltf::Model& model) {
+  std::vector<uint8_t> has_parent(model.nodes.size(), 0);
+  for (const tinygltf::Node& n : model.nodes)
+    for (int c : n.children)
+      if (c >= 0 && size_t(c) < has_parent.size()) has_parent[size_t(c)] = 1;
+  std::vector<int> roots;
+  for (size_t i = 0; i < model.nodes.size(); ++i)
+    if (!has_parent[i]) roots.push_back(int(i));
+  return roots;
+}
+
+Status AccessorReader::read(int index, std::initializer_list<int> types, bool normalize_ints,
+                            std::vector<double>& out, int& components) const {
+  if (index < 0 || size_t(index) >= model.accessors.size())
+    return Status::error("accessor %d does not exist", index);
+  const tinygltf::Accessor& a = model.accessors[size_t(index)];
+  components = components_of(a.type);
+  if (components == 0 || std::find(types.begin(), types.end(), a.type) == types.end())
+    return Status::error("accessor %d has unexpected type %d", index, a.type);
+  const size_t csize = component_size(a.componentType);
+  if (csize == 0)
+    return Status::error("accessor %d has unknown component type %d", index, a.componentType);
+  const bool normalized = is_integer_type(a.componentType) && (a.normalized || normalize_ints);
+  const size_t elem = csize * size_t(components);
+  const size_t count = a.count;
+  const size_t nc = size_t(components);
+  // Also guards the range computation below against overflow (stride <= 4096).
+  if (count > max_count) return Status::error("accessor %d: count %zu too large", index, count);
+
+  if (a.bufferView >= 0) {
+    if (size_t(a.bufferView) >= model.bufferViews.size())
+      return Status::error("accessor %d: bufferView %d does not exist", index, a.bufferView);
+    const tinygltf::BufferView& bv = model.bufferViews[size_t(a.bufferView)];
+    const size_t stride = bv.byteStride ? bv.byteStride : elem;
+    if (stride < elem || stride > 4096)
+      return Status::error("accessor %d: byteStride %zu invalid for %zu-byte elements", index,
+                           bv.byteStride, elem);
+    const unsigned char* base = nullptr;
+    if (count > 0) {
+      Status s = view_range(model, a.bufferView, a.byteOffset,
+                            uint64_t(stride) * (count - 1) + elem, base);
+      if (!s) return s.context(format("accessor %d", index));
+    }
+    out.resize(count * nc);
+    for (size_t i = 0; i < count; ++i)
+      for (size_t c = 0; c < nc; ++c)
+        out[i * nc + c] = read_component(base + i * stride + c * csize, a.componentType, normalized);
+  } else {
+    if (!a.sparse.isSparse)
+      return Status::error("accessor %d has neither a bufferView nor sparse data", index);
+    if (count > kMaxSparseOnlyCount)
+      return Status::error("accessor %d: sparse accessor without bufferView has %zu elements "
+                           "(at most %zu supported)", index, count, kMaxSparseOnlyCount);
+    out.assign(count * nc, 0.0);
+  }
+
+  if (a.sparse.isSparse) {
+    const auto& sp = a.sparse;
+    const size_t isize = component_size(sp.indices.componentType);
+    if (sp.count <= 0 || size_t(sp.count) > count || sp.indices.byteOffset < 0 ||
+        sp.values.byteOffset < 0 || isize == 0 || isize == 8 ||
+        !is_integer_type(sp.indices.componentType))
+      return Status::error("accessor %d: invalid sparse description", index);
+    const size_t n = size_t(sp.count);
+    const unsigned char* idx = nullptr;
+    const unsigned char* val = nullptr;
+    Status s = view_range(model, sp.indices.bufferView, size_t(sp.indices.byteOffset),
+                          uint64_t(n) * isize, idx);
+    if (!s) return s.context(format("accessor %d sparse indices", index));
+    s = view_range(model, sp.values.bufferView, size_t(sp.values.byteOffset), uint64_t(n) * elem, val);
+    if (!s) return s.context(format("accessor %d sparse values", index));
+    for (size_t k = 0; k < n; ++k) {
+      const double target = read_component(idx + k * isize, sp.indices.componentType, false);
+      if (!(target >= 0.0) || target >= double(count))
+        return Status::error("accessor %d: sparse index %.0f out of range (count %zu)", index, target,
+                             count);
+      const size_t t = size_t(target);
+      for (size_t c = 0; c < nc; ++c)
+        out[t * nc + c] = read_component(val + k * elem + c * csize, a.componentType, normalized);
+    }
+  }
+  return Status::ok();
+}
+
+Status AccessorReader::read_attribute(int index, const std::string& key,
+                                      std::initializer_list<int> types, bool normalize_ints,
+                                      size_t vertex_count, const std::string& where,
+                                      std::vector<double>& out, int& components) const {
+  Status s = read(index, types, normalize_ints, out, components);
+  if (!s) return s.context(where + ": " + key);
+  const size_t n = out.size() / size_t(components);
+  if (n != vertex_count)
+    return Status::error("%s: %s has %zu elements, POSITION %zu", where.c_str(), key.c_str(), n,
+                         vertex_count);
+  return Status::ok();
+}
+
+Status AccessorReader::read_positions(const tinygltf::Primitive& prim, const std::string& where,
+                                      std::vector<double>& out) const {
+  const int index = find_attribute(prim, "POSITION");
+  if (index < 0) return Status::error("%s: no POSITION attribute", where.c_str());
+  int components = 0;
+  Status s = read(index, {TINYGLTF_TYPE_VEC3}, false, out, components);
+  if (!s) return s.context(where + ": POSITION");
+  return Status::ok();
+}
+
+Status AccessorReader::read_indices(int index, size_t vertex_count, bool reject_normalized,
+                                    const std::string& where, std::vector<uint32_t>& out) const {
+  std::vector<double> raw;
+  int nc = 0;
+  Status s = read(index, {TINYGLTF_TYPE_SCALAR}, false, raw, nc);
+  if (!s) return s.context(where + ": indices");
+  const tinygltf::Accessor& a = model.accessors[size_t(index)];
+  const int ct = a.componentType;
+  if (ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+      ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+    return Status::error("%s: indices must be unsigned integers (component type %d)", where.c_str(),
+                         ct);
+  if (reject_normalized && a.normalized)
+    return Status::error("%s: indices must not be normalized", where.c_str());
+  out.resize(raw.size());
+  for (size_t i = 0; i < raw.size(); ++i) {
+    if (!(raw[i] < double(vertex_count)))
+      return Status::error("%s: index %.0f at position %zu out of range (%zu vertices)",
+                           where.c_str(), raw[i], i, vertex_count);
+    out[i] = static_cast<uint32_t>(raw[i]);
+  }
+  return Status::ok();
+}
+
+}  // namespace lsnif::gltf

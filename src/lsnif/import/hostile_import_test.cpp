@@ -1,0 +1,274 @@
+// hostile_import_test.cpp -- the importer against inputs built to hurt it: JSON nested past the
+// bound (.gltf and the JSON chunk of a .glb, in a mesh and through the sidecar parser), files
+// referenced from outside the mesh's folder (glTF buffers and images, OBJ mtllib; `..`, absolute
+// paths, percent-encoded dots, the working folder fallback), and triangle clean-up judged per
+// triangle (a stray far triangle, a mesh scaled to 1e-30, most of a mesh degenerate, an unused NaN
+// vertex, dirty material names).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "lsnif/testing/fuzz_support.h"
+#include "lsnif/import/json_text.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/format/model_format.h"
+#include "lsnif/import/resolve_path.h"
+
+namespace lsnif {
+namespace {
+
+namespace fs = std::filesystem;
+
+class TempDir {
+ public:
+  TempDir() {
+    path_ = fs::temp_directory_path() / ("lsnif_hostile_import_" + std::to_string(::getpid()) + "_" +
+                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(path_);
+    fs::create_directories(path_ / "scene");
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  // Writes `bytes` to `name` (relative to the folder) and returns its path.
+  std::string write(const std::string& name, const std::string& bytes) const {
+    const fs::path p = path_ / name;
+    fs::create_directories(p.parent_path());
+    std::ofstream(p, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+    return p.string();
+  }
+  std::string path(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  fs::path path_;
+};
+
+bool contains(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
+
+std::string nested(size_t depth) { return std::string(depth, '[') + std::string(depth, ']'); }
+
+// A one-triangle glTF whose positions buffer is at `uri`, and the 36 bytes it needs.
+std::string triangle_gltf(const std::string& uri, const std::string& extras = "null") {
+  return R"({"asset":{"version":"2.0"},"extras":)" + extras +
+         R"(,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+"bufferViews":[{"buffer":0,"byteLength":36}],"buffers":[{"uri":")" +
+         uri + R"(","byteLength":36}]})";
+}
+std::string triangle_bytes() { return fuzz::put_floats({0, 0, 0, 1, 0, 0, 0, 1, 0}); }
+
+TEST(JsonDepth, BoundCountsBracketsOutsideStringsOnly) {
+  EXPECT_TRUE(json::check_depth(nested(json::kMaxDepth), "x"));
+  Status s = json::check_depth(nested(json::kMaxDepth + 1), "x.gltf");
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "x.gltf: JSON nested deeper than 128 levels (at byte 128)")) << s.message();
+  // Brackets inside strings, also after escaped quotes, are text.
+  const std::string in_string = "{\"a\":\"" + std::string(5000, '[') + "\\\"" + std::string(5000, '{') + "\"}";
+  EXPECT_TRUE(json::check_depth(in_string, "x"));
+  EXPECT_TRUE(json::check_depth("[]]]]]]" + nested(100), "x"));  // stray closers do not go negative
+  nlohmann::json j;
+  EXPECT_FALSE(json::parse(nested(20000), "deep.json", j));
+  s = json::parse("{\"a\": [1, 2", "broken.json", j);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "broken.json: not valid JSON")) << s.message();
+  ASSERT_TRUE(json::parse("{\"a\": [1, 2]}", "ok.json", j));
+  EXPECT_EQ(j["a"][1], 2);
+}
+
+// The crash of the issue: 20,000 levels in "extras" of a .gltf and of a .glb's JSON chunk.
+TEST(JsonDepth, DeepGltfAndGlbAreRefusedBeforeParsing) {
+  TempDir dir;
+  dir.write("scene/tri.bin", triangle_bytes());
+  for (size_t depth : {size_t(200), size_t(20000), size_t(100000)}) {
+    const std::string text = triangle_gltf("tri.bin", nested(depth));
+    for (const bool binary : {false, true}) {
+      const std::string path = dir.write(binary ? "scene/deep.glb" : "scene/deep.gltf",
+                                         binary ? fuzz::glb(text, "") : text);
+      Mesh mesh;
+      Status s = load_mesh(path, mesh);
+      ASSERT_FALSE(s) << depth;
+      EXPECT_TRUE(contains(s.message(), "JSON nested deeper than 128 levels")) << s.message();
+    }
+  }
+  // Just under the bound loads (extras are ignored by the importer).
+  Mesh mesh;
+  Status s = load_mesh(dir.write("scene/ok.gltf", triangle_gltf("tri.bin", nested(json::kMaxDepth - 2))), mesh);
+  ASSERT_TRUE(s) << s.message();
+  EXPECT_EQ(mesh.triangles.size(), 1u);
+}
+
+TEST(ReferencePolicy, ResolvesInsideRefusesEscapesUnlessAllowed) {
+  std::string out;
+  ASSERT_TRUE(resolve_reference("scenes/a", "tex/x.png", false, "image", out));
+  EXPECT_EQ(out, "scenes/a/tex/x.png");
+  ASSERT_TRUE(resolve_reference("scenes/a", "tex/../y.png", false, "image", out));
+  EXPECT_EQ(out, "scenes/a/y.png");
+  ASSERT_TRUE(resolve_reference("", "m.lsnif", false, "model", out));
+  EXPECT_EQ(out, "m.lsnif");
+  for (const char* bad : {"../x.bin", "a/../../x.bin", "../../../../etc/passwd", "/etc/passwd", "./../x"}) {
+    Status s = resolve_reference("scenes/a", bad, false, "buffer URI", out);
+    ASSERT_FALSE(s) << bad;
+    EXPECT_TRUE(contains(s.message(), std::string("buffer URI '") + bad + "' refers to a file outside the folder "
+                                                                          "'scenes/a'")) << s.message();
+    EXPECT_TRUE(contains(s.message(), "--allow-outside-refs")) << s.message();
+    EXPECT_TRUE(resolve_reference("scenes/a", bad, true, "buffer URI", out)) << bad;
+  }
+  ASSERT_TRUE(resolve_reference("scenes/a", "../x.bin", true, "uri", out));
+  EXPECT_EQ(out, "scenes/x.bin");
+  EXPECT_FALSE(resolve_reference("scenes/a", "", true, "uri", out));
+  EXPECT_FALSE(resolve_reference("scenes/a", std::string("a\0b", 3), true, "uri", out));
+}
+
+TEST(ReferencePolicy, GltfBuffersAndImagesStayInTheFolder) {
+  TempDir dir;
+  dir.write("outside.bin", triangle_bytes());
+  dir.write("scene/inside.bin", triangle_bytes());
+  for (const std::string& uri : {std::string("../outside.bin"), std::string("%2E%2E/outside.bin"),
+                                dir.path("outside.bin")}) {
+    const std::string path = dir.write("scene/m.gltf", triangle_gltf(uri));
+    Mesh mesh;
+    Status s = load_mesh(path, mesh);
+    ASSERT_FALSE(s) << uri;
+    EXPECT_TRUE(contains(s.message(), "outside the folder")) << s.message();
+    MeshImportOptions allow;
+    allow.allow_outside_refs = true;
+    s = load_mesh(path, mesh, nullptr, allow);
+    ASSERT_TRUE(s) << uri << ": " << s.message();
+    EXPECT_EQ(mesh.triangles.size(), 1u);
+  }
+  // An image outside is an error too (tinygltf alone would only warn and drop it).
+  std::string text = triangle_gltf("inside.bin");
+  text.insert(text.size() - 1, R"(,"images":[{"uri":"../tex.png"}])");
+  dir.write("tex.png", fuzz::png_bytes());
+  Mesh mesh;
+  Status s = load_mesh(dir.write("scene/img.gltf", text), mesh);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "'../tex.png' refers to a file outside")) << s.message();
+  // tinygltf would also look for a missing file in the working folder: never.
+  const fs::path cwd = fs::current_path();
+  fs::current_path(dir.path(""));
+  dir.write("cwd_only.bin", triangle_bytes());
+  s = load_mesh(dir.write("scene/cwd.gltf", triangle_gltf("cwd_only.bin")), mesh);
+  fs::current_path(cwd);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "cwd_only.bin")) << s.message();
+}
+
+TEST(ReferencePolicy, ObjMtllibStaysInTheFolder) {
+  TempDir dir;
+  dir.write("outside.mtl", "newmtl red\nKd 1 0 0\n");
+  dir.write("scene/inside.mtl", "newmtl red\nKd 0 1 0\n");
+  const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
+  Mesh mesh;
+  ASSERT_TRUE(load_mesh(dir.write("scene/in.obj", "mtllib inside.mtl\n" + obj), mesh));
+  EXPECT_EQ(mesh.materials[0].base_color, glm::vec3(0, 1, 0));
+  for (const std::string& lib : {std::string("../outside.mtl"), dir.path("outside.mtl"), std::string("/etc/passwd")}) {
+    Status s = load_mesh(dir.write("scene/out.obj", "mtllib " + lib + "\n" + obj), mesh);
+    ASSERT_FALSE(s) << lib;
+    EXPECT_TRUE(contains(s.message(), "mtllib '" + lib + "' refers to a file outside the folder")) << s.message();
+  }
+  MeshImportOptions allow;
+  allow.allow_outside_refs = true;
+  ASSERT_TRUE(load_mesh(dir.write("scene/out.obj", "mtllib ../outside.mtl\n" + obj), mesh, nullptr, allow));
+  EXPECT_EQ(mesh.materials[0].base_color, glm::vec3(1, 0, 0));
+}
+
+// An OFF grid of n x n quads (2 n^2 triangles) in [0, 1]^2 scaled by `scale`, plus `extra` text
+// appended to the vertex and face lists.
+std::string off_grid(int n, double scale, const std::string& extra_vertices = "", int extra_vertex_count = 0,
+                     const std::string& extra_faces = "", int extra_face_count = 0) {
+  std::string v, f;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) v += format("%.17g %.17g 0\n", scale * x / n, scale * y / n);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const int a = y * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
+      f += format("3 %d %d %d\n3 %d %d %d\n", a, b, d, a, d, c);
+    }
+  const int nv = (n + 1) * (n + 1) + extra_vertex_count, nf = 2 * n * n + extra_face_count;
+  return format("OFF\n%d %d 0\n", nv, nf) + v + extra_vertices + f + extra_faces;
+}
+
+TEST(MeshCleanup, DegeneracyIsJudgedPerTriangle) {
+  TempDir dir;
+  // 800 small triangles and one stray triangle 10,000 units away: every one is kept (the old
+  // bounding-box-relative threshold dropped almost all of them).
+  const int n = 20, base = (n + 1) * (n + 1);
+  const std::string stray = off_grid(n, 0.01, "10000 0 0\n10001 0 0\n10000 1 0\n", 3,
+                                     format("3 %d %d %d\n", base, base + 1, base + 2), 1);
+  Mesh mesh;
+  MeshImportReport report;
+  ASSERT_TRUE(load_mesh(dir.write("stray.off", stray), mesh, &report));
+  EXPECT_EQ(mesh.triangles.size(), size_t(2 * n * n + 1));
+  EXPECT_EQ(report.dropped_degenerate, 0u);
+
+  // Scaled by 1e-30 the triangles are too small for float ray math: an error, not an empty model.
+  Status s = load_mesh(dir.write("tiny.off", off_grid(n, 1e-30)), mesh);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "no valid triangles (800 degenerate, 0 invalid)")) << s.message();
+  // Scaled by 1e-6 (small but fine) it loads whole.
+  ASSERT_TRUE(load_mesh(dir.write("small.off", off_grid(n, 1e-6)), mesh));
+  EXPECT_EQ(mesh.triangles.size(), size_t(2 * n * n));
+
+  // Collinear corners are degenerate whatever the size.
+  s = load_mesh(dir.write("line.off", "OFF\n3 1 0\n0 0 0\n1e6 0 0\n2e6 1e-6 0\n3 0 1 2\n"), mesh);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "1 degenerate")) << s.message();
+}
+
+TEST(MeshCleanup, DroppingMostOfAMeshIsAnErrorUnlessAllowed) {
+  TempDir dir;
+  // 8 good triangles and 9 with a NaN corner: more than half would go.
+  const int n = 2, base = (n + 1) * (n + 1);
+  std::string faces;
+  for (int i = 0; i < 9; ++i) faces += format("3 0 1 %d\n", base);
+  const std::string path = dir.write("half.off", off_grid(n, 1.0, "nan 0 0\n", 1, faces, 9));
+  Mesh mesh;
+  Status s = load_mesh(path, mesh);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "9 of its 17 triangles would be dropped (0 degenerate, 9 invalid)"))
+      << s.message();
+  MeshImportOptions allow;
+  allow.allow_dropping_most = true;
+  MeshImportReport report;
+  ASSERT_TRUE(load_mesh(path, mesh, &report, allow));
+  EXPECT_EQ(mesh.triangles.size(), 8u);
+  EXPECT_EQ(report.dropped_invalid, 9u);
+  // Exactly half dropped is still accepted.
+  faces.clear();
+  for (int i = 0; i < 8; ++i) faces += format("3 0 1 %d\n", base);
+  ASSERT_TRUE(load_mesh(dir.write("exactly_half.off", off_grid(n, 1.0, "nan 0 0\n", 1, faces, 8)), mesh));
+}
+
+TEST(MeshCleanup, UnusedBrokenVerticesAndDirtyNamesAreCleaned) {
+  TempDir dir;
+  // An unreferenced NaN vertex and a vertex beyond the float ray-math range: both removed; the
+  // triangle using the far one is invalid.
+  const std::string off = off_grid(2, 1.0, "nan nan nan\n1e30 0 0\n", 2, "3 0 1 10\n", 1);
+  Mesh mesh;
+  MeshImportReport report;
+  ASSERT_TRUE(load_mesh(dir.write("nan.off", off), mesh, &report));
+  EXPECT_EQ(mesh.positions.size(), 9u);
+  EXPECT_EQ(mesh.normals.size(), 9u);
+  EXPECT_EQ(report.dropped_invalid, 1u);
+  for (const glm::vec3& p : mesh.positions) EXPECT_TRUE(std::isfinite(p.x + p.y + p.z) && std::abs(p.x) <= 1.0f);
+  for (const glm::uvec3& t : mesh.triangles) EXPECT_TRUE(t.x < 9 && t.y < 9 && t.z < 9);
+
+  // Material names become clean UTF-8 of at most 63 bytes, which the model file can store.
+  const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl bad\x01\xff" "name\nf 1 2 3\nusemtl " +
+                          std::string(100, 'm') + "\nf 1 3 2\n";
+  ASSERT_TRUE(load_mesh(dir.write("names.obj", obj), mesh, &report));
+  ASSERT_EQ(mesh.materials.size(), 2u);
+  EXPECT_EQ(mesh.materials[0].name, "bad??name");
+  EXPECT_EQ(mesh.materials[1].name, std::string(kModelMaterialNameBytes - 1, 'm'));
+  EXPECT_TRUE(is_clean_utf8(mesh.materials[0].name));
+}
+
+}  // namespace
+}  // namespace lsnif

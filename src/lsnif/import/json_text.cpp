@@ -1,0 +1,37 @@
+// json_text.cpp -- see json_text.h.
+#include "lsnif/import/json_text.h"
+
+namespace lsnif::json {
+
+Status check_depth(std::string_view text, const std::string& name, size_t max_depth) {
+  size_t depth = 0;
+  bool in_string = false, escaped = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+      continue;
+    }
+    if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > max_depth)
+        return Status::error("%s: JSON nested deeper than %zu levels (at byte %zu); refusing to parse it", name.c_str(),
+                             max_depth, i);
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return Status::ok();
+}
+
+Status parse(std::string_view text, const std::string& name, nlohmann::json& out) {
+  if (Status s = check_depth(text, name); !s) return s;
+  out = nlohmann::json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
+  if (out.is_discarded()) return Status::error("%s: not valid JSON", name.c_str());
+  return Status::ok();
+}
+
+}  // namespace lsnif::json

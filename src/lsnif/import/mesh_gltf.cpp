@@ -1,0 +1,375 @@
+// mesh_gltf.cpp -- glTF 2.0 (.gltf / .glb) reader on top of tinygltf. The default scene's node
+// hierarchy is flattened into one object-space triangle soup: node transforms (matrix or TRS) are
+// applied to positions, their inverse transpose to normals, and the winding flips under mirroring
+// transforms. TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives are kept (others are skipped
+// with a warning). Loading and every checked read of the file's data go through gltf_access.h
+// (library lsnif_gltf), shared with the renderer's scene loader.
+#include <algorithm>
+
+#include <glm/gtc/matrix_inverse.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include "lsnif/import/gltf_access.h"
+#include "lsnif/import/mesh_formats.h"
+#include "lsnif/import/mesh_gltf.h"
+
+namespace lsnif::mesh_io {
+namespace {
+
+constexpr uint64_t kMaxPixels = uint64_t(1) << 27;      // per texture
+constexpr size_t kMaxAccessorCount = size_t(1) << 40;  // elements per accessor
+constexpr int kMaxNodeDepth = 256;
+constexpr size_t kMaxNodeVisits = size_t(1) << 20;
+
+class GltfFlattener {
+ public:
+  GltfFlattener(const tinygltf::Model& model, const std::string& name, Mesh& mesh,
+                MeshImportReport& report)
+      : model_(model), name_(name), mesh_(mesh), report_(report),
+        material_map_(model.materials.size(), -1), texture_map_(model.images.size(), -2),
+        warned_mesh_(model.meshes.size(), 0) {}
+
+  // Flattens the given parts only (flatten_gltf_meshes).
+  Status run_parts(const std::vector<GltfMeshPart>& parts) {
+    for (const GltfMeshPart& part : parts) {
+      if (part.mesh < 0 || size_t(part.mesh) >= model_.meshes.size())
+        return Status::error("%s: mesh %d does not exist", file(), part.mesh);
+      Status s = add_mesh(part.mesh, part.transform);
+      if (!s) return s;
+    }
+    if (skipped_primitives_)
+      report_.warnings.push_back(format("%s: skipped %u non-triangle primitives (points/lines)",
+                                        file(), skipped_primitives_));
+    if (mesh_.triangles.empty()) return Status::error("%s: no triangle primitives", file());
+    return Status::ok();
+  }
+
+  // glTF material index of every mesh material so far (-1: the default material).
+  std::vector<int> material_sources() const {
+    std::vector<int> out(mesh_.materials.size(), -1);
+    for (size_t g = 0; g < material_map_.size(); ++g)
+      if (material_map_[g] >= 0) out[size_t(material_map_[g])] = int(g);
+    return out;
+  }
+
+  Status run() {
+    std::vector<int> roots;
+    if (!model_.scenes.empty()) {
+      int s = model_.defaultScene >= 0 && size_t(model_.defaultScene) < model_.scenes.size()
+                  ? model_.defaultScene : 0;
+      roots = model_.scenes[size_t(s)].nodes;
+    } else if (!model_.nodes.empty()) {
+      roots = gltf::parentless_nodes(model_);
+      if (roots.empty())
+        return Status::error("%s: no scene and no root node (every node has a parent)", file());
+    } else {
+      report_.warnings.push_back(format("%s: no scene and no nodes; importing every mesh untransformed",
+                                        file()));
+      for (size_t m = 0; m < model_.meshes.size(); ++m) {
+        Status s = add_mesh(int(m), glm::dmat4(1.0));
+        if (!s) return s;
+      }
+    }
+    on_path_.assign(model_.nodes.size(), 0);
+    for (int r : roots) {
+      Status s = visit(r, glm::dmat4(1.0), 0);
+      if (!s) return s;
+    }
+    if (skipped_primitives_)
+      report_.warnings.push_back(format("%s: skipped %u non-triangle primitives (points/lines)",
+                                        file(), skipped_primitives_));
+    if (mesh_.triangles.empty())
+      return Status::error("%s: the scene contains no triangle primitives%s", file(),
+                           skipped_primitives_ ? " (only points/lines)" : "");
+    return Status::ok();
+  }
+
+ private:
+  const char* file() const { return name_.c_str(); }
+
+  Status visit(int index, const glm::dmat4& parent, int depth) {
+    if (index < 0 || size_t(index) >= model_.nodes.size())
+      return Status::error("%s: node %d does not exist", file(), index);
+    if (on_path_[size_t(index)])
+      return Status::error("%s: node %d is its own ancestor (cyclic node hierarchy)", file(), index);
+    if (depth > kMaxNodeDepth || ++visits_ > kMaxNodeVisits)
+      return Status::error("%s: node hierarchy too deep or too many node instances", file());
+    const tinygltf::Node& node = model_.nodes[size_t(index)];
+    const glm::dmat4 world = parent * gltf_node_transform(node);
+    if (node.mesh >= 0) {
+      if (size_t(node.mesh) >= model_.meshes.size())
+        return Status::error("%s: node %d references missing mesh %d", file(), index, node.mesh);
+      Status s = add_mesh(node.mesh, world);
+      if (!s) return s;
+    }
+    on_path_[size_t(index)] = 1;
+    for (int c : node.children) {
+      Status s = visit(c, world, depth + 1);
+      if (!s) return s;
+    }
+    on_path_[size_t(index)] = 0;
+    return Status::ok();
+  }
+
+  Status add_mesh(int mesh_index, const glm::dmat4& world) {
+    const tinygltf::Mesh& m = model_.meshes[size_t(mesh_index)];
+    for (size_t p = 0; p < m.primitives.size(); ++p) {
+      const std::string where = format("%s: mesh %d ('%s') primitive %zu", file(), mesh_index,
+                                       excerpt(m.name).c_str(), p);
+      Status s = add_primitive(m.primitives[p], world, where, mesh_index);
+      if (!s) return s;
+    }
+    warned_mesh_[size_t(mesh_index)] = 1;
+    return Status::ok();
+  }
+
+  Status add_primitive(const tinygltf::Primitive& prim, const glm::dmat4& world,
+                       const std::string& where, int mesh_index) {
+    const bool first_time = !warned_mesh_[size_t(mesh_index)];
+    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+        mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+      if (first_time) {
+        ++skipped_primitives_;
+        report_.warnings.push_back(format("%s: mode %d (%s) is not triangles; skipped", where.c_str(),
+                                          mode, gltf::mode_name(mode)));
+      }
+      return Status::ok();
+    }
+    if (prim.extensions.count("KHR_draco_mesh_compression"))
+      return Status::error("%s: Draco-compressed primitives are not supported", where.c_str());
+
+    // Attributes.
+    std::vector<double> pos, nrm, uv, col;
+    int nc = 0;
+    const gltf::AccessorReader reader{model_, kMaxAccessorCount};
+    Status s = reader.read_positions(prim, where, pos);
+    if (!s) return s;
+    const size_t n = pos.size() / 3;
+    if (mesh_.positions.size() + n >= kInvalidIndex)
+      return Status::error("%s: too many vertices in the flattened scene", where.c_str());
+
+    if (int acc = gltf::find_attribute(prim, "NORMAL"); acc >= 0) {
+      s = reader.read_attribute(acc, "NORMAL", {TINYGLTF_TYPE_VEC3}, false, n, where, nrm, nc);
+      if (!s) return s;
+    }
+    const int material = material_index(prim.material, where);
+    const int texcoord = texcoord_set(prim.material);
+    const std::string uv_key = "TEXCOORD_" + std::to_string(texcoord);
+    if (int acc = gltf::find_attribute(prim, uv_key); acc >= 0) {
+      s = reader.read_attribute(acc, uv_key, {TINYGLTF_TYPE_VEC2}, false, n, where, uv, nc);
+      if (!s) return s;
+    } else if (first_time && mesh_.materials[size_t(material)].texture >= 0) {
+      report_.warnings.push_back(format("%s: textured material but no %s; texture unused there",
+                                        where.c_str(), uv_key.c_str()));
+    }
+    int color_components = 0;
+    if (int acc = gltf::find_attribute(prim, "COLOR_0"); acc >= 0) {
+      s = reader.read_attribute(acc, "COLOR_0", {TINYGLTF_TYPE_VEC3, TINYGLTF_TYPE_VEC4}, true, n,
+                                where, col, color_components);
+      if (!s) return s;
+    }
+
+    // Indices, expanded to triangles by mode.
+    std::vector<uint32_t> idx;
+    if (prim.indices >= 0) {
+      s = reader.read_indices(prim.indices, n, false, where, idx);
+      if (!s) return s;
+    } else {
+      idx.resize(n);
+      for (size_t i = 0; i < n; ++i) idx[i] = static_cast<uint32_t>(i);
+    }
+    std::vector<glm::uvec3> tris;
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+      if (idx.size() % 3 != 0 && first_time)
+        report_.warnings.push_back(format("%s: %zu indices is not a multiple of 3; ignored the last %zu",
+                                          where.c_str(), idx.size(), idx.size() % 3));
+      for (size_t i = 0; i + 2 < idx.size(); i += 3) tris.emplace_back(idx[i], idx[i + 1], idx[i + 2]);
+    } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+      for (size_t i = 0; i + 2 < idx.size(); ++i)
+        tris.push_back(i % 2 == 0 ? glm::uvec3(idx[i], idx[i + 1], idx[i + 2])
+                                  : glm::uvec3(idx[i], idx[i + 2], idx[i + 1]));
+    } else {
+      for (size_t i = 0; i + 2 < idx.size(); ++i) tris.emplace_back(idx[i + 1], idx[i + 2], idx[0]);
+    }
+
+    // Append in object space.
+    const uint32_t base = static_cast<uint32_t>(mesh_.positions.size());
+    const glm::dmat3 normal_matrix = glm::inverseTranspose(glm::dmat3(world));
+    const bool mirror = glm::determinant(glm::dmat3(world)) < 0.0;
+    if (!uv.empty() && mesh_.uvs.empty()) mesh_.uvs.resize(base, glm::vec2(0.0f));
+    if (!col.empty() && mesh_.colors.empty()) mesh_.colors.resize(base, glm::vec3(1.0f));
+    if (!nrm.empty() && mesh_.normals.empty())
+      mesh_.normals.resize(base, glm::vec3(std::numeric_limits<float>::quiet_NaN()));
+    for (size_t i = 0; i < n; ++i) {
+      glm::dvec4 p = world * glm::dvec4(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], 1.0);
+      mesh_.positions.emplace_back(to_float(p.x), to_float(p.y), to_float(p.z));
+      if (!nrm.empty()) {
+        glm::dvec3 q = normal_matrix * glm::dvec3(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]);
+        double len = glm::length(q);
+        q = len > 0.0 ? q / len : q;  // zero stays zero: finalize_mesh recomputes it
+        mesh_.normals.emplace_back(to_float(q.x), to_float(q.y), to_float(q.z));
+      } else if (!mesh_.normals.empty()) {
+        mesh_.normals.emplace_back(std::numeric_limits<float>::quiet_NaN());
+      }
+      if (!uv.empty())
+        mesh_.uvs.emplace_back(to_float(uv[2 * i]), to_float(uv[2 * i + 1]));
+      else if (!mesh_.uvs.empty())
+        mesh_.uvs.emplace_back(0.0f);
+      if (!col.empty()) {
+        const size_t o = i * size_t(color_components);
+        mesh_.colors.emplace_back(to_float(col[o]), to_float(col[o + 1]), to_float(col[o + 2]));
+      } else if (!mesh_.colors.empty()) {
+        mesh_.colors.emplace_back(1.0f);
+      }
+    }
+    for (glm::uvec3 t : tris) {
+      if (mirror) std::swap(t.y, t.z);
+      mesh_.triangles.push_back(t + glm::uvec3(base));
+      mesh_.triangle_material.push_back(static_cast<uint32_t>(material));
+    }
+    return Status::ok();
+  }
+
+  // TEXCOORD set the material's base color texture uses (0 without one).
+  int texcoord_set(int gltf_material) const {
+    if (gltf_material < 0 || size_t(gltf_material) >= model_.materials.size()) return 0;
+    const auto& info = model_.materials[size_t(gltf_material)].pbrMetallicRoughness.baseColorTexture;
+    return info.index >= 0 && info.texCoord >= 0 && info.texCoord < 8 ? info.texCoord : 0;
+  }
+
+  // Mesh material index for a glTF material index (-1: the default material), created on first use.
+  int material_index(int gltf_material, const std::string& where) {
+    if (gltf_material < 0 || size_t(gltf_material) >= model_.materials.size()) {
+      if (gltf_material >= 0)
+        report_.warnings.push_back(format("%s: material %d does not exist; using the default",
+                                          where.c_str(), gltf_material));
+      if (default_material_ < 0) {
+        default_material_ = int(mesh_.materials.size());
+        mesh_.materials.push_back(Material{"default", glm::vec3(1.0f), -1});
+      }
+      return default_material_;
+    }
+    int& mapped = material_map_[size_t(gltf_material)];
+    if (mapped >= 0) return mapped;
+    const tinygltf::Material& gm = model_.materials[size_t(gltf_material)];
+    Material mat;
+    mat.name = gm.name.empty() ? format("material_%d", gltf_material) : gm.name;
+    const std::vector<double>& f = gm.pbrMetallicRoughness.baseColorFactor;
+    if (f.size() >= 3) mat.base_color = glm::vec3(to_float(f[0]), to_float(f[1]), to_float(f[2]));
+    const tinygltf::TextureInfo& info = gm.pbrMetallicRoughness.baseColorTexture;
+    if (info.index >= 0) {
+      mat.texture = texture_index(info.index, mat.name);
+      if (info.extensions.count("KHR_texture_transform"))
+        report_.warnings.push_back(format("%s: material '%s': KHR_texture_transform ignored", file(),
+                                          excerpt(mat.name).c_str()));
+    }
+    mapped = int(mesh_.materials.size());
+    mesh_.materials.push_back(std::move(mat));
+    return mapped;
+  }
+
+  // Mesh texture index for glTF texture `tex`, or -1 (with a warning) when it cannot be decoded.
+  int texture_index(int tex, const std::string& material) {
+    if (tex < 0 || size_t(tex) >= model_.textures.size()) {
+      report_.warnings.push_back(format("%s: material '%s' references missing texture %d", file(),
+                                        excerpt(material).c_str(), tex));
+      return -1;
+    }
+    const int source = model_.textures[size_t(tex)].source;
+    if (source < 0 || size_t(source) >= model_.images.size()) {
+      report_.warnings.push_back(format("%s: texture %d has no usable image source", file(), tex));
+      return -1;
+    }
+    int& mapped = texture_map_[size_t(source)];
+    if (mapped != -2) return mapped;
+    mapped = -1;
+    tinygltf::Image image = model_.images[size_t(source)];
+    std::string why = "image data missing";
+    if (!gltf::resolve_image(model_, image, kMaxPixels, why)) {
+      report_.warnings.push_back(format("%s: image %d could not be used (%s); material '%s' untextured",
+                                        file(), source, why.c_str(), excerpt(material).c_str()));
+      return -1;
+    }
+    Texture t;
+    t.width = static_cast<uint32_t>(image.width);
+    t.height = static_cast<uint32_t>(image.height);
+    t.rgba = std::move(image.image);
+    mapped = int(mesh_.textures.size());
+    mesh_.textures.push_back(std::move(t));
+    return mapped;
+  }
+
+  const tinygltf::Model& model_;
+  const std::string& name_;
+  Mesh& mesh_;
+  MeshImportReport& report_;
+  std::vector<int> material_map_;  // glTF material -> mesh material (-1: not yet)
+  std::vector<int> texture_map_;   // glTF image -> mesh texture (-2: not yet, -1: unusable)
+  std::vector<uint8_t> warned_mesh_;
+  std::vector<uint8_t> on_path_;
+  int default_material_ = -1;
+  size_t visits_ = 0;
+  uint32_t skipped_primitives_ = 0;
+};
+
+}  // namespace
+}  // namespace lsnif::mesh_io
+
+namespace lsnif {
+
+glm::dmat4 gltf_node_transform(const tinygltf::Node& node) {
+  if (node.matrix.size() == 16) return glm::make_mat4(node.matrix.data());  // column-major
+  glm::dmat4 m(1.0);
+  if (node.translation.size() == 3)
+    m = glm::translate(m, glm::dvec3(node.translation[0], node.translation[1], node.translation[2]));
+  if (node.rotation.size() == 4)  // glTF stores (x, y, z, w)
+    m *= glm::mat4_cast(glm::dquat(node.rotation[3], node.rotation[0], node.rotation[1],
+                                   node.rotation[2]));
+  if (node.scale.size() == 3)
+    m = glm::scale(m, glm::dvec3(node.scale[0], node.scale[1], node.scale[2]));
+  return m;
+}
+
+Status flatten_gltf_meshes(const tinygltf::Model& model, const std::vector<GltfMeshPart>& parts,
+                           const std::string& name, Mesh& mesh, std::vector<int>& material_sources,
+                           MeshImportReport* report, bool allow_dropping_most) {
+  MeshImportReport local;
+  MeshImportReport& rep = report ? *report : local;
+  mesh = Mesh();
+  material_sources.clear();
+  mesh_io::GltfFlattener flattener(model, name, mesh, rep);
+  if (Status s = flattener.run_parts(parts); !s) {
+    mesh = Mesh();
+    return s;
+  }
+  material_sources = flattener.material_sources();
+  // finalize_mesh only appends a default material when there is none (never here: every
+  // primitive got one), so the sources stay aligned with mesh.materials.
+  Status s = finalize_mesh(mesh, &rep, name, allow_dropping_most);
+  material_sources.resize(mesh.materials.size(), -1);
+  return s;
+}
+
+}  // namespace lsnif
+
+namespace lsnif::mesh_io {
+
+Status parse_gltf(std::string_view data, bool binary, const std::string& name,
+                  const std::string& base_dir, const MeshImportOptions& import_options, Mesh& mesh,
+                  MeshImportReport& report) {
+  const char* file = name.c_str();
+  gltf::LoadOptions options;
+  options.max_pixels = kMaxPixels;
+  options.allow_outside_refs = import_options.allow_outside_refs;
+  tinygltf::Model model;
+  Status s = gltf::load_model(data, binary, name, base_dir, options, model, report.warnings);
+  if (!s) return s;
+  for (const std::string& ext : model.extensionsRequired)
+    if (ext == "KHR_draco_mesh_compression")
+      return Status::error("%s: requires KHR_draco_mesh_compression, which is not supported", file);
+  return GltfFlattener(model, name, mesh, report).run();
+}
+
+}  // namespace lsnif::mesh_io

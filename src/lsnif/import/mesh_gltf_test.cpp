@@ -1,0 +1,129 @@
+// flatten_gltf_meshes (mesh_gltf.h): chosen meshes of a parsed glTF model under chosen transforms
+// become one training mesh; materials in first-use order with their glTF sources; a mirroring
+// transform keeps the triangles facing outwards; bad parts are errors naming the mesh.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "lsnif/import/mesh_gltf.h"
+
+namespace lsnif {
+namespace {
+
+// Appends `values` to buffer 0 as a new bufferView + accessor; returns the accessor index.
+template <class T>
+int append(tinygltf::Model& g, const std::vector<T>& values, int component, int type, size_t count) {
+  if (g.buffers.empty()) g.buffers.resize(1);
+  std::vector<unsigned char>& data = g.buffers[0].data;
+  tinygltf::BufferView view;
+  view.buffer = 0;
+  view.byteOffset = data.size();
+  view.byteLength = values.size() * sizeof(T);
+  data.resize(data.size() + view.byteLength);
+  std::memcpy(data.data() + view.byteOffset, values.data(), view.byteLength);
+  g.bufferViews.push_back(view);
+  tinygltf::Accessor a;
+  a.bufferView = int(g.bufferViews.size() - 1);
+  a.componentType = component;
+  a.type = type;
+  a.count = count;
+  g.accessors.push_back(a);
+  return int(g.accessors.size() - 1);
+}
+
+// One triangle (0,0,0) (1,0,0) (0,1,0) per primitive, with the given materials.
+int add_triangle_mesh(tinygltf::Model& g, const std::vector<int>& materials) {
+  const int pos = append(g, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}, TINYGLTF_COMPONENT_TYPE_FLOAT,
+                         TINYGLTF_TYPE_VEC3, 3);
+  const int idx = append(g, std::vector<uint32_t>{0, 1, 2}, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
+                         TINYGLTF_TYPE_SCALAR, 3);
+  tinygltf::Mesh m;
+  for (int mat : materials) {
+    tinygltf::Primitive p;
+    p.attributes["POSITION"] = pos;
+    p.indices = idx;
+    p.material = mat;
+    p.mode = TINYGLTF_MODE_TRIANGLES;
+    m.primitives.push_back(p);
+  }
+  g.meshes.push_back(m);
+  return int(g.meshes.size() - 1);
+}
+
+tinygltf::Model three_materials() {
+  tinygltf::Model g;
+  for (const char* name : {"a", "b", "c"}) {
+    tinygltf::Material m;
+    m.name = name;
+    g.materials.push_back(m);
+  }
+  return g;
+}
+
+TEST(FlattenGltfMeshes, PartsUnderTransformsWithMaterialSources) {
+  tinygltf::Model g = three_materials();
+  const int m0 = add_triangle_mesh(g, {2, -1});
+  const int m1 = add_triangle_mesh(g, {0, 2});
+  const glm::dmat4 move = glm::translate(glm::dmat4(1.0), glm::dvec3(5, 0, 0));
+  Mesh mesh;
+  std::vector<int> sources;
+  ASSERT_TRUE(flatten_gltf_meshes(g, {{m0, glm::dmat4(1.0)}, {m1, move}}, "test", mesh, sources));
+  ASSERT_EQ(mesh.triangles.size(), 4u);
+  // First use: glTF 2 (mesh 0 primitive 0), the default (primitive 1), then glTF 0.
+  EXPECT_EQ(sources, (std::vector<int>{2, -1, 0}));
+  EXPECT_EQ(mesh.materials[0].name, "c");
+  EXPECT_EQ(mesh.triangle_material, (std::vector<uint32_t>{0, 1, 2, 0}));
+  // The second part's vertices are moved by (5, 0, 0).
+  const glm::uvec3 t = mesh.triangles[2];
+  EXPECT_EQ(mesh.positions[t.x], glm::vec3(5, 0, 0));
+  EXPECT_EQ(mesh.positions[t.y], glm::vec3(6, 0, 0));
+  EXPECT_EQ(mesh.positions[t.z], glm::vec3(5, 1, 0));
+}
+
+TEST(FlattenGltfMeshes, MirroringKeepsTheFacing) {
+  tinygltf::Model g = three_materials();
+  const int m = add_triangle_mesh(g, {0});
+  Mesh mesh;
+  std::vector<int> sources;
+  const glm::dmat4 mirror = glm::scale(glm::dmat4(1.0), glm::dvec3(-1, 1, 1));
+  ASSERT_TRUE(flatten_gltf_meshes(g, {{m, mirror}}, "test", mesh, sources));
+  ASSERT_EQ(mesh.triangles.size(), 1u);
+  const glm::vec3 a = mesh.positions[mesh.triangles[0].x], b = mesh.positions[mesh.triangles[0].y],
+                  c = mesh.positions[mesh.triangles[0].z];
+  // The input triangle faces +z; mirroring x keeps it facing +z once the winding is swapped.
+  EXPECT_GT(glm::cross(b - a, c - a).z, 0.0f);
+}
+
+TEST(FlattenGltfMeshes, BadPartsAreErrorsNamingTheMesh) {
+  tinygltf::Model g = three_materials();
+  const int m = add_triangle_mesh(g, {0});
+  Mesh mesh;
+  std::vector<int> sources;
+  Status s = flatten_gltf_meshes(g, {{7, glm::dmat4(1.0)}}, "test", mesh, sources);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("mesh 7 does not exist"), std::string::npos) << s.message();
+  g.meshes[size_t(m)].primitives[0].mode = TINYGLTF_MODE_LINE;
+  s = flatten_gltf_meshes(g, {{m, glm::dmat4(1.0)}}, "test", mesh, sources);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("no triangle primitives"), std::string::npos) << s.message();
+  EXPECT_TRUE(mesh.triangles.empty());
+}
+
+TEST(GltfNodeTransform, MatrixOrTranslationRotationScale) {
+  tinygltf::Node n;
+  n.translation = {1, 2, 3};
+  n.rotation = {0, 0.7071067811865476, 0, 0.7071067811865476};  // 90 degrees about +y
+  n.scale = {2, 2, 2};
+  const glm::dvec4 p = gltf_node_transform(n) * glm::dvec4(1, 0, 0, 1);
+  // Scale to (2, 0, 0), rotate +x to -z: (0, 0, -2), translate: (1, 2, 1).
+  EXPECT_NEAR(p.x, 1.0, 1e-12);
+  EXPECT_NEAR(p.y, 2.0, 1e-12);
+  EXPECT_NEAR(p.z, 1.0, 1e-12);
+  n.matrix = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 7, 8, 9, 1};  // the matrix wins
+  EXPECT_EQ(gltf_node_transform(n)[3], glm::dvec4(7, 8, 9, 1));
+}
+
+}  // namespace
+}  // namespace lsnif

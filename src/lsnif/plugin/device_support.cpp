@@ -1,0 +1,200 @@
+// device_support.cpp -- query_device_support, the missing-piece message and the feature-chain
+// walks (device_support.h).
+#include "lsnif/plugin/device_support.h"
+
+#include <cstring>
+#include <vector>
+
+namespace lsnif::plugin {
+
+const char* const kRequiredDeviceExtensions[3] = {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME,
+                                                  VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME,
+                                                  VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME};
+
+namespace {
+
+bool at_least_1_2(uint32_t api_version) {
+  return VK_API_VERSION_MAJOR(api_version) > 1 || VK_API_VERSION_MINOR(api_version) >= 2;
+}
+
+// The feature structs of a chain that LSNIF reads or writes (null where absent).
+struct FeatureStructs {
+  VkPhysicalDeviceFeatures* core = nullptr;  // of VkPhysicalDeviceFeatures2 or VkDeviceCreateInfo
+  VkBool32* buffer_device_address = nullptr;  // Vulkan12Features or BufferDeviceAddressFeatures
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR* acceleration_structure = nullptr;
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR* ray_tracing_pipeline = nullptr;
+  VkPhysicalDeviceRayQueryFeaturesKHR* ray_query = nullptr;  // lsnifCmdQuery only
+};
+
+FeatureStructs find_feature_structs(const void* chain) {
+  FeatureStructs f;
+  // The chain is walked through VkBaseOutStructure; the library writes only through pointers the
+  // application handed over as writable (enable_device_features).
+  for (auto* s = static_cast<VkBaseOutStructure*>(const_cast<void*>(chain)); s; s = s->pNext) {
+    switch (s->sType) {
+      case VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO: {
+        auto* ci = reinterpret_cast<VkDeviceCreateInfo*>(s);
+        if (ci->pEnabledFeatures && !f.core) f.core = const_cast<VkPhysicalDeviceFeatures*>(ci->pEnabledFeatures);
+        break;
+      }
+      case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2:
+        f.core = &reinterpret_cast<VkPhysicalDeviceFeatures2*>(s)->features;
+        break;
+      case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES:
+        f.buffer_device_address = &reinterpret_cast<VkPhysicalDeviceVulkan12Features*>(s)->bufferDeviceAddress;
+        break;
+      case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES:
+        f.buffer_device_address =
+            &reinterpret_cast<VkPhysicalDeviceBufferDeviceAddressFeatures*>(s)->bufferDeviceAddress;
+        break;
+      case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR:
+        f.acceleration_structure = reinterpret_cast<VkPhysicalDeviceAccelerationStructureFeaturesKHR*>(s);
+        break;
+      case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR:
+        f.ray_tracing_pipeline = reinterpret_cast<VkPhysicalDeviceRayTracingPipelineFeaturesKHR*>(s);
+        break;
+      case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR:
+        f.ray_query = reinterpret_cast<VkPhysicalDeviceRayQueryFeaturesKHR*>(s);
+        break;
+      default:
+        break;
+    }
+  }
+  return f;
+}
+
+}  // namespace
+
+DeviceSupport query_device_support(const InstanceDispatch& vk, VkPhysicalDevice physical) {
+  DeviceSupport s;
+  if (!physical || !vk.vkGetPhysicalDeviceProperties) return s;
+  VkPhysicalDeviceProperties props;
+  vk.vkGetPhysicalDeviceProperties(physical, &props);
+  s.name = props.deviceName;
+  s.api_version = props.apiVersion;
+
+  uint32_t count = 0;
+  vk.vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
+  std::vector<VkExtensionProperties> extensions(count);
+  vk.vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, extensions.data());
+  extensions.resize(count);
+  auto has = [&](const char* name) {
+    for (const VkExtensionProperties& e : extensions)
+      if (std::strcmp(e.extensionName, name) == 0) return true;
+    return false;
+  };
+  s.ext_acceleration_structure = has(VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME);
+  s.ext_ray_tracing_pipeline = has(VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME);
+  s.ext_deferred_host_operations = has(VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME);
+  s.ext_ray_query = has(VK_KHR_RAY_QUERY_EXTENSION_NAME);
+  s.ext_nv_cooperative_matrix = has("VK_NV_cooperative_matrix");
+  s.ext_khr_cooperative_matrix = has("VK_KHR_cooperative_matrix");
+  s.ext_nv_cooperative_vector = has("VK_NV_cooperative_vector");
+
+  VkPhysicalDeviceFeatures2 f2{};
+  f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  VkPhysicalDeviceVulkan12Features f12{};
+  f12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
+  as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+  rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+  // Chain only structs the device knows (an unknown struct in pNext is invalid usage).
+  void** tail = &f2.pNext;
+  const bool v12 = at_least_1_2(s.api_version);
+  if (v12) {
+    *tail = &f12;
+    tail = &f12.pNext;
+  }
+  if (s.ext_acceleration_structure) {
+    *tail = &as;
+    tail = &as.pNext;
+  }
+  if (s.ext_ray_tracing_pipeline) {
+    *tail = &rt;
+    tail = &rt.pNext;
+  }
+  VkPhysicalDeviceRayQueryFeaturesKHR rq{};
+  rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+  if (s.ext_ray_query) {
+    *tail = &rq;
+    tail = &rq.pNext;
+  }
+  if (vk.vkGetPhysicalDeviceFeatures2) vk.vkGetPhysicalDeviceFeatures2(physical, &f2);
+  s.shader_int64 = f2.features.shaderInt64 == VK_TRUE;
+  s.buffer_device_address = v12 && f12.bufferDeviceAddress == VK_TRUE;
+  s.acceleration_structure = s.ext_acceleration_structure && as.accelerationStructure == VK_TRUE;
+  s.ray_tracing_pipeline = s.ext_ray_tracing_pipeline && rt.rayTracingPipeline == VK_TRUE;
+  s.ray_query = s.ext_ray_query && rq.rayQuery == VK_TRUE;
+  return s;
+}
+
+std::vector<std::string> missing_for_ray_tracing(const DeviceSupport& s) {
+  std::vector<std::string> missing;
+  auto need = [&](bool present, const char* what) {
+    if (!present) missing.emplace_back(what);
+  };
+  need(at_least_1_2(s.api_version), "Vulkan 1.2");
+  need(s.ext_acceleration_structure, "extension VK_KHR_acceleration_structure");
+  need(s.ext_ray_tracing_pipeline, "extension VK_KHR_ray_tracing_pipeline");
+  need(s.ext_deferred_host_operations, "extension VK_KHR_deferred_host_operations");
+  need(s.acceleration_structure, "feature accelerationStructure");
+  need(s.ray_tracing_pipeline, "feature rayTracingPipeline");
+  need(s.buffer_device_address, "feature bufferDeviceAddress");
+  need(s.shader_int64, "feature shaderInt64");
+  return missing;
+}
+
+Status describe_device_support(const DeviceSupport& s) {
+  const std::vector<std::string> missing = missing_for_ray_tracing(s);
+  if (missing.empty()) return Status::ok();
+  std::string list;
+  for (const std::string& m : missing) list += (list.empty() ? "" : ", ") + m;
+  return Status::error("device '%s' (Vulkan %s) cannot run the LSNIF ray-tracing pipeline; missing: %s",
+                       s.name.c_str(), api_version_string(s.api_version).c_str(), list.c_str());
+}
+
+std::vector<std::string> features_not_enabled(const void* chain) {
+  const FeatureStructs f = find_feature_structs(chain);
+  std::vector<std::string> missing;
+  if (!f.acceleration_structure || !f.acceleration_structure->accelerationStructure)
+    missing.emplace_back("feature accelerationStructure");
+  if (!f.ray_tracing_pipeline || !f.ray_tracing_pipeline->rayTracingPipeline)
+    missing.emplace_back("feature rayTracingPipeline");
+  if (!f.buffer_device_address || !*f.buffer_device_address) missing.emplace_back("feature bufferDeviceAddress");
+  if (!f.core || !f.core->shaderInt64) missing.emplace_back("feature shaderInt64");
+  return missing;
+}
+
+bool ray_query_enabled(const void* chain) {
+  const FeatureStructs f = find_feature_structs(chain);
+  return f.ray_query && f.ray_query->rayQuery;
+}
+
+std::vector<std::string> enable_device_features(void* chain) {
+  const FeatureStructs f = find_feature_structs(chain);
+  std::vector<std::string> absent;
+  if (f.acceleration_structure)
+    f.acceleration_structure->accelerationStructure = VK_TRUE;
+  else
+    absent.emplace_back("VkPhysicalDeviceAccelerationStructureFeaturesKHR");
+  if (f.ray_tracing_pipeline)
+    f.ray_tracing_pipeline->rayTracingPipeline = VK_TRUE;
+  else
+    absent.emplace_back("VkPhysicalDeviceRayTracingPipelineFeaturesKHR");
+  if (f.buffer_device_address)
+    *f.buffer_device_address = VK_TRUE;
+  else
+    absent.emplace_back("VkPhysicalDeviceVulkan12Features (or VkPhysicalDeviceBufferDeviceAddressFeatures)");
+  if (f.core)
+    f.core->shaderInt64 = VK_TRUE;
+  else
+    absent.emplace_back("VkPhysicalDeviceFeatures2");
+  return absent;
+}
+
+std::string api_version_string(uint32_t v) {
+  return format("%u.%u.%u", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v), VK_API_VERSION_PATCH(v));
+}
+
+}  // namespace lsnif::plugin

@@ -1,0 +1,70 @@
+// device_support.h -- what the LSNIF ray-tracing path needs from a Vulkan physical device, queried
+// once into a plain struct (so the message building is testable without a device), the check that
+// names every missing extension or feature, and the feature-chain helpers of lsnif.h.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <vulkan/vulkan_core.h>
+
+#include "lsnif/format/status.h"
+#include "lsnif/plugin/vk_dispatch.h"
+
+namespace lsnif::plugin {
+
+// The device extensions LSNIF needs enabled (lsnifGetRequiredDeviceExtensions).
+extern const char* const kRequiredDeviceExtensions[3];
+
+// What a physical device offers (not what an application enabled). Filled by query_device_support.
+struct DeviceSupport {
+  std::string name;
+  uint32_t api_version = 0;  // VkPhysicalDeviceProperties::apiVersion
+  // Extensions required by the ray-tracing pipeline path.
+  bool ext_acceleration_structure = false;    // VK_KHR_acceleration_structure
+  bool ext_ray_tracing_pipeline = false;      // VK_KHR_ray_tracing_pipeline
+  bool ext_deferred_host_operations = false;  // VK_KHR_deferred_host_operations
+  // Features required by it.
+  bool acceleration_structure = false;  // VkPhysicalDeviceAccelerationStructureFeaturesKHR
+  bool ray_tracing_pipeline = false;    // VkPhysicalDeviceRayTracingPipelineFeaturesKHR
+  bool buffer_device_address = false;   // VkPhysicalDeviceVulkan12Features
+  bool shader_int64 = false;            // VkPhysicalDeviceFeatures
+  // Other paths (reported by `lsnif devices`, not required by the plugin).
+  bool ext_ray_query = false;               // VK_KHR_ray_query (lsnifCmdQuery)
+  bool ray_query = false;                   // VkPhysicalDeviceRayQueryFeaturesKHR::rayQuery
+  bool ext_nv_cooperative_matrix = false;   // VK_NV_cooperative_matrix
+  bool ext_khr_cooperative_matrix = false;  // VK_KHR_cooperative_matrix
+  bool ext_nv_cooperative_vector = false;   // VK_NV_cooperative_vector
+};
+
+// Reads the device's name, API version, extensions and features. Feature structs of Vulkan 1.2
+// are queried only on a 1.2+ device (else the 1.2 features read as missing).
+DeviceSupport query_device_support(const InstanceDispatch& vk, VkPhysicalDevice physical);
+
+// The pieces of the ray-tracing pipeline path that `support` lacks, in the order listed below
+// ("Vulkan 1.2", "extension VK_KHR_...", "feature ..."); empty when it has them all.
+std::vector<std::string> missing_for_ray_tracing(const DeviceSupport& support);
+
+// Ok when `support` has every extension and feature the LSNIF ray-tracing pipeline path needs
+// (Vulkan 1.2, VK_KHR_acceleration_structure, VK_KHR_ray_tracing_pipeline,
+// VK_KHR_deferred_host_operations, accelerationStructure, rayTracingPipeline, bufferDeviceAddress,
+// shaderInt64); else an error naming the device and listing exactly the missing ones, comma
+// separated, in that order.
+Status describe_device_support(const DeviceSupport& support);
+
+// The features LSNIF needs that the feature chain starting at `chain` (a VkDeviceCreateInfo or a
+// feature struct, as given to vkCreateDevice) does not enable, as "feature NAME" in the order of
+// missing_for_ray_tracing; a feature whose struct is absent from the chain counts as not enabled.
+std::vector<std::string> features_not_enabled(const void* chain);
+
+// True when the feature chain starting at `chain` enables VkPhysicalDeviceRayQueryFeaturesKHR::rayQuery.
+bool ray_query_enabled(const void* chain);
+
+// lsnifEnableDeviceFeatures: sets LSNIF's features in the structs of the chain; returns the names
+// of the structs it needed but did not find (empty: all set).
+std::vector<std::string> enable_device_features(void* chain);
+
+// "1.3.278" from a VK_MAKE_API_VERSION value.
+std::string api_version_string(uint32_t version);
+
+}  // namespace lsnif::plugin

@@ -1,0 +1,204 @@
+// device_support_test.cpp -- the parts of the plugin that need no device: the missing-piece
+// message from hand-built device-support structs, the feature-chain helpers (which features a
+// VkDeviceCreateInfo chain enables, setting them in chains of either buffer-device-address struct),
+// the required extensions, result strings, versions, and the embedded intersection shaders.
+#include "lsnif/plugin/device_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "lsnif/lsnif.h"
+
+namespace lsnif::plugin {
+namespace {
+
+DeviceSupport full_support() {
+  DeviceSupport s;
+  s.name = "fake";
+  s.api_version = VK_MAKE_API_VERSION(0, 1, 3, 0);
+  s.ext_acceleration_structure = s.ext_ray_tracing_pipeline = s.ext_deferred_host_operations = true;
+  s.acceleration_structure = s.ray_tracing_pipeline = s.buffer_device_address = s.shader_int64 = true;
+  return s;
+}
+
+TEST(DeviceSupport, MessageListsExactlyTheMissingPieces) {
+  EXPECT_TRUE(describe_device_support(full_support()));
+
+  DeviceSupport s = full_support();
+  s.shader_int64 = false;
+  Status st = describe_device_support(s);
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.message().find("device 'fake' (Vulkan 1.3.0)"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("missing: feature shaderInt64"), std::string::npos) << st.message();
+  EXPECT_EQ(st.message().find("rayTracingPipeline"), std::string::npos) << st.message();
+
+  s = full_support();
+  s.ext_ray_tracing_pipeline = false;
+  s.ray_tracing_pipeline = false;
+  s.ext_deferred_host_operations = false;
+  EXPECT_EQ(missing_for_ray_tracing(s),
+            (std::vector<std::string>{"extension VK_KHR_ray_tracing_pipeline",
+                                      "extension VK_KHR_deferred_host_operations", "feature rayTracingPipeline"}));
+
+  DeviceSupport none;
+  none.name = "old";
+  none.api_version = VK_MAKE_API_VERSION(0, 1, 1, 0);
+  EXPECT_EQ(missing_for_ray_tracing(none),
+            (std::vector<std::string>{"Vulkan 1.2", "extension VK_KHR_acceleration_structure",
+                                      "extension VK_KHR_ray_tracing_pipeline",
+                                      "extension VK_KHR_deferred_host_operations", "feature accelerationStructure",
+                                      "feature rayTracingPipeline", "feature bufferDeviceAddress",
+                                      "feature shaderInt64"}));
+  st = describe_device_support(none);
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.message().find("missing: Vulkan 1.2, extension VK_KHR_acceleration_structure, "), std::string::npos)
+      << st.message();
+}
+
+TEST(DeviceFeatures, InitEnablesExactlyWhatLsnifNeedsInAChain) {
+  VkPhysicalDeviceVulkan11Features tail{};
+  tail.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_1_FEATURES;
+  LsnifDeviceFeatures f;
+  std::memset(&f, 0xAB, sizeof f);  // garbage first: everything must be written
+  lsnifInitDeviceFeatures(&f, &tail);
+  EXPECT_EQ(f.features2.sType, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
+  EXPECT_EQ(f.features2.pNext, &f.vulkan12);
+  EXPECT_EQ(f.vulkan12.pNext, &f.accelerationStructure);
+  EXPECT_EQ(f.accelerationStructure.pNext, &f.rayTracingPipeline);
+  EXPECT_EQ(f.rayTracingPipeline.pNext, &tail);
+  EXPECT_EQ(f.features2.features.shaderInt64, VK_TRUE);
+  EXPECT_EQ(f.features2.features.robustBufferAccess, VK_FALSE);
+  EXPECT_EQ(f.vulkan12.bufferDeviceAddress, VK_TRUE);
+  EXPECT_EQ(f.vulkan12.scalarBlockLayout, VK_FALSE);
+  EXPECT_EQ(f.accelerationStructure.accelerationStructure, VK_TRUE);
+  EXPECT_EQ(f.accelerationStructure.accelerationStructureCaptureReplay, VK_FALSE);
+  EXPECT_EQ(f.rayTracingPipeline.rayTracingPipeline, VK_TRUE);
+  EXPECT_EQ(f.rayTracingPipeline.rayTraversalPrimitiveCulling, VK_FALSE);
+  // A device create info carrying this chain enables everything.
+  VkDeviceCreateInfo dci{};
+  dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  dci.pNext = &f.features2;
+  EXPECT_TRUE(features_not_enabled(&dci).empty());
+  EXPECT_TRUE(features_not_enabled(&f.features2).empty());
+  lsnifInitDeviceFeatures(nullptr, nullptr);  // ignored
+}
+
+TEST(DeviceFeatures, NotEnabledNamesEachMissingFeature) {
+  LsnifDeviceFeatures f;
+  lsnifInitDeviceFeatures(&f, nullptr);
+  f.rayTracingPipeline.rayTracingPipeline = VK_FALSE;
+  EXPECT_EQ(features_not_enabled(&f.features2), std::vector<std::string>{"feature rayTracingPipeline"});
+  // Without the acceleration-structure struct in the chain, its feature counts as not enabled.
+  f.vulkan12.pNext = &f.rayTracingPipeline;
+  f.rayTracingPipeline.rayTracingPipeline = VK_TRUE;
+  EXPECT_EQ(features_not_enabled(&f.features2), std::vector<std::string>{"feature accelerationStructure"});
+  // shaderInt64 through VkDeviceCreateInfo::pEnabledFeatures, buffer device address through the
+  // Vulkan 1.2 core struct's predecessor.
+  VkPhysicalDeviceFeatures core{};
+  VkPhysicalDeviceBufferDeviceAddressFeatures bda{};
+  bda.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES;
+  bda.bufferDeviceAddress = VK_TRUE;
+  bda.pNext = &f.accelerationStructure;
+  f.accelerationStructure.pNext = &f.rayTracingPipeline;
+  VkDeviceCreateInfo dci{};
+  dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  dci.pNext = &bda;
+  dci.pEnabledFeatures = &core;
+  EXPECT_EQ(features_not_enabled(&dci), std::vector<std::string>{"feature shaderInt64"});
+  core.shaderInt64 = VK_TRUE;
+  EXPECT_TRUE(features_not_enabled(&dci).empty());
+  dci.pNext = nullptr;
+  dci.pEnabledFeatures = nullptr;
+  EXPECT_EQ(features_not_enabled(&dci),
+            (std::vector<std::string>{"feature accelerationStructure", "feature rayTracingPipeline",
+                                      "feature bufferDeviceAddress", "feature shaderInt64"}));
+}
+
+TEST(DeviceFeatures, EnableSetsWhatItFindsAndNamesWhatIsAbsent) {
+  VkPhysicalDeviceBufferDeviceAddressFeatures bda{};
+  bda.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES;
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+  rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+  rt.pNext = &bda;
+  VkPhysicalDeviceFeatures2 f2{};
+  f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  f2.pNext = &rt;
+  EXPECT_EQ(lsnifEnableDeviceFeatures(&f2), LSNIF_ERROR_INVALID_ARGUMENT);
+  const std::string message = lsnifGetLastErrorMessage();
+  EXPECT_NE(message.find("VkPhysicalDeviceAccelerationStructureFeaturesKHR"), std::string::npos) << message;
+  EXPECT_EQ(message.find("VkPhysicalDeviceFeatures2"), std::string::npos) << message;
+  EXPECT_EQ(f2.features.shaderInt64, VK_TRUE);
+  EXPECT_EQ(rt.rayTracingPipeline, VK_TRUE);
+  EXPECT_EQ(bda.bufferDeviceAddress, VK_TRUE);
+
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
+  as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+  bda.pNext = &as;
+  EXPECT_EQ(lsnifEnableDeviceFeatures(&f2), LSNIF_SUCCESS);
+  EXPECT_EQ(as.accelerationStructure, VK_TRUE);
+  EXPECT_TRUE(features_not_enabled(&f2).empty());
+  EXPECT_EQ(lsnifEnableDeviceFeatures(nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
+}
+
+TEST(PluginApi, ExtensionsResultsAndVersions) {
+  uint32_t count = 0;
+  const char* const* names = lsnifGetRequiredDeviceExtensions(&count);
+  ASSERT_EQ(count, 3u);
+  EXPECT_STREQ(names[0], "VK_KHR_acceleration_structure");
+  EXPECT_STREQ(names[1], "VK_KHR_ray_tracing_pipeline");
+  EXPECT_STREQ(names[2], "VK_KHR_deferred_host_operations");
+  EXPECT_STREQ(lsnifResultString(LSNIF_ERROR_INVALID_MODEL), "LSNIF_ERROR_INVALID_MODEL");
+  EXPECT_STREQ(lsnifResultString(LsnifResult(-99)), "unknown LsnifResult");
+  EXPECT_EQ(lsnifGetVersion(), LSNIF_HEADER_VERSION);
+  EXPECT_EQ(LSNIF_VERSION_GET_MAJOR(lsnifGetVersion()), uint32_t(LSNIF_VERSION_MAJOR));
+  EXPECT_EQ(LSNIF_VERSION_GET_MINOR(lsnifGetVersion()), uint32_t(LSNIF_VERSION_MINOR));
+  EXPECT_EQ(LSNIF_VERSION_GET_PATCH(lsnifGetVersion()), uint32_t(LSNIF_VERSION_PATCH));
+  EXPECT_EQ(lsnifGetGpuLayoutVersion(), LSNIF_GPU_VERSION);
+}
+
+TEST(PluginApi, EmbeddedIntersectionShaders) {
+  const uint32_t* table = nullptr;
+  const uint32_t* record = nullptr;
+  size_t table_bytes = 0, record_bytes = 0;
+  ASSERT_EQ(lsnifGetIntersectionShaderSpirv(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE, &table, &table_bytes), LSNIF_SUCCESS);
+  ASSERT_EQ(lsnifGetIntersectionShaderSpirv(LSNIF_MODEL_LOOKUP_SHADER_RECORD, &record, &record_bytes), LSNIF_SUCCESS);
+  for (auto [code, bytes] : {std::pair{table, table_bytes}, std::pair{record, record_bytes}}) {
+    ASSERT_NE(code, nullptr);
+    EXPECT_GT(bytes, 1000u);
+    EXPECT_EQ(bytes % 4, 0u);
+    EXPECT_EQ(code[0], 0x07230203u);  // SPIR-V magic
+  }
+  EXPECT_TRUE(table_bytes != record_bytes || std::memcmp(table, record, table_bytes) != 0)
+      << "the two model lookups compiled to the same SPIR-V";
+  const uint32_t* code = nullptr;
+  size_t bytes = 0;
+  EXPECT_EQ(lsnifGetIntersectionShaderSpirv(LsnifModelLookup(7), &code, &bytes), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(lsnifGetLastErrorMessage()).find("unknown LsnifModelLookup 7"), std::string::npos);
+  EXPECT_EQ(lsnifGetIntersectionShaderSpirv(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE, nullptr, &bytes),
+            LSNIF_ERROR_INVALID_ARGUMENT);
+}
+
+TEST(PluginApi, NullArgumentsAreErrorsNotCrashes) {
+  LsnifContext ctx = nullptr;
+  EXPECT_EQ(lsnifCreateContext(nullptr, &ctx), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(lsnifGetLastErrorMessage()).find("pCreateInfo is NULL"), std::string::npos);
+  LsnifContextCreateInfo info{};
+  EXPECT_EQ(lsnifCreateContext(&info, &ctx), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(lsnifGetLastErrorMessage()).find("null handle"), std::string::npos);
+  EXPECT_EQ(ctx, nullptr);
+  LsnifModel model = nullptr;
+  EXPECT_EQ(lsnifCreateModelFromMemory(nullptr, "x", 1, &model), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(lsnifCreateModelFromFile(nullptr, "x.lsnif", &model), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(lsnifBuildModels(nullptr, 0, nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
+  LsnifDeviceSupport support;
+  EXPECT_EQ(lsnifQueryDeviceSupport(nullptr, nullptr, nullptr, &support), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(model, nullptr);
+  lsnifDestroyContext(nullptr);
+  lsnifDestroyModel(nullptr, nullptr);
+}
+
+}  // namespace
+}  // namespace lsnif::plugin

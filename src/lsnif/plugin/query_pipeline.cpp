@@ -1,0 +1,377 @@
+// query_pipeline.cpp -- the batched path of the plugin (lsnifCreateQueryPipeline,
+// lsnifCmdIntersectModelRays, lsnifCmdQuery): the compute stages of src/lsnif/shaders/lsnif_batch.comp and
+// src/lsnif/shaders/lsnif_query.comp, embedded as SPIR-V, one pipeline layout (push constants only: every
+// buffer is a device address), and the recording of the stages with compute-to-compute barriers
+// (clear -> narrow phase -> MLP -> decode for one model; for the TLAS query the broad phase, the
+// counting sort, the per-model stages as indirect dispatches and the resolve).
+#include <algorithm>
+
+#include "lsnif/plugin/context.h"
+#include "lsnif/plugin/device_support.h"
+
+namespace {
+
+#include "lsnif_batch_clear_spirv.h"
+#include "lsnif_batch_decode_spirv.h"
+#include "lsnif_batch_mlp_spirv.h"
+#include "lsnif_batch_narrow_spirv.h"
+#include "lsnif_query_batch_args_spirv.h"
+#include "lsnif_query_broad_spirv.h"
+#include "lsnif_query_clear_spirv.h"
+#include "lsnif_query_decode_spirv.h"
+#include "lsnif_query_mlp_spirv.h"
+#include "lsnif_query_narrow_spirv.h"
+#include "lsnif_query_resolve_hits_spirv.h"
+#include "lsnif_query_resolve_rays_spirv.h"
+#include "lsnif_query_scan_spirv.h"
+#include "lsnif_query_scatter_spirv.h"
+#include "lsnif_query_status_spirv.h"
+#include "lsnif_query_tie_spirv.h"
+
+}  // namespace
+
+namespace lsnif::plugin {
+namespace {
+
+Outcome create_stage(LsnifContext_T& ctx, VkPipelineCache cache, VkPipelineLayout layout, const uint32_t* code, size_t bytes,
+                     const char* stage, VkPipeline& out) {
+  const VkAllocationCallbacks* cb = ctx.info.pAllocator;
+  VkShaderModuleCreateInfo mi{};
+  mi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+  mi.codeSize = bytes;
+  mi.pCode = code;
+  VkShaderModule module = VK_NULL_HANDLE;
+  if (VkResult r = ctx.vk.vkCreateShaderModule(ctx.info.device, &mi, cb, &module); r != VK_SUCCESS)
+    return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreateShaderModule (%s stage) failed (VkResult %d)", stage,
+                         static_cast<int>(r));
+  VkComputePipelineCreateInfo pi{};
+  pi.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+  pi.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  pi.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  pi.stage.module = module;
+  pi.stage.pName = "main";
+  pi.layout = layout;
+  const VkResult r = ctx.vk.vkCreateComputePipelines(ctx.info.device, cache, 1, &pi, cb, &out);
+  ctx.vk.vkDestroyShaderModule(ctx.info.device, module, cb);
+  if (r != VK_SUCCESS)
+    return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreateComputePipelines (%s stage) failed (VkResult %d)", stage,
+                         static_cast<int>(r));
+  return Outcome::ok();
+}
+
+// Scratch rows of a model (host_device.h): slots, walk (3 + H), input pairs x 2, output blocks x 8.
+uint64_t scratch_rows(const LsnifModel_T& m) {
+  return 1u + 3u + m.max_points + 2u * LSNIF_GPU_ROW_WORDS(m.input_dim) +
+         LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(m.output_dim);
+}
+
+// A stride near 0.618 x `groups`, coprime to it: workgroup w takes block (w x step) mod groups, a
+// permutation that spreads the first blocks (those with work) over all workgroups.
+uint32_t block_step(uint32_t groups) {
+  if (groups <= 2) return 1;
+  uint32_t step = uint32_t(0.6180339887 * double(groups)) | 1u;
+  auto gcd = [](uint32_t a, uint32_t b) {
+    while (b) {
+      const uint32_t t = a % b;
+      a = b;
+      b = t;
+    }
+    return a;
+  };
+  while (gcd(step, groups) != 1) step += 2;
+  return step;
+}
+
+uint32_t stride_of(uint32_t rays) {
+  return (rays + LSNIF_BATCH_GROUP_SIZE - 1) / LSNIF_BATCH_GROUP_SIZE * LSNIF_BATCH_GROUP_SIZE;
+}
+
+uint32_t groups_of(uint64_t invocations) {
+  return uint32_t((invocations + LSNIF_BATCH_GROUP_SIZE - 1) / LSNIF_BATCH_GROUP_SIZE);
+}
+
+void split(VkDeviceAddress a, lsnif_uint& lo, lsnif_uint& hi) {
+  lo = lsnif_uint(a & 0xffffffffu);
+  hi = lsnif_uint(a >> 32);
+}
+
+// The barrier between two passes: shader writes before shader reads and writes, and before the
+// indirect dispatches' reads of their arguments.
+void between_passes(const DeviceDispatch& vk, VkCommandBuffer cmd, bool indirect) {
+  VkMemoryBarrier barrier{};
+  barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+  barrier.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                          (indirect ? VkAccessFlags(VK_ACCESS_INDIRECT_COMMAND_READ_BIT) : VkAccessFlags(0));
+  const VkPipelineStageFlags dst =
+      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT |
+      (indirect ? VkPipelineStageFlags(VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT) : VkPipelineStageFlags(0));
+  vk.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, dst, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+}
+
+// The scratch of lsnifCmdQuery in words (host_device.h; the offsets lsnif_query.comp computes).
+struct QueryLayout {
+  uint32_t chunk_rays = 0, capacity = 0, stride = 0;
+  uint64_t rows_word = 0, total_words = 0;
+};
+QueryLayout query_layout(const std::vector<const LsnifModel_T*>& models, uint32_t table_entries, uint32_t rays,
+                         uint32_t per_ray) {
+  QueryLayout l;
+  l.chunk_rays = std::min(rays, LSNIF_QUERY_CHUNK_RAYS);
+  l.capacity = per_ray * l.chunk_rays;
+  l.stride = stride_of(l.capacity);
+  uint64_t rows = 0;
+  for (const LsnifModel_T* m : models)
+    if (m) rows = std::max(rows, scratch_rows(*m));
+  l.rows_word = LSNIF_BATCH_HEADER_WORDS + uint64_t(sizeof(LsnifQueryModelCounters) / 4) * table_entries +
+                uint64_t(sizeof(LsnifQueryRayState) / 4) * l.chunk_rays +
+                uint64_t(sizeof(LsnifQueryCandidate) / 4) * l.capacity + l.stride;
+  l.total_words = l.rows_word + rows * l.stride;
+  return l;
+}
+
+}  // namespace
+
+// The TLAS query needs ray queries: offered by the physical device and, where the context knows
+// the enabled features, enabled.
+Outcome check_ray_query(const LsnifContext_T& ctx) {
+  if (!ctx.ray_query_offered)
+    return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
+                         "device '%s' does not offer extension VK_KHR_ray_query with feature rayQuery "
+                         "(LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT needs them)",
+                         ctx.device_name.c_str());
+  if (ctx.ray_query_not_enabled)
+    return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
+                         "the device '%s' was created without feature rayQuery enabled (the context's "
+                         "pEnabledFeatures; LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT needs VK_KHR_ray_query and rayQuery)",
+                         ctx.device_name.c_str());
+  return Outcome::ok();
+}
+
+Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags flags, VkPipelineCache cache,
+                              std::unique_ptr<LsnifQueryPipeline_T>& out) {
+  if (flags & ~LsnifQueryPipelineCreateFlags(LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT))
+    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pCreateInfo->flags: unknown flags 0x%x", flags);
+  const bool tlas = (flags & LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT) != 0;
+  if (tlas) {
+    if (Outcome o = check_ray_query(ctx); !o) return o;
+  }
+  auto p = std::make_unique<LsnifQueryPipeline_T>();
+  const VkAllocationCallbacks* cb = ctx.info.pAllocator;
+  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0,
+                            uint32_t(std::max(sizeof(LsnifBatchPushConstants), sizeof(LsnifQueryPushConstants)))};
+  VkPipelineLayoutCreateInfo li{};
+  li.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+  li.pushConstantRangeCount = 1;
+  li.pPushConstantRanges = &range;
+  if (VkResult r = ctx.vk.vkCreatePipelineLayout(ctx.info.device, &li, cb, &p->layout); r != VK_SUCCESS)
+    return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreatePipelineLayout failed (VkResult %d)", static_cast<int>(r));
+  Outcome o = create_stage(ctx, cache, p->layout, lsnif_batch_clear_spirv, sizeof lsnif_batch_clear_spirv, "clear", p->clear);
+  if (o) o = create_stage(ctx, cache, p->layout, lsnif_batch_narrow_spirv, sizeof lsnif_batch_narrow_spirv, "narrow", p->narrow);
+  if (o) o = create_stage(ctx, cache, p->layout, lsnif_batch_mlp_spirv, sizeof lsnif_batch_mlp_spirv, "MLP", p->mlp);
+  if (o) o = create_stage(ctx, cache, p->layout, lsnif_batch_decode_spirv, sizeof lsnif_batch_decode_spirv, "decode", p->decode);
+  if (tlas) {
+    const struct {
+      const uint32_t* code;
+      size_t bytes;
+      const char* name;
+      VkPipeline* out;
+    } stages[] = {
+        {lsnif_query_clear_spirv, sizeof lsnif_query_clear_spirv, "query clear", &p->tlas.clear},
+        {lsnif_query_broad_spirv, sizeof lsnif_query_broad_spirv, "query broad phase", &p->tlas.broad},
+        {lsnif_query_scan_spirv, sizeof lsnif_query_scan_spirv, "query scan", &p->tlas.scan},
+        {lsnif_query_scatter_spirv, sizeof lsnif_query_scatter_spirv, "query scatter", &p->tlas.scatter},
+        {lsnif_query_narrow_spirv, sizeof lsnif_query_narrow_spirv, "query narrow", &p->tlas.narrow},
+        {lsnif_query_batch_args_spirv, sizeof lsnif_query_batch_args_spirv, "query batch args", &p->tlas.batch_args},
+        {lsnif_query_mlp_spirv, sizeof lsnif_query_mlp_spirv, "query MLP", &p->tlas.mlp},
+        {lsnif_query_decode_spirv, sizeof lsnif_query_decode_spirv, "query decode", &p->tlas.decode},
+        {lsnif_query_tie_spirv, sizeof lsnif_query_tie_spirv, "query tie", &p->tlas.tie},
+        {lsnif_query_resolve_hits_spirv, sizeof lsnif_query_resolve_hits_spirv, "query resolve hits",
+         &p->tlas.resolve_hits},
+        {lsnif_query_resolve_rays_spirv, sizeof lsnif_query_resolve_rays_spirv, "query resolve rays",
+         &p->tlas.resolve_rays},
+        {lsnif_query_status_spirv, sizeof lsnif_query_status_spirv, "query status", &p->tlas.status},
+    };
+    for (const auto& st : stages)
+      if (o) o = create_stage(ctx, cache, p->layout, st.code, st.bytes, st.name, *st.out);
+    p->has_tlas = true;
+  }
+  if (!o) {
+    destroy_query_pipeline(ctx, *p);
+    return o;
+  }
+  out = std::move(p);
+  return Outcome::ok();
+}
+
+void destroy_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipeline_T& p) {
+  const VkAllocationCallbacks* cb = ctx.info.pAllocator;
+  LsnifQueryPipeline_T::Tlas& t = p.tlas;
+  for (VkPipeline* stage : {&p.clear, &p.narrow, &p.mlp, &p.decode, &t.clear, &t.broad, &t.scan, &t.scatter, &t.narrow,
+                            &t.batch_args, &t.mlp, &t.decode, &t.tie, &t.resolve_hits, &t.resolve_rays, &t.status}) {
+    if (*stage) ctx.vk.vkDestroyPipeline(ctx.info.device, *stage, cb);
+    *stage = VK_NULL_HANDLE;
+  }
+  if (p.layout) ctx.vk.vkDestroyPipelineLayout(ctx.info.device, p.layout, cb);
+  p.layout = VK_NULL_HANDLE;
+}
+
+VkDeviceSize intersect_scratch_bytes(const LsnifModel_T& m, uint32_t rays) {
+  rays = std::min(rays, LSNIF_BATCH_CHUNK_RAYS);  // larger batches reuse it chunk after chunk
+  return 4u * (LSNIF_BATCH_HEADER_WORDS + scratch_rows(m) * uint64_t(stride_of(rays)));
+}
+
+void record_intersect_model_rays(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandBuffer cmd,
+                                 const LsnifModel_T& m, const LsnifIntersectModelRaysInfo& info) {
+  const DeviceDispatch& vk = ctx.vk;
+  auto between_stages = [&]() { between_passes(vk, cmd, false); };
+  auto timestamp = [&](uint32_t k) {
+    if (info.timestampPool)
+      vk.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, info.timestampPool, info.firstTimestamp + k);
+  };
+  LsnifBatchPushConstants pc{};
+  auto run = [&](VkPipeline stage, uint32_t group_count) {
+    vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stage);
+    vk.vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof pc, &pc);
+    vk.vkCmdDispatch(cmd, group_count, 1, 1);
+  };
+
+  // The stages run once per chunk of at most LSNIF_BATCH_CHUNK_RAYS rays, every chunk in the same
+  // scratch (the barrier after a chunk's decode orders its reads before the next chunk's writes).
+  // The first and last timestamps bracket all chunks, the middle two the first chunk's stages.
+  split(m.block.address, pc.model_lo, pc.model_hi);
+  split(info.scratch, pc.scratch_lo, pc.scratch_hi);
+  timestamp(0);
+  for (uint32_t base = 0; base < info.rayCount; base += LSNIF_BATCH_CHUNK_RAYS) {
+    const uint32_t n = std::min(info.rayCount - base, LSNIF_BATCH_CHUNK_RAYS);
+    split(info.rays + VkDeviceAddress(base) * sizeof(LsnifQueryRay), pc.rays_lo, pc.rays_hi);
+    split(info.hits + VkDeviceAddress(base) * sizeof(LsnifQueryHit), pc.hits_lo, pc.hits_hi);
+    pc.ray_count = n;
+    pc.stride = stride_of(n);
+    const uint32_t groups = pc.stride / LSNIF_BATCH_GROUP_SIZE;
+    pc.block_step = block_step(groups);
+    if (base > 0) between_stages();
+    run(p.clear, 1);
+    between_stages();
+    run(p.narrow, groups);
+    between_stages();
+    if (base == 0) timestamp(1);
+    run(p.mlp, groups);
+    between_stages();
+    if (base == 0) timestamp(2);
+    run(p.decode, groups);
+  }
+  timestamp(3);
+}
+
+VkDeviceSize query_scratch_bytes(const std::vector<const LsnifModel_T*>& models, uint32_t table_entries, uint32_t rays,
+                                 uint32_t per_ray) {
+  return 4u * query_layout(models, table_entries, rays, per_ray).total_words;
+}
+
+void record_query_timestamps(LsnifContext_T& ctx, VkCommandBuffer cmd, const LsnifQueryTimestampsInfo& timestamps) {
+  for (uint32_t k = 0; k < LSNIF_QUERY_TIMESTAMP_COUNT; ++k)
+    ctx.vk.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps.timestampPool,
+                               timestamps.firstQuery + k);
+}
+
+void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandBuffer cmd,
+                  const std::vector<const LsnifModel_T*>& models, const LsnifQueryInfo& info,
+                  const LsnifQueryTimestampsInfo* timestamps) {
+  const DeviceDispatch& vk = ctx.vk;
+  // Stage timestamp k (1 .. LSNIF_QUERY_TIMESTAMPS_PER_CHUNK) of the chunk starting at ray `base`
+  // (timestamp 0, the start, with k = 0 and base = 0).
+  auto timestamp = [&](uint32_t k, uint32_t base) {
+    if (timestamps)
+      vk.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps->timestampPool,
+                             timestamps->firstQuery + LSNIF_QUERY_TIMESTAMPS_PER_CHUNK * (base / LSNIF_QUERY_CHUNK_RAYS) + k);
+  };
+  const LsnifQueryPipeline_T::Tlas& st = p.tlas;
+  const QueryLayout layout = query_layout(models, info.modelCount, info.rayCount, info.candidatesPerRay);
+  VkBufferDeviceAddressInfo ai{};
+  ai.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO;
+  ai.buffer = info.scratchBuffer;
+  const VkDeviceAddress scratch = vk.vkGetBufferDeviceAddress(ctx.info.device, &ai) + info.scratchOffset;
+
+  LsnifQueryPushConstants pc{};
+  split(info.tlas, pc.tlas_lo, pc.tlas_hi);
+  split(info.modelTable, pc.table_lo, pc.table_hi);
+  split(scratch, pc.scratch_lo, pc.scratch_hi);
+  split(info.status, pc.status_lo, pc.status_hi);
+  pc.model_count = info.modelCount;
+  pc.capacity = layout.capacity;
+  pc.stride = layout.stride;
+  pc.cull_mask = info.cullMask;
+  auto bind = [&](VkPipeline stage) {
+    vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stage);
+    vk.vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof pc, &pc);
+  };
+  auto run = [&](VkPipeline stage, uint32_t group_count) {
+    bind(stage);
+    vk.vkCmdDispatch(cmd, group_count, 1, 1);
+  };
+  // An indirect dispatch whose VkDispatchIndirectCommand is at scratch word `word`.
+  auto run_indirect = [&](VkPipeline stage, uint64_t word) {
+    bind(stage);
+    vk.vkCmdDispatchIndirect(cmd, info.scratchBuffer, info.scratchOffset + 4u * word);
+  };
+  const uint64_t counters_words = sizeof(LsnifQueryModelCounters) / 4;
+  auto counters_word = [&](uint32_t b) { return LSNIF_BATCH_HEADER_WORDS + counters_words * b; };
+  const uint64_t narrow_args = offsetof(LsnifQueryModelCounters, narrow_groups_x) / 4;
+  const uint64_t batch_args = offsetof(LsnifQueryModelCounters, batch_groups_x) / 4;
+  // The per-model stages of every model of the table (holes have no candidates).
+  auto per_model = [&](VkPipeline stage, uint64_t args) {
+    for (uint32_t b = 0; b < info.modelCount; ++b) {
+      if (!models[b]) continue;
+      pc.bucket = b;
+      split(models[b]->block.address, pc.model_lo, pc.model_hi);
+      run_indirect(stage, counters_word(b) + args);
+    }
+  };
+
+  // The stages run once per chunk of at most LSNIF_QUERY_CHUNK_RAYS rays, every chunk in the same
+  // scratch; the status accumulators start at 0 with the first chunk and are written after the last.
+  // Timestamp 0 precedes every chunk, each chunk writes its five (the last one's fifth after the status).
+  timestamp(0, 0);
+  for (uint32_t base = 0; base < info.rayCount; base += LSNIF_QUERY_CHUNK_RAYS) {
+    const uint32_t n = std::min(info.rayCount - base, LSNIF_QUERY_CHUNK_RAYS);
+    split(info.rays + VkDeviceAddress(base) * sizeof(LsnifQueryRay), pc.rays_lo, pc.rays_hi);
+    split(info.results + VkDeviceAddress(base) * sizeof(LsnifQueryResult), pc.results_lo, pc.results_hi);
+    pc.ray_count = n;
+    pc.first_chunk = base == 0 ? 1u : 0u;
+    run(st.clear, groups_of(LSNIF_BATCH_HEADER_WORDS + counters_words * info.modelCount));
+    between_passes(vk, cmd, false);
+    run(st.broad, groups_of(n));
+    between_passes(vk, cmd, false);
+    timestamp(1, base);
+    run(st.scan, 1);
+    between_passes(vk, cmd, true);
+    run_indirect(st.scatter, LSNIF_QUERY_SCATTER_ARGS_WORD);
+    between_passes(vk, cmd, false);
+    timestamp(2, base);
+    per_model(st.narrow, narrow_args);
+    between_passes(vk, cmd, false);
+    timestamp(3, base);
+    run(st.batch_args, groups_of(info.modelCount));
+    between_passes(vk, cmd, true);
+    per_model(st.mlp, batch_args);
+    between_passes(vk, cmd, false);
+    timestamp(4, base);
+    per_model(st.decode, batch_args);
+    between_passes(vk, cmd, false);
+    run_indirect(st.tie, LSNIF_QUERY_SCATTER_ARGS_WORD);
+    between_passes(vk, cmd, false);
+    run_indirect(st.resolve_hits, LSNIF_QUERY_SCATTER_ARGS_WORD);
+    between_passes(vk, cmd, false);
+    run(st.resolve_rays, groups_of(n));
+    if (base + n < info.rayCount) {  // the next chunk reuses the scratch
+      between_passes(vk, cmd, true);
+      timestamp(5, base);
+    }
+  }
+  between_passes(vk, cmd, false);
+  run(st.status, 1);
+  timestamp(5, (LSNIF_QUERY_CHUNK_COUNT(info.rayCount) - 1) * LSNIF_QUERY_CHUNK_RAYS);  // the last chunk's base
+}
+
+}  // namespace lsnif::plugin

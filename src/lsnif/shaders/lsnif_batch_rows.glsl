@@ -1,0 +1,74 @@
+// lsnif_batch_rows.glsl -- the steps of lsnif_intersect (lsnif_intersect.glsl) over a dense batch in
+// the scratch, shared by the batched stages of one model (lsnif_batch.comp) and of the TLAS query
+// (lsnif_query.comp). A batch is a table of rows of `stride` words (host_device.h): row 0 the item of
+// each slot (a ray or a candidate), the walk (count, t_enter, t_exit, t[0 .. H-1]: 3 + H rows), the
+// network input (2 x LSNIF_GPU_ROW_WORDS(input) rows) and the raw network output
+// (8 x LSNIF_GPU_ROW_BLOCKS(output) rows). Lane i of a dispatch reads word i of a row, so
+// neighbouring lanes read neighbouring words.
+#ifndef LSNIF_BATCH_ROWS_GLSL
+#define LSNIF_BATCH_ROWS_GLSL
+
+#include "lsnif/shaders/lsnif_intersect.glsl"
+
+layout(buffer_reference, std430, buffer_reference_align = 4) coherent buffer LsnifScratchRef {
+  uint w[];
+};
+
+uint64_t lsnif_batch_address(uint lo, uint hi) { return packUint2x32(uvec2(lo, hi)); }
+
+// The rows of a batch: row k starts at word base + k x stride of the scratch.
+struct LsnifBatchRows {
+  LsnifScratchRef scratch;
+  uint base;
+  uint stride;
+};
+
+uint lsnif_rows_item(LsnifBatchRows r, uint slot) { return r.base + slot; }
+uint lsnif_rows_walk(LsnifBatchRows r, uint k, uint slot) { return r.base + (1u + k) * r.stride + slot; }
+uint lsnif_rows_input(LsnifBatchRows r, LsnifModel m, uint i, uint slot) {
+  return r.base + (4u + m.h.max_points + i) * r.stride + slot;
+}
+uint lsnif_rows_output(LsnifBatchRows r, LsnifModel m, uint k, uint slot) {
+  const uint input_rows = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
+  return r.base + (4u + m.h.max_points + input_rows + k) * r.stride + slot;
+}
+
+// Narrow phase, after lsnif_intersect_walk found `points` > 0 boundary points and lsnif_encode ran:
+// the item, the walk and the network input to `slot`.
+void lsnif_rows_store_narrow(LsnifBatchRows r, LsnifModel m, uint slot, uint item, uint points) {
+  r.scratch.w[lsnif_rows_item(r, slot)] = item;
+  r.scratch.w[lsnif_rows_walk(r, 0u, slot)] = points;
+  r.scratch.w[lsnif_rows_walk(r, 1u, slot)] = floatBitsToUint(lsnif_walk.t_enter);
+  r.scratch.w[lsnif_rows_walk(r, 2u, slot)] = floatBitsToUint(lsnif_walk.t_exit);
+  for (uint j = 0u; j < points; ++j) r.scratch.w[lsnif_rows_walk(r, 3u + j, slot)] = floatBitsToUint(lsnif_walk.t[j]);
+  const uint inputs = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
+  for (uint i = 0u; i < inputs; ++i) r.scratch.w[lsnif_rows_input(r, m, i, slot)] = floatBitsToUint(lsnif_act[i]);
+}
+
+// The MLP of `slot`: input rows in, raw output rows out.
+void lsnif_rows_mlp(LsnifBatchRows r, LsnifModel m, uint slot) {
+  const uint inputs = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
+  for (uint i = 0u; i < inputs; ++i) lsnif_act[i] = uintBitsToFloat(r.scratch.w[lsnif_rows_input(r, m, i, slot)]);
+  const uint base = lsnif_mlp_forward(m);
+  const uint outputs = LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(lsnif_output_dim(m));
+  for (uint k = 0u; k < outputs; ++k)
+    r.scratch.w[lsnif_rows_output(r, m, k, slot)] = floatBitsToUint(lsnif_act[base + k]);
+}
+
+// The item of `slot`.
+uint lsnif_rows_load_item(LsnifBatchRows r, uint slot) { return r.scratch.w[lsnif_rows_item(r, slot)]; }
+
+// The decode of `slot` (heads, then the acceptance against the item's interval and ray flags).
+LsnifHitInfo lsnif_rows_decode(LsnifBatchRows r, LsnifModel m, uint slot, vec3 direction, float tmin, float tmax,
+                               uint ray_flags) {
+  const uint points = r.scratch.w[lsnif_rows_walk(r, 0u, slot)];
+  lsnif_walk.count = points;
+  lsnif_walk.t_enter = uintBitsToFloat(r.scratch.w[lsnif_rows_walk(r, 1u, slot)]);
+  lsnif_walk.t_exit = uintBitsToFloat(r.scratch.w[lsnif_rows_walk(r, 2u, slot)]);
+  for (uint j = 0u; j < points; ++j) lsnif_walk.t[j] = uintBitsToFloat(r.scratch.w[lsnif_rows_walk(r, 3u + j, slot)]);
+  const uint outputs = lsnif_output_dim(m);
+  for (uint k = 0u; k < outputs; ++k) lsnif_act[k] = uintBitsToFloat(r.scratch.w[lsnif_rows_output(r, m, k, slot)]);
+  return lsnif_intersect_accept(lsnif_decode(m, 0u), points, direction, tmin, tmax, ray_flags);
+}
+
+#endif

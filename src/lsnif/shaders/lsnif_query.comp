@@ -1,0 +1,436 @@
+// lsnif_query.comp -- queries against the application's TLAS (lsnifCmdQuery): the paper's section 4
+// pipeline over triangle and LSNIF instances together. Compiled once per stage (glslangValidator -D);
+// the stages of one chunk of rays, in recording order (src/lsnif/plugin/query_pipeline.cpp):
+//  LSNIF_QUERY_CLEAR    the candidate counter and every model's counters = 0 (the status
+//                       accumulators too on the first chunk).
+//  LSNIF_QUERY_BROAD    1 invocation per ray, GL_EXT_ray_query: a traversal committing triangles
+//                       only (closest, or any with LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT) whose hit
+//                       is written to the result; then, unless an any-hit ray is already answered, a
+//                       traversal visiting the AABBs up to that hit, appending one candidate per LSNIF
+//                       instance whose model box the ray crosses there (the object-space ray exactly
+//                       as the intersection shader sees it). Candidates past the capacity are dropped
+//                       and noted in the ray's state (the smallest t_enter dropped).
+//  LSNIF_QUERY_SCAN     1 workgroup: exclusive prefix sum of the per-model counts (counting sort),
+//                       the indirect dispatches of the scatter and of every model's narrow phase.
+//  LSNIF_QUERY_SCATTER  1 invocation per candidate: its index into its model's sorted range.
+//  LSNIF_QUERY_NARROW   per model, 1 invocation per candidate of its range, when the table entry
+//                       holds the model recorded for it (else its candidates stay not evaluated):
+//                       the walk and encoding (lsnif_batch_rows.glsl); candidates with boundary
+//                       points take a slot of the model's dense batch (in the columns of its range).
+//  LSNIF_QUERY_BATCH_ARGS  1 invocation per model: the indirect dispatch over its batch.
+//  LSNIF_QUERY_MLP      per model, 1 invocation per batch slot: the MLP.
+//  LSNIF_QUERY_DECODE   per model, 1 invocation per batch slot: heads and acceptance; an accepted
+//                       candidate lowers its ray's best t (atomicMin on the float bits).
+//  LSNIF_QUERY_TIE      1 invocation per candidate: the accepted candidates at their ray's best t
+//                       lower its best instance (atomicMin), so that equal t resolve by instance index;
+//                       candidates not evaluated are noted in the ray's state (and counted).
+//  LSNIF_QUERY_RESOLVE_HITS  1 invocation per candidate: the winner writes its LSNIF result.
+//  LSNIF_QUERY_RESOLVE_RAYS  1 invocation per ray: rays a dropped or not evaluated candidate could
+//                       have changed become LSNIF_QUERY_HIT_INCOMPLETE (and are counted).
+//  LSNIF_QUERY_STATUS   1 invocation: the accumulated LsnifQueryStatus to the application's address.
+// Layouts: LsnifQueryRay, LsnifQueryResult, LsnifQueryStatus, LsnifQueryPushConstants and the
+// scratch (LsnifQueryModelCounters, LsnifQueryRayState, LsnifQueryCandidate) in host_device.h.
+#version 460
+#extension GL_EXT_ray_query : require
+#extension GL_GOOGLE_include_directive : require
+#include "lsnif/shaders/lsnif_batch_rows.glsl"
+
+layout(local_size_x = LSNIF_BATCH_GROUP_SIZE) in;
+
+layout(push_constant, std430) uniform LsnifQueryPush { LsnifQueryPushConstants pc; };
+
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer LsnifQueryRaysRef {
+  LsnifQueryRay r[];
+};
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer LsnifQueryResultsRef {
+  LsnifQueryResult r[];
+};
+layout(buffer_reference, std430, buffer_reference_align = 4) writeonly buffer LsnifQueryStatusRef {
+  LsnifQueryStatus s;
+};
+layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer LsnifQueryTableRef {
+  uint64_t model[];
+};
+layout(buffer_reference, std430, buffer_reference_align = 4) coherent buffer LsnifQueryModelsRef {
+  LsnifQueryModelCounters c[];
+};
+layout(buffer_reference, std430, buffer_reference_align = 4) coherent buffer LsnifQueryStatesRef {
+  LsnifQueryRayState s[];
+};
+layout(buffer_reference, std430, buffer_reference_align = 4) coherent buffer LsnifQueryCandidatesRef {
+  LsnifQueryCandidate c[];
+};
+
+#if defined(LSNIF_QUERY_SCAN)
+shared uint lsnif_query_lane_sums[LSNIF_BATCH_GROUP_SIZE];
+#endif
+
+const uint LSNIF_QUERY_INF_BITS = 0x7f800000u;  // +inf: greater than the bits of every finite t >= 0
+const uint LSNIF_QUERY_NONE = 0xffffffffu;
+
+// Scratch sections (host_device.h), in words from the scratch's start.
+uint lsnif_query_models_word() { return LSNIF_BATCH_HEADER_WORDS; }
+uint lsnif_query_states_word() { return lsnif_query_models_word() + 10u * pc.model_count; }
+uint lsnif_query_candidates_word() { return lsnif_query_states_word() + 8u * pc.ray_count; }
+uint lsnif_query_sorted_word() { return lsnif_query_candidates_word() + 36u * pc.capacity; }
+uint lsnif_query_rows_word() { return lsnif_query_sorted_word() + pc.stride; }
+
+uint64_t lsnif_query_scratch_address() { return lsnif_batch_address(pc.scratch_lo, pc.scratch_hi); }
+LsnifScratchRef lsnif_query_scratch() { return LsnifScratchRef(lsnif_query_scratch_address()); }
+LsnifQueryModelsRef lsnif_query_models() {
+  return LsnifQueryModelsRef(lsnif_query_scratch_address() + 4ul * lsnif_query_models_word());
+}
+LsnifQueryStatesRef lsnif_query_states() {
+  return LsnifQueryStatesRef(lsnif_query_scratch_address() + 4ul * lsnif_query_states_word());
+}
+LsnifQueryCandidatesRef lsnif_query_candidates() {
+  return LsnifQueryCandidatesRef(lsnif_query_scratch_address() + 4ul * lsnif_query_candidates_word());
+}
+LsnifQueryRay lsnif_query_ray(uint ray) {
+  return LsnifQueryRaysRef(lsnif_batch_address(pc.rays_lo, pc.rays_hi)).r[ray];
+}
+LsnifQueryResultsRef lsnif_query_results() {
+  return LsnifQueryResultsRef(lsnif_batch_address(pc.results_lo, pc.results_hi));
+}
+
+// Candidates kept in the chunk (the counter may exceed the capacity).
+uint lsnif_query_kept() { return min(lsnif_query_scratch().w[0], pc.capacity); }
+
+// The ray flags lsnifCmdQuery honours.
+uint lsnif_query_flags(LsnifQueryRay q) {
+  return q.flags & (LSNIF_RAY_FLAG_CULL_BACK_FACING | LSNIF_RAY_FLAG_CULL_FRONT_FACING |
+                    LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT);
+}
+
+// The ordering key of a hit distance t >= 0 (+0 for -0).
+uint lsnif_query_t_key(float t) { return t == 0.0 ? 0u : floatBitsToUint(t); }
+
+// A result without a hit (kind NONE or INCOMPLETE).
+LsnifQueryResult lsnif_query_no_hit(uint kind) {
+  LsnifQueryResult r;
+  r.t = 0.0;
+  r.normal_x = 0.0;
+  r.normal_y = 0.0;
+  r.normal_z = 0.0;
+  r.albedo_r = 0.0;
+  r.albedo_g = 0.0;
+  r.albedo_b = 0.0;
+  r.material = 0u;
+  r.kind = kind;
+  r.instance_index = LSNIF_QUERY_NONE;
+  r.instance_custom_index = LSNIF_QUERY_NONE;
+  r.primitive_index = LSNIF_QUERY_NONE;
+  r.geometry_index = LSNIF_QUERY_NONE;
+  r.barycentric_u = 0.0;
+  r.barycentric_v = 0.0;
+  r.front_face = 0u;
+  return r;
+}
+
+// A ray the traversal must not see (ray query rules): non-finite, zero direction, tmin < 0,
+// tmin > tmax or NaN.
+bool lsnif_query_ray_valid(vec3 origin, vec3 direction, float tmin, float tmax) {
+  return lsnif_finite3(origin) && lsnif_finite3(direction) && direction != vec3(0.0) && !isnan(tmin) &&
+         !isnan(tmax) && tmin >= 0.0 && tmin <= tmax && !isinf(tmin);
+}
+
+// [t_enter, t_exit] of the object-space ray inside the model's box within [tmin, tmax] (empty when
+// t_enter > t_exit).
+vec2 lsnif_query_clip(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax) {
+  const vec3 inv = 1.0 / direction;
+  const vec3 a = (lsnif_bounds_lo(m) - origin) * inv, b = (lsnif_bounds_hi(m) - origin) * inv;
+  const vec3 lo = min(a, b), hi = max(a, b);
+  // A zero direction component gives nan where the origin lies on a face: such an axis does not clip.
+  float t0 = tmin, t1 = tmax;
+  for (int k = 0; k < 3; ++k) {
+    if (!isnan(lo[k])) t0 = max(t0, lo[k]);
+    if (!isnan(hi[k])) t1 = min(t1, hi[k]);
+  }
+  return vec2(t0, t1);
+}
+
+#if defined(LSNIF_QUERY_BROAD)
+// The closest (or, for an any-hit ray, any) triangle hit; false without one.
+bool lsnif_query_triangles(uint64_t tlas, uint flags, vec3 origin, vec3 direction, float tmin,
+                           float tmax, out LsnifQueryResult r) {
+  rayQueryEXT rq;
+  // Triangles forced opaque are committed by the traversal; AABB candidates are left uncommitted.
+  uint rq_flags = gl_RayFlagsOpaqueEXT | (flags & (LSNIF_RAY_FLAG_CULL_BACK_FACING | LSNIF_RAY_FLAG_CULL_FRONT_FACING));
+  if ((flags & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0u) rq_flags |= gl_RayFlagsTerminateOnFirstHitEXT;
+  rayQueryInitializeEXT(rq, accelerationStructureEXT(tlas), rq_flags, pc.cull_mask, origin, tmin, direction, tmax);
+  while (rayQueryProceedEXT(rq)) {
+  }
+  r = lsnif_query_no_hit(LSNIF_QUERY_HIT_NONE);
+  if (rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionTriangleEXT) return false;
+  const vec2 bary = rayQueryGetIntersectionBarycentricsEXT(rq, true);
+  r.t = rayQueryGetIntersectionTEXT(rq, true);
+  r.kind = LSNIF_QUERY_HIT_TRIANGLE;
+  r.instance_index = uint(rayQueryGetIntersectionInstanceIdEXT(rq, true));
+  r.instance_custom_index = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
+  r.primitive_index = uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true));
+  r.geometry_index = uint(rayQueryGetIntersectionGeometryIndexEXT(rq, true));
+  r.barycentric_u = bary.x;
+  r.barycentric_v = bary.y;
+  r.front_face = rayQueryGetIntersectionFrontFaceEXT(rq, true) ? 1u : 0u;
+  return true;
+}
+#endif
+
+void main() {
+  LsnifScratchRef scratch = lsnif_query_scratch();
+  LsnifQueryModelsRef models = lsnif_query_models();
+  LsnifQueryStatesRef states = lsnif_query_states();
+  LsnifQueryCandidatesRef candidates = lsnif_query_candidates();
+  const uint id = gl_GlobalInvocationID.x;
+#if defined(LSNIF_QUERY_CLEAR)
+  if (id < LSNIF_BATCH_HEADER_WORDS) {
+    const bool status = id >= LSNIF_QUERY_STATUS_WORD && id < LSNIF_QUERY_STATUS_WORD + 5u;
+    if (!status || pc.first_chunk != 0u) scratch.w[id] = 0u;
+  } else if (id < LSNIF_BATCH_HEADER_WORDS + 10u * pc.model_count) {
+    scratch.w[id] = 0u;
+  }
+
+#elif defined(LSNIF_QUERY_BROAD)
+  if (id >= pc.ray_count) return;
+  const LsnifQueryRay q = lsnif_query_ray(id);
+  const vec3 origin = vec3(q.origin_x, q.origin_y, q.origin_z);
+  const vec3 direction = vec3(q.direction_x, q.direction_y, q.direction_z);
+  const uint flags = lsnif_query_flags(q);
+  LsnifQueryRayState st;
+  st.best_t = LSNIF_QUERY_INF_BITS;
+  st.best_instance = LSNIF_QUERY_NONE;
+  st.missing_t = LSNIF_QUERY_INF_BITS;
+  st.triangle_t = LSNIF_QUERY_INF_BITS;
+  st.triangle_instance = LSNIF_QUERY_NONE;
+  st.reserved0 = 0u;
+  st.reserved1 = 0u;
+  st.reserved2 = 0u;
+  LsnifQueryResult result = lsnif_query_no_hit(LSNIF_QUERY_HIT_NONE);
+  if (lsnif_query_ray_valid(origin, direction, q.tmin, q.tmax)) {
+    const uint64_t tlas = lsnif_batch_address(pc.tlas_lo, pc.tlas_hi);
+    float tmax = q.tmax;
+    const bool triangle = lsnif_query_triangles(tlas, flags, origin, direction, q.tmin, q.tmax, result);
+    if (triangle) {
+      tmax = result.t;
+      st.best_t = st.triangle_t = lsnif_query_t_key(result.t);
+      st.triangle_instance = result.instance_index;
+    }
+    const uint64_t table = lsnif_batch_address(pc.table_lo, pc.table_hi);
+    if (!(triangle && (flags & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0u) && table != 0ul) {
+      rayQueryEXT rq;
+      // Triangles forced non-opaque are candidates that are never confirmed: nothing is committed,
+      // so every AABB up to the triangle hit is visited. (The Skip*Primitives flags would need the
+      // primitive-culling capability.)
+      rayQueryInitializeEXT(rq, accelerationStructureEXT(tlas), gl_RayFlagsNoOpaqueEXT, pc.cull_mask, origin, q.tmin,
+                            direction, tmax);
+      while (rayQueryProceedEXT(rq)) {
+        if (rayQueryGetIntersectionTypeEXT(rq, false) != gl_RayQueryCandidateIntersectionAABBEXT) continue;
+        // The intersection shader's lookup: an index past the table, a hole or a block of another
+        // layout is a miss.
+        const uint custom = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));
+        if (custom >= pc.model_count) continue;
+        const uint64_t address = LsnifQueryTableRef(table).model[custom];
+        if (address == 0ul || !lsnif_model_layout_matches(address)) continue;
+        LsnifModel m = lsnif_load_model(address);
+        const vec3 o = rayQueryGetIntersectionObjectRayOriginEXT(rq, false);
+        const vec3 d = rayQueryGetIntersectionObjectRayDirectionEXT(rq, false);
+        const vec2 span = lsnif_query_clip(m, o, d, q.tmin, tmax);
+        if (!(span.x <= span.y)) continue;
+        const uint slot = atomicAdd(scratch.w[0], 1u);
+        if (slot >= pc.capacity) {
+          st.missing_t = min(st.missing_t, lsnif_query_t_key(span.x));
+          continue;
+        }
+        atomicAdd(models.c[custom].count, 1u);
+        const mat3 w2o = mat3(rayQueryGetIntersectionWorldToObjectEXT(rq, false));
+        LsnifQueryCandidate c;
+        c.ray = id;
+        c.instance_index = uint(rayQueryGetIntersectionInstanceIdEXT(rq, false));
+        c.custom_index = custom;
+        c.flags = flags;
+        c.origin_x = o.x;
+        c.origin_y = o.y;
+        c.origin_z = o.z;
+        c.tmin = q.tmin;
+        c.direction_x = d.x;
+        c.direction_y = d.y;
+        c.direction_z = d.z;
+        c.tmax = tmax;
+        c.t_enter = span.x;
+        c.t_exit = span.y;
+        c.accepted = 0u;
+        c.t = 0.0;
+        for (int k = 0; k < 9; ++k) c.normal_matrix[k] = w2o[k / 3][k % 3];
+        c.points = 0u;
+        c.occlusion_logit = 0.0;
+        c.material = 0u;
+        c.normal_x = 0.0;
+        c.normal_y = 0.0;
+        c.normal_z = 0.0;
+        c.albedo_r = 0.0;
+        c.albedo_g = 0.0;
+        c.albedo_b = 0.0;
+        c.front_face = 0u;
+        c.evaluated = 0u;
+        candidates.c[slot] = c;
+      }
+    }
+  }
+  states.s[id] = st;
+  lsnif_query_results().r[id] = result;
+
+#elif defined(LSNIF_QUERY_SCAN)
+  // One workgroup: lane l sums the counts of its contiguous share of the models, the lanes' sums are
+  // scanned in shared memory, then each lane writes the starts of its share.
+  const uint lane = gl_LocalInvocationID.x;
+  const uint share = (pc.model_count + LSNIF_BATCH_GROUP_SIZE - 1u) / LSNIF_BATCH_GROUP_SIZE;
+  const uint first = min(lane * share, pc.model_count), last = min(first + share, pc.model_count);
+  uint sum = 0u;
+  for (uint b = first; b < last; ++b) sum += models.c[b].count;
+  lsnif_query_lane_sums[lane] = sum;
+  barrier();
+  uint start = 0u;
+  for (uint l = 0u; l < lane; ++l) start += lsnif_query_lane_sums[l];
+  for (uint b = first; b < last; ++b) {
+    const uint count = models.c[b].count;
+    models.c[b].start = start;
+    models.c[b].narrow_groups_x = (count + LSNIF_BATCH_GROUP_SIZE - 1u) / LSNIF_BATCH_GROUP_SIZE;
+    models.c[b].narrow_groups_y = 1u;
+    models.c[b].narrow_groups_z = 1u;
+    start += count;
+  }
+  if (lane == 0u) {
+    const uint produced = scratch.w[0], kept = min(produced, pc.capacity);
+    scratch.w[LSNIF_QUERY_SCATTER_ARGS_WORD] = (kept + LSNIF_BATCH_GROUP_SIZE - 1u) / LSNIF_BATCH_GROUP_SIZE;
+    scratch.w[LSNIF_QUERY_SCATTER_ARGS_WORD + 1u] = 1u;
+    scratch.w[LSNIF_QUERY_SCATTER_ARGS_WORD + 2u] = 1u;
+    scratch.w[LSNIF_QUERY_STATUS_WORD] += produced;
+    scratch.w[LSNIF_QUERY_STATUS_WORD + 1u] = pc.capacity;
+    scratch.w[LSNIF_QUERY_STATUS_WORD + 2u] += produced - kept;
+  }
+
+#elif defined(LSNIF_QUERY_SCATTER)
+  if (id >= lsnif_query_kept()) return;
+  const uint b = candidates.c[id].custom_index;
+  scratch.w[lsnif_query_sorted_word() + models.c[b].start + atomicAdd(models.c[b].cursor, 1u)] = id;
+
+#elif defined(LSNIF_QUERY_BATCH_ARGS)
+  if (id >= pc.model_count) return;
+  models.c[id].batch_groups_x = (models.c[id].batch + LSNIF_BATCH_GROUP_SIZE - 1u) / LSNIF_BATCH_GROUP_SIZE;
+  models.c[id].batch_groups_y = 1u;
+  models.c[id].batch_groups_z = 1u;
+
+#elif defined(LSNIF_QUERY_NARROW) || defined(LSNIF_QUERY_MLP) || defined(LSNIF_QUERY_DECODE)
+  // The model of pc.bucket; its batch occupies the columns of its sorted range.
+  LsnifModel m = lsnif_load_model(lsnif_batch_address(pc.model_lo, pc.model_hi));
+  LsnifBatchRows rows;
+  rows.scratch = scratch;
+  rows.base = lsnif_query_rows_word();
+  rows.stride = pc.stride;
+  const uint start = models.c[pc.bucket].start;
+#if defined(LSNIF_QUERY_NARROW)
+  if (id >= models.c[pc.bucket].count) return;
+  // The table entry the broad phase read must be the model recorded for it; otherwise the
+  // candidate stays not evaluated (and its ray incomplete where it matters).
+  const uint64_t entry = LsnifQueryTableRef(lsnif_batch_address(pc.table_lo, pc.table_hi)).model[pc.bucket];
+  if (entry != lsnif_batch_address(pc.model_lo, pc.model_hi)) return;
+  const uint ci = scratch.w[lsnif_query_sorted_word() + start + id];
+  const LsnifQueryCandidate c = candidates.c[ci];
+  candidates.c[ci].evaluated = 1u;
+  const uint points = lsnif_intersect_walk(m, vec3(c.origin_x, c.origin_y, c.origin_z),
+                                           vec3(c.direction_x, c.direction_y, c.direction_z), c.tmin, c.tmax);
+  if (points == 0u) return;  // a miss before the network (the candidate stays not accepted)
+  lsnif_encode(m);
+  lsnif_rows_store_narrow(rows, m, start + atomicAdd(models.c[pc.bucket].batch, 1u), ci, points);
+#else
+  if (id >= models.c[pc.bucket].batch) return;
+#if defined(LSNIF_QUERY_MLP)
+  lsnif_rows_mlp(rows, m, start + id);
+#else
+  const uint ci = lsnif_rows_load_item(rows, start + id);
+  const LsnifQueryCandidate c = candidates.c[ci];
+  const vec3 d = vec3(c.direction_x, c.direction_y, c.direction_z);
+  const LsnifHitInfo h = lsnif_rows_decode(rows, m, start + id, d, c.tmin, c.tmax, c.flags);
+  mat3 w2o;
+  for (int k = 0; k < 9; ++k) w2o[k / 3][k % 3] = c.normal_matrix[k];
+  const vec3 n = transpose(w2o) * h.normal;  // A^-T n
+  candidates.c[ci].accepted = h.hit ? 1u : 0u;
+  candidates.c[ci].t = h.t;
+  candidates.c[ci].points = h.points;
+  candidates.c[ci].occlusion_logit = h.occlusion_logit;
+  candidates.c[ci].material = h.material;
+  const vec3 nw = dot(n, n) > 0.0 ? normalize(n) : vec3(0.0);
+  candidates.c[ci].normal_x = nw.x;
+  candidates.c[ci].normal_y = nw.y;
+  candidates.c[ci].normal_z = nw.z;
+  candidates.c[ci].albedo_r = h.albedo.r;
+  candidates.c[ci].albedo_g = h.albedo.g;
+  candidates.c[ci].albedo_b = h.albedo.b;
+  candidates.c[ci].front_face = dot(h.normal, d) < 0.0 ? 1u : 0u;
+  if (h.hit) atomicMin(states.s[c.ray].best_t, lsnif_query_t_key(h.t));
+#endif
+#endif
+
+#elif defined(LSNIF_QUERY_TIE)
+  if (id >= lsnif_query_kept()) return;
+  const LsnifQueryCandidate c = candidates.c[id];
+  if (c.evaluated == 0u) {
+    atomicMin(states.s[c.ray].missing_t, lsnif_query_t_key(c.t_enter));
+    atomicAdd(scratch.w[LSNIF_QUERY_STATUS_WORD + 4u], 1u);
+    return;
+  }
+  if (c.accepted != 0u && lsnif_query_t_key(c.t) == states.s[c.ray].best_t)
+    atomicMin(states.s[c.ray].best_instance, c.instance_index);
+
+#elif defined(LSNIF_QUERY_RESOLVE_HITS)
+  if (id >= lsnif_query_kept()) return;
+  const LsnifQueryCandidate c = candidates.c[id];
+  if (c.accepted == 0u) return;
+  const LsnifQueryRayState st = states.s[c.ray];
+  if (lsnif_query_t_key(c.t) != st.best_t || c.instance_index != st.best_instance) return;
+  if (st.triangle_t == st.best_t && st.triangle_instance < st.best_instance) return;  // the triangle wins
+  LsnifQueryResult r;
+  r.t = c.t;
+  r.normal_x = c.normal_x;
+  r.normal_y = c.normal_y;
+  r.normal_z = c.normal_z;
+  r.albedo_r = c.albedo_r;
+  r.albedo_g = c.albedo_g;
+  r.albedo_b = c.albedo_b;
+  r.material = c.material;
+  r.kind = LSNIF_QUERY_HIT_LSNIF;
+  r.instance_index = c.instance_index;
+  r.instance_custom_index = c.custom_index;
+  r.primitive_index = 0u;
+  r.geometry_index = 0u;
+  r.barycentric_u = 0.0;
+  r.barycentric_v = 0.0;
+  r.front_face = c.front_face;
+  lsnif_query_results().r[c.ray] = r;
+
+#elif defined(LSNIF_QUERY_RESOLVE_RAYS)
+  if (id >= pc.ray_count) return;
+  const LsnifQueryRayState st = states.s[id];
+  if (st.missing_t == LSNIF_QUERY_INF_BITS) return;
+  // A candidate dropped or not evaluated matters when it could hold a closer hit (t >= its
+  // t_enter), or, for an any-hit ray, when no hit was found at all.
+  const bool any_hit = (lsnif_query_flags(lsnif_query_ray(id)) & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0u;
+  const bool found = st.best_t != LSNIF_QUERY_INF_BITS;
+  if (any_hit ? found : st.missing_t > st.best_t) return;
+  lsnif_query_results().r[id] = lsnif_query_no_hit(LSNIF_QUERY_HIT_INCOMPLETE);
+  atomicAdd(scratch.w[LSNIF_QUERY_STATUS_WORD + 3u], 1u);
+
+#elif defined(LSNIF_QUERY_STATUS)
+  if (id != 0u || (pc.status_lo == 0u && pc.status_hi == 0u)) return;
+  LsnifQueryStatus s;
+  s.candidates = scratch.w[LSNIF_QUERY_STATUS_WORD];
+  s.capacity = scratch.w[LSNIF_QUERY_STATUS_WORD + 1u];
+  s.dropped = scratch.w[LSNIF_QUERY_STATUS_WORD + 2u];
+  s.incomplete_rays = scratch.w[LSNIF_QUERY_STATUS_WORD + 3u];
+  s.unevaluated = scratch.w[LSNIF_QUERY_STATUS_WORD + 4u];
+  LsnifQueryStatusRef(lsnif_batch_address(pc.status_lo, pc.status_hi)).s = s;
+
+#else
+#error "compile with one of the LSNIF_QUERY_* stages"
+#endif
+}

@@ -1,0 +1,115 @@
+// gpu_test_support.h -- what the GPU tests (gpu_reference_test, rt_conformance_test) share: tiny
+// training settings, instances (A, A^-1 as src/lsnif/core/intersector.cpp computes it, T) and the generator
+// of world-space test rays of four kinds. Header-only; include inside no namespace.
+#pragma once
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "lsnif/core/intersector.h"
+#include "lsnif/core/model.h"
+#include "lsnif/testing/test_support.h"
+#include "lsnif/train/trainer.h"
+
+namespace lsnif::gputest {
+
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+inline TrainSettings tiny_settings(HitParam param) {
+  TrainSettings s = test::tiny_train_settings();
+  s.config.hit_param = param;
+  s.steps = 200;
+  s.seed = 7;
+  return s;
+}
+
+struct Instance {
+  glm::mat3 A, A_inv;  // A_inv as src/lsnif/core/intersector.cpp computes it
+  glm::vec3 T;
+};
+inline Instance instance_of(const Transform3x4& xf) {
+  Instance in;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) in.A[c][r] = xf.m[r][c];
+    in.T[r] = xf.m[r][3];
+  }
+  in.A_inv = glm::inverse(in.A);
+  return in;
+}
+
+// A direction uniform on the unit sphere (rejection sampling in the unit ball, away from 0).
+inline glm::vec3 random_unit_vector(std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (;;) {
+    const glm::vec3 v(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
+    const float l = glm::length(v);
+    if (l > 0.05f && l <= 1.0f) return v / l;
+  }
+}
+
+enum RayKind { kOutside, kInside, kInOccupied, kAnywhere, kKinds };
+inline const char* kKindNames[kKinds] = {"from outside through the AABB", "from inside the AABB",
+                                  "from inside occupied voxels", "anywhere (many miss the AABB)"};
+
+// Object-space rays of every kind (round robin), 15% with a finite tmax that cuts some hits, 10%
+// with a raised tmin, unnormalized directions; appended in world space of instance `in`.
+inline void make_world_rays(const Model& model, const Instance& in, size_t count, uint32_t seed, std::vector<Ray>& rays,
+                     std::vector<int>& kinds) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const Aabb& b = model.bounds();
+  const glm::vec3 ext = b.extent();
+  const float diag = b.diagonal();
+  const uint32_t V = model.voxels.resolution;
+  std::vector<glm::uvec3> occupied;
+  for (uint32_t k = 0; k < V; ++k)
+    for (uint32_t j = 0; j < V; ++j)
+      for (uint32_t i = 0; i < V; ++i)
+        if (model.voxels.occupied(int(i), int(j), int(k))) occupied.emplace_back(i, j, k);
+  auto unit_vector = [&] { return random_unit_vector(rng); };
+  auto in_box = [&] { return b.lo + ext * glm::vec3(u(rng), u(rng), u(rng)); };
+  for (size_t i = 0; i < count; ++i) {
+    const int kind = int(i % kKinds);
+    Ray r;
+    switch (kind) {
+      case kOutside:
+        r.origin = b.center() + diag * (0.8f + 0.7f * u(rng)) * unit_vector();
+        r.direction = in_box() - r.origin;
+        break;
+      case kInside:
+        r.origin = in_box();
+        r.direction = unit_vector();
+        break;
+      case kInOccupied: {
+        const glm::uvec3 v = occupied[size_t(u(rng) * float(occupied.size())) % occupied.size()];
+        r.origin = b.lo + ext * (glm::vec3(v) + glm::vec3(u(rng), u(rng), u(rng))) / float(V);
+        r.direction = unit_vector();
+        break;
+      }
+      default:
+        r.origin = b.center() + 1.5f * ext * glm::vec3(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
+        r.direction = unit_vector();
+        break;
+    }
+    r.direction *= 0.5f + u(rng);
+    const float span = diag / glm::length(r.direction);
+    const float pick = u(rng);
+    if (pick < 0.15f) {
+      r.tmax = 2.0f * span * u(rng);
+    } else if (pick < 0.25f) {
+      r.tmin = 0.5f * span * u(rng);
+    }
+    Ray w = r;
+    w.origin = in.A * r.origin + in.T;
+    w.direction = in.A * r.direction;
+    rays.push_back(w);
+    kinds.push_back(kind);
+  }
+}
+
+}  // namespace lsnif::gputest

@@ -1,0 +1,233 @@
+// test_support.h -- pieces shared by the end-to-end, GPU and command-line tests: the device they
+// ask for, the tiny training settings they train with, one skewed instance transform, running a
+// command with its output and exit code captured, a per-test temporary folder, and reading the
+// Markdown tables the benchmark commands write.
+#pragma once
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "lsnif/core/intersector.h"
+#include "lsnif/train/trainer.h"
+
+namespace lsnif::test {
+
+// The device selector (vk::ContextOptions::device, `lsnif ... --device`) of the GPU tests: lavapipe,
+// their reference platform, also on a machine with a GPU that the automatic choice would prefer.
+inline constexpr const char* kReferenceDevice = "llvmpipe";
+
+// A small, fast model: V=16, H=12, grid 32..64 with 2^14 entries, 2x64 MLP, batches of 2048, no
+// progress bar. Callers set the steps, seed and hit parametrization they need.
+inline TrainSettings tiny_train_settings() {
+  TrainSettings s;
+  s.config.voxel_resolution = 16;
+  s.config.max_points = 12;
+  set_grid_resolutions(s.config, 32, 64);
+  set_table_log2(s.config, 14);
+  s.config.hidden_width = 64;
+  s.batch_size = 2048;
+  return s;
+}
+
+// Object-to-world rotation * non-uniform scale (2, 0.5, 1.3), then a translation (3, -1, 7).
+inline glm::mat3 skewed_linear() {
+  const glm::mat3 R = glm::mat3(glm::vec3(0.36f, 0.48f, -0.8f), glm::vec3(-0.8f, 0.6f, 0.0f),
+                                glm::vec3(0.48f, 0.64f, 0.6f));
+  return R * glm::mat3(glm::vec3(2, 0, 0), glm::vec3(0, 0.5f, 0), glm::vec3(0, 0, 1.3f));
+}
+inline glm::vec3 skewed_translation() { return glm::vec3(3, -1, 7); }
+inline Transform3x4 skewed_instance() {
+  const glm::mat3 A = skewed_linear();
+  const glm::vec3 T = skewed_translation();
+  Transform3x4 xf;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) xf.m[r][c] = A[c][r];
+    xf.m[r][3] = T[r];
+  }
+  return xf;
+}
+
+// What a command wrote to its standard output, and how it ended.
+struct CommandResult {
+  int code = -1;    // exit status; -1 when it could not be started or did not exit normally
+  std::string out;  // stdout (add " 2>&1" to the command for stderr too)
+};
+
+// Runs `command` through /bin/sh (popen) and waits for it.
+inline CommandResult run_command(const std::string& command) {
+  CommandResult r;
+  FILE* p = popen(command.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+// Recomputes the CRC-32 in the last 4 bytes of .lsnif file bytes `b` (docs/model-format.md), bit by
+// bit from the definition, so that a test's change to a field reaches the checks behind the CRC.
+inline void fix_model_crc(std::string& b) {
+  uint32_t crc = 0xffffffffu;
+  for (size_t i = 0; i + 4 < b.size(); ++i) {
+    crc ^= uint8_t(b[i]);
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  crc = ~crc;
+  for (int k = 0; k < 4; ++k) b[b.size() - 4 + size_t(k)] = char((crc >> (8 * k)) & 0xff);
+}
+
+// How a process run by run_process ended.
+struct ProcessResult {
+  int exit_code = -1;      // when it exited normally, else -1
+  int signal = 0;          // the signal that killed it (SIGSEGV, SIGFPE, SIGABRT, ...), else 0
+  bool timed_out = false;  // killed by run_process after the time limit
+  std::string output;      // stdout and stderr together
+  bool crashed() const { return signal != 0 && !timed_out; }
+};
+
+// Runs argv[0] with the arguments argv[1..] (no shell: any byte may be in an argument), stdout and
+// stderr captured, killed after `timeout_s` seconds. With `file_size_limit` > 0 the child's files
+// cannot grow beyond that many bytes (RLIMIT_FSIZE; SIGXFSZ ignored, so a write past it fails with
+// EFBIG): a full disk for the program. `env` entries ("NAME=value") are added to the environment.
+inline ProcessResult run_process(const std::vector<std::string>& argv, double timeout_s,
+                                 uint64_t file_size_limit = 0, const std::vector<std::string>& env = {}) {
+  ProcessResult r;
+  int fds[2];
+  if (argv.empty() || ::pipe(fds) != 0) return r;
+  const pid_t pid = ::fork();
+  if (pid < 0) return r;
+  if (pid == 0) {
+    ::dup2(fds[1], 1);
+    ::dup2(fds[1], 2);
+    ::close(fds[0]);
+    ::close(fds[1]);
+    std::signal(SIGXFSZ, SIG_IGN);  // an ignored signal stays ignored across exec
+    if (file_size_limit > 0) {
+      struct rlimit limit = {rlim_t(file_size_limit), rlim_t(file_size_limit)};
+      ::setrlimit(RLIMIT_FSIZE, &limit);
+    }
+    for (const std::string& e : env) ::putenv(const_cast<char*>(e.c_str()));
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  ::close(fds[1]);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  std::array<char, 4096> buf;
+  for (;;) {
+    const double left = std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+    if (left <= 0) {
+      r.timed_out = true;
+      ::kill(pid, SIGKILL);
+      break;
+    }
+    struct pollfd p = {fds[0], POLLIN, 0};
+    const int ready = ::poll(&p, 1, int(std::min(left, 1.0) * 1000) + 1);
+    if (ready < 0 && errno != EINTR) break;
+    if (ready <= 0) continue;
+    const ssize_t n = ::read(fds[0], buf.data(), buf.size());
+    if (n <= 0) break;
+    r.output.append(buf.data(), size_t(n));
+  }
+  ::close(fds[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
+  return r;
+}
+
+// A fresh folder PREFIX_PID_TESTNAME under the system's temporary folder for the running test,
+// removed with everything in it when this object goes (construct it while a test runs, e.g. as a
+// fixture member or in SetUp).
+class ScopedTestDir {
+ public:
+  explicit ScopedTestDir(const std::string& prefix)
+      : path_(std::filesystem::temp_directory_path() /
+              (prefix + "_" + std::to_string(::getpid()) + "_" +
+               ::testing::UnitTest::GetInstance()->current_test_info()->name())) {
+    std::filesystem::create_directories(path_);
+  }
+  ~ScopedTestDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  ScopedTestDir(const ScopedTestDir&) = delete;
+  ScopedTestDir& operator=(const ScopedTestDir&) = delete;
+
+  const std::filesystem::path& path() const { return path_; }
+  // Path of `name` inside the folder.
+  std::string path(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// The bytes of a file; empty when it cannot be read.
+inline std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The cells of the first Markdown table row that starts with `prefix` (e.g. "| bunny |"), trimmed;
+// empty if none.
+inline std::vector<std::string> table_row(const std::string& md, const std::string& prefix) {
+  std::istringstream in(md);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(prefix, 0) != 0) continue;
+    std::vector<std::string> cells;
+    size_t at = 1;
+    for (size_t bar = line.find('|', at); bar != std::string::npos; at = bar + 1, bar = line.find('|', at)) {
+      std::string cell = line.substr(at, bar - at);
+      cell.erase(0, cell.find_first_not_of(' '));
+      cell.erase(cell.find_last_not_of(' ') + 1);
+      cells.push_back(cell);
+    }
+    return cells;
+  }
+  return {};
+}
+
+// A table cell as a number (thousands separators dropped); a test failure when it is not one.
+inline double number(std::string cell) {
+  cell.erase(std::remove(cell.begin(), cell.end(), ','), cell.end());
+  char* end = nullptr;
+  const double v = std::strtod(cell.c_str(), &end);
+  EXPECT_TRUE(end != cell.c_str() && *end == '\0') << "not a number: '" << cell << "'";
+  return v;
+}
+
+// Face count from an OFF file's header ("OFF", then "vertices faces edges"); 0 if it is not one.
+inline uint64_t off_faces(const std::string& path) {
+  std::ifstream in(path);
+  std::string magic;
+  uint64_t vertices = 0, faces = 0;
+  in >> magic >> vertices >> faces;
+  return magic == "OFF" ? faces : 0;
+}
+
+}  // namespace lsnif::test

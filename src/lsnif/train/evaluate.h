@@ -1,0 +1,46 @@
+// evaluate.h -- accuracy of a trained model against the Embree reference on a fresh held-out ray
+// set drawn like the training rays (another seed), restricted to rays that cross at least one
+// occupied voxel. Also scores the voxel-only baseline on the same rays (hit = crosses an occupied
+// voxel, t = entry into the first one, normal = that voxel face's normal facing the ray).
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "lsnif/import/mesh.h"
+#include "lsnif/core/model.h"
+#include "lsnif/train/ray_sampler.h"
+
+namespace lsnif {
+
+struct EvalSettings {
+  size_t rays = 100000;
+  uint64_t seed = 0x5eed0e7a1ull;  // differs from every training seed's stream space
+  SamplerSettings sampler;
+};
+
+struct EvalMetrics {
+  uint64_t rays = 0, true_hits = 0, false_hits = 0, true_misses = 0, false_misses = 0;
+  double accuracy = 0, precision = 0, recall = 0;
+  uint64_t agreed_hits = 0;          // rays where reference and prediction both hit
+  double t_error_median = 0, t_error_p90 = 0;            // |t error| / AABB diagonal
+  double normal_error_median = 0, normal_error_p90 = 0;  // degrees
+  double albedo_mae = 0;             // mean |albedo error| over channels and agreed hits
+  double material_accuracy = 0;      // over agreed hits
+};
+
+struct EvalReport {
+  EvalMetrics model, baseline;
+  EvalMetrics model_outer, model_surface;  // the model on rays from the outer sphere / the surface
+  double reference_hit_fraction = 0;  // among the evaluated rays
+  double truncated_fraction = 0;      // walks with more than H boundary points
+  double hit_beyond_walk_fraction = 0;  // reference hits past the last recorded point (unreachable)
+  double seconds = 0;
+  std::string to_text() const;
+  std::string to_json() const;
+};
+
+// `mesh` must be the mesh the model was trained on (object space).
+Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& settings,
+                      EvalReport& report);
+
+}  // namespace lsnif

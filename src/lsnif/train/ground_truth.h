@@ -1,0 +1,40 @@
+// ground_truth.h -- exact ray casting against the triangle mesh with Embree: the reference that
+// training targets and evaluation compare against.
+#pragma once
+#include <cstdint>
+#include <memory>
+
+#include "lsnif/core/geometry.h"
+#include "lsnif/import/mesh.h"
+#include "lsnif/format/status.h"
+
+namespace lsnif {
+
+struct ReferenceHit {
+  bool hit = false;
+  float t = 0.0f;                    // ray parameter of the closest hit
+  glm::vec3 normal{0.0f};            // interpolated shading normal, normalized, as stored (outward)
+  glm::vec3 geometric_normal{0.0f};  // face normal, normalized, as wound
+  glm::vec3 albedo{0.0f};            // Mesh::albedo at the hit
+  uint32_t material = 0;
+  uint32_t triangle = 0;
+};
+
+class GroundTruth {
+ public:
+  GroundTruth();
+  ~GroundTruth();
+  GroundTruth(const GroundTruth&) = delete;
+  GroundTruth& operator=(const GroundTruth&) = delete;
+
+  // Builds an Embree scene over `mesh` (kept by reference: it must outlive this object).
+  Status build(const Mesh& mesh);
+  // Closest hit within [ray.tmin, ray.tmax]. Thread-safe after build().
+  ReferenceHit trace(const Ray& ray) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace lsnif

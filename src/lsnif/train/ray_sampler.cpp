@@ -1,0 +1,138 @@
+// ray_sampler.cpp -- training and evaluation rays (paper 5.2). Candidate i draws all its random
+// numbers from Rng(seed, stream, i); candidates are evaluated in parallel blocks and kept in
+// candidate order, so the output never depends on the thread count.
+#include "lsnif/train/ray_sampler.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "lsnif/core/rng.h"
+
+namespace lsnif {
+namespace {
+
+// Surface candidates retry their finding ray this many times before falling back to an outer ray.
+constexpr uint32_t kSurfaceAttempts = 16;
+// Candidates per parallel block (bounds the memory of one block; the output does not depend on it).
+constexpr size_t kMinBlock = 1024;
+constexpr size_t kMaxBlock = 65536;
+
+// Ray from a uniform point on the sphere (centre, radius), cosine-weighted about the direction
+// toward the centre.
+Ray sample_outer_ray(Rng& rng, const glm::vec3& centre, float radius) {
+  const float u1 = rng.next_float(), u2 = rng.next_float();
+  const glm::vec3 outward = sample_uniform_sphere(u1, u2);
+  const float u3 = rng.next_float(), u4 = rng.next_float();
+  Ray ray;
+  ray.origin = centre + radius * outward;
+  ray.direction = sample_cosine_hemisphere(-outward, u3, u4);
+  return ray;
+}
+
+}  // namespace
+
+RaySampler::RaySampler(const Mesh& mesh, const GroundTruth& truth, const VoxelGrid& grid,
+                       uint32_t max_points, SamplerSettings settings)
+    : mesh_(mesh), truth_(truth), grid_(grid), max_points_(max_points), settings_(settings) {}
+
+// Candidate generation: with probability surface_fraction a surface ray (origin on the first hit
+// of an outer ray, pushed off along the face normal facing that ray, direction cosine-weighted
+// about that normal); otherwise, or if kSurfaceAttempts outer rays all miss the mesh, an outer
+// ray. Candidates whose walk has no boundary point are dropped; kept ones get their reference hit.
+//
+// Produces exactly `count` samples, except in the degenerate cases where almost no ray can be kept:
+// an empty grid or max_points == 0 gives none, and generation stops after 2^20 + 1024 * count
+// candidates (fewer than 1 kept per 1024 tried), so it always terminates. Callers check
+// samples.size().
+void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vector<Sample>& samples,
+                          std::vector<RayWalk>& walks) const {
+  if (count == 0 || max_points_ == 0 || grid_.resolution == 0 || grid_.count_occupied() == 0) {
+    samples.clear();
+    walks.clear();
+    return;
+  }
+  // Sized once (a caller that reuses its vectors pays no construction), shrunk at the end to what
+  // was found.
+  samples.resize(count);
+  walks.resize(count);
+  size_t filled = 0;
+
+  const glm::vec3 centre = grid_.bounds.center();
+  const float diagonal = grid_.bounds.diagonal();
+  const float radius = settings_.sphere_scale * 0.5f * diagonal;
+  const float offset = settings_.surface_offset * diagonal;
+  const float surface_fraction = settings_.surface_fraction;
+  const uint64_t max_candidates = (uint64_t(1) << 20) + 1024u * uint64_t(count);
+
+  // Fills sample/walk for candidate `index`; returns whether it is kept.
+  auto make_candidate = [&](uint64_t index, Sample& sample, RayWalk& walk) -> bool {
+    Rng rng(seed, stream, index);
+    Ray ray;
+    bool from_surface = false;
+    if (rng.next_float() < surface_fraction) {
+      for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !from_surface; ++attempt) {
+        const Ray finder = sample_outer_ray(rng, centre, radius);
+        const ReferenceHit hit = truth_.trace(finder);
+        if (!hit.hit) continue;
+        const glm::vec3 point = finder.origin + hit.t * finder.direction;
+        const glm::vec3 n = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal
+                                                                                   : hit.geometric_normal;
+        const float u1 = rng.next_float(), u2 = rng.next_float();
+        ray.origin = point + offset * n;
+        ray.direction = sample_cosine_hemisphere(n, u1, u2);
+        from_surface = true;
+      }
+    }
+    if (!from_surface) ray = sample_outer_ray(rng, centre, radius);
+    ray.tmin = 0.0f;
+    ray.tmax = std::numeric_limits<float>::infinity();
+    if (walk_ray(grid_, ray, max_points_, walk) == 0) return false;
+    sample.ray = ray;
+    sample.from_surface = from_surface;
+    sample.reference = truth_.trace(ray);
+    return true;
+  };
+
+  std::vector<Sample> block_samples;
+  std::vector<RayWalk> block_walks;
+  std::vector<uint8_t> block_keep;
+  std::vector<size_t> slot;
+  uint64_t next = 0, tried = 0, kept = 0;
+  while (filled < count && next < max_candidates) {
+    // Size the block from the keep rate seen so far (a guess of 1/2 at first) so that one or two
+    // blocks usually suffice. The samples kept are always the first `count` kept candidates in
+    // index order, whatever the block sizes, so the result does not depend on this heuristic.
+    const size_t remaining = count - filled;
+    const double rate = tried ? std::max(double(kept) / double(tried), 0.02) : keep_rate_;
+    const size_t block = std::clamp(size_t(double(remaining) / rate * 1.05) + 64, kMinBlock, kMaxBlock);
+    block_samples.resize(block);
+    block_walks.resize(block);
+    block_keep.assign(block, 0);
+    const int64_t n = int64_t(block);
+#pragma omp parallel for schedule(dynamic, 32)
+    for (int64_t j = 0; j < n; ++j)
+      block_keep[size_t(j)] = make_candidate(next + uint64_t(j), block_samples[size_t(j)],
+                                             block_walks[size_t(j)]) ? 1 : 0;
+    // Compact the kept candidates in order (positions serially, copies in parallel).
+    slot.assign(block, SIZE_MAX);
+    for (size_t j = 0; j < block; ++j) {
+      kept += block_keep[j];
+      if (block_keep[j] && filled < count) slot[j] = filled++;
+    }
+    tried += block;
+#pragma omp parallel for schedule(static)
+    for (int64_t j = 0; j < n; ++j) {
+      const size_t at = slot[size_t(j)];
+      if (at == SIZE_MAX) continue;
+      samples[at] = block_samples[size_t(j)];
+      walks[at] = block_walks[size_t(j)];
+    }
+    next += block;
+  }
+  if (tried) keep_rate_ = std::max(double(kept) / double(tried), 0.02);
+  samples.resize(filled);
+  walks.resize(filled);
+}
+
+}  // namespace lsnif

@@ -1,0 +1,545 @@
+// settings_io.cpp -- see settings_io.h.
+#include "lsnif/train/settings_io.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "lsnif/import/json_text.h"
+
+namespace lsnif {
+
+namespace {
+
+constexpr uint64_t kMaxConfigFileBytes = 1u << 20;
+
+// "'a' or 'b'", "'a', 'b' or 'c'".
+template <class Name>
+std::string alternatives(size_t count, Name name) {
+  std::string s;
+  for (size_t i = 0; i < count; ++i) {
+    if (i) s += i + 1 == count ? " or " : ", ";
+    s += '\'';
+    s += name(i);
+    s += '\'';
+  }
+  return s;
+}
+
+// The shortest "%.Ng" text that reads back as `f`.
+std::string float_text(float f) {
+  char buf[32];
+  for (int precision = 6; precision <= 9; ++precision) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, double(f));
+    if (std::strtof(buf, nullptr) == f) break;
+  }
+  return buf;
+}
+
+// Where each resolved value came from, for messages: the layer (nullptr: a default or a preset of
+// no layer).
+using Origins = std::array<const SettingLayer*, kSettingCount>;
+
+// "FILE: " when any of `ids` came from a file.
+std::string file_prefix(const Origins& origin, std::initializer_list<SettingId> ids) {
+  for (SettingId id : ids) {
+    const SettingLayer* l = origin[static_cast<size_t>(id)];
+    if (l && !l->file.empty()) return l->file + ": ";
+  }
+  return "";
+}
+
+std::string label_of(const Origins& origin, SettingId id) {
+  const SettingLayer* l = origin[static_cast<size_t>(id)];
+  const char* name = setting_def(id).name;
+  if (l) return l->label(name);
+  std::string s = "--";
+  return s += name;
+}
+
+// The range of one value (a Choice is checked when its name is looked up).
+Status check_range(const SettingDef& d, const SettingValue& v, const std::string& label) {
+  switch (d.kind) {
+    case SettingKind::U32: {
+      const double x = static_cast<double>(v.u);  // at most 2^32 - 1: exact
+      if (d.max == kU32Max && x < d.min)
+        return Status::error("%s (%llu) must be at least %u", label.c_str(), (unsigned long long)v.u, uint32_t(d.min));
+      if (x < d.min || x > d.max)
+        return Status::error("%s %llu out of range [%u, %u]", label.c_str(), (unsigned long long)v.u, uint32_t(d.min),
+                             uint32_t(d.max));
+      return Status::ok();
+    }
+    case SettingKind::U32PerLevel: {
+      if (v.level_count == 0) {
+        if (v.u < uint64_t(d.min) || v.u > uint64_t(d.max))
+          return Status::error("%s %llu out of range [%u, %u]", label.c_str(), (unsigned long long)v.u,
+                               uint32_t(d.min), uint32_t(d.max));
+        return Status::ok();
+      }
+      for (uint32_t l = 0; l < v.level_count; ++l)
+        if (v.per_level[l] < uint32_t(d.min) || v.per_level[l] > uint32_t(d.max))
+          return Status::error("%s %s: %u (level %u) out of range [%u, %u]", label.c_str(), setting_text(d, v).c_str(),
+                               v.per_level[l], l, uint32_t(d.min), uint32_t(d.max));
+      return Status::ok();
+    }
+    case SettingKind::F32: {
+      const double x = v.f;
+      const bool ok = std::isfinite(v.f) && (d.min_open ? x > d.min : x >= d.min) && (d.max_open ? x < d.max : x <= d.max);
+      if (ok) return Status::ok();
+      if (d.max == kF32Max && d.min == 0 && d.min_open)
+        return Status::error("%s %g must be a positive, finite %s", label.c_str(), x, d.noun);
+      if (d.max == kF32Max && d.min == 0)
+        return Status::error("%s %g must be a finite %s >= 0", label.c_str(), x, d.noun);
+      return Status::error("%s %g out of range %c%g, %g%c", label.c_str(), x, d.min_open ? '(' : '[', d.min, d.max,
+                           d.max_open ? ')' : ']');
+    }
+    case SettingKind::U64:
+    case SettingKind::Choice: return Status::ok();
+  }
+  return Status::ok();
+}
+
+Status apply_layer(const SettingLayer& layer, SettingValues& values, Origins& origin) {
+  const std::string prefix = layer.file.empty() ? "" : layer.file + ": ";
+  for (const Preset* p : layer.presets) {
+    // A preset and a value it sets, given together, contradict each other.
+    std::string sets, conflicts;
+    for (uint32_t k = 0; k < p->count; ++k) {
+      const SettingDef& d = setting_def(p->values[k].id);
+      if (k) sets += k + 1 == p->count ? " and " : ", ";
+      sets += layer.label(d.name) + (layer.file.empty() ? " " : ": ") +
+              setting_text(d, setting_value(d, p->values[k].value));
+      if (layer.given[static_cast<size_t>(d.id)]) conflicts = layer.label(d.name);
+    }
+    const std::string preset = layer.label(p->option) + (p->choice ? (layer.file.empty() ? " " : ": ") +
+                                                                          std::string(p->choice) : "");
+    if (!conflicts.empty())
+      return Status::error("%s%s sets %s; give either %s or those", prefix.c_str(), preset.c_str(), sets.c_str(),
+                           layer.label(p->option).c_str());
+    for (uint32_t k = 0; k < p->count; ++k) {
+      const SettingDef& d = setting_def(p->values[k].id);
+      values[d.id] = setting_value(d, p->values[k].value);
+      origin[static_cast<size_t>(d.id)] = &layer;
+    }
+  }
+  for (const SettingDef& d : kSettingDefs) {
+    const size_t i = static_cast<size_t>(d.id);
+    if (!layer.given[i]) continue;
+    SettingValue v = layer.values.v[i];
+    if (d.kind == SettingKind::Choice) {
+      const std::string& name = layer.choice[i];
+      uint32_t c = 0;
+      while (c < d.choice_count && name != d.choices[c].name) ++c;
+      if (c == d.choice_count)
+        return Status::error("%s%s must be %s (got '%s')", prefix.c_str(), layer.label(d.name).c_str(),
+                             alternatives(d.choice_count, [&](size_t k) { return d.choices[k].name; }).c_str(),
+                             printable(name).c_str());
+      v.u = d.choices[c].value;
+    }
+    if (Status s = check_range(d, v, layer.label(d.name)); !s) return layer.file.empty() ? s : s.context(layer.file);
+    values.v[i] = v;
+    origin[i] = &layer;
+  }
+  return Status::ok();
+}
+
+// The checks that involve several settings.
+Status check_together(const SettingValues& v, const Origins& origin) {
+  using enum SettingId;
+  const auto u32 = [&](SettingId id) { return static_cast<uint32_t>(v[id].u); };
+  const auto label = [&](SettingId id) { return label_of(origin, id); };
+  if (u32(ResMin) > u32(ResMax))
+    return Status::error("%sneed %s <= %s (got %u, %u)", file_prefix(origin, {ResMin, ResMax}).c_str(),
+                         label(ResMin).c_str(), label(ResMax).c_str(), u32(ResMin), u32(ResMax));
+  if (u32(ResMin) % u32(Voxels) || u32(ResMax) % u32(Voxels))
+    return Status::error("%s%s %u and %s %u must each be a multiple of the voxel resolution %u (%s; voxel faces "
+                         "must lie on grid planes)",
+                         file_prefix(origin, {ResMin, ResMax, Voxels}).c_str(), label(ResMin).c_str(), u32(ResMin),
+                         label(ResMax).c_str(), u32(ResMax), u32(Voxels), label(Voxels).c_str());
+  for (const SettingId id : {TableLog2, Indexed})  // the per-level settings
+    if (v[id].level_count != 0 && v[id].level_count != u32(Levels))
+      return Status::error("%s%s %s gives %u values for %u levels (%s): give one value for every level or one per "
+                           "level", file_prefix(origin, {id, Levels}).c_str(), label(id).c_str(),
+                           setting_text(setting_def(id), v[id]).c_str(), v[id].level_count, u32(Levels),
+                           label(Levels).c_str());
+  if (u32(RayReuse) > u32(Batch))
+    return Status::error("%s%s %u must be in [1, %s %u]", file_prefix(origin, {RayReuse, Batch}).c_str(),
+                         label(RayReuse).c_str(), u32(RayReuse), label(Batch).c_str(), u32(Batch));
+  if (!(v[WOcclusion].f + v[WDistance].f + v[WNormal].f + v[WAlbedo].f + v[WMaterial].f > 0.0f))
+    return Status::error("%severy loss weight (w-*) is 0: nothing would be trained",
+                         file_prefix(origin, {WOcclusion, WDistance, WNormal, WAlbedo, WMaterial}).c_str());
+  TrainSettings s;
+  to_train_settings(v, s);
+  if (Status st = s.config.validate(); !st) return st.context("invalid model settings");
+  return Status::ok();
+}
+
+Status json_value(const SettingDef& d, const nlohmann::json& j, SettingValue& out, std::string& choice) {
+  const auto type_error = [&](const char* want) {
+    return Status::error("must be %s, not %s", want, j.is_number() ? j.dump().c_str() : j.type_name());
+  };
+  switch (d.kind) {
+    case SettingKind::U32:
+    case SettingKind::U64:
+      if (!j.is_number_unsigned()) return type_error("an unsigned integer");
+      out.u = j.get<uint64_t>();
+      if (d.kind == SettingKind::U32 && out.u > 0xffffffffull)
+        return Status::error("%llu is larger than %u", (unsigned long long)out.u, uint32_t(kU32Max));
+      return Status::ok();
+    case SettingKind::U32PerLevel: {
+      if (j.is_number_unsigned() && j.get<uint64_t>() <= 0xffffffffull) {
+        out.u = j.get<uint64_t>();
+        return Status::ok();
+      }
+      uint32_t values[LSNIF_MAX_LEVELS] = {};
+      bool ok = j.is_array() && !j.empty() && j.size() <= LSNIF_MAX_LEVELS;
+      for (size_t i = 0; ok && i < j.size(); ++i) {
+        ok = j[i].is_number_unsigned() && j[i].get<uint64_t>() <= 0xffffffffull;
+        if (ok) values[i] = static_cast<uint32_t>(j[i].get<uint64_t>());
+      }
+      if (!ok || !per_level_value(values, j.size(), out))
+        return Status::error("must be an unsigned integer or a list of 1 to %u of them (one per level), not %s",
+                             LSNIF_MAX_LEVELS, printable(j.dump()).c_str());
+      return Status::ok();
+    }
+    case SettingKind::F32: {
+      if (!j.is_number()) return type_error("a number");
+      const double x = j.get<double>();
+      if (!(std::abs(x) <= kF32Max)) return Status::error("%g is beyond the range of a 32-bit float", x);
+      out.f = static_cast<float>(x);
+      return Status::ok();
+    }
+    case SettingKind::Choice:
+      if (!j.is_string())
+        return type_error(("one of " + alternatives(d.choice_count, [&](size_t k) { return d.choices[k].name; }))
+                              .c_str());
+      choice = j.get<std::string>();
+      return Status::ok();
+  }
+  return Status::ok();
+}
+
+// 64-bit FNV-1a, continued from `h`.
+struct Fnv {
+  uint64_t h = 0xcbf29ce484222325ull;
+  void bytes(const void* p, size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (size_t i = 0; i < n; ++i) {
+      h ^= b[i];
+      h *= 0x100000001b3ull;
+    }
+  }
+  template <class T>
+  void vec(const std::vector<T>& v) {
+    const uint64_t n = v.size();
+    bytes(&n, sizeof n);
+    if (!v.empty()) bytes(v.data(), v.size() * sizeof(T));
+  }
+  void str(const std::string& s) {
+    const uint64_t n = s.size();
+    bytes(&n, sizeof n);
+    bytes(s.data(), s.size());
+  }
+  template <class T>
+  void pod(const T& v) { bytes(&v, sizeof v); }
+};
+
+}  // namespace
+
+SettingValue setting_value(const SettingDef& d, double value) {
+  SettingValue v;
+  if (d.kind == SettingKind::F32) v.f = static_cast<float>(value);
+  else v.u = static_cast<uint64_t>(value);
+  return v;
+}
+
+bool per_level_value(const uint32_t* values, size_t count, SettingValue& out) {
+  if (count == 0 || count > LSNIF_MAX_LEVELS) return false;
+  out = SettingValue();
+  if (count == 1) {
+    out.u = values[0];
+    return true;
+  }
+  out.level_count = static_cast<uint32_t>(count);
+  for (size_t l = 0; l < count; ++l) out.per_level[l] = values[l];
+  return true;
+}
+
+SettingValues SettingValues::defaults() {
+  SettingValues v;
+  for (const SettingDef& d : kSettingDefs) v[d.id] = setting_value(d, d.def);
+  return v;
+}
+
+void SettingLayer::set(SettingId id, SettingValue value, std::string text) {
+  const size_t i = static_cast<size_t>(id);
+  given[i] = true;
+  values.v[i] = value;
+  choice[i] = std::move(text);
+}
+
+std::string SettingLayer::label(const char* name) const {
+  std::string s = file.empty() ? "--" : "\"";
+  s += name;
+  if (!file.empty()) s += '"';
+  return s;
+}
+
+const Preset* find_preset(std::string_view option, const char* choice) {
+  for (const Preset& p : kPresets)
+    if (option == p.option && (choice && p.choice ? std::string_view(choice) == p.choice : !choice && !p.choice))
+      return &p;
+  return nullptr;
+}
+
+const SettingDef* find_setting(std::string_view name) {
+  for (const SettingDef& d : kSettingDefs)
+    if (name == d.name) return &d;
+  return nullptr;
+}
+
+Status parse_settings_json(std::string_view text, const std::string& file, SettingLayer& out) {
+  nlohmann::json j;
+  if (Status s = json::parse(text, file, j); !s) return s;
+  if (!j.is_object())
+    return Status::error("%s: a settings file holds a JSON object of setting name -> value, not %s", file.c_str(),
+                         j.type_name());
+  SettingLayer layer;
+  layer.file = file;
+  for (const auto& [key, value] : j.items()) {
+    const std::string where = file + ": \"" + printable(key) + "\"";
+    if (const SettingDef* d = find_setting(key)) {
+      SettingValue v;
+      std::string choice;
+      if (Status s = json_value(*d, value, v, choice); !s) return s.context(where);
+      layer.set(d->id, v, choice);
+      continue;
+    }
+    bool is_preset = false;
+    for (const Preset& p : kPresets) is_preset |= key == p.option;
+    if (!is_preset) return Status::error("%s: unknown setting (see `lsnif train --help`)", where.c_str());
+    if (find_preset(key, nullptr)) {  // a flag
+      if (!value.is_boolean()) return Status::error("%s: must be true or false, not %s", where.c_str(), value.type_name());
+      if (value.get<bool>()) layer.presets.push_back(find_preset(key, nullptr));
+      continue;
+    }
+    const std::string choice = value.is_string() ? value.get<std::string>() : std::string();
+    const Preset* p = find_preset(key, choice.c_str());
+    if (!p) {
+      std::vector<const char*> names;
+      for (const Preset& q : kPresets)
+        if (key == q.option) names.push_back(q.choice);
+      return Status::error("%s: must be %s (got %s)", where.c_str(),
+                           alternatives(names.size(), [&](size_t k) { return names[k]; }).c_str(),
+                           printable(value.dump()).c_str());
+    }
+    layer.presets.push_back(p);
+  }
+  out = std::move(layer);
+  return Status::ok();
+}
+
+Status read_settings_file(const std::string& path, SettingLayer& out) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (st.type() == fs::file_type::not_found) return Status::error("%s: no such file", path.c_str());
+  if (ec || !fs::is_regular_file(st)) return Status::error("%s: not a regular file", path.c_str());
+  const uintmax_t size = fs::file_size(path, ec);
+  if (ec || size > kMaxConfigFileBytes)
+    return Status::error("%s: larger than %llu bytes, not a settings file", path.c_str(),
+                         (unsigned long long)kMaxConfigFileBytes);
+  std::ifstream in(path, std::ios::binary);
+  std::string text(static_cast<size_t>(size), '\0');
+  if (!in.read(text.data(), std::streamsize(text.size())) || in.peek() != std::char_traits<char>::eof())
+    return Status::error("%s: cannot read it (or it changed size while read)", path.c_str());
+  return parse_settings_json(text, path, out);
+}
+
+Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingValues& out) {
+  SettingValues v = SettingValues::defaults();
+  Origins origin{};
+  for (const SettingLayer* l : layers)
+    if (Status s = apply_layer(*l, v, origin); !s) return s;
+  if (Status s = check_together(v, origin); !s) return s;
+  out = v;
+  return Status::ok();
+}
+
+void to_train_settings(const SettingValues& v, TrainSettings& s) {
+  using enum SettingId;
+  const auto u32 = [&](SettingId id) { return static_cast<uint32_t>(v[id].u); };
+  Config& c = s.config;
+  c.voxel_resolution = u32(Voxels);
+  c.max_points = u32(Points);
+  c.grid_levels = u32(Levels);
+  set_grid_resolutions(c, u32(ResMin), u32(ResMax));
+  const SettingValue& m = v[TableLog2];
+  const uint32_t every_level = static_cast<uint32_t>(m.u);
+  if (m.level_count) set_table_log2(c, m.per_level.data(), m.level_count);
+  else set_table_log2(c, every_level);
+  c.features = u32(Features);
+  c.hidden_width = u32(Width);
+  c.hidden_layers = u32(Layers);
+  c.hit_param = static_cast<HitParam>(u32(Hit));
+  c.leaky_slope = v[LeakySlope].f;
+  c.grid_bits = u32(GridBits);
+  const SettingValue& ix = v[Indexed];
+  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l)
+    s.indexed[l] = l < c.grid_levels && (ix.level_count ? l < ix.level_count && ix.per_level[l] : ix.u) != 0;
+  s.steps = u32(Steps);
+  s.batch_size = u32(Batch);
+  s.seed = v[Seed].u;
+  s.ray_reuse = u32(RayReuse);
+  s.adam.learning_rate = v[Lr].f;
+  s.lr_schedule.schedule = static_cast<lsnif::LrSchedule>(u32(LrSchedule));
+  s.lr_schedule.final_fraction = v[LrFinal].f;
+  s.lr_schedule.warm_fraction = v[LrWarm].f;
+  s.adam.beta1 = v[AdamBeta1].f;
+  s.adam.beta2 = v[AdamBeta2].f;
+  s.adam.epsilon = v[AdamEpsilon].f;
+  s.loss_settings.normal_loss = static_cast<lsnif::NormalLoss>(u32(NormalLoss));
+  s.loss_settings.occlusion = v[WOcclusion].f;
+  s.loss_settings.distance = v[WDistance].f;
+  s.loss_settings.normal = v[WNormal].f;
+  s.loss_settings.albedo = v[WAlbedo].f;
+  s.loss_settings.material = v[WMaterial].f;
+  s.sampler.surface_fraction = v[SurfaceFraction].f;
+  s.sampler.sphere_scale = v[SphereScale].f;
+  s.sampler.surface_offset = v[SurfaceOffset].f;
+  s.grid_init_range = v[GridInitRange].f;
+}
+
+SettingValues from_train_settings(const TrainSettings& s) {
+  using enum SettingId;
+  SettingValues v;
+  const Config& c = s.config;
+  v[Voxels].u = c.voxel_resolution;
+  v[Points].u = c.max_points;
+  v[Levels].u = c.grid_levels;
+  v[ResMin].u = c.grid_resolution[0];
+  v[ResMax].u = c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS ? c.grid_resolution[c.grid_levels - 1] : 0;
+  if (c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS)
+    per_level_value(c.table_log2, c.uniform_table_log2() ? 1 : c.grid_levels, v[TableLog2]);
+  v[Features].u = c.features;
+  v[Width].u = c.hidden_width;
+  v[Layers].u = c.hidden_layers;
+  v[Hit].u = static_cast<uint32_t>(c.hit_param);
+  v[LeakySlope].f = c.leaky_slope;
+  v[GridBits].u = c.grid_bits;
+  if (c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS) {
+    uint32_t indexed[LSNIF_MAX_LEVELS] = {};
+    bool uniform = true;
+    for (uint32_t l = 0; l < c.grid_levels; ++l) {
+      indexed[l] = s.indexed[l] ? 1 : 0;
+      uniform = uniform && indexed[l] == indexed[0];
+    }
+    per_level_value(indexed, uniform ? 1 : c.grid_levels, v[Indexed]);
+  }
+  v[Steps].u = s.steps;
+  v[Batch].u = s.batch_size;
+  v[Seed].u = s.seed;
+  v[RayReuse].u = s.ray_reuse;
+  v[Lr].f = s.adam.learning_rate;
+  v[LrSchedule].u = static_cast<uint32_t>(s.lr_schedule.schedule);
+  v[LrFinal].f = s.lr_schedule.final_fraction;
+  v[LrWarm].f = s.lr_schedule.warm_fraction;
+  v[AdamBeta1].f = s.adam.beta1;
+  v[AdamBeta2].f = s.adam.beta2;
+  v[AdamEpsilon].f = s.adam.epsilon;
+  v[NormalLoss].u = static_cast<uint32_t>(s.loss_settings.normal_loss);
+  v[WOcclusion].f = s.loss_settings.occlusion;
+  v[WDistance].f = s.loss_settings.distance;
+  v[WNormal].f = s.loss_settings.normal;
+  v[WAlbedo].f = s.loss_settings.albedo;
+  v[WMaterial].f = s.loss_settings.material;
+  v[SurfaceFraction].f = s.sampler.surface_fraction;
+  v[SphereScale].f = s.sampler.sphere_scale;
+  v[SurfaceOffset].f = s.sampler.surface_offset;
+  v[GridInitRange].f = s.grid_init_range;
+  return v;
+}
+
+std::string setting_text(const SettingDef& d, const SettingValue& v) {
+  switch (d.kind) {
+    case SettingKind::U32:
+    case SettingKind::U64: return std::to_string(v.u);
+    case SettingKind::U32PerLevel: {
+      if (v.level_count == 0) return std::to_string(v.u);
+      std::string text;
+      for (uint32_t l = 0; l < v.level_count && l < LSNIF_MAX_LEVELS; ++l) {
+        if (l) text += ',';
+        text += std::to_string(v.per_level[l]);
+      }
+      return text;
+    }
+    case SettingKind::F32: return float_text(v.f);
+    case SettingKind::Choice:
+      for (uint32_t c = 0; c < d.choice_count; ++c)
+        if (d.choices[c].value == v.u) return d.choices[c].name;
+      return std::to_string(v.u);
+  }
+  return {};
+}
+
+nlohmann::ordered_json settings_to_json(const SettingValues& values) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::object();
+  for (const SettingDef& d : kSettingDefs) {
+    const SettingValue& v = values[d.id];
+    switch (d.kind) {
+      case SettingKind::U32:
+      case SettingKind::U64: j[d.name] = v.u; break;
+      case SettingKind::U32PerLevel:
+        if (v.level_count == 0) j[d.name] = v.u;
+        else j[d.name] = std::vector<uint32_t>(v.per_level.begin(), v.per_level.begin() + v.level_count);
+        break;
+      // The shortest decimal of the float as a double: 0.01f is written 0.01, and reads back as 0.01f.
+      case SettingKind::F32: j[d.name] = std::strtod(float_text(v.f).c_str(), nullptr); break;
+      case SettingKind::Choice: j[d.name] = setting_text(d, v); break;
+    }
+  }
+  return j;
+}
+
+uint64_t fnv1a64(std::string_view bytes) {
+  Fnv h;
+  h.bytes(bytes.data(), bytes.size());
+  return h.h;
+}
+
+uint64_t mesh_hash(const Mesh& mesh) {
+  Fnv h;
+  h.vec(mesh.positions);
+  h.vec(mesh.normals);
+  h.vec(mesh.uvs);
+  h.vec(mesh.colors);
+  h.vec(mesh.triangles);
+  h.vec(mesh.triangle_material);
+  for (const Material& m : mesh.materials) {
+    h.str(m.name);
+    h.pod(m.base_color);
+    h.pod(m.texture);
+  }
+  for (const Texture& t : mesh.textures) {
+    h.pod(t.width);
+    h.pod(t.height);
+    h.vec(t.rgba);
+  }
+  return h.h;
+}
+
+std::string training_record(const TrainSettings& settings, const Mesh& mesh, const std::string& mesh_name,
+                            int threads) {
+  nlohmann::ordered_json j;
+  j["settings"] = settings_to_json(from_train_settings(settings));
+  j["mesh"] = {{"name", clean_utf8(mesh_name, 1024)},
+               {"triangles", mesh.triangles.size()},
+               {"hash", format("fnv1a64:%016llx", (unsigned long long)mesh_hash(mesh))}};
+  j["threads"] = threads;
+  return j.dump();
+}
+
+}  // namespace lsnif

@@ -1,0 +1,100 @@
+// settings_io.h -- the settings of src/lsnif/format/settings_table.h as values: given on the command line or
+// in a `--config` JSON file (one SettingLayer per source), resolved in order (defaults, then each
+// layer: its presets, then its values) with every range and cross check, converted to and from
+// TrainSettings, and written as JSON: the object a `--config` file holds, and the training record a
+// model stores (the settings, the input mesh's name and hash, the thread count).
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lsnif/import/mesh.h"
+#include "lsnif/format/settings_table.h"
+#include "lsnif/format/status.h"
+#include "lsnif/train/trainer.h"
+
+namespace lsnif {
+
+// One setting's value: U32, U64 and Choice (the choice's value) in `u`, F32 in `f`. U32PerLevel:
+// one value for every level in `u` (level_count 0), or level_count (>= 2) values, one per level, in
+// per_level.
+struct SettingValue {
+  uint64_t u = 0;
+  float f = 0.0f;
+  uint32_t level_count = 0;
+  std::array<uint32_t, LSNIF_MAX_LEVELS> per_level{};
+  bool operator==(const SettingValue&) const = default;
+};
+
+// A number of the table (a default, a bound, a preset's value) as a value of setting `def`.
+SettingValue setting_value(const SettingDef& def, double value);
+// A U32PerLevel value from `count` numbers (at most LSNIF_MAX_LEVELS; one: every level). False when
+// `count` is 0 or more than LSNIF_MAX_LEVELS.
+bool per_level_value(const uint32_t* values, size_t count, SettingValue& out);
+
+// Every setting's value, indexed by SettingId.
+struct SettingValues {
+  std::array<SettingValue, kSettingCount> v;
+  SettingValue& operator[](SettingId id) { return v[static_cast<size_t>(id)]; }
+  const SettingValue& operator[](SettingId id) const { return v[static_cast<size_t>(id)]; }
+  bool operator==(const SettingValues&) const = default;
+  static SettingValues defaults();
+};
+
+// The settings one source gives: the command line (`file` empty) or a `--config` file.
+struct SettingLayer {
+  std::string file;
+  std::vector<const Preset*> presets;              // in the order given
+  std::array<bool, kSettingCount> given{};         // set explicitly
+  std::array<std::string, kSettingCount> choice{};  // given Choice settings, by name (checked when applied)
+  SettingValues values;                            // given U32, U64 and F32 settings (checked when applied)
+
+  // Records a value; `text` is the choice's name for a Choice setting.
+  void set(SettingId id, SettingValue value, std::string text = {});
+  // How a message names a setting or option of this layer: "--voxels" or "\"voxels\"".
+  std::string label(const char* name) const;
+};
+
+// The preset `option` / `choice` (choice nullptr: a flag), or nullptr.
+const Preset* find_preset(std::string_view option, const char* choice);
+// The setting called `name`, or nullptr.
+const SettingDef* find_setting(std::string_view name);
+
+// Reads a `--config` file: a JSON object of setting name -> value (numbers, choice names as
+// strings) and presets ("quality": "low", "paper": true). Files larger than 1 MiB, JSON nested
+// deeper than json::kMaxDepth, anything but an object, unknown keys and wrong types are errors that
+// name the file and the key. Ranges are checked when the layer is applied.
+Status read_settings_file(const std::string& path, SettingLayer& out);
+Status parse_settings_json(std::string_view text, const std::string& file, SettingLayer& out);
+
+// Defaults, then each layer in order: its presets, then its values (a preset and a value it sets
+// in the same layer are an error). Checks every value's range and the settings together (grid
+// resolutions multiples of the voxel resolution, ray reuse up to the batch, a weight above 0, the
+// model config). Errors name the option or key as given, and the file.
+Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingValues& out);
+
+void to_train_settings(const SettingValues& values, TrainSettings& out);
+// The values that give these settings (the coarsest and finest grid resolutions from the config).
+SettingValues from_train_settings(const TrainSettings& settings);
+
+// The settings as a JSON object in table order, the form a `--config` file takes; floats written as
+// the shortest decimal that reads back as the same float.
+nlohmann::ordered_json settings_to_json(const SettingValues& values);
+// One value as text: "32", "0.01", "segments", "15,17".
+std::string setting_text(const SettingDef& def, const SettingValue& value);
+
+// 64-bit FNV-1a of `bytes`.
+uint64_t fnv1a64(std::string_view bytes);
+// 64-bit FNV-1a of the mesh's contents (geometry, attributes, materials, textures).
+uint64_t mesh_hash(const Mesh& mesh);
+
+// The training record a model stores (Model::training, docs/model-format.md): compact JSON
+// {"settings": {...}, "mesh": {"name", "triangles", "hash"}, "threads": N}.
+std::string training_record(const TrainSettings& settings, const Mesh& mesh, const std::string& mesh_name,
+                            int threads);
+
+}  // namespace lsnif

@@ -1,0 +1,286 @@
+#include "lsnif/train/trainer.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+
+#include "lsnif/core/grid_usage.h"
+#include "lsnif/train/ground_truth.h"
+#include "lsnif/core/hash_grid.h"
+#include "lsnif/core/head.h"
+#include "lsnif/core/network.h"
+#include "lsnif/train/voxelizer.h"
+
+namespace lsnif {
+
+std::string TrainSettings::describe() const {
+  return format("%s | steps=%u batch=%u ray_reuse=%u seed=%llu | %s, %s | %s", config.describe().c_str(), steps,
+                batch_size, ray_reuse, (unsigned long long)seed, adam.describe().c_str(),
+                lr_schedule.describe().c_str(), loss_settings.describe().c_str());
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Per ray and input slot (point j, level l): the 4 table entries and weights of its face cell.
+struct BatchCorners {
+  std::vector<uint32_t> entry;  // B * H * L * 4
+  std::vector<float> weight;
+};
+
+// Encodes a batch into X (input_dim x B) and remembers the corners for the backward pass.
+void encode_batch(const Config& config, const GridLayout& layout, const float* table,
+                  const std::vector<RayWalk>& walks, Matrix& X, BatchCorners& corners) {
+  const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
+  const long B = long(walks.size());
+  const size_t per_ray = size_t(H) * L * 4;
+  // Only the slots of recorded points are written (and later read); X is zeroed per column.
+  corners.entry.resize(size_t(B) * per_ray);
+  corners.weight.resize(size_t(B) * per_ray);
+  X.resize(config.input_dim(), B);
+#pragma omp parallel for schedule(static)
+  for (long r = 0; r < B; ++r) {
+    const RayWalk& w = walks[size_t(r)];
+    float* x = X.data() + size_t(r) * config.input_dim();
+    std::fill(x, x + config.input_dim(), 0.0f);
+    uint32_t* ce = corners.entry.data() + size_t(r) * per_ray;
+    float* cw = corners.weight.data() + size_t(r) * per_ray;
+    const uint32_t n = std::min(w.count, H);
+    FaceCorners fc;
+    for (uint32_t j = 0; j < n; ++j)
+      for (uint32_t l = 0; l < L; ++l) {
+        face_corners(config, l, w.p[j], w.axis[j], fc, layout);
+        const size_t slot = size_t(j) * L + l;
+        for (uint32_t k = 0; k < 4; ++k) {
+          ce[slot * 4 + k] = fc.entry[k];
+          cw[slot * 4 + k] = fc.weight[k];
+          const float* t = table + size_t(fc.entry[k]) * F;
+          for (uint32_t f = 0; f < F; ++f) x[slot * F + f] += fc.weight[k] * t[f];
+        }
+      }
+  }
+}
+
+// Scatters dX into d_table. Each thread owns a contiguous range of table entries and scans all
+// lookups in batch order, so sums are race-free and bit-identical for any thread count.
+void encode_batch_backward(const Config& config, const std::vector<RayWalk>& walks,
+                           const BatchCorners& corners, const Matrix& dX, std::vector<float>& d_table) {
+  const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
+  const size_t per_ray = size_t(H) * L * 4;
+  const size_t entries = d_table.size() / F;
+  std::fill(d_table.begin(), d_table.end(), 0.0f);
+#pragma omp parallel
+  {
+    const size_t nt = size_t(omp_get_num_threads()), t = size_t(omp_get_thread_num());
+    const uint32_t lo = uint32_t(entries * t / nt), hi = uint32_t(entries * (t + 1) / nt);
+    // Levels whose entries overlap [lo, hi): with as many threads as levels of equal table sizes (the
+    // default 2 and 2), each thread owns exactly one level and the range test below never fails.
+    const uint32_t l_first = config.level_of_entry(lo), l_last = std::min(L - 1, config.level_of_entry(hi - 1));
+    if (lo < hi) {
+      for (size_t r = 0; r < walks.size(); ++r) {
+        const uint32_t n = std::min(walks[r].count, H);
+        const uint32_t* ce = corners.entry.data() + r * per_ray;
+        const float* cw = corners.weight.data() + r * per_ray;
+        const float* dx = dX.data() + r * config.input_dim();
+        for (uint32_t j = 0; j < n; ++j)
+          for (uint32_t l = l_first; l <= l_last; ++l) {
+            const uint32_t s = j * L + l;
+            for (uint32_t k = 0; k < 4; ++k) {
+              const uint32_t e = ce[s * 4 + k];
+              if (e < lo || e >= hi) continue;
+              const float w = cw[s * 4 + k];
+              float* d = d_table.data() + size_t(e) * F;
+              for (uint32_t f = 0; f < F; ++f) d[f] += w * dx[s * F + f];
+            }
+          }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model, TrainReport* report,
+                   const TrainCallback& callback) {
+  Config config = settings.config;
+  if (mesh.materials.empty()) return Status::error("mesh has no material table");
+  if (mesh.materials.size() > LSNIF_MAX_MATERIALS)
+    return Status::error("mesh has %zu materials; an LSNIF model supports at most %u",
+                         mesh.materials.size(), LSNIF_MAX_MATERIALS);
+  config.material_count = uint32_t(mesh.materials.size());
+  if (Status s = config.validate(); !s) return s.context("training config");
+  if (settings.batch_size < 1 || settings.steps < 1)
+    return Status::error("steps (%u) and batch size (%u) must be at least 1", settings.steps,
+                         settings.batch_size);
+  if (settings.ray_reuse < 1 || settings.ray_reuse > settings.batch_size)
+    return Status::error("ray reuse %u must be in [1, batch size %u]", settings.ray_reuse,
+                         settings.batch_size);
+  if (!(settings.adam.learning_rate > 0.0f) || !std::isfinite(settings.adam.learning_rate))
+    return Status::error("learning rate %g must be positive and finite", double(settings.adam.learning_rate));
+  const LrScheduleSettings& ls = settings.lr_schedule;
+  if (uint32_t(ls.schedule) > uint32_t(LrSchedule::Cosine))
+    return Status::error("unknown learning-rate schedule %u", uint32_t(ls.schedule));
+  if (!(ls.final_fraction > 0.0f && ls.final_fraction <= 1.0f) || !(ls.warm_fraction >= 0.0f && ls.warm_fraction < 1.0f))
+    return Status::error("learning-rate schedule: the final fraction %g must be in (0, 1] and the warm share %g in "
+                         "[0, 1)", double(ls.final_fraction), double(ls.warm_fraction));
+  const LossSettings& w = settings.loss_settings;
+  for (float weight : {w.occlusion, w.distance, w.normal, w.albedo, w.material})
+    if (!(weight >= 0.0f) || !std::isfinite(weight))
+      return Status::error("loss weights must be finite and >= 0 (%s)", w.describe().c_str());
+  if (!(w.occlusion + w.distance + w.normal + w.albedo + w.material > 0.0f))
+    return Status::error("every loss weight is 0: nothing would be trained");
+
+  model = Model();
+  model.config = config;
+  model.voxels = voxelize(mesh, config.voxel_resolution, pad_aabb(mesh.bounds()));
+  const uint32_t occupied = model.voxels.count_occupied();
+  if (occupied == 0) return Status::error("voxelization produced no occupied voxel");
+  for (const Material& m : mesh.materials) model.materials.push_back({m.name, m.base_color});
+  if (Status s = index_grid_levels(model.voxels, settings.indexed, config, model.grid_index); !s) return s;
+  model.config = config;
+  const GridLayout layout = model.layout();
+
+  GroundTruth truth;
+  if (Status s = truth.build(mesh); !s) return s.context("building the Embree reference");
+  RaySampler sampler(mesh, truth, model.voxels, config.max_points, settings.sampler);
+
+  // Parameters.
+  model.grid.resize(config.grid_parameter_count());
+  {
+    std::mt19937_64 rng(settings.seed ^ 0x9e3779b97f4a7c15ull);
+    std::uniform_real_distribution<float> u(-settings.grid_init_range, settings.grid_init_range);
+    for (float& g : model.grid) g = u(rng);
+  }
+  model.mlp.resize(config.mlp_parameter_count());
+  mlp_init_kaiming(config, settings.seed, model.mlp.data());
+  std::vector<float> d_grid(model.grid.size()), d_mlp(model.mlp.size());
+  Adam grid_adam(model.grid.size(), settings.adam), mlp_adam(model.mlp.size(), settings.adam);
+
+  TrainReport rep;
+  if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material\n";
+  rep.occupied_voxels = occupied;
+  const uint32_t B = settings.batch_size, out_dim = config.output_dim();
+  std::vector<Sample> samples, fresh_samples;
+  std::vector<RayWalk> walks, fresh_walks;
+  Matrix X, O, dO, dX;
+  MlpTrace trace;
+  BatchCorners corners;
+  const uint32_t tail_start = settings.steps - std::max(1u, settings.steps / 10);
+  uint32_t tail_steps = 0;
+  LossTerms tail;
+  const auto t_start = Clock::now();
+
+  for (uint32_t step = 1; step <= settings.steps; ++step) {
+    auto t0 = Clock::now();
+    // Fresh rays: the whole batch on the first step, then one part of it per step (round robin),
+    // so that each ray serves ray_reuse consecutive steps.
+    const uint32_t parts = settings.ray_reuse, part = step == 1 ? 0 : (step - 2) % parts;
+    const size_t first = step == 1 ? 0 : size_t(B) * part / parts;
+    const size_t last = step == 1 ? B : size_t(B) * (part + 1) / parts;
+    sampler.generate(settings.seed, step, last - first, fresh_samples, fresh_walks);
+    rep.seconds_sampling += since(t0);
+    if (fresh_samples.size() != last - first)
+      return Status::error("the ray sampler found only %zu of %zu rays crossing an occupied voxel (%u of %u voxels "
+                           "occupied: is the mesh degenerate, or a small part of its bounding box, e.g. beside "
+                           "far-away stray triangles?)", fresh_samples.size(), last - first, occupied,
+                           config.voxel_resolution * config.voxel_resolution * config.voxel_resolution);
+    if (first == 0 && last == B) {
+      samples.swap(fresh_samples);
+      walks.swap(fresh_walks);
+    } else {
+      samples.resize(B);
+      walks.resize(B);
+      std::copy(fresh_samples.begin(), fresh_samples.end(), samples.begin() + long(first));
+      std::copy(fresh_walks.begin(), fresh_walks.end(), walks.begin() + long(first));
+    }
+
+    t0 = Clock::now();
+    encode_batch(config, layout, model.grid.data(), walks, X, corners);
+    rep.seconds_encoding += since(t0);
+
+    t0 = Clock::now();
+    mlp_forward(config, model.mlp.data(), X, O, &trace);
+    rep.seconds_mlp += since(t0);
+
+    t0 = Clock::now();
+    dO.resize(out_dim, B);
+    const float scale = 1.0f / float(B);
+    double lo = 0, ld = 0, ln = 0, la = 0, lm = 0;
+#pragma omp parallel for schedule(static) reduction(+ : lo, ld, ln, la, lm)
+    for (long r = 0; r < long(B); ++r) {
+      const Sample& smp = samples[size_t(r)];
+      LossTarget target;
+      target.hit = smp.reference.hit;
+      if (target.hit) {
+        target.s = unit_from_distance(config, walks[size_t(r)], smp.reference.t);
+        target.normal = smp.reference.normal;
+        target.albedo = smp.reference.albedo;
+        target.material = smp.reference.material;
+      }
+      LossTerms t = ray_loss(config, O.data() + size_t(r) * out_dim, target, settings.loss_settings,
+                             scale, dO.data() + size_t(r) * out_dim);
+      lo += t.occlusion; ld += t.distance; ln += t.normal; la += t.albedo; lm += t.material;
+    }
+    LossTerms mean;
+    mean.occlusion = lo / B; mean.distance = ld / B; mean.normal = ln / B;
+    mean.albedo = la / B; mean.material = lm / B;
+    rep.seconds_loss += since(t0);
+    if (!std::isfinite(mean.total()))
+      return Status::error("training diverged: the loss of step %u is %g (occlusion %g, distance %g, normal %g, "
+                           "albedo %g, material %g); lower the learning rate (Adam lr %g)",
+                           step, mean.total(), mean.occlusion, mean.distance, mean.normal, mean.albedo,
+                           mean.material, double(settings.adam.learning_rate));
+
+    t0 = Clock::now();
+    std::fill(d_mlp.begin(), d_mlp.end(), 0.0f);
+    mlp_backward(config, model.mlp.data(), trace, dO, d_mlp.data(), &dX);
+    rep.seconds_mlp += since(t0);
+
+    t0 = Clock::now();
+    encode_batch_backward(config, walks, corners, dX, d_grid);
+    rep.seconds_encoding += since(t0);
+
+    t0 = Clock::now();
+    const float lr = scheduled_learning_rate(settings.lr_schedule, settings.adam.learning_rate, step, settings.steps);
+    mlp_adam.step(model.mlp.data(), d_mlp.data(), lr);
+    grid_adam.step(model.grid.data(), d_grid.data(), lr);
+    rep.seconds_optimizer += since(t0);
+
+    rep.rays += B;
+    if (step > tail_start) {
+      tail += mean;
+      ++tail_steps;
+    }
+    if (settings.loss_curve)
+      rep.loss_curve += format("%u,%.3f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", step, since(t_start), mean.total(),
+                               mean.occlusion, mean.distance, mean.normal, mean.albedo, mean.material);
+    if (callback && !callback(step, mean, model)) break;
+  }
+  rep.seconds = since(t_start);
+  if (tail_steps) {
+    const double k = 1.0 / tail_steps;
+    rep.final_loss.occlusion = tail.occlusion * k; rep.final_loss.distance = tail.distance * k;
+    rep.final_loss.normal = tail.normal * k; rep.final_loss.albedo = tail.albedo * k;
+    rep.final_loss.material = tail.material * k;
+  }
+  // fp16 holds magnitudes up to 65504; a parameter beyond that (or NaN) cannot be saved.
+  for (const std::vector<float>* params : {&model.grid, &model.mlp})
+    for (size_t i = 0; i < params->size(); ++i)
+      if (!(std::abs((*params)[i]) <= 65504.0f))
+        return Status::error("training diverged: %s parameter %zu is %g after %llu rays, beyond the fp16 range of "
+                             "the model file; lower the learning rate (Adam lr %g)",
+                             params == &model.grid ? "hash-grid" : "MLP", i, double((*params)[i]),
+                             (unsigned long long)rep.rays, double(settings.adam.learning_rate));
+  model.quantize();
+  if (report) *report = rep;
+  return model.validate();
+}
+
+}  // namespace lsnif

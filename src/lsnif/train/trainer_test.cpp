@@ -1,0 +1,180 @@
+// trainer_test.cpp -- the trainer's guards on a cube: a learning rate far too high stops at the
+// first non-finite loss with an error naming the step (instead of training to the end and failing
+// at the save), invalid settings are refused before any work, and the loss curve comes back in the
+// report, one row per step, without any file being written; the trainer prints nothing (progress
+// goes to the caller's callback, step by step); each step runs at the learning-rate schedule's rate.
+#include "lsnif/train/trainer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "lsnif/testing/test_support.h"
+
+namespace lsnif {
+namespace {
+
+Mesh cube() {
+  Mesh m;
+  for (int i = 0; i < 8; ++i) m.positions.emplace_back(float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1));
+  const uint32_t faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& f : faces) {
+    m.triangles.emplace_back(f[0], f[1], f[2]);
+    m.triangles.emplace_back(f[0], f[2], f[3]);
+  }
+  EXPECT_TRUE(finalize_mesh(m, nullptr, "cube"));
+  return m;
+}
+
+// src/lsnif/testing/test_support.h's tiny settings, smaller still for a cube.
+TrainSettings small() {
+  TrainSettings s = test::tiny_train_settings();
+  s.config.hidden_width = 16;
+  s.steps = 20;
+  s.batch_size = 256;
+  return s;
+}
+
+TEST(Trainer, DivergenceStopsAtTheFirstNonFiniteLoss) {
+  TrainSettings s = small();
+  s.adam.learning_rate = 1e30f;
+  Model model;
+  uint32_t steps_run = 0;
+  Status st = train_model(cube(), s, model, nullptr, [&](uint32_t step, const LossTerms&, const Model&) {
+    steps_run = step;
+    return true;
+  });
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.message().find("training diverged: the loss of step"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("lower the learning rate"), std::string::npos) << st.message();
+  EXPECT_LT(steps_run, s.steps);  // stopped early, not after all the work
+}
+
+TEST(Trainer, InvalidSettingsAreRefusedBeforeTraining) {
+  const Mesh mesh = cube();
+  struct Case {
+    const char* name;
+    void (*change)(TrainSettings&);
+    const char* expected;
+  };
+  const Case cases[] = {
+      {"lr 0", [](TrainSettings& s) { s.adam.learning_rate = 0.0f; }, "learning rate 0"},
+      {"lr negative", [](TrainSettings& s) { s.adam.learning_rate = -0.01f; }, "learning rate -0.01"},
+      {"lr NaN", [](TrainSettings& s) { s.adam.learning_rate = std::nanf(""); }, "learning rate"},
+      {"negative weight", [](TrainSettings& s) { s.loss_settings.normal = -1.0f; }, "loss weights"},
+      {"all weights 0",
+       [](TrainSettings& s) {
+         s.loss_settings.occlusion = s.loss_settings.distance = s.loss_settings.normal = 0.0f;
+         s.loss_settings.albedo = s.loss_settings.material = 0.0f;
+       },
+       "every loss weight is 0"},
+      {"batch 0", [](TrainSettings& s) { s.batch_size = 0; }, "batch size (0)"},
+      {"lr final 0", [](TrainSettings& s) { s.lr_schedule.final_fraction = 0.0f; }, "final fraction 0"},
+      {"lr warm 1", [](TrainSettings& s) { s.lr_schedule.warm_fraction = 1.0f; }, "warm share 1"},
+      {"lr schedule 7", [](TrainSettings& s) { s.lr_schedule.schedule = static_cast<LrSchedule>(7); },
+       "unknown learning-rate schedule 7"},
+  };
+  for (const Case& c : cases) {
+    TrainSettings s = small();
+    c.change(s);
+    Model model;
+    uint32_t steps_run = 0;
+    Status st = train_model(mesh, s, model, nullptr, [&](uint32_t, const LossTerms&, const Model&) {
+      ++steps_run;
+      return true;
+    });
+    ASSERT_FALSE(st) << c.name;
+    EXPECT_NE(st.message().find(c.expected), std::string::npos) << c.name << ": " << st.message();
+    EXPECT_EQ(steps_run, 0u) << c.name;
+  }
+}
+
+// The fp32 parameters (grid, then MLP) after the last step.
+std::vector<float> trained_parameters(const TrainSettings& s) {
+  std::vector<float> params;
+  Model model;
+  EXPECT_TRUE(train_model(cube(), s, model, nullptr, [&](uint32_t step, const LossTerms&, const Model& m) {
+    if (step == s.steps) {
+      params = m.grid;
+      params.insert(params.end(), m.mlp.begin(), m.mlp.end());
+    }
+    return true;
+  }));
+  return params;
+}
+
+TEST(Trainer, StepsUseTheScheduledLearningRate) {
+  // One step of a decaying schedule runs at final * lr: the same parameters as a constant rate of
+  // final * lr (same initialization and rays).
+  TrainSettings scheduled = small(), constant = small();
+  scheduled.steps = constant.steps = 1;
+  scheduled.lr_schedule.schedule = LrSchedule::Exponential;
+  scheduled.lr_schedule.final_fraction = 0.25f;
+  scheduled.lr_schedule.warm_fraction = 0.0f;
+  constant.lr_schedule.schedule = LrSchedule::Constant;
+  constant.adam.learning_rate = scheduled.adam.learning_rate * 0.25f;
+  const std::vector<float> a = trained_parameters(scheduled), b = trained_parameters(constant);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_FALSE(a.empty());
+  for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a[i], b[i], 1e-7f) << i;
+  // A schedule decaying to 1 x lr is the constant rate, bit for bit, over many steps; decaying to
+  // 0.1 x lr is not.
+  scheduled = constant = small();
+  scheduled.steps = constant.steps = 6;
+  constant.lr_schedule.schedule = LrSchedule::Constant;
+  scheduled.lr_schedule.schedule = LrSchedule::Cosine;
+  scheduled.lr_schedule.final_fraction = 1.0f;
+  EXPECT_EQ(trained_parameters(scheduled), trained_parameters(constant));
+  scheduled.lr_schedule.final_fraction = 0.1f;
+  EXPECT_NE(trained_parameters(scheduled), trained_parameters(constant));
+}
+
+TEST(Trainer, LossCurveComesBackInTheReport) {
+  TrainSettings s = small();
+  s.steps = 5;
+  s.loss_curve = true;
+  Model model;
+  TrainReport report;
+  Status st = train_model(cube(), s, model, &report);
+  ASSERT_TRUE(st) << st.message();
+  ASSERT_EQ(report.loss_curve.rfind("step,seconds,total,occlusion,distance,normal,albedo,material\n", 0), 0u);
+  size_t rows = 0;
+  for (char c : report.loss_curve) rows += c == '\n';
+  EXPECT_EQ(rows, 1u + s.steps);
+  EXPECT_NE(report.loss_curve.find("\n5,"), std::string::npos);
+  s.loss_curve = false;
+  ASSERT_TRUE(train_model(cube(), s, model, &report));
+  EXPECT_TRUE(report.loss_curve.empty());
+}
+
+TEST(Trainer, ReportsThroughTheCallbackAndPrintsNothing) {
+  TrainSettings s = small();
+  s.steps = 6;
+  std::vector<uint32_t> steps;
+  Model model;
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  Status st = train_model(cube(), s, model, nullptr, [&](uint32_t step, const LossTerms& loss, const Model&) {
+    steps.push_back(step);
+    EXPECT_TRUE(std::isfinite(loss.total()));
+    return true;
+  });
+  const std::string out = testing::internal::GetCapturedStdout(), err = testing::internal::GetCapturedStderr();
+  ASSERT_TRUE(st) << st.message();
+  EXPECT_EQ(out, "");
+  EXPECT_EQ(err, "");
+  ASSERT_EQ(steps.size(), size_t(s.steps));
+  for (uint32_t i = 0; i < s.steps; ++i) EXPECT_EQ(steps[i], i + 1);
+  // Returning false stops after that step.
+  steps.clear();
+  ASSERT_TRUE(train_model(cube(), s, model, nullptr, [&](uint32_t step, const LossTerms&, const Model&) {
+    steps.push_back(step);
+    return step < 2;
+  }));
+  EXPECT_EQ(steps.size(), 2u);
+}
+
+}  // namespace
+}  // namespace lsnif

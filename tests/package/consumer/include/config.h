@@ -1,0 +1,6 @@
+/* config.h -- the consumer's own header of a common name (C, C++ and GLSL). LSNIF's installed headers
+ * must never shadow it, and it must never reach LSNIF's headers (tests/package/consumer). */
+#ifndef CONSUMER_OWN_CONFIG_H
+#define CONSUMER_OWN_CONFIG_H 1
+#define CONSUMER_OWN_CONFIG 1
+#endif
