@@ -108,7 +108,7 @@ set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
 set(CPACK_COMPONENT_DEV_DESCRIPTION "LSNIF Vulkan plugin: headers, GLSL includes, CMake and pkg-config files
  find_package(lsnif) gives lsnif::vk, pkg-config --cflags --libs lsnif the flags; the GLSL
- includes for closest-hit shaders (lsnif/lsnif_hit.glsl) are in /usr/include/lsnif.")
+ includes for closest-hit shaders are /usr/include/lsnif/lsnif_hit.glsl and host_device.h.")
 set(CPACK_COMPONENT_DEV_DEPENDS runtime)
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "libvulkan-dev")
 

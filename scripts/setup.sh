@@ -61,6 +61,7 @@ fi
 packages=(
   build-essential cmake ninja-build pkg-config git ca-certificates xz-utils
   file binutils  # cpack -G DEB (file, dpkg-shlibdeps) and the package test (nm, readelf, strings)
+  universal-ctags  # tests/lint/long_functions.sh measures function lengths
   libgtest-dev libgmock-dev
   libembree-dev libeigen3-dev
   libtinygltf-dev nlohmann-json3-dev libstb-dev libglm-dev libre2-dev

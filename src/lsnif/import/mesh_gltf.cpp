@@ -3,7 +3,7 @@
 // applied to positions, their inverse transpose to normals, and the winding flips under mirroring
 // transforms. TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives are kept (others are skipped
 // with a warning). Loading and every checked read of the file's data go through gltf_access.h
-// (library lsnif_gltf), shared with the renderer's scene loader.
+// (library lsnif_import), shared with the renderer's scene loader.
 #include <algorithm>
 
 #include <glm/gtc/matrix_inverse.hpp>

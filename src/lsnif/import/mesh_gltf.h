@@ -1,7 +1,7 @@
 // mesh_gltf.h -- the glTF importer's flattening step for callers that already hold a parsed glTF
-// model and choose which meshes to flatten (the scene converter, samples/convert): chosen meshes
+// model and choose which meshes to flatten (the scene converter, src/lsnif/apps/convert): chosen meshes
 // under chosen transforms become one object-space training mesh, as load_mesh does for a whole
-// file's default scene. Needs lsnif_gltf (tinygltf) besides lsnif_host.
+// file's default scene. Part of lsnif_import (tinygltf is compiled in gltf_access.cpp).
 #pragma once
 #include <string>
 #include <vector>

@@ -1,7 +1,7 @@
 // gltf_build.h -- writing glTF 2.0 scenes with the LSNIF extensions (docs/scene-format.md) through
 // tinygltf: the inverse of load_scene (scene_gltf.h) for what the renderer reads. Used by
 // `lsnif bench` to generate its scenes and meant for the scene converter (`lsnif convert`).
-// Library `lsnif_gltf_build` (tinygltf comes from lsnif_gltf, src/lsnif/import/gltf_access.h).
+// Library `lsnif_gltf_build` (tinygltf comes from lsnif_import, src/lsnif/import/gltf_access.h).
 //
 // Usage: model = new_gltf_model(...); add materials, meshes (referring to the materials by glTF
 // index), nodes (referring to the meshes), cameras; mark nodes as LSNIF objects; set the

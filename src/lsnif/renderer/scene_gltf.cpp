@@ -5,7 +5,7 @@
 //
 // tinygltf 2.7 leaves most validation to the user, so every index, accessor and buffer range is
 // checked before a byte is read: loading, accessor reads and image decoding go through
-// src/lsnif/import/gltf_access.h (library lsnif_gltf, shared with src/lsnif/import/mesh_gltf.cpp); the rest is checked
+// src/lsnif/import/gltf_access.h (library lsnif_import, shared with src/lsnif/import/mesh_gltf.cpp); the rest is checked
 // here.
 #include "lsnif/renderer/scene_gltf.h"
 

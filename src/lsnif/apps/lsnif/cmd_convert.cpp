@@ -1,5 +1,5 @@
 // lsnif convert IN.gltf -o OUT.gltf: train LSNIF models for a glTF scene's heavy objects and write
-// the scene with LSNIF_neural_object on them (samples/convert, docs/convert.md).
+// the scene with LSNIF_neural_object on them (src/lsnif/apps/convert, docs/convert.md).
 #include <omp.h>
 
 #include <cstdio>
