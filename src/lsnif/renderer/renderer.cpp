@@ -1,8 +1,9 @@
 // renderer.cpp -- the path tracer of renderer.h: uploads the scene (per mesh primitive a triangle
 // BLAS plus its vertex data, per LSNIF object a plugin model), builds the TLAS (one record per
 // primitive of a triangle instance, one per LSNIF instance; custom index = RenderInstance index),
-// and traces passes of src/lsnif/renderer/shaders/render.rgen into an accumulation buffer, or (wavefront) records the
-// stages of src/lsnif/renderer/shaders/render_wave.comp with lsnifCmdQuery between them.
+// and traces passes of src/lsnif/renderer/shaders/render.rgen into an accumulation buffer; the
+// wavefront pipeline (the stages of src/lsnif/renderer/shaders/render_wave.comp with lsnifCmdQuery
+// between them) is renderer_wavefront.cpp's.
 #include "lsnif/renderer/renderer.h"
 
 #include <algorithm>
@@ -19,96 +20,23 @@
 
 #include "lsnif/lsnif.hpp"
 #include "lsnif/harness/plugin_device.h"
+#include "lsnif/renderer/device_scene.h"
 #include "lsnif/renderer/shaders/render_host_device.h"
 #include "lsnif/harness/triangle_order.h"
 
 namespace lsnif::render {
 
 namespace {
-// The path tracer's shaders, compiled at build time (cmake/LsnifShaders.cmake).
+// The path tracer's shaders, compiled at build time (cmake/LsnifShaders.cmake); the wavefront's
+// render_wave.comp is renderer_wavefront.cpp's.
 #include "render_lsnif_rchit_spirv.h"
 #include "render_rgen_spirv.h"
 #include "render_rmiss_spirv.h"
 #include "render_triangle_rchit_spirv.h"
-#include "render_wave_comp_spirv.h"
 
 static_assert(offsetof(RenderPush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
 static_assert(offsetof(RenderPush, model_count) == LSNIF_RT_PUSH_MODEL_COUNT_OFFSET, "binding convention");
 static_assert(offsetof(RenderPush, frame) >= LSNIF_RT_PUSH_APP_OFFSET, "binding convention");
-
-vk::Spirv spirv(const uint32_t* code, size_t bytes) {
-  vk::Spirv s;
-  s.code = code;
-  s.bytes = bytes;
-  return s;
-}
-}  // namespace
-
-// Everything set_scene allocates on the device, and what a pass needs of the scene; released by
-// the destructor.
-struct DeviceScene {
-  vk::ComputeContext& ctx;
-  vk::RayTracer& tracer;
-  plugin::Context plugin;
-  std::vector<plugin::Model> models;     // per LSNIF object of the scene: its device model (or empty)
-  std::vector<vk::Buffer> buffers;
-  std::vector<vk::AccelerationStructure> blases;
-  // What one mode (LSNIF: 0, reference: 1) traces: its TLAS over the shared BLASes and models, and
-  // the tables its shaders read. set_mode switches between prepared modes without uploads.
-  struct Mode {
-    bool ready = false;
-    std::string why_not;                  // set_scene's error for a mode it could not prepare
-    vk::AccelerationStructure tlas;
-    std::vector<VkAccelerationStructureInstanceKHR> records;  // TLAS records; record i has custom index i
-    std::vector<int64_t> record_model;     // per record: index into `models` (LSNIF) or -1 (triangles)
-    std::vector<std::pair<size_t, size_t>> instance_records;  // per scene instance: first record, count
-    uint64_t instances = 0, material_maps = 0;  // RenderFrame::instances, material_maps of the mode
-    uint64_t table_address = 0;
-    uint32_t table_count = 0;              // entries of the model table
-    std::vector<LsnifModel> table_models;  // per table entry: its model, null for triangle instances
-    uint64_t world_to_object = 0;          // RenderFrame::world_to_object of the mode (per custom index)
-    glm::mat3* world_to_object_mapped = nullptr;
-    RenderStats stats;                     // what the mode uses (times 0)
-    // Rasterized primary visibility: every record's triangle lists (an LSNIF record: its node's
-    // mesh), or why the mode cannot be rasterized (an LSNIF node without a mesh).
-    std::vector<VisibilityDraw> raster_draws;
-    std::string raster_why_not;
-  };
-  Mode modes[2];
-  int active = 0;
-  RenderFrame frame{};                    // the scene's part filled in; view and image set per pass
-  RenderFrame* frame_on_device = nullptr;  // mapped RenderFrame buffer
-  uint64_t frame_address = 0;
-  LsnifQueryPipeline query = nullptr;      // the wavefront pipeline's lsnifCmdQuery, made on first use
-  glm::vec3 lo{0.0f}, hi{0.0f};           // world bounds (for a framing camera)
-  std::vector<scene::Camera> cameras;
-  float env_rotation = 0.0f;
-  Mode& mode() { return modes[active]; }
-  DeviceScene(vk::ComputeContext& c, vk::RayTracer& t) : ctx(c), tracer(t) {}
-  ~DeviceScene() {
-    if (query) lsnifDestroyQueryPipeline(plugin.get(), query);
-    for (Mode& m : modes) tracer.destroy(m.tlas);
-    for (vk::AccelerationStructure& b : blases) tracer.destroy(b);
-    for (vk::Buffer& b : buffers) ctx.destroy_buffer(b);
-    models.clear();  // before their context
-    plugin.reset();
-  }
-  // A host-visible buffer holding `bytes` of `data` (zeroed when data is null); its device address.
-  Status upload(const void* data, size_t bytes, uint64_t& address, VkBufferUsageFlags extra = 0) {
-    vk::Buffer b;
-    if (Status s = ctx.create_buffer(bytes, b, extra); !s) return s;
-    if (data && bytes) std::memcpy(b.mapped, data, bytes);
-    address = b.address;
-    buffers.push_back(b);
-    return Status::ok();
-  }
-  template <class T>
-  Status upload(const std::vector<T>& v, uint64_t& address) {
-    return upload(v.empty() ? nullptr : v.data(), v.size() * sizeof(T), address);
-  }
-};
-
-namespace {
 
 bool finite(const glm::mat4& m) {
   for (int c = 0; c < 4; ++c)
@@ -124,9 +52,6 @@ VkTransformMatrixKHR to_3x4(const glm::mat4& m) {
     for (int c = 0; c < 4; ++c) xf.matrix[r][c] = m[c][r];
   return xf;
 }
-
-// The plugin's last error as a Status (after a failed call of the C API).
-Status plugin_error(const char* what) { return Status::error("%s: %s", what, lsnifGetLastErrorMessage()); }
 
 // World bounds of the scene's instances (their meshes' vertices; LSNIF-only nodes: the model box).
 // `slot` maps an LSNIF object to the object whose model was loaded for it.
@@ -234,57 +159,79 @@ Status Renderer::render(const scene::Scene& scene, const RenderSettings& setting
   return render(settings, out, stats, progress);
 }
 
-Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scene::EnvironmentMap* environment,
-                           bool both_modes) {
-  scene_.reset();
-  scene_stats_ = RenderStats();
-  if (scene.instances.empty()) return Status::error("render: the scene %s has no objects", scene.path.c_str());
-  if (Status s = create_pipeline(); !s) return s;
+namespace {
 
-  // The modes to prepare: `reference`, and with both_modes the other one where the scene has its
-  // geometry (its error is kept for set_mode). LSNIF models the LSNIF mode uses.
-  const size_t object_count = scene.lsnif_objects.size();
-  std::vector<bool> model_used(object_count, false);
-  auto check_mode = [&](bool ref, bool mark) -> Status {
-    for (const scene::Instance& in : scene.instances) {
-      if (!finite(in.object_to_world)) return Status::error("node '%s' has a non-finite transform", in.node_name.c_str());
-      const bool use_lsnif = in.lsnif >= 0 && !ref;
-      if (in.lsnif >= 0 && size_t(in.lsnif) >= object_count)
-        return Status::error("node '%s' names LSNIF object %d of %zu", in.node_name.c_str(), in.lsnif, object_count);
-      if (in.mesh >= 0 && size_t(in.mesh) >= scene.meshes.size())
-        return Status::error("node '%s' names mesh %d of %zu", in.node_name.c_str(), in.mesh, scene.meshes.size());
-      if (!use_lsnif && in.mesh < 0)
-        return Status::error("node '%s' has no triangle mesh%s", in.node_name.c_str(),
-                             ref ? " for the reference mode" : "");
-      if (use_lsnif && mark) model_used[size_t(in.lsnif)] = true;
-    }
-    return Status::ok();
-  };
-  if (Status s = check_mode(reference, true); !s) return s;
-  bool prepare[2] = {!reference, reference};  // [0]: LSNIF mode, [1]: reference mode
-  Status other = Status::ok();
-  if (both_modes) {
-    other = check_mode(!reference, true);
-    prepare[reference ? 0 : 1] = bool(other);
-  }
+// What set_scene prepares of a scene (plan_scene).
+struct ScenePlan {
+  bool prepare[2] = {false, false};  // [0]: LSNIF mode, [1]: reference mode
+  Status other = Status::ok();       // with both_modes: why the other mode is not prepared (kept for set_mode)
+  std::vector<bool> model_used;      // per LSNIF object: the LSNIF mode uses its model
+};
+
+// The LSNIF models on the device (load_models).
+struct SceneModels {
   // Objects naming the same file (e.g. with different material maps) share one model on the device:
   // slot[i] is the first such object, the one that is loaded and uploaded.
-  // A loaded scene's relative model path resolves against the scene file's folder (resolved_path).
-  auto file_of = [&](size_t i) -> const std::string& {
-    const scene::LsnifObject& obj = scene.lsnif_objects[i];
-    return obj.resolved_path.empty() ? obj.model_path : obj.resolved_path;
-  };
-  std::vector<size_t> slot(object_count);
-  for (size_t i = 0; i < object_count; ++i) {
-    slot[i] = i;
-    for (size_t j = 0; j < i; ++j)
-      if (model_used[j] && file_of(j) == file_of(i)) {
-        slot[i] = j;
-        break;
-      }
+  std::vector<size_t> slot;
+  uint32_t count = 0;  // models loaded and built
+  uint64_t bytes = 0;  // their model blocks and AABB BLASes
+};
+
+// The triangle primitives on the device (build_primitives): per primitive its vertex data for the
+// closest-hit shader and one BLAS (DeviceScene::blases, same index).
+struct ScenePrimitives {
+  std::vector<RenderPrimitive> primitives;
+  std::vector<uint32_t> primitive_triangles;           // per primitives entry
+  std::vector<std::vector<uint32_t>> mesh_primitives;  // per scene mesh: -> primitives / blases index
+  std::vector<uint64_t> mesh_blas_bytes, mesh_triangles;  // per scene mesh
+};
+
+// One mode's tables while build_mode collects them: record i (custom index i) is RenderInstance i
+// and model table entry i.
+struct ModeTables {
+  std::vector<bool> mesh_counted;  // per scene mesh: its BLAS bytes and triangles are in the mode's stats
+  std::vector<RenderInstance> instances;
+  std::vector<uint64_t> model_table;
+  std::vector<uint32_t> material_maps;
+  std::vector<VkAccelerationStructureInstanceKHR> records;
+  std::vector<glm::mat3> world_to_object;  // per record (custom index)
+};
+
+// Checks that every instance of `scene` has what mode `ref` (reference, or else LSNIF) needs: a
+// finite transform, LSNIF object and mesh indices in range, a triangle mesh where it does not use an
+// LSNIF object. Marks in `model_used` the LSNIF objects the mode uses (also those met before a failure).
+Status check_mode(const scene::Scene& scene, bool ref, std::vector<bool>& model_used) {
+  const size_t object_count = scene.lsnif_objects.size();
+  for (const scene::Instance& in : scene.instances) {
+    if (!finite(in.object_to_world)) return Status::error("node '%s' has a non-finite transform", in.node_name.c_str());
+    const bool use_lsnif = in.lsnif >= 0 && !ref;
+    if (in.lsnif >= 0 && size_t(in.lsnif) >= object_count)
+      return Status::error("node '%s' names LSNIF object %d of %zu", in.node_name.c_str(), in.lsnif, object_count);
+    if (in.mesh >= 0 && size_t(in.mesh) >= scene.meshes.size())
+      return Status::error("node '%s' names mesh %d of %zu", in.node_name.c_str(), in.mesh, scene.meshes.size());
+    if (!use_lsnif && in.mesh < 0)
+      return Status::error("node '%s' has no triangle mesh%s", in.node_name.c_str(),
+                           ref ? " for the reference mode" : "");
+    if (use_lsnif) model_used[size_t(in.lsnif)] = true;
+  }
+  return Status::ok();
+}
+
+// Scene validation: the modes to prepare (`reference`, and with both_modes the other one where the
+// scene has its geometry; its error is kept for set_mode), the LSNIF models the LSNIF mode uses and
+// their material maps. Fails, naming the node or object, on what the requested mode lacks.
+Status plan_scene(const scene::Scene& scene, bool reference, bool both_modes, ScenePlan& plan) {
+  const size_t object_count = scene.lsnif_objects.size();
+  plan.model_used.assign(object_count, false);
+  if (Status s = check_mode(scene, reference, plan.model_used); !s) return s;
+  plan.prepare[0] = !reference;
+  plan.prepare[1] = reference;
+  if (both_modes) {
+    plan.other = check_mode(scene, !reference, plan.model_used);
+    plan.prepare[reference ? 0 : 1] = bool(plan.other);
   }
   for (size_t i = 0; i < object_count; ++i) {
-    if (!model_used[i]) continue;
+    if (!plan.model_used[i]) continue;
     if (scene.lsnif_objects[i].material_map.empty())
       return Status::error("LSNIF object %s has an empty material map", scene.lsnif_objects[i].model_path.c_str());
     for (uint32_t m : scene.lsnif_objects[i].material_map)
@@ -292,30 +239,60 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
         return Status::error("LSNIF object %s maps to material %u of %zu", scene.lsnif_objects[i].model_path.c_str(), m,
                              scene.materials.size());
   }
+  return Status::ok();
+}
 
-  auto dev_owner = std::make_unique<DeviceScene>(ctx_, tracer_);
-  DeviceScene& dev = *dev_owner;
-  if (dev.plugin.create(vk::plugin_create_info(ctx_)) != LSNIF_SUCCESS) return plugin_error("render");
+// The model file of an LSNIF object: a loaded scene's relative model path resolves against the scene
+// file's folder (resolved_path).
+const std::string& model_file(const scene::LsnifObject& obj) {
+  return obj.resolved_path.empty() ? obj.model_path : obj.resolved_path;
+}
+
+// Model deduplication and upload: creates the plugin context of `dev` and, per file the plan uses,
+// loads one model (dev.models[slot], the sharing objects' entries stay empty) and builds them all;
+// `loaded` counts the models loaded. Fails on an unreadable or inconsistent .lsnif file or a device
+// error.
+Status load_models(const scene::Scene& scene, const ScenePlan& plan, DeviceScene& dev, uint32_t& loaded,
+                   SceneModels& out) {
+  const size_t object_count = scene.lsnif_objects.size();
+  const std::vector<bool>& model_used = plan.model_used;
+  std::vector<size_t>& slot = out.slot;
+  slot.resize(object_count);
+  for (size_t i = 0; i < object_count; ++i) {
+    slot[i] = i;
+    for (size_t j = 0; j < i; ++j)
+      if (model_used[j] && model_file(scene.lsnif_objects[j]) == model_file(scene.lsnif_objects[i])) {
+        slot[i] = j;
+        break;
+      }
+  }
+
+  if (dev.plugin.create(vk::plugin_create_info(dev.ctx)) != LSNIF_SUCCESS) return plugin_error("render");
   dev.models.resize(object_count);
   std::vector<LsnifModel> to_build;
   for (size_t i = 0; i < object_count; ++i) {
     if (!model_used[i] || slot[i] != i) continue;
-    if (dev.models[i].create_from_file(dev.plugin.get(), file_of(i).c_str()) != LSNIF_SUCCESS)
+    if (dev.models[i].create_from_file(dev.plugin.get(), model_file(scene.lsnif_objects[i]).c_str()) != LSNIF_SUCCESS)
       return plugin_error(scene.lsnif_objects[i].model_path.c_str());
     to_build.push_back(dev.models[i].get());
   }
   if (lsnifBuildModels(dev.plugin.get(), uint32_t(to_build.size()), to_build.data()) != LSNIF_SUCCESS)
     return plugin_error("render");
-  models_loaded_ += uint32_t(to_build.size());
-  uint64_t lsnif_bytes = 0;
+  loaded += uint32_t(to_build.size());
+  out.count = uint32_t(to_build.size());
   for (LsnifModel m : to_build) {
     LsnifModelMemory mem{};
     if (lsnifGetModelMemory(dev.plugin.get(), m, &mem) != LSNIF_SUCCESS) return plugin_error("render");
-    lsnif_bytes += mem.blockBytes + mem.blasBytes;
+    out.bytes += mem.blockBytes + mem.blasBytes;
   }
+  return Status::ok();
+}
 
-  // Materials, textures, material maps.
-  std::vector<RenderMaterial> materials;
+// Materials, textures: the scene's materials as the shaders read them (a default one for a scene
+// without any) and its textures, uploaded to `dev`. Fails on a texture whose bytes do not match its
+// size, or a device error.
+Status upload_materials(const scene::Scene& scene, DeviceScene& dev, std::vector<RenderMaterial>& materials,
+                        std::vector<RenderTexture>& textures) {
   for (const scene::Material& m : scene.materials) {
     auto tex = [&](int32_t t) -> uint32_t {
       return t >= 0 && size_t(t) < scene.textures.size() ? uint32_t(t) : RENDER_NO_TEXTURE;
@@ -324,33 +301,40 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
                          m.emission.r, m.emission.g, m.emission.b, tex(m.base_color_texture),
                          tex(m.metallic_roughness_texture), tex(m.emission_texture)});
   }
-  if (materials.empty()) materials.push_back({0.8f, 0.8f, 0.8f, 1, 0, 1, 0, 0, 0, RENDER_NO_TEXTURE, RENDER_NO_TEXTURE, RENDER_NO_TEXTURE});
-  std::vector<RenderTexture> textures;
+  if (materials.empty())
+    materials.push_back({0.8f, 0.8f, 0.8f, 1, 0, 1, 0, 0, 0, RENDER_NO_TEXTURE, RENDER_NO_TEXTURE, RENDER_NO_TEXTURE});
   for (const scene::Texture& t : scene.textures) {
     if (t.rgba.size() != size_t(t.width) * t.height * 4 || t.width == 0)
-      return Status::error("texture '%s' has %zu bytes for %ux%u texels", t.name.c_str(), t.rgba.size(), t.width, t.height);
+      return Status::error("texture '%s' has %zu bytes for %ux%u texels", t.name.c_str(), t.rgba.size(), t.width,
+                           t.height);
     RenderTexture rt{};
     if (Status s = dev.upload(t.rgba.data(), t.rgba.size(), rt.texels); !s) return s;
     rt.width = t.width;
     rt.height = t.height;
     textures.push_back(rt);
   }
+  return Status::ok();
+}
 
-  // Triangle primitives: vertex data for the closest-hit shader and one BLAS each (per mesh in use).
-  std::vector<RenderPrimitive> primitives;
-  std::vector<uint32_t> primitive_triangles;  // per primitives entry
-  std::vector<std::vector<uint32_t>> mesh_primitives(scene.meshes.size());  // -> primitives / blases index
+// Acceleration structures (BLAS): per primitive of the meshes the prepared modes use, vertex data
+// for the closest-hit shader and one BLAS, on `dev`; `built` counts the BLASes. Fails on a primitive
+// whose material is not among the `material_count` materials, or a device error.
+Status build_primitives(const scene::Scene& scene, const ScenePlan& plan, size_t material_count, DeviceScene& dev,
+                        uint32_t& built, ScenePrimitives& out) {
   std::vector<bool> mesh_used(scene.meshes.size(), false);
-  std::vector<uint64_t> mesh_blas_bytes(scene.meshes.size(), 0), mesh_triangles(scene.meshes.size(), 0);
+  out.mesh_primitives.resize(scene.meshes.size());
+  out.mesh_blas_bytes.assign(scene.meshes.size(), 0);
+  out.mesh_triangles.assign(scene.meshes.size(), 0);
   for (const scene::Instance& in : scene.instances)
     for (int mode = 0; mode < 2; ++mode)
-      if (prepare[mode] && !(in.lsnif >= 0 && mode == 0)) mesh_used[size_t(in.mesh)] = true;
+      if (plan.prepare[mode] && !(in.lsnif >= 0 && mode == 0)) mesh_used[size_t(in.mesh)] = true;
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     if (!mesh_used[m]) continue;
     for (const scene::Primitive& p : scene.meshes[m].primitives) {
       if (p.indices.empty()) continue;
-      if (p.material >= materials.size())
-        return Status::error("mesh '%s' uses material %u of %zu", scene.meshes[m].name.c_str(), p.material, materials.size());
+      if (p.material >= material_count)
+        return Status::error("mesh '%s' uses material %u of %zu", scene.meshes[m].name.c_str(), p.material,
+                             material_count);
       RenderPrimitive rp{};
       rp.material = p.material;
       // BLAS input in Morton order (triangle_order.h); the closest-hit shader reads the same indices.
@@ -369,135 +353,153 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
       std::vector<float> flat(p.positions.size() * 3);
       std::memcpy(flat.data(), p.positions.data(), flat.size() * sizeof(float));
       vk::AccelerationStructure blas;
-      if (Status s = tracer_.build_triangle_blas(flat, indices, blas); !s)
+      if (Status s = dev.tracer.build_triangle_blas(flat, indices, blas); !s)
         return s.context(("mesh '" + scene.meshes[m].name + "'").c_str());
-      ++blases_built_;
-      mesh_blas_bytes[m] += blas.storage.size;
-      mesh_triangles[m] += p.indices.size() / 3;
+      ++built;
+      out.mesh_blas_bytes[m] += blas.storage.size;
+      out.mesh_triangles[m] += p.indices.size() / 3;
       dev.blases.push_back(blas);
-      mesh_primitives[m].push_back(uint32_t(primitives.size()));
-      primitives.push_back(rp);
-      primitive_triangles.push_back(uint32_t(p.indices.size() / 3));
+      out.mesh_primitives[m].push_back(uint32_t(out.primitives.size()));
+      out.primitives.push_back(rp);
+      out.primitive_triangles.push_back(uint32_t(p.indices.size() / 3));
     }
   }
+  return Status::ok();
+}
 
-  // Per prepared mode: instances (custom index i -> RenderInstance i and model table entry i),
-  // material maps, model table and TLAS.
-  for (int mode = 0; mode < 2; ++mode) {
-    DeviceScene::Mode& md = dev.modes[mode];
-    if (!prepare[mode]) {
-      md.why_not = other.message();
-      continue;
+// Adds LSNIF instance `in` to the LSNIF mode `md`: one TLAS record of its model with its material
+// map, and for rasterized primary visibility one draw per primitive of its kept mesh (or why not).
+// Fails on a plugin error.
+Status add_lsnif_instance(const scene::Scene& scene, const scene::Instance& in, const SceneModels& models,
+                          const ScenePrimitives& prims, DeviceScene& dev, DeviceScene::Mode& md, ModeTables& t) {
+  const scene::LsnifObject& obj = scene.lsnif_objects[size_t(in.lsnif)];
+  RenderInstance ri{RENDER_INSTANCE_LSNIF, RENDER_NO_MESH, uint32_t(t.material_maps.size()),
+                    uint32_t(obj.material_map.size())};
+  // Its kept mesh, for rasterized primary visibility: one draw per mesh primitive.
+  const std::vector<uint32_t>* mesh = in.mesh >= 0 ? &prims.mesh_primitives[size_t(in.mesh)] : nullptr;
+  if (md.raster_why_not.empty()) {
+    if (!mesh)
+      md.raster_why_not = "LSNIF node '" + in.node_name +
+                          "' has no triangle mesh to rasterize (keep it with lsnif convert --keep-meshes)";
+    else if (mesh->empty())
+      md.raster_why_not = "the mesh of LSNIF node '" + in.node_name +
+                          "' was not uploaded (set_scene without both_modes)";
+    else if (mesh->size() > 255)
+      md.raster_why_not = "the mesh of LSNIF node '" + in.node_name + "' has more than 255 primitives";
+  }
+  if (mesh && !mesh->empty() && mesh->size() <= 255) {
+    ri.first_primitive = mesh->front();
+    for (size_t k = 0; k < mesh->size(); ++k) {
+      const RenderPrimitive& rp = prims.primitives[(*mesh)[k]];
+      md.raster_draws.push_back({uint32_t(t.instances.size()) | uint32_t(k << RENDER_VISIBILITY_GEOMETRY_SHIFT),
+                                 rp.positions, rp.indices, prims.primitive_triangles[(*mesh)[k]], in.object_to_world});
     }
-    const bool ref = mode == 1;
-    RenderStats& stats = md.stats;
-    std::vector<bool> mesh_counted(scene.meshes.size(), false);
-    std::vector<RenderInstance> instances;
-    std::vector<uint64_t> model_table;
-    std::vector<uint32_t> material_maps;
-    std::vector<VkAccelerationStructureInstanceKHR> records;
-    std::vector<glm::mat3> world_to_object;  // per record (custom index)
-    for (const scene::Instance& in : scene.instances) {
-      md.instance_records.emplace_back(records.size(), 0);
-      if (in.lsnif >= 0 && !ref) {
-        const scene::LsnifObject& obj = scene.lsnif_objects[size_t(in.lsnif)];
-        RenderInstance ri{RENDER_INSTANCE_LSNIF, RENDER_NO_MESH, uint32_t(material_maps.size()),
-                          uint32_t(obj.material_map.size())};
-        // Its kept mesh, for rasterized primary visibility: one draw per mesh primitive.
-        const std::vector<uint32_t>* mesh = in.mesh >= 0 ? &mesh_primitives[size_t(in.mesh)] : nullptr;
-        if (md.raster_why_not.empty()) {
-          if (!mesh)
-            md.raster_why_not = "LSNIF node '" + in.node_name +
-                                "' has no triangle mesh to rasterize (keep it with lsnif convert --keep-meshes)";
-          else if (mesh->empty())
-            md.raster_why_not = "the mesh of LSNIF node '" + in.node_name +
-                                "' was not uploaded (set_scene without both_modes)";
-          else if (mesh->size() > 255)
-            md.raster_why_not = "the mesh of LSNIF node '" + in.node_name + "' has more than 255 primitives";
-        }
-        if (mesh && !mesh->empty() && mesh->size() <= 255) {
-          ri.first_primitive = mesh->front();
-          for (size_t k = 0; k < mesh->size(); ++k) {
-            const RenderPrimitive& rp = primitives[(*mesh)[k]];
-            md.raster_draws.push_back({uint32_t(instances.size()) | uint32_t(k << RENDER_VISIBILITY_GEOMETRY_SHIFT),
-                                       rp.positions, rp.indices, primitive_triangles[(*mesh)[k]], in.object_to_world});
-          }
-        }
-        material_maps.insert(material_maps.end(), obj.material_map.begin(), obj.material_map.end());
-        const plugin::Model& model = dev.models[slot[size_t(in.lsnif)]];
-        LsnifInstanceInfo info{};
-        info.model = model.get();
-        info.transform = to_3x4(in.object_to_world);
-        info.instanceCustomIndex = uint32_t(instances.size());
-        info.mask = 0xFF;
-        VkAccelerationStructureInstanceKHR rec;
-        if (lsnifMakeInstance(dev.plugin.get(), &info, &rec) != LSNIF_SUCCESS)
-          return plugin_error(("node '" + in.node_name + "'").c_str());
-        model_table.push_back(model.properties().blockAddress);
-        md.table_models.push_back(model.get());
-        world_to_object.push_back(glm::inverse(glm::mat3(in.object_to_world)));
-        instances.push_back(ri);
-        records.push_back(rec);
-        md.record_model.push_back(int64_t(slot[size_t(in.lsnif)]));
-        md.instance_records.back().second = 1;
-        ++stats.lsnif_instances;
-        continue;
-      }
-      const VkTransformMatrixKHR xf = to_3x4(in.object_to_world);
-      if (Status s = check_instance_transform(xf.matrix); !s) return s.context(("node '" + in.node_name + "'").c_str());
-      if (!mesh_counted[size_t(in.mesh)]) {
-        mesh_counted[size_t(in.mesh)] = true;
-        stats.triangle_blas_bytes += mesh_blas_bytes[size_t(in.mesh)];
-        stats.triangles += mesh_triangles[size_t(in.mesh)];
-      }
-      for (uint32_t prim : mesh_primitives[size_t(in.mesh)]) {
-        VkAccelerationStructureInstanceKHR rec{};
-        rec.transform = xf;
-        rec.instanceCustomIndex = uint32_t(instances.size()) & 0xffffffu;
-        rec.mask = 0xFF;
-        rec.instanceShaderBindingTableRecordOffset = pipeline_.triangle_sbt_offset & 0xffffffu;  // triangle hit group
-        rec.accelerationStructureReference = dev.blases[prim].address;
-        md.raster_draws.push_back({uint32_t(instances.size()), primitives[prim].positions, primitives[prim].indices,
-                                   primitive_triangles[prim], in.object_to_world});
-        instances.push_back({RENDER_INSTANCE_TRIANGLES, prim, 0, 0});
-        model_table.push_back(0);
-        md.table_models.push_back(nullptr);
-        world_to_object.push_back(glm::inverse(glm::mat3(in.object_to_world)));
-        records.push_back(rec);
-        md.record_model.push_back(-1);
-        ++md.instance_records.back().second;
-        ++stats.triangle_instances;
-      }
-    }
-    if (instances.size() >= (1u << 24)) return Status::error("render: %zu TLAS instances exceed 2^24", instances.size());
-    if (!ref) {
-      stats.lsnif_bytes = lsnif_bytes;
-      stats.lsnif_models = uint32_t(to_build.size());
-    }
-    // Built for updates: move_instance refits it.
-    if (Status s = tracer_.build_tlas(records, md.tlas, /*allow_update=*/true); !s) return s;
-    ++tlases_built_;
-    md.records = std::move(records);
-    stats.tlas_bytes = md.tlas.storage.size;
-    if (Status s = dev.upload(instances, md.instances); !s) return s;
-    if (Status s = dev.upload(material_maps.empty() ? std::vector<uint32_t>(1) : material_maps, md.material_maps); !s)
+  }
+  t.material_maps.insert(t.material_maps.end(), obj.material_map.begin(), obj.material_map.end());
+  const plugin::Model& model = dev.models[models.slot[size_t(in.lsnif)]];
+  LsnifInstanceInfo info{};
+  info.model = model.get();
+  info.transform = to_3x4(in.object_to_world);
+  info.instanceCustomIndex = uint32_t(t.instances.size());
+  info.mask = 0xFF;
+  VkAccelerationStructureInstanceKHR rec;
+  if (lsnifMakeInstance(dev.plugin.get(), &info, &rec) != LSNIF_SUCCESS)
+    return plugin_error(("node '" + in.node_name + "'").c_str());
+  t.model_table.push_back(model.properties().blockAddress);
+  md.table_models.push_back(model.get());
+  t.world_to_object.push_back(glm::inverse(glm::mat3(in.object_to_world)));
+  t.instances.push_back(ri);
+  t.records.push_back(rec);
+  md.record_model.push_back(int64_t(models.slot[size_t(in.lsnif)]));
+  md.instance_records.back().second = 1;
+  ++md.stats.lsnif_instances;
+  return Status::ok();
+}
+
+// Adds triangle instance `in` to mode `md`: one TLAS record per primitive of its mesh (hit group at
+// `triangle_sbt_offset`) and one draw each for rasterized primary visibility. Fails on a transform
+// the TLAS cannot hold.
+Status add_triangle_instance(const scene::Instance& in, const ScenePrimitives& prims, uint32_t triangle_sbt_offset,
+                             const DeviceScene& dev, DeviceScene::Mode& md, ModeTables& t) {
+  const VkTransformMatrixKHR xf = to_3x4(in.object_to_world);
+  if (Status s = check_instance_transform(xf.matrix); !s) return s.context(("node '" + in.node_name + "'").c_str());
+  if (!t.mesh_counted[size_t(in.mesh)]) {
+    t.mesh_counted[size_t(in.mesh)] = true;
+    md.stats.triangle_blas_bytes += prims.mesh_blas_bytes[size_t(in.mesh)];
+    md.stats.triangles += prims.mesh_triangles[size_t(in.mesh)];
+  }
+  for (uint32_t prim : prims.mesh_primitives[size_t(in.mesh)]) {
+    VkAccelerationStructureInstanceKHR rec{};
+    rec.transform = xf;
+    rec.instanceCustomIndex = uint32_t(t.instances.size()) & 0xffffffu;
+    rec.mask = 0xFF;
+    rec.instanceShaderBindingTableRecordOffset = triangle_sbt_offset & 0xffffffu;  // triangle hit group
+    rec.accelerationStructureReference = dev.blases[prim].address;
+    md.raster_draws.push_back({uint32_t(t.instances.size()), prims.primitives[prim].positions,
+                               prims.primitives[prim].indices, prims.primitive_triangles[prim], in.object_to_world});
+    t.instances.push_back({RENDER_INSTANCE_TRIANGLES, prim, 0, 0});
+    t.model_table.push_back(0);
+    md.table_models.push_back(nullptr);
+    t.world_to_object.push_back(glm::inverse(glm::mat3(in.object_to_world)));
+    t.records.push_back(rec);
+    md.record_model.push_back(-1);
+    ++md.instance_records.back().second;
+    ++md.stats.triangle_instances;
+  }
+  return Status::ok();
+}
+
+// Per-mode TLAS: the instances of mode `ref` (reference, or else LSNIF; custom index i ->
+// RenderInstance i and model table entry i), material maps, model table and TLAS (built for
+// updates), uploaded to `dev` into `md`, which is then ready; `tlases_built` counts the TLAS. Fails
+// on a transform the TLAS cannot hold, too many records, a plugin or a device error.
+Status build_mode(const scene::Scene& scene, bool ref, const SceneModels& models, const ScenePrimitives& prims,
+                  uint32_t triangle_sbt_offset, DeviceScene& dev, DeviceScene::Mode& md, uint32_t& tlases_built) {
+  RenderStats& stats = md.stats;
+  ModeTables t;
+  t.mesh_counted.assign(scene.meshes.size(), false);
+  for (const scene::Instance& in : scene.instances) {
+    md.instance_records.emplace_back(t.records.size(), 0);
+    if (in.lsnif >= 0 && !ref) {
+      if (Status s = add_lsnif_instance(scene, in, models, prims, dev, md, t); !s) return s;
+    } else if (Status s = add_triangle_instance(in, prims, triangle_sbt_offset, dev, md, t); !s) {
       return s;
-    if (Status s = dev.upload(model_table, md.table_address); !s) return s;
-    md.table_count = uint32_t(model_table.size());
-    static_assert(sizeof(glm::mat3) == 36, "RenderFrame::world_to_object is float3x3 per instance");
-    if (Status s = dev.upload(world_to_object, md.world_to_object); !s) return s;
-    md.world_to_object_mapped = static_cast<glm::mat3*>(dev.buffers.back().mapped);
-    md.ready = true;
+    }
   }
-  dev.active = reference ? 1 : 0;
+  if (t.instances.size() >= (1u << 24))
+    return Status::error("render: %zu TLAS instances exceed 2^24", t.instances.size());
+  if (!ref) {
+    stats.lsnif_bytes = models.bytes;
+    stats.lsnif_models = models.count;
+  }
+  // Built for updates: move_instance refits it.
+  if (Status s = dev.tracer.build_tlas(t.records, md.tlas, /*allow_update=*/true); !s) return s;
+  ++tlases_built;
+  md.records = std::move(t.records);
+  stats.tlas_bytes = md.tlas.storage.size;
+  if (Status s = dev.upload(t.instances, md.instances); !s) return s;
+  if (Status s = dev.upload(t.material_maps.empty() ? std::vector<uint32_t>(1) : t.material_maps, md.material_maps);
+      !s)
+    return s;
+  if (Status s = dev.upload(t.model_table, md.table_address); !s) return s;
+  md.table_count = uint32_t(t.model_table.size());
+  static_assert(sizeof(glm::mat3) == 36, "RenderFrame::world_to_object is float3x3 per instance");
+  if (Status s = dev.upload(t.world_to_object, md.world_to_object); !s) return s;
+  md.world_to_object_mapped = static_cast<glm::mat3*>(dev.buffers.back().mapped);
+  md.ready = true;
+  return Status::ok();
+}
 
-  // What camera_view needs.
-  scene_bounds(scene, dev.models, slot, dev.lo, dev.hi);
-  dev.cameras = scene.cameras;
-
-  // Frame data.
+// Frame data: the scene's part of the RenderFrame (primitives, materials, textures, the
+// environment -- `environment`'s map where given -- and the sun), uploaded to `dev` with the frame
+// itself (DeviceScene::frame, frame_on_device). Fails on an environment map whose tables do not
+// match its size, a bad sun or a device error.
+Status upload_frame(const scene::Scene& scene, const scene::EnvironmentMap* environment,
+                    const std::vector<RenderPrimitive>& primitives, const std::vector<RenderMaterial>& materials,
+                    const std::vector<RenderTexture>& textures, DeviceScene& dev) {
   RenderFrame& frame = dev.frame;
-  if (Status s = dev.upload(primitives.empty() ? std::vector<RenderPrimitive>(1) : primitives, frame.primitives); !s) return s;
+  if (Status s = dev.upload(primitives.empty() ? std::vector<RenderPrimitive>(1) : primitives, frame.primitives); !s)
+    return s;
   if (Status s = dev.upload(materials, frame.materials); !s) return s;
   if (Status s = dev.upload(textures.empty() ? std::vector<RenderTexture>(1) : textures, frame.textures); !s) return s;
   const scene::Environment& env = scene.environment;
@@ -541,6 +543,46 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
   dev.env_rotation = frame.env_rotation;
   if (Status s = dev.upload(&frame, sizeof frame, dev.frame_address); !s) return s;
   dev.frame_on_device = static_cast<RenderFrame*>(dev.buffers.back().mapped);
+  return Status::ok();
+}
+
+}  // namespace
+
+Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scene::EnvironmentMap* environment,
+                           bool both_modes) {
+  scene_.reset();
+  scene_stats_ = RenderStats();
+  if (scene.instances.empty()) return Status::error("render: the scene %s has no objects", scene.path.c_str());
+  if (Status s = create_pipeline(); !s) return s;
+  ScenePlan plan;
+  if (Status s = plan_scene(scene, reference, both_modes, plan); !s) return s;
+
+  auto dev_owner = std::make_unique<DeviceScene>(ctx_, tracer_);
+  DeviceScene& dev = *dev_owner;
+  SceneModels models;
+  if (Status s = load_models(scene, plan, dev, models_loaded_, models); !s) return s;
+  std::vector<RenderMaterial> materials;
+  std::vector<RenderTexture> textures;
+  if (Status s = upload_materials(scene, dev, materials, textures); !s) return s;
+  ScenePrimitives prims;
+  if (Status s = build_primitives(scene, plan, materials.size(), dev, blases_built_, prims); !s) return s;
+  // Per mode: its TLAS, or why it is not prepared (for set_mode).
+  for (int mode = 0; mode < 2; ++mode) {
+    DeviceScene::Mode& md = dev.modes[mode];
+    if (!plan.prepare[mode]) {
+      md.why_not = plan.other.message();
+      continue;
+    }
+    const bool ref = mode == 1;
+    Status s = build_mode(scene, ref, models, prims, pipeline_.triangle_sbt_offset, dev, md, tlases_built_);
+    if (!s) return s;
+  }
+  dev.active = reference ? 1 : 0;
+
+  // What camera_view needs.
+  scene_bounds(scene, dev.models, models.slot, dev.lo, dev.hi);
+  dev.cameras = scene.cameras;
+  if (Status s = upload_frame(scene, environment, prims.primitives, materials, textures, dev); !s) return s;
   scene_ = std::move(dev_owner);
   scene_stats_ = scene_->mode().stats;
   width_ = height_ = accumulated_ = 0;  // a new scene starts a new image
@@ -634,224 +676,6 @@ void Renderer::release_accumulation() {
   accumulation_ = vk::Buffer();
   width_ = height_ = accumulated_ = 0;
   release_wavefront();
-}
-
-void Renderer::release_wavefront() {
-  for (vk::Buffer& b : wave_buffers_) ctx_.destroy_buffer(b);
-  wave_buffers_.clear();
-  ctx_.destroy_buffer(wave_scratch_);
-  ctx_.destroy_buffer(wave_status_);
-  ctx_.destroy_timestamps(wave_timestamps_);
-  wave_address_ = 0;
-}
-
-namespace {
-
-// The queries of the wavefront pipeline over the scene's TLAS (rays, results, status and the
-// scratch fields are set per query). Candidates: one per LSNIF instance a ray can cross, so that
-// no ray runs out of capacity up to LSNIF_QUERY_MAX_CANDIDATES_PER_RAY instances.
-LsnifQueryInfo wave_query_info(const DeviceScene::Mode& md, uint32_t lsnif_instances) {
-  LsnifQueryInfo q{};
-  q.candidatesPerRay = std::clamp(lsnif_instances, 1u, LSNIF_QUERY_MAX_CANDIDATES_PER_RAY);
-  q.tlas = md.tlas.address;
-  q.cullMask = 0xFF;
-  q.modelCount = md.table_count;
-  q.pModels = md.table_models.data();
-  q.modelTable = md.table_address;
-  return q;
-}
-
-// The push constants of the wavefront stages over the active mode (stage, bounce and sample are
-// set per dispatch).
-RenderPush wave_push(DeviceScene& dev, uint64_t wave) {
-  RenderPush push{};
-  push.model_table = dev.mode().table_address;
-  push.model_count = dev.mode().table_count;
-  push.frame = dev.frame_address;
-  push.samples = 1;
-  push.wave = wave;
-  return push;
-}
-
-// Between the wavefront's passes: compute writes (and the queries' indirect arguments) before
-// compute reads and writes and indirect reads.
-void wave_barrier(VkCommandBuffer cmd) {
-  VkMemoryBarrier b{};
-  b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-  b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-  b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT;
-  const VkPipelineStageFlags stages = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT;
-  vkCmdPipelineBarrier(cmd, stages, stages, 0, 1, &b, 0, nullptr, 0, nullptr);
-}
-
-}  // namespace
-
-Status Renderer::prepare_wavefront(uint32_t samples, uint32_t max_bounces) {
-  DeviceScene& dev = *scene_;
-  if (!wave_pipeline_.pipeline) {
-    Status s = ctx_.create_pipeline(spirv(render_wave_comp_spirv, sizeof render_wave_comp_spirv), sizeof(RenderPush),
-                                    wave_pipeline_);
-    if (!s) return s.context("wavefront pipeline");
-  }
-  if (!dev.query) {
-    LsnifQueryPipelineFlagsCreateInfo flags{};
-    flags.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
-    flags.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
-    LsnifQueryPipelineCreateInfo info{};
-    info.pNext = &flags;
-    if (lsnifCreateQueryPipeline(dev.plugin.get(), &info, &dev.query) != LSNIF_SUCCESS)
-      return plugin_error("wavefront pipeline");
-  }
-  const size_t pixels = size_t(width_) * height_;
-  if (wave_buffers_.empty()) {
-    RenderWave w{};
-    const std::pair<uint64_t*, size_t> parts[] = {
-        {&w.paths, pixels * sizeof(RenderWavePath)},
-        {&w.rays, pixels * sizeof(LsnifQueryRay)},
-        {&w.results, pixels * sizeof(LsnifQueryResult)},
-        {&w.shadow_rays, RENDER_WAVE_SHADOWS * pixels * sizeof(LsnifQueryRay)},
-        {&w.shadow_results, RENDER_WAVE_SHADOWS * pixels * sizeof(LsnifQueryResult)},
-        {&w.shadows, RENDER_WAVE_SHADOWS * pixels * sizeof(RenderWaveShadow)}};
-    for (const auto& [address, bytes] : parts) {
-      vk::Buffer b;
-      if (Status s = ctx_.create_buffer(bytes, b); !s) return s;
-      wave_buffers_.push_back(b);
-      *address = b.address;
-    }
-    vk::Buffer b;
-    if (Status s = ctx_.create_buffer(sizeof w, b); !s) return s;
-    std::memcpy(b.mapped, &w, sizeof w);
-    wave_buffers_.push_back(b);
-    wave_address_ = b.address;
-  }
-  // The scratch of the larger batch (the shadow rays), for this scene's models and capacity.
-  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
-  q.rayCount = uint32_t(RENDER_WAVE_SHADOWS * pixels);
-  VkDeviceSize bytes = 0;
-  if (lsnifGetQueryScratchSize(dev.plugin.get(), &q, &bytes) != LSNIF_SUCCESS) return plugin_error("wavefront scratch");
-  if (wave_scratch_.size < bytes) {
-    ctx_.destroy_buffer(wave_scratch_);
-    if (Status s = ctx_.create_buffer(size_t(bytes), wave_scratch_, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT); !s) return s;
-  }
-  const size_t status_bytes = size_t(samples) * (2 * max_bounces + 1) * sizeof(LsnifQueryStatus);
-  if (wave_status_.size < status_bytes) {
-    ctx_.destroy_buffer(wave_status_);
-    if (Status s = ctx_.create_buffer(status_bytes, wave_status_); !s) return s;
-  }
-  std::memset(wave_status_.mapped, 0, status_bytes);
-  return Status::ok();
-}
-
-Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces, bool raster) {
-  if (Status s = prepare_wavefront(samples, max_bounces); !s) return s;
-  DeviceScene& dev = *scene_;
-  const uint32_t pixels = width_ * height_, groups = (pixels + 63) / 64;
-  RenderWave w;
-  std::memcpy(&w, wave_buffers_.back().mapped, sizeof w);
-  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
-  q.scratchBuffer = wave_scratch_.buffer;
-  q.scratchSize = wave_scratch_.size;
-  RenderPush push = wave_push(dev, wave_address_);
-  LsnifResult recorded = LSNIF_SUCCESS;
-  uint32_t queries = 0;
-  // Stage timing: a timestamp after every stage; interval[k] is the StageTimes field that the time
-  // between timestamps k - 1 and k belongs to (interval[0] is unused: timestamp 0 starts the pass).
-  std::vector<double StageTimes::*> interval;
-  // Per sample: the camera, path and shadow queries (each followed by its shade or connect stage,
-  // one stamp) and the accumulation.
-  const uint32_t path_stamps = LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(pixels) + 1;
-  const uint32_t shadow_stamps = LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(RENDER_WAVE_SHADOWS * pixels) + 1;
-  const uint32_t stamps_per_sample = 2 + (max_bounces + 1) * path_stamps + max_bounces * shadow_stamps;
-  const uint32_t stamp_count = stage_timing_ ? 1 + samples * stamps_per_sample : 0;
-  if (stamp_count > wave_timestamps_.count) {
-    ctx_.destroy_timestamps(wave_timestamps_);
-    if (Status s = ctx_.create_timestamps(stamp_count, wave_timestamps_); !s) return s.context("stage timing");
-  }
-  LsnifQueryTimestampsInfo query_stamps{};
-  query_stamps.sType = LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO;
-  query_stamps.timestampPool = wave_timestamps_.pool;
-  Status st = ctx_.submit("wavefront pass", [&](VkCommandBuffer cmd) {
-    auto stamp = [&](double StageTimes::*what) {
-      if (!stage_timing_) return;
-      vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, wave_timestamps_.pool, uint32_t(interval.size()));
-      interval.push_back(what);
-    };
-    auto stage = [&](uint32_t which, uint32_t bounce, double StageTimes::*what) {
-      push.stage = which;
-      push.bounce = bounce;
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, wave_pipeline_.pipeline);  // a query binds its own
-      vkCmdPushConstants(cmd, wave_pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-      vkCmdDispatch(cmd, groups, 1, 1);
-      wave_barrier(cmd);
-      stamp(what);
-    };
-    auto query = [&](uint64_t rays, uint64_t results, uint32_t count) {
-      q.rayCount = count;
-      q.rays = rays;
-      q.results = results;
-      q.status = wave_status_.address + queries++ * sizeof(LsnifQueryStatus);
-      q.pNext = nullptr;
-      if (stage_timing_) {
-        // The query's timestamps: [0] follows the previous stamp (no work between), then five per
-        // chunk of rays.
-        query_stamps.firstQuery = uint32_t(interval.size());
-        q.pNext = &query_stamps;
-        interval.push_back(&StageTimes::shade);
-        for (uint32_t c = 0; c < LSNIF_QUERY_CHUNK_COUNT(count); ++c)
-          for (double StageTimes::*what :
-               {&StageTimes::broad, &StageTimes::sort, &StageTimes::encode, &StageTimes::mlp, &StageTimes::resolve})
-            interval.push_back(what);
-      }
-      if (recorded == LSNIF_SUCCESS) recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
-      wave_barrier(cmd);
-    };
-    if (stage_timing_) vkCmdResetQueryPool(cmd, wave_timestamps_.pool, 0, stamp_count);
-    // The TLAS (built or refitted before) and the frame for the first pass.
-    VkMemoryBarrier b{};
-    b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-    b.srcAccessMask = VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR | VK_ACCESS_SHADER_WRITE_BIT;
-    b.dstAccessMask = VK_ACCESS_ACCELERATION_STRUCTURE_READ_BIT_KHR | VK_ACCESS_SHADER_READ_BIT;
-    vkCmdPipelineBarrier(cmd,
-                         VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &b, 0, nullptr, 0, nullptr);
-    stamp(nullptr);
-    for (uint32_t s = 0; s < samples; ++s) {
-      push.sample_index = first_sample + s;
-      stage(RENDER_WAVE_CAMERA, 0, &StageTimes::camera);
-      for (uint32_t bounce = 0; bounce <= max_bounces; ++bounce) {
-        if (!(raster && bounce == 0)) {  // rasterized: CAMERA shaded the first vertex
-          query(w.rays, w.results, pixels);
-          stage(RENDER_WAVE_SHADE, bounce, &StageTimes::shade);
-        }
-        if (bounce == max_bounces) break;  // the last vertex samples no light
-        query(w.shadow_rays, w.shadow_results, RENDER_WAVE_SHADOWS * pixels);
-        stage(RENDER_WAVE_CONNECT, bounce, &StageTimes::shade);
-      }
-      stage(RENDER_WAVE_ACCUMULATE, 0, &StageTimes::shade);
-    }
-    vk::ComputeContext::barrier_compute_to_host(cmd);
-  });
-  if (recorded != LSNIF_SUCCESS) return plugin_error("wavefront pass");
-  if (!st) return st.context("wavefront pass");
-  if (stage_timing_) {
-    std::vector<double> ms;
-    if (Status s = ctx_.read_timestamps_ms(wave_timestamps_, 0, uint32_t(interval.size()), ms); !s)
-      return s.context("stage timing");
-    for (size_t k = 1; k < ms.size(); ++k) stage_times_.*interval[k] += ms[k] - ms[k - 1];
-    stage_timed_samples_ += samples;
-  }
-  // INCOMPLETE answers are not misses: a render with any fails.
-  const auto* status = static_cast<const LsnifQueryStatus*>(wave_status_.mapped);
-  uint64_t incomplete = 0, dropped = 0;
-  for (uint32_t i = 0; i < queries; ++i) {
-    incomplete += status[i].incomplete_rays;
-    dropped += status[i].dropped;
-  }
-  if (incomplete > 0)
-    return Status::error("render (wavefront): %llu rays answered incomplete (%llu LSNIF candidates did not fit %u "
-                         "per ray)", static_cast<unsigned long long>(incomplete),
-                         static_cast<unsigned long long>(dropped), q.candidatesPerRay);
-  return Status::ok();
 }
 
 Status Renderer::reset_accumulation(uint32_t width, uint32_t height) {
@@ -962,46 +786,8 @@ Status Renderer::primary_hits(const View& view, uint32_t sample_index, PrimaryVi
     }
     return Status::ok();
   }
-  // Traced: the wavefront's CAMERA stage and one query of the camera rays.
-  if (Status s = prepare_wavefront(1, 0); !s) return s;
-  DeviceScene& dev = *scene_;
-  RenderWave w;
-  std::memcpy(&w, wave_buffers_.back().mapped, sizeof w);
-  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
-  q.scratchBuffer = wave_scratch_.buffer;
-  q.scratchSize = wave_scratch_.size;
-  q.rayCount = uint32_t(pixels);
-  q.rays = w.rays;
-  q.results = w.results;
-  q.status = wave_status_.address;
-  RenderPush push = wave_push(dev, wave_address_);
-  push.sample_index = sample_index;
-  push.stage = RENDER_WAVE_CAMERA;
-  LsnifResult recorded = LSNIF_SUCCESS;
-  Status st = ctx_.submit("primary hits", [&](VkCommandBuffer cmd) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, wave_pipeline_.pipeline);
-    vkCmdPushConstants(cmd, wave_pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-    vkCmdDispatch(cmd, uint32_t((pixels + 63) / 64), 1, 1);
-    wave_barrier(cmd);
-    recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
-    vk::ComputeContext::barrier_compute_to_host(cmd);
-  });
-  if (recorded != LSNIF_SUCCESS) return plugin_error("primary hits");
-  if (!st) return st;
-  const auto* results = static_cast<const LsnifQueryResult*>(wave_buffers_[2].mapped);
-  for (size_t i = 0; i < pixels; ++i) {
-    const LsnifQueryResult& r = results[i];
-    PrimaryHit& h = out[i];
-    h.hit = r.kind == LSNIF_QUERY_HIT_TRIANGLE || r.kind == LSNIF_QUERY_HIT_LSNIF;
-    if (!h.hit) continue;
-    h.instance = r.instance_custom_index;
-    h.geometry = r.geometry_index;
-    h.primitive = r.primitive_index;
-    h.u = r.barycentric_u;
-    h.v = r.barycentric_v;
-    h.t = r.t;
-  }
-  return Status::ok();
+  // Traced: the wavefront's CAMERA stage and one query of the camera rays (renderer_wavefront.cpp).
+  return trace_primary_hits(sample_index, out);
 }
 
 void Renderer::resolve(image::Image& out) const {

@@ -115,7 +115,7 @@ struct View {
   float env_rotation = 0.0f;         // radians about +y added to the environment's own rotation
 };
 
-struct DeviceScene;  // renderer.cpp: everything set_scene allocated on the device
+struct DeviceScene;  // device_scene.h: everything set_scene allocated on the device
 
 class Renderer {
  public:
@@ -206,9 +206,15 @@ class Renderer {
   // Writes the frame of `view` (and, for raster, the visibility buffer of the samples) to the device.
   Status prepare_frame(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces,
                        uint32_t rr_depth, PrimaryVisibility primary);
-  // The wavefront pipeline's passes for `samples` samples from `first_sample` (frame set up).
+  // The wavefront pipeline, in renderer_wavefront.cpp. Its passes for `samples` samples from
+  // `first_sample` (frame set up).
   Status accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces, bool raster);
+  // Makes the wavefront pipeline, the query pipeline and the buffers for the accumulation image where
+  // missing, and the scratch and zeroed statuses for passes of `samples` samples of `max_bounces`.
   Status prepare_wavefront(uint32_t samples, uint32_t max_bounces);
+  // primary_hits of the traced camera rays of sample `sample_index` (frame set up, `out` sized).
+  Status trace_primary_hits(uint32_t sample_index, std::vector<PrimaryHit>& out);
+  // Releases the wavefront buffers, scratch, statuses and timestamps.
   void release_wavefront();
   vk::ComputeContext& ctx_;
   vk::RayTracer tracer_;

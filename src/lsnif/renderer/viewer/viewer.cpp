@@ -77,6 +77,278 @@ Status save_screenshot(const std::string& path, const std::vector<uint8_t>& rgb,
   return image::save_image(path, img);
 }
 
+// Opens the window of `presenter` (settings' size) with the callbacks collecting `input`, and
+// attaches it to `ctx` (surface and swapchain). Fails without a display or on a device error.
+Status open_window(Presenter& presenter, vk::ComputeContext& ctx, Input& input, const ViewerSettings& settings) {
+  if (Status s = presenter.open_window(settings.width, settings.height, "lsnif view"); !s) return s;
+  glfwSetWindowUserPointer(presenter.window(), &input);
+  glfwSetKeyCallback(presenter.window(), on_key);
+  glfwSetScrollCallback(presenter.window(), on_scroll);
+  return presenter.attach(ctx);
+}
+
+// The frame loop over an open window: the state the input changes (mode, primary visibility,
+// camera, exposure, environment rotation, the selected object and the scene with its moves), one
+// 1-sample pass per frame, the display with its HUD, screenshots and the report.
+class FrameLoop {
+ public:
+  FrameLoop(const scene::Scene& scene, const ViewerSettings& settings, Presenter& presenter,
+            render::Renderer& renderer, Input& input, ViewerReport& report)
+      : settings_(settings),
+        presenter_(presenter),
+        renderer_(renderer),
+        input_(input),
+        report_(report),
+        reference_(settings.reference),
+        edited_(scene),
+        exposure_(settings.exposure),
+        env_rotation_(settings.env_rotation),
+        primary_(settings.primary) {}
+
+  // Sets the scene in both modes, the selected node (settings.select) and the home camera
+  // (settings.camera). Fails on a scene the renderer refuses, a node to select that does not exist
+  // or a bad camera.
+  Status start(const scene::EnvironmentMap* environment) {
+    // Both modes on the device, so that the toggle reloads no model and rebuilds no BLAS or TLAS.
+    if (Status s = renderer_.set_scene(edited_, reference_, environment, /*both_modes=*/true); !s) return s;
+    if (!settings_.select.empty()) {
+      for (size_t i = 0; i < edited_.instances.size() && selected_ < 0; ++i)
+        if (edited_.instances[i].node_name == settings_.select) selected_ = int64_t(i);
+      if (selected_ < 0)
+        return Status::error("viewer: the scene has no node named '%s' to select", settings_.select.c_str());
+    }
+    if (Status s = renderer_.camera_view(settings_.camera, home_); !s) return s;
+    renderer_.world_bounds(lo_, hi_);
+    home_distance_ = std::max(glm::length(0.5f * (lo_ + hi_) - glm::vec3(home_.camera_to_world[3])), 1e-3f);
+    camera_.set(home_.camera_to_world, home_distance_, home_.yfov);
+    glfwGetCursorPos(presenter_.window(), &last_x_, &last_y_);
+    return Status::ok();
+  }
+
+  // Runs frames until the window closes or settings.frames are presented; the report follows every
+  // frame. Fails on a failed move, pass or present, or a screenshot that cannot be written.
+  Status run() {
+    while (!glfwWindowShouldClose(presenter_.window()) && (settings_.frames == 0 || frame_ < settings_.frames)) {
+      glfwPollEvents();
+      // Input -> state.
+      apply_events();
+      if (Status s = apply_held_input(); !s) return s;
+
+      // One pass.
+      const uint32_t rw = std::max(1u, presenter_.width() / settings_.scale),
+                     rh = std::max(1u, presenter_.height() / settings_.scale);
+      double ms = 0;
+      bool rendered = false;
+      if (Status s = render_pass(rw, rh, ms, rendered); !s) return s;
+      if (!rendered) continue;
+
+      // Display.
+      const std::string status = status_line(ms, rw, rh);
+      display(status);
+      bool presented = false;
+      if (Status s = present(presented); !s) return s;
+      if (!presented) continue;  // the swapchain was recreated for a new window size: render again
+      end_frame(ms, status);
+    }
+    report_.mean_frame_ms = report_.frames ? frame_ms_sum_ / report_.frames : 0.0;
+    return Status::ok();
+  }
+
+ private:
+  // Moves the selected object by `delta` (world space) through a TLAS refit.
+  Status move_selected(glm::vec3 delta) {
+    if (selected_ < 0) return Status::ok();
+    glm::mat4& m = edited_.instances[size_t(selected_)].object_to_world;
+    m[3] += glm::vec4(delta, 0.0f);
+    return renderer_.move_instance(size_t(selected_), m);
+  }
+
+  // The events the callbacks collected (and the scripted toggle, settings.toggle_at) -> state: the
+  // mode and primary visibility toggles, the home camera, the exposure and the scroll's dolly.
+  void apply_events() {
+    if (settings_.toggle_at != 0 && frame_ == settings_.toggle_at) input_.toggle_mode = true;
+    if (input_.toggle_mode) {
+      input_.toggle_mode = false;
+      // A scene whose LSNIF nodes have no triangle mesh has no reference mode: say so, stay.
+      if (Status s = renderer_.set_mode(!reference_); !s) {
+        std::fprintf(stderr, "lsnif view: cannot switch to %s mode: %s\n", reference_ ? "LSNIF" : "reference",
+                     s.message().c_str());
+      } else {
+        reference_ = !reference_;
+      }
+      restart_ = true;
+    }
+    if (input_.toggle_primary) {  // traced <-> rasterized primary visibility
+      input_.toggle_primary = false;
+      primary_ = primary_ == render::PrimaryVisibility::raster ? render::PrimaryVisibility::traced
+                                                               : render::PrimaryVisibility::raster;
+      restart_ = true;
+    }
+    if (input_.home) {
+      input_.home = false;
+      camera_.set(home_.camera_to_world, home_distance_, home_.yfov);
+      restart_ = true;
+    }
+    if (input_.exposure_steps != 0) {  // display only: no restart
+      exposure_ += 0.5f * float(input_.exposure_steps);
+      input_.exposure_steps = 0;
+    }
+    if (input_.scroll != 0) {
+      camera_.dolly(std::pow(0.9f, float(input_.scroll)));
+      input_.scroll = 0;
+      restart_ = true;
+    }
+  }
+
+  // The mouse and the keys held -> state: the drag's orbit, flying, the environment's rotation, the
+  // selection and its moves (and the scripted move, settings.move_at). Fails on a failed move.
+  Status apply_held_input() {
+    GLFWwindow* w = presenter_.window();
+    double x = 0, y = 0;
+    glfwGetCursorPos(w, &x, &y);
+    if (glfwGetMouseButton(w, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS && (x != last_x_ || y != last_y_)) {
+      camera_.orbit(-float(x - last_x_) * 0.01f, -float(y - last_y_) * 0.01f);
+      restart_ = true;
+    }
+    last_x_ = x;
+    last_y_ = y;
+    auto key = [&](int k) { return glfwGetKey(w, k) == GLFW_PRESS ? 1.0f : 0.0f; };
+    const float fly_r = key(GLFW_KEY_D) - key(GLFW_KEY_A), fly_u = key(GLFW_KEY_R) - key(GLFW_KEY_F),
+                fly_f = key(GLFW_KEY_W) - key(GLFW_KEY_S), turn = key(GLFW_KEY_RIGHT) - key(GLFW_KEY_LEFT);
+    if (fly_r != 0 || fly_u != 0 || fly_f != 0) {
+      camera_.fly(0.05f * fly_r, 0.05f * fly_u, 0.05f * fly_f);
+      restart_ = true;
+    }
+    if (turn != 0) {
+      env_rotation_ += 0.1f * turn;
+      restart_ = true;
+    }
+    if (input_.select_next) {
+      input_.select_next = false;
+      selected_ = (selected_ + 1) % int64_t(edited_.instances.size());
+    }
+    const glm::vec3 move(key(GLFW_KEY_L) - key(GLFW_KEY_J), key(GLFW_KEY_U) - key(GLFW_KEY_O),
+                         key(GLFW_KEY_K) - key(GLFW_KEY_I));
+    if (move != glm::vec3(0.0f) && selected_ >= 0) {
+      if (Status s = move_selected(0.02f * glm::length(hi_ - lo_) * move); !s) return s;
+      restart_ = true;
+    }
+    if (settings_.move_at != 0 && frame_ == settings_.move_at) {
+      if (Status s = move_selected(settings_.move_by); !s) return s;
+      restart_ = true;
+    }
+    return Status::ok();
+  }
+
+  // One 1-sample pass of an rw x rh image (the accumulation restarted first where needed), resolved
+  // into `linear_`; `ms` its time. `rendered` false: rasterizing failed, the viewer went back to the
+  // primary visibility it started with, render again. Fails on a device error, or where the
+  // primary visibility it started with fails.
+  Status render_pass(uint32_t rw, uint32_t rh, double& ms, bool& rendered) {
+    if (restart_ || linear_.width != rw || linear_.height != rh) {
+      if (Status s = renderer_.reset_accumulation(rw, rh); !s) return s;
+      restart_ = false;
+    }
+    render::View view;
+    view.camera_to_world = camera_.camera_to_world();
+    view.yfov = camera_.yfov();
+    view.env_rotation = env_rotation_;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = renderer_.accumulate(view, renderer_.accumulated_samples(), 1, settings_.max_bounces,
+                                        render::RenderSettings().rr_depth, settings_.pipeline, primary_);
+        !s) {
+      // Rasterizing a scene with an LSNIF node without a mesh: say so and trace instead (when
+      // the viewer started traced; a --primary raster start fails).
+      if (primary_ == settings_.primary) return s;
+      std::fprintf(stderr, "lsnif view: cannot rasterize the primary visibility: %s\n", s.message().c_str());
+      primary_ = settings_.primary;
+      restart_ = true;
+      return Status::ok();
+    }
+    ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    renderer_.resolve(linear_);
+    rendered = true;
+    return Status::ok();
+  }
+
+  // The HUD's status line: mode, primary visibility, the pass's `ms`, samples, the rw x rh image,
+  // exposure, environment rotation and the selected node.
+  std::string status_line(double ms, uint32_t rw, uint32_t rh) const {
+    char status[256];
+    std::snprintf(status, sizeof status, "%s%s  %.0f MS/FRAME  %u SPP  %ux%u  EXPOSURE %+.1f  ENV %.0f DEG  SEL %s",
+                  reference_ ? "REFERENCE" : "LSNIF", primary_ == render::PrimaryVisibility::raster ? " RASTER" : "",
+                  ms, renderer_.accumulated_samples(), rw, rh, exposure_,
+                  double(env_rotation_) * 180.0 / 3.14159265358979,
+                  selected_ >= 0 ? edited_.instances[size_t(selected_)].node_name.c_str() : "-");
+    return status;
+  }
+
+  // The image to show in `rgba_`: the accumulation tone-mapped to the window with the HUD (the
+  // status line and the controls); the status line in the window's title too.
+  void display(const std::string& status) {
+    tone_map(linear_, exposure_, presenter_.width(), presenter_.height(), rgba_);
+    const uint32_t hud = presenter_.width() >= 800 ? 2 : 1;
+    draw_hud_text(rgba_.data(), presenter_.width(), presenter_.height(), 0, 0, status, hud);
+    draw_hud_text(rgba_.data(), presenter_.width(), presenter_.height(), 0, kHudLineHeight * int32_t(hud),
+                  "TAB MODE  DRAG ORBIT  WASD/RF FLY  SCROLL ZOOM  LEFT/RIGHT ENV  +/- EXPOSURE  N SELECT  "
+                  "IJKLUO MOVE  P SHOT",
+                  hud);
+    glfwSetWindowTitle(presenter_.window(), (std::string("lsnif view - ") + status).c_str());
+  }
+
+  // Presents `rgba_` and, when P was pressed or after the last scripted frame with
+  // settings.screenshot, writes what was presented (settings.screenshot, or lsnif_view.png).
+  // `presented` false: the swapchain was recreated, nothing shown or written. Fails on a device
+  // error or a screenshot that cannot be written.
+  Status present(bool& presented) {
+    const bool last = settings_.frames != 0 && frame_ + 1 == settings_.frames;
+    const bool shoot = input_.screenshot || (last && !settings_.screenshot.empty());
+    if (Status s = presenter_.present(rgba_, presented, shoot ? &shot_ : nullptr); !s) return s;
+    if (!presented) return Status::ok();
+    if (shoot) {
+      const std::string path = settings_.screenshot.empty() ? "lsnif_view.png" : settings_.screenshot;
+      if (Status s = save_screenshot(path, shot_, presenter_.width(), presenter_.height()); !s) return s;
+      if (input_.screenshot) std::printf("screenshot %s\n", path.c_str());
+      input_.screenshot = false;
+    }
+    return Status::ok();
+  }
+
+  // Counts a presented frame (its pass took `ms`): its line on stdout (unless quiet) and the report.
+  void end_frame(double ms, const std::string& status) {
+    frame_ms_sum_ += ms;
+    ++frame_;
+    if (!settings_.quiet) {
+      std::printf("frame %u: %s\n", frame_, status.c_str());
+      std::fflush(stdout);  // a line per frame also when stdout is a pipe or a file
+    }
+    report_.frames = frame_;
+    report_.samples = renderer_.accumulated_samples();
+    report_.reference = reference_;
+    report_.selected = selected_ >= 0 ? edited_.instances[size_t(selected_)].node_name : std::string();
+  }
+
+  const ViewerSettings& settings_;
+  Presenter& presenter_;
+  render::Renderer& renderer_;
+  Input& input_;
+  ViewerReport& report_;
+  bool reference_;
+  scene::Scene edited_;  // with the objects' moves
+  int64_t selected_ = -1;
+  render::View home_;
+  float home_distance_ = 0.0f;
+  glm::vec3 lo_{0.0f}, hi_{0.0f};  // world bounds
+  OrbitCamera camera_;
+  float exposure_, env_rotation_;
+  bool restart_ = true;
+  render::PrimaryVisibility primary_;  // V toggles
+  double last_x_ = 0, last_y_ = 0, frame_ms_sum_ = 0;
+  image::Image linear_;
+  std::vector<uint8_t> rgba_, shot_;
+  uint32_t frame_ = 0;  // frames presented
+};
+
 }  // namespace
 
 Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* environment, const ViewerSettings& settings,
@@ -101,177 +373,10 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
     Presenter presenter;
     render::Renderer renderer(ctx);
     result = [&]() -> Status {
-      if (Status s = presenter.open_window(settings.width, settings.height, "lsnif view"); !s) return s;
-      glfwSetWindowUserPointer(presenter.window(), &input);
-      glfwSetKeyCallback(presenter.window(), on_key);
-      glfwSetScrollCallback(presenter.window(), on_scroll);
-      if (Status s = presenter.attach(ctx); !s) return s;
-
-      bool reference = settings.reference;
-      scene::Scene edited = scene;  // with the objects' moves
-      // Both modes on the device, so that the toggle reloads no model and rebuilds no BLAS or TLAS.
-      if (Status s = renderer.set_scene(edited, reference, environment, /*both_modes=*/true); !s) return s;
-      int64_t selected = -1;
-      if (!settings.select.empty()) {
-        for (size_t i = 0; i < edited.instances.size() && selected < 0; ++i)
-          if (edited.instances[i].node_name == settings.select) selected = int64_t(i);
-        if (selected < 0) return Status::error("viewer: the scene has no node named '%s' to select", settings.select.c_str());
-      }
-      // Moves the selected object by `delta` (world space) through a TLAS refit.
-      auto move_selected = [&](glm::vec3 delta) -> Status {
-        if (selected < 0) return Status::ok();
-        glm::mat4& m = edited.instances[size_t(selected)].object_to_world;
-        m[3] += glm::vec4(delta, 0.0f);
-        return renderer.move_instance(size_t(selected), m);
-      };
-      render::View home;
-      if (Status s = renderer.camera_view(settings.camera, home); !s) return s;
-      glm::vec3 lo, hi;
-      renderer.world_bounds(lo, hi);
-      const float home_distance = std::max(glm::length(0.5f * (lo + hi) - glm::vec3(home.camera_to_world[3])), 1e-3f);
-      OrbitCamera camera;
-      camera.set(home.camera_to_world, home_distance, home.yfov);
-      float exposure = settings.exposure, env_rotation = settings.env_rotation;
-      bool restart = true;
-      render::PrimaryVisibility primary = settings.primary;  // V toggles
-      double last_x = 0, last_y = 0, frame_ms_sum = 0;
-      glfwGetCursorPos(presenter.window(), &last_x, &last_y);
-      image::Image linear;
-      std::vector<uint8_t> rgba, shot;
-      uint32_t frame = 0;
-
-      while (!glfwWindowShouldClose(presenter.window()) && (settings.frames == 0 || frame < settings.frames)) {
-        glfwPollEvents();
-        GLFWwindow* w = presenter.window();
-        // Input -> state.
-        if (settings.toggle_at != 0 && frame == settings.toggle_at) input.toggle_mode = true;
-        if (input.toggle_mode) {
-          input.toggle_mode = false;
-          // A scene whose LSNIF nodes have no triangle mesh has no reference mode: say so, stay.
-          if (Status s = renderer.set_mode(!reference); !s) {
-            std::fprintf(stderr, "lsnif view: cannot switch to %s mode: %s\n", reference ? "LSNIF" : "reference",
-                         s.message().c_str());
-          } else {
-            reference = !reference;
-          }
-          restart = true;
-        }
-        if (input.toggle_primary) {  // traced <-> rasterized primary visibility
-          input.toggle_primary = false;
-          primary = primary == render::PrimaryVisibility::raster ? render::PrimaryVisibility::traced
-                                                                 : render::PrimaryVisibility::raster;
-          restart = true;
-        }
-        if (input.home) {
-          input.home = false;
-          camera.set(home.camera_to_world, home_distance, home.yfov);
-          restart = true;
-        }
-        if (input.exposure_steps != 0) {  // display only: no restart
-          exposure += 0.5f * float(input.exposure_steps);
-          input.exposure_steps = 0;
-        }
-        if (input.scroll != 0) {
-          camera.dolly(std::pow(0.9f, float(input.scroll)));
-          input.scroll = 0;
-          restart = true;
-        }
-        double x = 0, y = 0;
-        glfwGetCursorPos(w, &x, &y);
-        if (glfwGetMouseButton(w, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS && (x != last_x || y != last_y)) {
-          camera.orbit(-float(x - last_x) * 0.01f, -float(y - last_y) * 0.01f);
-          restart = true;
-        }
-        last_x = x;
-        last_y = y;
-        auto key = [&](int k) { return glfwGetKey(w, k) == GLFW_PRESS ? 1.0f : 0.0f; };
-        const float fly_r = key(GLFW_KEY_D) - key(GLFW_KEY_A), fly_u = key(GLFW_KEY_R) - key(GLFW_KEY_F),
-                    fly_f = key(GLFW_KEY_W) - key(GLFW_KEY_S), turn = key(GLFW_KEY_RIGHT) - key(GLFW_KEY_LEFT);
-        if (fly_r != 0 || fly_u != 0 || fly_f != 0) {
-          camera.fly(0.05f * fly_r, 0.05f * fly_u, 0.05f * fly_f);
-          restart = true;
-        }
-        if (turn != 0) {
-          env_rotation += 0.1f * turn;
-          restart = true;
-        }
-        if (input.select_next) {
-          input.select_next = false;
-          selected = (selected + 1) % int64_t(edited.instances.size());
-        }
-        const glm::vec3 move(key(GLFW_KEY_L) - key(GLFW_KEY_J), key(GLFW_KEY_U) - key(GLFW_KEY_O),
-                             key(GLFW_KEY_K) - key(GLFW_KEY_I));
-        if (move != glm::vec3(0.0f) && selected >= 0) {
-          if (Status s = move_selected(0.02f * glm::length(hi - lo) * move); !s) return s;
-          restart = true;
-        }
-        if (settings.move_at != 0 && frame == settings.move_at) {
-          if (Status s = move_selected(settings.move_by); !s) return s;
-          restart = true;
-        }
-
-        // One pass.
-        const uint32_t rw = std::max(1u, presenter.width() / settings.scale),
-                       rh = std::max(1u, presenter.height() / settings.scale);
-        if (restart || linear.width != rw || linear.height != rh) {
-          if (Status s = renderer.reset_accumulation(rw, rh); !s) return s;
-          restart = false;
-        }
-        render::View view;
-        view.camera_to_world = camera.camera_to_world();
-        view.yfov = camera.yfov();
-        view.env_rotation = env_rotation;
-        const auto t0 = std::chrono::steady_clock::now();
-        if (Status s = renderer.accumulate(view, renderer.accumulated_samples(), 1, settings.max_bounces,
-                                           render::RenderSettings().rr_depth, settings.pipeline, primary);
-            !s) {
-          // Rasterizing a scene with an LSNIF node without a mesh: say so and trace instead (when
-          // the viewer started traced; a --primary raster start fails).
-          if (primary == settings.primary) return s;
-          std::fprintf(stderr, "lsnif view: cannot rasterize the primary visibility: %s\n", s.message().c_str());
-          primary = settings.primary;
-          restart = true;
-          continue;
-        }
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-        renderer.resolve(linear);
-
-        // Display.
-        tone_map(linear, exposure, presenter.width(), presenter.height(), rgba);
-        const uint32_t hud = presenter.width() >= 800 ? 2 : 1;
-        char status[256];
-        std::snprintf(status, sizeof status, "%s%s  %.0f MS/FRAME  %u SPP  %ux%u  EXPOSURE %+.1f  ENV %.0f DEG  SEL %s",
-                      reference ? "REFERENCE" : "LSNIF", primary == render::PrimaryVisibility::raster ? " RASTER" : "", ms, renderer.accumulated_samples(), rw, rh, exposure,
-                      double(env_rotation) * 180.0 / 3.14159265358979,
-                      selected >= 0 ? edited.instances[size_t(selected)].node_name.c_str() : "-");
-        draw_hud_text(rgba.data(), presenter.width(), presenter.height(), 0, 0, status, hud);
-        draw_hud_text(rgba.data(), presenter.width(), presenter.height(), 0, kHudLineHeight * int32_t(hud),
-                      "TAB MODE  DRAG ORBIT  WASD/RF FLY  SCROLL ZOOM  LEFT/RIGHT ENV  +/- EXPOSURE  N SELECT  IJKLUO MOVE  P SHOT", hud);
-        glfwSetWindowTitle(w, (std::string("lsnif view - ") + status).c_str());
-        const bool last = settings.frames != 0 && frame + 1 == settings.frames;
-        const bool shoot = input.screenshot || (last && !settings.screenshot.empty());
-        bool presented = false;
-        if (Status s = presenter.present(rgba, presented, shoot ? &shot : nullptr); !s) return s;
-        if (!presented) continue;  // the swapchain was recreated for a new window size: render again
-        if (shoot) {
-          const std::string path = settings.screenshot.empty() ? "lsnif_view.png" : settings.screenshot;
-          if (Status s = save_screenshot(path, shot, presenter.width(), presenter.height()); !s) return s;
-          if (input.screenshot) std::printf("screenshot %s\n", path.c_str());
-          input.screenshot = false;
-        }
-        frame_ms_sum += ms;
-        ++frame;
-        if (!settings.quiet) {
-          std::printf("frame %u: %s\n", frame, status);
-          std::fflush(stdout);  // a line per frame also when stdout is a pipe or a file
-        }
-        report.frames = frame;
-        report.samples = renderer.accumulated_samples();
-        report.reference = reference;
-        report.selected = selected >= 0 ? edited.instances[size_t(selected)].node_name : std::string();
-      }
-      report.mean_frame_ms = report.frames ? frame_ms_sum / report.frames : 0.0;
-      return Status::ok();
+      if (Status s = open_window(presenter, ctx, input, settings); !s) return s;
+      FrameLoop loop(scene, settings, presenter, renderer, input, report);
+      if (Status s = loop.start(environment); !s) return s;
+      return loop.run();
     }();
     vkDeviceWaitIdle(ctx.device());
   }

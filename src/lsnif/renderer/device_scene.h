@@ -1,0 +1,95 @@
+// device_scene.h -- what the two halves of the Renderer (renderer.h) share: renderer.cpp (scene
+// upload, inline pipeline, accumulation) and renderer_wavefront.cpp (the wavefront pipeline). The
+// scene set on the device and the helpers both use; internal to lsnif_render, not installed.
+#pragma once
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "lsnif/harness/plugin_device.h"  // volk first: lsnif.h then uses its Vulkan declarations
+#include "lsnif/lsnif.hpp"
+#include "lsnif/renderer/renderer.h"
+#include "lsnif/renderer/shaders/render_host_device.h"
+
+namespace lsnif::render {
+
+// A vk::Spirv of `bytes` of `code` (a shader compiled at build time, cmake/LsnifShaders.cmake).
+inline vk::Spirv spirv(const uint32_t* code, size_t bytes) {
+  vk::Spirv s;
+  s.code = code;
+  s.bytes = bytes;
+  return s;
+}
+
+// The plugin's last error as a Status (after a failed call of the C API).
+inline Status plugin_error(const char* what) { return Status::error("%s: %s", what, lsnifGetLastErrorMessage()); }
+
+// Everything set_scene allocates on the device, and what a pass needs of the scene; released by
+// the destructor.
+struct DeviceScene {
+  vk::ComputeContext& ctx;
+  vk::RayTracer& tracer;
+  plugin::Context plugin;
+  std::vector<plugin::Model> models;     // per LSNIF object of the scene: its device model (or empty)
+  std::vector<vk::Buffer> buffers;
+  std::vector<vk::AccelerationStructure> blases;
+  // What one mode (LSNIF: 0, reference: 1) traces: its TLAS over the shared BLASes and models, and
+  // the tables its shaders read. set_mode switches between prepared modes without uploads.
+  struct Mode {
+    bool ready = false;
+    std::string why_not;                  // set_scene's error for a mode it could not prepare
+    vk::AccelerationStructure tlas;
+    std::vector<VkAccelerationStructureInstanceKHR> records;  // TLAS records; record i has custom index i
+    std::vector<int64_t> record_model;     // per record: index into `models` (LSNIF) or -1 (triangles)
+    std::vector<std::pair<size_t, size_t>> instance_records;  // per scene instance: first record, count
+    uint64_t instances = 0, material_maps = 0;  // RenderFrame::instances, material_maps of the mode
+    uint64_t table_address = 0;
+    uint32_t table_count = 0;              // entries of the model table
+    std::vector<LsnifModel> table_models;  // per table entry: its model, null for triangle instances
+    uint64_t world_to_object = 0;          // RenderFrame::world_to_object of the mode (per custom index)
+    glm::mat3* world_to_object_mapped = nullptr;
+    RenderStats stats;                     // what the mode uses (times 0)
+    // Rasterized primary visibility: every record's triangle lists (an LSNIF record: its node's
+    // mesh), or why the mode cannot be rasterized (an LSNIF node without a mesh).
+    std::vector<VisibilityDraw> raster_draws;
+    std::string raster_why_not;
+  };
+  Mode modes[2];
+  int active = 0;
+  RenderFrame frame{};                    // the scene's part filled in; view and image set per pass
+  RenderFrame* frame_on_device = nullptr;  // mapped RenderFrame buffer
+  uint64_t frame_address = 0;
+  LsnifQueryPipeline query = nullptr;      // the wavefront pipeline's lsnifCmdQuery, made on first use
+  glm::vec3 lo{0.0f}, hi{0.0f};           // world bounds (for a framing camera)
+  std::vector<scene::Camera> cameras;
+  float env_rotation = 0.0f;
+  Mode& mode() { return modes[active]; }
+  DeviceScene(vk::ComputeContext& c, vk::RayTracer& t) : ctx(c), tracer(t) {}
+  ~DeviceScene() {
+    if (query) lsnifDestroyQueryPipeline(plugin.get(), query);
+    for (Mode& m : modes) tracer.destroy(m.tlas);
+    for (vk::AccelerationStructure& b : blases) tracer.destroy(b);
+    for (vk::Buffer& b : buffers) ctx.destroy_buffer(b);
+    models.clear();  // before their context
+    plugin.reset();
+  }
+  // A host-visible buffer holding `bytes` of `data` (zeroed when data is null); its device address.
+  Status upload(const void* data, size_t bytes, uint64_t& address, VkBufferUsageFlags extra = 0) {
+    vk::Buffer b;
+    if (Status s = ctx.create_buffer(bytes, b, extra); !s) return s;
+    if (data && bytes) std::memcpy(b.mapped, data, bytes);
+    address = b.address;
+    buffers.push_back(b);
+    return Status::ok();
+  }
+  template <class T>
+  Status upload(const std::vector<T>& v, uint64_t& address) {
+    return upload(v.empty() ? nullptr : v.data(), v.size() * sizeof(T), address);
+  }
+};
+
+}  // namespace lsnif::render

@@ -1,0 +1,284 @@
+// renderer_wavefront.cpp -- the wavefront pipeline of the Renderer (renderer.h, PathPipeline::wavefront):
+// the stages of src/lsnif/renderer/shaders/render_wave.comp recorded with lsnifCmdQuery between them
+// into one command buffer per pass, their buffers and scratch, and the traced primary hits
+// (Renderer::primary_hits) through the same CAMERA stage and query. The scene comes from
+// renderer.cpp's set_scene (device_scene.h).
+#include "lsnif/renderer/renderer.h"
+
+#include <algorithm>
+#include <cstddef>
+#include <cstring>
+#include <utility>
+#include <vector>
+
+#include "lsnif/renderer/device_scene.h"
+#include "lsnif/renderer/shaders/render_host_device.h"
+
+namespace lsnif::render {
+
+namespace {
+// The wavefront's shader, compiled at build time (cmake/LsnifShaders.cmake).
+#include "render_wave_comp_spirv.h"
+
+// The queries of the wavefront pipeline over the scene's TLAS (rays, results, status and the
+// scratch fields are set per query). Candidates: one per LSNIF instance a ray can cross, so that
+// no ray runs out of capacity up to LSNIF_QUERY_MAX_CANDIDATES_PER_RAY instances.
+LsnifQueryInfo wave_query_info(const DeviceScene::Mode& md, uint32_t lsnif_instances) {
+  LsnifQueryInfo q{};
+  q.candidatesPerRay = std::clamp(lsnif_instances, 1u, LSNIF_QUERY_MAX_CANDIDATES_PER_RAY);
+  q.tlas = md.tlas.address;
+  q.cullMask = 0xFF;
+  q.modelCount = md.table_count;
+  q.pModels = md.table_models.data();
+  q.modelTable = md.table_address;
+  return q;
+}
+
+// The push constants of the wavefront stages over the active mode (stage, bounce and sample are
+// set per dispatch).
+RenderPush wave_push(DeviceScene& dev, uint64_t wave) {
+  RenderPush push{};
+  push.model_table = dev.mode().table_address;
+  push.model_count = dev.mode().table_count;
+  push.frame = dev.frame_address;
+  push.samples = 1;
+  push.wave = wave;
+  return push;
+}
+
+// Between the wavefront's passes: compute writes (and the queries' indirect arguments) before
+// compute reads and writes and indirect reads.
+void wave_barrier(VkCommandBuffer cmd) {
+  VkMemoryBarrier b{};
+  b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+  b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+  b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT;
+  const VkPipelineStageFlags stages = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT;
+  vkCmdPipelineBarrier(cmd, stages, stages, 0, 1, &b, 0, nullptr, 0, nullptr);
+}
+
+}  // namespace
+
+void Renderer::release_wavefront() {
+  for (vk::Buffer& b : wave_buffers_) ctx_.destroy_buffer(b);
+  wave_buffers_.clear();
+  ctx_.destroy_buffer(wave_scratch_);
+  ctx_.destroy_buffer(wave_status_);
+  ctx_.destroy_timestamps(wave_timestamps_);
+  wave_address_ = 0;
+}
+
+Status Renderer::prepare_wavefront(uint32_t samples, uint32_t max_bounces) {
+  DeviceScene& dev = *scene_;
+  if (!wave_pipeline_.pipeline) {
+    Status s = ctx_.create_pipeline(spirv(render_wave_comp_spirv, sizeof render_wave_comp_spirv), sizeof(RenderPush),
+                                    wave_pipeline_);
+    if (!s) return s.context("wavefront pipeline");
+  }
+  if (!dev.query) {
+    LsnifQueryPipelineFlagsCreateInfo flags{};
+    flags.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
+    flags.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
+    LsnifQueryPipelineCreateInfo info{};
+    info.pNext = &flags;
+    if (lsnifCreateQueryPipeline(dev.plugin.get(), &info, &dev.query) != LSNIF_SUCCESS)
+      return plugin_error("wavefront pipeline");
+  }
+  const size_t pixels = size_t(width_) * height_;
+  if (wave_buffers_.empty()) {
+    RenderWave w{};
+    const std::pair<uint64_t*, size_t> parts[] = {
+        {&w.paths, pixels * sizeof(RenderWavePath)},
+        {&w.rays, pixels * sizeof(LsnifQueryRay)},
+        {&w.results, pixels * sizeof(LsnifQueryResult)},
+        {&w.shadow_rays, RENDER_WAVE_SHADOWS * pixels * sizeof(LsnifQueryRay)},
+        {&w.shadow_results, RENDER_WAVE_SHADOWS * pixels * sizeof(LsnifQueryResult)},
+        {&w.shadows, RENDER_WAVE_SHADOWS * pixels * sizeof(RenderWaveShadow)}};
+    for (const auto& [address, bytes] : parts) {
+      vk::Buffer b;
+      if (Status s = ctx_.create_buffer(bytes, b); !s) return s;
+      wave_buffers_.push_back(b);
+      *address = b.address;
+    }
+    vk::Buffer b;
+    if (Status s = ctx_.create_buffer(sizeof w, b); !s) return s;
+    std::memcpy(b.mapped, &w, sizeof w);
+    wave_buffers_.push_back(b);
+    wave_address_ = b.address;
+  }
+  // The scratch of the larger batch (the shadow rays), for this scene's models and capacity.
+  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
+  q.rayCount = uint32_t(RENDER_WAVE_SHADOWS * pixels);
+  VkDeviceSize bytes = 0;
+  if (lsnifGetQueryScratchSize(dev.plugin.get(), &q, &bytes) != LSNIF_SUCCESS) return plugin_error("wavefront scratch");
+  if (wave_scratch_.size < bytes) {
+    ctx_.destroy_buffer(wave_scratch_);
+    if (Status s = ctx_.create_buffer(size_t(bytes), wave_scratch_, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT); !s) return s;
+  }
+  const size_t status_bytes = size_t(samples) * (2 * max_bounces + 1) * sizeof(LsnifQueryStatus);
+  if (wave_status_.size < status_bytes) {
+    ctx_.destroy_buffer(wave_status_);
+    if (Status s = ctx_.create_buffer(status_bytes, wave_status_); !s) return s;
+  }
+  std::memset(wave_status_.mapped, 0, status_bytes);
+  return Status::ok();
+}
+
+Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces, bool raster) {
+  if (Status s = prepare_wavefront(samples, max_bounces); !s) return s;
+  DeviceScene& dev = *scene_;
+  const uint32_t pixels = width_ * height_, groups = (pixels + 63) / 64;
+  RenderWave w;
+  std::memcpy(&w, wave_buffers_.back().mapped, sizeof w);
+  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
+  q.scratchBuffer = wave_scratch_.buffer;
+  q.scratchSize = wave_scratch_.size;
+  RenderPush push = wave_push(dev, wave_address_);
+  LsnifResult recorded = LSNIF_SUCCESS;
+  uint32_t queries = 0;
+  // Stage timing: a timestamp after every stage; interval[k] is the StageTimes field that the time
+  // between timestamps k - 1 and k belongs to (interval[0] is unused: timestamp 0 starts the pass).
+  std::vector<double StageTimes::*> interval;
+  // Per sample: the camera, path and shadow queries (each followed by its shade or connect stage,
+  // one stamp) and the accumulation.
+  const uint32_t path_stamps = LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(pixels) + 1;
+  const uint32_t shadow_stamps = LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(RENDER_WAVE_SHADOWS * pixels) + 1;
+  const uint32_t stamps_per_sample = 2 + (max_bounces + 1) * path_stamps + max_bounces * shadow_stamps;
+  const uint32_t stamp_count = stage_timing_ ? 1 + samples * stamps_per_sample : 0;
+  if (stamp_count > wave_timestamps_.count) {
+    ctx_.destroy_timestamps(wave_timestamps_);
+    if (Status s = ctx_.create_timestamps(stamp_count, wave_timestamps_); !s) return s.context("stage timing");
+  }
+  LsnifQueryTimestampsInfo query_stamps{};
+  query_stamps.sType = LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO;
+  query_stamps.timestampPool = wave_timestamps_.pool;
+  Status st = ctx_.submit("wavefront pass", [&](VkCommandBuffer cmd) {
+    auto stamp = [&](double StageTimes::*what) {
+      if (!stage_timing_) return;
+      vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, wave_timestamps_.pool, uint32_t(interval.size()));
+      interval.push_back(what);
+    };
+    auto stage = [&](uint32_t which, uint32_t bounce, double StageTimes::*what) {
+      push.stage = which;
+      push.bounce = bounce;
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, wave_pipeline_.pipeline);  // a query binds its own
+      vkCmdPushConstants(cmd, wave_pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+      vkCmdDispatch(cmd, groups, 1, 1);
+      wave_barrier(cmd);
+      stamp(what);
+    };
+    auto query = [&](uint64_t rays, uint64_t results, uint32_t count) {
+      q.rayCount = count;
+      q.rays = rays;
+      q.results = results;
+      q.status = wave_status_.address + queries++ * sizeof(LsnifQueryStatus);
+      q.pNext = nullptr;
+      if (stage_timing_) {
+        // The query's timestamps: [0] follows the previous stamp (no work between), then five per
+        // chunk of rays.
+        query_stamps.firstQuery = uint32_t(interval.size());
+        q.pNext = &query_stamps;
+        interval.push_back(&StageTimes::shade);
+        for (uint32_t c = 0; c < LSNIF_QUERY_CHUNK_COUNT(count); ++c)
+          for (double StageTimes::*what :
+               {&StageTimes::broad, &StageTimes::sort, &StageTimes::encode, &StageTimes::mlp, &StageTimes::resolve})
+            interval.push_back(what);
+      }
+      if (recorded == LSNIF_SUCCESS) recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
+      wave_barrier(cmd);
+    };
+    if (stage_timing_) vkCmdResetQueryPool(cmd, wave_timestamps_.pool, 0, stamp_count);
+    // The TLAS (built or refitted before) and the frame for the first pass.
+    VkMemoryBarrier b{};
+    b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    b.srcAccessMask = VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR | VK_ACCESS_SHADER_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_ACCELERATION_STRUCTURE_READ_BIT_KHR | VK_ACCESS_SHADER_READ_BIT;
+    vkCmdPipelineBarrier(cmd,
+                         VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &b, 0, nullptr, 0, nullptr);
+    stamp(nullptr);
+    for (uint32_t s = 0; s < samples; ++s) {
+      push.sample_index = first_sample + s;
+      stage(RENDER_WAVE_CAMERA, 0, &StageTimes::camera);
+      for (uint32_t bounce = 0; bounce <= max_bounces; ++bounce) {
+        if (!(raster && bounce == 0)) {  // rasterized: CAMERA shaded the first vertex
+          query(w.rays, w.results, pixels);
+          stage(RENDER_WAVE_SHADE, bounce, &StageTimes::shade);
+        }
+        if (bounce == max_bounces) break;  // the last vertex samples no light
+        query(w.shadow_rays, w.shadow_results, RENDER_WAVE_SHADOWS * pixels);
+        stage(RENDER_WAVE_CONNECT, bounce, &StageTimes::shade);
+      }
+      stage(RENDER_WAVE_ACCUMULATE, 0, &StageTimes::shade);
+    }
+    vk::ComputeContext::barrier_compute_to_host(cmd);
+  });
+  if (recorded != LSNIF_SUCCESS) return plugin_error("wavefront pass");
+  if (!st) return st.context("wavefront pass");
+  if (stage_timing_) {
+    std::vector<double> ms;
+    if (Status s = ctx_.read_timestamps_ms(wave_timestamps_, 0, uint32_t(interval.size()), ms); !s)
+      return s.context("stage timing");
+    for (size_t k = 1; k < ms.size(); ++k) stage_times_.*interval[k] += ms[k] - ms[k - 1];
+    stage_timed_samples_ += samples;
+  }
+  // INCOMPLETE answers are not misses: a render with any fails.
+  const auto* status = static_cast<const LsnifQueryStatus*>(wave_status_.mapped);
+  uint64_t incomplete = 0, dropped = 0;
+  for (uint32_t i = 0; i < queries; ++i) {
+    incomplete += status[i].incomplete_rays;
+    dropped += status[i].dropped;
+  }
+  if (incomplete > 0)
+    return Status::error("render (wavefront): %llu rays answered incomplete (%llu LSNIF candidates did not fit %u "
+                         "per ray)", static_cast<unsigned long long>(incomplete),
+                         static_cast<unsigned long long>(dropped), q.candidatesPerRay);
+  return Status::ok();
+}
+
+// primary_hits of the traced camera rays: the wavefront's CAMERA stage and one query of the camera
+// rays of sample `sample_index` (the frame set up by prepare_frame, `out` sized to the pixels).
+Status Renderer::trace_primary_hits(uint32_t sample_index, std::vector<PrimaryHit>& out) {
+  const size_t pixels = size_t(width_) * height_;
+  if (Status s = prepare_wavefront(1, 0); !s) return s;
+  DeviceScene& dev = *scene_;
+  RenderWave w;
+  std::memcpy(&w, wave_buffers_.back().mapped, sizeof w);
+  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
+  q.scratchBuffer = wave_scratch_.buffer;
+  q.scratchSize = wave_scratch_.size;
+  q.rayCount = uint32_t(pixels);
+  q.rays = w.rays;
+  q.results = w.results;
+  q.status = wave_status_.address;
+  RenderPush push = wave_push(dev, wave_address_);
+  push.sample_index = sample_index;
+  push.stage = RENDER_WAVE_CAMERA;
+  LsnifResult recorded = LSNIF_SUCCESS;
+  Status st = ctx_.submit("primary hits", [&](VkCommandBuffer cmd) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, wave_pipeline_.pipeline);
+    vkCmdPushConstants(cmd, wave_pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+    vkCmdDispatch(cmd, uint32_t((pixels + 63) / 64), 1, 1);
+    wave_barrier(cmd);
+    recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
+    vk::ComputeContext::barrier_compute_to_host(cmd);
+  });
+  if (recorded != LSNIF_SUCCESS) return plugin_error("primary hits");
+  if (!st) return st;
+  const auto* results = static_cast<const LsnifQueryResult*>(wave_buffers_[2].mapped);
+  for (size_t i = 0; i < pixels; ++i) {
+    const LsnifQueryResult& r = results[i];
+    PrimaryHit& h = out[i];
+    h.hit = r.kind == LSNIF_QUERY_HIT_TRIANGLE || r.kind == LSNIF_QUERY_HIT_LSNIF;
+    if (!h.hit) continue;
+    h.instance = r.instance_custom_index;
+    h.geometry = r.geometry_index;
+    h.primitive = r.primitive_index;
+    h.u = r.barycentric_u;
+    h.v = r.barycentric_v;
+    h.t = r.t;
+  }
+  return Status::ok();
+}
+
+}  // namespace lsnif::render
