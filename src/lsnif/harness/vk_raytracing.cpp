@@ -405,32 +405,31 @@ void RayTracer::destroy(AccelerationStructure& as) {
   as = AccelerationStructure();
 }
 
-Status RayTracer::create_pipeline(const RtShaders& shaders, uint32_t push_size, RtPipeline& out) {
-  out = RtPipeline();
-  if (!ctx_.device() || props_.shaderGroupHandleSize == 0)
-    return Status::error("create_pipeline: RayTracer not initialized");
-  const bool triangles = shaders.triangle_closest_hit.code != nullptr;
-  const uint32_t stage_count = triangles ? 5 : 4, group_count = triangles ? 4 : 3;
+namespace {
+
+// Destroys the shader modules that were created (null entries are skipped).
+void destroy_shader_modules(VkDevice device, const VkShaderModule (&modules)[5]) {
+  for (VkShaderModule m : modules)
+    if (m) vkDestroyShaderModule(device, m, nullptr);
+}
+
+// The modules of the first `stage_count` shaders of raygen, miss, closest hit, intersection and triangle
+// closest hit, into `modules`; on failure none is left.
+Status create_shader_modules(ComputeContext& ctx, const RtShaders& shaders, uint32_t stage_count,
+                             VkShaderModule (&modules)[5]) {
   const Spirv* code[5] = {&shaders.raygen, &shaders.miss, &shaders.closest_hit, &shaders.intersection,
                           &shaders.triangle_closest_hit};
   const char* stage_names[5] = {"raygen", "miss", "closest hit", "intersection", "triangle closest hit"};
-  const VkShaderStageFlagBits stages[5] = {VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
-                                           VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR,
-                                           VK_SHADER_STAGE_INTERSECTION_BIT_KHR,
-                                           VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR};
-  VkShaderModule modules[5] = {};
   Status s = Status::ok();
   for (uint32_t i = 0; i < stage_count && s; ++i)
-    s = ctx_.create_shader_module(*code[i], modules[i]).context(std::string("create_pipeline: ") + stage_names[i]);
-  auto release_modules = [&] {
-    for (VkShaderModule m : modules)
-      if (m) vkDestroyShaderModule(ctx_.device(), m, nullptr);
-  };
-  if (!s) {
-    release_modules();
-    return s;
-  }
+    s = ctx.create_shader_module(*code[i], modules[i]).context(std::string("create_pipeline: ") + stage_names[i]);
+  if (!s) destroy_shader_modules(ctx.device(), modules);
+  return s;
+}
 
+// The set layout (the TLAS at binding 0, for raygen), a pool with its one set, and the pipeline layout
+// (with a push-constant range of `push_size` bytes when not 0), into `out`; stops at the first failure.
+VkResult create_layouts(VkDevice device, uint32_t push_size, RtPipeline& out) {
   VkDescriptorSetLayoutBinding binding{};
   binding.binding = 0;
   binding.descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
@@ -447,15 +446,15 @@ Status RayTracer::create_pipeline(const RtShaders& shaders, uint32_t push_size, 
   dpi.maxSets = 1;
   dpi.poolSizeCount = 1;
   dpi.pPoolSizes = &pool_size;
-  VkResult r = vkCreateDescriptorSetLayout(ctx_.device(), &sli, nullptr, &out.set_layout);
-  if (r == VK_SUCCESS) r = vkCreateDescriptorPool(ctx_.device(), &dpi, nullptr, &out.pool);
+  VkResult r = vkCreateDescriptorSetLayout(device, &sli, nullptr, &out.set_layout);
+  if (r == VK_SUCCESS) r = vkCreateDescriptorPool(device, &dpi, nullptr, &out.pool);
   if (r == VK_SUCCESS) {
     VkDescriptorSetAllocateInfo dsa{};
     dsa.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
     dsa.descriptorPool = out.pool;
     dsa.descriptorSetCount = 1;
     dsa.pSetLayouts = &out.set_layout;
-    r = vkAllocateDescriptorSets(ctx_.device(), &dsa, &out.set);
+    r = vkAllocateDescriptorSets(device, &dsa, &out.set);
   }
   if (r == VK_SUCCESS) {
     VkPipelineLayoutCreateInfo lci{};
@@ -464,14 +463,20 @@ Status RayTracer::create_pipeline(const RtShaders& shaders, uint32_t push_size, 
     lci.pSetLayouts = &out.set_layout;
     lci.pushConstantRangeCount = push_size > 0 ? 1 : 0;
     lci.pPushConstantRanges = &range;
-    r = vkCreatePipelineLayout(ctx_.device(), &lci, nullptr, &out.layout);
+    r = vkCreatePipelineLayout(device, &lci, nullptr, &out.layout);
   }
-  if (r != VK_SUCCESS) {
-    release_modules();
-    destroy(out);
-    return Status::error("descriptor set / pipeline layout creation failed (VkResult %d)", static_cast<int>(r));
-  }
+  return r;
+}
 
+// The pipeline of the first `stage_count` modules (entry "main") in the first `group_count` groups of
+// raygen, miss, the procedural hit group and the triangle hit group, with out.layout, into out.pipeline
+// (its creation timed in out.create_seconds).
+VkResult create_rt_pipeline(VkDevice device, const VkShaderModule (&modules)[5], uint32_t stage_count,
+                            uint32_t group_count, RtPipeline& out) {
+  const VkShaderStageFlagBits stages[5] = {VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
+                                           VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR,
+                                           VK_SHADER_STAGE_INTERSECTION_BIT_KHR,
+                                           VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR};
   VkPipelineShaderStageCreateInfo stage_info[5] = {};
   for (uint32_t i = 0; i < stage_count; ++i) {
     stage_info[i].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
@@ -502,47 +507,40 @@ Status RayTracer::create_pipeline(const RtShaders& shaders, uint32_t push_size, 
   pci.maxPipelineRayRecursionDepth = 1;
   pci.layout = out.layout;
   const auto t0 = std::chrono::steady_clock::now();
-  r = vkCreateRayTracingPipelinesKHR(ctx_.device(), VK_NULL_HANDLE, VK_NULL_HANDLE, 1, &pci, nullptr,
-                                     &out.pipeline);
+  VkResult r = vkCreateRayTracingPipelinesKHR(device, VK_NULL_HANDLE, VK_NULL_HANDLE, 1, &pci, nullptr,
+                                              &out.pipeline);
   out.create_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  release_modules();
-  if (r != VK_SUCCESS) {
-    destroy(out);
-    return Status::error("vkCreateRayTracingPipelinesKHR failed (VkResult %d)", static_cast<int>(r));
-  }
-  out.push_size = push_size;
+  return r;
+}
 
+// The shader binding table of out.pipeline's `group_count` groups (with the triangle hit group when
+// `triangles`), into out.sbt and out's regions.
+Status create_sbt(ComputeContext& ctx, const VkPhysicalDeviceRayTracingPipelinePropertiesKHR& props,
+                  const RtShaders& shaders, bool triangles, uint32_t group_count, RtPipeline& out) {
   // Shader binding table: one record per group; each region starts at shaderGroupBaseAlignment,
   // records are handle-aligned; the raygen region's size equals its stride (a spec requirement).
-  const uint32_t handle_size = props_.shaderGroupHandleSize;
+  const uint32_t handle_size = props.shaderGroupHandleSize;
   std::vector<uint8_t> handles(size_t(group_count) * handle_size);
-  r = vkGetRayTracingShaderGroupHandlesKHR(ctx_.device(), out.pipeline, 0, group_count, handles.size(),
-                                           handles.data());
-  if (r != VK_SUCCESS) {
-    destroy(out);
+  VkResult r = vkGetRayTracingShaderGroupHandlesKHR(ctx.device(), out.pipeline, 0, group_count, handles.size(),
+                                                    handles.data());
+  if (r != VK_SUCCESS)
     return Status::error("vkGetRayTracingShaderGroupHandlesKHR failed (VkResult %d)", static_cast<int>(r));
-  }
   // The hit region: the procedural records (each handle + its data), then the triangle group's.
   const size_t procedural = std::max<size_t>(1, shaders.procedural_records.size());
   size_t data_bytes = 0;
   for (const std::vector<uint8_t>& d : shaders.procedural_records) data_bytes = std::max(data_bytes, d.size());
-  const VkDeviceSize base_align = props_.shaderGroupBaseAlignment;
-  const VkDeviceSize record_stride = align_up(handle_size, props_.shaderGroupHandleAlignment);
-  const VkDeviceSize hit_stride = align_up(handle_size + data_bytes, props_.shaderGroupHandleAlignment);
-  if (hit_stride > props_.maxShaderGroupStride) {
-    destroy(out);
+  const VkDeviceSize base_align = props.shaderGroupBaseAlignment;
+  const VkDeviceSize record_stride = align_up(handle_size, props.shaderGroupHandleAlignment);
+  const VkDeviceSize hit_stride = align_up(handle_size + data_bytes, props.shaderGroupHandleAlignment);
+  if (hit_stride > props.maxShaderGroupStride)
     return Status::error("create_pipeline: hit record stride %llu exceeds maxShaderGroupStride %u",
-                         static_cast<unsigned long long>(hit_stride), props_.maxShaderGroupStride);
-  }
+                         static_cast<unsigned long long>(hit_stride), props.maxShaderGroupStride);
   const VkDeviceSize region = align_up(record_stride, base_align);
   const size_t hit_records = procedural + (triangles ? 1 : 0);
   const VkDeviceSize hit_region = align_up(hit_stride * hit_records, base_align);
-  s = ctx_.create_buffer(size_t(2 * region + hit_region + base_align), out.sbt,
-                         VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR);
-  if (!s) {
-    destroy(out);
-    return s;
-  }
+  Status s = ctx.create_buffer(size_t(2 * region + hit_region + base_align), out.sbt,
+                               VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR);
+  if (!s) return s;
   const VkDeviceAddress base = align_up(out.sbt.address, base_align);
   auto* bytes = static_cast<uint8_t*>(out.sbt.mapped) + (base - out.sbt.address);
   for (size_t g = 0; g < 2; ++g) std::memcpy(bytes + g * region, handles.data() + g * handle_size, handle_size);
@@ -560,6 +558,38 @@ Status RayTracer::create_pipeline(const RtShaders& shaders, uint32_t push_size, 
   out.hit_region = {base + 2 * region, hit_stride, hit_stride * hit_records};
   out.callable_region = {0, 0, 0};
   return Status::ok();
+}
+
+}  // namespace
+
+Status RayTracer::create_pipeline(const RtShaders& shaders, uint32_t push_size, RtPipeline& out) {
+  out = RtPipeline();
+  if (!ctx_.device() || props_.shaderGroupHandleSize == 0)
+    return Status::error("create_pipeline: RayTracer not initialized");
+  const bool triangles = shaders.triangle_closest_hit.code != nullptr;
+  const uint32_t stage_count = triangles ? 5 : 4, group_count = triangles ? 4 : 3;
+  VkShaderModule modules[5] = {};
+  Status s = create_shader_modules(ctx_, shaders, stage_count, modules);
+  if (!s) return s;
+
+  VkResult r = create_layouts(ctx_.device(), push_size, out);
+  if (r != VK_SUCCESS) {
+    destroy_shader_modules(ctx_.device(), modules);
+    destroy(out);
+    return Status::error("descriptor set / pipeline layout creation failed (VkResult %d)", static_cast<int>(r));
+  }
+
+  r = create_rt_pipeline(ctx_.device(), modules, stage_count, group_count, out);
+  destroy_shader_modules(ctx_.device(), modules);
+  if (r != VK_SUCCESS) {
+    destroy(out);
+    return Status::error("vkCreateRayTracingPipelinesKHR failed (VkResult %d)", static_cast<int>(r));
+  }
+  out.push_size = push_size;
+
+  s = create_sbt(ctx_, props_, shaders, triangles, group_count, out);
+  if (!s) destroy(out);
+  return s;
 }
 
 void RayTracer::destroy(RtPipeline& p) {

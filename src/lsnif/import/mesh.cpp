@@ -175,14 +175,25 @@ void compute_vertex_normals(Mesh& mesh) {
   }
 }
 
-Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& name, bool allow_dropping_most) {
-  MeshImportReport local;
-  MeshImportReport& rep = report ? *report : local;
-  const size_t n = mesh.positions.size();
-  if (n >= mesh_io::kInvalidIndex)
-    return Status::error("%s: too many vertices (%zu)", name.c_str(), n);
+namespace {
 
-  // Per-vertex attribute arrays are all-or-nothing.
+// Colors are reflectances: non-finite -> white (counted in bad_attr), the rest clamped to [0, 1]
+// (counted in clamped).
+void sanitize_color(glm::vec3& c, size_t& bad_attr, size_t& clamped) {
+  if (!finite3(c)) {
+    c = glm::vec3(1.0f);
+    ++bad_attr;
+  } else if (glm::clamp(c, 0.0f, 1.0f) != c) {
+    c = glm::clamp(c, 0.0f, 1.0f);
+    ++clamped;
+  }
+}
+
+// Drops uv and color arrays that do not match the vertex count (a warning each), then zeroes non-finite
+// uvs and sanitizes colors, counting the replaced values in bad_attr and the clamped colors in clamped.
+void clean_vertex_attributes(Mesh& mesh, const std::string& name, MeshImportReport& rep, size_t& bad_attr,
+                             size_t& clamped) {
+  const size_t n = mesh.positions.size();
   if (!mesh.uvs.empty() && mesh.uvs.size() != n) {
     rep.warnings.push_back(format("%s: %zu texture coordinates for %zu vertices; dropped them",
                                   name.c_str(), mesh.uvs.size(), n));
@@ -193,31 +204,23 @@ Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& na
                                   name.c_str(), mesh.colors.size(), n));
     mesh.colors.clear();
   }
-  size_t bad_attr = 0;
   for (glm::vec2& uv : mesh.uvs) {
     if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) {
       uv = glm::vec2(0.0f);
       ++bad_attr;
     }
   }
-  // Colors are reflectances: non-finite -> white, the rest clamped to [0, 1].
-  size_t clamped = 0;
-  auto sanitize_color = [&](glm::vec3& c) {
-    if (!finite3(c)) {
-      c = glm::vec3(1.0f);
-      ++bad_attr;
-    } else if (glm::clamp(c, 0.0f, 1.0f) != c) {
-      c = glm::clamp(c, 0.0f, 1.0f);
-      ++clamped;
-    }
-  };
-  for (glm::vec3& c : mesh.colors) sanitize_color(c);
+  for (glm::vec3& c : mesh.colors) sanitize_color(c, bad_attr, clamped);
+}
 
-  // Materials: at least one, one valid index per triangle.
+// At least one material; each with a sanitized base color (counted as in sanitize_color), a clean
+// name (the renamed ones warned about together) and no reference to a missing texture (a warning each).
+void clean_materials(Mesh& mesh, const std::string& name, MeshImportReport& rep, size_t& bad_attr,
+                     size_t& clamped) {
   if (mesh.materials.empty()) mesh.materials.push_back(Material{"default", glm::vec3(1.0f), -1});
   size_t renamed = 0;
   for (Material& m : mesh.materials) {
-    sanitize_color(m.base_color);
+    sanitize_color(m.base_color, bad_attr, clamped);
     // A model file stores names of at most 63 bytes of clean UTF-8: fixed here, not at the save
     // after the training.
     std::string clean = clean_utf8(m.name, kModelMaterialNameBytes - 1);
@@ -235,12 +238,11 @@ Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& na
     rep.warnings.push_back(format("%s: %zu material names were not clean UTF-8 or longer than %zu bytes; control "
                                   "characters and invalid bytes became '?', long names were cut", name.c_str(),
                                   renamed, kModelMaterialNameBytes - 1));
-  if (bad_attr)
-    rep.warnings.push_back(format("%s: replaced %zu non-finite texture coordinates/colors",
-                                  name.c_str(), bad_attr));
-  if (clamped)
-    rep.warnings.push_back(format("%s: clamped %zu vertex/material colors to [0, 1]", name.c_str(),
-                                  clamped));
+}
+
+// One material index per triangle (a list of another length padded with 0 or cut), each in range
+// (out-of-range ones set to 0).
+void clean_triangle_materials(Mesh& mesh, const std::string& name, MeshImportReport& rep) {
   if (mesh.triangle_material.size() != mesh.triangles.size()) {
     if (!mesh.triangle_material.empty())
       rep.warnings.push_back(format("%s: %zu material indices for %zu triangles; padded with 0",
@@ -258,11 +260,16 @@ Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& na
   if (bad_material)
     rep.warnings.push_back(format("%s: %zu triangles had an out-of-range material; set to 0",
                                   name.c_str(), bad_material));
+}
 
+// Drops the invalid and the degenerate triangles (with their material indices), counted and warned
+// about; an error when none is left, or, unless allow_dropping_most, when too many went.
+Status drop_bad_triangles(Mesh& mesh, const std::string& name, bool allow_dropping_most, MeshImportReport& rep) {
   // Invalid triangles: bad indices, non-finite corners or corners too far out for float ray math.
   // Degenerate ones: a repeated vertex, or an area not above both the absolute bound and the bound
   // relative to the triangle's own longest edge (judged per triangle: a stray triangle far away
   // does not change which of the others are kept).
+  const size_t n = mesh.positions.size();
   const size_t total = mesh.triangles.size();
   uint32_t invalid = 0, degenerate = 0;
   size_t kept = 0;
@@ -301,9 +308,12 @@ Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& na
     return Status::error("%s: %zu of its %zu triangles would be dropped (%u degenerate, %u invalid), more than %.0f%%: "
                          "the rest is unlikely to be the object meant (allow it with --allow-dropped-triangles)",
                          name.c_str(), total - kept, total, degenerate, invalid, 100.0 * kMaxDroppedFraction);
-  remove_unused_vertices(mesh);
+  return Status::ok();
+}
 
-  // Normals: recompute the missing or unusable ones from the cleaned triangles.
+// Recomputes the missing or unusable normals from the cleaned triangles (all of them when the array's
+// length is not `n`, the vertex count the mesh was imported with), counted in rep.fixed_normals.
+void fix_normals(Mesh& mesh, size_t n, const std::string& name, MeshImportReport& rep) {
   uint32_t fixed = 0;
   if (mesh.normals.size() != n) {
     if (!mesh.normals.empty())
@@ -331,6 +341,37 @@ Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& na
     }
   }
   rep.fixed_normals += fixed;
+}
+
+}  // namespace
+
+Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& name, bool allow_dropping_most) {
+  MeshImportReport local;
+  MeshImportReport& rep = report ? *report : local;
+  const size_t n = mesh.positions.size();
+  if (n >= mesh_io::kInvalidIndex)
+    return Status::error("%s: too many vertices (%zu)", name.c_str(), n);
+
+  // Per-vertex attribute arrays are all-or-nothing.
+  size_t bad_attr = 0, clamped = 0;
+  clean_vertex_attributes(mesh, name, rep, bad_attr, clamped);
+
+  // Materials: at least one, one valid index per triangle.
+  clean_materials(mesh, name, rep, bad_attr, clamped);
+  if (bad_attr)
+    rep.warnings.push_back(format("%s: replaced %zu non-finite texture coordinates/colors",
+                                  name.c_str(), bad_attr));
+  if (clamped)
+    rep.warnings.push_back(format("%s: clamped %zu vertex/material colors to [0, 1]", name.c_str(),
+                                  clamped));
+  clean_triangle_materials(mesh, name, rep);
+
+  Status s = drop_bad_triangles(mesh, name, allow_dropping_most, rep);
+  if (!s) return s;
+  remove_unused_vertices(mesh);
+
+  // Normals: recompute the missing or unusable ones from the cleaned triangles.
+  fix_normals(mesh, n, name, rep);
   return Status::ok();
 }
 

@@ -123,18 +123,32 @@ int find_property(const Element& e, std::initializer_list<const char*> names) {
   return -1;
 }
 
-}  // namespace
+// The rest of a "property" header line (declared on `line`): a scalar "TYPE NAME" or a "list COUNT_TYPE
+// ITEM_TYPE NAME".
+Status parse_property(TextCursor& hdr, const char* file, int line, Property& prop) {
+  std::string_view t = hdr.line_token();
+  if (t == "list") {
+    prop.count_type = type_from_name(hdr.line_token());
+    prop.type = type_from_name(hdr.line_token());
+    if (prop.count_type == Type::None || prop.type == Type::None)
+      return Status::error("%s: line %d: bad list property types", file, line);
+  } else {
+    prop.type = type_from_name(t);
+    if (prop.type == Type::None)
+      return Status::error("%s: line %d: unknown property type '%s'", file, line,
+                           excerpt(t).c_str());
+  }
+  prop.name = std::string(hdr.line_token());
+  return Status::ok();
+}
 
-Status parse_ply(std::string_view data, const std::string& name, Mesh& mesh,
-                 MeshImportReport& report) {
-  const char* file = name.c_str();
-  // --- header ---
-  TextCursor hdr(data);
+// The header from the "ply" magic through "end_header": the body's encoding and the declared elements;
+// `hdr` is left at the body's first byte.
+Status parse_header(TextCursor& hdr, const char* file, Encoding& enc, std::vector<Element>& elements) {
   if (hdr.line_token() != "ply") return Status::error("%s: not a PLY file (missing 'ply' magic)", file);
   hdr.skip_line();
-  Encoding enc = Encoding::Ascii;
+  enc = Encoding::Ascii;
   bool have_format = false, have_end = false;
-  std::vector<Element> elements;
   while (!hdr.at_end()) {
     const int line = hdr.line;
     std::string_view key = hdr.line_token();
@@ -158,19 +172,8 @@ Status parse_ply(std::string_view data, const std::string& name, Mesh& mesh,
       if (elements.empty())
         return Status::error("%s: line %d: property before any element", file, line);
       Property prop;
-      std::string_view t = hdr.line_token();
-      if (t == "list") {
-        prop.count_type = type_from_name(hdr.line_token());
-        prop.type = type_from_name(hdr.line_token());
-        if (prop.count_type == Type::None || prop.type == Type::None)
-          return Status::error("%s: line %d: bad list property types", file, line);
-      } else {
-        prop.type = type_from_name(t);
-        if (prop.type == Type::None)
-          return Status::error("%s: line %d: unknown property type '%s'", file, line,
-                               excerpt(t).c_str());
-      }
-      prop.name = std::string(hdr.line_token());
+      Status s = parse_property(hdr, file, line, prop);
+      if (!s) return s;
       elements.back().properties.push_back(std::move(prop));
     } else if (key == "end_header") {
       hdr.skip_line();
@@ -185,6 +188,141 @@ Status parse_ply(std::string_view data, const std::string& name, Mesh& mesh,
   if (!have_format || !have_end)
     return Status::error("%s: incomplete PLY header (missing %s)", file,
                          have_format ? "end_header" : "format");
+  return Status::ok();
+}
+
+// Indices of the vertex element's properties (-1: absent); an optional attribute's first index (pnx, pr,
+// pu) is -1 unless all its components are present.
+struct VertexProperties {
+  int px = -1, py = -1, pz = -1, pnx = -1, pny = -1, pnz = -1, pr = -1, pg = -1, pb = -1, pu = -1, pv = -1;
+};
+
+// The vertex element's properties: scalar x, y, z are required, and its count must fit an index.
+Status find_vertex_properties(const Element& e, const char* file, VertexProperties& v) {
+  v.px = find_property(e, {"x"});
+  v.py = find_property(e, {"y"});
+  v.pz = find_property(e, {"z"});
+  if (v.px < 0 || v.py < 0 || v.pz < 0)
+    return Status::error("%s: vertex element lacks scalar x, y, z properties", file);
+  if (e.count >= kInvalidIndex)
+    return Status::error("%s: vertex count %llu too large", file,
+                         static_cast<unsigned long long>(e.count));
+  v.pnx = find_property(e, {"nx"});
+  v.pny = find_property(e, {"ny"});
+  v.pnz = find_property(e, {"nz"});
+  v.pr = find_property(e, {"red", "r", "diffuse_red"});
+  v.pg = find_property(e, {"green", "g", "diffuse_green"});
+  v.pb = find_property(e, {"blue", "b", "diffuse_blue"});
+  v.pu = find_property(e, {"s", "u", "texture_u", "texture_s"});
+  v.pv = find_property(e, {"t", "v", "texture_v", "texture_t"});
+  if (v.pnx < 0 || v.pny < 0 || v.pnz < 0) v.pnx = -1;
+  if (v.pr < 0 || v.pg < 0 || v.pb < 0) v.pr = -1;
+  if (v.pu < 0 || v.pv < 0) v.pu = -1;
+  return Status::ok();
+}
+
+// Reserves room for `n` vertices in the arrays the vertex element fills.
+void reserve_vertices(const VertexProperties& v, size_t n, Mesh& mesh) {
+  mesh.positions.reserve(n);
+  if (v.pnx >= 0) mesh.normals.reserve(n);
+  if (v.pr >= 0) mesh.colors.reserve(n);
+  if (v.pu >= 0) mesh.uvs.reserve(n);
+}
+
+// Index of the face element's vertex_indices (or vertex_index) list; -1 without one.
+int find_face_list(const Element& e) {
+  for (size_t i = 0; i < e.properties.size(); ++i) {
+    const Property& p = e.properties[i];
+    if (p.count_type != Type::None && (p.name == "vertex_indices" || p.name == "vertex_index")) return int(i);
+  }
+  return -1;
+}
+
+// Appends the vertex whose property values are `values` (colors scaled to [0, 1]).
+void append_vertex(const Element& e, const VertexProperties& v, const std::vector<double>& values, Mesh& mesh) {
+  auto v3 = [&](int a, int b, int c, bool color) {
+    auto get = [&](int k) {
+      double scale = color ? color_scale(e.properties[size_t(k)].type) : 1.0;
+      return to_float(values[size_t(k)] * scale);
+    };
+    return glm::vec3(get(a), get(b), get(c));
+  };
+  mesh.positions.push_back(v3(v.px, v.py, v.pz, false));
+  if (v.pnx >= 0) mesh.normals.push_back(v3(v.pnx, v.pny, v.pnz, false));
+  if (v.pr >= 0) mesh.colors.push_back(v3(v.pr, v.pg, v.pb, true));
+  if (v.pu >= 0) mesh.uvs.emplace_back(to_float(values[size_t(v.pu)]), to_float(values[size_t(v.pv)]));
+}
+
+// Reads list property p of item `item` of element e: the face list (`is_face_list`) is fan-triangulated
+// into mesh.triangles (lists of fewer than 3 indices count in short_faces), any other list skipped.
+// `poly` is scratch space.
+Status read_list(BodyReader& body, const Element& e, const Property& p, uint64_t item, bool is_face_list,
+                 const char* file, std::vector<uint32_t>& poly, Mesh& mesh, uint32_t& short_faces) {
+  double count_value = 0.0;
+  if (!body.read(p.count_type, count_value) || !(count_value >= 0.0) ||
+      count_value != std::floor(count_value) || count_value > double(body.remaining()))
+    return Status::error("%s: %s %llu: bad list count for '%s'", file, excerpt(e.name).c_str(),
+                         static_cast<unsigned long long>(item), excerpt(p.name).c_str());
+  const uint64_t count = static_cast<uint64_t>(count_value);
+  if (!is_face_list) {
+    if (!body.skip(p.type, count))
+      return Status::error("%s: %s %llu: list '%s' runs past the end of the file", file,
+                           excerpt(e.name).c_str(), static_cast<unsigned long long>(item),
+                           excerpt(p.name).c_str());
+    return Status::ok();
+  }
+  poly.clear();
+  for (uint64_t k = 0; k < count; ++k) {
+    double index = 0.0;
+    if (!body.read(p.type, index))
+      return Status::error("%s: face %llu: missing or bad vertex index (file truncated?)", file,
+                           static_cast<unsigned long long>(item));
+    poly.push_back(to_index(index));
+  }
+  if (poly.size() < 3) {
+    ++short_faces;
+  } else {
+    for (size_t k = 1; k + 1 < poly.size(); ++k)
+      mesh.triangles.emplace_back(poly[0], poly[k], poly[k + 1]);
+  }
+  return Status::ok();
+}
+
+// Reads every item of element e: appends a vertex per item when `vertex` is given (the vertex element)
+// and the triangles of the list at index `face_list` (-1: none). `values` and `poly` are scratch space.
+Status read_element(BodyReader& body, const Element& e, const char* file, const VertexProperties* vertex,
+                    int face_list, std::vector<double>& values, std::vector<uint32_t>& poly, Mesh& mesh,
+                    uint32_t& short_faces) {
+  values.assign(e.properties.size(), 0.0);
+  for (uint64_t item = 0; item < e.count; ++item) {
+    for (size_t i = 0; i < e.properties.size(); ++i) {
+      const Property& p = e.properties[i];
+      if (p.count_type == Type::None) {
+        if (!body.read(p.type, values[i]))
+          return Status::error("%s: %s %llu: missing or bad value for '%s' (file truncated?)", file,
+                               excerpt(e.name).c_str(), static_cast<unsigned long long>(item),
+                               excerpt(p.name).c_str());
+        continue;
+      }
+      Status s = read_list(body, e, p, item, int(i) == face_list, file, poly, mesh, short_faces);
+      if (!s) return s;
+    }
+    if (vertex) append_vertex(e, *vertex, values, mesh);
+  }
+  return Status::ok();
+}
+
+}  // namespace
+
+Status parse_ply(std::string_view data, const std::string& name, Mesh& mesh,
+                 MeshImportReport& report) {
+  const char* file = name.c_str();
+  // --- header ---
+  TextCursor hdr(data);
+  Encoding enc = Encoding::Ascii;
+  std::vector<Element> elements;
+  Status s = parse_header(hdr, file, enc, elements);
+  if (!s) return s;
 
   // --- body ---
   BodyReader body(std::string_view(hdr.p, size_t(hdr.end - hdr.p)), enc);
@@ -196,44 +334,17 @@ Status parse_ply(std::string_view data, const std::string& name, Mesh& mesh,
     if (e.properties.empty()) continue;  // nothing stored per item
     const bool is_vertex = e.name == "vertex" && !have_vertices;
     const bool is_face = e.name == "face";
-    int px = -1, py = -1, pz = -1, pnx = -1, pny = -1, pnz = -1, pr = -1, pg = -1, pb = -1,
-        pu = -1, pv = -1, plist = -1;
+    VertexProperties vertex;
+    int face_list = -1;
     if (is_vertex) {
       have_vertices = true;
-      px = find_property(e, {"x"});
-      py = find_property(e, {"y"});
-      pz = find_property(e, {"z"});
-      if (px < 0 || py < 0 || pz < 0)
-        return Status::error("%s: vertex element lacks scalar x, y, z properties", file);
-      if (e.count >= kInvalidIndex)
-        return Status::error("%s: vertex count %llu too large", file,
-                             static_cast<unsigned long long>(e.count));
-      pnx = find_property(e, {"nx"});
-      pny = find_property(e, {"ny"});
-      pnz = find_property(e, {"nz"});
-      pr = find_property(e, {"red", "r", "diffuse_red"});
-      pg = find_property(e, {"green", "g", "diffuse_green"});
-      pb = find_property(e, {"blue", "b", "diffuse_blue"});
-      pu = find_property(e, {"s", "u", "texture_u", "texture_s"});
-      pv = find_property(e, {"t", "v", "texture_v", "texture_t"});
-      if (pnx < 0 || pny < 0 || pnz < 0) pnx = -1;
-      if (pr < 0 || pg < 0 || pb < 0) pr = -1;
-      if (pu < 0 || pv < 0) pu = -1;
+      s = find_vertex_properties(e, file, vertex);
+      if (!s) return s;
       // Each item takes at least one byte: never reserve beyond what the data can hold.
-      size_t n = static_cast<size_t>(std::min<uint64_t>(e.count, body.remaining()));
-      mesh.positions.reserve(n);
-      if (pnx >= 0) mesh.normals.reserve(n);
-      if (pr >= 0) mesh.colors.reserve(n);
-      if (pu >= 0) mesh.uvs.reserve(n);
+      reserve_vertices(vertex, static_cast<size_t>(std::min<uint64_t>(e.count, body.remaining())), mesh);
     } else if (is_face) {
-      for (size_t i = 0; i < e.properties.size(); ++i) {
-        const Property& p = e.properties[i];
-        if (p.count_type != Type::None && (p.name == "vertex_indices" || p.name == "vertex_index")) {
-          plist = int(i);
-          break;
-        }
-      }
-      if (plist < 0) report.warnings.push_back(format(
+      face_list = find_face_list(e);
+      if (face_list < 0) report.warnings.push_back(format(
           "%s: face element has no vertex_indices list; its %llu faces are ignored", file,
           static_cast<unsigned long long>(e.count)));
     } else if (e.count > 0) {
@@ -241,60 +352,8 @@ Status parse_ply(std::string_view data, const std::string& name, Mesh& mesh,
                                        excerpt(e.name).c_str(),
                                        static_cast<unsigned long long>(e.count)));
     }
-    values.assign(e.properties.size(), 0.0);
-    for (uint64_t item = 0; item < e.count; ++item) {
-      for (size_t i = 0; i < e.properties.size(); ++i) {
-        const Property& p = e.properties[i];
-        if (p.count_type == Type::None) {
-          if (!body.read(p.type, values[i]))
-            return Status::error("%s: %s %llu: missing or bad value for '%s' (file truncated?)", file,
-                                 excerpt(e.name).c_str(), static_cast<unsigned long long>(item),
-                                 excerpt(p.name).c_str());
-          continue;
-        }
-        double count_value = 0.0;
-        if (!body.read(p.count_type, count_value) || !(count_value >= 0.0) ||
-            count_value != std::floor(count_value) || count_value > double(body.remaining()))
-          return Status::error("%s: %s %llu: bad list count for '%s'", file, excerpt(e.name).c_str(),
-                               static_cast<unsigned long long>(item), excerpt(p.name).c_str());
-        const uint64_t count = static_cast<uint64_t>(count_value);
-        if (int(i) != plist) {
-          if (!body.skip(p.type, count))
-            return Status::error("%s: %s %llu: list '%s' runs past the end of the file", file,
-                                 excerpt(e.name).c_str(), static_cast<unsigned long long>(item),
-                                 excerpt(p.name).c_str());
-          continue;
-        }
-        poly.clear();
-        for (uint64_t k = 0; k < count; ++k) {
-          double index = 0.0;
-          if (!body.read(p.type, index))
-            return Status::error("%s: face %llu: missing or bad vertex index (file truncated?)", file,
-                                 static_cast<unsigned long long>(item));
-          poly.push_back(to_index(index));
-        }
-        if (poly.size() < 3) {
-          ++short_faces;
-        } else {
-          for (size_t k = 1; k + 1 < poly.size(); ++k)
-            mesh.triangles.emplace_back(poly[0], poly[k], poly[k + 1]);
-        }
-      }
-      if (is_vertex) {
-        auto v3 = [&](int a, int b, int c, bool color) {
-          auto get = [&](int k) {
-            double scale = color ? color_scale(e.properties[size_t(k)].type) : 1.0;
-            return to_float(values[size_t(k)] * scale);
-          };
-          return glm::vec3(get(a), get(b), get(c));
-        };
-        mesh.positions.push_back(v3(px, py, pz, false));
-        if (pnx >= 0) mesh.normals.push_back(v3(pnx, pny, pnz, false));
-        if (pr >= 0) mesh.colors.push_back(v3(pr, pg, pb, true));
-        if (pu >= 0)
-          mesh.uvs.emplace_back(to_float(values[size_t(pu)]), to_float(values[size_t(pv)]));
-      }
-    }
+    s = read_element(body, e, file, is_vertex ? &vertex : nullptr, face_list, values, poly, mesh, short_faces);
+    if (!s) return s;
   }
   if (!have_vertices) return Status::error("%s: no vertex element", file);
   if (short_faces) {

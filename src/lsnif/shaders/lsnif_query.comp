@@ -149,6 +149,20 @@ vec2 lsnif_query_clip(LsnifModel m, vec3 origin, vec3 direction, float tmin, flo
   return vec2(t0, t1);
 }
 
+#if defined(LSNIF_QUERY_CLEAR)
+// LSNIF_QUERY_CLEAR: word `id` of the header (a status accumulator only on the first chunk) or of the
+// model counters = 0.
+void query_clear(uint id) {
+  LsnifScratchRef scratch = lsnif_query_scratch();
+  if (id < LSNIF_BATCH_HEADER_WORDS) {
+    const bool status = id >= LSNIF_QUERY_STATUS_WORD && id < LSNIF_QUERY_STATUS_WORD + 5u;
+    if (!status || pc.first_chunk != 0u) scratch.w[id] = 0u;
+  } else if (id < LSNIF_BATCH_HEADER_WORDS + 10u * pc.model_count) {
+    scratch.w[id] = 0u;
+  }
+}
+#endif
+
 #if defined(LSNIF_QUERY_BROAD)
 // The closest (or, for an any-hit ray, any) triangle hit; false without one.
 bool lsnif_query_triangles(uint64_t tlas, uint flags, vec3 origin, vec3 direction, float tmin,
@@ -174,28 +188,9 @@ bool lsnif_query_triangles(uint64_t tlas, uint flags, vec3 origin, vec3 directio
   r.front_face = rayQueryGetIntersectionFrontFaceEXT(rq, true) ? 1u : 0u;
   return true;
 }
-#endif
 
-void main() {
-  LsnifScratchRef scratch = lsnif_query_scratch();
-  LsnifQueryModelsRef models = lsnif_query_models();
-  LsnifQueryStatesRef states = lsnif_query_states();
-  LsnifQueryCandidatesRef candidates = lsnif_query_candidates();
-  const uint id = gl_GlobalInvocationID.x;
-#if defined(LSNIF_QUERY_CLEAR)
-  if (id < LSNIF_BATCH_HEADER_WORDS) {
-    const bool status = id >= LSNIF_QUERY_STATUS_WORD && id < LSNIF_QUERY_STATUS_WORD + 5u;
-    if (!status || pc.first_chunk != 0u) scratch.w[id] = 0u;
-  } else if (id < LSNIF_BATCH_HEADER_WORDS + 10u * pc.model_count) {
-    scratch.w[id] = 0u;
-  }
-
-#elif defined(LSNIF_QUERY_BROAD)
-  if (id >= pc.ray_count) return;
-  const LsnifQueryRay q = lsnif_query_ray(id);
-  const vec3 origin = vec3(q.origin_x, q.origin_y, q.origin_z);
-  const vec3 direction = vec3(q.direction_x, q.direction_y, q.direction_z);
-  const uint flags = lsnif_query_flags(q);
+// A ray's state before its traversals: no hit, no triangle, nothing dropped.
+LsnifQueryRayState lsnif_query_initial_state() {
   LsnifQueryRayState st;
   st.best_t = LSNIF_QUERY_INF_BITS;
   st.best_instance = LSNIF_QUERY_NONE;
@@ -205,6 +200,92 @@ void main() {
   st.reserved0 = 0u;
   st.reserved1 = 0u;
   st.reserved2 = 0u;
+  return st;
+}
+
+// The candidate of ray `ray` at instance `instance_index` (model `custom`), not yet evaluated: the object-space
+// ray o + t d within [tmin, tmax], crossing the model box over span = [t_enter, t_exit], and w2o for normals.
+LsnifQueryCandidate lsnif_query_candidate(uint ray, uint instance_index, uint custom, uint flags, vec3 o, vec3 d,
+                                          float tmin, float tmax, vec2 span, mat3 w2o) {
+  LsnifQueryCandidate c;
+  c.ray = ray;
+  c.instance_index = instance_index;
+  c.custom_index = custom;
+  c.flags = flags;
+  c.origin_x = o.x;
+  c.origin_y = o.y;
+  c.origin_z = o.z;
+  c.tmin = tmin;
+  c.direction_x = d.x;
+  c.direction_y = d.y;
+  c.direction_z = d.z;
+  c.tmax = tmax;
+  c.t_enter = span.x;
+  c.t_exit = span.y;
+  c.accepted = 0u;
+  c.t = 0.0;
+  for (int k = 0; k < 9; ++k) c.normal_matrix[k] = w2o[k / 3][k % 3];
+  c.points = 0u;
+  c.occlusion_logit = 0.0;
+  c.material = 0u;
+  c.normal_x = 0.0;
+  c.normal_y = 0.0;
+  c.normal_z = 0.0;
+  c.albedo_r = 0.0;
+  c.albedo_g = 0.0;
+  c.albedo_b = 0.0;
+  c.front_face = 0u;
+  c.evaluated = 0u;
+  return c;
+}
+
+// The traversal of ray `id` (q, world-space origin and direction) visiting the AABBs up to tmax: appends one
+// candidate per LSNIF instance whose model box the ray crosses; those past the capacity lower st.missing_t.
+void lsnif_query_append_candidates(uint id, LsnifQueryRay q, uint flags, uint64_t tlas, uint64_t table,
+                                   vec3 origin, vec3 direction, float tmax, inout LsnifQueryRayState st) {
+  LsnifScratchRef scratch = lsnif_query_scratch();
+  LsnifQueryModelsRef models = lsnif_query_models();
+  rayQueryEXT rq;
+  // Triangles forced non-opaque are candidates that are never confirmed: nothing is committed,
+  // so every AABB up to the triangle hit is visited. (The Skip*Primitives flags would need the
+  // primitive-culling capability.)
+  rayQueryInitializeEXT(rq, accelerationStructureEXT(tlas), gl_RayFlagsNoOpaqueEXT, pc.cull_mask, origin, q.tmin,
+                        direction, tmax);
+  while (rayQueryProceedEXT(rq)) {
+    if (rayQueryGetIntersectionTypeEXT(rq, false) != gl_RayQueryCandidateIntersectionAABBEXT) continue;
+    // The intersection shader's lookup: an index past the table, a hole or a block of another
+    // layout is a miss.
+    const uint custom = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));
+    if (custom >= pc.model_count) continue;
+    const uint64_t address = LsnifQueryTableRef(table).model[custom];
+    if (address == 0ul || !lsnif_model_layout_matches(address)) continue;
+    LsnifModel m = lsnif_load_model(address);
+    const vec3 o = rayQueryGetIntersectionObjectRayOriginEXT(rq, false);
+    const vec3 d = rayQueryGetIntersectionObjectRayDirectionEXT(rq, false);
+    const vec2 span = lsnif_query_clip(m, o, d, q.tmin, tmax);
+    if (!(span.x <= span.y)) continue;
+    const uint slot = atomicAdd(scratch.w[0], 1u);
+    if (slot >= pc.capacity) {
+      st.missing_t = min(st.missing_t, lsnif_query_t_key(span.x));
+      continue;
+    }
+    atomicAdd(models.c[custom].count, 1u);
+    const mat3 w2o = mat3(rayQueryGetIntersectionWorldToObjectEXT(rq, false));
+    const uint instance_index = uint(rayQueryGetIntersectionInstanceIdEXT(rq, false));
+    lsnif_query_candidates().c[slot] =
+        lsnif_query_candidate(id, instance_index, custom, flags, o, d, q.tmin, tmax, span, w2o);
+  }
+}
+
+// LSNIF_QUERY_BROAD: ray `id`'s triangle hit to its result, then (unless an any-hit ray is answered) its
+// candidates up to that hit; its state to the scratch.
+void query_broad(uint id) {
+  if (id >= pc.ray_count) return;
+  const LsnifQueryRay q = lsnif_query_ray(id);
+  const vec3 origin = vec3(q.origin_x, q.origin_y, q.origin_z);
+  const vec3 direction = vec3(q.direction_x, q.direction_y, q.direction_z);
+  const uint flags = lsnif_query_flags(q);
+  LsnifQueryRayState st = lsnif_query_initial_state();
   LsnifQueryResult result = lsnif_query_no_hit(LSNIF_QUERY_HIT_NONE);
   if (lsnif_query_ray_valid(origin, direction, q.tmin, q.tmax)) {
     const uint64_t tlas = lsnif_batch_address(pc.tlas_lo, pc.tlas_hi);
@@ -216,70 +297,20 @@ void main() {
       st.triangle_instance = result.instance_index;
     }
     const uint64_t table = lsnif_batch_address(pc.table_lo, pc.table_hi);
-    if (!(triangle && (flags & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0u) && table != 0ul) {
-      rayQueryEXT rq;
-      // Triangles forced non-opaque are candidates that are never confirmed: nothing is committed,
-      // so every AABB up to the triangle hit is visited. (The Skip*Primitives flags would need the
-      // primitive-culling capability.)
-      rayQueryInitializeEXT(rq, accelerationStructureEXT(tlas), gl_RayFlagsNoOpaqueEXT, pc.cull_mask, origin, q.tmin,
-                            direction, tmax);
-      while (rayQueryProceedEXT(rq)) {
-        if (rayQueryGetIntersectionTypeEXT(rq, false) != gl_RayQueryCandidateIntersectionAABBEXT) continue;
-        // The intersection shader's lookup: an index past the table, a hole or a block of another
-        // layout is a miss.
-        const uint custom = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));
-        if (custom >= pc.model_count) continue;
-        const uint64_t address = LsnifQueryTableRef(table).model[custom];
-        if (address == 0ul || !lsnif_model_layout_matches(address)) continue;
-        LsnifModel m = lsnif_load_model(address);
-        const vec3 o = rayQueryGetIntersectionObjectRayOriginEXT(rq, false);
-        const vec3 d = rayQueryGetIntersectionObjectRayDirectionEXT(rq, false);
-        const vec2 span = lsnif_query_clip(m, o, d, q.tmin, tmax);
-        if (!(span.x <= span.y)) continue;
-        const uint slot = atomicAdd(scratch.w[0], 1u);
-        if (slot >= pc.capacity) {
-          st.missing_t = min(st.missing_t, lsnif_query_t_key(span.x));
-          continue;
-        }
-        atomicAdd(models.c[custom].count, 1u);
-        const mat3 w2o = mat3(rayQueryGetIntersectionWorldToObjectEXT(rq, false));
-        LsnifQueryCandidate c;
-        c.ray = id;
-        c.instance_index = uint(rayQueryGetIntersectionInstanceIdEXT(rq, false));
-        c.custom_index = custom;
-        c.flags = flags;
-        c.origin_x = o.x;
-        c.origin_y = o.y;
-        c.origin_z = o.z;
-        c.tmin = q.tmin;
-        c.direction_x = d.x;
-        c.direction_y = d.y;
-        c.direction_z = d.z;
-        c.tmax = tmax;
-        c.t_enter = span.x;
-        c.t_exit = span.y;
-        c.accepted = 0u;
-        c.t = 0.0;
-        for (int k = 0; k < 9; ++k) c.normal_matrix[k] = w2o[k / 3][k % 3];
-        c.points = 0u;
-        c.occlusion_logit = 0.0;
-        c.material = 0u;
-        c.normal_x = 0.0;
-        c.normal_y = 0.0;
-        c.normal_z = 0.0;
-        c.albedo_r = 0.0;
-        c.albedo_g = 0.0;
-        c.albedo_b = 0.0;
-        c.front_face = 0u;
-        c.evaluated = 0u;
-        candidates.c[slot] = c;
-      }
-    }
+    if (!(triangle && (flags & LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT) != 0u) && table != 0ul)
+      lsnif_query_append_candidates(id, q, flags, tlas, table, origin, direction, tmax, st);
   }
-  states.s[id] = st;
+  lsnif_query_states().s[id] = st;
   lsnif_query_results().r[id] = result;
+}
+#endif
 
-#elif defined(LSNIF_QUERY_SCAN)
+#if defined(LSNIF_QUERY_SCAN)
+// LSNIF_QUERY_SCAN: every model's start (exclusive prefix sum of the counts) and narrow dispatch, the
+// scatter's dispatch, and the chunk's candidates added to the status accumulators.
+void query_scan() {
+  LsnifScratchRef scratch = lsnif_query_scratch();
+  LsnifQueryModelsRef models = lsnif_query_models();
   // One workgroup: lane l sums the counts of its contiguous share of the models, the lanes' sums are
   // scanned in shared memory, then each lane writes the starts of its share.
   const uint lane = gl_LocalInvocationID.x;
@@ -308,33 +339,58 @@ void main() {
     scratch.w[LSNIF_QUERY_STATUS_WORD + 1u] = pc.capacity;
     scratch.w[LSNIF_QUERY_STATUS_WORD + 2u] += produced - kept;
   }
+}
+#endif
 
-#elif defined(LSNIF_QUERY_SCATTER)
+#if defined(LSNIF_QUERY_SCATTER)
+// LSNIF_QUERY_SCATTER: candidate `id`'s index to the next place of its model's sorted range.
+void query_scatter(uint id) {
   if (id >= lsnif_query_kept()) return;
-  const uint b = candidates.c[id].custom_index;
-  scratch.w[lsnif_query_sorted_word() + models.c[b].start + atomicAdd(models.c[b].cursor, 1u)] = id;
+  LsnifQueryModelsRef models = lsnif_query_models();
+  const uint b = lsnif_query_candidates().c[id].custom_index;
+  lsnif_query_scratch().w[lsnif_query_sorted_word() + models.c[b].start + atomicAdd(models.c[b].cursor, 1u)] = id;
+}
+#endif
 
-#elif defined(LSNIF_QUERY_BATCH_ARGS)
+#if defined(LSNIF_QUERY_BATCH_ARGS)
+// LSNIF_QUERY_BATCH_ARGS: model `id`'s indirect dispatch over its batch.
+void query_batch_args(uint id) {
   if (id >= pc.model_count) return;
+  LsnifQueryModelsRef models = lsnif_query_models();
   models.c[id].batch_groups_x = (models.c[id].batch + LSNIF_BATCH_GROUP_SIZE - 1u) / LSNIF_BATCH_GROUP_SIZE;
   models.c[id].batch_groups_y = 1u;
   models.c[id].batch_groups_z = 1u;
+}
+#endif
 
-#elif defined(LSNIF_QUERY_NARROW) || defined(LSNIF_QUERY_MLP) || defined(LSNIF_QUERY_DECODE)
-  // The model of pc.bucket; its batch occupies the columns of its sorted range.
-  LsnifModel m = lsnif_load_model(lsnif_batch_address(pc.model_lo, pc.model_hi));
-  LsnifBatchRows rows;
-  rows.scratch = scratch;
+#if defined(LSNIF_QUERY_NARROW) || defined(LSNIF_QUERY_MLP) || defined(LSNIF_QUERY_DECODE)
+// The model of pc.bucket, the batch rows, and the start of the model's sorted range; its batch occupies
+// the columns of its sorted range.
+void lsnif_query_bucket(out LsnifModel m, out LsnifBatchRows rows, out uint start) {
+  m = lsnif_load_model(lsnif_batch_address(pc.model_lo, pc.model_hi));
+  rows.scratch = lsnif_query_scratch();
   rows.base = lsnif_query_rows_word();
   rows.stride = pc.stride;
-  const uint start = models.c[pc.bucket].start;
+  start = lsnif_query_models().c[pc.bucket].start;
+}
+#endif
+
 #if defined(LSNIF_QUERY_NARROW)
+// LSNIF_QUERY_NARROW: the walk and encoding of candidate `id` of pc.bucket's range; with boundary points,
+// it takes a slot of the model's batch.
+void query_narrow(uint id) {
+  LsnifModel m;
+  LsnifBatchRows rows;
+  uint start;
+  lsnif_query_bucket(m, rows, start);
+  LsnifQueryModelsRef models = lsnif_query_models();
+  LsnifQueryCandidatesRef candidates = lsnif_query_candidates();
   if (id >= models.c[pc.bucket].count) return;
   // The table entry the broad phase read must be the model recorded for it; otherwise the
   // candidate stays not evaluated (and its ray incomplete where it matters).
   const uint64_t entry = LsnifQueryTableRef(lsnif_batch_address(pc.table_lo, pc.table_hi)).model[pc.bucket];
   if (entry != lsnif_batch_address(pc.model_lo, pc.model_hi)) return;
-  const uint ci = scratch.w[lsnif_query_sorted_word() + start + id];
+  const uint ci = lsnif_query_scratch().w[lsnif_query_sorted_word() + start + id];
   const LsnifQueryCandidate c = candidates.c[ci];
   candidates.c[ci].evaluated = 1u;
   const uint points = lsnif_intersect_walk(m, vec3(c.origin_x, c.origin_y, c.origin_z),
@@ -342,11 +398,31 @@ void main() {
   if (points == 0u) return;  // a miss before the network (the candidate stays not accepted)
   lsnif_encode(m);
   lsnif_rows_store_narrow(rows, m, start + atomicAdd(models.c[pc.bucket].batch, 1u), ci, points);
-#else
-  if (id >= models.c[pc.bucket].batch) return;
+}
+#endif
+
 #if defined(LSNIF_QUERY_MLP)
+// LSNIF_QUERY_MLP: the MLP on slot `id` of pc.bucket's batch.
+void query_mlp(uint id) {
+  LsnifModel m;
+  LsnifBatchRows rows;
+  uint start;
+  lsnif_query_bucket(m, rows, start);
+  if (id >= lsnif_query_models().c[pc.bucket].batch) return;
   lsnif_rows_mlp(rows, m, start + id);
-#else
+}
+#endif
+
+#if defined(LSNIF_QUERY_DECODE)
+// LSNIF_QUERY_DECODE: heads and acceptance of slot `id` of pc.bucket's batch to its candidate; an accepted
+// candidate lowers its ray's best t.
+void query_decode(uint id) {
+  LsnifModel m;
+  LsnifBatchRows rows;
+  uint start;
+  lsnif_query_bucket(m, rows, start);
+  LsnifQueryCandidatesRef candidates = lsnif_query_candidates();
+  if (id >= lsnif_query_models().c[pc.bucket].batch) return;
   const uint ci = lsnif_rows_load_item(rows, start + id);
   const LsnifQueryCandidate c = candidates.c[ci];
   const vec3 d = vec3(c.direction_x, c.direction_y, c.direction_z);
@@ -367,26 +443,35 @@ void main() {
   candidates.c[ci].albedo_g = h.albedo.g;
   candidates.c[ci].albedo_b = h.albedo.b;
   candidates.c[ci].front_face = dot(h.normal, d) < 0.0 ? 1u : 0u;
-  if (h.hit) atomicMin(states.s[c.ray].best_t, lsnif_query_t_key(h.t));
-#endif
+  if (h.hit) atomicMin(lsnif_query_states().s[c.ray].best_t, lsnif_query_t_key(h.t));
+}
 #endif
 
-#elif defined(LSNIF_QUERY_TIE)
+#if defined(LSNIF_QUERY_TIE)
+// LSNIF_QUERY_TIE: candidate `id`, accepted at its ray's best t, lowers the ray's best instance; not
+// evaluated, it lowers the ray's missing t (and is counted).
+void query_tie(uint id) {
   if (id >= lsnif_query_kept()) return;
-  const LsnifQueryCandidate c = candidates.c[id];
+  LsnifQueryStatesRef states = lsnif_query_states();
+  const LsnifQueryCandidate c = lsnif_query_candidates().c[id];
   if (c.evaluated == 0u) {
     atomicMin(states.s[c.ray].missing_t, lsnif_query_t_key(c.t_enter));
-    atomicAdd(scratch.w[LSNIF_QUERY_STATUS_WORD + 4u], 1u);
+    atomicAdd(lsnif_query_scratch().w[LSNIF_QUERY_STATUS_WORD + 4u], 1u);
     return;
   }
   if (c.accepted != 0u && lsnif_query_t_key(c.t) == states.s[c.ray].best_t)
     atomicMin(states.s[c.ray].best_instance, c.instance_index);
+}
+#endif
 
-#elif defined(LSNIF_QUERY_RESOLVE_HITS)
+#if defined(LSNIF_QUERY_RESOLVE_HITS)
+// LSNIF_QUERY_RESOLVE_HITS: candidate `id`, when it wins its ray (best t, best instance, not behind an
+// equal-t triangle of a lower instance), writes the ray's LSNIF result.
+void query_resolve_hits(uint id) {
   if (id >= lsnif_query_kept()) return;
-  const LsnifQueryCandidate c = candidates.c[id];
+  const LsnifQueryCandidate c = lsnif_query_candidates().c[id];
   if (c.accepted == 0u) return;
-  const LsnifQueryRayState st = states.s[c.ray];
+  const LsnifQueryRayState st = lsnif_query_states().s[c.ray];
   if (lsnif_query_t_key(c.t) != st.best_t || c.instance_index != st.best_instance) return;
   if (st.triangle_t == st.best_t && st.triangle_instance < st.best_instance) return;  // the triangle wins
   LsnifQueryResult r;
@@ -407,10 +492,15 @@ void main() {
   r.barycentric_v = 0.0;
   r.front_face = c.front_face;
   lsnif_query_results().r[c.ray] = r;
+}
+#endif
 
-#elif defined(LSNIF_QUERY_RESOLVE_RAYS)
+#if defined(LSNIF_QUERY_RESOLVE_RAYS)
+// LSNIF_QUERY_RESOLVE_RAYS: ray `id`, when a dropped or not evaluated candidate could have changed it,
+// becomes LSNIF_QUERY_HIT_INCOMPLETE (and is counted).
+void query_resolve_rays(uint id) {
   if (id >= pc.ray_count) return;
-  const LsnifQueryRayState st = states.s[id];
+  const LsnifQueryRayState st = lsnif_query_states().s[id];
   if (st.missing_t == LSNIF_QUERY_INF_BITS) return;
   // A candidate dropped or not evaluated matters when it could hold a closer hit (t >= its
   // t_enter), or, for an any-hit ray, when no hit was found at all.
@@ -418,10 +508,16 @@ void main() {
   const bool found = st.best_t != LSNIF_QUERY_INF_BITS;
   if (any_hit ? found : st.missing_t > st.best_t) return;
   lsnif_query_results().r[id] = lsnif_query_no_hit(LSNIF_QUERY_HIT_INCOMPLETE);
-  atomicAdd(scratch.w[LSNIF_QUERY_STATUS_WORD + 3u], 1u);
+  atomicAdd(lsnif_query_scratch().w[LSNIF_QUERY_STATUS_WORD + 3u], 1u);
+}
+#endif
 
-#elif defined(LSNIF_QUERY_STATUS)
+#if defined(LSNIF_QUERY_STATUS)
+// LSNIF_QUERY_STATUS: invocation 0 writes the accumulated LsnifQueryStatus to the application's address
+// (when it gave one).
+void query_status(uint id) {
   if (id != 0u || (pc.status_lo == 0u && pc.status_hi == 0u)) return;
+  LsnifScratchRef scratch = lsnif_query_scratch();
   LsnifQueryStatus s;
   s.candidates = scratch.w[LSNIF_QUERY_STATUS_WORD];
   s.capacity = scratch.w[LSNIF_QUERY_STATUS_WORD + 1u];
@@ -429,7 +525,36 @@ void main() {
   s.incomplete_rays = scratch.w[LSNIF_QUERY_STATUS_WORD + 3u];
   s.unevaluated = scratch.w[LSNIF_QUERY_STATUS_WORD + 4u];
   LsnifQueryStatusRef(lsnif_batch_address(pc.status_lo, pc.status_hi)).s = s;
+}
+#endif
 
+// Runs the one stage this source was compiled for (LSNIF_QUERY_*).
+void main() {
+  const uint id = gl_GlobalInvocationID.x;
+#if defined(LSNIF_QUERY_CLEAR)
+  query_clear(id);
+#elif defined(LSNIF_QUERY_BROAD)
+  query_broad(id);
+#elif defined(LSNIF_QUERY_SCAN)
+  query_scan();
+#elif defined(LSNIF_QUERY_SCATTER)
+  query_scatter(id);
+#elif defined(LSNIF_QUERY_NARROW)
+  query_narrow(id);
+#elif defined(LSNIF_QUERY_BATCH_ARGS)
+  query_batch_args(id);
+#elif defined(LSNIF_QUERY_MLP)
+  query_mlp(id);
+#elif defined(LSNIF_QUERY_DECODE)
+  query_decode(id);
+#elif defined(LSNIF_QUERY_TIE)
+  query_tie(id);
+#elif defined(LSNIF_QUERY_RESOLVE_HITS)
+  query_resolve_hits(id);
+#elif defined(LSNIF_QUERY_RESOLVE_RAYS)
+  query_resolve_rays(id);
+#elif defined(LSNIF_QUERY_STATUS)
+  query_status(id);
 #else
 #error "compile with one of the LSNIF_QUERY_* stages"
 #endif
