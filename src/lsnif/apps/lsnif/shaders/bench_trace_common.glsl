@@ -1,7 +1,7 @@
 // bench_trace_common.glsl -- what the shaders of `lsnif bench-trace` (bench_trace.rgen, .rmiss,
 // .rchit, bench_trace_triangle.rchit) share: the push constant block (the LSNIF model table first,
 // as the binding convention of src/lsnif/host_device.h requires; the C++ twin is BenchTracePush in
-// src/lsnif/apps/lsnif/cmd_bench_trace.cpp), the per-ray result and the payload.
+// src/lsnif/apps/lsnif/bench_trace_device.cpp), the per-ray result and the payload.
 #ifndef BENCH_TRACE_COMMON_GLSL
 #define BENCH_TRACE_COMMON_GLSL
 
