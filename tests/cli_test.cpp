@@ -166,8 +166,7 @@ TEST(Cli, DeviceChoice) {
   const std::string model = dir.path("elephant.lsnif"), image = dir.path("render.png");
   r = train_tiny(model);
   ASSERT_EQ(r.code, 0) << r.out;
-  const std::string render = "render " + std::string(LSNIF_DATA_DIR) +
-                             "/../samples/scenes/bunny_on_plane.gltf --lsnif bunny=" + model +
+  const std::string render = "render " + std::string(LSNIF_SCENE_EXAMPLE) + " --lsnif bunny=" + model +
                              " --width 8 --height 8 --spp 1 -o " + image + " --device ";
   r = run_cli(render + "99");
   EXPECT_EQ(r.code, 1) << r.out;
@@ -301,7 +300,7 @@ TEST(Cli, RenderAndDemoWithATinyModel) {
   const std::string model = (d / "elephant.lsnif").string();
   CliResult r = train_tiny(model);
   ASSERT_EQ(r.code, 0) << r.out;
-  const std::string scene = std::string(LSNIF_DATA_DIR) + "/../samples/scenes/bunny_on_plane.gltf";
+  const std::string scene = std::string(LSNIF_SCENE_EXAMPLE);
   const std::string image = (d / "render.png").string();
   r = run_cli("render " + scene + " --lsnif bunny=" + model + " --width 32 --height 24 --spp 2 -o " + image);
   ASSERT_EQ(r.code, 0) << r.out;

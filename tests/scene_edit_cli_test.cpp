@@ -24,8 +24,8 @@ TEST(SceneEditCli, AddedModelsAndMovedNodesRender) {
   ASSERT_TRUE(train_model(mesh, settings, model));
   const std::string m = dir.path("bunny.lsnif");
   ASSERT_TRUE(save_model(model, m));
-  const std::string render = std::string(LSNIF_CLI) + " render " + std::string(LSNIF_DATA_DIR) +
-                             "/../samples/scenes/bunny_on_plane.gltf --lsnif bunny=" + m +
+  const std::string render = std::string(LSNIF_CLI) + " render " + std::string(LSNIF_SCENE_EXAMPLE) +
+                             " --lsnif bunny=" + m +
                              " --width 24 --height 16 --spp 1 -o " + dir.path("out.png");
 
   test::CommandResult r = test::run_command(render + " --add '" + m + ";" + m +
