@@ -255,50 +255,47 @@ Status check_padding(const uint8_t* data, uint64_t begin, uint64_t end) {
   return Status::ok();
 }
 
-Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
-  uint32_t version = 0;
-  if (Status s = check_preamble(data, size, version); !s) return s;
-  const uint64_t crc_offset = size - kCrcSize;
-  const uint32_t stored_crc = get_u32(data + crc_offset), actual_crc = crc32(data, crc_offset);
-  if (stored_crc != actual_crc)
-    return Status::error("checksum mismatch: stored CRC-32 0x%08x, computed 0x%08x (file corrupted)",
-                         stored_crc, actual_crc);
-
-  ModelFileView v;
-  v.config = read_config(data + kOffConfig);
+// The header's config: its fields, then the table sizes, index sizes and grid bits where `version`
+// stores them (the reserved word checked); validated, and an error when the version does not fit it.
+Status read_header_config(const uint8_t* data, uint32_t version, Config& config) {
+  config = read_config(data + kOffConfig);
   const uint32_t stored_m = get_u32(data + kOffConfig + kConfigTableLog2);
   if (version <= 3) {
     // One size for every level; a level count out of range is reported by validate().
-    if (v.config.grid_levels <= LSNIF_MAX_LEVELS) set_table_log2(v.config, stored_m);
+    if (config.grid_levels <= LSNIF_MAX_LEVELS) set_table_log2(config, stored_m);
   } else {
     if (stored_m != 0)
       return Status::error("config field M (offset %zu) is %u in a version %u file: versions 4 and 5 store the "
                            "table sizes per level at offset %zu, M must be 0", kOffConfig + kConfigTableLog2,
                            stored_m, version, kOffTableLog2);
-    for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) v.config.table_log2[l] = get_u32(data + kOffTableLog2 + 4 * l);
+    for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) config.table_log2[l] = get_u32(data + kOffTableLog2 + 4 * l);
   }
   if (version >= 5)
     for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) {
-      v.config.index_slots[l] = get_u32(data + kOffIndexSlots + 4 * l);
-      v.config.index_buckets[l] = get_u32(data + kOffIndexBuckets + 4 * l);
+      config.index_slots[l] = get_u32(data + kOffIndexSlots + 4 * l);
+      config.index_buckets[l] = get_u32(data + kOffIndexBuckets + 4 * l);
     }
   if (version >= 3) {
-    v.config.grid_bits = get_u32(data + kOffGridBits);
-    if (version == 3 && v.config.grid_bits != 8)
+    config.grid_bits = get_u32(data + kOffGridBits);
+    if (version == 3 && config.grid_bits != 8)
       return Status::error("grid bits %u in a version 3 file: version 3 stores 8-bit grid features",
-                           v.config.grid_bits);
+                           config.grid_bits);
     if (get_u32(data + kOffReserved) != 0)
       return Status::error("reserved header word at offset %zu is 0x%08x, not zero", kOffReserved,
                            get_u32(data + kOffReserved));
   }
-  if (Status s = v.config.validate(); !s) return s.context("invalid config in header");
-  const Config& c = v.config;
+  if (Status s = config.validate(); !s) return s.context("invalid config in header");
+  const Config& c = config;
   if (version == 4 && c.uniform_table_log2())
     return Status::error("version 4 file whose %u levels all have 2^%u table entries (such a model is stored as "
                          "version 1, 2 or 3)", c.grid_levels, c.table_log2[0]);
   if (version == 5 && !c.any_indexed())
     return Status::error("version 5 file without an indexed grid level (such a model is stored as version 1 to 4)");
+  return Status::ok();
+}
 
+// The header's object AABB into v.bounds_lo and v.bounds_hi; an error when it is not usable.
+Status read_bounds(const uint8_t* data, ModelFileView& v) {
   for (int a = 0; a < 3; ++a) {
     v.bounds_lo[a] = get_f32(data + kOffAabb + 4 * a);
     v.bounds_hi[a] = get_f32(data + kOffAabb + 12 + 4 * a);
@@ -308,7 +305,13 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
                          double(v.bounds_lo[0]), double(v.bounds_lo[1]), double(v.bounds_lo[2]),
                          double(v.bounds_hi[0]), double(v.bounds_hi[1]), double(v.bounds_hi[2]),
                          kMaxModelCoordinate);
+  return Status::ok();
+}
 
+// The layout the config (valid) and the training record's declared size imply, into `expected`;
+// an error when the section table or the file size differs from it.
+Status check_section_table(const uint8_t* data, size_t size, uint32_t version, const Config& c, Layout& expected) {
+  const uint64_t crc_offset = size - kCrcSize;
   // Section table: inside the file, then exactly the sizes and offsets the config (and the training
   // record's size) implies.
   uint64_t training_bytes = 0;
@@ -319,7 +322,7 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
       return Status::error("section training has size %llu bytes, expected %llu to %llu", ull(training_bytes),
                            ull(least), ull(kMaxTrainingRecordBytes));
   }
-  const Layout expected = layout_of(c, training_bytes);
+  expected = layout_of(c, training_bytes);
   const uint32_t header_size = expected.header_size;
   for (int s = 0; s < expected.sections; ++s) {
     const uint64_t offset = get_u64(data + section_entry(s));
@@ -338,16 +341,24 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   if (expected.file_size != size)
     return Status::error("file size %zu does not match the %llu bytes the config implies", size,
                          ull(expected.file_size));
+  return Status::ok();
+}
 
-  // Padding between header, sections and checksum.
-  uint64_t end = header_size;
+// Padding between header, sections and checksum: zero bytes only.
+Status check_layout_padding(const uint8_t* data, const Layout& expected) {
+  uint64_t end = expected.header_size;
   for (int s = 0; s < expected.sections; ++s) {
     if (Status st = check_padding(data, end, expected.offset[s]); !st) return st;
     end = expected.offset[s] + expected.size[s];
   }
   if (Status st = check_padding(data, end, expected.crc_offset); !st) return st;
+  return Status::ok();
+}
 
-  // Materials.
+// The materials section into v.materials: NUL-terminated clean UTF-8 names (zero bytes after the
+// NUL), finite base colors.
+Status read_materials(const uint8_t* data, const Layout& expected, ModelFileView& v) {
+  const Config& c = v.config;
   const uint8_t* p = data + expected.offset[kMaterials];
   v.materials.resize(c.material_count);
   for (uint32_t i = 0; i < c.material_count; ++i, p += kMaterialRecordSize) {
@@ -366,41 +377,57 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
       v.materials[i].base_color[k] = value;
     }
   }
+  return Status::ok();
+}
 
-  // Voxels: no bit beyond V^3.
+// The voxels section into v.voxels: no bit beyond V^3.
+Status read_voxels(const uint8_t* data, const Layout& expected, ModelFileView& v) {
+  const Config& c = v.config;
   v.voxels = data + expected.offset[kVoxels];
   const uint64_t words = expected.size[kVoxels] / 4u;
   const uint32_t used_bits = static_cast<uint32_t>(c.voxel_count() % 32u);
   if (used_bits != 0 && (get_u32(v.voxels + 4 * (words - 1)) >> used_bits) != 0)
     return Status::error("voxels section has bits set beyond voxel %llu (V^3 = %u^3)", ull(c.voxel_count()),
                          c.voxel_resolution);
+  return Status::ok();
+}
 
-  // Parameters: finite fp16 values only; 8-bit grids: codes in [-127, 127] and usable scales.
+// An 8-bit grid's scales into v.grid_scales (usable ones only) and its codes in v.grid checked:
+// in [-127, 127], and 0 in a level of scale 0.
+Status read_int8_grid(const uint8_t* data, const Layout& expected, ModelFileView& v) {
+  const Config& c = v.config;
+  for (uint32_t l = 0; l < c.grid_levels; ++l) {
+    const float scale = get_f32(data + expected.offset[kGridScales] + 4 * l);
+    if (!grid_scale_usable(scale))
+      return Status::error("grid scale of level %u is %g, not a finite number >= +0 (with 127 times it finite)", l,
+                           double(scale));
+    v.grid_scales[l] = scale;
+  }
+  for (uint32_t l = 0; l < c.grid_levels; ++l) {
+    const uint64_t first = c.level_entry_offset(l) * c.features, last = c.level_entry_offset(l + 1) * c.features;
+    for (uint64_t i = first; i < last; ++i) {
+      if (v.grid[i] == 0x80)
+        return Status::error("grid section code %llu (of %llu) is -128, outside the int8 codes [-127, 127]", ull(i),
+                             ull(c.grid_parameter_count()));
+      // One encoding per model: a level of scale 0 holds only zero codes.
+      if (v.grid[i] != 0 && v.grid_scales[l] == 0.0f)
+        return Status::error("grid section code %llu is %d in level %u, whose scale is 0 (codes must be 0)", ull(i),
+                             int(static_cast<int8_t>(v.grid[i])), l);
+    }
+  }
+  return Status::ok();
+}
+
+// The parameter sections into v.grid, v.mlp and (version 5) v.grid_index. Parameters: finite fp16
+// values only; 8-bit grids: codes in [-127, 127] and usable scales.
+Status read_parameters(const uint8_t* data, uint32_t version, const Layout& expected, ModelFileView& v) {
+  const Config& c = v.config;
   v.grid = data + expected.offset[kGrid];
   v.mlp = data + expected.offset[kMlp];
   // Any displacement is valid: a slot is taken modulo the level's slots.
   v.grid_index = version >= 5 ? data + expected.offset[kGridIndex] : nullptr;
-  if (c.grid_bits == 8) {
-    for (uint32_t l = 0; l < c.grid_levels; ++l) {
-      const float scale = get_f32(data + expected.offset[kGridScales] + 4 * l);
-      if (!grid_scale_usable(scale))
-        return Status::error("grid scale of level %u is %g, not a finite number >= +0 (with 127 times it finite)", l,
-                             double(scale));
-      v.grid_scales[l] = scale;
-    }
-    for (uint32_t l = 0; l < c.grid_levels; ++l) {
-      const uint64_t first = c.level_entry_offset(l) * c.features, last = c.level_entry_offset(l + 1) * c.features;
-      for (uint64_t i = first; i < last; ++i) {
-        if (v.grid[i] == 0x80)
-          return Status::error("grid section code %llu (of %llu) is -128, outside the int8 codes [-127, 127]", ull(i),
-                               ull(c.grid_parameter_count()));
-        // One encoding per model: a level of scale 0 holds only zero codes.
-        if (v.grid[i] != 0 && v.grid_scales[l] == 0.0f)
-          return Status::error("grid section code %llu is %d in level %u, whose scale is 0 (codes must be 0)", ull(i),
-                               int(static_cast<int8_t>(v.grid[i])), l);
-      }
-    }
-  }
+  if (c.grid_bits == 8)
+    if (Status s = read_int8_grid(data, expected, v); !s) return s;
   const struct {
     const uint8_t* p;
     uint64_t count;
@@ -414,15 +441,42 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
     return Status::error("%s section value %llu (of %llu) is %s (fp16 bits 0x%04x)", section.name, ull(i),
                          ull(section.count), half_non_finite_kind(bits), bits);
   }
+  return Status::ok();
+}
 
-  // The training record: text for people and tools, checked like the material names.
-  v.version = version;
+// The training record into v.training (when there is one): text for people and tools, checked like
+// the material names.
+Status read_training(const uint8_t* data, const Layout& expected, ModelFileView& v) {
+  const uint64_t training_bytes = expected.size[kTraining];
   if (training_bytes) {
     v.training.assign(reinterpret_cast<const char*>(data + expected.offset[kTraining]), training_bytes);
     if (!is_clean_utf8(v.training))
       return Status::error("training section is not valid UTF-8 or contains control characters: \"%s\"",
                            printable(v.training.substr(0, 200)).c_str());
   }
+  return Status::ok();
+}
+
+Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
+  uint32_t version = 0;
+  if (Status s = check_preamble(data, size, version); !s) return s;
+  const uint64_t crc_offset = size - kCrcSize;
+  const uint32_t stored_crc = get_u32(data + crc_offset), actual_crc = crc32(data, crc_offset);
+  if (stored_crc != actual_crc)
+    return Status::error("checksum mismatch: stored CRC-32 0x%08x, computed 0x%08x (file corrupted)",
+                         stored_crc, actual_crc);
+
+  ModelFileView v;
+  if (Status s = read_header_config(data, version, v.config); !s) return s;
+  if (Status s = read_bounds(data, v); !s) return s;
+  Layout expected;
+  if (Status s = check_section_table(data, size, version, v.config, expected); !s) return s;
+  if (Status s = check_layout_padding(data, expected); !s) return s;
+  if (Status s = read_materials(data, expected, v); !s) return s;
+  if (Status s = read_voxels(data, expected, v); !s) return s;
+  if (Status s = read_parameters(data, version, expected, v); !s) return s;
+  v.version = version;
+  if (Status s = read_training(data, expected, v); !s) return s;
   view = std::move(v);
   return Status::ok();
 }

@@ -105,11 +105,10 @@ void encode_batch_backward(const Config& config, const std::vector<RayWalk>& wal
   }
 }
 
-}  // namespace
-
-Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model, TrainReport* report,
-                   const TrainCallback& callback) {
-  Config config = settings.config;
+// Checks the mesh and the settings before any work; `config` receives settings.config with the
+// mesh's material count.
+Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Config& config) {
+  config = settings.config;
   if (mesh.materials.empty()) return Status::error("mesh has no material table");
   if (mesh.materials.size() > LSNIF_MAX_MATERIALS)
     return Status::error("mesh has %zu materials; an LSNIF model supports at most %u",
@@ -136,22 +135,27 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
       return Status::error("loss weights must be finite and >= 0 (%s)", w.describe().c_str());
   if (!(w.occlusion + w.distance + w.normal + w.albedo + w.material > 0.0f))
     return Status::error("every loss weight is 0: nothing would be trained");
+  return Status::ok();
+}
 
+// Starts `model` afresh with `config`, the mesh's voxels (in its padded bounds), its materials and
+// the grid index of the indexed levels (which completes `config`); `occupied` receives the number
+// of occupied voxels (an error when there is none).
+Status build_model_frame(const Mesh& mesh, const TrainSettings& settings, Config& config, Model& model,
+                         uint32_t& occupied) {
   model = Model();
   model.config = config;
   model.voxels = voxelize(mesh, config.voxel_resolution, pad_aabb(mesh.bounds()));
-  const uint32_t occupied = model.voxels.count_occupied();
+  occupied = model.voxels.count_occupied();
   if (occupied == 0) return Status::error("voxelization produced no occupied voxel");
   for (const Material& m : mesh.materials) model.materials.push_back({m.name, m.base_color});
   if (Status s = index_grid_levels(model.voxels, settings.indexed, config, model.grid_index); !s) return s;
   model.config = config;
-  const GridLayout layout = model.layout();
+  return Status::ok();
+}
 
-  GroundTruth truth;
-  if (Status s = truth.build(mesh); !s) return s.context("building the Embree reference");
-  RaySampler sampler(mesh, truth, model.voxels, config.max_points, settings.sampler);
-
-  // Parameters.
+// The initial parameters: hash-grid entries uniform in +-grid_init_range, the MLP Kaiming's.
+void init_parameters(const Config& config, const TrainSettings& settings, Model& model) {
   model.grid.resize(config.grid_parameter_count());
   {
     std::mt19937_64 rng(settings.seed ^ 0x9e3779b97f4a7c15ull);
@@ -160,124 +164,200 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   }
   model.mlp.resize(config.mlp_parameter_count());
   mlp_init_kaiming(config, settings.seed, model.mlp.data());
-  std::vector<float> d_grid(model.grid.size()), d_mlp(model.mlp.size());
-  Adam grid_adam(model.grid.size(), settings.adam), mlp_adam(model.mlp.size(), settings.adam);
+}
 
-  TrainReport rep;
-  if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material\n";
-  rep.occupied_voxels = occupied;
-  const uint32_t B = settings.batch_size, out_dim = config.output_dim();
+// What every step reuses, allocated once: gradients, optimizer moments, the batch (rays and their
+// walks), its encoding, activations and corners.
+struct StepState {
+  StepState(const Model& model, const AdamSettings& adam)
+      : d_grid(model.grid.size()), d_mlp(model.mlp.size()), grid_adam(model.grid.size(), adam),
+        mlp_adam(model.mlp.size(), adam) {}
+  std::vector<float> d_grid, d_mlp;
+  Adam grid_adam, mlp_adam;
   std::vector<Sample> samples, fresh_samples;
   std::vector<RayWalk> walks, fresh_walks;
   Matrix X, O, dO, dX;
   MlpTrace trace;
   BatchCorners corners;
-  const uint32_t tail_start = settings.steps - std::max(1u, settings.steps / 10);
-  uint32_t tail_steps = 0;
-  LossTerms tail;
-  const auto t_start = Clock::now();
+};
 
-  for (uint32_t step = 1; step <= settings.steps; ++step) {
-    auto t0 = Clock::now();
-    // Fresh rays: the whole batch on the first step, then one part of it per step (round robin),
-    // so that each ray serves ray_reuse consecutive steps.
-    const uint32_t parts = settings.ray_reuse, part = step == 1 ? 0 : (step - 2) % parts;
-    const size_t first = step == 1 ? 0 : size_t(B) * part / parts;
-    const size_t last = step == 1 ? B : size_t(B) * (part + 1) / parts;
-    sampler.generate(settings.seed, step, last - first, fresh_samples, fresh_walks);
-    rep.seconds_sampling += since(t0);
-    if (fresh_samples.size() != last - first)
-      return Status::error("the ray sampler found only %zu of %zu rays crossing an occupied voxel (%u of %u voxels "
-                           "occupied: is the mesh degenerate, or a small part of its bounding box, e.g. beside "
-                           "far-away stray triangles?)", fresh_samples.size(), last - first, occupied,
-                           config.voxel_resolution * config.voxel_resolution * config.voxel_resolution);
-    if (first == 0 && last == B) {
-      samples.swap(fresh_samples);
-      walks.swap(fresh_walks);
-    } else {
-      samples.resize(B);
-      walks.resize(B);
-      std::copy(fresh_samples.begin(), fresh_samples.end(), samples.begin() + long(first));
-      std::copy(fresh_walks.begin(), fresh_walks.end(), walks.begin() + long(first));
-    }
+// The batch of `step` in st.samples and st.walks, the sampling timed in `rep`; an error when the
+// sampler cannot find enough rays.
+Status draw_batch(const RaySampler& sampler, const Config& config, const TrainSettings& settings, uint32_t occupied,
+                  uint32_t step, StepState& st, TrainReport& rep) {
+  const auto t0 = Clock::now();
+  const uint32_t B = settings.batch_size;
+  // Fresh rays: the whole batch on the first step, then one part of it per step (round robin),
+  // so that each ray serves ray_reuse consecutive steps.
+  const uint32_t parts = settings.ray_reuse, part = step == 1 ? 0 : (step - 2) % parts;
+  const size_t first = step == 1 ? 0 : size_t(B) * part / parts;
+  const size_t last = step == 1 ? B : size_t(B) * (part + 1) / parts;
+  sampler.generate(settings.seed, step, last - first, st.fresh_samples, st.fresh_walks);
+  rep.seconds_sampling += since(t0);
+  if (st.fresh_samples.size() != last - first)
+    return Status::error("the ray sampler found only %zu of %zu rays crossing an occupied voxel (%u of %u voxels "
+                         "occupied: is the mesh degenerate, or a small part of its bounding box, e.g. beside "
+                         "far-away stray triangles?)", st.fresh_samples.size(), last - first, occupied,
+                         config.voxel_resolution * config.voxel_resolution * config.voxel_resolution);
+  if (first == 0 && last == B) {
+    st.samples.swap(st.fresh_samples);
+    st.walks.swap(st.fresh_walks);
+  } else {
+    st.samples.resize(B);
+    st.walks.resize(B);
+    std::copy(st.fresh_samples.begin(), st.fresh_samples.end(), st.samples.begin() + long(first));
+    std::copy(st.fresh_walks.begin(), st.fresh_walks.end(), st.walks.begin() + long(first));
+  }
+  return Status::ok();
+}
 
-    t0 = Clock::now();
-    encode_batch(config, layout, model.grid.data(), walks, X, corners);
-    rep.seconds_encoding += since(t0);
-
-    t0 = Clock::now();
-    mlp_forward(config, model.mlp.data(), X, O, &trace);
-    rep.seconds_mlp += since(t0);
-
-    t0 = Clock::now();
-    dO.resize(out_dim, B);
-    const float scale = 1.0f / float(B);
-    double lo = 0, ld = 0, ln = 0, la = 0, lm = 0;
+// The batch's mean loss terms from the outputs st.O; their gradient (scaled by 1 / batch size)
+// goes to st.dO.
+LossTerms batch_loss(const Config& config, const TrainSettings& settings, StepState& st) {
+  const uint32_t B = settings.batch_size, out_dim = config.output_dim();
+  st.dO.resize(out_dim, B);
+  const float scale = 1.0f / float(B);
+  double lo = 0, ld = 0, ln = 0, la = 0, lm = 0;
 #pragma omp parallel for schedule(static) reduction(+ : lo, ld, ln, la, lm)
-    for (long r = 0; r < long(B); ++r) {
-      const Sample& smp = samples[size_t(r)];
-      LossTarget target;
-      target.hit = smp.reference.hit;
-      if (target.hit) {
-        target.s = unit_from_distance(config, walks[size_t(r)], smp.reference.t);
-        target.normal = smp.reference.normal;
-        target.albedo = smp.reference.albedo;
-        target.material = smp.reference.material;
-      }
-      LossTerms t = ray_loss(config, O.data() + size_t(r) * out_dim, target, settings.loss_settings,
-                             scale, dO.data() + size_t(r) * out_dim);
-      lo += t.occlusion; ld += t.distance; ln += t.normal; la += t.albedo; lm += t.material;
+  for (long r = 0; r < long(B); ++r) {
+    const Sample& smp = st.samples[size_t(r)];
+    LossTarget target;
+    target.hit = smp.reference.hit;
+    if (target.hit) {
+      target.s = unit_from_distance(config, st.walks[size_t(r)], smp.reference.t);
+      target.normal = smp.reference.normal;
+      target.albedo = smp.reference.albedo;
+      target.material = smp.reference.material;
     }
-    LossTerms mean;
-    mean.occlusion = lo / B; mean.distance = ld / B; mean.normal = ln / B;
-    mean.albedo = la / B; mean.material = lm / B;
-    rep.seconds_loss += since(t0);
-    if (!std::isfinite(mean.total()))
-      return Status::error("training diverged: the loss of step %u is %g (occlusion %g, distance %g, normal %g, "
-                           "albedo %g, material %g); lower the learning rate (Adam lr %g)",
-                           step, mean.total(), mean.occlusion, mean.distance, mean.normal, mean.albedo,
-                           mean.material, double(settings.adam.learning_rate));
-
-    t0 = Clock::now();
-    std::fill(d_mlp.begin(), d_mlp.end(), 0.0f);
-    mlp_backward(config, model.mlp.data(), trace, dO, d_mlp.data(), &dX);
-    rep.seconds_mlp += since(t0);
-
-    t0 = Clock::now();
-    encode_batch_backward(config, walks, corners, dX, d_grid);
-    rep.seconds_encoding += since(t0);
-
-    t0 = Clock::now();
-    const float lr = scheduled_learning_rate(settings.lr_schedule, settings.adam.learning_rate, step, settings.steps);
-    mlp_adam.step(model.mlp.data(), d_mlp.data(), lr);
-    grid_adam.step(model.grid.data(), d_grid.data(), lr);
-    rep.seconds_optimizer += since(t0);
-
-    rep.rays += B;
-    if (step > tail_start) {
-      tail += mean;
-      ++tail_steps;
-    }
-    if (settings.loss_curve)
-      rep.loss_curve += format("%u,%.3f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", step, since(t_start), mean.total(),
-                               mean.occlusion, mean.distance, mean.normal, mean.albedo, mean.material);
-    if (callback && !callback(step, mean, model)) break;
+    LossTerms t = ray_loss(config, st.O.data() + size_t(r) * out_dim, target, settings.loss_settings,
+                           scale, st.dO.data() + size_t(r) * out_dim);
+    lo += t.occlusion; ld += t.distance; ln += t.normal; la += t.albedo; lm += t.material;
   }
-  rep.seconds = since(t_start);
-  if (tail_steps) {
-    const double k = 1.0 / tail_steps;
-    rep.final_loss.occlusion = tail.occlusion * k; rep.final_loss.distance = tail.distance * k;
-    rep.final_loss.normal = tail.normal * k; rep.final_loss.albedo = tail.albedo * k;
-    rep.final_loss.material = tail.material * k;
+  LossTerms mean;
+  mean.occlusion = lo / B; mean.distance = ld / B; mean.normal = ln / B;
+  mean.albedo = la / B; mean.material = lm / B;
+  return mean;
+}
+
+// One training step: the batch, forward, loss, backward and the Adam updates of model.grid and
+// model.mlp, each phase timed in `rep`; `mean` receives the step's mean loss terms. An error when
+// the sampler runs short or the loss is not finite.
+Status train_step(const RaySampler& sampler, const Config& config, const GridLayout& layout,
+                  const TrainSettings& settings, uint32_t occupied, uint32_t step, Model& model, StepState& st,
+                  TrainReport& rep, LossTerms& mean) {
+  if (Status s = draw_batch(sampler, config, settings, occupied, step, st, rep); !s) return s;
+
+  auto t0 = Clock::now();
+  encode_batch(config, layout, model.grid.data(), st.walks, st.X, st.corners);
+  rep.seconds_encoding += since(t0);
+
+  t0 = Clock::now();
+  mlp_forward(config, model.mlp.data(), st.X, st.O, &st.trace);
+  rep.seconds_mlp += since(t0);
+
+  t0 = Clock::now();
+  mean = batch_loss(config, settings, st);
+  rep.seconds_loss += since(t0);
+  if (!std::isfinite(mean.total()))
+    return Status::error("training diverged: the loss of step %u is %g (occlusion %g, distance %g, normal %g, "
+                         "albedo %g, material %g); lower the learning rate (Adam lr %g)",
+                         step, mean.total(), mean.occlusion, mean.distance, mean.normal, mean.albedo,
+                         mean.material, double(settings.adam.learning_rate));
+
+  t0 = Clock::now();
+  std::fill(st.d_mlp.begin(), st.d_mlp.end(), 0.0f);
+  mlp_backward(config, model.mlp.data(), st.trace, st.dO, st.d_mlp.data(), &st.dX);
+  rep.seconds_mlp += since(t0);
+
+  t0 = Clock::now();
+  encode_batch_backward(config, st.walks, st.corners, st.dX, st.d_grid);
+  rep.seconds_encoding += since(t0);
+
+  t0 = Clock::now();
+  const float lr = scheduled_learning_rate(settings.lr_schedule, settings.adam.learning_rate, step, settings.steps);
+  st.mlp_adam.step(model.mlp.data(), st.d_mlp.data(), lr);
+  st.grid_adam.step(model.grid.data(), st.d_grid.data(), lr);
+  rep.seconds_optimizer += since(t0);
+  return Status::ok();
+}
+
+// The sum of the loss terms over the last steps (after `start`), for the final loss.
+struct TailLoss {
+  uint32_t start = 0, steps = 0;
+  LossTerms sum;
+};
+
+// Books a finished step in the report: its rays, the tail's sum and, with settings.loss_curve, its
+// row of the loss curve (its time: since `t_start`, when the loop started).
+void record_step(const TrainSettings& settings, uint32_t step, const LossTerms& mean, Clock::time_point t_start,
+                 TailLoss& tail, TrainReport& rep) {
+  rep.rays += settings.batch_size;
+  if (step > tail.start) {
+    tail.sum += mean;
+    ++tail.steps;
   }
-  // fp16 holds magnitudes up to 65504; a parameter beyond that (or NaN) cannot be saved.
+  if (settings.loss_curve)
+    rep.loss_curve += format("%u,%.3f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", step, since(t_start), mean.total(),
+                             mean.occlusion, mean.distance, mean.normal, mean.albedo, mean.material);
+}
+
+// rep.final_loss: the mean of the tail's steps (left 0 when none ran).
+void set_final_loss(const TailLoss& tail, TrainReport& rep) {
+  if (tail.steps) {
+    const double k = 1.0 / tail.steps;
+    rep.final_loss.occlusion = tail.sum.occlusion * k; rep.final_loss.distance = tail.sum.distance * k;
+    rep.final_loss.normal = tail.sum.normal * k; rep.final_loss.albedo = tail.sum.albedo * k;
+    rep.final_loss.material = tail.sum.material * k;
+  }
+}
+
+// An error naming the first trained parameter that cannot be saved. fp16 holds magnitudes up to
+// 65504; a parameter beyond that (or NaN) cannot be saved.
+Status check_fp16_range(const Model& model, uint64_t rays, float learning_rate) {
   for (const std::vector<float>* params : {&model.grid, &model.mlp})
     for (size_t i = 0; i < params->size(); ++i)
       if (!(std::abs((*params)[i]) <= 65504.0f))
         return Status::error("training diverged: %s parameter %zu is %g after %llu rays, beyond the fp16 range of "
                              "the model file; lower the learning rate (Adam lr %g)",
                              params == &model.grid ? "hash-grid" : "MLP", i, double((*params)[i]),
-                             (unsigned long long)rep.rays, double(settings.adam.learning_rate));
+                             (unsigned long long)rays, double(learning_rate));
+  return Status::ok();
+}
+
+}  // namespace
+
+Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model, TrainReport* report,
+                   const TrainCallback& callback) {
+  Config config;
+  if (Status s = check_training_inputs(mesh, settings, config); !s) return s;
+  uint32_t occupied = 0;
+  if (Status s = build_model_frame(mesh, settings, config, model, occupied); !s) return s;
+  const GridLayout layout = model.layout();
+
+  GroundTruth truth;
+  if (Status s = truth.build(mesh); !s) return s.context("building the Embree reference");
+  RaySampler sampler(mesh, truth, model.voxels, config.max_points, settings.sampler);
+
+  // Parameters.
+  init_parameters(config, settings, model);
+  StepState st(model, settings.adam);
+
+  TrainReport rep;
+  if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material\n";
+  rep.occupied_voxels = occupied;
+  TailLoss tail;
+  tail.start = settings.steps - std::max(1u, settings.steps / 10);
+  const auto t_start = Clock::now();
+
+  for (uint32_t step = 1; step <= settings.steps; ++step) {
+    LossTerms mean;
+    if (Status s = train_step(sampler, config, layout, settings, occupied, step, model, st, rep, mean); !s) return s;
+    record_step(settings, step, mean, t_start, tail, rep);
+    if (callback && !callback(step, mean, model)) break;
+  }
+  rep.seconds = since(t_start);
+  set_final_loss(tail, rep);
+  if (Status s = check_fp16_range(model, rep.rays, settings.adam.learning_rate); !s) return s;
   model.quantize();
   if (report) *report = rep;
   return model.validate();

@@ -254,19 +254,10 @@ Status compile_rules(const ConvertSettings& settings, Rules& rules) {
   return Status::ok();
 }
 
-}  // namespace
-
-Status check_settings(const ConvertSettings& settings) {
-  Rules unused;
-  return compile_rules(settings, unused);
-}
-
-Status make_plan(const ConvertSettings& settings, Plan& plan) {
-  plan = Plan();
+// Reads settings.input into plan.gltf (and its folder into plan.input_dir); plan.bad_buffers gets
+// one entry per glTF buffer, for .gltf JSON why an external one cannot be used.
+Status read_input(const ConvertSettings& settings, Plan& plan) {
   const std::string& in = settings.input;
-  Rules rules;
-  if (Status s = compile_rules(settings, rules); !s) return s;
-
   std::vector<unsigned char> bytes;
   std::string err;
   if (!gltf::read_whole_file(&bytes, &err, in, nullptr)) return Status::error("%s", err.c_str());
@@ -281,9 +272,15 @@ Status make_plan(const ConvertSettings& settings, Plan& plan) {
   if (Status s = gltf::load_model(data, binary, in, plan.input_dir, load_options, plan.gltf, plan.warnings); !s)
     return s;
   if (Status s = scene::check_extension_types(plan.gltf, in); !s) return s;
-  const tinygltf::Model& g = plan.gltf;
-  plan.bad_buffers.resize(g.buffers.size());
+  plan.bad_buffers.resize(plan.gltf.buffers.size());
+  return Status::ok();
+}
 
+// plan.nodes: the default scene's nodes that have a mesh, depth first, with their world transforms
+// (plan.scene: that scene). Errors on a missing node and a node reached twice; a missing mesh is a
+// warning (`in`: the input's name for the messages).
+Status collect_nodes(const std::string& in, Plan& plan) {
+  const tinygltf::Model& g = plan.gltf;
   // The default scene's nodes, depth first, with their world transforms.
   std::vector<int> roots;
   if (!g.scenes.empty()) {
@@ -326,70 +323,85 @@ Status make_plan(const ConvertSettings& settings, Plan& plan) {
     p.world = world;
     plan.nodes.push_back(std::move(p));
   }
+  return Status::ok();
+}
 
-  // Decisions and models. A model's file must not be a file the input refers to (a model another
-  // node already uses, a buffer, an image): such names get a suffix like names used twice.
-  const std::string out_stem = fs::path(settings.output).stem().string();
-  const fs::path out_dir = fs::path(settings.output).parent_path();
-  const std::vector<std::string> inputs = referenced_files(plan, in);
-  auto taken = [&](const std::string& name) {
-    const std::string file = (out_stem.empty() ? std::string("scene") : out_stem) + "." + name + ".lsnif";
-    const std::string path = (out_dir / file).lexically_normal().string();
-    for (const std::string& input : inputs)
-      if (input == path || same_file(input, path)) return true;
-    return false;
-  };
-  std::set<std::string> used_names;
-  auto add_model = [&](const std::string& base, int mesh, const std::string& group) {
+// Adds the plan's models with unique, file-name safe names. A model's file must not be a file the
+// input refers to (a model another node already uses, a buffer, an image): such names get a suffix
+// like names used twice.
+class ModelNamer {
+ public:
+  ModelNamer(const ConvertSettings& settings, const Plan& plan)
+      : out_stem_(fs::path(settings.output).stem().string()),
+        out_dir_(fs::path(settings.output).parent_path()),
+        inputs_(referenced_files(plan, settings.input)) {}
+
+  // Appends the model of `base` (a mesh or group name) to plan.models; returns its index.
+  int add_model(Plan& plan, const std::string& base, int mesh, const std::string& group) {
     PlannedModel m;
     std::string name = safe_name(base);
-    for (int k = 2; used_names.count(name) || taken(name); ++k) name = safe_name(base) + "_" + std::to_string(k);
-    used_names.insert(name);
+    for (int k = 2; used_names_.count(name) || taken(name); ++k) name = safe_name(base) + "_" + std::to_string(k);
+    used_names_.insert(name);
     m.name = name;
-    m.file = (out_stem.empty() ? std::string("scene") : out_stem) + "." + name + ".lsnif";
+    m.file = (out_stem_.empty() ? std::string("scene") : out_stem_) + "." + name + ".lsnif";
     m.mesh = mesh;
     m.group = group;
     plan.models.push_back(std::move(m));
     return int(plan.models.size() - 1);
-  };
+  }
+
+ private:
+  // True when the model file of `name` would be a file the input refers to.
+  bool taken(const std::string& name) const {
+    const std::string file = (out_stem_.empty() ? std::string("scene") : out_stem_) + "." + name + ".lsnif";
+    const std::string path = (out_dir_ / file).lexically_normal().string();
+    for (const std::string& input : inputs_)
+      if (input == path || same_file(input, path)) return true;
+    return false;
+  }
+
+  const std::string out_stem_;
+  const fs::path out_dir_;
+  const std::vector<std::string> inputs_;
+  std::set<std::string> used_names_;
+};
+
+// What node `n` (planned as `p`, extras tag `tag`) is by the LSNIF extension, its tag, --exclude and
+// --select alone: Convert when it goes on to grouping and --min-triangles.
+Decision selection(const ConvertSettings& settings, const Rules& rules, const tinygltf::Node& n, int tag,
+                   const PlannedNode& p) {
+  if (n.extensions.count(kNodeExtension)) return Decision::AlreadyLsnif;
+  if (tag == 0) return Decision::TaggedOff;
+  if (tag != 1) {
+    if (!settings.exclude.empty() && (search(rules.exclude, p.name) || search(rules.exclude, p.mesh_name)))
+      return Decision::Excluded;
+    if (!settings.select.empty() && !search(rules.select, p.name) && !search(rules.select, p.mesh_name))
+      return Decision::NotSelected;
+  }
+  return Decision::Convert;
+}
+
+// Decides every node of plan.nodes and adds the models they use: one per group (its threshold
+// applied later, by settle_models) and one per glTF mesh.
+void assign_models(const ConvertSettings& settings, const Rules& rules, Plan& plan) {
+  const tinygltf::Model& g = plan.gltf;
+  ModelNamer namer(settings, plan);
   std::map<int, int> mesh_model;
   std::map<std::string, int> group_model;
-  std::map<int, std::string> problems;  // per mesh, computed once
-  auto problem_of = [&](int mesh) -> const std::string& {
-    auto it = problems.find(mesh);
-    if (it == problems.end()) it = problems.emplace(mesh, mesh_problem(plan, mesh)).first;
-    return it->second;
-  };
   for (size_t i = 0; i < plan.nodes.size(); ++i) {
     PlannedNode& p = plan.nodes[i];
     const tinygltf::Node& n = g.nodes[size_t(p.node)];
     const int tag = extras_tag(n);
-    if (n.extensions.count(kNodeExtension)) {
-      p.decision = Decision::AlreadyLsnif;
-      continue;
-    }
-    if (tag == 0) {
-      p.decision = Decision::TaggedOff;
-      continue;
-    }
-    if (tag != 1) {
-      if (!settings.exclude.empty() && (search(rules.exclude, p.name) || search(rules.exclude, p.mesh_name))) {
-        p.decision = Decision::Excluded;
-        continue;
-      }
-      if (!settings.select.empty() && !search(rules.select, p.name) && !search(rules.select, p.mesh_name)) {
-        p.decision = Decision::NotSelected;
-        continue;
-      }
-    }
+    p.decision = selection(settings, rules, n, tag, p);
+    if (p.decision != Decision::Convert) continue;
     std::string group = extras_group(n);
     for (size_t r = 0; group.empty() && r < settings.groups.size(); ++r)
       if (search(rules.groups[r], p.name)) group = settings.groups[r].name;
     if (!group.empty()) {
       auto it = group_model.find(group);
-      if (it == group_model.end()) it = group_model.emplace(group, add_model(group, -1, group)).first;
+      if (it == group_model.end()) it = group_model.emplace(group, namer.add_model(plan, group, -1, group)).first;
       p.model = it->second;
-      p.decision = Decision::Convert;  // the group's threshold is applied below
+      p.decision = Decision::Convert;  // the group's threshold is applied by settle_models
       plan.models[size_t(p.model)].nodes.push_back(int(i));
       plan.models[size_t(p.model)].triangles += p.triangles;
       continue;
@@ -399,14 +411,24 @@ Status make_plan(const ConvertSettings& settings, Plan& plan) {
       continue;
     }
     auto it = mesh_model.find(p.mesh);
-    if (it == mesh_model.end()) it = mesh_model.emplace(p.mesh, add_model(p.mesh_name, p.mesh, "")).first;
+    if (it == mesh_model.end()) it = mesh_model.emplace(p.mesh, namer.add_model(plan, p.mesh_name, p.mesh, "")).first;
     p.model = it->second;
     p.decision = Decision::Convert;
     plan.models[size_t(p.model)].nodes.push_back(int(i));
     plan.models[size_t(p.model)].triangles = p.triangles;
   }
+}
 
-  // Groups below the threshold (unless a member is tagged) stay triangles; bad members fail the model.
+// Groups below the threshold (unless a member is tagged) stay triangles; bad members fail the model.
+// Drops the former from plan.models and renumbers the nodes' models.
+void settle_models(const ConvertSettings& settings, Plan& plan) {
+  const tinygltf::Model& g = plan.gltf;
+  std::map<int, std::string> problems;  // per mesh, computed once
+  auto problem_of = [&](int mesh) -> const std::string& {
+    auto it = problems.find(mesh);
+    if (it == problems.end()) it = problems.emplace(mesh, mesh_problem(plan, mesh)).first;
+    return it->second;
+  };
   std::vector<PlannedModel> kept;
   std::vector<int> remap(plan.models.size(), -1);
   for (size_t k = 0; k < plan.models.size(); ++k) {
@@ -435,6 +457,24 @@ Status make_plan(const ConvertSettings& settings, Plan& plan) {
     p.model = remap[size_t(p.model)];
     if (p.model >= 0 && !plan.models[size_t(p.model)].error.empty()) p.decision = Decision::Failed;
   }
+}
+
+}  // namespace
+
+Status check_settings(const ConvertSettings& settings) {
+  Rules unused;
+  return compile_rules(settings, unused);
+}
+
+Status make_plan(const ConvertSettings& settings, Plan& plan) {
+  plan = Plan();
+  Rules rules;
+  if (Status s = compile_rules(settings, rules); !s) return s;
+  if (Status s = read_input(settings, plan); !s) return s;
+  if (Status s = collect_nodes(settings.input, plan); !s) return s;
+  // Decisions and models.
+  assign_models(settings, rules, plan);
+  settle_models(settings, plan);
   return Status::ok();
 }
 

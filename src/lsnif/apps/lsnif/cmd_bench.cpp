@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -137,210 +138,295 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
   return md;
 }
 
-}  // namespace
-
-int cmd_bench(int argc, char** argv) {
+// The command line as given, then as checked (pipelines, primary visibility, presets, scenes).
+struct BenchCommand {
   std::vector<std::string> names;
   std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "both",
               preset_names = "high,low", primary_name = "traced";
   BenchRunOptions run;
+  std::string known;  // the bundled scenes' names, for the help and messages
+  std::vector<render::PathPipeline> pipelines;
+  render::PrimaryVisibility primary{};
+  std::vector<std::string> presets, scenes;
+};
+
+// Reads the options into `cmd`; the exit code when the command ends here (help, a bad option).
+std::optional<int> parse_command_line(int argc, char** argv, BenchCommand& cmd) {
   Args args("bench",
             "The paper's Table 1 on the bundled scenes (docs/bench-scenes.md): builds each scene from the\n"
             "meshes and HDR images of scripts/setup.sh into OUT/SCENE/ (OUT = --out), trains its LSNIF models\n"
             "(reused when the mesh and settings are unchanged), renders it in reference and LSNIF mode, and\n"
             "writes OUT/results.md (memory, time per sample, FLIP) and OUT/SCENE.png (reference | LSNIF | FLIP).");
-  std::string known;
-  for (const std::string& n : bench_scene_names()) known += (known.empty() ? "" : ", ") + n;
-  args.rest("SCENE", "scenes to run: " + known + " (default: all)", &names);
-  args.option("out", "output folder", &out_dir);
-  args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &data_dir);
-  add_bench_run_options(args, &run);
+  for (const std::string& n : bench_scene_names()) cmd.known += (cmd.known.empty() ? "" : ", ") + n;
+  args.rest("SCENE", "scenes to run: " + cmd.known + " (default: all)", &cmd.names);
+  args.option("out", "output folder", &cmd.out_dir);
+  args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &cmd.data_dir);
+  add_bench_run_options(args, &cmd.run);
   args.option("pipeline", "inline, wavefront or both (docs/renderer.md): the pipelines each scene is rendered with",
-              &pipeline_name);
+              &cmd.pipeline_name);
   args.option("quality", "the paper's configurations to train and compare, a list: high, low (Table 1's H and L)",
-              &preset_names);
-  add_primary_option(args, &primary_name);
-  add_device_option(args, &device);
+              &cmd.preset_names);
+  add_primary_option(args, &cmd.primary_name);
+  add_device_option(args, &cmd.device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
+  return std::nullopt;
+}
 
-  std::vector<render::PathPipeline> pipelines;
-  if (pipeline_name == "both") {
-    pipelines = {render::PathPipeline::inline_rt, render::PathPipeline::wavefront};
+// Checks --pipeline, --primary, --quality and the scene names into cmd.pipelines, cmd.primary,
+// cmd.presets and cmd.scenes (each once, in order); false (message printed) on an invalid one.
+bool check_choices(BenchCommand& cmd) {
+  if (cmd.pipeline_name == "both") {
+    cmd.pipelines = {render::PathPipeline::inline_rt, render::PathPipeline::wavefront};
   } else {
     render::PathPipeline one;
-    if (!render::parse_pipeline(pipeline_name, one)) {
+    if (!render::parse_pipeline(cmd.pipeline_name, one)) {
       std::fprintf(stderr, "lsnif bench: --pipeline must be inline, wavefront or both, not '%s'\n",
-                   printable(pipeline_name).c_str());
-      return 2;
+                   printable(cmd.pipeline_name).c_str());
+      return false;
     }
-    pipelines = {one};
+    cmd.pipelines = {one};
   }
-  render::PrimaryVisibility primary;
-  if (!parse_primary_option("bench", primary_name, primary)) return 2;
-  std::vector<std::string> presets;
+  if (!parse_primary_option("bench", cmd.primary_name, cmd.primary)) return false;
+  const std::string& preset_names = cmd.preset_names;
   for (size_t at = 0; at <= preset_names.size();) {
     const size_t comma = std::min(preset_names.find(',', at), preset_names.size());
     const std::string p = preset_names.substr(at, comma - at);
     if (p != "high" && p != "low") {
       std::fprintf(stderr, "lsnif bench: --quality takes a list of high and low, not '%s'\n", printable(p).c_str());
-      return 2;
+      return false;
     }
-    if (std::find(presets.begin(), presets.end(), p) == presets.end()) presets.push_back(p);
+    if (std::find(cmd.presets.begin(), cmd.presets.end(), p) == cmd.presets.end()) cmd.presets.push_back(p);
     at = comma + 1;
   }
-  if (names.empty()) names = bench_scene_names();
-  std::vector<std::string> scenes;
-  for (const std::string& n : names) {
+  if (cmd.names.empty()) cmd.names = bench_scene_names();
+  for (const std::string& n : cmd.names) {
     bool ok = false;
     for (const std::string& k : bench_scene_names()) ok |= n == k;
     if (!ok) {
-      std::fprintf(stderr, "lsnif bench: unknown scene '%s' (scenes: %s)\n", n.c_str(), known.c_str());
-      return 2;
+      std::fprintf(stderr, "lsnif bench: unknown scene '%s' (scenes: %s)\n", n.c_str(), cmd.known.c_str());
+      return false;
     }
     bool seen = false;
-    for (const std::string& s : scenes) seen |= s == n;
-    if (!seen) scenes.push_back(n);
+    for (const std::string& s : cmd.scenes) seen |= s == n;
+    if (!seen) cmd.scenes.push_back(n);
   }
-  if (!check_data_dir("bench", data_dir)) return 1;
-  for (const std::string& n : scenes)
-    for (const std::string& f : bench_scene_inputs(n, data_dir))
+  return true;
+}
+
+// True when the data folder holds every input file of the scenes; else prints what is missing.
+bool check_inputs(const BenchCommand& cmd) {
+  if (!check_data_dir("bench", cmd.data_dir)) return false;
+  for (const std::string& n : cmd.scenes)
+    for (const std::string& f : bench_scene_inputs(n, cmd.data_dir))
       if (!fs::is_regular_file(f)) {
         std::fprintf(stderr,
                      "lsnif bench: %s (needed by scene '%s') not found: run scripts/setup.sh first (it fetches "
                      "the meshes and HDR environments)\n", f.c_str(), n.c_str());
-        return 1;
+        return false;
       }
+  return true;
+}
 
-  TrainOptions topt;
-  render::RenderSettings rs;
-  apply_bench_run_options(run, topt, rs);
-  rs.primary = primary;
-  // Checked (and described for results.md) before any work; to_settings wants an output name for
-  // the loss-curve path it derives, nothing is written under it.
-  TrainSettings train_settings;
-  topt.output = (fs::path(out_dir) / "model.lsnif").string();
-  if (!topt.to_settings(train_settings)) return 2;
-
+// Creates the output folder; false (message printed) when it cannot.
+bool create_output_folder(const BenchCommand& cmd) {
   std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (ec || !fs::is_directory(out_dir)) {
-    std::fprintf(stderr, "lsnif bench: cannot create the output folder %s: %s\n", out_dir.c_str(),
+  fs::create_directories(cmd.out_dir, ec);
+  if (ec || !fs::is_directory(cmd.out_dir)) {
+    std::fprintf(stderr, "lsnif bench: cannot create the output folder %s: %s\n", cmd.out_dir.c_str(),
                  ec ? ec.message().c_str() : "not a folder");
-    return 1;
+    return false;
   }
-  vk::ComputeContext ctx;
+  return true;
+}
+
+// Initializes `ctx` for the pipelines; false (message printed) when no device can run them.
+bool init_device(const BenchCommand& cmd, vk::ComputeContext& ctx) {
   // The wavefront pipeline's options include the inline one's (ray queries besides ray tracing).
-  const bool wavefront = std::find(pipelines.begin(), pipelines.end(), render::PathPipeline::wavefront) != pipelines.end();
+  const bool wavefront =
+      std::find(cmd.pipelines.begin(), cmd.pipelines.end(), render::PathPipeline::wavefront) != cmd.pipelines.end();
   if (Status s = ctx.init(render::context_options(wavefront ? render::PathPipeline::wavefront
                                                             : render::PathPipeline::inline_rt,
-                                                  /*validation=*/false, device));
+                                                  /*validation=*/false, cmd.device));
       !s) {
     std::fprintf(stderr, "lsnif bench: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
                  s.message().c_str());
+    return false;
+  }
+  return true;
+}
+
+// Builds scene `name` into `bench` and writes it to `dir`/NAME.gltf (`gltf`) unless the file there
+// is of the same scene; `base` receives the rows' scene fields. Returns the exit code (0 ok).
+int prepare_scene(const std::string& name, const BenchCommand& cmd, BenchScene& bench, SceneRow& base,
+                  fs::path& dir, fs::path& gltf) {
+  if (Status s = make_bench_scene(name, cmd.data_dir, bench); !s) {
+    std::fprintf(stderr, "lsnif bench: %s\n", s.message().c_str());
     return 1;
   }
-
-  std::vector<SceneRow> rows;
-  for (const std::string& name : scenes) {
-    std::printf("\n== scene %s\n", name.c_str());
-    std::fflush(stdout);
-    BenchScene bench;
-    if (Status s = make_bench_scene(name, data_dir, bench); !s) {
-      std::fprintf(stderr, "lsnif bench: %s\n", s.message().c_str());
+  base.name = name;
+  base.summary = bench.summary;
+  base.triangles = object_triangles(bench);
+  dir = fs::path(cmd.out_dir) / name;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  gltf = dir / (name + ".gltf");
+  const fs::path scene_key = dir / "scene.key";
+  const std::string fingerprint = scene_fingerprint(bench) + "\n";
+  if (fs::is_regular_file(gltf) && read_text_file(scene_key.string()) == fingerprint) {
+    std::printf("scene     reusing %s (unchanged)\n", gltf.string().c_str());
+  } else {
+    if (Status s = write_bench_scene(bench, dir.string()); !s) {
+      std::fprintf(stderr, "lsnif bench: scene %s: %s\n", name.c_str(), s.message().c_str());
       return 1;
     }
-    SceneRow base;
-    base.name = name;
-    base.summary = bench.summary;
-    base.triangles = object_triangles(bench);
-    const fs::path dir = fs::path(out_dir) / name;
-    fs::create_directories(dir, ec);
-    const fs::path gltf = dir / (name + ".gltf"), scene_key = dir / "scene.key";
-    const std::string fingerprint = scene_fingerprint(bench) + "\n";
-    if (fs::is_regular_file(gltf) && read_text_file(scene_key.string()) == fingerprint) {
-      std::printf("scene     reusing %s (unchanged)\n", gltf.string().c_str());
-    } else {
-      if (Status s = write_bench_scene(bench, dir.string()); !s) {
-        std::fprintf(stderr, "lsnif bench: scene %s: %s\n", name.c_str(), s.message().c_str());
-        return 1;
-      }
-      if (!write_text_file("bench", scene_key.string(), fingerprint)) {
-        std::fprintf(stderr, "lsnif bench: cannot write %s\n", scene_key.string().c_str());
-        return 1;
-      }
-      std::printf("scene     wrote %s: %s\n", gltf.string().c_str(), bench.summary.c_str());
+    if (!write_text_file("bench", scene_key.string(), fingerprint)) {
+      std::fprintf(stderr, "lsnif bench: cannot write %s\n", scene_key.string().c_str());
+      return 1;
     }
-    std::fflush(stdout);
-
-    // The reference render of each pipeline, shared by the quality rows (it traces only meshes).
-    std::map<render::PathPipeline, ReferenceRender> references;
-    for (const std::string& preset : presets) {
-      SceneRow models = base;
-      models.preset = preset;
-      for (const BenchObject& o : bench.objects) {
-        ModelRow m;
-        m.name = o.name;
-        m.origin = o.origin;
-        m.triangles = o.mesh.triangles.size();
-        // The preset's values where the run does not set them itself (--quick keeps its tiny width).
-        TrainOptions mo = topt;
-        const Preset* quality = find_preset("quality", preset.c_str());
-        for (uint32_t v = 0; quality && v < quality->count; ++v) {
-          const PresetValue& pv = quality->values[v];
-          if (!mo.given.given[size_t(pv.id)]) mo.given.set(pv.id, {.u = uint64_t(pv.value)});
-        }
-        mo.output = (dir / model_file(o.name, preset)).string();
-        CachedModel cached;
-        if (int r = train_or_reuse("bench", o.mesh, object_fingerprint(o),
-                                   o.name + " (" + o.origin + ", " + preset + " quality)", mo, run.retrain, cached))
-          return r;
-        m.reused = cached.reused;
-        m.train_seconds = cached.train_seconds;
-        models.models.push_back(m);
-      }
-
-      // The scene file names the high models; the low rows trace the low ones in their place.
-      scene::SceneLoadOptions lo;
-      scene::Scene sc;
-      if (Status s = scene::load_scene(gltf.string(), lo, sc); !s) {
-        std::fprintf(stderr, "lsnif bench: %s\n", s.message().c_str());
-        return 1;
-      }
-      for (scene::LsnifObject& obj : sc.lsnif_objects) {
-        const fs::path high(obj.resolved_path);
-        obj.resolved_path = (high.parent_path() / model_file(high.stem().string(), preset)).string();
-      }
-      for (const render::PathPipeline pipeline : pipelines) {
-        SceneRow row = models;
-        if (pipeline != pipelines.front()) row.models.clear();  // listed once per preset
-        row.pipeline = pipeline;
-        row.image = name + (preset == "high" ? "" : "." + preset) + "." + render::pipeline_name(pipeline) + ".png";
-        render::RenderSettings prs = rs;
-        prs.pipeline = pipeline;
-        prs.stage_times = pipeline == render::PathPipeline::wavefront;
-        std::printf("\n-- %s, %s quality, %s pipeline\n", name.c_str(), preset.c_str(), render::pipeline_name(pipeline));
-        std::fflush(stdout);
-        if (Status s = render_compare(ctx, sc, prs, (fs::path(out_dir) / row.image).string(), row.cmp,
-                                  &references[pipeline]);
-            !s) {
-          std::fprintf(stderr, "lsnif bench: scene %s: %s\n", name.c_str(), s.message().c_str());
-          return 1;
-        }
-        rows.push_back(std::move(row));
-      }
-    }
+    std::printf("scene     wrote %s: %s\n", gltf.string().c_str(), bench.summary.c_str());
   }
+  std::fflush(stdout);
+  return 0;
+}
 
+// Trains (or reuses) the scene's models of quality `preset` into `dir`, listed in models.models.
+// Returns the exit code (0 ok).
+int train_preset_models(const BenchCommand& cmd, const BenchScene& bench, const std::string& preset,
+                        const TrainOptions& topt, const fs::path& dir, SceneRow& models) {
+  for (const BenchObject& o : bench.objects) {
+    ModelRow m;
+    m.name = o.name;
+    m.origin = o.origin;
+    m.triangles = o.mesh.triangles.size();
+    // The preset's values where the run does not set them itself (--quick keeps its tiny width).
+    TrainOptions mo = topt;
+    const Preset* quality = find_preset("quality", preset.c_str());
+    for (uint32_t v = 0; quality && v < quality->count; ++v) {
+      const PresetValue& pv = quality->values[v];
+      if (!mo.given.given[size_t(pv.id)]) mo.given.set(pv.id, {.u = uint64_t(pv.value)});
+    }
+    mo.output = (dir / model_file(o.name, preset)).string();
+    CachedModel cached;
+    if (int r = train_or_reuse("bench", o.mesh, object_fingerprint(o),
+                               o.name + " (" + o.origin + ", " + preset + " quality)", mo, cmd.run.retrain, cached))
+      return r;
+    m.reused = cached.reused;
+    m.train_seconds = cached.train_seconds;
+    models.models.push_back(m);
+  }
+  return 0;
+}
+
+// Loads the scene file `gltf` into `sc`, its LSNIF objects tracing the models of `preset`; false
+// (message printed) when it cannot be loaded.
+bool load_preset_scene(const fs::path& gltf, const std::string& preset, scene::Scene& sc) {
+  // The scene file names the high models; the low rows trace the low ones in their place.
+  scene::SceneLoadOptions lo;
+  if (Status s = scene::load_scene(gltf.string(), lo, sc); !s) {
+    std::fprintf(stderr, "lsnif bench: %s\n", s.message().c_str());
+    return false;
+  }
+  for (scene::LsnifObject& obj : sc.lsnif_objects) {
+    const fs::path high(obj.resolved_path);
+    obj.resolved_path = (high.parent_path() / model_file(high.stem().string(), preset)).string();
+  }
+  return true;
+}
+
+// Renders `sc` with each pipeline in reference and LSNIF mode (the reference render of a pipeline
+// taken from or kept in `references`) and appends a row per pipeline to `rows`, from `models` (the
+// scene's and preset's fields); false (message printed) on failure.
+bool render_preset(vk::ComputeContext& ctx, const BenchCommand& cmd, const scene::Scene& sc, const SceneRow& models,
+                   const render::RenderSettings& rs, std::map<render::PathPipeline, ReferenceRender>& references,
+                   std::vector<SceneRow>& rows) {
+  const std::string& name = models.name;
+  const std::string& preset = models.preset;
+  for (const render::PathPipeline pipeline : cmd.pipelines) {
+    SceneRow row = models;
+    if (pipeline != cmd.pipelines.front()) row.models.clear();  // listed once per preset
+    row.pipeline = pipeline;
+    row.image = name + (preset == "high" ? "" : "." + preset) + "." + render::pipeline_name(pipeline) + ".png";
+    render::RenderSettings prs = rs;
+    prs.pipeline = pipeline;
+    prs.stage_times = pipeline == render::PathPipeline::wavefront;
+    std::printf("\n-- %s, %s quality, %s pipeline\n", name.c_str(), preset.c_str(), render::pipeline_name(pipeline));
+    std::fflush(stdout);
+    if (Status s = render_compare(ctx, sc, prs, (fs::path(cmd.out_dir) / row.image).string(), row.cmp,
+                                  &references[pipeline]);
+        !s) {
+      std::fprintf(stderr, "lsnif bench: scene %s: %s\n", name.c_str(), s.message().c_str());
+      return false;
+    }
+    rows.push_back(std::move(row));
+  }
+  return true;
+}
+
+// One scene: built (or reused), then per preset its models trained (or reused) and its renders,
+// appended to `rows`. Returns the exit code (0 ok).
+int run_scene(vk::ComputeContext& ctx, const BenchCommand& cmd, const std::string& name, const TrainOptions& topt,
+              const render::RenderSettings& rs, std::vector<SceneRow>& rows) {
+  std::printf("\n== scene %s\n", name.c_str());
+  std::fflush(stdout);
+  BenchScene bench;
+  SceneRow base;
+  fs::path dir, gltf;
+  if (int r = prepare_scene(name, cmd, bench, base, dir, gltf)) return r;
+
+  // The reference render of each pipeline, shared by the quality rows (it traces only meshes).
+  std::map<render::PathPipeline, ReferenceRender> references;
+  for (const std::string& preset : cmd.presets) {
+    SceneRow models = base;
+    models.preset = preset;
+    if (int r = train_preset_models(cmd, bench, preset, topt, dir, models)) return r;
+    scene::Scene sc;
+    if (!load_preset_scene(gltf, preset, sc)) return 1;
+    if (!render_preset(ctx, cmd, sc, models, rs, references, rows)) return 1;
+  }
+  return 0;
+}
+
+// Writes OUT/results.md and prints the tables; false (message printed) when it cannot be written.
+bool write_report(const BenchCommand& cmd, const std::vector<SceneRow>& rows, const render::RenderSettings& rs,
+                  const vk::ComputeContext& ctx, const TrainSettings& train_settings) {
   const std::string training =
-      format("%s%s", run.quick ? "--quick: " : "", train_settings.describe().c_str());
-  const fs::path results = fs::path(out_dir) / "results.md";
+      format("%s%s", cmd.run.quick ? "--quick: " : "", train_settings.describe().c_str());
+  const fs::path results = fs::path(cmd.out_dir) / "results.md";
   if (!write_text_file("bench", results.string(), results_markdown(rows, rs, ctx.device_name(), training))) {
     std::fprintf(stderr, "lsnif bench: cannot write %s\n", results.string().c_str());
-    return 1;
+    return false;
   }
   std::printf("\n%s\n%s\nwrote %s and the images beside it\n", table(rows).c_str(), stage_table(rows).c_str(),
               results.string().c_str());
-  return 0;
+  return true;
+}
+
+}  // namespace
+
+int cmd_bench(int argc, char** argv) {
+  BenchCommand cmd;
+  if (const std::optional<int> r = parse_command_line(argc, argv, cmd)) return *r;
+  if (!check_choices(cmd)) return 2;
+  if (!check_inputs(cmd)) return 1;
+
+  TrainOptions topt;
+  render::RenderSettings rs;
+  apply_bench_run_options(cmd.run, topt, rs);
+  rs.primary = cmd.primary;
+  // Checked (and described for results.md) before any work; to_settings wants an output name for
+  // the loss-curve path it derives, nothing is written under it.
+  TrainSettings train_settings;
+  topt.output = (fs::path(cmd.out_dir) / "model.lsnif").string();
+  if (!topt.to_settings(train_settings)) return 2;
+
+  if (!create_output_folder(cmd)) return 1;
+  vk::ComputeContext ctx;
+  if (!init_device(cmd, ctx)) return 1;
+
+  std::vector<SceneRow> rows;
+  for (const std::string& name : cmd.scenes)
+    if (int r = run_scene(ctx, cmd, name, topt, rs, rows)) return r;
+  return write_report(cmd, rows, rs, ctx, train_settings) ? 0 : 1;
 }
 
 }  // namespace lsnif::cli

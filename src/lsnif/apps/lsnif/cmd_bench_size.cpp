@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -245,14 +246,21 @@ std::string results_markdown(const std::vector<SizeRow>& rows, const std::vector
   return md;
 }
 
-}  // namespace
-
-int cmd_bench_size(int argc, char** argv) {
+// The command line as given, then as checked (pipeline, settings, meshes).
+struct SizeCommand {
   std::vector<std::string> names;
   std::string out_dir = "out/bench-size", data_dir = default_data_dir(), device, pipeline_name = "inline";
   std::string settings_text = kDefaultSettings;
   BenchRunOptions run;
   uint32_t rays = 0;
+  std::string known;  // the meshes' names, for the help and messages
+  render::PathPipeline pipeline{};
+  std::vector<SizeSetting> settings;
+  std::vector<std::string> meshes;
+};
+
+// Reads the options into `cmd`; the exit code when the command ends here (help, a bad option).
+std::optional<int> parse_command_line(int argc, char** argv, SizeCommand& cmd) {
   std::string named;
   for (const NamedSetting& n : kNamedSettings)
     named += format("%s%s (%s)", named.empty() ? "" : ", ", n.name, *n.values ? n.values : "the defaults");
@@ -262,95 +270,109 @@ int cmd_bench_size(int argc, char** argv) {
             "like `lsnif eval`, renders it against the triangle reference (FLIP), and writes OUT/results.md:\n"
             "model bytes, eval metrics and FLIP per mesh and setting, and per setting the triangle BLAS of the\n"
             "`heavy` scene (~3M triangles) over its LSNIF models' device memory.");
-  std::string known;
-  for (const std::string& n : bench_mesh_names()) known += (known.empty() ? "" : ", ") + n;
-  args.rest("MESH", "meshes to run: " + known + " (default: all)", &names);
+  for (const std::string& n : bench_mesh_names()) cmd.known += (cmd.known.empty() ? "" : ", ") + n;
+  args.rest("MESH", "meshes to run: " + cmd.known + " (default: all)", &cmd.names);
   args.option("settings", "comma-separated settings, the first being the baseline of the ratios: named ones, " +
               named + ", or NAME=VALUE pairs of `lsnif train` options joined by '+' (a list value such as "
-              "table-log2=15,17 keeps its commas)", &settings_text);
-  args.option("out", "output folder", &out_dir);
-  args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &data_dir);
-  args.option("rays", "held-out eval rays (0: 100000, --quick 4000)", &rays);
-  add_bench_run_options(args, &run);
-  add_pipeline_option(args, &pipeline_name);
-  add_device_option(args, &device);
+              "table-log2=15,17 keeps its commas)", &cmd.settings_text);
+  args.option("out", "output folder", &cmd.out_dir);
+  args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &cmd.data_dir);
+  args.option("rays", "held-out eval rays (0: 100000, --quick 4000)", &cmd.rays);
+  add_bench_run_options(args, &cmd.run);
+  add_pipeline_option(args, &cmd.pipeline_name);
+  add_device_option(args, &cmd.device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
+  return std::nullopt;
+}
 
-  render::PathPipeline pipeline;
-  if (!parse_pipeline_option("bench-size", pipeline_name, pipeline)) return 2;
-  std::vector<SizeSetting> settings;
-  if (!parse_settings(settings_text, settings)) return 2;
-  if (names.empty()) names = bench_mesh_names();
-  std::vector<std::string> meshes;
-  for (const std::string& n : names) {
+// Checks --pipeline, --settings and the mesh names into cmd.pipeline, cmd.settings and cmd.meshes
+// (each once, in order); false (message printed) on an invalid one.
+bool check_choices(SizeCommand& cmd) {
+  if (!parse_pipeline_option("bench-size", cmd.pipeline_name, cmd.pipeline)) return false;
+  if (!parse_settings(cmd.settings_text, cmd.settings)) return false;
+  if (cmd.names.empty()) cmd.names = bench_mesh_names();
+  for (const std::string& n : cmd.names) {
     if (std::find(bench_mesh_names().begin(), bench_mesh_names().end(), n) == bench_mesh_names().end()) {
-      std::fprintf(stderr, "lsnif bench-size: unknown mesh '%s' (meshes: %s)\n", printable(n).c_str(), known.c_str());
-      return 2;
+      std::fprintf(stderr, "lsnif bench-size: unknown mesh '%s' (meshes: %s)\n", printable(n).c_str(),
+                   cmd.known.c_str());
+      return false;
     }
-    if (std::find(meshes.begin(), meshes.end(), n) == meshes.end()) meshes.push_back(n);
+    if (std::find(cmd.meshes.begin(), cmd.meshes.end(), n) == cmd.meshes.end()) cmd.meshes.push_back(n);
   }
-  if (!check_data_dir("bench-size", data_dir)) return 1;
-  std::vector<std::string> inputs = bench_scene_inputs("heavy", data_dir);
-  for (const std::string& n : meshes) {
-    const std::vector<std::string> more = bench_mesh_inputs(n, data_dir);
+  return true;
+}
+
+// True when the data folder holds every input file of the heavy scene and the meshes; else prints
+// what is missing.
+bool check_inputs(const SizeCommand& cmd) {
+  if (!check_data_dir("bench-size", cmd.data_dir)) return false;
+  std::vector<std::string> inputs = bench_scene_inputs("heavy", cmd.data_dir);
+  for (const std::string& n : cmd.meshes) {
+    const std::vector<std::string> more = bench_mesh_inputs(n, cmd.data_dir);
     inputs.insert(inputs.end(), more.begin(), more.end());
   }
   for (const std::string& f : inputs)
     if (!fs::is_regular_file(f)) {
       std::fprintf(stderr, "lsnif bench-size: %s not found: run scripts/setup.sh first (it fetches the meshes and HDR "
                            "environments)\n", f.c_str());
-      return 1;
+      return false;
     }
+  return true;
+}
 
-  TrainOptions base;
-  render::RenderSettings rs;
-  apply_bench_run_options(run, base, rs);
-  rs.pipeline = pipeline;
-  EvalSettings es;
-  es.rays = rays ? rays : run.quick ? 4000 : es.rays;
-  base.quiet = true;
-  // Every setting's options, checked (ranges, combinations) before any work.
-  std::vector<TrainOptions> options;
-  for (const SizeSetting& s : settings) {
+// Every setting's options: `base` with the setting's values, checked (ranges, combinations) before
+// any work; false (message printed) on an invalid one.
+bool setting_options(const SizeCommand& cmd, const TrainOptions& base, std::vector<TrainOptions>& options) {
+  for (const SizeSetting& s : cmd.settings) {
     TrainOptions o = base;
     for (size_t i = 0; i < kSettingCount; ++i)
       if (s.layer.given[i]) {
         const SettingId id = static_cast<SettingId>(i);
         o.given.set(id, s.layer.values[id], s.layer.choice[i]);
       }
-    o.output = (fs::path(out_dir) / "model.lsnif").string();
+    o.output = (fs::path(cmd.out_dir) / "model.lsnif").string();
     TrainSettings ts;
     if (!o.to_settings(ts)) {
       std::fprintf(stderr, "lsnif bench-size: (in --settings entry '%s')\n", printable(s.name).c_str());
-      return 2;
+      return false;
     }
     options.push_back(std::move(o));
   }
-  TrainSettings base_settings;
-  if (!options.front().to_settings(base_settings)) return 2;
+  return true;
+}
 
+// Creates the output folder; false (message printed) when it cannot.
+bool create_output_folder(const SizeCommand& cmd) {
   std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (ec || !fs::is_directory(out_dir)) {
-    std::fprintf(stderr, "lsnif bench-size: cannot create the output folder %s: %s\n", out_dir.c_str(),
+  fs::create_directories(cmd.out_dir, ec);
+  if (ec || !fs::is_directory(cmd.out_dir)) {
+    std::fprintf(stderr, "lsnif bench-size: cannot create the output folder %s: %s\n", cmd.out_dir.c_str(),
                  ec ? ec.message().c_str() : "not a folder");
-    return 1;
+    return false;
   }
-  vk::ComputeContext ctx;
-  if (Status s = ctx.init(render::context_options(pipeline, /*validation=*/false, device)); !s) {
+  return true;
+}
+
+// Initializes `ctx` for the pipeline; false (message printed) when no device can run it.
+bool init_device(const SizeCommand& cmd, vk::ComputeContext& ctx) {
+  if (Status s = ctx.init(render::context_options(cmd.pipeline, /*validation=*/false, cmd.device)); !s) {
     std::fprintf(stderr, "lsnif bench-size: no usable Vulkan ray-tracing device (`lsnif devices` tells what is "
                          "missing): %s\n", s.message().c_str());
-    return 1;
+    return false;
   }
+  return true;
+}
 
+// Builds the heavy scene into `heavy` and sums its triangle BLAS sizes into `heavy_blas`; false
+// (message printed) on failure.
+bool measure_heavy_blas(vk::ComputeContext& ctx, const SizeCommand& cmd, BenchScene& heavy, uint64_t& heavy_blas) {
   // The heavy scene's meshes (subdivided as `lsnif bench` builds them): their triangle BLAS sizes.
   std::printf("\n== the heavy scene's triangle BLASes\n");
   std::fflush(stdout);
-  BenchScene heavy;
   vk::RayTracer rt(ctx);
-  Status hs = make_bench_scene("heavy", data_dir, heavy);
+  Status hs = make_bench_scene("heavy", cmd.data_dir, heavy);
   if (hs) hs = rt.init();
-  uint64_t heavy_blas = 0;
+  heavy_blas = 0;
   for (size_t i = 0; hs && i < heavy.objects.size(); ++i) {
     const Mesh& m = heavy.objects[i].mesh;
     vk::BlasSizes sizes;
@@ -360,73 +382,136 @@ int cmd_bench_size(int argc, char** argv) {
   }
   if (!hs) {
     std::fprintf(stderr, "lsnif bench-size: heavy scene: %s\n", hs.message().c_str());
+    return false;
+  }
+  return true;
+}
+
+// What the measurements share.
+struct SizeBench {
+  vk::ComputeContext& ctx;
+  const SizeCommand& cmd;
+  const std::vector<TrainOptions>& options;  // per setting
+  const render::RenderSettings& rs;
+  const EvalSettings& es;
+  const BenchScene& heavy;
+  uint64_t heavy_blas;   // the heavy scene's triangle BLAS bytes
+  std::string training;  // the base training, described
+  fs::path results;      // OUT/results.md
+};
+
+// Writes results.md from the rows measured so far; false (message printed) when it cannot.
+bool write_results(const SizeBench& b, const std::vector<SizeRow>& rows) {
+  return write_text_file("bench-size", b.results.string(),
+                         results_markdown(rows, heavy_table_rows(b.heavy, b.heavy_blas, b.cmd.settings, rows),
+                                          b.cmd.settings, b.rs, b.es.rays, b.ctx.device_name(), b.training));
+}
+
+// Setting k on one mesh (its model in `dir`, trained or reused): the model bytes, its eval metrics
+// and the FLIP of its render against the triangle reference, into `row`. Returns the exit code (0 ok).
+int measure_setting(const SizeBench& b, const std::string& mesh_name, const Mesh& mesh, const std::string& hdr,
+                    const std::string& fingerprint, const fs::path& dir, size_t k, SizeRow& row) {
+  const SizeSetting& setting = b.cmd.settings[k];
+  row.mesh = mesh_name;
+  row.setting = setting.name;
+  TrainOptions o = b.options[k];
+  o.output = (dir / (setting.name + ".lsnif")).string();
+  std::printf("\n-- %s, setting %s\n", mesh_name.c_str(), setting.name.c_str());
+  if (int r = train_or_reuse("bench-size", mesh, fingerprint, mesh_name, o, b.cmd.run.retrain, row.cached)) return r;
+  std::error_code ec;
+  row.model_bytes = fs::file_size(o.output, ec);
+  Model model;
+  Status s = ec ? Status::error("%s: %s", o.output.c_str(), ec.message().c_str()) : load_model(o.output, model);
+  EvalReport report;
+  if (s) s = evaluate_model(model, mesh, b.es, report);
+  if (!s) {
+    std::fprintf(stderr, "lsnif bench-size: %s\n", s.message().c_str());
     return 1;
   }
-  const std::string training = format("%s%s", run.quick ? "--quick: " : "", base_settings.describe().c_str());
-  const fs::path results = fs::path(out_dir) / "results.md";
-  // Written after every row, so that an interrupted run leaves the rows it measured.
-  std::vector<SizeRow> rows;
-  const auto write_results = [&]() {
-    return write_text_file("bench-size", results.string(),
-                           results_markdown(rows, heavy_table_rows(heavy, heavy_blas, settings, rows), settings, rs,
-                                            es.rays, ctx.device_name(), training));
-  };
-  for (const std::string& mesh_name : meshes) {
-    std::printf("\n== mesh %s\n", mesh_name.c_str());
-    std::fflush(stdout);
-    Mesh mesh;
-    std::string hdr;
-    if (Status s = load_bench_mesh(mesh_name, data_dir, mesh, hdr); !s) {
-      std::fprintf(stderr, "lsnif bench-size: %s\n", s.message().c_str());
-      return 1;
-    }
-    const fs::path dir = fs::path(out_dir) / mesh_name;
-    fs::create_directories(dir, ec);
-    if (ec) {
-      std::fprintf(stderr, "lsnif bench-size: cannot create %s: %s\n", dir.string().c_str(), ec.message().c_str());
-      return 1;
-    }
-    const std::string fingerprint = mesh_fingerprint(mesh);
-    for (size_t k = 0; k < settings.size(); ++k) {
-      SizeRow row;
-      row.mesh = mesh_name;
-      row.setting = settings[k].name;
-      TrainOptions o = options[k];
-      o.output = (dir / (settings[k].name + ".lsnif")).string();
-      std::printf("\n-- %s, setting %s\n", mesh_name.c_str(), settings[k].name.c_str());
-      if (int r = train_or_reuse("bench-size", mesh, fingerprint, mesh_name, o, run.retrain, row.cached)) return r;
-      row.model_bytes = fs::file_size(o.output, ec);
-      Model model;
-      Status s = ec ? Status::error("%s: %s", o.output.c_str(), ec.message().c_str()) : load_model(o.output, model);
-      EvalReport report;
-      if (s) s = evaluate_model(model, mesh, es, report);
-      if (!s) {
-        std::fprintf(stderr, "lsnif bench-size: %s\n", s.message().c_str());
-        return 1;
-      }
-      row.eval = report.model;
-      std::printf("eval      occlusion %.2f%%, t error median %.3f%%, normal error median %.2f deg (%zu rays)\n",
-                  100.0 * row.eval.accuracy, 100.0 * row.eval.t_error_median, row.eval.normal_error_median, es.rays);
-      row.image = mesh_name + "-" + settings[k].name + ".png";
-      CompareReport cmp;
-      if (s = render_compare(ctx, object_on_ground(mesh, o.output, hdr), rs, (fs::path(out_dir) / row.image).string(),
-                             cmp);
-          !s) {
-        std::fprintf(stderr, "lsnif bench-size: %s, setting %s: %s\n", mesh_name.c_str(), settings[k].name.c_str(),
-                     s.message().c_str());
-        return 1;
-      }
-      row.flip_mean = cmp.flip_mean;
-      row.device_bytes = cmp.lsnif.lsnif_bytes;
-      rows.push_back(std::move(row));
-      if (!write_results()) return 1;
-      std::fflush(stdout);
-    }
+  row.eval = report.model;
+  std::printf("eval      occlusion %.2f%%, t error median %.3f%%, normal error median %.2f deg (%zu rays)\n",
+              100.0 * row.eval.accuracy, 100.0 * row.eval.t_error_median, row.eval.normal_error_median, b.es.rays);
+  row.image = mesh_name + "-" + setting.name + ".png";
+  CompareReport cmp;
+  if (s = render_compare(b.ctx, object_on_ground(mesh, o.output, hdr), b.rs,
+                         (fs::path(b.cmd.out_dir) / row.image).string(), cmp);
+      !s) {
+    std::fprintf(stderr, "lsnif bench-size: %s, setting %s: %s\n", mesh_name.c_str(), setting.name.c_str(),
+                 s.message().c_str());
+    return 1;
   }
+  row.flip_mean = cmp.flip_mean;
+  row.device_bytes = cmp.lsnif.lsnif_bytes;
+  return 0;
+}
 
-  std::vector<HeavyRow> heavy_rows = heavy_table_rows(heavy, heavy_blas, settings, rows);
+// One mesh: loaded, then every setting measured, its row appended to `rows` and results.md
+// rewritten. Returns the exit code (0 ok).
+int run_mesh(const SizeBench& b, const std::string& mesh_name, std::vector<SizeRow>& rows) {
+  std::printf("\n== mesh %s\n", mesh_name.c_str());
+  std::fflush(stdout);
+  Mesh mesh;
+  std::string hdr;
+  if (Status s = load_bench_mesh(mesh_name, b.cmd.data_dir, mesh, hdr); !s) {
+    std::fprintf(stderr, "lsnif bench-size: %s\n", s.message().c_str());
+    return 1;
+  }
+  const fs::path dir = fs::path(b.cmd.out_dir) / mesh_name;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) {
+    std::fprintf(stderr, "lsnif bench-size: cannot create %s: %s\n", dir.string().c_str(), ec.message().c_str());
+    return 1;
+  }
+  const std::string fingerprint = mesh_fingerprint(mesh);
+  for (size_t k = 0; k < b.cmd.settings.size(); ++k) {
+    SizeRow row;
+    if (int r = measure_setting(b, mesh_name, mesh, hdr, fingerprint, dir, k, row)) return r;
+    rows.push_back(std::move(row));
+    if (!write_results(b, rows)) return 1;
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int cmd_bench_size(int argc, char** argv) {
+  SizeCommand cmd;
+  if (const std::optional<int> r = parse_command_line(argc, argv, cmd)) return *r;
+  if (!check_choices(cmd)) return 2;
+  if (!check_inputs(cmd)) return 1;
+
+  TrainOptions base;
+  render::RenderSettings rs;
+  apply_bench_run_options(cmd.run, base, rs);
+  rs.pipeline = cmd.pipeline;
+  EvalSettings es;
+  es.rays = cmd.rays ? cmd.rays : cmd.run.quick ? 4000 : es.rays;
+  base.quiet = true;
+  std::vector<TrainOptions> options;
+  if (!setting_options(cmd, base, options)) return 2;
+  TrainSettings base_settings;
+  if (!options.front().to_settings(base_settings)) return 2;
+
+  if (!create_output_folder(cmd)) return 1;
+  vk::ComputeContext ctx;
+  if (!init_device(cmd, ctx)) return 1;
+  BenchScene heavy;
+  uint64_t heavy_blas = 0;
+  if (!measure_heavy_blas(ctx, cmd, heavy, heavy_blas)) return 1;
+
+  const SizeBench bench{ctx, cmd, options, rs, es, heavy, heavy_blas,
+                        format("%s%s", cmd.run.quick ? "--quick: " : "", base_settings.describe().c_str()),
+                        fs::path(cmd.out_dir) / "results.md"};
+  // results.md is written after every row, so that an interrupted run leaves the rows it measured.
+  std::vector<SizeRow> rows;
+  for (const std::string& mesh_name : cmd.meshes)
+    if (int r = run_mesh(bench, mesh_name, rows)) return r;
+
+  std::vector<HeavyRow> heavy_rows = heavy_table_rows(heavy, heavy_blas, cmd.settings, rows);
   std::printf("\n%s\n%s\nwrote %s and the images beside it\n", size_table(rows).c_str(), heavy_table(heavy_rows).c_str(),
-              results.string().c_str());
+              bench.results.string().c_str());
   return 0;
 }
 
