@@ -144,6 +144,98 @@ TEST_F(HostileCli, DeepJsonIsAnErrorForEveryCommand) {
   }
 }
 
+// The node graph is read by one reader (lsnif/import/gltf_scene.h) for every command: train, eval,
+// render and convert give a file the same verdict. `file` is a scene in the work folder's scene/
+// with quad.bin beside it; each command must fail with `message`.
+void expect_every_command_refuses(const std::string& file, const std::string& work, const std::string& model,
+                                  const std::string& message) {
+  const std::vector<std::vector<std::string>> runs = {
+      with_tiny({"train", file, "-o", work + "/t.lsnif"}),
+      {"eval", model, file, "--rays", "100"},
+      {"render", file, "-o", work + "/r.png", "--width", "8", "--height", "8", "--spp", "1"},
+      with_tiny({"convert", file, "-o", work + "/c/out.gltf", "--min-triangles", "1"}),
+  };
+  for (const std::vector<std::string>& run : runs) {
+    SCOPED_TRACE(run[0]);
+    EXPECT_FAILS_WITH(lsnif_run(run), 1, message);
+  }
+  EXPECT_FALSE(fs::exists(work + "/t.lsnif"));
+  EXPECT_FALSE(fs::exists(work + "/r.png"));
+  EXPECT_FALSE(fs::exists(work + "/c/out.gltf"));
+}
+
+// The quad scene as every command accepts it: the control of the node-graph cases below.
+TEST_F(HostileCli, NodeGraphControlPassesEveryCommand) {
+  put(path("scene/quad.bin"), quad_bin());
+  put(path("scene/quad.gltf"), quad_scene("quad.bin").dump());
+  const std::string file = path("scene/quad.gltf");
+  const std::vector<std::vector<std::string>> runs = {
+      with_tiny({"train", file, "-o", path("t.lsnif")}),
+      {"eval", path("t.lsnif"), file, "--rays", "100"},
+      {"render", file, "-o", path("r.png"), "--width", "8", "--height", "8", "--spp", "1"},
+      with_tiny({"convert", file, "-o", path("c/out.gltf"), "--min-triangles", "1", "--dry-run"}),
+  };
+  for (const std::vector<std::string>& run : runs) {
+    SCOPED_TRACE(run[0]);
+    const ProcessResult r = lsnif_run(run);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+  }
+}
+
+// Nodes sharing children 40 levels deep (2^40 paths from 80 nodes in a small file): the training
+// importer used to walk every path and allocate gigabytes while the renderer refused the file. A
+// node is reached at most once now, by every command.
+TEST_F(HostileCli, SharedChildrenAreRefusedByEveryCommand) {
+  put(path("scene/quad.bin"), quad_bin());
+  json j = quad_scene("quad.bin");
+  constexpr int kLevels = 40;
+  json nodes = json::array({j["nodes"][0], j["nodes"][1]});
+  for (int level = 0; level < kLevels; ++level)
+    for (int k = 0; k < 2; ++k) {
+      json n = {{"name", "level" + std::to_string(level) + (k ? "b" : "a")}, {"mesh", 0}};
+      if (level + 1 < kLevels) n["children"] = {2 + 2 * (level + 1), 3 + 2 * (level + 1)};
+      nodes.push_back(n);
+    }
+  j["nodes"] = nodes;
+  j["scenes"][0]["nodes"] = {0, 1, 2, 3};
+  put(path("scene/shared.gltf"), j.dump());
+  EXPECT_LT(fs::file_size(path("scene/shared.gltf")), 32u * 1024u);
+  expect_every_command_refuses(path("scene/shared.gltf"), work_.string(), model_,
+                               "node 80 ('level39a') is reached a second time");
+}
+
+TEST_F(HostileCli, NonAffineMatrixIsRefusedByEveryCommand) {
+  put(path("scene/quad.bin"), quad_bin());
+  json j = quad_scene("quad.bin");
+  j["nodes"][0]["matrix"] = {1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  put(path("scene/projective.gltf"), j.dump());
+  expect_every_command_refuses(path("scene/projective.gltf"), work_.string(), model_,
+                               "node 0 ('ground'): matrix is not affine");
+}
+
+TEST_F(HostileCli, ZeroQuaternionIsRefusedByEveryCommand) {
+  put(path("scene/quad.bin"), quad_bin());
+  json j = quad_scene("quad.bin");
+  j["nodes"][0]["rotation"] = {0, 0, 0, 0};
+  put(path("scene/zero_rotation.gltf"), j.dump());
+  expect_every_command_refuses(path("scene/zero_rotation.gltf"), work_.string(), model_,
+                               "node 0 ('ground'): rotation quaternion has zero length");
+}
+
+// JSON has no NaN: a number past the double range is read as infinity, and infinity times the zero
+// entries of a transform is NaN.
+TEST_F(HostileCli, NonFiniteMatrixIsRefusedByEveryCommand) {
+  put(path("scene/quad.bin"), quad_bin());
+  std::string text = quad_scene("quad.bin").dump();
+  const std::string ground = R"({"mesh":0,"name":"ground"})";
+  ASSERT_NE(text.find(ground), std::string::npos) << text;
+  text.replace(text.find(ground), ground.size(),
+               R"({"mesh":0,"name":"ground","matrix":[1e999,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]})");
+  put(path("scene/infinite.gltf"), text);
+  expect_every_command_refuses(path("scene/infinite.gltf"), work_.string(), model_,
+                               "node 0 ('ground'): NaN or infinite value in its matrix");
+}
+
 TEST_F(HostileCli, PatternsOnHugeNamesAndZeroVoxels) {
   put(path("scene/quad.bin"), quad_bin());
   json j = quad_scene("quad.bin");

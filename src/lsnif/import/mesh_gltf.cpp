@@ -1,7 +1,7 @@
-// mesh_gltf.cpp -- glTF 2.0 (.gltf / .glb) reader on top of tinygltf. The default scene's node
-// hierarchy is flattened into one object-space triangle soup: node transforms (matrix or TRS) are
-// applied to positions, their inverse transpose to normals, and the winding flips under mirroring
-// transforms. TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives are kept (others are skipped
+// mesh_gltf.cpp -- glTF 2.0 (.gltf / .glb) reader on top of tinygltf. The default scene's nodes
+// (walked by read_gltf_scene, gltf_scene.h: the same rules as the renderer's scene loader) are
+// flattened into one object-space triangle soup: world transforms are applied to positions, their
+// inverse transpose to normals, and the winding flips under mirroring transforms. TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives are kept (others are skipped
 // with a warning). Loading and every checked read of the file's data go through gltf_access.h
 // (library lsnif_import), shared with the renderer's scene loader.
 #include <algorithm>
@@ -11,6 +11,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "lsnif/import/gltf_access.h"
+#include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/mesh_formats.h"
 #include "lsnif/import/mesh_gltf.h"
 
@@ -19,8 +20,6 @@ namespace {
 
 constexpr uint64_t kMaxPixels = uint64_t(1) << 27;      // per texture
 constexpr size_t kMaxAccessorCount = size_t(1) << 40;  // elements per accessor
-constexpr int kMaxNodeDepth = 256;
-constexpr size_t kMaxNodeVisits = size_t(1) << 20;
 
 class GltfFlattener {
  public:
@@ -54,26 +53,24 @@ class GltfFlattener {
   }
 
   Status run() {
-    std::vector<int> roots;
-    if (!model_.scenes.empty()) {
-      int s = model_.defaultScene >= 0 && size_t(model_.defaultScene) < model_.scenes.size()
-                  ? model_.defaultScene : 0;
-      roots = model_.scenes[size_t(s)].nodes;
-    } else if (!model_.nodes.empty()) {
-      roots = gltf::parentless_nodes(model_);
-      if (roots.empty())
-        return Status::error("%s: no scene and no root node (every node has a parent)", file());
-    } else {
+    GltfScene walk;  // the node graph's rules: gltf_scene.h
+    Status s = read_gltf_scene(model_, name_, walk);
+    if (!s) return s;
+    if (model_.scenes.empty() && model_.nodes.empty()) {
       report_.warnings.push_back(format("%s: no scene and no nodes; importing every mesh untransformed",
                                         file()));
       for (size_t m = 0; m < model_.meshes.size(); ++m) {
-        Status s = add_mesh(int(m), glm::dmat4(1.0));
+        s = add_mesh(int(m), glm::dmat4(1.0));
         if (!s) return s;
       }
     }
-    on_path_.assign(model_.nodes.size(), 0);
-    for (int r : roots) {
-      Status s = visit(r, glm::dmat4(1.0), 0);
+    for (const GltfSceneNode& n : walk.nodes) {
+      const tinygltf::Node& node = model_.nodes[size_t(n.node)];
+      if (node.mesh < 0) continue;
+      if (size_t(node.mesh) >= model_.meshes.size())
+        return Status::error("%s: %s references missing mesh %d (%zu meshes)", file(),
+                             gltf_node_label(model_, n.node).c_str(), node.mesh, model_.meshes.size());
+      s = add_mesh(node.mesh, n.world);
       if (!s) return s;
     }
     if (skipped_primitives_)
@@ -87,30 +84,6 @@ class GltfFlattener {
 
  private:
   const char* file() const { return name_.c_str(); }
-
-  Status visit(int index, const glm::dmat4& parent, int depth) {
-    if (index < 0 || size_t(index) >= model_.nodes.size())
-      return Status::error("%s: node %d does not exist", file(), index);
-    if (on_path_[size_t(index)])
-      return Status::error("%s: node %d is its own ancestor (cyclic node hierarchy)", file(), index);
-    if (depth > kMaxNodeDepth || ++visits_ > kMaxNodeVisits)
-      return Status::error("%s: node hierarchy too deep or too many node instances", file());
-    const tinygltf::Node& node = model_.nodes[size_t(index)];
-    const glm::dmat4 world = parent * gltf_node_transform(node);
-    if (node.mesh >= 0) {
-      if (size_t(node.mesh) >= model_.meshes.size())
-        return Status::error("%s: node %d references missing mesh %d", file(), index, node.mesh);
-      Status s = add_mesh(node.mesh, world);
-      if (!s) return s;
-    }
-    on_path_[size_t(index)] = 1;
-    for (int c : node.children) {
-      Status s = visit(c, world, depth + 1);
-      if (!s) return s;
-    }
-    on_path_[size_t(index)] = 0;
-    return Status::ok();
-  }
 
   Status add_mesh(int mesh_index, const glm::dmat4& world) {
     const tinygltf::Mesh& m = model_.meshes[size_t(mesh_index)];
@@ -308,9 +281,7 @@ class GltfFlattener {
   std::vector<int> material_map_;  // glTF material -> mesh material (-1: not yet)
   std::vector<int> texture_map_;   // glTF image -> mesh texture (-2: not yet, -1: unusable)
   std::vector<uint8_t> warned_mesh_;
-  std::vector<uint8_t> on_path_;
   int default_material_ = -1;
-  size_t visits_ = 0;
   uint32_t skipped_primitives_ = 0;
 };
 
@@ -318,19 +289,6 @@ class GltfFlattener {
 }  // namespace lsnif::mesh_io
 
 namespace lsnif {
-
-glm::dmat4 gltf_node_transform(const tinygltf::Node& node) {
-  if (node.matrix.size() == 16) return glm::make_mat4(node.matrix.data());  // column-major
-  glm::dmat4 m(1.0);
-  if (node.translation.size() == 3)
-    m = glm::translate(m, glm::dvec3(node.translation[0], node.translation[1], node.translation[2]));
-  if (node.rotation.size() == 4)  // glTF stores (x, y, z, w)
-    m *= glm::mat4_cast(glm::dquat(node.rotation[3], node.rotation[0], node.rotation[1],
-                                   node.rotation[2]));
-  if (node.scale.size() == 3)
-    m = glm::scale(m, glm::dvec3(node.scale[0], node.scale[1], node.scale[2]));
-  return m;
-}
 
 Status flatten_gltf_meshes(const tinygltf::Model& model, const std::vector<GltfMeshPart>& parts,
                            const std::string& name, Mesh& mesh, std::vector<int>& material_sources,

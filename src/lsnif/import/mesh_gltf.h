@@ -13,10 +13,6 @@
 
 namespace lsnif {
 
-// A node's local transform: its "matrix" when it has 16 values, else translation * rotation *
-// scale (missing parts are the identity).
-glm::dmat4 gltf_node_transform(const tinygltf::Node& node);
-
 // One glTF mesh placed with `transform` (object space of the mesh -> the flattened mesh's space).
 struct GltfMeshPart {
   int mesh = -1;

@@ -111,19 +111,5 @@ TEST(FlattenGltfMeshes, BadPartsAreErrorsNamingTheMesh) {
   EXPECT_TRUE(mesh.triangles.empty());
 }
 
-TEST(GltfNodeTransform, MatrixOrTranslationRotationScale) {
-  tinygltf::Node n;
-  n.translation = {1, 2, 3};
-  n.rotation = {0, 0.7071067811865476, 0, 0.7071067811865476};  // 90 degrees about +y
-  n.scale = {2, 2, 2};
-  const glm::dvec4 p = gltf_node_transform(n) * glm::dvec4(1, 0, 0, 1);
-  // Scale to (2, 0, 0), rotate +x to -z: (0, 0, -2), translate: (1, 2, 1).
-  EXPECT_NEAR(p.x, 1.0, 1e-12);
-  EXPECT_NEAR(p.y, 2.0, 1e-12);
-  EXPECT_NEAR(p.z, 1.0, 1e-12);
-  n.matrix = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 7, 8, 9, 1};  // the matrix wins
-  EXPECT_EQ(gltf_node_transform(n)[3], glm::dvec4(7, 8, 9, 1));
-}
-
 }  // namespace
 }  // namespace lsnif

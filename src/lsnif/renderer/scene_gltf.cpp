@@ -26,6 +26,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "lsnif/import/gltf_access.h"
+#include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/json_text.h"
 #include "lsnif/import/resolve_path.h"
 
@@ -34,8 +35,6 @@ namespace {
 
 constexpr uint64_t kMaxPixels = uint64_t(1) << 26;       // per texture (8192 x 8192)
 constexpr size_t kMaxVertices = size_t(1) << 30;         // per accessor
-constexpr int kMaxNodeDepth = 256;
-constexpr size_t kMaxNodeVisits = size_t(1) << 20;
 constexpr size_t kMaxMessageChars = 600;  // of tinygltf's error and warning text
 constexpr size_t kMaxListedWarnings = 8;  // per kind; the rest are counted in a summary line
 constexpr const char* kNodeExtension = "LSNIF_neural_object";
@@ -70,21 +69,6 @@ bool number_of(const tinygltf::Value& v, double& out) {
   return std::isfinite(out);
 }
 
-// Affine, finite, invertible (relative to the size of its columns) after conversion to float.
-Status check_world_transform(const glm::dmat4& world, glm::mat4& out) {
-  for (int c = 0; c < 4; ++c)
-    for (int r = 0; r < 4; ++r) {
-      out[c][r] = to_float(world[c][r]);
-      if (!std::isfinite(out[c][r])) return Status::error("NaN or infinite value in its world transform");
-    }
-  const glm::dmat3 m = glm::dmat3(glm::dmat4(out));
-  const double norms = glm::length(m[0]) * glm::length(m[1]) * glm::length(m[2]);
-  const double det = glm::determinant(m);
-  if (!(norms > 1e-30) || !(std::abs(det) > 1e-6 * norms))
-    return Status::error("non-invertible world transform (determinant %g)", det);
-  return Status::ok();
-}
-
 class SceneBuilder {
  public:
   SceneBuilder(const tinygltf::Model& model, const std::string& name, const std::string& base_dir,
@@ -99,26 +83,15 @@ class SceneBuilder {
     if (s) s = resolve_overrides();
     if (s) s = load_environment();
     if (!s) return s;
-    std::vector<int> roots;
-    if (!model_.scenes.empty()) {
-      int si = model_.defaultScene;
-      if (si >= int(model_.scenes.size()))
-        return Status::error("%s: default scene %d does not exist (%zu scenes)", file(), si,
-                             model_.scenes.size());
-      if (si < 0) si = 0;
-      roots = model_.scenes[size_t(si)].nodes;
-    } else if (!model_.nodes.empty()) {
-      warn("no 'scenes': rendering every root node");
-      roots = gltf::parentless_nodes(model_);
-      if (roots.empty())
-        return Status::error("%s: no scene and no root node (every node has a parent)", file());
-    } else {
+    if (model_.scenes.empty() && model_.nodes.empty())
       return Status::error("%s: the file has no scenes and no nodes", file());
-    }
-    on_path_.assign(model_.nodes.size(), 0);
+    GltfScene walk;  // the node graph's rules: lsnif/import/gltf_scene.h
+    s = read_gltf_scene(model_, name_, walk);
+    if (!s) return s;
+    if (walk.scene < 0) warn("no 'scenes': rendering every root node");
     visited_.assign(model_.nodes.size(), 0);
-    for (int r : roots) {
-      s = visit(r, glm::dmat4(1.0), 0);
+    for (const GltfSceneNode& n : walk.nodes) {
+      s = visit(n.node, n.world);
       if (!s) return s;
     }
     s = check_overrides_used();
@@ -154,10 +127,7 @@ class SceneBuilder {
     }
   }
 
-  std::string node_label(int index) const {
-    const std::string& n = model_.nodes[size_t(index)].name;
-    return n.empty() ? format("node %d", index) : format("node %d ('%s')", index, excerpt(n).c_str());
-  }
+  std::string node_label(int index) const { return gltf_node_label(model_, index); }
 
   // ---- extensions ----------------------------------------------------------------------------
 
@@ -448,79 +418,14 @@ class SceneBuilder {
 
   // ---- nodes -----------------------------------------------------------------------------------
 
-  Status local_transform(int index, glm::dmat4& out) const {
-    const tinygltf::Node& node = model_.nodes[size_t(index)];
-    const std::string who = node_label(index);
-    auto finite = [&](const std::vector<double>& v, const char* what) {
-      return all_finite(v) ? Status::ok()
-                           : Status::error("%s: %s: NaN or infinite value in its %s", file(),
-                                           who.c_str(), what);
-    };
-    if (!node.matrix.empty()) {
-      if (node.matrix.size() != 16)
-        return Status::error("%s: %s: matrix has %zu numbers (16 expected)", file(), who.c_str(),
-                             node.matrix.size());
-      Status s = finite(node.matrix, "matrix");
-      if (!s) return s;
-      out = glm::make_mat4(node.matrix.data());  // column-major
-      if (std::abs(out[0][3]) > 1e-6 || std::abs(out[1][3]) > 1e-6 || std::abs(out[2][3]) > 1e-6 ||
-          std::abs(out[3][3] - 1.0) > 1e-6)
-        return Status::error("%s: %s: matrix is not affine (its last row must be 0 0 0 1)", file(),
-                             who.c_str());
-      out[0][3] = out[1][3] = out[2][3] = 0.0;
-      out[3][3] = 1.0;
-      return Status::ok();
-    }
-    if ((!node.translation.empty() && node.translation.size() != 3) ||
-        (!node.rotation.empty() && node.rotation.size() != 4) ||
-        (!node.scale.empty() && node.scale.size() != 3))
-      return Status::error("%s: %s: translation / rotation / scale must have 3 / 4 / 3 numbers",
-                           file(), who.c_str());
-    Status s = finite(node.translation, "translation");
-    if (s) s = finite(node.rotation, "rotation");
-    if (s) s = finite(node.scale, "scale");
-    if (!s) return s;
-    out = glm::dmat4(1.0);
-    if (node.translation.size() == 3)
-      out[3] = glm::dvec4(node.translation[0], node.translation[1], node.translation[2], 1.0);
-    if (node.rotation.size() == 4) {  // glTF stores (x, y, z, w)
-      glm::dquat q(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
-      const double len = glm::length(q);
-      if (!(len > 1e-12))
-        return Status::error("%s: %s: rotation quaternion has zero length", file(), who.c_str());
-      out *= glm::mat4_cast(q / len);
-    }
-    if (node.scale.size() == 3) {
-      out[0] *= node.scale[0];
-      out[1] *= node.scale[1];
-      out[2] *= node.scale[2];
-    }
-    return Status::ok();
-  }
-
-  Status visit(int index, const glm::dmat4& parent, int depth) {
-    if (index < 0 || size_t(index) >= model_.nodes.size())
-      return Status::error("%s: node %d does not exist (%zu nodes)", file(), index, model_.nodes.size());
-    if (on_path_[size_t(index)])
-      return Status::error("%s: node %d is its own ancestor (cyclic node hierarchy)", file(), index);
-    if (depth > kMaxNodeDepth || ++visits_ > kMaxNodeVisits)
-      return Status::error("%s: node hierarchy too deep or too many node instances", file());
+  // One node of the walk (read_gltf_scene: indices, hierarchy and transforms already checked).
+  Status visit(int index, const glm::dmat4& world) {
     visited_[size_t(index)] = 1;
     const tinygltf::Node& node = model_.nodes[size_t(index)];
-    glm::dmat4 local;
-    Status s = local_transform(index, local);
-    if (!s) return s;
-    const glm::dmat4 world = parent * local;
-    s = add_instance(index, world);
+    Status s = add_instance(index, world);
     if (s) s = add_camera(index, world);
     if (!s) return s;
     if (node.skin >= 0) warn_counted("skins", node_label(index) + ": skinning ignored (static mesh)");
-    on_path_[size_t(index)] = 1;
-    for (int c : node.children) {
-      s = visit(c, world, depth + 1);
-      if (!s) return s;
-    }
-    on_path_[size_t(index)] = 0;
     return Status::ok();
   }
 
@@ -816,11 +721,10 @@ class SceneBuilder {
   std::vector<int32_t> image_map_;  // glTF image -> scene texture (-2: not yet, -1: unusable)
   std::vector<const LsnifOverride*> node_overrides_;
   std::vector<int> material_uv_set_;  // per scene material
-  std::vector<uint8_t> on_path_, visited_;
+  std::vector<uint8_t> visited_;
   std::map<std::string, size_t> warn_counts_;
   std::map<int, size_t> skipped_by_mode_;
   int32_t default_material_ = -1;
-  size_t visits_ = 0;
   size_t skipped_primitives_ = 0;
 };
 

@@ -10,6 +10,7 @@
 #include <set>
 
 #include "lsnif/format/atomic_file.h"
+#include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/json_text.h"
 #include "lsnif/import/mesh_gltf.h"
 #include "lsnif/core/model.h"
@@ -22,7 +23,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kNodeExtension = "LSNIF_neural_object";
-constexpr int kMaxNodeDepth = 256;
 
 std::string url_decode(const std::string& s) {
   std::string out;
@@ -277,37 +277,15 @@ Status read_input(const ConvertSettings& settings, Plan& plan) {
 }
 
 // plan.nodes: the default scene's nodes that have a mesh, depth first, with their world transforms
-// (plan.scene: that scene). Errors on a missing node and a node reached twice; a missing mesh is a
-// warning (`in`: the input's name for the messages).
+// (plan.scene: that scene). The node graph's errors are read_gltf_scene's (gltf_scene.h: the rules
+// every tool applies); a missing mesh is a warning (`in`: the input's name for the messages).
 Status collect_nodes(const std::string& in, Plan& plan) {
   const tinygltf::Model& g = plan.gltf;
-  // The default scene's nodes, depth first, with their world transforms.
-  std::vector<int> roots;
-  if (!g.scenes.empty()) {
-    plan.scene = g.defaultScene >= 0 && size_t(g.defaultScene) < g.scenes.size() ? g.defaultScene : 0;
-    roots = g.scenes[size_t(plan.scene)].nodes;
-  } else {
-    roots = gltf::parentless_nodes(g);
-  }
-  struct Item {
-    int node, depth;
-    glm::dmat4 parent;
-  };
-  std::vector<Item> stack;
-  for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back({*it, 0, glm::dmat4(1.0)});
-  std::vector<uint8_t> seen(g.nodes.size(), 0);
-  while (!stack.empty()) {
-    const Item item = stack.back();
-    stack.pop_back();
-    if (item.node < 0 || size_t(item.node) >= g.nodes.size())
-      return Status::error("%s: node %d does not exist", in.c_str(), item.node);
-    if (seen[size_t(item.node)] || item.depth > kMaxNodeDepth)
-      return Status::error("%s: node %d is reached twice (cyclic or shared node hierarchy)", in.c_str(), item.node);
-    seen[size_t(item.node)] = 1;
+  GltfScene walk;
+  if (Status s = read_gltf_scene(g, in, walk); !s) return s;
+  plan.scene = walk.scene;
+  for (const GltfSceneNode& item : walk.nodes) {
     const tinygltf::Node& n = g.nodes[size_t(item.node)];
-    const glm::dmat4 world = item.parent * gltf_node_transform(n);
-    for (auto it = n.children.rbegin(); it != n.children.rend(); ++it)
-      stack.push_back({*it, item.depth + 1, world});
     if (n.mesh < 0) continue;
     if (size_t(n.mesh) >= g.meshes.size()) {
       plan.warnings.push_back(format("%s: node %d references missing mesh %d; left as it is", in.c_str(),
@@ -320,7 +298,7 @@ Status collect_nodes(const std::string& in, Plan& plan) {
     p.mesh = n.mesh;
     p.mesh_name = g.meshes[size_t(n.mesh)].name.empty() ? format("mesh%d", n.mesh) : g.meshes[size_t(n.mesh)].name;
     for (const tinygltf::Primitive& prim : g.meshes[size_t(n.mesh)].primitives) p.triangles += primitive_triangles(g, prim);
-    p.world = world;
+    p.world = item.world;
     plan.nodes.push_back(std::move(p));
   }
   return Status::ok();
