@@ -222,18 +222,24 @@ TEST_F(HostileCli, ZeroQuaternionIsRefusedByEveryCommand) {
                                "node 0 ('ground'): rotation quaternion has zero length");
 }
 
-// JSON has no NaN: a number past the double range is read as infinity, and infinity times the zero
-// entries of a transform is NaN.
-TEST_F(HostileCli, NonFiniteMatrixIsRefusedByEveryCommand) {
+// JSON has no NaN or infinity. A number past the double range is refused by the JSON reader itself;
+// one past the float range makes a world transform that is infinite once converted to float.
+TEST_F(HostileCli, NonFiniteTransformIsRefusedByEveryCommand) {
   put(path("scene/quad.bin"), quad_bin());
-  std::string text = quad_scene("quad.bin").dump();
+  const std::string text = quad_scene("quad.bin").dump();
   const std::string ground = R"({"mesh":0,"name":"ground"})";
   ASSERT_NE(text.find(ground), std::string::npos) << text;
-  text.replace(text.find(ground), ground.size(),
-               R"({"mesh":0,"name":"ground","matrix":[1e999,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]})");
-  put(path("scene/infinite.gltf"), text);
+  const auto with_matrix = [&](const std::string& first) {
+    std::string t = text;
+    return t.replace(t.find(ground), ground.size(),
+                     R"({"mesh":0,"name":"ground","matrix":[)" + first + R"(,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]})");
+  };
+  put(path("scene/overflow.gltf"), with_matrix("1e999"));
+  expect_every_command_refuses(path("scene/overflow.gltf"), work_.string(), model_,
+                               "number overflow parsing '1e999'");
+  put(path("scene/infinite.gltf"), with_matrix("1e300"));
   expect_every_command_refuses(path("scene/infinite.gltf"), work_.string(), model_,
-                               "node 0 ('ground'): NaN or infinite value in its matrix");
+                               "node 0 ('ground'): NaN or infinite value in its world transform");
 }
 
 TEST_F(HostileCli, PatternsOnHugeNamesAndZeroVoxels) {

@@ -95,7 +95,8 @@ TEST(GltfScene, WithoutScenesTheParentlessNodesAreTheRoots) {
   EXPECT_EQ(walk.nodes[0].node, 1);
   EXPECT_EQ(walk.nodes[1].node, 0);
   EXPECT_EQ(walk.nodes[2].node, 2);
-  g.nodes[2].children = {1};  // every node has a parent now
+  g.nodes[0].children = {2};  // every node has a parent now (and the hierarchy a cycle)
+  g.nodes[2].children = {1};
   Status s = read_gltf_scene(g, "f.gltf", walk);
   ASSERT_FALSE(s);
   EXPECT_TRUE(contains(s.message(), "no root node")) << s.message();

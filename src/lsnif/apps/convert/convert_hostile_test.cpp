@@ -136,7 +136,11 @@ TEST(ConvertHostile, TheSceneToWriteIsValidatedBeforeTraining) {
       ConvertResult r;
       std::string log;
       EXPECT_EQ(run_quiet(settings, r, &log), 1) << log;
-      EXPECT_NE(log.find("the converted scene would not load"), std::string::npos) << log;
+      // A broken node graph is refused while reading the input (lsnif/import/gltf_scene.h), the rest
+      // when the scene to write is validated; both before any training.
+      if (std::string(c.name) != "zero scale") {
+        EXPECT_NE(log.find("the converted scene would not load"), std::string::npos) << log;
+      }
       EXPECT_NE(log.find(c.expected), std::string::npos) << log;
       EXPECT_EQ(r.trained, 0u);
       EXPECT_FALSE(fs::exists(s.dir.path("out/scene.elephant.lsnif")));
