@@ -66,6 +66,12 @@ std::string all_devices(const std::vector<DeviceInfo>& devices) {
   return described(devices, indices);
 }
 
+// Whether an item of the plugin's list is one that every harness device needs: the harness creates
+// each device, ray tracing or not, with Vulkan 1.2, bufferDeviceAddress and shaderInt64.
+bool needed_for_compute(const std::string& item) {
+  return item == "Vulkan 1.2" || item == "feature bufferDeviceAddress" || item == "feature shaderInt64";
+}
+
 std::string purpose(const DeviceNeeds& needs) {
   const std::string what = needs.ray_tracing ? "ray tracing" : "compute";
   return needs.swapchain ? what + " with a swapchain" : what;
@@ -83,24 +89,27 @@ const char* device_type_name(DeviceType type) {
   }
 }
 
+std::vector<std::string> missing_items(const std::string& list) {
+  std::vector<std::string> items;
+  size_t at = 0;
+  while (at < list.size()) {
+    size_t comma = list.find(", ", at);
+    if (comma == std::string::npos) comma = list.size();
+    items.push_back(list.substr(at, comma - at));
+    at = comma + 2;
+  }
+  return items;
+}
+
 std::vector<std::string> missing_for(const DeviceInfo& d, const DeviceNeeds& needs) {
   std::vector<std::string> missing;
-  auto require = [&](bool offered, const char* what) {
-    if (!offered) missing.emplace_back(what);
-  };
-  require(d.compute_queue, "a compute queue");
-  require(d.vulkan_1_2, "Vulkan 1.2");
-  require(d.buffer_device_address, "feature bufferDeviceAddress");
-  require(d.shader_int64, "feature shaderInt64");
-  if (needs.ray_tracing) {
-    require(d.ext_acceleration_structure, "extension VK_KHR_acceleration_structure");
-    require(d.ext_ray_tracing_pipeline, "extension VK_KHR_ray_tracing_pipeline");
-    require(d.ext_deferred_host_operations, "extension VK_KHR_deferred_host_operations");
-    require(d.ext_spirv_1_4, "extension VK_KHR_spirv_1_4");
-    require(d.acceleration_structure, "feature accelerationStructure");
-    require(d.ray_tracing_pipeline, "feature rayTracingPipeline");
-  }
-  if (needs.swapchain) require(d.ext_swapchain, "extension VK_KHR_swapchain");
+  if (!d.compute_queue) missing.emplace_back("a compute queue");
+  for (const std::string& item : d.lsnif_missing)
+    if (needed_for_compute(item)) missing.push_back(item);
+  if (needs.ray_tracing)
+    for (const std::string& item : d.lsnif_missing)
+      if (!needed_for_compute(item)) missing.push_back(item);
+  if (needs.swapchain && !d.ext_swapchain) missing.emplace_back("extension VK_KHR_swapchain");
   return missing;
 }
 

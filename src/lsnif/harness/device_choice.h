@@ -1,11 +1,12 @@
 // device_choice.h -- which Vulkan physical device the harness (vk_compute.h), and so every lsnif
 // command and GPU test, runs on. Plain data in, an index out, no Vulkan calls, so that the ranking
 // and the selector are testable without a device:
-//   - a device qualifies when it offers what the harness needs (DeviceNeeds): a compute queue,
-//     Vulkan 1.2, bufferDeviceAddress and shaderInt64; for ray tracing also the extensions
-//     VK_KHR_acceleration_structure, VK_KHR_ray_tracing_pipeline, VK_KHR_deferred_host_operations,
-//     VK_KHR_spirv_1_4 and the features accelerationStructure and rayTracingPipeline; for a window
-//     VK_KHR_swapchain;
+//   - a device qualifies when it offers what the harness needs (DeviceNeeds): a compute queue and
+//     the parts of LSNIF's own requirements that every harness device is created with (Vulkan 1.2,
+//     bufferDeviceAddress, shaderInt64); for ray tracing everything LSNIF needs, as the plugin
+//     answers it (lsnifQueryDeviceSupport of lsnif.h: Vulkan 1.2, its extensions and features), so
+//     that the tools and the plugin have one definition of "LSNIF can run on this device"; for a
+//     window also VK_KHR_swapchain;
 //   - automatic choice (empty selector): the first qualifying discrete GPU, else integrated GPU,
 //     else virtual GPU, else CPU device (lavapipe), else any other qualifying device;
 //   - a selector picks one device: all digits is an index in enumeration order (vkEnumeratePhysicalDevices,
@@ -28,24 +29,27 @@ enum class DeviceType { other, integrated_gpu, discrete_gpu, virtual_gpu, cpu };
 // "discrete GPU", "integrated GPU", "virtual GPU", "CPU" or "other".
 const char* device_type_name(DeviceType type);
 
-// What a physical device offers (not what is enabled); vk_compute.h query_device_info reads it.
+// What a physical device offers (not what is enabled); vk_compute.h query_device_info fills it: the
+// plugin's answer for what LSNIF needs, the harness's own probe for the rest.
 struct DeviceInfo {
   std::string name;  // VkPhysicalDeviceProperties::deviceName
   DeviceType type = DeviceType::other;
+  // LSNIF's verdict, from the plugin (LsnifDeviceSupport::missing of lsnifQueryDeviceSupport): what
+  // LSNIF needs that the device lacks, one item each in the plugin's wording and order ("Vulkan 1.2",
+  // "extension VK_KHR_...", "feature accelerationStructure", ..., "feature shaderInt64"); empty
+  // when LSNIF can run on the device.
+  std::vector<std::string> lsnif_missing;
+  bool ray_query = false;  // LsnifDeviceSupport::rayQuery: VK_KHR_ray_query with feature rayQuery
+  // The harness's own, beyond what LSNIF needs.
   bool compute_queue = false;         // some queue family has VK_QUEUE_COMPUTE_BIT
   uint32_t compute_queue_family = 0;  // the first such family (when compute_queue)
-  bool vulkan_1_2 = false;            // apiVersion >= 1.2
-  bool buffer_device_address = false;
-  bool shader_int64 = false;
   bool scalar_block_layout = false;   // enabled when offered, not required
-  bool ext_acceleration_structure = false;    // VK_KHR_acceleration_structure
-  bool ext_ray_tracing_pipeline = false;      // VK_KHR_ray_tracing_pipeline
-  bool ext_deferred_host_operations = false;  // VK_KHR_deferred_host_operations
-  bool ext_spirv_1_4 = false;                 // VK_KHR_spirv_1_4
-  bool acceleration_structure = false;        // feature accelerationStructure
-  bool ray_tracing_pipeline = false;          // feature rayTracingPipeline
-  bool ext_swapchain = false;                 // VK_KHR_swapchain
+  bool ext_swapchain = false;         // VK_KHR_swapchain
+  bool ext_spirv_1_4 = false;         // enabled with ray tracing when offered, not required (core in 1.2)
 };
+
+// The items of the plugin's list LsnifDeviceSupport::missing ("a, b, c" -> {"a", "b", "c"}; "" -> {}).
+std::vector<std::string> missing_items(const std::string& list);
 
 // What the device is wanted for (ContextOptions::ray_tracing, ContextOptions::swapchain).
 struct DeviceNeeds {
@@ -53,8 +57,10 @@ struct DeviceNeeds {
   bool swapchain = false;
 };
 
-// What `device` lacks for `needs` ("a compute queue", "Vulkan 1.2", "extension VK_KHR_...",
-// "feature ..."), in the order of the list at the top; empty when it qualifies.
+// What `device` lacks for `needs`, empty when it qualifies: "a compute queue"; then of the plugin's
+// items (DeviceInfo::lsnif_missing) first those every harness device needs ("Vulkan 1.2",
+// "feature bufferDeviceAddress", "feature shaderInt64"), then, for ray tracing, the others in the
+// plugin's order ("extension VK_KHR_...", "feature ..."); then "extension VK_KHR_swapchain".
 std::vector<std::string> missing_for(const DeviceInfo& device, const DeviceNeeds& needs);
 
 // The index into `devices` (enumeration order) of the device to use for `needs`: the automatic

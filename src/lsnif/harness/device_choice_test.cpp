@@ -1,5 +1,6 @@
 // The device choice of the harness (device_choice.h) on hand-built device lists: the automatic
-// ranking, qualification, selection by index and by name, and the errors.
+// ranking, qualification on the plugin's missing items, selection by index and by name, and the
+// errors.
 #include "lsnif/harness/device_choice.h"
 
 #include <gtest/gtest.h>
@@ -12,23 +13,29 @@ namespace {
 
 const char* kLavapipe = "llvmpipe (LLVM 15.0.6, 256 bits)";
 
-// A device that offers everything the harness can ask for (ray tracing and a swapchain).
+// Everything the plugin can report missing (LsnifDeviceSupport::missing of lsnif.h), in its order.
+const std::vector<std::string> kLsnifItems = {
+    "Vulkan 1.2", "extension VK_KHR_acceleration_structure", "extension VK_KHR_ray_tracing_pipeline",
+    "extension VK_KHR_deferred_host_operations", "feature accelerationStructure", "feature rayTracingPipeline",
+    "feature bufferDeviceAddress", "feature shaderInt64"};
+
+// A device that offers everything the harness can ask for (ray tracing and a swapchain): the plugin
+// reports nothing missing.
 DeviceInfo full(const std::string& name, DeviceType type) {
   DeviceInfo d;
   d.name = name;
   d.type = type;
   d.compute_queue = true;
-  d.vulkan_1_2 = d.buffer_device_address = d.shader_int64 = d.scalar_block_layout = true;
-  d.ext_acceleration_structure = d.ext_ray_tracing_pipeline = d.ext_deferred_host_operations = true;
-  d.ext_spirv_1_4 = d.acceleration_structure = d.ray_tracing_pipeline = d.ext_swapchain = true;
+  d.scalar_block_layout = d.ext_swapchain = d.ext_spirv_1_4 = d.ray_query = true;
   return d;
 }
 
-// A device with compute but without any ray-tracing extension or feature.
+// A device with compute but without any ray-tracing extension or feature, as the plugin reports it.
 DeviceInfo compute_only(const std::string& name, DeviceType type) {
   DeviceInfo d = full(name, type);
-  d.ext_acceleration_structure = d.ext_ray_tracing_pipeline = d.ext_deferred_host_operations = false;
-  d.ext_spirv_1_4 = d.acceleration_structure = d.ray_tracing_pipeline = false;
+  d.lsnif_missing = {"extension VK_KHR_acceleration_structure", "extension VK_KHR_ray_tracing_pipeline",
+                     "extension VK_KHR_deferred_host_operations", "feature accelerationStructure",
+                     "feature rayTracingPipeline"};
   return d;
 }
 
@@ -92,9 +99,15 @@ TEST(DeviceChoice, SkipsDevicesLackingWhatIsNeeded) {
                                      full(kLavapipe, DeviceType::cpu)};
   EXPECT_EQ(chosen(devices, ray_tracing()), 1u);
   EXPECT_EQ(chosen(devices, DeviceNeeds()), 0u);  // compute alone: the GPU qualifies
-  devices[0] = full("GPU without spirv 1.4", DeviceType::discrete_gpu);
-  devices[0].ext_spirv_1_4 = false;
+  devices[0] = full("GPU without deferred host operations", DeviceType::discrete_gpu);
+  devices[0].lsnif_missing = {"extension VK_KHR_deferred_host_operations"};
   EXPECT_EQ(chosen(devices, ray_tracing()), 1u);
+  EXPECT_EQ(chosen(devices, DeviceNeeds()), 0u);
+  // Whatever else the plugin may come to need counts for ray tracing, not for compute alone.
+  devices[0] = full("GPU lacking a future requirement", DeviceType::discrete_gpu);
+  devices[0].lsnif_missing = {"feature somethingNew"};
+  EXPECT_EQ(chosen(devices, ray_tracing()), 1u);
+  EXPECT_EQ(chosen(devices, DeviceNeeds()), 0u);
   devices[0] = full("GPU without a compute queue", DeviceType::discrete_gpu);
   devices[0].compute_queue = false;
   EXPECT_EQ(chosen(devices, DeviceNeeds()), 1u);
@@ -109,25 +122,36 @@ TEST(DeviceChoice, SkipsDevicesLackingWhatIsNeeded) {
 TEST(DeviceChoice, MissingListsEveryPieceInOrder) {
   DeviceInfo d;
   d.name = "Bare";
+  d.lsnif_missing = kLsnifItems;
   DeviceNeeds needs = ray_tracing();
   needs.swapchain = true;
+  // The plugin's items every harness device needs first, then the others in the plugin's order.
   const std::vector<std::string> want = {
       "a compute queue", "Vulkan 1.2", "feature bufferDeviceAddress", "feature shaderInt64",
       "extension VK_KHR_acceleration_structure", "extension VK_KHR_ray_tracing_pipeline",
-      "extension VK_KHR_deferred_host_operations", "extension VK_KHR_spirv_1_4",
-      "feature accelerationStructure", "feature rayTracingPipeline", "extension VK_KHR_swapchain"};
+      "extension VK_KHR_deferred_host_operations", "feature accelerationStructure",
+      "feature rayTracingPipeline", "extension VK_KHR_swapchain"};
   EXPECT_EQ(missing_for(d, needs), want);
   EXPECT_EQ(missing_for(d, DeviceNeeds()), std::vector<std::string>(want.begin(), want.begin() + 4));
   EXPECT_TRUE(missing_for(full("All", DeviceType::cpu), needs).empty());
-  // scalarBlockLayout is used where offered, never required.
-  DeviceInfo no_scalar = full("No scalar layout", DeviceType::cpu);
-  no_scalar.scalar_block_layout = false;
-  EXPECT_TRUE(missing_for(no_scalar, needs).empty());
+  // scalarBlockLayout and VK_KHR_spirv_1_4 are used where offered, never required; ray queries are
+  // checked when asked for (ContextOptions::ray_query), not by the choice.
+  DeviceInfo optional_less = full("No optional pieces", DeviceType::cpu);
+  optional_less.scalar_block_layout = optional_less.ext_spirv_1_4 = optional_less.ray_query = false;
+  EXPECT_TRUE(missing_for(optional_less, needs).empty());
+}
+
+TEST(DeviceChoice, SplitsThePluginsList) {
+  EXPECT_TRUE(missing_items("").empty());
+  EXPECT_EQ(missing_items("feature shaderInt64"), std::vector<std::string>{"feature shaderInt64"});
+  std::string list;
+  for (const std::string& item : kLsnifItems) list += (list.empty() ? "" : ", ") + item;
+  EXPECT_EQ(missing_items(list), kLsnifItems);
 }
 
 TEST(DeviceChoice, NoQualifyingDeviceNamesEachAndWhatItLacks) {
   DeviceInfo int64_less = full(kLavapipe, DeviceType::cpu);
-  int64_less.shader_int64 = false;
+  int64_less.lsnif_missing = {"feature shaderInt64"};
   const std::vector<DeviceInfo> devices = {compute_only("Old GPU", DeviceType::discrete_gpu), int64_less};
   const std::string m = refusal(devices, ray_tracing(), "");
   EXPECT_TRUE(contains(m, "no Vulkan device can be used for ray tracing")) << m;
@@ -183,7 +207,7 @@ TEST(DeviceChoice, AmbiguousOrUnknownNamesListTheDevices) {
 
 TEST(DeviceChoice, ASelectedDeviceLackingSomethingIsAnErrorNotAFallback) {
   DeviceInfo bda_less = full("Intel UHD 770", DeviceType::integrated_gpu);
-  bda_less.buffer_device_address = false;
+  bda_less.lsnif_missing = {"feature bufferDeviceAddress"};
   const std::vector<DeviceInfo> devices = {compute_only("Old GPU", DeviceType::discrete_gpu),
                                            full(kLavapipe, DeviceType::cpu), bda_less};
   std::string m = refusal(devices, ray_tracing(), "old");

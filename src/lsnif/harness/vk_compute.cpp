@@ -1,5 +1,5 @@
 // vk_compute.cpp -- the harness of vk_compute.h.
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/harness/vk_compute.h"  // volk first: lsnif.h then uses its Vulkan declarations
 
 #include <chrono>
 #include <cstdio>
@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "lsnif/lsnif.h"
 
 namespace lsnif::vk {
 
@@ -27,54 +28,43 @@ DeviceType device_type(VkPhysicalDeviceType type) {
 
 }  // namespace
 
-DeviceInfo query_device_info(VkPhysicalDevice physical) {
-  // What the harness enables (device_choice.h): extensions, features, the type and the queues.
+Status query_device_info(VkInstance instance, VkPhysicalDevice physical, DeviceInfo& out,
+                         LsnifDeviceSupport* support) {
   DeviceInfo info;
   VkPhysicalDeviceProperties props;
   vkGetPhysicalDeviceProperties(physical, &props);
   info.name = props.deviceName;
   info.type = device_type(props.deviceType);
-  info.vulkan_1_2 = VK_API_VERSION_MAJOR(props.apiVersion) > 1 || VK_API_VERSION_MINOR(props.apiVersion) >= 2;
 
+  // What LSNIF needs: the plugin's own answer, not a second probe of its extensions and features.
+  LsnifDeviceSupport lsnif{};
+  if (lsnifQueryDeviceSupport(instance, physical, vkGetInstanceProcAddr, &lsnif) != LSNIF_SUCCESS)
+    return Status::error("%s", lsnifGetLastErrorMessage());
+  info.lsnif_missing = missing_items(lsnif.missing);
+  if (!lsnif.supported && info.lsnif_missing.empty()) info.lsnif_missing.emplace_back("LSNIF support");
+  info.ray_query = lsnif.rayQuery == VK_TRUE;
+
+  // The harness's own: VK_KHR_swapchain (a viewer's window), VK_KHR_spirv_1_4 and scalarBlockLayout
+  // (enabled when offered) and a compute queue.
   uint32_t count = 0;
   vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
   std::vector<VkExtensionProperties> extensions(count);
   vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, extensions.data());
   extensions.resize(count);
-  auto offers = [&](const char* name) {
-    for (const VkExtensionProperties& e : extensions)
-      if (std::strcmp(e.extensionName, name) == 0) return true;
-    return false;
-  };
-  info.ext_acceleration_structure = offers(VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME);
-  info.ext_ray_tracing_pipeline = offers(VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME);
-  info.ext_deferred_host_operations = offers(VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME);
-  info.ext_spirv_1_4 = offers(VK_KHR_SPIRV_1_4_EXTENSION_NAME);
-  info.ext_swapchain = offers(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
-
-  // Feature structs only for what the device knows (an unknown struct in pNext is invalid usage).
-  VkPhysicalDeviceFeatures2 f2{};
-  f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
-  VkPhysicalDeviceVulkan12Features f12{};
-  f12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
-  VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
-  as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
-  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
-  rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
-  void** tail = &f2.pNext;
-  for (auto [wanted, s] : {std::pair<bool, VkBaseOutStructure*>{info.vulkan_1_2, reinterpret_cast<VkBaseOutStructure*>(&f12)},
-                           {info.ext_acceleration_structure, reinterpret_cast<VkBaseOutStructure*>(&as)},
-                           {info.ext_ray_tracing_pipeline, reinterpret_cast<VkBaseOutStructure*>(&rt)}}) {
-    if (!wanted) continue;
-    *tail = s;
-    tail = reinterpret_cast<void**>(&s->pNext);
+  for (const VkExtensionProperties& e : extensions) {
+    info.ext_swapchain |= std::strcmp(e.extensionName, VK_KHR_SWAPCHAIN_EXTENSION_NAME) == 0;
+    info.ext_spirv_1_4 |= std::strcmp(e.extensionName, VK_KHR_SPIRV_1_4_EXTENSION_NAME) == 0;
   }
-  vkGetPhysicalDeviceFeatures2(physical, &f2);
-  info.shader_int64 = f2.features.shaderInt64 == VK_TRUE;
-  info.buffer_device_address = info.vulkan_1_2 && f12.bufferDeviceAddress == VK_TRUE;
-  info.scalar_block_layout = info.vulkan_1_2 && f12.scalarBlockLayout == VK_TRUE;
-  info.acceleration_structure = info.ext_acceleration_structure && as.accelerationStructure == VK_TRUE;
-  info.ray_tracing_pipeline = info.ext_ray_tracing_pipeline && rt.rayTracingPipeline == VK_TRUE;
+  // The 1.2 feature struct only on a 1.2+ device (an unknown struct in pNext is invalid usage).
+  if (VK_API_VERSION_MAJOR(props.apiVersion) > 1 || VK_API_VERSION_MINOR(props.apiVersion) >= 2) {
+    VkPhysicalDeviceVulkan12Features f12{};
+    f12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+    VkPhysicalDeviceFeatures2 f2{};
+    f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+    f2.pNext = &f12;
+    vkGetPhysicalDeviceFeatures2(physical, &f2);
+    info.scalar_block_layout = f12.scalarBlockLayout == VK_TRUE;
+  }
 
   uint32_t family_count = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(physical, &family_count, nullptr);
@@ -85,7 +75,9 @@ DeviceInfo query_device_info(VkPhysicalDevice physical) {
       info.compute_queue = true;
       info.compute_queue_family = q;
     }
-  return info;
+  out = std::move(info);
+  if (support) *support = lsnif;
+  return Status::ok();
 }
 
 VKAPI_ATTR VkBool32 VKAPI_CALL ComputeContext::on_message(
@@ -187,8 +179,9 @@ Status ComputeContext::init(const ContextOptions& options) {
   vkEnumeratePhysicalDevices(instance_, &count, nullptr);
   std::vector<VkPhysicalDevice> devices(count);
   if (count > 0) vkEnumeratePhysicalDevices(instance_, &count, devices.data());
-  std::vector<DeviceInfo> infos;
-  for (VkPhysicalDevice d : devices) infos.push_back(query_device_info(d));
+  std::vector<DeviceInfo> infos(devices.size());
+  for (size_t i = 0; i < devices.size(); ++i)
+    if (Status s = query_device_info(instance_, devices[i], infos[i]); !s) return s;
   DeviceNeeds needs;
   needs.ray_tracing = ray_tracing;
   needs.swapchain = options.swapchain;
@@ -198,7 +191,8 @@ Status ComputeContext::init(const ContextOptions& options) {
   queue_family_ = infos[chosen].compute_queue_family;
   device_name_ = infos[chosen].name;
 
-  // choose_device checked that the device offers every extension and feature enabled here.
+  // choose_device checked that the device offers every extension and feature enabled here (what
+  // LSNIF needs as the plugin's lsnifQueryDeviceSupport answered, VK_KHR_swapchain).
   std::vector<const char*> device_extensions;
   VkPhysicalDeviceAccelerationStructureFeaturesKHR as_features{};
   as_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
@@ -207,34 +201,22 @@ Status ComputeContext::init(const ContextOptions& options) {
   rt_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
   rt_features.rayTracingPipeline = VK_TRUE;
   as_features.pNext = &rt_features;
-  // Vulkan 1.2 covers descriptor indexing, buffer device address and float controls.
-  if (ray_tracing)
-    device_extensions = {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME,
-                         VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME,
-                         VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME, VK_KHR_SPIRV_1_4_EXTENSION_NAME};
+  // Vulkan 1.2 covers descriptor indexing, buffer device address, float controls and SPIR-V 1.4;
+  // VK_KHR_spirv_1_4, which VK_KHR_ray_tracing_pipeline names as its dependency, is enabled as well
+  // where the device offers it.
+  if (ray_tracing) {
+    uint32_t required = 0;
+    const char* const* names = lsnifGetRequiredDeviceExtensions(&required);
+    device_extensions.assign(names, names + required);
+    if (infos[chosen].ext_spirv_1_4) device_extensions.push_back(VK_KHR_SPIRV_1_4_EXTENSION_NAME);
+  }
   if (options.swapchain) device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
   VkPhysicalDeviceRayQueryFeaturesKHR rq_features{};
   rq_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
   if (ray_tracing && options.ray_query) {
-    uint32_t n = 0;
-    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &n, nullptr);
-    std::vector<VkExtensionProperties> available(n);
-    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &n, available.data());
-    bool offered = false;
-    for (const VkExtensionProperties& e : available)
-      offered |= std::strcmp(e.extensionName, VK_KHR_RAY_QUERY_EXTENSION_NAME) == 0;
-    if (offered) {
-      VkPhysicalDeviceFeatures2 q2{};
-      q2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
-      q2.pNext = &rq_features;
-      vkGetPhysicalDeviceFeatures2(physical_, &q2);
-      offered = rq_features.rayQuery == VK_TRUE;
-    }
-    if (!offered)
+    if (!infos[chosen].ray_query)
       return Status::error("device '%s' lacks extension VK_KHR_ray_query with feature rayQuery", device_name_.c_str());
     device_extensions.push_back(VK_KHR_RAY_QUERY_EXTENSION_NAME);
-    rq_features = VkPhysicalDeviceRayQueryFeaturesKHR{};
-    rq_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
     rq_features.rayQuery = VK_TRUE;
     rt_features.pNext = &rq_features;
   }

@@ -4,7 +4,8 @@
 // bufferDeviceAddress, shaderInt64 (and scalarBlockLayout where offered), host-visible buffers
 // addressed by device address, one compute pipeline from a SPIR-V file with a push-constant range,
 // dispatch and wait. Optionally (init(true)) the device also has the ray-tracing extensions and
-// features that src/lsnif/harness/vk_raytracing.h uses.
+// features that LSNIF needs (the plugin says which device has them: lsnifQueryDeviceSupport) and
+// src/lsnif/harness/vk_raytracing.h uses.
 // The device: ContextOptions::device selects one (an index in `lsnif devices` order or a part of
 // its name; the GPU tests name lavapipe, "llvmpipe", their reference platform); left empty, the
 // first discrete GPU that offers what is needed, else an integrated, virtual GPU, else a CPU device
@@ -30,6 +31,8 @@
     if (result_ != VK_SUCCESS) return Status::error("%s failed (VkResult %d)", #call, \
                                                     static_cast<int>(result_));      \
   } while (0)
+
+struct LsnifDeviceSupport;  // lsnif/lsnif.h
 
 namespace lsnif::vk {
 
@@ -74,11 +77,14 @@ struct ContextOptions {
   std::string device;
 };
 
-// What `physical` offers, for choose_device (device_choice.h). The instance-level functions of
-// the instance that owns it must be loaded into volk (volkLoadInstance or volkLoadInstanceOnly),
-// and that instance must be created for Vulkan 1.2 or later (the 1.2 features are queried on 1.2+
-// devices).
-DeviceInfo query_device_info(VkPhysicalDevice physical);
+// What `physical` of `instance` offers, for choose_device (device_choice.h): what LSNIF needs as
+// the plugin answers it (lsnifQueryDeviceSupport, its full answer also into *support when given),
+// and the harness's own (queues, scalarBlockLayout, VK_KHR_swapchain, VK_KHR_spirv_1_4). The
+// instance-level functions of `instance` must be loaded into volk (volkLoadInstance or
+// volkLoadInstanceOnly), and the instance must be created for Vulkan 1.2 or later (the 1.2 features
+// are queried on 1.2+ devices). Fails only when the plugin's query does (lsnifGetLastErrorMessage).
+Status query_device_info(VkInstance instance, VkPhysicalDevice physical, DeviceInfo& out,
+                         LsnifDeviceSupport* support = nullptr);
 
 
 // A pool of timestamp queries on a ComputeContext's queue (create_timestamps).
@@ -100,9 +106,9 @@ class ComputeContext {
   // messenger and the device `device` selects (ContextOptions::device; "" chooses automatically).
   // Errors name the missing piece (no Vulkan loader, no device, no qualifying device with what each
   // lacks, a selector naming no device or several, a selected device that lacks something).
-  // With `ray_tracing`, the device must offer VK_KHR_acceleration_structure,
-  // VK_KHR_ray_tracing_pipeline (and their dependencies) and they are enabled with the features
-  // accelerationStructure and rayTracingPipeline.
+  // With `ray_tracing`, the device must offer what LSNIF needs (the plugin's lsnifQueryDeviceSupport
+  // says), and the extensions of lsnifGetRequiredDeviceExtensions (with VK_KHR_spirv_1_4 where
+  // offered) are enabled with the features accelerationStructure and rayTracingPipeline.
   // With `validation` false (benchmarks, samples), no layer and no messenger are used and the
   // validation counts stay 0.
   Status init(bool ray_tracing = false, bool validation = true, const std::string& device = "");

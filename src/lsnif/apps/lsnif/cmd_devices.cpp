@@ -1,7 +1,8 @@
 // lsnif devices: the Vulkan devices of this machine, which LSNIF paths each one supports, and which
 // one the other commands use (the harness's choice for ray tracing, src/lsnif/harness/device_choice.h,
 // automatic or by --device). The CLI creates its own instance here (an application's instance is
-// not involved); the per-device check is the plugin's (lsnifQueryDeviceSupport of lsnif.h).
+// not involved); the per-device check is the plugin's (lsnifQueryDeviceSupport of lsnif.h), asked
+// once per device through the harness (query_device_info), whose choice rests on the same answer.
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -19,33 +20,17 @@ namespace lsnif::cli {
 namespace {
 
 struct DeviceReport {
-  LsnifDeviceSupport support{};
-  vk::DeviceInfo info;  // what the harness's device choice looks at
+  LsnifDeviceSupport support{};  // the plugin's answer
+  vk::DeviceInfo info;           // what the harness's choice looks at; lsnif_missing: the plugin's items
   std::string type, driver, driver_info;
-  std::vector<std::string> missing;
 };
 
 std::string api_version_string(uint32_t v) {
   return format("%u.%u.%u", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v), VK_API_VERSION_PATCH(v));
 }
 
-// "a, b, c" -> {"a", "b", "c"}; "" -> {}.
-std::vector<std::string> split_list(const std::string& list) {
-  std::vector<std::string> items;
-  size_t at = 0;
-  while (at < list.size()) {
-    size_t comma = list.find(", ", at);
-    if (comma == std::string::npos) comma = list.size();
-    items.push_back(list.substr(at, comma - at));
-    at = comma + 2;
-  }
-  return items;
-}
-
 Status report(VkInstance instance, VkPhysicalDevice physical, DeviceReport& r) {
-  if (lsnifQueryDeviceSupport(instance, physical, vkGetInstanceProcAddr, &r.support) != LSNIF_SUCCESS)
-    return Status::error("%s", lsnifGetLastErrorMessage());
-  r.info = vk::query_device_info(physical);
+  if (Status s = vk::query_device_info(instance, physical, r.info, &r.support); !s) return s;
   r.type = vk::device_type_name(r.info.type);
   VkPhysicalDeviceProperties props;
   vkGetPhysicalDeviceProperties(physical, &props);
@@ -61,7 +46,6 @@ Status report(VkInstance instance, VkPhysicalDevice physical, DeviceReport& r) {
   } else {
     r.driver = "driver version " + std::to_string(props.driverVersion);
   }
-  r.missing = split_list(r.support.missing);
   return Status::ok();
 }
 
@@ -150,7 +134,8 @@ int cmd_devices(int argc, char** argv) {
       const DeviceReport& r = reports[i];
       const LsnifDeviceSupport& s = r.support;
       std::string missing = "[";
-      for (size_t k = 0; k < r.missing.size(); ++k) missing += (k ? ", " : "") + json_string(r.missing[k]);
+      for (size_t k = 0; k < r.info.lsnif_missing.size(); ++k)
+        missing += (k ? ", " : "") + json_string(r.info.lsnif_missing[k]);
       missing += "]";
       std::printf("%s\n  {\"index\": %zu, \"name\": %s, \"type\": %s, \"driver\": %s, \"driver_info\": %s, "
                   "\"api_version\": \"%s\", \"ray_tracing_pipeline\": %s, \"ray_tracing_pipeline_missing\": %s, "
@@ -178,7 +163,7 @@ int cmd_devices(int argc, char** argv) {
     if (s.supported)
       std::printf("  ray-tracing pipeline    yes\n");
     else
-      std::printf("  ray-tracing pipeline    no (missing: %s)\n", joined(r.missing).c_str());
+      std::printf("  ray-tracing pipeline    no (missing: %s)\n", joined(r.info.lsnif_missing).c_str());
     std::printf("  ray query               %s\n", yes_no(s.rayQuery));
     std::printf("  NV cooperative matrix   %s\n", yes_no(s.cooperativeMatrixNV));
     std::printf("  KHR cooperative matrix  %s\n", yes_no(s.cooperativeMatrixKHR));
