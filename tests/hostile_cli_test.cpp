@@ -242,6 +242,18 @@ TEST_F(HostileCli, NonFiniteTransformIsRefusedByEveryCommand) {
                                "node 0 ('ground'): NaN or infinite value in its world transform");
 }
 
+// Materials are read by one reader too (lsnif/import/gltf_material.h): a factor the renderer
+// refuses is refused by training, evaluation and conversion as well.
+TEST_F(HostileCli, BadMaterialIsRefusedByEveryCommand) {
+  put(path("scene/quad.bin"), quad_bin());
+  json j = quad_scene("quad.bin");
+  j["materials"] = json::array({{{"name", "paint"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1}}}}}});
+  j["meshes"][0]["primitives"][0]["material"] = 0;
+  put(path("scene/material.gltf"), j.dump());
+  expect_every_command_refuses(path("scene/material.gltf"), work_.string(), model_,
+                               "material 0 ('paint'): baseColorFactor must be 4 finite numbers");
+}
+
 TEST_F(HostileCli, PatternsOnHugeNamesAndZeroVoxels) {
   put(path("scene/quad.bin"), quad_bin());
   json j = quad_scene("quad.bin");

@@ -11,6 +11,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "lsnif/import/gltf_access.h"
+#include "lsnif/import/gltf_material.h"
 #include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/mesh_formats.h"
 #include "lsnif/import/mesh_gltf.h"
@@ -18,8 +19,6 @@
 namespace lsnif::mesh_io {
 namespace {
 
-constexpr uint64_t kMaxPixels = uint64_t(1) << 27;      // per texture
-constexpr size_t kMaxAccessorCount = size_t(1) << 40;  // elements per accessor
 
 class GltfFlattener {
  public:
@@ -31,6 +30,7 @@ class GltfFlattener {
 
   // Flattens the given parts only (flatten_gltf_meshes).
   Status run_parts(const std::vector<GltfMeshPart>& parts) {
+    if (Status s = read_materials(); !s) return s;
     for (const GltfMeshPart& part : parts) {
       if (part.mesh < 0 || size_t(part.mesh) >= model_.meshes.size())
         return Status::error("%s: mesh %d does not exist", file(), part.mesh);
@@ -55,6 +55,7 @@ class GltfFlattener {
   Status run() {
     GltfScene walk;  // the node graph's rules: gltf_scene.h
     Status s = read_gltf_scene(model_, name_, walk);
+    if (s) s = read_materials();
     if (!s) return s;
     if (model_.scenes.empty() && model_.nodes.empty()) {
       report_.warnings.push_back(format("%s: no scene and no nodes; importing every mesh untransformed",
@@ -84,6 +85,19 @@ class GltfFlattener {
 
  private:
   const char* file() const { return name_.c_str(); }
+
+  // Every glTF material through the one material reader (gltf_material.h), as the renderer reads
+  // them: a material the renderer refuses is refused here too, used or not.
+  Status read_materials() {
+    materials_.resize(model_.materials.size());
+    for (size_t i = 0; i < model_.materials.size(); ++i) {
+      std::vector<GltfWarning> warnings;
+      Status s = read_gltf_material(model_, i, name_, materials_[i], warnings);
+      for (const GltfWarning& w : warnings) report_.warnings.push_back(name_ + ": " + w.text);
+      if (!s) return s;
+    }
+    return Status::ok();
+  }
 
   Status add_mesh(int mesh_index, const glm::dmat4& world) {
     const tinygltf::Mesh& m = model_.meshes[size_t(mesh_index)];
@@ -116,7 +130,7 @@ class GltfFlattener {
     // Attributes.
     std::vector<double> pos, nrm, uv, col;
     int nc = 0;
-    const gltf::AccessorReader reader{model_, kMaxAccessorCount};
+    const gltf::AccessorReader reader{model_, kGltfMaxAccessorCount};
     Status s = reader.read_positions(prim, where, pos);
     if (!s) return s;
     const size_t n = pos.size() / 3;
@@ -127,8 +141,10 @@ class GltfFlattener {
       s = reader.read_attribute(acc, "NORMAL", {TINYGLTF_TYPE_VEC3}, false, n, where, nrm, nc);
       if (!s) return s;
     }
-    const int material = material_index(prim.material, where);
-    const int texcoord = texcoord_set(prim.material);
+    int material = -1;
+    s = material_index(prim.material, where, material);
+    if (!s) return s;
+    const int texcoord = prim.material >= 0 ? materials_[size_t(prim.material)].uv_set : 0;
     const std::string uv_key = "TEXCOORD_" + std::to_string(texcoord);
     if (int acc = gltf::find_attribute(prim, uv_key); acc >= 0) {
       s = reader.read_attribute(acc, uv_key, {TINYGLTF_TYPE_VEC2}, false, n, where, uv, nc);
@@ -205,62 +221,43 @@ class GltfFlattener {
     return Status::ok();
   }
 
-  // TEXCOORD set the material's base color texture uses (0 without one).
-  int texcoord_set(int gltf_material) const {
-    if (gltf_material < 0 || size_t(gltf_material) >= model_.materials.size()) return 0;
-    const auto& info = model_.materials[size_t(gltf_material)].pbrMetallicRoughness.baseColorTexture;
-    return info.index >= 0 && info.texCoord >= 0 && info.texCoord < 8 ? info.texCoord : 0;
-  }
-
-  // Mesh material index for a glTF material index (-1: the default material), created on first use.
-  int material_index(int gltf_material, const std::string& where) {
-    if (gltf_material < 0 || size_t(gltf_material) >= model_.materials.size()) {
-      if (gltf_material >= 0)
-        report_.warnings.push_back(format("%s: material %d does not exist; using the default",
-                                          where.c_str(), gltf_material));
+  // Mesh material index for a glTF material index (-1: the default material) in `out`, created on
+  // first use from the material read by read_materials.
+  Status material_index(int gltf_material, const std::string& where, int& out) {
+    if (gltf_material >= 0 && size_t(gltf_material) >= model_.materials.size())
+      return Status::error("%s: material %d does not exist (%zu materials)", where.c_str(), gltf_material,
+                           model_.materials.size());
+    if (gltf_material < 0) {
       if (default_material_ < 0) {
         default_material_ = int(mesh_.materials.size());
         mesh_.materials.push_back(Material{"default", glm::vec3(1.0f), -1});
       }
-      return default_material_;
+      out = default_material_;
+      return Status::ok();
     }
     int& mapped = material_map_[size_t(gltf_material)];
-    if (mapped >= 0) return mapped;
-    const tinygltf::Material& gm = model_.materials[size_t(gltf_material)];
-    Material mat;
-    mat.name = gm.name.empty() ? format("material_%d", gltf_material) : gm.name;
-    const std::vector<double>& f = gm.pbrMetallicRoughness.baseColorFactor;
-    if (f.size() >= 3) mat.base_color = glm::vec3(to_float(f[0]), to_float(f[1]), to_float(f[2]));
-    const tinygltf::TextureInfo& info = gm.pbrMetallicRoughness.baseColorTexture;
-    if (info.index >= 0) {
-      mat.texture = texture_index(info.index, mat.name);
-      if (info.extensions.count("KHR_texture_transform"))
-        report_.warnings.push_back(format("%s: material '%s': KHR_texture_transform ignored", file(),
-                                          excerpt(mat.name).c_str()));
+    if (mapped < 0) {
+      const GltfMaterial& gm = materials_[size_t(gltf_material)];
+      Material mat;
+      mat.name = gm.name;
+      mat.base_color = glm::vec3(gm.base_color);
+      if (gm.base_color_image >= 0) mat.texture = image_texture(gm.base_color_image, mat.name);
+      mapped = int(mesh_.materials.size());
+      mesh_.materials.push_back(std::move(mat));
     }
-    mapped = int(mesh_.materials.size());
-    mesh_.materials.push_back(std::move(mat));
-    return mapped;
+    out = mapped;
+    return Status::ok();
   }
 
-  // Mesh texture index for glTF texture `tex`, or -1 (with a warning) when it cannot be decoded.
-  int texture_index(int tex, const std::string& material) {
-    if (tex < 0 || size_t(tex) >= model_.textures.size()) {
-      report_.warnings.push_back(format("%s: material '%s' references missing texture %d", file(),
-                                        excerpt(material).c_str(), tex));
-      return -1;
-    }
-    const int source = model_.textures[size_t(tex)].source;
-    if (source < 0 || size_t(source) >= model_.images.size()) {
-      report_.warnings.push_back(format("%s: texture %d has no usable image source", file(), tex));
-      return -1;
-    }
+  // Mesh texture index for glTF image `source`, decoded once, or -1 (with a warning) when it
+  // cannot be decoded within kGltfMaxImagePixels.
+  int image_texture(int source, const std::string& material) {
     int& mapped = texture_map_[size_t(source)];
     if (mapped != -2) return mapped;
     mapped = -1;
     tinygltf::Image image = model_.images[size_t(source)];
     std::string why = "image data missing";
-    if (!gltf::resolve_image(model_, image, kMaxPixels, why)) {
+    if (!gltf::resolve_image(model_, image, kGltfMaxImagePixels, why)) {
       report_.warnings.push_back(format("%s: image %d could not be used (%s); material '%s' untextured",
                                         file(), source, why.c_str(), excerpt(material).c_str()));
       return -1;
@@ -278,6 +275,7 @@ class GltfFlattener {
   const std::string& name_;
   Mesh& mesh_;
   MeshImportReport& report_;
+  std::vector<GltfMaterial> materials_;  // per glTF material (read_materials)
   std::vector<int> material_map_;  // glTF material -> mesh material (-1: not yet)
   std::vector<int> texture_map_;   // glTF image -> mesh texture (-2: not yet, -1: unusable)
   std::vector<uint8_t> warned_mesh_;
@@ -319,7 +317,7 @@ Status parse_gltf(std::string_view data, bool binary, const std::string& name,
                   MeshImportReport& report) {
   const char* file = name.c_str();
   gltf::LoadOptions options;
-  options.max_pixels = kMaxPixels;
+  options.max_pixels = kGltfMaxImagePixels;
   options.allow_outside_refs = import_options.allow_outside_refs;
   tinygltf::Model model;
   Status s = gltf::load_model(data, binary, name, base_dir, options, model, report.warnings);

@@ -26,6 +26,7 @@
 #include <set>
 
 #include "lsnif/import/gltf_access.h"
+#include "lsnif/import/gltf_material.h"
 #include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/json_text.h"
 #include "lsnif/renderer/scene_gltf_builder.h"
@@ -34,7 +35,6 @@ namespace lsnif::scene {
 
 using detail::excerpt;
 using detail::kEnvironmentExtension;
-using detail::kMaxPixels;
 using detail::kNodeExtension;
 using detail::SceneBuilder;
 
@@ -172,7 +172,7 @@ Status load_scene_from_memory(std::string_view data, bool binary, const std::str
   try {
     tinygltf::Model model;
     gltf::LoadOptions load_options;
-    load_options.max_pixels = kMaxPixels;
+    load_options.max_pixels = kGltfMaxImagePixels;
     load_options.max_message_chars = kMaxMessageChars;
     load_options.allow_outside_refs = options.allow_outside_refs;
     load_options.keep_extension_json = true;

@@ -29,7 +29,6 @@
 
 namespace lsnif::scene::detail {
 
-inline constexpr uint64_t kMaxPixels = uint64_t(1) << 26;  // per texture (8192 x 8192)
 inline constexpr const char* kNodeExtension = "LSNIF_neural_object";
 inline constexpr const char* kEnvironmentExtension = "LSNIF_environment";
 
@@ -92,10 +91,8 @@ class SceneBuilder {
 
   // Scene material i for every glTF material i.
   Status load_materials();
-  // One glTF material: factors checked and clamped, emissive strength, textures, its uv set.
+  // One glTF material through read_gltf_material (lsnif/import/gltf_material.h), its images decoded.
   Status load_material(size_t index);
-  // Scene texture of one material slot in `out` (-1: none, or unusable with a warning).
-  Status texture_slot(const tinygltf::TextureInfo& info, const char* slot, const std::string& where, int32_t& out);
   // Scene texture for glTF image `source` (decoded once), or -1 with a warning.
   int32_t image_texture(int source, const std::string& where);
   // The material with glTF defaults, appended after the file's on first use.

@@ -8,13 +8,9 @@
 #include <utility>
 
 #include "lsnif/import/gltf_access.h"
+#include "lsnif/import/gltf_material.h"
 
 namespace lsnif::scene::detail {
-namespace {
-
-constexpr size_t kMaxVertices = size_t(1) << 30;  // per accessor
-
-}  // namespace
 
 // Scene mesh for glTF mesh `gltf_mesh` (loaded on first use); -1 when it has no triangles.
 Status SceneBuilder::mesh_index(int gltf_mesh, int32_t& out) {
@@ -74,7 +70,7 @@ Status SceneBuilder::load_primitive(const tinygltf::Primitive& gp, const std::st
   // Positions.
   std::vector<double> pos, nrm, uv;
   int nc = 0;
-  const gltf::AccessorReader reader{model_, kMaxVertices};
+  const gltf::AccessorReader reader{model_, kGltfMaxAccessorCount};
   Status s = reader.read_positions(gp, where, pos);
   if (!s) return s;
   const size_t n = pos.size() / 3;

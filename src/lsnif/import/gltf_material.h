@@ -1,0 +1,50 @@
+// gltf_material.h -- the one reader of a glTF material for every tool: its factors checked and
+// clamped, KHR_materials_emissive_strength applied, its texture slots resolved to image indices and
+// its TEXCOORD set chosen, with what is ignored as warnings. The mesh importer (`lsnif train`,
+// `eval`, `convert`) keeps the base colour and its texture; the renderer's scene loader keeps all of
+// it. Both decode images under the same budget (kGltfMaxImagePixels) and read accessors under the
+// same element limit (kGltfMaxAccessorCount). Part of lsnif_import.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "lsnif/format/status.h"
+#include "lsnif/import/gltf_access.h"
+
+namespace lsnif {
+
+inline constexpr uint64_t kGltfMaxImagePixels = uint64_t(1) << 26;  // per decoded image (8192 x 8192)
+inline constexpr size_t kGltfMaxAccessorCount = size_t(1) << 30;    // elements per accessor
+
+struct GltfMaterial {
+  std::string name;                 // the material's name, or "material_<index>"
+  glm::vec4 base_color{1.0f};       // baseColorFactor, clamped to [0, 1]
+  float metallic = 1.0f;            // metallicFactor, clamped to [0, 1]
+  float roughness = 1.0f;           // roughnessFactor, clamped to [0, 1]
+  glm::vec3 emission{0.0f};         // emissiveFactor (negative parts 0) times emissiveStrength; finite
+  int base_color_image = -1;        // glTF image of each texture slot; -1: none, or a texture without
+  int metallic_roughness_image = -1;  // a PNG / JPEG source (warned)
+  int emission_image = -1;
+  int uv_set = 0;                   // TEXCOORD set: the base colour texture's, else the first textured slot's
+};
+
+// A warning of read_gltf_material: `text` names the material; `kind` is empty, or a kind the
+// renderer lists a few of and counts the rest ("KHR_texture_transform", "normal/occlusion maps").
+struct GltfWarning {
+  std::string kind;
+  std::string text;
+};
+
+// Reads material `index` of `model` into `out`, appending warnings to `warnings` (factors clamped,
+// normal and occlusion textures and KHR_texture_transform ignored, textures on different TEXCOORD
+// sets, a texCoord above 15, a texture without a PNG / JPEG source). Errors name `name`, the material
+// and the problem: a baseColorFactor that is not 4 finite numbers, an emissiveFactor that is not 3,
+// a non-finite metallic or roughness factor, a bad KHR_materials_emissive_strength, an emission
+// that overflows a float, a texture or image index past its list.
+Status read_gltf_material(const tinygltf::Model& model, size_t index, const std::string& name, GltfMaterial& out,
+                          std::vector<GltfWarning>& warnings);
+
+}  // namespace lsnif

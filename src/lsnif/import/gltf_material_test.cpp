@@ -1,0 +1,165 @@
+// gltf_material_test.cpp -- the material reader of gltf_material.h against values worked out by
+// hand: clamping, emissive strength, texture slots to images, the uv set, every error and warning.
+#include "lsnif/import/gltf_material.h"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <string>
+
+namespace lsnif {
+namespace {
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+bool any_warning(const std::vector<GltfWarning>& w, const std::string& part, const std::string& kind = "") {
+  for (const GltfWarning& x : w)
+    if (contains(x.text, part) && x.kind == kind) return true;
+  return false;
+}
+
+// Two images, three textures (texture 2 without a source), one material to edit.
+tinygltf::Model one_material() {
+  tinygltf::Model g;
+  g.images.resize(2);
+  g.textures.resize(3);
+  g.textures[0].source = 1;
+  g.textures[1].source = 0;
+  g.textures[2].source = -1;
+  g.materials.resize(1);
+  g.materials[0].name = "paint";
+  return g;
+}
+
+TEST(GltfMaterial, FactorsAreClampedAndEmissionScaled) {
+  tinygltf::Model g = one_material();
+  tinygltf::Material& m = g.materials[0];
+  m.pbrMetallicRoughness.baseColorFactor = {0.25, 1.5, -0.5, 1.0};
+  m.pbrMetallicRoughness.metallicFactor = 0.75;
+  m.pbrMetallicRoughness.roughnessFactor = 2.0;
+  m.emissiveFactor = {1.0, -1.0, 0.5};
+  tinygltf::Value::Object strength;
+  strength["emissiveStrength"] = tinygltf::Value(4.0);
+  m.extensions["KHR_materials_emissive_strength"] = tinygltf::Value(strength);
+  GltfMaterial out;
+  std::vector<GltfWarning> w;
+  ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
+  EXPECT_EQ(out.name, "paint");
+  EXPECT_EQ(out.base_color, glm::vec4(0.25f, 1.0f, 0.0f, 1.0f));
+  EXPECT_EQ(out.metallic, 0.75f);
+  EXPECT_EQ(out.roughness, 1.0f);
+  EXPECT_EQ(out.emission, glm::vec3(4.0f, 0.0f, 2.0f));
+  EXPECT_TRUE(any_warning(w, "material 0 ('paint'): factors outside their range were clamped"));
+  EXPECT_EQ(out.base_color_image, -1);
+  EXPECT_EQ(out.uv_set, 0);
+}
+
+TEST(GltfMaterial, DefaultsOfAnEmptyMaterial) {
+  tinygltf::Model g = one_material();
+  g.materials[0].name.clear();
+  GltfMaterial out;
+  std::vector<GltfWarning> w;
+  ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
+  EXPECT_EQ(out.name, "material_0");
+  EXPECT_EQ(out.base_color, glm::vec4(1.0f));  // glTF's defaults
+  EXPECT_EQ(out.metallic, 1.0f);
+  EXPECT_EQ(out.roughness, 1.0f);
+  EXPECT_EQ(out.emission, glm::vec3(0.0f));
+  EXPECT_TRUE(w.empty());
+}
+
+TEST(GltfMaterial, SlotsResolveToImagesAndTheUvSet) {
+  tinygltf::Model g = one_material();
+  tinygltf::Material& m = g.materials[0];
+  m.pbrMetallicRoughness.metallicRoughnessTexture.index = 0;  // image 1
+  m.pbrMetallicRoughness.metallicRoughnessTexture.texCoord = 1;
+  m.emissiveTexture.index = 1;  // image 0
+  m.emissiveTexture.texCoord = 2;
+  m.normalTexture.index = 0;
+  m.pbrMetallicRoughness.baseColorTexture.index = 2;  // no source: warned, untextured
+  GltfMaterial out;
+  std::vector<GltfWarning> w;
+  ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
+  EXPECT_EQ(out.base_color_image, -1);
+  EXPECT_EQ(out.metallic_roughness_image, 1);
+  EXPECT_EQ(out.emission_image, 0);
+  EXPECT_EQ(out.uv_set, 0);  // the base colour texture's (set 0), though it has no image
+  EXPECT_TRUE(any_warning(w, "baseColorTexture: texture 2 has no PNG/JPEG source"));
+  EXPECT_TRUE(any_warning(w, "normal / occlusion textures ignored", "normal/occlusion maps"));
+  EXPECT_TRUE(any_warning(w, "different TEXCOORD sets; TEXCOORD_0 used for all"));
+  m.pbrMetallicRoughness.baseColorTexture.index = -1;
+  w.clear();
+  ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
+  EXPECT_EQ(out.uv_set, 1);  // the first textured slot's
+  m.pbrMetallicRoughness.metallicRoughnessTexture.texCoord = 20;
+  m.emissiveTexture.index = -1;
+  w.clear();
+  ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
+  EXPECT_EQ(out.uv_set, 0);
+  EXPECT_TRUE(any_warning(w, "texCoord 20 unsupported; TEXCOORD_0 used"));
+  m.pbrMetallicRoughness.metallicRoughnessTexture.extensions["KHR_texture_transform"] = tinygltf::Value();
+  w.clear();
+  ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
+  EXPECT_TRUE(any_warning(w, "metallicRoughnessTexture: KHR_texture_transform ignored", "KHR_texture_transform"));
+}
+
+TEST(GltfMaterial, ErrorsNameTheFileTheMaterialAndTheProblem) {
+  struct Case {
+    const char* what;
+    void (*edit)(tinygltf::Material&);
+    const char* expected;
+  };
+  const Case cases[] = {
+      {"three base colour numbers", [](tinygltf::Material& m) { m.pbrMetallicRoughness.baseColorFactor = {1, 1, 1}; },
+       "baseColorFactor must be 4 finite numbers"},
+      {"NaN base colour",
+       [](tinygltf::Material& m) {
+         m.pbrMetallicRoughness.baseColorFactor = {1, std::numeric_limits<double>::quiet_NaN(), 1, 1};
+       },
+       "baseColorFactor must be 4 finite numbers"},
+      {"infinite emission",
+       [](tinygltf::Material& m) { m.emissiveFactor = {std::numeric_limits<double>::infinity(), 0, 0}; },
+       "emissiveFactor must be 3 finite numbers"},
+      {"NaN roughness",
+       [](tinygltf::Material& m) { m.pbrMetallicRoughness.roughnessFactor = std::numeric_limits<double>::quiet_NaN(); },
+       "metallicFactor / roughnessFactor must be finite"},
+      {"negative strength",
+       [](tinygltf::Material& m) {
+         tinygltf::Value::Object o;
+         o["emissiveStrength"] = tinygltf::Value(-1.0);
+         m.extensions["KHR_materials_emissive_strength"] = tinygltf::Value(o);
+       },
+       "emissiveStrength must be a finite number >= 0"},
+      {"overflowing emission",
+       [](tinygltf::Material& m) {
+         m.emissiveFactor = {1, 1, 1};
+         tinygltf::Value::Object o;
+         o["emissiveStrength"] = tinygltf::Value(1e300);
+         m.extensions["KHR_materials_emissive_strength"] = tinygltf::Value(o);
+       },
+       "emission overflows a float"},
+      {"missing texture", [](tinygltf::Material& m) { m.emissiveTexture.index = 7; },
+       "emissiveTexture references missing texture 7 (3 textures)"},
+  };
+  for (const Case& c : cases) {
+    tinygltf::Model g = one_material();
+    c.edit(g.materials[0]);
+    GltfMaterial out;
+    std::vector<GltfWarning> w;
+    const Status s = read_gltf_material(g, 0, "f.gltf", out, w);
+    EXPECT_FALSE(s) << c.what;
+    EXPECT_TRUE(contains(s.message(), c.expected)) << c.what << ": " << s.message();
+    EXPECT_TRUE(contains(s.message(), "f.gltf: material 0 ('paint')")) << c.what << ": " << s.message();
+  }
+  tinygltf::Model g = one_material();
+  g.textures[0].source = 5;
+  g.materials[0].pbrMetallicRoughness.baseColorTexture.index = 0;
+  GltfMaterial out;
+  std::vector<GltfWarning> w;
+  const Status s = read_gltf_material(g, 0, "f.gltf", out, w);
+  EXPECT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "texture 0 references missing image 5 (2 images)")) << s.message();
+}
+
+}  // namespace
+}  // namespace lsnif
