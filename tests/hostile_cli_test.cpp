@@ -247,11 +247,19 @@ TEST_F(HostileCli, NonFiniteTransformIsRefusedByEveryCommand) {
 TEST_F(HostileCli, BadMaterialIsRefusedByEveryCommand) {
   put(path("scene/quad.bin"), quad_bin());
   json j = quad_scene("quad.bin");
-  j["materials"] = json::array({{{"name", "paint"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1}}}}}});
+  j["materials"] = json::array({{{"name", "paint"}, {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 5}}}}}}});
   j["meshes"][0]["primitives"][0]["material"] = 0;
   put(path("scene/material.gltf"), j.dump());
   expect_every_command_refuses(path("scene/material.gltf"), work_.string(), model_,
-                               "material 0 ('paint'): baseColorFactor must be 4 finite numbers");
+                               "material 0 ('paint'): baseColorTexture references missing texture 5 (0 textures)");
+  json k = quad_scene("quad.bin");  // a factor tinygltf keeps: a negative emissive strength
+  k["materials"] = json::array({{{"name", "paint"},
+                                 {"emissiveFactor", {1, 1, 1}},
+                                 {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", -2}}}}}}});
+  k["meshes"][0]["primitives"][0]["material"] = 0;
+  put(path("scene/strength.gltf"), k.dump());
+  expect_every_command_refuses(path("scene/strength.gltf"), work_.string(), model_,
+                               "material 0 ('paint'): emissiveStrength must be a finite number >= 0");
 }
 
 TEST_F(HostileCli, PatternsOnHugeNamesAndZeroVoxels) {

@@ -30,10 +30,11 @@ std::string excerpt(const std::string& s) {
 // Factors of `gm` into `out`; `clamped` is set when one lay outside its range.
 Status read_factors(const tinygltf::Material& gm, const std::string& where, GltfMaterial& out, bool& clamped) {
   const tinygltf::PbrMetallicRoughness& pbr = gm.pbrMetallicRoughness;
-  const std::vector<double>& bc = pbr.baseColorFactor;
+  // An empty factor is an absent one (a model built in memory): glTF's default.
+  const std::vector<double> bc = pbr.baseColorFactor.empty() ? std::vector<double>{1, 1, 1, 1} : pbr.baseColorFactor;
   if (bc.size() != 4 || !all_finite(bc))
     return Status::error("%s: baseColorFactor must be 4 finite numbers", where.c_str());
-  const std::vector<double>& ef = gm.emissiveFactor;
+  const std::vector<double> ef = gm.emissiveFactor.empty() ? std::vector<double>{0, 0, 0} : gm.emissiveFactor;
   if (ef.size() != 3 || !all_finite(ef))
     return Status::error("%s: emissiveFactor must be 3 finite numbers", where.c_str());
   if (!std::isfinite(pbr.metallicFactor) || !std::isfinite(pbr.roughnessFactor))

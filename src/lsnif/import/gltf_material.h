@@ -41,7 +41,8 @@ struct GltfWarning {
 // Reads material `index` of `model` into `out`, appending warnings to `warnings` (factors clamped,
 // normal and occlusion textures and KHR_texture_transform ignored, textures on different TEXCOORD
 // sets, a texCoord above 15, a texture without a PNG / JPEG source). Errors name `name`, the material
-// and the problem: a baseColorFactor that is not 4 finite numbers, an emissiveFactor that is not 3,
+// and the problem: a baseColorFactor that is not 4 finite numbers, an emissiveFactor that is not 3
+// (an empty one is absent: glTF's default),
 // a non-finite metallic or roughness factor, a bad KHR_materials_emissive_strength, an emission
 // that overflows a float, a texture or image index past its list.
 Status read_gltf_material(const tinygltf::Model& model, size_t index, const std::string& name, GltfMaterial& out,
