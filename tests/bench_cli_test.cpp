@@ -168,7 +168,8 @@ TEST(BenchCli, TraceBatchedAndQueryPathsAgreeWithTheIntersectionShader) {
   if (!fs::exists(kBunny)) GTEST_SKIP() << kBunny << " missing: run scripts/setup.sh";
   lsnif::test::ScopedTestDir dir("lsnif_bench_trace_cli_test");
   const std::string model = dir.path("bunny.lsnif");
-  // 60 steps at the full learning rate (no decay) give a model that hits a useful share of the rays.
+  // Not --tiny, deliberately: its voxels, table and MLP, but H=9, one grid level and 60 steps at the
+  // full learning rate (no decay) give a model that hits a useful share of the rays.
   lsnif::test::CommandResult r = run_cli("train " + kBunny + " -o " + model +
                                          " --voxels 16 --points 9 --levels 1 --res-min 32 --res-max 64"
                                          " --table-log2 12 --width 32 --steps 60 --batch 1024 --lr-schedule constant"

@@ -30,8 +30,8 @@ using lsnif::test::ProcessResult;
 using nlohmann::json;
 
 const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
-const std::vector<std::string> kTiny = {"--voxels", "16", "--res-min", "32", "--res-max", "64", "--table-log2", "12",
-                                        "--width", "32", "--steps", "30", "--batch", "1024", "--quiet"};
+// The training options of every run that trains: the tiny preset, no progress bar.
+const std::vector<std::string> kTiny = {"--tiny", "--quiet"};
 
 ProcessResult lsnif_run(std::vector<std::string> args, uint64_t file_size_limit = 0) {
   args.insert(args.begin(), LSNIF_CLI);

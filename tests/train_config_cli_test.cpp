@@ -79,7 +79,9 @@ class TrainConfigCli : public ::testing::Test {
   }
 
   lsnif::test::ScopedTestDir dir_{"lsnif_train_config"};
-  // Small enough for a fraction of a second per run.
+  // Small enough for a fraction of a second per run. Not the --tiny preset, deliberately: these
+  // tests check that a file's values reach the model, so the file lists them (smaller still than
+  // --tiny's).
   const std::string tiny_ = R"({"voxels": 8, "res-min": 16, "res-max": 32, "table-log2": 8, "width": 16,
                                 "points": 6, "steps": 2, "batch": 128})";
 };

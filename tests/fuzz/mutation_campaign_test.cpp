@@ -417,6 +417,8 @@ TEST(MutationCampaign, OptionLists) {
   const std::string elephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
   if (!fs::exists(elephant)) GTEST_SKIP() << elephant << " missing: run scripts/setup.sh";
   test::ScopedTestDir dir("lsnif_campaign_options");
+  // The --tiny preset's model in 2 steps of 256 rays, given as values, not as --tiny: every option
+  // below is added to these, and --tiny would refuse one it sets before its value is checked.
   const std::vector<std::string> tiny = {"--voxels", "16", "--res-min", "32", "--res-max", "64", "--table-log2", "12",
                                          "--width", "32", "--steps", "2", "--batch", "256", "--quiet"};
   // Values outside each option's documented range (README, --help): every one must be refused.

@@ -22,14 +22,11 @@
 // memory is allocated only once the whole layout has been checked against the validated config.
 #include "lsnif/format/model_format.h"
 
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
-#include <filesystem>
-#include <system_error>
 
 #include "lsnif/format/crc32.h"
+#include "lsnif/format/file_io.h"
 
 namespace lsnif {
 
@@ -615,33 +612,25 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
 }
 
 Status read_model_file(const std::string& path, std::vector<uint8_t>& out) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (st.type() == fs::file_type::not_found) return Status::error("loading %s: no such file", path.c_str());
-  if (ec) return Status::error("loading %s: cannot access: %s", path.c_str(), ec.message().c_str());
-  if (fs::is_directory(st)) return Status::error("loading %s: is a directory, not an .lsnif file", path.c_str());
-  if (!fs::is_regular_file(st)) return Status::error("loading %s: not a regular file", path.c_str());
-  const uintmax_t size = fs::file_size(path, ec);
-  if (ec) return Status::error("loading %s: cannot read its size: %s", path.c_str(), ec.message().c_str());
-  if (size > max_file_size())
-    return Status::error("loading %s: %llu bytes is larger than any valid .lsnif file (at most %llu bytes)",
-                         path.c_str(), static_cast<unsigned long long>(size), ull(max_file_size()));
-
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return Status::error("loading %s: cannot open: %s", path.c_str(), std::strerror(errno));
-  std::vector<uint8_t> bytes(static_cast<size_t>(size));
-  const size_t got = bytes.empty() ? 0 : std::fread(bytes.data(), 1, bytes.size(), f);
-  // One more byte must not be there: the file may have grown since its size was taken.
-  uint8_t extra;
-  const bool longer = std::fread(&extra, 1, 1, f) == 1;
-  const bool read_error = std::ferror(f) != 0;
-  std::fclose(f);
-  if (read_error) return Status::error("loading %s: read error", path.c_str());
-  if (got != bytes.size() || longer)
-    return Status::error("loading %s: the file changed size while it was read", path.c_str());
-  out = std::move(bytes);
-  return Status::ok();
+  ReadFailure f;
+  if (read_file(path, out, max_file_size(), &f)) return Status::ok();
+  const char* p = path.c_str();
+  switch (f.problem) {
+    case ReadProblem::Missing: return Status::error("loading %s: no such file", p);
+    case ReadProblem::CannotAccess: return Status::error("loading %s: cannot access: %s", p, f.reason.c_str());
+    case ReadProblem::Directory: return Status::error("loading %s: is a directory, not an .lsnif file", p);
+    case ReadProblem::NotRegular: return Status::error("loading %s: not a regular file", p);
+    case ReadProblem::SizeUnknown: return Status::error("loading %s: cannot read its size: %s", p, f.reason.c_str());
+    case ReadProblem::TooLarge:
+      return Status::error("loading %s: %llu bytes is larger than any valid .lsnif file (at most %llu bytes)", p,
+                           ull(f.size), ull(max_file_size()));
+    case ReadProblem::OutOfMemory: return Status::error("loading %s: out of memory for its %llu bytes", p, ull(f.size));
+    case ReadProblem::CannotOpen: return Status::error("loading %s: cannot open: %s", p, f.reason.c_str());
+    case ReadProblem::ReadError: return Status::error("loading %s: read error", p);
+    case ReadProblem::None:
+    case ReadProblem::ChangedSize: break;
+  }
+  return Status::error("loading %s: the file changed size while it was read", p);
 }
 
 }  // namespace lsnif

@@ -73,9 +73,9 @@ ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes);
 // mismatch ...", "truncated ...", "section grid has size ...").
 Status parse_model_file(const uint8_t* data, size_t size, ModelFileView& out);
 
-// Reads a whole .lsnif file into `bytes` (replaced): a regular file no larger than the largest
-// valid model, read completely (an error if it changes size meanwhile). Errors start with
-// "loading PATH: ". The bytes are not parsed.
+// Reads a whole .lsnif file into `bytes` (replaced on success) with read_file (file_io.h): a
+// regular file no larger than the largest valid model, read completely (an error if it changes
+// size meanwhile). Errors start with "loading PATH: ". The bytes are not parsed.
 Status read_model_file(const std::string& path, std::vector<uint8_t>& bytes);
 
 // What a .lsnif file holds, for writing: fp16 parameters as bits.

@@ -1,7 +1,7 @@
 // settings_table.h -- the one definition of every setting of a trained model: its name (the flag
 // `--NAME` of `lsnif train` / `lsnif convert` and the key of `--config` files and of the settings
-// recorded in a model), default, range and help text, and the presets (--quality, --paper) as
-// lists of values. Config (config.h), TrainSettings and its parts (src/lsnif/train/) and the command line
+// recorded in a model), default, range and help text, and the presets (--quality, --paper, --tiny)
+// as lists of values. Config (config.h), TrainSettings and its parts (src/lsnif/train/) and the command line
 // take their defaults and ranges from here; src/lsnif/train/settings_io.h reads and writes the values.
 // Plain constexpr data, no dependencies beyond the shader limits.
 #pragma once
@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <iterator>
 #include <limits>
+#include <string_view>
 
 #include "lsnif/host_device.h"
 
@@ -169,7 +170,7 @@ constexpr bool table_in_id_order() {
 static_assert(setting_detail::table_in_id_order(), "kSettingDefs must list the settings in SettingId order");
 
 // A preset sets several settings at once: `--quality low` (option "quality", choice "low") or the
-// flag `--paper` (choice nullptr). In a `--config` file: "quality": "low", "paper": true.
+// flags `--paper` and `--tiny` (choice nullptr). In a `--config` file: "quality": "low", "paper": true.
 struct PresetValue {
   SettingId id;
   double value;  // Choice: the choice's value
@@ -193,10 +194,28 @@ inline constexpr PresetValue kPaperValues[] = {{SettingId::Steps, 2000},
                                                {SettingId::Hit, LSNIF_HIT_PARAM_AABB_INTERVAL},
                                                {SettingId::NormalLoss, kNormalLossChoices[1].value},
                                                {SettingId::RayReuse, 1}};
+// A tiny model trained in seconds, for tests and first trials (and the models of `lsnif bench
+// --quick`): V=16, the grid 32..64 with 2^12 entries, a 32-wide MLP, 30 steps of 1024 rays.
+inline constexpr PresetValue kTinyValues[] = {{SettingId::Voxels, 16}, {SettingId::ResMin, 32},
+                                              {SettingId::ResMax, 64}, {SettingId::TableLog2, 12},
+                                              {SettingId::Width, 32},  {SettingId::Steps, 30},
+                                              {SettingId::Batch, 1024}};
 inline constexpr Preset kPresets[] = {
     {"quality", "high", nullptr, 0, "the paper's configuration"},
     {"quality", "low", kLowQualityValues, uint32_t(std::size(kLowQualityValues)), ""},
     {"paper", nullptr, kPaperValues, uint32_t(std::size(kPaperValues)), "the paper's training settings"},
+    {"tiny", nullptr, kTinyValues, uint32_t(std::size(kTinyValues)),
+     "a tiny model trained in seconds, for tests and first trials"},
 };
+// The flag `--tiny` ("tiny": true in a settings file).
+inline constexpr const Preset& kTinyPreset = kPresets[3];
+static_assert(std::string_view(kTinyPreset.option) == "tiny" && kTinyPreset.choice == nullptr, "kTinyPreset is --tiny");
+
+// The value preset `p` gives setting `id`, or the setting's default when it gives none.
+constexpr double preset_value(const Preset& p, SettingId id) {
+  for (uint32_t k = 0; k < p.count; ++k)
+    if (p.values[k].id == id) return p.values[k].value;
+  return setting_def(id).def;
+}
 
 }  // namespace lsnif

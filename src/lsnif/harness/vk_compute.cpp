@@ -4,10 +4,10 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <utility>
 #include <vector>
 
+#include "lsnif/format/file_io.h"
 #include "lsnif/lsnif.h"
 
 namespace lsnif::vk {
@@ -15,6 +15,8 @@ namespace lsnif::vk {
 namespace {
 
 constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
+// The largest SPIR-V file read_spirv_file reads (the program's own shaders are under 100 KiB).
+constexpr uint64_t kMaxSpirvFileBytes = uint64_t(1) << 28;
 
 DeviceType device_type(VkPhysicalDeviceType type) {
   switch (type) {
@@ -310,16 +312,25 @@ void ComputeContext::destroy_buffer(Buffer& buffer) {
 }
 
 Status read_spirv_file(const std::string& path, std::vector<uint32_t>& code) {
-  std::ifstream file(path, std::ios::binary | std::ios::ate);
-  if (!file) return Status::error("cannot open SPIR-V file %s", path.c_str());
-  const std::streamsize size = file.tellg();
-  if (size <= 0 || size % 4 != 0)
+  std::string bytes;
+  ReadFailure f;
+  if (!read_file(path, bytes, kMaxSpirvFileBytes, &f)) {
+    switch (f.problem) {
+      case ReadProblem::TooLarge:
+        return Status::error("SPIR-V file %s has %llu bytes (more than the %llu a shader may have)", path.c_str(),
+                             static_cast<unsigned long long>(f.size),
+                             static_cast<unsigned long long>(kMaxSpirvFileBytes));
+      case ReadProblem::OutOfMemory:
+      case ReadProblem::ReadError:
+      case ReadProblem::ChangedSize: return Status::error("cannot read SPIR-V file %s", path.c_str());
+      default: return Status::error("cannot open SPIR-V file %s", path.c_str());
+    }
+  }
+  if (bytes.empty() || bytes.size() % 4 != 0)
     return Status::error("SPIR-V file %s has %lld bytes (not a positive multiple of 4)", path.c_str(),
-                         static_cast<long long>(size));
-  code.assign(size_t(size) / 4, 0u);
-  file.seekg(0);
-  if (!file.read(reinterpret_cast<char*>(code.data()), size))
-    return Status::error("cannot read SPIR-V file %s", path.c_str());
+                         static_cast<long long>(bytes.size()));
+  code.assign(bytes.size() / 4, 0u);
+  std::memcpy(code.data(), bytes.data(), bytes.size());
   return Status::ok();
 }
 

@@ -50,7 +50,8 @@ struct Spirv {
   size_t bytes = 0;
 };
 
-// Reads a SPIR-V file into `code` (replaced); errors name the file.
+// Reads a SPIR-V file (a positive multiple of 4 bytes, at most 256 MiB) into `code` (replaced on
+// success) with read_file (lsnif/format/file_io.h); errors name the file.
 Status read_spirv_file(const std::string& path, std::vector<uint32_t>& code);
 
 struct Pipeline {

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <map>
 #include <type_traits>
@@ -36,6 +35,7 @@
 #include "lsnif/import/gltf_access.h"
 #pragma GCC diagnostic pop
 
+#include "lsnif/format/file_io.h"
 #include "lsnif/import/json_text.h"
 #include "lsnif/import/resolve_path.h"
 
@@ -218,24 +218,21 @@ std::string trim_message(std::string s, size_t max_chars) {
 
 bool read_whole_file(std::vector<unsigned char>* out, std::string* err, const std::string& path,
                      void* /*user*/) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    if (err) *err += "missing or not a regular file: " + path + "\n";
-    return false;
+  ReadFailure f;
+  if (read_file(path, *out, uint64_t(1) << 32, &f)) return true;
+  if (err) {
+    switch (f.problem) {
+      case ReadProblem::Missing:
+      case ReadProblem::CannotAccess:
+      case ReadProblem::Directory:
+      case ReadProblem::NotRegular: *err += "missing or not a regular file: " + path + "\n"; break;
+      case ReadProblem::SizeUnknown:
+      case ReadProblem::TooLarge:
+      case ReadProblem::OutOfMemory: *err += "cannot size or too large: " + path + "\n"; break;
+      default: *err += "read error: " + path + "\n"; break;
+    }
   }
-  const uintmax_t size = std::filesystem::file_size(path, ec);
-  if (ec || size > (uintmax_t(1) << 32)) {
-    if (err) *err += "cannot size or too large: " + path + "\n";
-    return false;
-  }
-  std::ifstream in(path, std::ios::binary);
-  out->resize(static_cast<size_t>(size));
-  in.read(reinterpret_cast<char*>(out->data()), static_cast<std::streamsize>(size));
-  if (!in || static_cast<uintmax_t>(in.gcount()) != size) {
-    if (err) *err += "read error: " + path + "\n";
-    return false;
-  }
-  return true;
+  return false;
 }
 
 Status load_model(std::string_view data, bool binary, const std::string& name,

@@ -46,10 +46,11 @@ struct LoadOptions {
 // newlines turned into ';', then cut to `max_chars` characters (+ "...") when longer.
 std::string trim_message(std::string s, size_t max_chars = std::string::npos);
 
-// Reads a whole regular file (no devices or FIFOs, at most 4 GiB) into `out`. On failure returns
-// false and appends a one-line reason naming `path` to `err` (when not null). Has the signature of
-// tinygltf's ReadWholeFile callback (`user` is ignored); load_model's callback reads through it
-// the files the reference policy resolved.
+// Reads a whole regular file (no devices or FIFOs, at most 4 GiB) into `out` with read_file
+// (lsnif/format/file_io.h). On failure returns false, leaves `out` as it was and appends a one-line
+// reason naming `path` to `err` (when not null). Has the signature of tinygltf's ReadWholeFile
+// callback (`user` is ignored); load_model's callback reads through it the files the reference
+// policy resolved.
 bool read_whole_file(std::vector<unsigned char>* out, std::string* err, const std::string& path,
                      void* user);
 

@@ -4,12 +4,12 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <new>
 #include <stdexcept>
 
 #include "lsnif/import/mesh.h"
 #include "lsnif/import/mesh_formats.h"
+#include "lsnif/format/file_io.h"
 #include "lsnif/format/model_format.h"
 
 namespace lsnif {
@@ -433,24 +433,24 @@ Status load_mesh(const std::string& path, Mesh& mesh, MeshImportReport* report,
   if (format == mesh_io::MeshFormat::Unknown)
     return Status::error("%s: unsupported mesh format '%s' (expected .off, .obj, .ply, .gltf or .glb)",
                          path.c_str(), std::filesystem::path(path).extension().string().c_str());
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    return Status::error("%s: cannot open mesh file (missing or not a regular file)", path.c_str());
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::error("%s: cannot open mesh file", path.c_str());
-  uintmax_t size = std::filesystem::file_size(path, ec);
-  if (ec) return Status::error("%s: cannot read mesh file size", path.c_str());
-  if (size > (uintmax_t(1) << 34)) return Status::error("%s: file too large", path.c_str());
   std::string data;
-  try {
-    data.resize(static_cast<size_t>(size));
-  } catch (const std::exception&) {
-    return Status::error("%s: out of memory reading the file", path.c_str());
+  ReadFailure f;
+  if (!read_file(path, data, mesh_io::kMaxMeshFileBytes, &f)) {
+    const char* p = path.c_str();
+    switch (f.problem) {
+      case ReadProblem::CannotOpen: return Status::error("%s: cannot open mesh file", p);
+      case ReadProblem::SizeUnknown: return Status::error("%s: cannot read mesh file size", p);
+      case ReadProblem::TooLarge: return Status::error("%s: file too large", p);
+      case ReadProblem::OutOfMemory: return Status::error("%s: out of memory reading the file", p);
+      case ReadProblem::ReadError:
+      case ReadProblem::ChangedSize:
+        if (f.got < f.size)
+          return Status::error("%s: read error (got %llu of %llu bytes)", p, (unsigned long long)f.got,
+                               (unsigned long long)f.size);
+        return Status::error("%s: read error (the file grew while it was read)", p);
+      default: return Status::error("%s: cannot open mesh file (missing or not a regular file)", p);
+    }
   }
-  in.read(data.data(), static_cast<std::streamsize>(data.size()));
-  if (static_cast<uintmax_t>(in.gcount()) != size)
-    return Status::error("%s: read error (got %lld of %ju bytes)", path.c_str(),
-                         static_cast<long long>(in.gcount()), size);
   std::string base_dir = std::filesystem::path(path).parent_path().string();
   return mesh_io::parse_mesh(data, format, path, base_dir, mesh, report, options);
 }

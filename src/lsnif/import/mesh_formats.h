@@ -16,6 +16,9 @@ namespace lsnif::mesh_io {
 
 enum class MeshFormat { Off, Obj, Ply, Gltf, Glb, Unknown };
 
+// The most bytes load_mesh reads from a mesh file, and mesh_obj.cpp from an OBJ's material library.
+inline constexpr uint64_t kMaxMeshFileBytes = uint64_t(1) << 34;
+
 // Format from the file name's extension (case-insensitive); Unknown for anything else.
 MeshFormat format_from_path(const std::string& path);
 

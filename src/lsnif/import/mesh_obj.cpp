@@ -4,10 +4,9 @@
 // color when the file's mtllib is found next to it. Corners that reference no valid vertex make
 // their triangle invalid (finalize_mesh drops and counts it).
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <unordered_map>
 
+#include "lsnif/format/file_io.h"
 #include "lsnif/import/mesh_formats.h"
 #include "lsnif/import/resolve_path.h"
 
@@ -72,10 +71,11 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
-// Reads "newmtl name" / "Kd r g b" pairs of a .mtl file into `kd`.
+// Reads "newmtl name" / "Kd r g b" pairs of a .mtl file into `kd`; a file that cannot be read (or
+// is larger than a mesh file may be) gives none.
 void read_mtl(const std::string& path, std::unordered_map<std::string, glm::vec3>& kd) {
-  std::ifstream in(path, std::ios::binary);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string text;
+  if (!read_file(path, text, kMaxMeshFileBytes)) return;
   TextCursor cur(text);
   std::string current;
   while (!cur.at_end()) {

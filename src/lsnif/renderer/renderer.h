@@ -16,6 +16,7 @@
 #include <glm/glm.hpp>
 
 #include "lsnif/renderer/environment.h"
+#include "lsnif/renderer/render_defaults.h"
 #include "lsnif/image/image_io.h"
 #include "lsnif/renderer/scene.h"
 #include "lsnif/format/status.h"
@@ -57,8 +58,8 @@ struct PrimaryHit {
 };
 
 struct RenderSettings {
-  uint32_t width = 320, height = 240;
-  uint32_t spp = 16;               // samples per pixel
+  uint32_t width = kDefaultImageWidth, height = kDefaultImageHeight;  // render_defaults.h
+  uint32_t spp = kDefaultSpp;      // samples per pixel
   uint32_t samples_per_pass = 4;   // per submission (a vkCmdTraceRaysKHR or a wavefront command buffer)
   uint32_t max_bounces = 4;        // path vertices after the camera (the paper's 4)
   uint32_t rr_depth = 4;           // Russian roulette from this bounce on (only with max_bounces > 4)

@@ -13,7 +13,7 @@
 
 #include "lsnif/apps/convert/convert.h"
 #include "lsnif/renderer/gltf_build.h"
-#include "lsnif/testing/test_support.h"  // tests/: ScopedTestDir, tiny_train_settings
+#include "lsnif/testing/test_support.h"  // tests/: ScopedTestDir, tiny_preset_settings
 
 namespace lsnif::convert::test {
 
@@ -90,16 +90,13 @@ inline void save_or_fail(const tinygltf::Model& g, const std::string& path) {
   ASSERT_TRUE(s) << s.message();
 }
 
-// Settings that train a tiny model in about a second (30 steps of 1024 rays, V=16, 2x32 MLP).
+// Settings that train a tiny model in about a second: the tiny preset (`lsnif convert --tiny`; 30
+// steps of 1024 rays, V=16, 2x32 MLP).
 inline ConvertSettings tiny_settings(const std::string& in, const std::string& out) {
   ConvertSettings s;
   s.input = in;
   s.output = out;
-  s.train = lsnif::test::tiny_train_settings();
-  s.train.config.hidden_width = 32;
-  set_table_log2(s.train.config, 12);
-  s.train.steps = 30;
-  s.train.batch_size = 1024;
+  s.train = lsnif::test::tiny_preset_settings();
   s.eval_rays = 2000;
   s.progress = false;
   return s;

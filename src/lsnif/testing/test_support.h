@@ -25,6 +25,7 @@
 #include <glm/glm.hpp>
 
 #include "lsnif/core/intersector.h"
+#include "lsnif/train/settings_io.h"
 #include "lsnif/train/trainer.h"
 
 namespace lsnif::test {
@@ -33,13 +34,23 @@ namespace lsnif::test {
 // their reference platform, also on a machine with a GPU that the automatic choice would prefer.
 inline constexpr const char* kReferenceDevice = "llvmpipe";
 
-// A small, fast model: V=16, H=12, grid 32..64 with 2^14 entries, 2x64 MLP, batches of 2048, no
-// progress bar. Callers set the steps, seed and hit parametrization they need.
-inline TrainSettings tiny_train_settings() {
+// The tiny preset (`lsnif train --tiny`, settings_table.h kTinyPreset) as TrainSettings: V=16, grid
+// 32..64 with 2^12 entries, 2x32 MLP, 30 steps of 1024 rays, no progress bar. The command-line
+// tests pass --tiny for the same model.
+inline TrainSettings tiny_preset_settings() {
   TrainSettings s;
-  s.config.voxel_resolution = 16;
+  const Status status = preset_train_settings(kTinyPreset, s);
+  EXPECT_TRUE(status) << status.message();
+  return s;
+}
+
+// The in-process tests' model: the tiny preset with, deliberately, more capacity and a larger batch
+// (H=12, 2^14 entries, 2x64 MLP, batches of 2048): the quality floors of train_e2e_test and
+// materials_e2e_test and the GPU tests' models were set for these. Callers set the steps, seed and
+// hit parametrization they need.
+inline TrainSettings tiny_train_settings() {
+  TrainSettings s = tiny_preset_settings();
   s.config.max_points = 12;
-  set_grid_resolutions(s.config, 32, 64);
   set_table_log2(s.config, 14);
   s.config.hidden_width = 64;
   s.batch_size = 2048;

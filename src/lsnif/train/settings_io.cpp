@@ -4,10 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
-#include <fstream>
 #include <iterator>
 
+#include "lsnif/format/file_io.h"
 #include "lsnif/import/json_text.h"
 
 namespace lsnif {
@@ -343,19 +342,21 @@ Status parse_settings_json(std::string_view text, const std::string& file, Setti
 }
 
 Status read_settings_file(const std::string& path, SettingLayer& out) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (st.type() == fs::file_type::not_found) return Status::error("%s: no such file", path.c_str());
-  if (ec || !fs::is_regular_file(st)) return Status::error("%s: not a regular file", path.c_str());
-  const uintmax_t size = fs::file_size(path, ec);
-  if (ec || size > kMaxConfigFileBytes)
-    return Status::error("%s: larger than %llu bytes, not a settings file", path.c_str(),
-                         (unsigned long long)kMaxConfigFileBytes);
-  std::ifstream in(path, std::ios::binary);
-  std::string text(static_cast<size_t>(size), '\0');
-  if (!in.read(text.data(), std::streamsize(text.size())) || in.peek() != std::char_traits<char>::eof())
-    return Status::error("%s: cannot read it (or it changed size while read)", path.c_str());
+  std::string text;
+  ReadFailure f;
+  if (!read_file(path, text, kMaxConfigFileBytes, &f)) {
+    switch (f.problem) {
+      case ReadProblem::Missing: return Status::error("%s: no such file", path.c_str());
+      case ReadProblem::CannotAccess:
+      case ReadProblem::Directory:
+      case ReadProblem::NotRegular: return Status::error("%s: not a regular file", path.c_str());
+      case ReadProblem::SizeUnknown:
+      case ReadProblem::TooLarge:
+        return Status::error("%s: larger than %llu bytes, not a settings file", path.c_str(),
+                             (unsigned long long)kMaxConfigFileBytes);
+      default: return Status::error("%s: cannot read it (or it changed size while read)", path.c_str());
+    }
+  }
   return parse_settings_json(text, path, out);
 }
 
@@ -411,6 +412,17 @@ void to_train_settings(const SettingValues& v, TrainSettings& s) {
   s.sampler.sphere_scale = v[SphereScale].f;
   s.sampler.surface_offset = v[SurfaceOffset].f;
   s.grid_init_range = v[GridInitRange].f;
+}
+
+Status preset_train_settings(const Preset& p, TrainSettings& out) {
+  SettingLayer layer;
+  layer.presets.push_back(&p);
+  SettingValues values;
+  if (Status s = resolve_settings({&layer}, values); !s) return s;
+  TrainSettings settings;
+  to_train_settings(values, settings);
+  out = settings;
+  return Status::ok();
 }
 
 SettingValues from_train_settings(const TrainSettings& s) {

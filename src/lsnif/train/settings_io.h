@@ -65,9 +65,9 @@ const Preset* find_preset(std::string_view option, const char* choice);
 const SettingDef* find_setting(std::string_view name);
 
 // Reads a `--config` file: a JSON object of setting name -> value (numbers, choice names as
-// strings) and presets ("quality": "low", "paper": true). Files larger than 1 MiB, JSON nested
-// deeper than json::kMaxDepth, anything but an object, unknown keys and wrong types are errors that
-// name the file and the key. Ranges are checked when the layer is applied.
+// strings) and presets ("quality": "low", "paper": true, "tiny": true). Files larger than 1 MiB,
+// JSON nested deeper than json::kMaxDepth, anything but an object, unknown keys and wrong types are
+// errors that name the file and the key. Ranges are checked when the layer is applied.
 Status read_settings_file(const std::string& path, SettingLayer& out);
 Status parse_settings_json(std::string_view text, const std::string& file, SettingLayer& out);
 
@@ -78,6 +78,10 @@ Status parse_settings_json(std::string_view text, const std::string& file, Setti
 Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingValues& out);
 
 void to_train_settings(const SettingValues& values, TrainSettings& out);
+// The settings preset `p` alone gives (`lsnif train --tiny` less the command's loss curve): the
+// table's defaults with the preset's values, over TrainSettings(). Fails only for a preset with a
+// value out of range (settings_io_test resolves every preset).
+Status preset_train_settings(const Preset& p, TrainSettings& out);
 // The values that give these settings (the coarsest and finest grid resolutions from the config).
 SettingValues from_train_settings(const TrainSettings& settings);
 

@@ -93,6 +93,40 @@ TEST(SettingsTable, EveryPresetIsValidAndChangesWhatItNames) {
     EXPECT_EQ(scheduled_learning_rate(s.lr_schedule, s.adam.learning_rate, step, s.steps), 0.01f) << step;
 }
 
+// The tiny preset of the tests and `lsnif bench --quick`, from the command line, a settings file
+// and preset_train_settings alike.
+TEST(SettingsTable, TheTinyPresetIsOneSetOfValues) {
+  EXPECT_EQ(find_preset("tiny", nullptr), &kTinyPreset);
+  SettingValues v;
+  ASSERT_EQ(config_error(R"({"tiny": true})", &v), "");
+  TrainSettings s;
+  Status st = preset_train_settings(kTinyPreset, s);
+  ASSERT_TRUE(st) << st.message();
+  EXPECT_EQ(from_train_settings(s), v);
+  EXPECT_EQ(s.config.voxel_resolution, 16u);
+  EXPECT_EQ(s.config.grid_resolution[0], 32u);
+  EXPECT_EQ(s.config.grid_resolution[1], 64u);
+  EXPECT_EQ(s.config.table_log2[0], 12u);
+  EXPECT_EQ(s.config.table_log2[1], 12u);
+  EXPECT_EQ(s.config.hidden_width, 32u);
+  EXPECT_EQ(s.steps, 30u);
+  EXPECT_EQ(s.batch_size, 1024u);
+  EXPECT_EQ(uint32_t(preset_value(kTinyPreset, SettingId::Steps)), 30u);
+  EXPECT_EQ(uint32_t(preset_value(kTinyPreset, SettingId::Points)), default_u32(SettingId::Points));  // not set
+  // The rest is the defaults.
+  SettingValues rest = v;
+  for (uint32_t k = 0; k < kTinyPreset.count; ++k) {
+    const SettingId id = kTinyPreset.values[k].id;
+    rest[id] = SettingValues::defaults()[id];
+  }
+  EXPECT_EQ(rest, SettingValues::defaults());
+  // A preset that sets nothing gives TrainSettings().
+  ASSERT_TRUE(preset_train_settings(*find_preset("quality", "high"), s));
+  EXPECT_EQ(from_train_settings(s), SettingValues::defaults());
+  // Like every preset, refused together with a value it sets.
+  expect_error(R"({"tiny": true, "steps": 5})", {"cfg.json", "\"tiny\"", "\"steps\": 30", "give either"});
+}
+
 TEST(SettingsConfig, ErrorsNameTheFileTheKeyAndTheProblem) {
   expect_error("[1, 2]", {"cfg.json", "JSON object", "not array"});
   expect_error("not json", {"cfg.json", "not valid JSON"});

@@ -11,6 +11,7 @@
 
 #include "lsnif/format/crc32.h"
 #include "lsnif/renderer/gltf_build.h"
+#include "lsnif/renderer/render_defaults.h"
 #include "lsnif/import/mesh_subdivide.h"
 
 namespace lsnif::cli {
@@ -18,7 +19,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr float kAspect = 4.0f / 3.0f;  // the framing assumes the default 320 x 240 image shape
+// The framing assumes the shape of the default image.
+constexpr float kAspect = float(render::kDefaultImageWidth) / float(render::kDefaultImageHeight);
 
 struct Source {
   const char* file;  // under data/meshes

@@ -272,7 +272,7 @@ int prepare_scene(const std::string& name, const BenchCommand& cmd, BenchScene& 
   gltf = dir / (name + ".gltf");
   const fs::path scene_key = dir / "scene.key";
   const std::string fingerprint = scene_fingerprint(bench) + "\n";
-  if (fs::is_regular_file(gltf) && read_text_file(scene_key.string()) == fingerprint) {
+  if (fs::is_regular_file(gltf) && file_holds(scene_key.string(), fingerprint)) {
     std::printf("scene     reusing %s (unchanged)\n", gltf.string().c_str());
   } else {
     if (Status s = write_bench_scene(bench, dir.string()); !s) {

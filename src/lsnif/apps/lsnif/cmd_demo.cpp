@@ -27,10 +27,7 @@ int cmd_demo(int argc, char** argv) {
   opts.output = "out/bunny.lsnif";
   uint32_t rays = 100000;
   bool reuse = false, no_render = false;
-  render::RenderSettings rs;
-  rs.width = 320;
-  rs.height = 240;
-  rs.spp = 16;
+  render::RenderSettings rs;  // the default image (render_defaults.h) unless given
   std::string hdr = in_data("hdr/forest.exr"), picture = "out/bunny_compare.png";
   const std::string default_mesh = mesh_path, default_hdr = hdr;
   std::string device;

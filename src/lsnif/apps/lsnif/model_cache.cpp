@@ -2,19 +2,16 @@
 #include "lsnif/apps/lsnif/model_cache.h"
 
 #include <cstdio>
-#include <fstream>
-#include <sstream>
 
 #include "lsnif/format/atomic_file.h"
+#include "lsnif/format/file_io.h"
 #include "lsnif/renderer/scene_gltf.h"
 
 namespace lsnif::cli {
 
-std::string read_text_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+bool file_holds(const std::string& path, const std::string& text) {
+  std::string bytes;
+  return read_file(path, bytes, text.size()) && bytes == text;
 }
 
 bool write_text_file(const char* command, const std::string& path, const std::string& text) {
@@ -23,35 +20,50 @@ bool write_text_file(const char* command, const std::string& path, const std::st
   return bool(s);
 }
 
+namespace {
+
+// The images of --quick.
+constexpr uint32_t kQuickWidth = 64, kQuickHeight = 48, kQuickSpp = 2;
+
+// A number of the tiny preset (--quick's models).
+uint32_t tiny_value(SettingId id) { return static_cast<uint32_t>(preset_value(kTinyPreset, id)); }
+
+}  // namespace
+
 void add_bench_run_options(Args& args, BenchRunOptions* o) {
-  args.option("width", "image width (0: 320, --quick 64)", &o->width);
-  args.option("height", "image height (0: 240, --quick 48)", &o->height);
-  args.option("spp", "samples per pixel (0: 16, --quick 2)", &o->spp);
-  args.option("steps", "training steps (0: the default of lsnif train, --quick 30)", &o->steps);
-  args.option("batch", "training rays per step (0: the default of lsnif train, --quick 1024)", &o->batch);
+  using render::kDefaultImageHeight, render::kDefaultImageWidth, render::kDefaultSpp;
+  args.option("width", format("image width (0: %u, --quick %u)", kDefaultImageWidth, kQuickWidth), &o->width);
+  args.option("height", format("image height (0: %u, --quick %u)", kDefaultImageHeight, kQuickHeight), &o->height);
+  args.option("spp", format("samples per pixel (0: %u, --quick %u)", kDefaultSpp, kQuickSpp), &o->spp);
+  const uint32_t quick_steps = tiny_value(SettingId::Steps), quick_batch = tiny_value(SettingId::Batch);
+  args.option("steps", format("training steps (0: the default of lsnif train, --quick %u)", quick_steps), &o->steps);
+  args.option("batch", format("training rays per step (0: the default of lsnif train, --quick %u)", quick_batch),
+              &o->batch);
   args.option("seed", "training seed", &o->seed);
   args.option("threads", "training threads (0 = all cores)", &o->threads);
-  args.flag("quick", "tiny models (V=16, 2^12-entry grid, 32-wide MLP, 30 steps) and tiny images: seconds, for tests",
+  args.flag("quick",
+            format("tiny models (V=%u, 2^%u-entry grid, %u-wide MLP, %u steps) and tiny images: seconds, for tests",
+                   tiny_value(SettingId::Voxels), tiny_value(SettingId::TableLog2), tiny_value(SettingId::Width),
+                   quick_steps),
             &o->quick);
   args.flag("retrain", "train every model even when a matching one exists", &o->retrain);
 }
 
 void apply_bench_run_options(const BenchRunOptions& o, TrainOptions& train, render::RenderSettings& rs) {
-  rs.width = 320;
-  rs.height = 240;
-  rs.spp = 16;
+  rs.width = render::kDefaultImageWidth;
+  rs.height = render::kDefaultImageHeight;
+  rs.spp = render::kDefaultSpp;
   const auto set = [&train](SettingId id, uint64_t value) { train.given.set(id, {.u = value}); };
   if (o.quick) {
-    set(SettingId::Voxels, 16);
-    set(SettingId::ResMin, 32);
-    set(SettingId::ResMax, 64);
-    set(SettingId::TableLog2, 12);
-    set(SettingId::Width, 32);
-    set(SettingId::Steps, 30);
-    set(SettingId::Batch, 1024);
-    rs.width = 64;
-    rs.height = 48;
-    rs.spp = 2;
+    // The tiny preset's values as given values, not the preset itself: --steps and --batch override
+    // them, and cmd_bench's quality presets fill in only the settings they leave alone.
+    for (uint32_t k = 0; k < kTinyPreset.count; ++k) {
+      const SettingDef& d = setting_def(kTinyPreset.values[k].id);
+      train.given.set(d.id, setting_value(d, kTinyPreset.values[k].value));
+    }
+    rs.width = kQuickWidth;
+    rs.height = kQuickHeight;
+    rs.spp = kQuickSpp;
   }
   if (o.steps) set(SettingId::Steps, o.steps);
   if (o.batch) set(SettingId::Batch, o.batch);
@@ -69,7 +81,7 @@ int train_or_reuse(const char* command, const Mesh& mesh, const std::string& fin
   TrainSettings ts;
   if (!opts.to_settings(ts)) return 2;
   const std::string key = "mesh " + fingerprint + "\nsettings " + ts.describe() + "\n";
-  if (!retrain && scene::check_lsnif_file(opts.output) && read_text_file(key_path) == key) {
+  if (!retrain && scene::check_lsnif_file(opts.output) && file_holds(key_path, key)) {
     out.reused = true;
     std::printf("model     reusing %s (same mesh and settings; --retrain trains it again)\n", opts.output.c_str());
     return 0;

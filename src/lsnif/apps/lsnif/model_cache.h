@@ -13,8 +13,9 @@
 
 namespace lsnif::cli {
 
-// The file's bytes; empty when it cannot be read.
-std::string read_text_file(const std::string& path);
+// True when the file at `path` holds exactly `text` (a file that cannot be read holds nothing;
+// nothing longer than `text` is read).
+bool file_holds(const std::string& path, const std::string& text);
 // Writes `text` atomically; on failure prints "lsnif COMMAND: why" and returns false.
 bool write_text_file(const char* command, const std::string& path, const std::string& text);
 
@@ -28,8 +29,8 @@ struct BenchRunOptions {
 // Registers --width --height --spp --steps --batch --seed --threads --quick --retrain.
 void add_bench_run_options(Args& args, BenchRunOptions* options);
 
-// Applies them: images 320x240 at 16 spp and the default training, or with --quick tiny models
-// (V=16, grid 32..64 with 2^12 entries, 32-wide MLP, 30 steps of 1024 rays) and 64x48 images at
+// Applies them: the default image (render_defaults.h) and the default training, or with --quick the
+// models of the tiny preset (settings_table.h kTinyPreset, as given values) and 64x48 images at
 // 2 spp; then the values given. Sets the seed and threads of `train`.
 void apply_bench_run_options(const BenchRunOptions& options, TrainOptions& train, render::RenderSettings& rs);
 
