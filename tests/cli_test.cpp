@@ -10,6 +10,8 @@
 #include <fstream>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "lsnif/testing/test_support.h"
 
 namespace {
@@ -288,9 +290,18 @@ TEST(Cli, TrainInfoEvalRoundTrip) {
   EXPECT_EQ(r.out.find("grid_usage"), std::string::npos) << "only with --grid-usage";
   r = run_cli("info --json --grid-usage " + model);
   EXPECT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("\"grid_usage\": [{\"resolution\": 32, \"vertices\": "), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("}, {\"resolution\": 64, "), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find(", \"indexed_slots\": "), std::string::npos) << r.out;
+  {
+    // Per level, in order: its resolution first, then its counts.
+    const nlohmann::ordered_json j = nlohmann::ordered_json::parse(r.out, nullptr, false);
+    ASSERT_TRUE(j.is_object()) << r.out;
+    const nlohmann::ordered_json& usage = j["grid_usage"];
+    ASSERT_TRUE(usage.is_array() && usage.size() >= 2) << r.out;
+    EXPECT_EQ(usage[0].begin().key(), "resolution") << r.out;
+    EXPECT_EQ(usage[0]["resolution"], 32) << r.out;
+    EXPECT_TRUE(usage[0]["vertices"].is_number_unsigned()) << r.out;
+    EXPECT_EQ(usage[1]["resolution"], 64) << r.out;
+    EXPECT_TRUE(usage[1]["indexed_slots"].is_number_unsigned()) << r.out;
+  }
   r = run_cli("info --grid-usage " + model);
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("level 1 (R=64)"), std::string::npos) << r.out;

@@ -1,6 +1,10 @@
 // json_text.cpp -- see json_text.h.
 #include "lsnif/import/json_text.h"
 
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
 namespace lsnif::json {
 
 Status check_depth(std::string_view text, const std::string& name, size_t max_depth) {
@@ -32,6 +36,27 @@ Status parse(std::string_view text, const std::string& name, nlohmann::json& out
   out = nlohmann::json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
   if (out.is_discarded()) return Status::error("%s: not valid JSON", name.c_str());
   return Status::ok();
+}
+
+nlohmann::ordered_json measured(double v) {
+  if (v < 0 || !std::isfinite(v)) return nullptr;
+  return v;
+}
+
+double float32(float f) {
+  // The shortest "%.Ng" (N >= 6) that reads back as `f`, as settings files have always written it.
+  char buf[32];
+  for (int precision = 6; precision <= 9; ++precision) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, double(f));
+    if (std::strtof(buf, nullptr) == f) break;
+  }
+  return std::strtod(buf, nullptr);
+}
+
+std::string dump(const nlohmann::json& j) { return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace); }
+
+std::string dump(const nlohmann::ordered_json& j) {
+  return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
 }
 
 }  // namespace lsnif::json

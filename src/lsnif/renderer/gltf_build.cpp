@@ -241,7 +241,7 @@ Status gltf_text(const tinygltf::Model& model, const std::string& bin_uri, std::
     if (!buffer_name.empty()) buffer["name"] = buffer_name;
     j["buffers"] = nlohmann::json::array({buffer});
   }
-  text = j.dump(2) + "\n";
+  text = json::dump(j) + "\n";
   return Status::ok();
 }
 

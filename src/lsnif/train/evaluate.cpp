@@ -7,6 +7,7 @@
 
 #include "lsnif/train/ground_truth.h"
 #include "lsnif/core/intersector.h"
+#include "lsnif/import/json_text.h"
 
 namespace lsnif {
 
@@ -66,17 +67,22 @@ struct Accumulator {
   }
 };
 
-std::string metrics_json(const EvalMetrics& m) {
-  return format(
-      "{\"rays\": %llu, \"true_hits\": %llu, \"false_hits\": %llu, \"true_misses\": %llu, "
-      "\"false_misses\": %llu, \"accuracy\": %.6f, \"precision\": %.6f, \"recall\": %.6f, "
-      "\"agreed_hits\": %llu, \"t_error_median\": %.6g, \"t_error_p90\": %.6g, "
-      "\"normal_error_median_deg\": %.4f, \"normal_error_p90_deg\": %.4f, \"albedo_mae\": %.6g, "
-      "\"material_accuracy\": %.6f}",
-      (unsigned long long)m.rays, (unsigned long long)m.true_hits, (unsigned long long)m.false_hits,
-      (unsigned long long)m.true_misses, (unsigned long long)m.false_misses, m.accuracy, m.precision,
-      m.recall, (unsigned long long)m.agreed_hits, m.t_error_median, m.t_error_p90,
-      m.normal_error_median, m.normal_error_p90, m.albedo_mae, m.material_accuracy);
+nlohmann::ordered_json metrics_json(const EvalMetrics& m) {
+  return {{"rays", m.rays},
+          {"true_hits", m.true_hits},
+          {"false_hits", m.false_hits},
+          {"true_misses", m.true_misses},
+          {"false_misses", m.false_misses},
+          {"accuracy", m.accuracy},
+          {"precision", m.precision},
+          {"recall", m.recall},
+          {"agreed_hits", m.agreed_hits},
+          {"t_error_median", m.t_error_median},
+          {"t_error_p90", m.t_error_p90},
+          {"normal_error_median_deg", m.normal_error_median},
+          {"normal_error_p90_deg", m.normal_error_p90},
+          {"albedo_mae", m.albedo_mae},
+          {"material_accuracy", m.material_accuracy}};
 }
 
 std::string metrics_text(const char* name, const EvalMetrics& m, bool albedo) {
@@ -103,12 +109,15 @@ std::string EvalReport::to_text() const {
 }
 
 std::string EvalReport::to_json() const {
-  return format("{\"reference_hit_fraction\": %.6f, \"truncated_fraction\": %.6f, "
-                "\"hit_beyond_walk_fraction\": %.6f, \"seconds\": %.3f, \"model\": %s, \"voxel_baseline\": %s, "
-                "\"model_from_outside\": %s, \"model_from_surface\": %s}",
-                reference_hit_fraction, truncated_fraction, hit_beyond_walk_fraction, seconds,
-                metrics_json(model).c_str(), metrics_json(baseline).c_str(),
-                metrics_json(model_outer).c_str(), metrics_json(model_surface).c_str());
+  const nlohmann::ordered_json j = {{"reference_hit_fraction", reference_hit_fraction},
+                                    {"truncated_fraction", truncated_fraction},
+                                    {"hit_beyond_walk_fraction", hit_beyond_walk_fraction},
+                                    {"seconds", seconds},
+                                    {"model", metrics_json(model)},
+                                    {"voxel_baseline", metrics_json(baseline)},
+                                    {"model_from_outside", metrics_json(model_outer)},
+                                    {"model_from_surface", metrics_json(model_surface)}};
+  return json::dump(j);
 }
 
 Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& settings,

@@ -36,6 +36,9 @@ struct EvalReport {
   double hit_beyond_walk_fraction = 0;  // reference hits past the last recorded point (unreachable)
   double seconds = 0;
   std::string to_text() const;
+  // One JSON object (json::dump of json_text.h, no trailing newline): the fractions and seconds,
+  // then "model", "voxel_baseline", "model_from_outside", "model_from_surface" with every metric
+  // (numbers at full double precision).
   std::string to_json() const;
 };
 

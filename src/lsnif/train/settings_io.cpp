@@ -509,7 +509,7 @@ nlohmann::ordered_json settings_to_json(const SettingValues& values) {
         else j[d.name] = std::vector<uint32_t>(v.per_level.begin(), v.per_level.begin() + v.level_count);
         break;
       // The shortest decimal of the float as a double: 0.01f is written 0.01, and reads back as 0.01f.
-      case SettingKind::F32: j[d.name] = std::strtod(float_text(v.f).c_str(), nullptr); break;
+      case SettingKind::F32: j[d.name] = json::float32(v.f); break;
       case SettingKind::Choice: j[d.name] = setting_text(d, v); break;
     }
   }

@@ -66,7 +66,7 @@ Status write_sidecar(const std::string& path, const PlannedModel& m, const Model
                  {"accuracy", r.metrics.accuracy},
                  {"t_error_median", r.metrics.t_error_median},
                  {"normal_error_median", r.metrics.normal_error_median}};
-  return write_file_atomic(path, j.dump(2) + "\n").context("sidecar");
+  return write_file_atomic(path, json::dump(j) + "\n").context("sidecar");
 }
 
 // Flattens the model's mesh(es): a mesh model in the mesh's object space, a group in world space.

@@ -59,7 +59,4 @@ bool parse_u32(const std::string& text, uint32_t& out);
 bool parse_u64(const std::string& text, uint64_t& out);
 bool parse_f32(const std::string& text, float& out);
 
-// `s` as a JSON string literal (quotes, backslashes and control characters escaped).
-std::string json_string(const std::string& s);
-
 }  // namespace lsnif::cli

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "lsnif/apps/lsnif/bench_trace.h"
+#include "lsnif/import/json_text.h"
 
 namespace lsnif::cli::bench_trace {
 
@@ -21,73 +22,60 @@ double median(std::vector<double> v) {
 
 namespace {
 
-// A JSON string literal of `s` (quotes, backslashes and control characters escaped).
-std::string quoted(const std::string& s) {
-  std::string out = "\"";
-  for (const char c : s) {
-    const auto u = static_cast<unsigned char>(c);
-    if (c == '"' || c == '\\') out += std::string("\\") + c;
-    else if (u < 0x20) out += format("\\u%04x", unsigned(u));
-    else out += c;
-  }
-  return out + "\"";
-}
-
 // "-" for a missing device time.
 std::string seconds_text(double s) { return s < 0 ? std::string("-") : format("%.4f", s); }
-std::string json_number(double v) { return v < 0 || !std::isfinite(v) ? std::string("null") : format("%.6g", v); }
 
-std::string timings_json(const Report& r, const Timings& t) {
-  auto list = [](const std::vector<double>& v) {
-    std::string out = "[";
-    for (size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + format("%.6g", v[i]);
-    return out + "]";
-  };
-  return format("{\"first_trace_seconds\": %.6g, \"first_trace_device_seconds\": %s, "
-                "\"first_trace_cpu_seconds\": %.6g, \"median_trace_seconds\": %.6g, "
-                "\"min_trace_seconds\": %.6g, \"median_trace_device_seconds\": %s, "
-                "\"median_trace_cpu_seconds\": %.6g, \"rays_per_second\": %.6g, \"trace_seconds\": %s, "
-                "\"trace_device_seconds\": %s, \"trace_cpu_seconds\": %s}",
-                t.first_host, json_number(t.first_device).c_str(), t.first_cpu, t.median_host(), t.min_host(),
-                json_number(t.median_device()).c_str(), t.median_cpu(), r.rays_per_second(t), list(t.host).c_str(),
-                list(t.device).c_str(), list(t.cpu).c_str());
+using nlohmann::ordered_json;
+
+ordered_json timings_json(const Report& r, const Timings& t) {
+  return {{"first_trace_seconds", t.first_host},
+          {"first_trace_device_seconds", json::measured(t.first_device)},
+          {"first_trace_cpu_seconds", t.first_cpu},
+          {"median_trace_seconds", t.median_host()},
+          {"min_trace_seconds", t.min_host()},
+          {"median_trace_device_seconds", json::measured(t.median_device())},
+          {"median_trace_cpu_seconds", t.median_cpu()},
+          {"rays_per_second", r.rays_per_second(t)},
+          {"trace_seconds", t.host},
+          {"trace_device_seconds", t.device},
+          {"trace_cpu_seconds", t.cpu}};
 }
 
-std::string stages_json(const StageTimes& s, bool valid) {
-  if (!valid) return "null";
-  return format("{\"narrow_seconds\": %.6g, \"mlp_seconds\": %.6g, \"decode_seconds\": %.6g}", s.narrow, s.mlp,
-                s.decode);
+ordered_json stages_json(const StageTimes& s, bool valid) {
+  if (!valid) return nullptr;
+  return {{"narrow_seconds", s.narrow}, {"mlp_seconds", s.mlp}, {"decode_seconds", s.decode}};
 }
 
 // The batched path: its timings (the keys of the traces' objects) and its stages.
-std::string batched_json(const Report& r) {
-  std::string t = timings_json(r, r.batched);
-  t.pop_back();  // the closing brace
+ordered_json batched_json(const Report& r) {
   auto list = [&](double StageTimes::*stage) {
-    std::string out = "[";
-    for (size_t i = 0; i < r.batched_stages.size(); ++i)
-      out += (i ? ", " : "") + format("%.6g", r.batched_stages[i].*stage);
-    return out + "]";
+    ordered_json out = ordered_json::array();
+    for (const StageTimes& s : r.batched_stages) out.push_back(s.*stage);
+    return out;
   };
-  return t + format(", \"calls_per_run\": %u, \"first_run_stages\": %s, \"median_narrow_seconds\": %s, "
-                    "\"median_mlp_seconds\": %s, \"median_decode_seconds\": %s, \"narrow_seconds\": %s, "
-                    "\"mlp_seconds\": %s, \"decode_seconds\": %s}",
-                    r.batched_calls, stages_json(r.batched_first_stages, r.batched.first_device >= 0).c_str(),
-                    json_number(r.median_stage(&StageTimes::narrow)).c_str(),
-                    json_number(r.median_stage(&StageTimes::mlp)).c_str(),
-                    json_number(r.median_stage(&StageTimes::decode)).c_str(), list(&StageTimes::narrow).c_str(),
-                    list(&StageTimes::mlp).c_str(), list(&StageTimes::decode).c_str());
+  ordered_json j = timings_json(r, r.batched);
+  j["calls_per_run"] = r.batched_calls;
+  j["first_run_stages"] = stages_json(r.batched_first_stages, r.batched.first_device >= 0);
+  j["median_narrow_seconds"] = json::measured(r.median_stage(&StageTimes::narrow));
+  j["median_mlp_seconds"] = json::measured(r.median_stage(&StageTimes::mlp));
+  j["median_decode_seconds"] = json::measured(r.median_stage(&StageTimes::decode));
+  j["narrow_seconds"] = list(&StageTimes::narrow);
+  j["mlp_seconds"] = list(&StageTimes::mlp);
+  j["decode_seconds"] = list(&StageTimes::decode);
+  return j;
 }
 
-std::string gemm_json(const GemmReport& g) {
-  std::string widths = "[";
-  for (size_t i = 0; i < g.widths.size(); ++i) widths += format(i ? ", %u" : "%u", g.widths[i]);
-  widths += "]";
-  return format("{\"layer_widths\": %s, \"float32\": true, \"bias_and_activation\": true, \"threads\": %u, "
-                "\"columns_per_thread\": %u, \"passes\": %llu, \"seconds\": %.6g, \"cpu_seconds\": %.6g, "
-                "\"flops_per_evaluation\": %.6g, \"evaluations_per_second\": %.6g}",
-                widths.c_str(), g.threads, g.batch, static_cast<unsigned long long>(g.passes), g.seconds,
-                g.cpu_seconds, g.flops_per_column, g.evaluations_per_second());
+ordered_json gemm_json(const GemmReport& g) {
+  return {{"layer_widths", g.widths},
+          {"float32", true},
+          {"bias_and_activation", true},
+          {"threads", g.threads},
+          {"columns_per_thread", g.batch},
+          {"passes", g.passes},
+          {"seconds", g.seconds},
+          {"cpu_seconds", g.cpu_seconds},
+          {"flops_per_evaluation", g.flops_per_column},
+          {"evaluations_per_second", g.evaluations_per_second()}};
 }
 
 }  // namespace
@@ -194,46 +182,60 @@ void print_text(const Report& r) {
 }
 
 void print_json(const Report& r) {
-  std::printf(
-      "{\"device\": %s, \"mesh\": %s, \"model\": %s, \"intersection_shader\": %s, \"mesh_triangles\": %u, "
-      "\"triangle_order\": \"%s\", \"rays\": %u, \"seed\": %llu, "
-      "\"repeat\": %u, \"timer\": \"host wall time around submit + wait, median of the repeats\", "
-      "\"device_timestamps\": %s, \"pipeline_create_seconds\": %.6g, \"lsnif\": %s, \"triangles\": %s, "
-      "\"lsnif_hits\": %u, \"triangle_hits\": %u, \"intersection_shader_rays\": %u, "
-      "\"network_evaluations\": %u, \"network_evaluations_per_second\": %.6g, "
-      "\"triangle_over_lsnif_rays_per_second\": %.6g, \"hit_agreement\": %.6g, \"both_hit\": %u, "
-      "\"median_t_difference_over_diagonal\": %.6g, \"walk_points_mismatches\": %u, "
-      "\"query_pipeline_create_seconds\": %.6g, \"batched\": %s, \"batched_hits\": %u, "
-      "\"batched_network_evaluations\": %u, \"batched_network_evaluations_per_second\": %.6g, "
-      "\"batched_over_inline_network_evaluations_per_second\": %s, \"batched_inline_hit_agreement\": %.6g, "
-      "\"batched_inline_both_hit\": %u, \"batched_inline_max_t_difference_over_diagonal\": %.6g, "
-      "\"batched_inline_points_mismatches\": %u, \"batched_walk_points_mismatches\": %u, \"gemm\": %s, "
-      "\"batched_over_gemm_network_evaluations_per_second\": %s, "
-      "\"batched_mlp_stage_evaluations_per_second\": %s, \"query\": %s, \"query_hits\": %u, "
-      "\"query_incomplete_rays\": %u, \"query_candidates\": %u, \"query_dropped\": %u, "
-      "\"query_unevaluated\": %u, \"query_network_evaluations_per_second\": %.6g, "
-      "\"query_over_inline_network_evaluations_per_second\": %s, \"query_inline_hit_agreement\": %.6g, "
-      "\"query_inline_both_hit\": %u, \"query_inline_max_t_difference_over_diagonal\": %.6g, "
-      "\"validation\": %s, "
-      "\"validation_errors\": %u, \"validation_warnings\": %u}\n",
-      quoted(r.device).c_str(), quoted(r.mesh_path).c_str(), quoted(r.model_path).c_str(),
-      quoted(r.intersection_spv).c_str(), r.triangles,
-      r.morton_order ? "morton" : "file", r.rays,
-      static_cast<unsigned long long>(r.seed), r.repeat, r.device_timestamps ? "true" : "false",
-      r.pipeline_create_seconds, timings_json(r, r.lsnif).c_str(), timings_json(r, r.tri).c_str(), r.lsnif_hits,
-      r.triangle_hits, r.aabb_rays, r.network_rays, r.evaluations_per_second(), r.ratio(),
-      double(r.agree) / double(r.rays), r.both_hit, r.median_t_difference, r.points_mismatch,
-      r.query_pipeline_create_seconds, batched_json(r).c_str(), r.batched_hits, r.batched_network_rays,
-      r.batched_evaluations_per_second(), json_number(r.batched_over_inline()).c_str(),
-      double(r.batched_agree) / double(r.rays),
-      r.batched_both_hit, r.batched_max_t_difference, r.batched_points_mismatch, r.batched_walk_mismatch,
-      gemm_json(r.gemm).c_str(), json_number(r.batched_over_gemm()).c_str(),
-      json_number(r.mlp_stage_evaluations_per_second()).c_str(), timings_json(r, r.query).c_str(), r.query_hits,
-      r.query_incomplete, r.query_status.candidates, r.query_status.dropped, r.query_status.unevaluated,
-      r.query_evaluations_per_second(), json_number(r.query_over_inline()).c_str(),
-      double(r.query_agree) / double(r.rays), r.query_both_hit, r.query_max_t_difference,
-      r.validation ? "true" : "false", r.validation_errors,
-      r.validation_warnings);
+  ordered_json j;
+  j["device"] = r.device;
+  j["mesh"] = r.mesh_path;
+  j["model"] = r.model_path;
+  j["intersection_shader"] = r.intersection_spv;
+  j["mesh_triangles"] = r.triangles;
+  j["triangle_order"] = r.morton_order ? "morton" : "file";
+  j["rays"] = r.rays;
+  j["seed"] = r.seed;
+  j["repeat"] = r.repeat;
+  j["timer"] = "host wall time around submit + wait, median of the repeats";
+  j["device_timestamps"] = r.device_timestamps;
+  j["pipeline_create_seconds"] = r.pipeline_create_seconds;
+  j["lsnif"] = timings_json(r, r.lsnif);
+  j["triangles"] = timings_json(r, r.tri);
+  j["lsnif_hits"] = r.lsnif_hits;
+  j["triangle_hits"] = r.triangle_hits;
+  j["intersection_shader_rays"] = r.aabb_rays;
+  j["network_evaluations"] = r.network_rays;
+  j["network_evaluations_per_second"] = r.evaluations_per_second();
+  j["triangle_over_lsnif_rays_per_second"] = r.ratio();
+  j["hit_agreement"] = double(r.agree) / double(r.rays);
+  j["both_hit"] = r.both_hit;
+  j["median_t_difference_over_diagonal"] = r.median_t_difference;
+  j["walk_points_mismatches"] = r.points_mismatch;
+  j["query_pipeline_create_seconds"] = r.query_pipeline_create_seconds;
+  j["batched"] = batched_json(r);
+  j["batched_hits"] = r.batched_hits;
+  j["batched_network_evaluations"] = r.batched_network_rays;
+  j["batched_network_evaluations_per_second"] = r.batched_evaluations_per_second();
+  j["batched_over_inline_network_evaluations_per_second"] = json::measured(r.batched_over_inline());
+  j["batched_inline_hit_agreement"] = double(r.batched_agree) / double(r.rays);
+  j["batched_inline_both_hit"] = r.batched_both_hit;
+  j["batched_inline_max_t_difference_over_diagonal"] = r.batched_max_t_difference;
+  j["batched_inline_points_mismatches"] = r.batched_points_mismatch;
+  j["batched_walk_points_mismatches"] = r.batched_walk_mismatch;
+  j["gemm"] = gemm_json(r.gemm);
+  j["batched_over_gemm_network_evaluations_per_second"] = json::measured(r.batched_over_gemm());
+  j["batched_mlp_stage_evaluations_per_second"] = json::measured(r.mlp_stage_evaluations_per_second());
+  j["query"] = timings_json(r, r.query);
+  j["query_hits"] = r.query_hits;
+  j["query_incomplete_rays"] = r.query_incomplete;
+  j["query_candidates"] = r.query_status.candidates;
+  j["query_dropped"] = r.query_status.dropped;
+  j["query_unevaluated"] = r.query_status.unevaluated;
+  j["query_network_evaluations_per_second"] = r.query_evaluations_per_second();
+  j["query_over_inline_network_evaluations_per_second"] = json::measured(r.query_over_inline());
+  j["query_inline_hit_agreement"] = double(r.query_agree) / double(r.rays);
+  j["query_inline_both_hit"] = r.query_both_hit;
+  j["query_inline_max_t_difference_over_diagonal"] = r.query_max_t_difference;
+  j["validation"] = r.validation;
+  j["validation_errors"] = r.validation_errors;
+  j["validation_warnings"] = r.validation_warnings;
+  std::printf("%s\n", json::dump(j).c_str());
 }
 
 }  // namespace lsnif::cli::bench_trace

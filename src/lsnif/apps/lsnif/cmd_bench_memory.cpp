@@ -15,6 +15,7 @@
 #include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
 
 #include "lsnif/lsnif.hpp"
+#include "lsnif/import/json_text.h"
 #include "lsnif/import/mesh.h"
 #include "lsnif/import/mesh_subdivide.h"
 #include "lsnif/core/model.h"
@@ -169,30 +170,37 @@ void print_text(const std::string& mesh_path, const std::string& model_path, con
 void print_json(const std::string& mesh_path, const std::string& model_path, const std::string& device,
                 const LsnifMemory& l, const std::vector<TriangleVersion>& versions) {
   const uint64_t total = l.device.total();
-  auto u = [](uint64_t v) { return static_cast<unsigned long long>(v); };
-  std::printf("{\"mesh\": %s, \"model\": %s, \"device\": %s, ", json_string(mesh_path).c_str(),
-              json_string(model_path).c_str(), json_string(device).c_str());
-  std::printf("\"lsnif\": {\"model_bytes\": %llu, \"block_bytes\": %llu, \"aabb_blas_bytes\": %llu, "
-              "\"total_bytes\": %llu, \"allocated_bytes\": %llu}, \"triangle_blas\": [",
-              u(l.model_bytes), u(l.device.block_bytes), u(l.device.blas_bytes), u(total),
-              u(l.device.allocated_bytes));
-  for (size_t i = 0; i < versions.size(); ++i) {
-    const TriangleVersion& v = versions[i];
+  nlohmann::ordered_json j;
+  j["mesh"] = mesh_path;
+  j["model"] = model_path;
+  j["device"] = device;
+  j["lsnif"] = {{"model_bytes", l.model_bytes},
+                {"block_bytes", l.device.block_bytes},
+                {"aabb_blas_bytes", l.device.blas_bytes},
+                {"total_bytes", total},
+                {"allocated_bytes", l.device.allocated_bytes}};
+  nlohmann::ordered_json& blas = j["triangle_blas"] = nlohmann::ordered_json::array();
+  for (const TriangleVersion& v : versions) {
     const uint64_t geometry = v.vertex_bytes + v.index_bytes;
-    std::printf("%s\n  {\"level\": %u, \"targets\": [%s], \"triangles\": %llu, \"vertices\": %llu, "
-                "\"blas_bytes\": %llu, \"build_scratch_bytes\": %llu, \"update_scratch_bytes\": %llu, "
-                "\"blas_bytes_allow_compaction\": %llu, \"build_scratch_bytes_allow_compaction\": %llu, "
-                "\"compacted_bytes\": %llu, \"vertex_bytes\": %llu, \"index_bytes\": %llu, "
-                "\"build_seconds\": %.3f, \"compact_seconds\": %.3f, \"ratio_blas\": %.3f, "
-                "\"ratio_compacted\": %.3f, \"ratio_compacted_with_geometry\": %.3f}",
-                i ? "," : "", v.level, targets_text(v.targets).c_str(), u(v.triangles), u(v.vertices),
-                u(v.sizes.acceleration_structure), u(v.sizes.build_scratch), u(v.sizes.update_scratch),
-                u(v.compaction.sizes.acceleration_structure), u(v.compaction.sizes.build_scratch),
-                u(v.compaction.compacted), u(v.vertex_bytes), u(v.index_bytes), v.compaction.build_seconds,
-                v.compaction.compact_seconds, ratio(v.sizes.acceleration_structure, total),
-                ratio(v.compaction.compacted, total), ratio(v.compaction.compacted + geometry, total));
+    blas.push_back({{"level", v.level},
+                    {"targets", v.targets},
+                    {"triangles", v.triangles},
+                    {"vertices", v.vertices},
+                    {"blas_bytes", v.sizes.acceleration_structure},
+                    {"build_scratch_bytes", v.sizes.build_scratch},
+                    {"update_scratch_bytes", v.sizes.update_scratch},
+                    {"blas_bytes_allow_compaction", v.compaction.sizes.acceleration_structure},
+                    {"build_scratch_bytes_allow_compaction", v.compaction.sizes.build_scratch},
+                    {"compacted_bytes", v.compaction.compacted},
+                    {"vertex_bytes", v.vertex_bytes},
+                    {"index_bytes", v.index_bytes},
+                    {"build_seconds", v.compaction.build_seconds},
+                    {"compact_seconds", v.compaction.compact_seconds},
+                    {"ratio_blas", ratio(v.sizes.acceleration_structure, total)},
+                    {"ratio_compacted", ratio(v.compaction.compacted, total)},
+                    {"ratio_compacted_with_geometry", ratio(v.compaction.compacted + geometry, total)}});
   }
-  std::printf("\n]}\n");
+  std::printf("%s\n", json::dump(j).c_str());
 }
 
 // Whether the mesh lies inside the model's (padded) bounds, with 1% of the diagonal to spare.

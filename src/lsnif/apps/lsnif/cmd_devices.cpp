@@ -14,6 +14,7 @@
 #include "lsnif/apps/lsnif/device_option.h"
 #include "lsnif/lsnif.h"
 #include "lsnif/harness/vk_compute.h"
+#include "lsnif/import/json_text.h"
 
 namespace lsnif::cli {
 
@@ -124,31 +125,30 @@ int cmd_devices(int argc, char** argv) {
   auto selected = [&](size_t i) { return choice && i == chosen; };
 
   if (json) {
-    std::printf("{\"loader_api_version\": \"%s\", \"selected_index\": %s, \"selection\": %s,%s "
-                "\"devices\": [",
-                api_version_string(loader_version).c_str(),
-                choice ? std::to_string(chosen).c_str() : "null",
-                json_string(selector.empty() ? "automatic" : selector).c_str(),
-                choice ? "" : (" \"selection_error\": " + json_string(choice.message()) + ",").c_str());
+    nlohmann::ordered_json j;
+    j["loader_api_version"] = api_version_string(loader_version);
+    j["selected_index"] = choice ? nlohmann::ordered_json(chosen) : nlohmann::ordered_json(nullptr);
+    j["selection"] = selector.empty() ? "automatic" : selector;
+    if (!choice) j["selection_error"] = choice.message();
+    nlohmann::ordered_json& devices = j["devices"] = nlohmann::ordered_json::array();
     for (size_t i = 0; i < reports.size(); ++i) {
       const DeviceReport& r = reports[i];
       const LsnifDeviceSupport& s = r.support;
-      std::string missing = "[";
-      for (size_t k = 0; k < r.info.lsnif_missing.size(); ++k)
-        missing += (k ? ", " : "") + json_string(r.info.lsnif_missing[k]);
-      missing += "]";
-      std::printf("%s\n  {\"index\": %zu, \"name\": %s, \"type\": %s, \"driver\": %s, \"driver_info\": %s, "
-                  "\"api_version\": \"%s\", \"ray_tracing_pipeline\": %s, \"ray_tracing_pipeline_missing\": %s, "
-                  "\"ray_query\": %s, \"nv_cooperative_matrix\": %s, \"khr_cooperative_matrix\": %s, "
-                  "\"nv_cooperative_vector\": %s, \"selected\": %s}",
-                  i ? "," : "", i, json_string(s.deviceName).c_str(), json_string(r.type).c_str(),
-                  json_string(r.driver).c_str(), json_string(r.driver_info).c_str(),
-                  api_version_string(s.apiVersion).c_str(), s.supported ? "true" : "false", missing.c_str(),
-                  s.rayQuery ? "true" : "false", s.cooperativeMatrixNV ? "true" : "false",
-                  s.cooperativeMatrixKHR ? "true" : "false", s.cooperativeVectorNV ? "true" : "false",
-                  selected(i) ? "true" : "false");
+      devices.push_back({{"index", i},
+                         {"name", std::string(s.deviceName)},
+                         {"type", r.type},
+                         {"driver", r.driver},
+                         {"driver_info", r.driver_info},
+                         {"api_version", api_version_string(s.apiVersion)},
+                         {"ray_tracing_pipeline", bool(s.supported)},
+                         {"ray_tracing_pipeline_missing", r.info.lsnif_missing},
+                         {"ray_query", bool(s.rayQuery)},
+                         {"nv_cooperative_matrix", bool(s.cooperativeMatrixNV)},
+                         {"khr_cooperative_matrix", bool(s.cooperativeMatrixKHR)},
+                         {"nv_cooperative_vector", bool(s.cooperativeVectorNV)},
+                         {"selected", selected(i)}});
     }
-    std::printf("\n]}\n");
+    std::printf("%s\n", json::dump(j).c_str());
     return 0;
   }
   auto yes_no = [](bool b) { return b ? "yes" : "no"; };

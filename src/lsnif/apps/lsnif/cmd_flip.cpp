@@ -14,6 +14,7 @@
 #include "lsnif/apps/lsnif/commands.h"
 #include "lsnif/apps/flip/flip.h"
 #include "lsnif/image/image_io.h"
+#include "lsnif/import/json_text.h"
 
 namespace lsnif::cli {
 namespace {
@@ -112,17 +113,26 @@ int cmd_flip(int argc, char** argv) {
 
   const flip::FlipStatistics& st = result.stats;
   if (json) {
-    std::printf("{\"reference\": %s, \"test\": %s, \"metric\": \"%s\", \"width\": %u, \"height\": %u, "
-                "\"pixels_per_degree\": %.9g, ",
-                json_string(reference_path).c_str(), json_string(test_path).c_str(), hdr ? "HDR-FLIP" : "LDR-FLIP",
-                result.width, result.height, double(ppd));
-    if (hdr)
-      std::printf("\"start_exposure\": %.9g, \"stop_exposure\": %.9g, \"num_exposures\": %u, ",
-                  double(result.start_exposure), double(result.stop_exposure), result.num_exposures);
-    std::printf("\"mean\": %.9g, \"weighted_median\": %.9g, \"weighted_quartile1\": %.9g, "
-                "\"weighted_quartile3\": %.9g, \"min\": %.9g, \"max\": %.9g, \"heatmap\": %s}\n",
-                st.mean, st.weighted_median, st.weighted_quartile1, st.weighted_quartile3, st.min, st.max,
-                heatmap_path.empty() ? "null" : json_string(heatmap_path).c_str());
+    nlohmann::ordered_json j;
+    j["reference"] = reference_path;
+    j["test"] = test_path;
+    j["metric"] = hdr ? "HDR-FLIP" : "LDR-FLIP";
+    j["width"] = result.width;
+    j["height"] = result.height;
+    j["pixels_per_degree"] = json::float32(ppd);
+    if (hdr) {
+      j["start_exposure"] = json::float32(result.start_exposure);
+      j["stop_exposure"] = json::float32(result.stop_exposure);
+      j["num_exposures"] = result.num_exposures;
+    }
+    j["mean"] = st.mean;
+    j["weighted_median"] = st.weighted_median;
+    j["weighted_quartile1"] = st.weighted_quartile1;
+    j["weighted_quartile3"] = st.weighted_quartile3;
+    j["min"] = st.min;
+    j["max"] = st.max;
+    j["heatmap"] = heatmap_path.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(heatmap_path);
+    std::printf("%s\n", json::dump(j).c_str());
     return 0;
   }
   std::printf("reference               %s\n", reference_path.c_str());

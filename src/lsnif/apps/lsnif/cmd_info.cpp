@@ -90,50 +90,61 @@ int cmd_info(int argc, char** argv) {
       if (recorded.contains(d.name)) ordered[d.name] = recorded[d.name];
     for (const auto& [key, v] : recorded.items())
       if (!find_setting(key)) ordered[key] = v;
-    std::printf("%s\n", ordered.dump(2).c_str());
+    std::printf("%s\n", json::dump(ordered).c_str());
     return 0;
   }
   const MemoryBreakdown m = memory_breakdown(model);
   const std::vector<GridLevelUsage> levels = usage ? grid_usage(model.config, model.voxels) : std::vector<GridLevelUsage>();
   const Config& c = model.config;
   const Aabb& b = model.bounds();
-  // Per level: "[15, 17]" (JSON; null for an indexed level), "[43190, 0]" (index slots) and
-  // "2^15 + 2^17" or "43190 (indexed) + 2^17" (text).
-  std::string table_log2_json = "[", index_slots_json = "[", table_entries_text;
-  for (uint32_t l = 0; l < c.grid_levels; ++l) {
-    const char* sep = l ? ", " : "";
-    table_log2_json += c.indexed(l) ? format("%snull", sep) : format("%s%u", sep, c.table_log2[l]);
-    index_slots_json += format("%s%u", sep, c.index_slots[l]);
-    table_entries_text += c.indexed(l) ? format("%s%u (indexed)", l ? " + " : "", c.index_slots[l])
-                                       : format("%s2^%u", l ? " + " : "", c.table_log2[l]);
-  }
-  table_log2_json += "]";
-  index_slots_json += "]";
   if (json) {
-    std::printf("{\"config\": \"%s\", \"voxel_resolution\": %u, \"max_points\": %u, \"grid_levels\": %u, "
-                "\"table_log2\": %s, \"index_slots\": %s, \"index_displacements\": %llu, \"features\": %u, \"hidden_width\": %u, \"hidden_layers\": %u, "
-                "\"material_count\": %u, \"hit_param\": \"%s\", \"grid_bits\": %u, \"occupied_voxels\": %u, "
-                "\"bytes\": {\"voxels\": %llu, \"grid\": %llu, \"mlp\": %llu, \"header\": %llu, \"total\": %llu}",
-                c.describe().c_str(), c.voxel_resolution, c.max_points, c.grid_levels, table_log2_json.c_str(),
-                index_slots_json.c_str(), (unsigned long long)c.grid_index_count(), c.features, c.hidden_width, c.hidden_layers, c.material_count, to_string(c.hit_param), c.grid_bits,
-                model.voxels.count_occupied(), (unsigned long long)m.voxel_bytes,
-                (unsigned long long)m.grid_bytes, (unsigned long long)m.mlp_bytes,
-                (unsigned long long)m.header_bytes, (unsigned long long)m.total());
-    if (usage) {
-      std::printf(", \"grid_usage\": [");
-      for (size_t l = 0; l < levels.size(); ++l)
-        std::printf("%s{\"resolution\": %u, \"vertices\": %llu, \"table_entries\": %llu, \"entries_used\": %llu, "
-                    "\"entries_shared\": %llu, \"vertices_in_shared\": %llu, \"indexed_slots\": %llu, "
-                    "\"indexed_buckets\": %llu}",
-                    l ? ", " : "", levels[l].resolution, (unsigned long long)levels[l].vertices,
-                    (unsigned long long)levels[l].table_entries, (unsigned long long)levels[l].entries_used,
-                    (unsigned long long)levels[l].entries_shared, (unsigned long long)levels[l].vertices_in_shared,
-                    (unsigned long long)levels[l].indexed_slots, (unsigned long long)levels[l].indexed_buckets);
-      std::printf("]");
+    nlohmann::ordered_json table_log2 = nlohmann::ordered_json::array(), index_slots = table_log2;
+    for (uint32_t l = 0; l < c.grid_levels; ++l) {
+      // null for an indexed level
+      table_log2.push_back(c.indexed(l) ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(c.table_log2[l]));
+      index_slots.push_back(c.index_slots[l]);
     }
-    std::printf(", \"training\": %s}\n", training.dump().c_str());
+    nlohmann::ordered_json j;
+    j["config"] = c.describe();
+    j["voxel_resolution"] = c.voxel_resolution;
+    j["max_points"] = c.max_points;
+    j["grid_levels"] = c.grid_levels;
+    j["table_log2"] = table_log2;
+    j["index_slots"] = index_slots;
+    j["index_displacements"] = c.grid_index_count();
+    j["features"] = c.features;
+    j["hidden_width"] = c.hidden_width;
+    j["hidden_layers"] = c.hidden_layers;
+    j["material_count"] = c.material_count;
+    j["hit_param"] = to_string(c.hit_param);
+    j["grid_bits"] = c.grid_bits;
+    j["occupied_voxels"] = model.voxels.count_occupied();
+    j["bytes"] = {{"voxels", m.voxel_bytes},
+                  {"grid", m.grid_bytes},
+                  {"mlp", m.mlp_bytes},
+                  {"header", m.header_bytes},
+                  {"total", m.total()}};
+    if (usage) {
+      nlohmann::ordered_json& grid_usage = j["grid_usage"] = nlohmann::ordered_json::array();
+      for (const GridLevelUsage& u : levels)
+        grid_usage.push_back({{"resolution", u.resolution},
+                              {"vertices", u.vertices},
+                              {"table_entries", u.table_entries},
+                              {"entries_used", u.entries_used},
+                              {"entries_shared", u.entries_shared},
+                              {"vertices_in_shared", u.vertices_in_shared},
+                              {"indexed_slots", u.indexed_slots},
+                              {"indexed_buckets", u.indexed_buckets}});
+    }
+    j["training"] = training;  // as recorded (null when none is)
+    std::printf("%s\n", json::dump(j).c_str());
     return 0;
   }
+  // Per level: "2^15 + 2^17" or "43190 (indexed) + 2^17".
+  std::string table_entries_text;
+  for (uint32_t l = 0; l < c.grid_levels; ++l)
+    table_entries_text += c.indexed(l) ? format("%s%u (indexed)", l ? " + " : "", c.index_slots[l])
+                                       : format("%s2^%u", l ? " + " : "", c.table_log2[l]);
   std::printf("model      %s\n", path.c_str());
   std::printf("config     %s\n", c.describe().c_str());
   std::printf("bounds     [%g %g %g] - [%g %g %g]\n", double(b.lo.x), double(b.lo.y), double(b.lo.z),
