@@ -86,6 +86,14 @@ std::string printable(std::string_view s) {
   return out;
 }
 
+std::string excerpt(std::string_view s, size_t max_chars) {
+  std::string out(s.substr(0, max_chars));
+  for (char& c : out)
+    if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) c = '?';
+  if (s.size() > max_chars) out += "...";
+  return out;
+}
+
 std::string clean_utf8(std::string_view s, size_t max_bytes) {
   std::string out;
   for (size_t i = 0; i < s.size();) {

@@ -40,5 +40,8 @@ std::string printable(std::string_view s);
 // `s` with every control character and invalid UTF-8 byte replaced by '?', cut to at most
 // `max_bytes` bytes at a character boundary.
 std::string clean_utf8(std::string_view s, size_t max_bytes);
+// A short excerpt of a name or token for a message: its first `max_chars` bytes, each byte outside
+// printable ASCII (32..126) as '?', and "..." when it was cut.
+std::string excerpt(std::string_view s, size_t max_chars = 40);
 
 }  // namespace lsnif

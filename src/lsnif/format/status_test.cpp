@@ -4,6 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
+#include "lsnif/format/numbers.h"
+
 namespace lsnif {
 namespace {
 
@@ -34,6 +39,24 @@ TEST(Text, CleanUtf8ReplacesAndCutsAtCharacterBoundaries) {
   // A two-byte character that would straddle the limit is left out whole.
   EXPECT_EQ(clean_utf8("abc\xc3\xa9", 4), "abc");
   EXPECT_EQ(clean_utf8("abc\xc3\xa9", 5), "abc\xc3\xa9");
+}
+
+TEST(Text, ExcerptCutsAndMasksNonPrintableBytes) {
+  EXPECT_EQ(excerpt("node"), "node");
+  EXPECT_EQ(excerpt(std::string(40, 'n')), std::string(40, 'n'));
+  EXPECT_EQ(excerpt(std::string(41, 'n')), std::string(40, 'n') + "...");
+  EXPECT_EQ(excerpt("caf\xc3\xa9\x1b[2J"), "caf???[2J");
+  EXPECT_EQ(excerpt("abcdef", 3), "abc...");
+  EXPECT_EQ(excerpt("", 3), "");
+}
+
+TEST(Numbers, ToFloatSaturatesInsteadOfOverflowing) {
+  EXPECT_EQ(to_float(1.5), 1.5f);
+  EXPECT_EQ(to_float(1e300), std::numeric_limits<float>::infinity());
+  EXPECT_EQ(to_float(-1e300), -std::numeric_limits<float>::infinity());
+  EXPECT_EQ(to_float(double(std::numeric_limits<float>::max())), std::numeric_limits<float>::max());
+  EXPECT_TRUE(std::isnan(to_float(std::nan(""))));
+  EXPECT_EQ(to_float(0.1), 0.1f);  // rounded to nearest
 }
 
 }  // namespace

@@ -1,30 +1,18 @@
 // gltf_material.cpp -- the material reader of gltf_material.h.
 #include "lsnif/import/gltf_material.h"
 
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include "lsnif/format/numbers.h"
 
 namespace lsnif {
 namespace {
 
 bool all_finite(const std::vector<double>& v) {
   return std::all_of(v.begin(), v.end(), [](double d) { return std::isfinite(d); });
-}
-
-float to_float(double d) {
-  constexpr double kMax = static_cast<double>(std::numeric_limits<float>::max());
-  if (d > kMax) return std::numeric_limits<float>::infinity();
-  if (d < -kMax) return -std::numeric_limits<float>::infinity();
-  return static_cast<float>(d);
-}
-
-std::string excerpt(const std::string& s) {
-  std::string out(s.substr(0, 40));
-  for (char& c : out)
-    if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) c = '?';
-  if (s.size() > 40) out += "...";
-  return out;
 }
 
 // Factors of `gm` into `out`; `clamped` is set when one lay outside its range.
@@ -98,7 +86,8 @@ Status read_gltf_material(const tinygltf::Model& model, size_t index, const std:
   const tinygltf::Material& gm = model.materials[index];
   out = GltfMaterial{};
   out.name = gm.name.empty() ? format("material_%zu", index) : gm.name;
-  const std::string label = format("material %zu ('%s')", index, excerpt(out.name).c_str());
+  out.label = format("material %zu ('%s')", index, excerpt(out.name).c_str());
+  const std::string& label = out.label;
   const std::string where = name + ": " + label;
   bool clamped = false;
   Status s = read_factors(gm, where, out, clamped);

@@ -21,6 +21,7 @@ inline constexpr size_t kGltfMaxAccessorCount = size_t(1) << 30;    // elements 
 
 struct GltfMaterial {
   std::string name;                 // the material's name, or "material_<index>"
+  std::string label;                // "material INDEX ('NAME')" for messages (the name excerpted)
   glm::vec4 base_color{1.0f};       // baseColorFactor, clamped to [0, 1]
   float metallic = 1.0f;            // metallicFactor, clamped to [0, 1]
   float roughness = 1.0f;           // roughnessFactor, clamped to [0, 1]

@@ -1,6 +1,7 @@
 // gltf_scene.cpp -- the node walk of gltf_scene.h.
 #include "lsnif/import/gltf_scene.h"
 
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -8,17 +9,12 @@
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
+#include "lsnif/format/numbers.h"
+
 namespace lsnif {
 namespace {
 
 constexpr const char* kNodeExtension = "LSNIF_neural_object";
-
-float to_float(double d) {
-  constexpr double kMax = static_cast<double>(std::numeric_limits<float>::max());
-  if (d > kMax) return std::numeric_limits<float>::infinity();
-  if (d < -kMax) return -std::numeric_limits<float>::infinity();
-  return static_cast<float>(d);
-}
 
 bool all_finite(const std::vector<double>& v) {
   return std::all_of(v.begin(), v.end(), [](double d) { return std::isfinite(d); });
@@ -120,11 +116,7 @@ class NodeWalk {
 std::string gltf_node_label(const tinygltf::Model& model, int index) {
   const std::string& n = model.nodes[size_t(index)].name;
   if (n.empty()) return format("node %d", index);
-  std::string shown(n.substr(0, 40));
-  for (char& c : shown)
-    if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) c = '?';
-  if (n.size() > 40) shown += "...";
-  return format("node %d ('%s')", index, shown.c_str());
+  return format("node %d ('%s')", index, excerpt(n).c_str());
 }
 
 Status gltf_local_transform(const tinygltf::Model& model, int index, const std::string& name, glm::dmat4& out) {

@@ -10,6 +10,8 @@
 #include <string>
 #include <string_view>
 
+#include "lsnif/format/numbers.h"
+#include "lsnif/format/status.h"
 #include "lsnif/import/mesh.h"
 
 namespace lsnif::mesh_io {
@@ -47,15 +49,6 @@ Status parse_gltf(std::string_view data, bool binary, const std::string& name,
 Status parse_mesh(std::string_view data, MeshFormat format, const std::string& name,
                   const std::string& base_dir, Mesh& mesh, MeshImportReport* report,
                   const MeshImportOptions& options = {});
-
-// double -> float without undefined behaviour: out-of-range magnitudes become +-infinity, NaN
-// stays NaN.
-inline float to_float(double d) {
-  constexpr double kMax = static_cast<double>(std::numeric_limits<float>::max());
-  if (d > kMax) return std::numeric_limits<float>::infinity();
-  if (d < -kMax) return -std::numeric_limits<float>::infinity();
-  return static_cast<float>(d);
-}
 
 // Index from a parsed number: integral values in [0, 2^32-1) map to themselves, everything else
 // (negative, fractional, huge, NaN) to kInvalidIndex.
@@ -143,13 +136,7 @@ inline bool parse_int64(std::string_view tok, int64_t& out) {
   return ec == std::errc() && ptr == e;
 }
 
-// Short printable excerpt of a token for messages (at most 24 characters, control bytes as '?').
-inline std::string excerpt(std::string_view tok) {
-  std::string s(tok.substr(0, 24));
-  for (char& c : s)
-    if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) c = '?';
-  if (tok.size() > 24) s += "...";
-  return s;
-}
+// Short printable excerpt of a token for messages (lsnif::excerpt, at most 24 characters).
+inline std::string excerpt(std::string_view tok) { return lsnif::excerpt(tok, 24); }
 
 }  // namespace lsnif::mesh_io

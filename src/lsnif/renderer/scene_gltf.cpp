@@ -33,7 +33,6 @@
 
 namespace lsnif::scene {
 
-using detail::excerpt;
 using detail::kEnvironmentExtension;
 using detail::kNodeExtension;
 using detail::SceneBuilder;

@@ -21,6 +21,7 @@
 
 #include <glm/glm.hpp>
 
+#include "lsnif/format/numbers.h"
 #include "lsnif/format/status.h"
 #include "lsnif/import/gltf_access.h"
 #include "lsnif/import/gltf_scene.h"
@@ -31,23 +32,6 @@ namespace lsnif::scene::detail {
 
 inline constexpr const char* kNodeExtension = "LSNIF_neural_object";
 inline constexpr const char* kEnvironmentExtension = "LSNIF_environment";
-
-// double -> float without undefined behaviour (out-of-range magnitudes become +-infinity).
-inline float to_float(double d) {
-  constexpr double kMax = static_cast<double>(std::numeric_limits<float>::max());
-  if (d > kMax) return std::numeric_limits<float>::infinity();
-  if (d < -kMax) return -std::numeric_limits<float>::infinity();
-  return static_cast<float>(d);
-}
-
-// Short printable excerpt of a name for messages.
-inline std::string excerpt(std::string_view s) {
-  std::string out(s.substr(0, 40));
-  for (char& c : out)
-    if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) c = '?';
-  if (s.size() > 40) out += "...";
-  return out;
-}
 
 // A finite number from a JSON value.
 inline bool number_of(const tinygltf::Value& v, double& out) {

@@ -31,7 +31,7 @@ Status SceneBuilder::load_material(size_t index) {
     else warn_counted(w.kind, w.text);
   }
   if (!s) return s;
-  const std::string where = format("%s: material %zu ('%s')", file(), index, excerpt(gm.name).c_str());
+  const std::string where = format("%s: %s", file(), gm.label.c_str());
   Material m;
   m.name = gm.name;
   m.base_color = gm.base_color;
