@@ -98,8 +98,9 @@ TEST(Cli, DevicesListsLavapipeWithRayTracing) {
   const size_t rt = r.out.find("ray-tracing pipeline", at);
   ASSERT_NE(rt, std::string::npos) << r.out;
   EXPECT_EQ(r.out.compare(r.out.find_first_not_of(' ', rt + 20), 3, "yes"), 0) << r.out;
-  for (const char* line : {"ray query", "NV cooperative matrix", "KHR cooperative matrix", "NV cooperative vector",
-                           "driver", "Vulkan"})
+  for (const char* line : {"ray query", "primitive culling", "query broad phase       ray-query",
+                           "batched MLP kernel", "NV cooperative matrix", "KHR cooperative matrix",
+                           "NV cooperative vector", "driver", "Vulkan"})
     EXPECT_NE(r.out.find(line, at), std::string::npos) << line << "\n" << r.out;
 
   r = run_cli("devices --json");
@@ -113,6 +114,10 @@ TEST(Cli, DevicesListsLavapipeWithRayTracing) {
   EXPECT_NE(device.find("\"ray_tracing_pipeline_missing\": []"), std::string::npos) << device;
   EXPECT_NE(device.find("\"ray_query\": "), std::string::npos) << device;
   EXPECT_NE(device.find("\"nv_cooperative_vector\": "), std::string::npos) << device;
+  // lavapipe offers both broad phases of lsnifCmdQuery; the automatic choice takes ray queries.
+  EXPECT_NE(device.find("\"ray_traversal_primitive_culling\": true"), std::string::npos) << device;
+  EXPECT_NE(device.find("\"query_broad_phase\": \"ray-query\""), std::string::npos) << device;
+  EXPECT_NE(device.find("\"mlp_kernel\": \"portable\""), std::string::npos) << device;
 
   r = run_cli("devices", "VK_DRIVER_FILES=/nonexistent/icd.json VK_ICD_FILENAMES=/nonexistent/icd.json ");
   EXPECT_EQ(r.code, 1) << r.out;
@@ -188,10 +193,25 @@ TEST(Cli, DeviceChoice) {
   EXPECT_NE(r.out.find("'no-such-gpu' matches no device"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("llvmpipe"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(image));
-  r = run_cli(render + lsnif::test::kReferenceDevice);
+  r = run_cli(render + lsnif::test::test_device());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(fs::exists(image));
   EXPECT_NE(r.out.find("device           llvmpipe"), std::string::npos) << r.out;
+
+  // The wavefront pipeline's broad phase: the automatic one (ray queries on lavapipe) or forced,
+  // printed; a wrong name is a usage error before any work.
+  for (const char* phase : {"auto", "trace-rays", "ray-query"}) {
+    r = run_cli(render + lsnif::test::test_device() + " --pipeline wavefront --broad-phase " + phase);
+    ASSERT_EQ(r.code, 0) << r.out;
+    const std::string ran = std::string(phase) == "auto" ? "ray-query" : phase;
+    EXPECT_NE(r.out.find("broad phase      " + ran + " (lsnifCmdQuery)"), std::string::npos) << r.out;
+  }
+  fs::remove(image);
+  r = run_cli(render + lsnif::test::test_device() + " --pipeline wavefront --broad-phase sideways");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--broad-phase must be auto, trace-rays or ray-query, not 'sideways'"), std::string::npos)
+      << r.out;
+  EXPECT_FALSE(fs::exists(image));
 }
 
 TEST(Cli, UsageErrors) {

@@ -128,12 +128,15 @@ typedef struct LsnifDeviceSupport {
    * "feature accelerationStructure", "feature rayTracingPipeline", "feature bufferDeviceAddress",
    * "feature shaderInt64"; empty when supported. */
   char missing[512];
-  /* Other paths (not required): VK_KHR_ray_query with its feature rayQuery (lsnifCmdQuery),
-   * cooperative matrices and vectors. */
+  /* Other paths (not required): VK_KHR_ray_query with its feature rayQuery (lsnifCmdQuery's
+   * ray-query broad phase), cooperative matrices and vectors. */
   VkBool32 rayQuery;
   VkBool32 cooperativeMatrixNV;
   VkBool32 cooperativeMatrixKHR;
   VkBool32 cooperativeVectorNV;
+  /* VkPhysicalDeviceRayTracingPipelineFeaturesKHR::rayTraversalPrimitiveCulling (lsnifCmdQuery's
+   * ray-tracing broad phase). */
+  VkBool32 rayTraversalPrimitiveCulling;
 } LsnifDeviceSupport;
 
 /* Fills *pSupport for physicalDevice of instance (functions loaded through
@@ -300,14 +303,37 @@ LSNIF_API LsnifResult lsnifGetIntersectionShaderSpirv(LsnifModelLookup lookup, c
  * semantics as the intersection shader. It needs only compute (no ray-tracing pipeline). */
 
 typedef enum LsnifQueryPipelineCreateFlagBits {
-  /* Also create the stages of lsnifCmdQuery (queries against the application's TLAS). Their broad
-   * phase uses ray queries: the device must have been created with the extension VK_KHR_ray_query
-   * and the feature VkPhysicalDeviceRayQueryFeaturesKHR::rayQuery enabled (besides what
-   * lsnifGetRequiredDeviceExtensions and lsnifInitDeviceFeatures name). */
+  /* Also create the stages of lsnifCmdQuery (queries against the application's TLAS). Its broad
+   * phase (which instances each ray meets: triangles resolved by the traversal, LSNIF instances
+   * recorded as candidates for the batched network) runs in one of two ways (LsnifQueryBroadPhase),
+   * chosen at creation:
+   *  - LSNIF_QUERY_BROAD_PHASE_RAY_QUERY: two ray queries in a compute shader. Needs the extension
+   *    VK_KHR_ray_query and the feature VkPhysicalDeviceRayQueryFeaturesKHR::rayQuery enabled.
+   *    Chosen unless forced otherwise whenever they are there: on lavapipe its broad phase takes
+   *    half the time of the other (docs/batched-queries.md).
+   *  - LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS: two launches of a ray-tracing pipeline whose intersection
+   *    shader only records candidates. Needs the feature
+   *    VkPhysicalDeviceRayTracingPipelineFeaturesKHR::rayTraversalPrimitiveCulling enabled (one
+   *    pipeline skips AABBs, the other triangles); no ray queries: the broad phase of devices
+   *    whose driver has ray-tracing pipelines but no ray queries.
+   * Both give the same results (the same candidates, the same answer per ray). */
   LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT = 0x00000001,
+  /* With LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT: force the ray-query broad phase. */
+  LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT = 0x00000002,
+  /* With LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT: force the ray-tracing broad phase. */
+  LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT = 0x00000004,
   LSNIF_QUERY_PIPELINE_CREATE_FLAG_BITS_MAX_ENUM = 0x7FFFFFFF
 } LsnifQueryPipelineCreateFlagBits;
 typedef VkFlags LsnifQueryPipelineCreateFlags;
+
+/* How lsnifCmdQuery finds each ray's triangle hit and LSNIF candidates (see
+ * LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT). */
+typedef enum LsnifQueryBroadPhase {
+  LSNIF_QUERY_BROAD_PHASE_NONE = 0,        /* a pipeline without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT */
+  LSNIF_QUERY_BROAD_PHASE_RAY_QUERY = 1,   /* ray queries in a compute shader (VK_KHR_ray_query) */
+  LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS = 2,  /* a ray-tracing pipeline (rayTraversalPrimitiveCulling) */
+  LSNIF_QUERY_BROAD_PHASE_MAX_ENUM = 0x7FFFFFFF
+} LsnifQueryBroadPhase;
 
 /* Types of the structures that extend another through its pNext chain (each starts with sType and
  * pNext, as in Vulkan). */
@@ -331,17 +357,25 @@ typedef struct LsnifQueryPipelineFlagsCreateInfo {
 } LsnifQueryPipelineFlagsCreateInfo;
 
 /* Creates the compute pipelines of the batched path on the context's device (SPIR-V embedded in
- * this library; pCreateInfo may be NULL: no flags, no cache). Destroyed by
- * lsnifDestroyQueryPipeline or with the context. With LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT it fails
- * with LSNIF_ERROR_DEVICE_UNSUPPORTED naming what is missing when the physical device does not offer
- * VK_KHR_ray_query and rayQuery, or when the context's pEnabledFeatures chain (if it was given) does
- * not enable rayQuery; unknown flags are LSNIF_ERROR_INVALID_ARGUMENT. */
+ * this library; pCreateInfo may be NULL: no flags, no cache), and with
+ * LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT the stages of lsnifCmdQuery with the broad phase it chooses:
+ * the ray-query one when the physical device offers VK_KHR_ray_query and rayQuery (and the
+ * context's pEnabledFeatures chain, if it was given, enables it), else the ray-tracing one when the
+ * device offers rayTraversalPrimitiveCulling (enabled likewise); a ..._BROAD_PHASE_BIT forces
+ * one. Destroyed by lsnifDestroyQueryPipeline or with the context. Fails with
+ * LSNIF_ERROR_DEVICE_UNSUPPORTED naming what is missing when neither broad phase (or the forced
+ * one) can run; unknown flags, both broad-phase bits, or one without
+ * LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT are LSNIF_ERROR_INVALID_ARGUMENT. */
 LSNIF_API LsnifResult lsnifCreateQueryPipeline(LsnifContext context, const LsnifQueryPipelineCreateInfo* pCreateInfo,
                                                LsnifQueryPipeline* pPipeline);
 
 /* The application must ensure the GPU no longer uses the pipeline. NULL or an unknown handle is
  * ignored. */
 LSNIF_API void lsnifDestroyQueryPipeline(LsnifContext context, LsnifQueryPipeline pipeline);
+
+/* The broad phase lsnifCmdQuery runs with `pipeline` (LSNIF_QUERY_BROAD_PHASE_NONE for a pipeline
+ * created without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT, and for NULL or an unknown handle). */
+LSNIF_API LsnifQueryBroadPhase lsnifGetQueryBroadPhase(LsnifContext context, LsnifQueryPipeline pipeline);
 
 /* Timestamps lsnifCmdIntersectModelRays writes into LsnifIntersectModelRaysInfo::timestampPool:
  * before the narrow phase, after it, after the MLP, after the decode (stage bottom of pipe). A batch
@@ -480,10 +514,12 @@ LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const Lsnif
  *    pModels[i] (pModels[i] NULL, or another model) is not evaluated: the ray is marked by the same
  *    rule, and LsnifQueryStatus::unevaluated counts such candidates. No ray misses for such a
  *    disagreement without this mark.
- * Hits at equal t resolve to the lower instance index. The command binds its own compute pipelines
- * and push constants (the application's compute bindings are disturbed) and records barriers
- * between its passes only: the application makes its TLAS build and ray writes visible to
- * compute-shader reads before, and waits for compute-shader writes before reading results or status.
+ * Hits at equal t resolve to the lower instance index. The command binds its own compute (and, with
+ * the ray-tracing broad phase, ray-tracing) pipelines and push constants (the application's
+ * bindings at those bind points are disturbed) and records barriers between its passes only: the
+ * application makes its TLAS build and ray writes visible to compute-shader reads before (the
+ * command's first pass is a compute pass, whatever the broad phase), and waits for compute-shader
+ * writes before reading results or status.
  * Stage times: chain a LsnifQueryTimestampsInfo (LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS above).
  * Fails, recording nothing, on an unknown pipeline or one created without
  * LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT, a candidatesPerRay or cullMask out of range, a model not of

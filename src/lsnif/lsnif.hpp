@@ -157,6 +157,8 @@ class QueryPipeline {
   LsnifResult cmd_query(VkCommandBuffer commandBuffer, const LsnifQueryInfo& info) const {
     return lsnifCmdQuery(context_, commandBuffer, pipeline_, &info);
   }
+  // lsnifGetQueryBroadPhase: the broad phase cmd_query runs (NONE without a TLAS pipeline).
+  LsnifQueryBroadPhase broad_phase() const { return lsnifGetQueryBroadPhase(context_, pipeline_); }
   // Gives up ownership without destroying (e.g. when lsnifDestroyContext already destroyed it).
   LsnifQueryPipeline release() {
     context_ = nullptr;

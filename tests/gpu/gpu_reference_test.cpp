@@ -191,7 +191,7 @@ constexpr size_t kRaysPerInstance = 5000;  // x 2 instances x 2 models = 20k tra
 class GpuReference : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    vk_status_ = vk_.init(/*ray_tracing=*/false, /*validation=*/true, test::kReferenceDevice);
+    vk_status_ = vk_.init(/*ray_tracing=*/false, /*validation=*/true, test::test_device());
     if (vk_status_) {
       std::printf("Vulkan device: %s\n", vk_.device_name().c_str());
       vk_status_ = vk_.create_pipeline(LSNIF_REFERENCE_SPV, sizeof(Push), pipeline_);

@@ -1,5 +1,5 @@
 // lsnifCmdQuery (src/lsnif/lsnif.h): world-space rays against a TLAS of triangle and LSNIF
-// instances, on the harness's device (lavapipe with VK_KHR_ray_query, validation on), against two
+// instances, on the harness's device (LSNIF_TEST_DEVICE, default lavapipe; validation on), against two
 // independent truths: a ray-tracing pipeline over the same TLAS (the plugin's intersection shader
 // with the instance-table lookup, a triangle hit group) and the CPU reference (src/lsnif/core/intersector.h).
 //  - a mixed TLAS (a triangle instance, three LSNIF instances of two models, one with hash tables of
@@ -10,7 +10,9 @@
 //  - an empty batch, a batch in which no ray reaches an LSNIF object;
 //  - candidate overflow: every ray whose answer could be wrong is marked incomplete and counted;
 //  - equal t resolved to the lower instance index; batches of more than one chunk;
-//  - the device check (a context whose enabled features lack rayQuery) and the argument errors.
+//  - the two broad phases (a ray-tracing pipeline, ray queries) agreeing hit for hit; the automatic
+//    choice, the forced ones and what a context whose enabled features lack them reports;
+//  - the argument errors.
 // Compiled into plugin_test.
 #include <gtest/gtest.h>
 
@@ -118,14 +120,31 @@ struct Cleanup {
 };
 
 class PluginQuery : public ::testing::Test {
+ public:
+  // The device, models and pipelines the two suites (PluginQuery, PluginQueryPerBroadPhase) share:
+  // made by the first suite's SetUpTestSuite, released once after every test
+  // (PluginQueryEnvironment), so that the second suite neither trains nor compiles them again.
+  static void release_shared() {
+    if (!set_up_) return;
+    pipeline_.reset();
+    ray_query_pipeline_.reset();
+    trace_rays_pipeline_.reset();
+    plugin_.destroy();
+    tracer_.destroy(triangle_blas_);
+    tracer_.destroy(rt_pipeline_);
+    vk_.destroy_device();
+    set_up_ = false;
+  }
+
  protected:
   static void SetUpTestSuite() {
+    if (set_up_) return;
+    set_up_ = true;
     vk::ContextOptions options;
     options.ray_tracing = true;
     options.validation = true;
-    options.device = test::kReferenceDevice;
-    options.ray_query = true;
-    status_ = vk_.init(options);
+    options.device = test::test_device();
+    status_ = vk_.init(options);  // ray queries and rayTraversalPrimitiveCulling where offered
     if (status_) status_ = tracer_.init();
     if (status_) {
       vk::RtShaders s;
@@ -154,9 +173,29 @@ class PluginQuery : public ::testing::Test {
     if (status_) status_ = plugin_.upload(model_b_, b_);
     if (status_) {
       // Through lsnif.hpp: the query() helper records with its cmd_query and sizes with query_scratch_size.
+      // The automatic broad phase runs every test; the ray-query one is compared with it.
       status_ = TestPlugin::check(pipeline_.create(plugin_.context(), LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT),
                                   "query pipeline");
     }
+    if (status_) {
+      LsnifDeviceSupport support{};
+      if (lsnifQueryDeviceSupport(vk_.instance(), vk_.physical_device(), vkGetInstanceProcAddr, &support) != LSNIF_SUCCESS)
+        status_ = Status::error("lsnifQueryDeviceSupport: %s", last_error().c_str());
+      if (!support.rayQuery)
+        ray_query_missing_ = "device '" + vk_.device_name() + "' lacks extension VK_KHR_ray_query with feature rayQuery";
+      if (!support.rayTraversalPrimitiveCulling)
+        trace_rays_missing_ = "device '" + vk_.device_name() + "' lacks feature rayTraversalPrimitiveCulling";
+    }
+    if (status_ && ray_query_missing_.empty())
+      status_ = TestPlugin::check(ray_query_pipeline_.create(plugin_.context(),
+                                                             LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT |
+                                                                 LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT),
+                                  "query pipeline (ray-query broad phase)");
+    if (status_ && trace_rays_missing_.empty())
+      status_ = TestPlugin::check(trace_rays_pipeline_.create(plugin_.context(),
+                                                              LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT |
+                                                                  LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT),
+                                  "query pipeline (ray-tracing broad phase)");
     if (status_) {
       std::vector<float> positions;
       std::vector<uint32_t> indices;
@@ -165,16 +204,11 @@ class PluginQuery : public ::testing::Test {
       status_ = tracer_.build_triangle_blas(positions, indices, triangle_blas_);
     }
   }
-  static void TearDownTestSuite() {
-    pipeline_.reset();
-    plugin_.destroy();
-    tracer_.destroy(triangle_blas_);
-    tracer_.destroy(rt_pipeline_);
-    vk_.destroy_device();
-  }
+  static void TearDownTestSuite() {}  // release_shared, after every suite
   void SetUp() override {
     ASSERT_TRUE(status_) << status_.message();
     vk_.reset_validation_counts();
+    current_ = &pipeline_;
   }
   void TearDown() override {
     EXPECT_EQ(vk_.validation_errors(), 0u) << "Vulkan validation errors (printed above)";
@@ -298,8 +332,10 @@ class PluginQuery : public ::testing::Test {
   // with their availability: {tick, available} per query.
   static QueryRun query(const Scene& s, const std::vector<Ray>& rays, const std::vector<uint32_t>& flags,
                         uint32_t per_ray = 4, const std::vector<LsnifModel>* models = nullptr,
-                        std::vector<std::array<uint64_t, 2>>* stamps = nullptr) {
+                        std::vector<std::array<uint64_t, 2>>* stamps = nullptr,
+                        const plugin::QueryPipeline* pipeline = nullptr) {
     QueryRun out;
+    if (!pipeline) pipeline = current_;
     if (!models) models = &s.table_models;
     const uint32_t n = uint32_t(rays.size());
     LsnifQueryInfo info{};
@@ -343,7 +379,7 @@ class PluginQuery : public ::testing::Test {
       }
       if (st) st = vk_.submit("lsnifCmdQuery", [&](VkCommandBuffer cmd) {
         if (stamps) vkCmdResetQueryPool(cmd, pool.pool, 0, pool.count);
-        EXPECT_EQ(pipeline_.cmd_query(cmd, info), LSNIF_SUCCESS) << last_error();
+        EXPECT_EQ(pipeline->cmd_query(cmd, info), LSNIF_SUCCESS) << last_error();
         vk::ComputeContext::barrier_compute_to_host(cmd);
       });
     }
@@ -502,7 +538,13 @@ class PluginQuery : public ::testing::Test {
   static Model model_a_, model_b_;
   static TestPlugin plugin_;
   static LsnifModel a_, b_;
-  static plugin::QueryPipeline pipeline_;
+  static plugin::QueryPipeline pipeline_;             // the automatic broad phase
+  static plugin::QueryPipeline ray_query_pipeline_;   // the ray-query broad phase, forced
+  static plugin::QueryPipeline trace_rays_pipeline_;  // the ray-tracing broad phase, forced
+  static const plugin::QueryPipeline* current_;
+  static bool set_up_;       // query()'s pipeline: the automatic one, or the
+                                                      // test's broad phase (PluginQueryPerBroadPhase)
+  static std::string ray_query_missing_, trace_rays_missing_;  // why a broad phase cannot run ("" when it can)
   static vk::AccelerationStructure triangle_blas_;
 };
 vk::ComputeContext PluginQuery::vk_;
@@ -514,13 +556,49 @@ Model PluginQuery::model_a_, PluginQuery::model_b_;
 TestPlugin PluginQuery::plugin_;
 LsnifModel PluginQuery::a_ = nullptr, PluginQuery::b_ = nullptr;
 plugin::QueryPipeline PluginQuery::pipeline_;
+plugin::QueryPipeline PluginQuery::ray_query_pipeline_;
+plugin::QueryPipeline PluginQuery::trace_rays_pipeline_;
+const plugin::QueryPipeline* PluginQuery::current_ = nullptr;
+bool PluginQuery::set_up_ = false;
+
+class PluginQueryEnvironment : public ::testing::Environment {
+ public:
+  void TearDown() override { PluginQuery::release_shared(); }
+};
+[[maybe_unused]] ::testing::Environment* const kPluginQueryEnvironment =
+    ::testing::AddGlobalTestEnvironment(new PluginQueryEnvironment);
+
+// The tests that run once per broad phase: query() (and the tests' own lsnifCmdQuery calls) use
+// the broad phase of the parameter. A device lacking what one needs skips it, naming the feature
+// (a failure on lavapipe, which has both).
+class PluginQueryPerBroadPhase : public PluginQuery, public ::testing::WithParamInterface<LsnifQueryBroadPhase> {
+ protected:
+  void SetUp() override {
+    PluginQuery::SetUp();
+    if (HasFatalFailure()) return;
+    if (GetParam() == LSNIF_QUERY_BROAD_PHASE_RAY_QUERY) {
+      LSNIF_TEST_NEEDS(ray_query_missing_.empty(), vk_.device_name(), "extension VK_KHR_ray_query with feature rayQuery");
+      current_ = &ray_query_pipeline_;
+    } else {
+      LSNIF_TEST_NEEDS(trace_rays_missing_.empty(), vk_.device_name(), "feature rayTraversalPrimitiveCulling");
+      current_ = &trace_rays_pipeline_;
+    }
+  }
+};
+INSTANTIATE_TEST_SUITE_P(BroadPhase, PluginQueryPerBroadPhase,
+                         ::testing::Values(LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS, LSNIF_QUERY_BROAD_PHASE_RAY_QUERY),
+                         [](const ::testing::TestParamInfo<LsnifQueryBroadPhase>& param) {
+                           return std::string(param.param == LSNIF_QUERY_BROAD_PHASE_RAY_QUERY ? "RayQuery"
+                                                                                               : "TraceRays");
+                         });
+std::string PluginQuery::ray_query_missing_, PluginQuery::trace_rays_missing_;
 vk::AccelerationStructure PluginQuery::triangle_blas_;
 
 constexpr size_t kRays = 3000;
 
 // Closest-hit rays with no culling and with back-face culling, then any-hit rays, against the
 // intersection shader over the same mixed TLAS.
-TEST_F(PluginQuery, MixedTlasMatchesTheIntersectionShader) {
+TEST_P(PluginQueryPerBroadPhase, MixedTlasMatchesTheIntersectionShader) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
@@ -594,9 +672,69 @@ TEST_F(PluginQuery, MixedTlasMatchesTheIntersectionShader) {
   EXPECT_GT(hits, kRays / 5);
 }
 
+// The two broad phases (two launches of a ray-tracing pipeline whose intersection shader records
+// candidates; two ray queries in a compute shader) give every ray the same answer, field for field,
+// and the same status: on the mixed TLAS with every kind of ray flags and on rays leaving the LSNIF
+// surfaces. The automatic choice is the ray-tracing one wherever the device offers
+// rayTraversalPrimitiveCulling.
+TEST_F(PluginQuery, BroadPhasesAgreeHitForHit) {
+  EXPECT_EQ(pipeline_.broad_phase(),
+            ray_query_missing_.empty() ? LSNIF_QUERY_BROAD_PHASE_RAY_QUERY : LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS)
+      << "the automatic choice: ray queries where the device has them";
+  LSNIF_TEST_NEEDS(trace_rays_missing_.empty(), vk_.device_name(), "feature rayTraversalPrimitiveCulling");
+  LSNIF_TEST_NEEDS(ray_query_missing_.empty(), vk_.device_name(), "extension VK_KHR_ray_query with feature rayQuery");
+  ASSERT_EQ(ray_query_pipeline_.broad_phase(), LSNIF_QUERY_BROAD_PHASE_RAY_QUERY);
+  ASSERT_EQ(trace_rays_pipeline_.broad_phase(), LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS);
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
+  std::vector<Ray> rays = rays_at(s, kRays, 5);
+  // Rays leaving the surface: from the closest LSNIF hits of the first rays, back towards the origin.
+  const QueryRun first = query(s, rays, {0u}, 4, nullptr, nullptr, &trace_rays_pipeline_);
+  for (size_t i = 0; i < kRays / 4; ++i) {
+    const LsnifQueryResult& h = first.results[i];
+    if (h.kind != LSNIF_QUERY_HIT_LSNIF) continue;
+    Ray r = rays[i];
+    r.origin = rays[i].origin + h.t * rays[i].direction;
+    r.direction = -rays[i].direction;
+    r.tmin = 1e-3f;
+    rays.push_back(r);
+  }
+  size_t lsnif = 0, triangles = 0;
+  for (const uint32_t flags :
+       {0u, LSNIF_RAY_FLAG_CULL_BACK_FACING, LSNIF_RAY_FLAG_CULL_FRONT_FACING, LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT,
+        LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT | LSNIF_RAY_FLAG_CULL_BACK_FACING}) {
+    SCOPED_TRACE(testing::Message() << "ray flags 0x" << std::hex << flags);
+    const QueryRun trace_rays = query(s, rays, {flags}, 4, nullptr, nullptr, &trace_rays_pipeline_);
+    const QueryRun ray_query = query(s, rays, {flags}, 4, nullptr, nullptr, &ray_query_pipeline_);
+    ASSERT_EQ(trace_rays.results.size(), rays.size());
+    ASSERT_EQ(ray_query.results.size(), rays.size());
+    size_t differ = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const bool same = std::memcmp(&trace_rays.results[i], &ray_query.results[i], sizeof(LsnifQueryResult)) == 0;
+      differ += !same;
+      if (!same && differ <= 3)
+        ADD_FAILURE() << "ray " << i << ": kind " << trace_rays.results[i].kind << " t " << trace_rays.results[i].t
+                      << " instance " << trace_rays.results[i].instance_index << " (trace rays) vs kind "
+                      << ray_query.results[i].kind << " t " << ray_query.results[i].t << " instance "
+                      << ray_query.results[i].instance_index << " (ray query)";
+      lsnif += trace_rays.results[i].kind == LSNIF_QUERY_HIT_LSNIF;
+      triangles += trace_rays.results[i].kind == LSNIF_QUERY_HIT_TRIANGLE;
+    }
+    EXPECT_EQ(differ, 0u) << "rays answered differently by the two broad phases";
+    EXPECT_EQ(trace_rays.status.candidates, ray_query.status.candidates);
+    EXPECT_EQ(trace_rays.status.capacity, ray_query.status.capacity);
+    EXPECT_EQ(trace_rays.status.dropped, ray_query.status.dropped);
+    EXPECT_EQ(trace_rays.status.incomplete_rays, ray_query.status.incomplete_rays);
+    EXPECT_EQ(trace_rays.status.unevaluated, ray_query.status.unevaluated);
+  }
+  EXPECT_GT(lsnif, kRays / 2) << "too few LSNIF hits to tell anything";
+  EXPECT_GT(triangles, kRays / 4) << "too few triangle hits to tell anything";
+}
+
 // Rays leaving the LSNIF surfaces by the self-intersection rule (origin at the hit, back-face
 // culling, tmin = leaving_tmin of the hit's instance) against the shader with the same flags.
-TEST_F(PluginQuery, RaysLeavingAnLsnifSurfaceMatchTheIntersectionShader) {
+TEST_P(PluginQueryPerBroadPhase, RaysLeavingAnLsnifSurfaceMatchTheIntersectionShader) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
@@ -628,7 +766,7 @@ TEST_F(PluginQuery, RaysLeavingAnLsnifSurfaceMatchTheIntersectionShader) {
 // Ten table entries (models A and B uploaded again, alternating, with holes between them), nine
 // LSNIF instances in a row of overlapping boxes and one triangle instance: every model is its own
 // bucket of the counting sort and its own indirect dispatches.
-TEST_F(PluginQuery, ManyModelsInOneBatch) {
+TEST_P(PluginQueryPerBroadPhase, ManyModelsInOneBatch) {
   std::vector<LsnifModel> extra;
   Scene s;
   const Cleanup cleanup{[&] {
@@ -669,7 +807,7 @@ TEST_F(PluginQuery, ManyModelsInOneBatch) {
 // A capacity of one candidate per ray over rays that cross several LSNIF boxes: candidates are
 // dropped, and every ray is either answered exactly as with room for all of its candidates or marked
 // LSNIF_QUERY_HIT_INCOMPLETE; the status counts both.
-TEST_F(PluginQuery, OverflowMarksTheAffectedRays) {
+TEST_P(PluginQueryPerBroadPhase, OverflowMarksTheAffectedRays) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
@@ -698,7 +836,7 @@ TEST_F(PluginQuery, OverflowMarksTheAffectedRays) {
 // (the status counts them exactly: all candidates but those of entry 1); every ray one of them could
 // have changed is LSNIF_QUERY_HIT_INCOMPLETE, and every other ray is answered as with a table that
 // agrees with pModels.
-TEST_F(PluginQuery, ModelTableDisagreeingWithPModelsMarksTheAffectedRays) {
+TEST_P(PluginQueryPerBroadPhase, ModelTableDisagreeingWithPModelsMarksTheAffectedRays) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));  // pModels {A, B, NULL}, the table written from them
@@ -750,7 +888,7 @@ TEST_F(PluginQuery, ModelTableDisagreeingWithPModelsMarksTheAffectedRays) {
 // Two instances of the same model at the same place (and a third elsewhere): every hit on them is
 // at equal t, and the lower instance index must win, whatever order the traversal and the atomics
 // took.
-TEST_F(PluginQuery, EqualTResolvesToTheLowerInstanceIndex) {
+TEST_P(PluginQueryPerBroadPhase, EqualTResolvesToTheLowerInstanceIndex) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   s.table_models = {nullptr, b_, a_};
@@ -777,7 +915,7 @@ TEST_F(PluginQuery, EqualTResolvesToTheLowerInstanceIndex) {
 // More rays than one chunk (LSNIF_QUERY_CHUNK_RAYS): the scratch is sized for one chunk and reused,
 // the second chunk's rays answer exactly as in a batch of their own, and the status adds the
 // chunks' candidates.
-TEST_F(PluginQuery, BatchesOfMoreThanOneChunk) {
+TEST_P(PluginQueryPerBroadPhase, BatchesOfMoreThanOneChunk) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
@@ -816,7 +954,7 @@ TEST_F(PluginQuery, BatchesOfMoreThanOneChunk) {
 // The stage timestamps (LsnifQueryTimestampsInfo): all written, in order, by a one-chunk batch (6),
 // a two-chunk batch (11: five per chunk) and an empty batch (6), without changing any answer; a
 // wrong chain is refused.
-TEST_F(PluginQuery, StageTimestamps) {
+TEST_P(PluginQueryPerBroadPhase, StageTimestamps) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
@@ -867,11 +1005,11 @@ TEST_F(PluginQuery, StageTimestamps) {
   EXPECT_NE(last_error().find("unknown structure type 1"), std::string::npos) << last_error();
   chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO;
   Status st = vk_.submit("refused", [&](VkCommandBuffer cmd) {
-    EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, pipeline_.get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, current_->get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
     EXPECT_NE(last_error().find("timestampPool is VK_NULL_HANDLE"), std::string::npos) << last_error();
     LsnifQueryTimestampsInfo more = chained;
     chained.pNext = &more;
-    EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, pipeline_.get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, current_->get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
     EXPECT_NE(last_error().find("LsnifQueryTimestampsInfo::pNext must be NULL"), std::string::npos) << last_error();
   });
   EXPECT_TRUE(st) << st.message();
@@ -880,7 +1018,7 @@ TEST_F(PluginQuery, StageTimestamps) {
 // An empty batch records nothing; a batch in which no ray reaches an LSNIF object writes every
 // field (triangle hits and misses) and produces no candidate; a scene without LSNIF instances and
 // an empty table works too.
-TEST_F(PluginQuery, EmptyBatchesAndBatchesWithoutLsnif) {
+TEST_P(PluginQueryPerBroadPhase, EmptyBatchesAndBatchesWithoutLsnif) {
   Scene s;
   const Cleanup cleanup{[&] { release(s); }};
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
@@ -943,7 +1081,8 @@ TEST_F(PluginQuery, EmptyBatchesAndBatchesWithoutLsnif) {
 
 // The device check and the argument errors: nothing recorded, a message naming the problem.
 TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
-  // A context told (pEnabledFeatures) that the device was created without rayQuery.
+  // A context told (pEnabledFeatures) that the device was created without rayQuery and without
+  // rayTraversalPrimitiveCulling: no broad phase can run, and the error names both.
   LsnifDeviceFeatures features;
   lsnifInitDeviceFeatures(&features, nullptr);
   LsnifContextCreateInfo ci = vk::plugin_create_info(vk_);
@@ -957,11 +1096,21 @@ TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
   pi.pNext = &chained;
   LsnifQueryPipeline p = nullptr;
   EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_DEVICE_UNSUPPORTED);
+  EXPECT_NE(last_error().find("no broad phase can run"), std::string::npos) << last_error();
   EXPECT_NE(last_error().find("without feature rayQuery enabled"), std::string::npos) << last_error();
+  EXPECT_NE(last_error().find("without feature rayTraversalPrimitiveCulling enabled"), std::string::npos)
+      << last_error();
   EXPECT_EQ(p, nullptr);
-  chained.flags = 0x2;
+  chained.flags = 0x8;
   EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
-  EXPECT_NE(last_error().find("unknown flags 0x2"), std::string::npos) << last_error();
+  EXPECT_NE(last_error().find("unknown flags 0x8"), std::string::npos) << last_error();
+  chained.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT | LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT |
+                  LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT;
+  EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("exclude each other"), std::string::npos) << last_error();
+  chained.flags = LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT;
+  EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT"), std::string::npos) << last_error();
   chained.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
   chained.sType = static_cast<LsnifStructureType>(7);
   EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
@@ -973,15 +1122,47 @@ TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
       << last_error();
   chained.pNext = nullptr;
   EXPECT_EQ(p, nullptr);
-  VkPhysicalDeviceRayQueryFeaturesKHR rq{};
-  rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
-  rq.rayQuery = VK_TRUE;
-  features.rayTracingPipeline.pNext = &rq;
-  lsnifDestroyContext(ctx);
-  ASSERT_EQ(lsnifCreateContext(&ci, &ctx), LSNIF_SUCCESS) << last_error();
   LsnifQueryPipeline plain = nullptr;
   ASSERT_EQ(lsnifCreateQueryPipeline(ctx, nullptr, &plain), LSNIF_SUCCESS) << last_error();
+  EXPECT_EQ(lsnifGetQueryBroadPhase(ctx, plain), LSNIF_QUERY_BROAD_PHASE_NONE);
   lsnifDestroyContext(ctx);  // the pipeline with it
+
+  // rayQuery enabled: the automatic choice is the ray-query broad phase, and the ray-tracing one,
+  // forced, names the feature it lacks; with rayTraversalPrimitiveCulling enabled instead, the
+  // automatic choice is the ray-tracing one, and the ray-query one, forced, names what it lacks;
+  // with both, the ray-query one.
+  if (ray_query_missing_.empty() && trace_rays_missing_.empty()) {
+    VkPhysicalDeviceRayQueryFeaturesKHR rq{};
+    rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+    rq.rayQuery = VK_TRUE;
+    features.rayTracingPipeline.pNext = &rq;
+    ASSERT_EQ(lsnifCreateContext(&ci, &ctx), LSNIF_SUCCESS) << last_error();
+    ASSERT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_SUCCESS) << last_error();
+    EXPECT_EQ(lsnifGetQueryBroadPhase(ctx, p), LSNIF_QUERY_BROAD_PHASE_RAY_QUERY);
+    chained.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT | LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT;
+    LsnifQueryPipeline forced = nullptr;
+    EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &forced), LSNIF_ERROR_DEVICE_UNSUPPORTED);
+    EXPECT_NE(last_error().find("without feature rayTraversalPrimitiveCulling enabled"), std::string::npos)
+        << last_error();
+    lsnifDestroyContext(ctx);
+    features.rayTracingPipeline.pNext = nullptr;  // rayQuery no longer enabled
+    features.rayTracingPipeline.rayTraversalPrimitiveCulling = VK_TRUE;
+    chained.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
+    ASSERT_EQ(lsnifCreateContext(&ci, &ctx), LSNIF_SUCCESS) << last_error();
+    ASSERT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_SUCCESS) << last_error();
+    EXPECT_EQ(lsnifGetQueryBroadPhase(ctx, p), LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS);
+    chained.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT | LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT;
+    EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &forced), LSNIF_ERROR_DEVICE_UNSUPPORTED);
+    EXPECT_NE(last_error().find("without feature rayQuery enabled"), std::string::npos) << last_error();
+    lsnifDestroyContext(ctx);
+    features.rayTracingPipeline.pNext = &rq;  // both
+    chained.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
+    ASSERT_EQ(lsnifCreateContext(&ci, &ctx), LSNIF_SUCCESS) << last_error();
+    ASSERT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_SUCCESS) << last_error();
+    EXPECT_EQ(lsnifGetQueryBroadPhase(ctx, p), LSNIF_QUERY_BROAD_PHASE_RAY_QUERY);
+    EXPECT_EQ(lsnifGetQueryBroadPhase(ctx, nullptr), LSNIF_QUERY_BROAD_PHASE_NONE);
+    lsnifDestroyContext(ctx);
+  }
 
   LsnifQueryPipeline without_tlas = nullptr;
   ASSERT_EQ(lsnifCreateQueryPipeline(plugin_.context(), nullptr, &without_tlas), LSNIF_SUCCESS) << last_error();

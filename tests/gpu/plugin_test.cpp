@@ -79,7 +79,7 @@ std::string last_error() { return lsnifGetLastErrorMessage(); }
 class PluginApi : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    vk_status_ = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::kReferenceDevice);
+    vk_status_ = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::test_device());
     if (vk_status_) vk_status_ = tracer_.init();
     if (vk_status_) vk_status_ = tracer_.create_pipeline(shaders(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE), sizeof(RtPush),
                                                          table_pipeline_);
@@ -825,7 +825,7 @@ TEST_F(PluginApi, BatchedQueriesFromTheSurfaceEmptyAndMissingBatchesAndErrors) {
 // leaked object at vkDestroyDevice (own device: the suite's must stay alive for the other tests).
 TEST(PluginLeaks, AllocatorBalancedAndNothingLeaked) {
   vk::ComputeContext vk;
-  Status s = vk.init(/*ray_tracing=*/true, /*validation=*/true, test::kReferenceDevice);
+  Status s = vk.init(/*ray_tracing=*/true, /*validation=*/true, test::test_device());
   ASSERT_TRUE(s) << s.message();
   struct Counts {
     std::atomic<int> live{0}, total{0};
@@ -877,7 +877,7 @@ TEST(PluginLeaks, AllocatorBalancedAndNothingLeaked) {
 // Negative control for the leak check above: an object left alive is reported at vkDestroyDevice.
 TEST(PluginLeaks, ValidationReportsALeakAtDeviceDestruction) {
   vk::ComputeContext vk;
-  Status s = vk.init(/*ray_tracing=*/true, /*validation=*/true, test::kReferenceDevice);
+  Status s = vk.init(/*ray_tracing=*/true, /*validation=*/true, test::test_device());
   ASSERT_TRUE(s) << s.message();
   VkBufferCreateInfo bci{};
   bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;

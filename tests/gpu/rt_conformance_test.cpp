@@ -219,7 +219,7 @@ class RtConformance : public ::testing::Test {
   static constexpr uint32_t kAabbIndex = 0, kSegmentIndex = 1, kEightBitIndex = 2, kModels = 3;
 
   static void SetUpTestSuite() {
-    vk_status_ = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::kReferenceDevice);
+    vk_status_ = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::test_device());
     if (vk_status_) vk_status_ = tracer_.init();
     if (vk_status_) {
       std::printf("Vulkan device: %s (shaderGroupHandleSize %u, shaderGroupBaseAlignment %u, "

@@ -101,7 +101,7 @@ TEST(Viewer, UnderXvfbShowsTheRenderersImageAndTogglesModes) {
 
   const std::string view = "xvfb-run -a -s '-screen 0 320x240x24' " + std::string(LSNIF_CLI) + " view " + gltf +
                            " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight) +
-                           " --scale 1 --validation --quiet --device " + test::kReferenceDevice;
+                           " --scale 1 --validation --quiet --device " + test::test_device();
   const std::string shot_lsnif = (dir / "lsnif.png").string(), shot_toggled = (dir / "toggled.png").string();
   CommandResult a = run_command(view + " --frames 4 --screenshot " + shot_lsnif + " 2>&1");
   ASSERT_EQ(a.code, 0) << a.out;
@@ -124,7 +124,7 @@ TEST(Viewer, UnderXvfbShowsTheRenderersImageAndTogglesModes) {
   options.quiet = true;
   ASSERT_TRUE(scene::load_scene(gltf, options, scene));
   vk::ComputeContext ctx;
-  const Status vk_status = ctx.init(/*ray_tracing=*/true, /*validation=*/true, test::kReferenceDevice);
+  const Status vk_status = ctx.init(/*ray_tracing=*/true, /*validation=*/true, test::test_device());
   ASSERT_TRUE(vk_status) << vk_status.message();
   {
     render::Renderer renderer(ctx);
@@ -174,7 +174,7 @@ TEST(Viewer, UnderXvfbShowsTheRenderersImageAndTogglesModes) {
 
   // No display: a clear error, exit 1.
   CommandResult c = run_command("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(LSNIF_CLI) + " view " +
-                                gltf + " --frames 1 --device " + test::kReferenceDevice + " 2>&1");
+                                gltf + " --frames 1 --device " + test::test_device() + " 2>&1");
   EXPECT_EQ(c.code, 1) << c.out;
   EXPECT_NE(c.out.find("xvfb-run"), std::string::npos) << c.out;
 }

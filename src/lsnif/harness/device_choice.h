@@ -40,6 +40,8 @@ struct DeviceInfo {
   // when LSNIF can run on the device.
   std::vector<std::string> lsnif_missing;
   bool ray_query = false;  // LsnifDeviceSupport::rayQuery: VK_KHR_ray_query with feature rayQuery
+  // LsnifDeviceSupport::rayTraversalPrimitiveCulling (lsnifCmdQuery's ray-tracing broad phase)
+  bool primitive_culling = false;
   // The harness's own, beyond what LSNIF needs.
   bool compute_queue = false;         // some queue family has VK_QUEUE_COMPUTE_BIT
   uint32_t compute_queue_family = 0;  // the first such family (when compute_queue)

@@ -45,6 +45,7 @@ Status query_device_info(VkInstance instance, VkPhysicalDevice physical, DeviceI
   info.lsnif_missing = missing_items(lsnif.missing);
   if (!lsnif.supported && info.lsnif_missing.empty()) info.lsnif_missing.emplace_back("LSNIF support");
   info.ray_query = lsnif.rayQuery == VK_TRUE;
+  info.primitive_culling = lsnif.rayTraversalPrimitiveCulling == VK_TRUE;
 
   // The harness's own: VK_KHR_swapchain (a viewer's window), VK_KHR_spirv_1_4 and scalarBlockLayout
   // (enabled when offered) and a compute queue.
@@ -202,6 +203,8 @@ Status ComputeContext::init(const ContextOptions& options) {
   VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt_features{};
   rt_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
   rt_features.rayTracingPipeline = VK_TRUE;
+  // Where offered, for the ray-tracing broad phase of lsnifCmdQuery.
+  rt_features.rayTraversalPrimitiveCulling = infos[chosen].primitive_culling ? VK_TRUE : VK_FALSE;
   as_features.pNext = &rt_features;
   // Vulkan 1.2 covers descriptor indexing, buffer device address, float controls and SPIR-V 1.4;
   // VK_KHR_spirv_1_4, which VK_KHR_ray_tracing_pipeline names as its dependency, is enabled as well
@@ -215,9 +218,10 @@ Status ComputeContext::init(const ContextOptions& options) {
   if (options.swapchain) device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
   VkPhysicalDeviceRayQueryFeaturesKHR rq_features{};
   rq_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
-  if (ray_tracing && options.ray_query) {
-    if (!infos[chosen].ray_query)
-      return Status::error("device '%s' lacks extension VK_KHR_ray_query with feature rayQuery", device_name_.c_str());
+  if (ray_tracing && options.ray_query && !infos[chosen].ray_query)
+    return Status::error("device '%s' lacks extension VK_KHR_ray_query with feature rayQuery", device_name_.c_str());
+  // Where offered (required with options.ray_query), for the ray-query broad phase of lsnifCmdQuery.
+  if (ray_tracing && infos[chosen].ray_query) {
     device_extensions.push_back(VK_KHR_RAY_QUERY_EXTENSION_NAME);
     rq_features.rayQuery = VK_TRUE;
     rt_features.pNext = &rq_features;

@@ -69,8 +69,10 @@ struct ContextOptions {
   // surface); an error names one the loader lacks.
   std::vector<std::string> instance_extensions;
   bool swapchain = false;    // VK_KHR_swapchain on the device (presenting to a window)
-  // VK_KHR_ray_query with its feature rayQuery (with ray_tracing; the plugin's lsnifCmdQuery); an
-  // error names the chosen device when it lacks them.
+  // VK_KHR_ray_query with its feature rayQuery required (with ray_tracing; the ray-query broad phase
+  // of the plugin's lsnifCmdQuery): an error names the chosen device when it lacks them. Ray-tracing
+  // devices get them anyway where offered, and rayTraversalPrimitiveCulling (the ray-tracing broad
+  // phase) where offered.
   bool ray_query = false;
   // Which device: "" chooses automatically (a discrete GPU first, then integrated, virtual, CPU);
   // else an index in vkEnumeratePhysicalDevices order or a case-insensitive part of the name

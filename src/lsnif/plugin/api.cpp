@@ -206,6 +206,7 @@ LSNIF_API LsnifResult lsnifQueryDeviceSupport(VkInstance instance, VkPhysicalDev
                   out.cooperativeMatrixNV = s.ext_nv_cooperative_matrix;
                   out.cooperativeMatrixKHR = s.ext_khr_cooperative_matrix;
                   out.cooperativeVectorNV = s.ext_nv_cooperative_vector;
+                  out.rayTraversalPrimitiveCulling = s.ray_traversal_primitive_culling;
                   *pSupport = out;
                   return Outcome::ok();
                 }),
@@ -448,6 +449,12 @@ LSNIF_API void lsnifDestroyQueryPipeline(LsnifContext context, LsnifQueryPipelin
   if (!context) return;
   if (auto p = LsnifContext_T::take(context->query_pipelines, pipeline))
     lsnif::plugin::destroy_query_pipeline(*context, *p);
+}
+
+LSNIF_API LsnifQueryBroadPhase lsnifGetQueryBroadPhase(LsnifContext context, LsnifQueryPipeline pipeline) {
+  if (!context) return LSNIF_QUERY_BROAD_PHASE_NONE;
+  const LsnifQueryPipeline_T* p = context->find(pipeline);
+  return p ? p->broad_phase : LSNIF_QUERY_BROAD_PHASE_NONE;
 }
 
 LSNIF_API LsnifResult lsnifGetIntersectScratchSize(LsnifContext context, LsnifModel model, uint32_t rayCount,

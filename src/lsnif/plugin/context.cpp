@@ -41,17 +41,6 @@ namespace {
       return Outcome::fail(LSNIF_ERROR_VULKAN, "%s failed (VkResult %d)", #call, static_cast<int>(result_)); \
   } while (0)
 
-VkDeviceSize align_up(VkDeviceSize value, VkDeviceSize alignment) {
-  return alignment == 0 ? value : (value + alignment - 1) / alignment * alignment;
-}
-
-// Where a buffer's memory should live.
-enum class Placement {
-  HostWrite,       // host-visible coherent (staging, build input)
-  DeviceDirect,    // device-local and host-visible coherent, written by the host; none: fails
-  DeviceOnly,      // device-local, preferably not host-visible
-};
-
 // The best memory type of `bits` for `placement`, or UINT32_MAX.
 uint32_t choose_memory_type(const VkPhysicalDeviceMemoryProperties& mp, uint32_t bits, Placement placement) {
   constexpr VkMemoryPropertyFlags kHost = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
@@ -76,6 +65,8 @@ uint32_t choose_memory_type(const VkPhysicalDeviceMemoryProperties& mp, uint32_t
   return best;
 }
 
+}  // namespace
+
 void release(LsnifContext_T& ctx, Allocation& a) {
   const VkAllocationCallbacks* cb = ctx.info.pAllocator;
   if (a.buffer) ctx.vk.vkDestroyBuffer(ctx.info.device, a.buffer, cb);
@@ -83,8 +74,6 @@ void release(LsnifContext_T& ctx, Allocation& a) {
   a = Allocation();
 }
 
-// A buffer of `bytes` with a device address and its own memory placed as `placement` asks,
-// holding `data` (when not null; the memory must then be host-visible).
 Outcome allocate(LsnifContext_T& ctx, VkDeviceSize bytes, VkBufferUsageFlags usage, Placement placement,
                  const void* data, Allocation& out) {
   out = Allocation();
@@ -142,6 +131,8 @@ Outcome allocate(LsnifContext_T& ctx, VkDeviceSize bytes, VkBufferUsageFlags usa
   out.address = ctx.vk.vkGetBufferDeviceAddress(device, &ai);
   return Outcome::ok();
 }
+
+namespace {
 
 // The geometry of a model's one AABB (input at the model's aabb buffer).
 VkAccelerationStructureGeometryKHR aabb_geometry(const LsnifModel_T& m) {
@@ -249,6 +240,8 @@ Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<Lsnif
   }
   ctx->ray_query_offered = support.ray_query;
   ctx->ray_query_not_enabled = info.pEnabledFeatures && !ray_query_enabled(info.pEnabledFeatures);
+  ctx->primitive_culling_offered = support.ray_traversal_primitive_culling;
+  ctx->primitive_culling_not_enabled = info.pEnabledFeatures && !primitive_culling_enabled(info.pEnabledFeatures);
   ctx->device_name = support.name;
   if (const char* missing = load_device_dispatch(ctx->vki, info.device, ctx->vk))
     return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
@@ -261,7 +254,10 @@ Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<Lsnif
   VkPhysicalDeviceProperties2 p2{};
   p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
   p2.pNext = &as;
+  ctx->ray_tracing.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_PROPERTIES_KHR;
+  as.pNext = &ctx->ray_tracing;
   ctx->vki.vkGetPhysicalDeviceProperties2(info.physicalDevice, &p2);
+  ctx->ray_tracing.pNext = nullptr;
   ctx->scratch_alignment = as.minAccelerationStructureScratchOffsetAlignment;
   if (info.queue) {
     uint32_t families = 0;

@@ -37,6 +37,18 @@ struct Allocation {
   bool host_visible = false;
 };
 
+// `value` rounded up to a multiple of `alignment` (0: unchanged).
+inline VkDeviceSize align_up(VkDeviceSize value, VkDeviceSize alignment) {
+  return alignment == 0 ? value : (value + alignment - 1) / alignment * alignment;
+}
+
+// Where a buffer's memory should live.
+enum class Placement {
+  HostWrite,       // host-visible coherent (staging, build input)
+  DeviceDirect,    // device-local and host-visible coherent, written by the host; none: fails
+  DeviceOnly,      // device-local, preferably not host-visible
+};
+
 }  // namespace lsnif::plugin
 
 struct LsnifModel_T {
@@ -59,6 +71,13 @@ struct LsnifModel_T {
 // The compute pipelines of the batched path (src/lsnif/shaders/lsnif_batch.comp, one per stage) and, with
 // LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT, of the TLAS query (src/lsnif/shaders/lsnif_query.comp).
 struct LsnifQueryPipeline_T {
+  // The ray-tracing broad phase (lsnif_query_broad.*): one launch per pipeline, each with the
+  // shader binding table regions of its three groups (raygen, miss, hit; the hit region's stride is
+  // 0, so every instance's SBT offset selects the one hit group).
+  struct TraceRays {
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    VkStridedDeviceAddressRegionKHR raygen{}, miss{}, hit{}, callable{};
+  };
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline clear = VK_NULL_HANDLE, narrow = VK_NULL_HANDLE, mlp = VK_NULL_HANDLE, decode = VK_NULL_HANDLE;
   struct Tlas {
@@ -68,6 +87,13 @@ struct LsnifQueryPipeline_T {
                status = VK_NULL_HANDLE;
   } tlas;
   bool has_tlas = false;  // created with LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT
+  LsnifQueryBroadPhase broad_phase = LSNIF_QUERY_BROAD_PHASE_NONE;
+  // With LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS (tlas.broad stays null): its layout (push constants for
+  // the ray-tracing stages), the triangle launch (a pipeline skipping AABBs), the candidate launch
+  // (skipping triangles) and the shader binding tables of both.
+  VkPipelineLayout trace_layout = VK_NULL_HANDLE;
+  TraceRays broad_triangles, broad_candidates;
+  lsnif::plugin::Allocation sbt;
 };
 
 struct LsnifContext_T {
@@ -80,6 +106,11 @@ struct LsnifContext_T {
   // when the create info had pEnabledFeatures, that chain enabled rayQuery.
   bool ray_query_offered = false;
   bool ray_query_not_enabled = false;
+  // Its ray-tracing broad phase: the physical device offers rayTraversalPrimitiveCulling; and,
+  // when the create info had pEnabledFeatures, that chain enabled it.
+  bool primitive_culling_offered = false;
+  bool primitive_culling_not_enabled = false;
+  VkPhysicalDeviceRayTracingPipelinePropertiesKHR ray_tracing{};  // shader group handle sizes and alignments
   std::string device_name;
   bool staging_upload = false;  // blocks always go through a staging buffer (LSNIF_CONTEXT_CREATE_STAGING_UPLOAD_BIT)
   VkCommandPool pool = VK_NULL_HANDLE;  // for the blocking calls (created on first use)
@@ -126,6 +157,12 @@ void record_builds(LsnifContext_T& ctx, VkCommandBuffer cmd, const std::vector<L
 // Records into the context's own command buffer, submits, waits, frees the build resources.
 Outcome build_and_wait(LsnifContext_T& ctx, const std::vector<LsnifModel_T*>& models);
 void free_build_resources(LsnifContext_T& ctx, LsnifModel_T& model);
+
+// A buffer of `bytes` with a device address and its own memory placed as `placement` asks,
+// holding `data` (when not null; the memory must then be host-visible); release frees it.
+Outcome allocate(LsnifContext_T& ctx, VkDeviceSize bytes, VkBufferUsageFlags usage, Placement placement,
+                 const void* data, Allocation& out);
+void release(LsnifContext_T& ctx, Allocation& a);
 
 // lsnifCreateQueryPipeline / lsnifDestroyQueryPipeline (query_pipeline.cpp).
 Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags flags, VkPipelineCache cache,

@@ -126,6 +126,7 @@ DeviceSupport query_device_support(const InstanceDispatch& vk, VkPhysicalDevice 
   s.acceleration_structure = s.ext_acceleration_structure && as.accelerationStructure == VK_TRUE;
   s.ray_tracing_pipeline = s.ext_ray_tracing_pipeline && rt.rayTracingPipeline == VK_TRUE;
   s.ray_query = s.ext_ray_query && rq.rayQuery == VK_TRUE;
+  s.ray_traversal_primitive_culling = s.ext_ray_tracing_pipeline && rt.rayTraversalPrimitiveCulling == VK_TRUE;
   return s;
 }
 
@@ -169,6 +170,11 @@ std::vector<std::string> features_not_enabled(const void* chain) {
 bool ray_query_enabled(const void* chain) {
   const FeatureStructs f = find_feature_structs(chain);
   return f.ray_query && f.ray_query->rayQuery;
+}
+
+bool primitive_culling_enabled(const void* chain) {
+  const FeatureStructs f = find_feature_structs(chain);
+  return f.ray_tracing_pipeline && f.ray_tracing_pipeline->rayTraversalPrimitiveCulling;
 }
 
 std::vector<std::string> enable_device_features(void* chain) {

@@ -32,6 +32,9 @@ struct DeviceSupport {
   // Other paths (reported by `lsnif devices`, not required by the plugin).
   bool ext_ray_query = false;               // VK_KHR_ray_query (lsnifCmdQuery)
   bool ray_query = false;                   // VkPhysicalDeviceRayQueryFeaturesKHR::rayQuery
+  // VkPhysicalDeviceRayTracingPipelineFeaturesKHR::rayTraversalPrimitiveCulling (the ray-tracing
+  // broad phase of lsnifCmdQuery)
+  bool ray_traversal_primitive_culling = false;
   bool ext_nv_cooperative_matrix = false;   // VK_NV_cooperative_matrix
   bool ext_khr_cooperative_matrix = false;  // VK_KHR_cooperative_matrix
   bool ext_nv_cooperative_vector = false;   // VK_NV_cooperative_vector
@@ -59,6 +62,9 @@ std::vector<std::string> features_not_enabled(const void* chain);
 
 // True when the feature chain starting at `chain` enables VkPhysicalDeviceRayQueryFeaturesKHR::rayQuery.
 bool ray_query_enabled(const void* chain);
+// True when the feature chain starting at `chain` enables
+// VkPhysicalDeviceRayTracingPipelineFeaturesKHR::rayTraversalPrimitiveCulling.
+bool primitive_culling_enabled(const void* chain);
 
 // lsnifEnableDeviceFeatures: sets LSNIF's features in the structs of the chain; returns the names
 // of the structs it needed but did not find (empty: all set).

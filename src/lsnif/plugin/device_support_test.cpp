@@ -117,6 +117,35 @@ TEST(DeviceFeatures, NotEnabledNamesEachMissingFeature) {
                                       "feature bufferDeviceAddress", "feature shaderInt64"}));
 }
 
+// The features of the two broad phases of lsnifCmdQuery, read from an application's chain wherever
+// their structs are: absent structs count as not enabled.
+TEST(DeviceFeatures, BroadPhaseFeaturesAreReadFromTheChain) {
+  LsnifDeviceFeatures f;
+  lsnifInitDeviceFeatures(&f, nullptr);
+  EXPECT_FALSE(primitive_culling_enabled(&f.features2)) << "lsnifInitDeviceFeatures sets only what LSNIF needs";
+  EXPECT_FALSE(ray_query_enabled(&f.features2));
+  f.rayTracingPipeline.rayTraversalPrimitiveCulling = VK_TRUE;
+  EXPECT_TRUE(primitive_culling_enabled(&f.features2));
+  VkPhysicalDeviceRayQueryFeaturesKHR rq{};
+  rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+  rq.rayQuery = VK_TRUE;
+  // The ray-query struct first, the rest after it, behind a VkDeviceCreateInfo.
+  rq.pNext = &f.features2;
+  VkDeviceCreateInfo dci{};
+  dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  dci.pNext = &rq;
+  EXPECT_TRUE(ray_query_enabled(&dci));
+  EXPECT_TRUE(primitive_culling_enabled(&dci));
+  f.vulkan12.pNext = nullptr;  // the ray-tracing struct out of the chain
+  EXPECT_FALSE(primitive_culling_enabled(&dci));
+  EXPECT_TRUE(ray_query_enabled(&dci));
+  // query_device_support reads the offer; missing_for_ray_tracing never lists the broad phases'
+  // features (they are not required).
+  DeviceSupport s = full_support();
+  s.ray_query = s.ray_traversal_primitive_culling = false;
+  EXPECT_TRUE(missing_for_ray_tracing(s).empty());
+}
+
 TEST(DeviceFeatures, EnableSetsWhatItFindsAndNamesWhatIsAbsent) {
   VkPhysicalDeviceBufferDeviceAddressFeatures bda{};
   bda.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES;

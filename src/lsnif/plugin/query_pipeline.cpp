@@ -1,10 +1,13 @@
 // query_pipeline.cpp -- the batched path of the plugin (lsnifCreateQueryPipeline,
 // lsnifCmdIntersectModelRays, lsnifCmdQuery): the compute stages of src/lsnif/shaders/lsnif_batch.comp and
-// src/lsnif/shaders/lsnif_query.comp, embedded as SPIR-V, one pipeline layout (push constants only: every
-// buffer is a device address), and the recording of the stages with compute-to-compute barriers
-// (clear -> narrow phase -> MLP -> decode for one model; for the TLAS query the broad phase, the
-// counting sort, the per-model stages as indirect dispatches and the resolve).
+// src/lsnif/shaders/lsnif_query.comp and the ray-tracing broad phase (src/lsnif/shaders/lsnif_query_broad.*),
+// embedded as SPIR-V, pipeline layouts of push constants only (every buffer is a device address), and
+// the recording of the stages with barriers between them (clear -> narrow phase -> MLP -> decode for
+// one model; for the TLAS query the broad phase, the counting sort, the per-model stages as indirect
+// dispatches and the resolve).
 #include <algorithm>
+#include <cstring>
+#include <vector>
 
 #include "lsnif/plugin/context.h"
 #include "lsnif/plugin/device_support.h"
@@ -16,7 +19,12 @@ namespace {
 #include "lsnif_batch_mlp_spirv.h"
 #include "lsnif_batch_narrow_spirv.h"
 #include "lsnif_query_batch_args_spirv.h"
+#include "lsnif_query_broad_candidates_rgen_spirv.h"
+#include "lsnif_query_broad_rchit_spirv.h"
+#include "lsnif_query_broad_rint_spirv.h"
+#include "lsnif_query_broad_rmiss_spirv.h"
 #include "lsnif_query_broad_spirv.h"
+#include "lsnif_query_broad_triangles_rgen_spirv.h"
 #include "lsnif_query_clear_spirv.h"
 #include "lsnif_query_decode_spirv.h"
 #include "lsnif_query_mlp_spirv.h"
@@ -82,6 +90,147 @@ uint32_t block_step(uint32_t groups) {
   return step;
 }
 
+Outcome create_module(LsnifContext_T& ctx, const uint32_t* code, size_t bytes, const char* what, VkShaderModule& out) {
+  VkShaderModuleCreateInfo mi{};
+  mi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+  mi.codeSize = bytes;
+  mi.pCode = code;
+  if (VkResult r = ctx.vk.vkCreateShaderModule(ctx.info.device, &mi, ctx.info.pAllocator, &out); r != VK_SUCCESS)
+    return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreateShaderModule (%s) failed (VkResult %d)", what, static_cast<int>(r));
+  return Outcome::ok();
+}
+
+// The shaders of the ray-tracing broad phase.
+struct TraceRaysModules {
+  VkShaderModule triangles = VK_NULL_HANDLE, candidates = VK_NULL_HANDLE, miss = VK_NULL_HANDLE,
+                 closest_hit = VK_NULL_HANDLE, intersection = VK_NULL_HANDLE;
+};
+
+// The pipeline of one launch of the ray-tracing broad phase: its ray generation shader, the miss
+// shader and, as its one hit group, the triangle closest-hit shader (`triangles`: a pipeline that
+// skips AABBs) or the candidate intersection shader (else: a pipeline that skips triangles).
+Outcome create_trace_pipeline(LsnifContext_T& ctx, VkPipelineCache cache, VkPipelineLayout layout,
+                              const TraceRaysModules& m, bool triangles, VkPipeline& out) {
+  VkPipelineShaderStageCreateInfo stages[3]{};
+  const VkShaderStageFlagBits kinds[3] = {
+      VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
+      triangles ? VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR : VK_SHADER_STAGE_INTERSECTION_BIT_KHR};
+  const VkShaderModule modules[3] = {triangles ? m.triangles : m.candidates, m.miss,
+                                     triangles ? m.closest_hit : m.intersection};
+  for (int i = 0; i < 3; ++i) {
+    stages[i].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    stages[i].stage = kinds[i];
+    stages[i].module = modules[i];
+    stages[i].pName = "main";
+  }
+  VkRayTracingShaderGroupCreateInfoKHR groups[3]{};
+  for (uint32_t i = 0; i < 3; ++i) {
+    groups[i].sType = VK_STRUCTURE_TYPE_RAY_TRACING_SHADER_GROUP_CREATE_INFO_KHR;
+    groups[i].type = VK_RAY_TRACING_SHADER_GROUP_TYPE_GENERAL_KHR;
+    groups[i].generalShader = i;
+    groups[i].closestHitShader = groups[i].anyHitShader = groups[i].intersectionShader = VK_SHADER_UNUSED_KHR;
+  }
+  groups[2].generalShader = VK_SHADER_UNUSED_KHR;
+  if (triangles) {
+    groups[2].type = VK_RAY_TRACING_SHADER_GROUP_TYPE_TRIANGLES_HIT_GROUP_KHR;
+    groups[2].closestHitShader = 2;
+  } else {
+    groups[2].type = VK_RAY_TRACING_SHADER_GROUP_TYPE_PROCEDURAL_HIT_GROUP_KHR;
+    groups[2].intersectionShader = 2;
+  }
+  VkRayTracingPipelineCreateInfoKHR pi{};
+  pi.sType = VK_STRUCTURE_TYPE_RAY_TRACING_PIPELINE_CREATE_INFO_KHR;
+  pi.flags = triangles ? VK_PIPELINE_CREATE_RAY_TRACING_SKIP_AABBS_BIT_KHR
+                       : VK_PIPELINE_CREATE_RAY_TRACING_SKIP_TRIANGLES_BIT_KHR;
+  pi.stageCount = 3;
+  pi.pStages = stages;
+  pi.groupCount = 3;
+  pi.pGroups = groups;
+  pi.maxPipelineRayRecursionDepth = 1;
+  pi.layout = layout;
+  const VkResult r = ctx.vk.vkCreateRayTracingPipelinesKHR(ctx.info.device, VK_NULL_HANDLE, cache, 1, &pi,
+                                                           ctx.info.pAllocator, &out);
+  if (r != VK_SUCCESS)
+    return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreateRayTracingPipelinesKHR (%s broad phase) failed (VkResult %d)",
+                         triangles ? "triangle" : "candidate", static_cast<int>(r));
+  return Outcome::ok();
+}
+
+// The shader binding tables of both launches in one host-visible buffer (device-local where the
+// device has such memory, as on GPUs with a resizable BAR; else host memory): per launch three
+// regions (raygen, miss, hit) of one record each, every region at a multiple of
+// shaderGroupBaseAlignment. The hit region has stride 0: whatever SBT offset the application gave
+// an instance, the launch uses its one hit group.
+Outcome create_shader_binding_tables(LsnifContext_T& ctx, LsnifQueryPipeline_T& p) {
+  const VkPhysicalDeviceRayTracingPipelinePropertiesKHR& rt = ctx.ray_tracing;
+  const VkDeviceSize handle = rt.shaderGroupHandleSize;
+  const VkDeviceSize record = align_up(handle, rt.shaderGroupHandleAlignment);
+  const VkDeviceSize slot = align_up(record, rt.shaderGroupBaseAlignment);
+  const VkDeviceSize bytes = 6 * slot + rt.shaderGroupBaseAlignment;
+  Outcome o = allocate(ctx, bytes, VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR, Placement::DeviceDirect, nullptr, p.sbt);
+  if (!o) o = allocate(ctx, bytes, VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR, Placement::HostWrite, nullptr, p.sbt);
+  if (!o) return o.context("shader binding table");
+  const VkDeviceAddress base = align_up(p.sbt.address, rt.shaderGroupBaseAlignment);
+  void* mapped = nullptr;
+  if (VkResult r = ctx.vk.vkMapMemory(ctx.info.device, p.sbt.memory, 0, VK_WHOLE_SIZE, 0, &mapped); r != VK_SUCCESS)
+    return Outcome::fail(LSNIF_ERROR_VULKAN, "vkMapMemory (shader binding table) failed (VkResult %d)", static_cast<int>(r));
+  std::vector<uint8_t> handles(size_t(3 * handle));
+  VkDeviceSize offset = base - p.sbt.address;
+  for (LsnifQueryPipeline_T::TraceRays* launch : {&p.broad_triangles, &p.broad_candidates}) {
+    const VkResult r = ctx.vk.vkGetRayTracingShaderGroupHandlesKHR(ctx.info.device, launch->pipeline, 0, 3,
+                                                                   handles.size(), handles.data());
+    if (r != VK_SUCCESS) {
+      ctx.vk.vkUnmapMemory(ctx.info.device, p.sbt.memory);
+      return Outcome::fail(LSNIF_ERROR_VULKAN, "vkGetRayTracingShaderGroupHandlesKHR failed (VkResult %d)",
+                           static_cast<int>(r));
+    }
+    VkStridedDeviceAddressRegionKHR* regions[3] = {&launch->raygen, &launch->miss, &launch->hit};
+    for (int g = 0; g < 3; ++g) {
+      std::memcpy(static_cast<uint8_t*>(mapped) + offset, handles.data() + g * handle, size_t(handle));
+      *regions[g] = VkStridedDeviceAddressRegionKHR{p.sbt.address + offset, g == 2 ? 0 : record, record};
+      offset += slot;
+    }
+    launch->callable = VkStridedDeviceAddressRegionKHR{};
+  }
+  ctx.vk.vkUnmapMemory(ctx.info.device, p.sbt.memory);
+  return Outcome::ok();
+}
+
+// The ray-tracing broad phase of `p`: its layout, both launches' pipelines and their shader binding
+// tables.
+Outcome create_trace_rays_broad_phase(LsnifContext_T& ctx, VkPipelineCache cache, LsnifQueryPipeline_T& p) {
+  const VkAllocationCallbacks* cb = ctx.info.pAllocator;
+  VkPushConstantRange range{VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_MISS_BIT_KHR |
+                                VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR | VK_SHADER_STAGE_INTERSECTION_BIT_KHR,
+                            0, uint32_t(sizeof(LsnifQueryPushConstants))};
+  VkPipelineLayoutCreateInfo li{};
+  li.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+  li.pushConstantRangeCount = 1;
+  li.pPushConstantRanges = &range;
+  if (VkResult r = ctx.vk.vkCreatePipelineLayout(ctx.info.device, &li, cb, &p.trace_layout); r != VK_SUCCESS)
+    return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreatePipelineLayout (broad phase) failed (VkResult %d)",
+                         static_cast<int>(r));
+  TraceRaysModules m;
+  Outcome o = create_module(ctx, lsnif_query_broad_triangles_rgen_spirv, sizeof lsnif_query_broad_triangles_rgen_spirv,
+                            "broad phase triangle raygen", m.triangles);
+  if (o)
+    o = create_module(ctx, lsnif_query_broad_candidates_rgen_spirv, sizeof lsnif_query_broad_candidates_rgen_spirv,
+                      "broad phase candidate raygen", m.candidates);
+  if (o) o = create_module(ctx, lsnif_query_broad_rmiss_spirv, sizeof lsnif_query_broad_rmiss_spirv, "broad phase miss", m.miss);
+  if (o)
+    o = create_module(ctx, lsnif_query_broad_rchit_spirv, sizeof lsnif_query_broad_rchit_spirv,
+                      "broad phase closest hit", m.closest_hit);
+  if (o)
+    o = create_module(ctx, lsnif_query_broad_rint_spirv, sizeof lsnif_query_broad_rint_spirv,
+                      "broad phase intersection", m.intersection);
+  if (o) o = create_trace_pipeline(ctx, cache, p.trace_layout, m, true, p.broad_triangles.pipeline);
+  if (o) o = create_trace_pipeline(ctx, cache, p.trace_layout, m, false, p.broad_candidates.pipeline);
+  for (VkShaderModule module : {m.triangles, m.candidates, m.miss, m.closest_hit, m.intersection})
+    if (module) ctx.vk.vkDestroyShaderModule(ctx.info.device, module, cb);
+  if (o) o = create_shader_binding_tables(ctx, p);
+  return o;
+}
+
 uint32_t stride_of(uint32_t rays) {
   return (rays + LSNIF_BATCH_GROUP_SIZE - 1) / LSNIF_BATCH_GROUP_SIZE * LSNIF_BATCH_GROUP_SIZE;
 }
@@ -95,18 +244,22 @@ void split(VkDeviceAddress a, lsnif_uint& lo, lsnif_uint& hi) {
   hi = lsnif_uint(a >> 32);
 }
 
-// The barrier between two passes: shader writes before shader reads and writes, and before the
-// indirect dispatches' reads of their arguments.
-void between_passes(const DeviceDispatch& vk, VkCommandBuffer cmd, bool indirect) {
+// The barrier between two passes: shader writes of stage `src` before shader reads and writes of
+// stage `dst`, and before the indirect dispatches' reads of their arguments.
+void between_stages(const DeviceDispatch& vk, VkCommandBuffer cmd, VkPipelineStageFlags src, VkPipelineStageFlags dst,
+                    bool indirect) {
   VkMemoryBarrier barrier{};
   barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
   barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
   barrier.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
                           (indirect ? VkAccessFlags(VK_ACCESS_INDIRECT_COMMAND_READ_BIT) : VkAccessFlags(0));
-  const VkPipelineStageFlags dst =
-      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT |
-      (indirect ? VkPipelineStageFlags(VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT) : VkPipelineStageFlags(0));
-  vk.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, dst, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+  if (indirect) dst |= VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT;
+  vk.vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+}
+
+// The barrier between two compute passes.
+void between_passes(const DeviceDispatch& vk, VkCommandBuffer cmd, bool indirect) {
+  between_stages(vk, cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, indirect);
 }
 
 // The scratch of lsnifCmdQuery in words (host_device.h; the offsets lsnif_query.comp computes).
@@ -132,29 +285,74 @@ QueryLayout query_layout(const std::vector<const LsnifModel_T*>& models, uint32_
 
 }  // namespace
 
-// The TLAS query needs ray queries: offered by the physical device and, where the context knows
-// the enabled features, enabled.
+// The ray-query broad phase: ray queries offered by the physical device and, where the context
+// knows the enabled features, enabled.
 Outcome check_ray_query(const LsnifContext_T& ctx) {
   if (!ctx.ray_query_offered)
     return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
                          "device '%s' does not offer extension VK_KHR_ray_query with feature rayQuery "
-                         "(LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT needs them)",
+                         "(the ray-query broad phase needs them)",
                          ctx.device_name.c_str());
   if (ctx.ray_query_not_enabled)
     return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
                          "the device '%s' was created without feature rayQuery enabled (the context's "
-                         "pEnabledFeatures; LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT needs VK_KHR_ray_query and rayQuery)",
+                         "pEnabledFeatures; the ray-query broad phase needs VK_KHR_ray_query and rayQuery)",
                          ctx.device_name.c_str());
   return Outcome::ok();
 }
 
+// The ray-tracing broad phase: rayTraversalPrimitiveCulling offered and, where known, enabled.
+Outcome check_primitive_culling(const LsnifContext_T& ctx) {
+  if (!ctx.primitive_culling_offered)
+    return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
+                         "device '%s' does not offer feature rayTraversalPrimitiveCulling (the ray-tracing "
+                         "broad phase needs it)",
+                         ctx.device_name.c_str());
+  if (ctx.primitive_culling_not_enabled)
+    return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
+                         "the device '%s' was created without feature rayTraversalPrimitiveCulling enabled (the "
+                         "context's pEnabledFeatures; the ray-tracing broad phase needs it)",
+                         ctx.device_name.c_str());
+  return Outcome::ok();
+}
+
+// The broad phase of a TLAS pipeline created with `flags`: the forced one, else the ray-query one
+// (on lavapipe its broad phase took half the time of the ray-tracing one: docs/batched-queries.md),
+// else the ray-tracing one; an error naming what each lacks when none can run.
+Outcome choose_broad_phase(const LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags flags, LsnifQueryBroadPhase& out) {
+  const Outcome trace_rays = check_primitive_culling(ctx), ray_query = check_ray_query(ctx);
+  if (flags & LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT) {
+    out = LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS;
+    return trace_rays;
+  }
+  if (flags & LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT) {
+    out = LSNIF_QUERY_BROAD_PHASE_RAY_QUERY;
+    return ray_query;
+  }
+  out = ray_query ? LSNIF_QUERY_BROAD_PHASE_RAY_QUERY : LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS;
+  if (trace_rays || ray_query) return Outcome::ok();
+  return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
+                       "LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT: no broad phase can run: %s; %s",
+                       trace_rays.message.c_str(), ray_query.message.c_str());
+}
+
 Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags flags, VkPipelineCache cache,
                               std::unique_ptr<LsnifQueryPipeline_T>& out) {
-  if (flags & ~LsnifQueryPipelineCreateFlags(LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT))
+  const LsnifQueryPipelineCreateFlags broad_bits = LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT |
+                                                   LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT;
+  if (flags & ~(LsnifQueryPipelineCreateFlags(LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT) | broad_bits))
     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pCreateInfo->flags: unknown flags 0x%x", flags);
   const bool tlas = (flags & LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT) != 0;
+  if ((flags & broad_bits) == broad_bits)
+    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                         "pCreateInfo->flags: LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT and "
+                         "LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT exclude each other");
+  if ((flags & broad_bits) && !tlas)
+    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                         "pCreateInfo->flags: a broad-phase bit without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT");
+  LsnifQueryBroadPhase broad_phase = LSNIF_QUERY_BROAD_PHASE_NONE;
   if (tlas) {
-    if (Outcome o = check_ray_query(ctx); !o) return o;
+    if (Outcome o = choose_broad_phase(ctx, flags, broad_phase); !o) return o;
   }
   auto p = std::make_unique<LsnifQueryPipeline_T>();
   const VkAllocationCallbacks* cb = ctx.info.pAllocator;
@@ -192,9 +390,14 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
          &p->tlas.resolve_rays},
         {lsnif_query_status_spirv, sizeof lsnif_query_status_spirv, "query status", &p->tlas.status},
     };
-    for (const auto& st : stages)
+    for (const auto& st : stages) {
+      const bool ray_query_stage = st.out == &p->tlas.broad;
+      if (ray_query_stage && broad_phase != LSNIF_QUERY_BROAD_PHASE_RAY_QUERY) continue;
       if (o) o = create_stage(ctx, cache, p->layout, st.code, st.bytes, st.name, *st.out);
+    }
+    if (o && broad_phase == LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS) o = create_trace_rays_broad_phase(ctx, cache, *p);
     p->has_tlas = true;
+    p->broad_phase = broad_phase;
   }
   if (!o) {
     destroy_query_pipeline(ctx, *p);
@@ -212,8 +415,15 @@ void destroy_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipeline_T& p) {
     if (*stage) ctx.vk.vkDestroyPipeline(ctx.info.device, *stage, cb);
     *stage = VK_NULL_HANDLE;
   }
-  if (p.layout) ctx.vk.vkDestroyPipelineLayout(ctx.info.device, p.layout, cb);
-  p.layout = VK_NULL_HANDLE;
+  for (VkPipeline* launch : {&p.broad_triangles.pipeline, &p.broad_candidates.pipeline}) {
+    if (*launch) ctx.vk.vkDestroyPipeline(ctx.info.device, *launch, cb);
+    *launch = VK_NULL_HANDLE;
+  }
+  for (VkPipelineLayout* layout : {&p.layout, &p.trace_layout}) {
+    if (*layout) ctx.vk.vkDestroyPipelineLayout(ctx.info.device, *layout, cb);
+    *layout = VK_NULL_HANDLE;
+  }
+  release(ctx, p.sbt);
 }
 
 VkDeviceSize intersect_scratch_bytes(const LsnifModel_T& m, uint32_t rays) {
@@ -310,6 +520,16 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
     bind(stage);
     vk.vkCmdDispatch(cmd, group_count, 1, 1);
   };
+  // One launch of the ray-tracing broad phase over the chunk's `rays` rays.
+  constexpr VkPipelineStageFlags kTraceStage = VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR;
+  auto trace = [&](const LsnifQueryPipeline_T::TraceRays& launch, uint32_t rays) {
+    vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, launch.pipeline);
+    vk.vkCmdPushConstants(cmd, p.trace_layout,
+                          VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_MISS_BIT_KHR |
+                              VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR | VK_SHADER_STAGE_INTERSECTION_BIT_KHR,
+                          0, sizeof pc, &pc);
+    vk.vkCmdTraceRaysKHR(cmd, &launch.raygen, &launch.miss, &launch.hit, &launch.callable, rays, 1, 1);
+  };
   // An indirect dispatch whose VkDispatchIndirectCommand is at scratch word `word`.
   auto run_indirect = [&](VkPipeline stage, uint64_t word) {
     bind(stage);
@@ -340,9 +560,17 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
     pc.ray_count = n;
     pc.first_chunk = base == 0 ? 1u : 0u;
     run(st.clear, groups_of(LSNIF_BATCH_HEADER_WORDS + counters_words * info.modelCount));
-    between_passes(vk, cmd, false);
-    run(st.broad, groups_of(n));
-    between_passes(vk, cmd, false);
+    if (p.broad_phase == LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS) {
+      between_stages(vk, cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, kTraceStage, false);
+      trace(p.broad_triangles, n);
+      between_stages(vk, cmd, kTraceStage, kTraceStage, false);
+      trace(p.broad_candidates, n);
+      between_stages(vk, cmd, kTraceStage, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, false);
+    } else {
+      between_passes(vk, cmd, false);
+      run(st.broad, groups_of(n));
+      between_passes(vk, cmd, false);
+    }
     timestamp(1, base);
     run(st.scan, 1);
     between_passes(vk, cmd, true);

@@ -54,7 +54,10 @@ namespace lsnif::plugin {
   X(vkCmdPushConstants)                           \
   X(vkCmdDispatch)                                \
   X(vkCmdDispatchIndirect)                        \
-  X(vkCmdWriteTimestamp)
+  X(vkCmdWriteTimestamp)                          \
+  X(vkCreateRayTracingPipelinesKHR)               \
+  X(vkGetRayTracingShaderGroupHandlesKHR)         \
+  X(vkCmdTraceRaysKHR)
 
 struct InstanceDispatch {
 #define LSNIF_DECLARE(name) PFN_##name name = nullptr;

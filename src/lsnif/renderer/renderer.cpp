@@ -100,13 +100,38 @@ std::string describe(const StageTimes& t) {
 
 const char* pipeline_name(PathPipeline p) { return p == PathPipeline::wavefront ? "wavefront" : "inline"; }
 
-vk::ContextOptions context_options(PathPipeline pipeline, bool validation, const std::string& device) {
+vk::ContextOptions context_options(bool validation, const std::string& device) {
   vk::ContextOptions options;
   options.ray_tracing = true;
-  options.ray_query = pipeline == PathPipeline::wavefront;
   options.validation = validation;
   options.device = device;
   return options;
+}
+
+const char* broad_phase_name(BroadPhase b) {
+  switch (b) {
+    case BroadPhase::ray_query: return "ray-query";
+    case BroadPhase::trace_rays: return "trace-rays";
+    case BroadPhase::automatic: break;
+  }
+  return "auto";
+}
+
+bool parse_broad_phase(const std::string& name, BroadPhase& out) {
+  if (name == "auto") out = BroadPhase::automatic;
+  else if (name == "ray-query") out = BroadPhase::ray_query;
+  else if (name == "trace-rays") out = BroadPhase::trace_rays;
+  else return false;
+  return true;
+}
+
+const char* broad_phase_name(LsnifQueryBroadPhase b) {
+  switch (b) {
+    case LSNIF_QUERY_BROAD_PHASE_RAY_QUERY: return "ray-query";
+    case LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS: return "trace-rays";
+    default: break;
+  }
+  return "none";
 }
 
 bool parse_pipeline(const std::string& name, PathPipeline& out) {
@@ -814,6 +839,7 @@ Status Renderer::render(const RenderSettings& settings, image::Image& out, Rende
   View view;
   if (Status s = camera_view(settings.camera, view); !s) return s;
   if (Status s = reset_accumulation(settings.width, settings.height); !s) return s;
+  set_broad_phase(settings.broad_phase);
   // A first 1-sample pass, discarded, makes the driver compile the pipeline (lavapipe does it on
   // first use), so the timed passes measure tracing only.
   if (settings.warm_up) {
@@ -849,6 +875,7 @@ Status Renderer::render(const RenderSettings& settings, image::Image& out, Rende
   }
   stage_timing_ = viewer_timing;
   if (!s) return s;
+  if (settings.pipeline == PathPipeline::wavefront) stats.broad_phase = broad_phase_used();
   resolve(out);
   return Status::ok();
 }

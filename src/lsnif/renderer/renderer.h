@@ -22,20 +22,34 @@
 #include "lsnif/format/status.h"
 #include "lsnif/renderer/visibility_buffer.h"
 #include "lsnif/harness/vk_raytracing.h"
+#include "lsnif/lsnif.h"
 
 namespace lsnif::render {
 
 // How the paths are traced: the same estimator, the same per-pixel random sequences.
 enum class PathPipeline {
   inline_rt,  // render.rgen: one ray-tracing launch per pass, networks in the intersection shader
-  wavefront,  // render_wave.comp stages with lsnifCmdQuery between them (needs ContextOptions::ray_query)
+  wavefront,  // render_wave.comp stages with lsnifCmdQuery between them
 };
 // "inline" / "wavefront".
 const char* pipeline_name(PathPipeline p);
 // Parses "inline" / "wavefront"; false on anything else.
 bool parse_pipeline(const std::string& name, PathPipeline& out);
-// What ComputeContext::init needs for a Renderer using `pipeline` on `device` (ContextOptions::device).
-vk::ContextOptions context_options(PathPipeline pipeline, bool validation, const std::string& device);
+// What ComputeContext::init needs for a Renderer (either pipeline, either broad phase: the harness
+// enables ray queries and rayTraversalPrimitiveCulling where offered) on `device`
+// (ContextOptions::device).
+vk::ContextOptions context_options(bool validation, const std::string& device);
+
+// The broad phase of the wavefront pipeline's lsnifCmdQuery (LsnifQueryBroadPhase of lsnif.h):
+// automatic (the plugin chooses: ray queries where the device offers them, else the ray-tracing
+// one) or forced (tests, measurements).
+enum class BroadPhase { automatic, ray_query, trace_rays };
+// "auto" / "ray-query" / "trace-rays".
+const char* broad_phase_name(BroadPhase b);
+// Parses "auto" / "ray-query" / "trace-rays"; false on anything else.
+bool parse_broad_phase(const std::string& name, BroadPhase& out);
+// "ray-query" / "trace-rays" for what a query pipeline runs, "none" without one.
+const char* broad_phase_name(LsnifQueryBroadPhase b);
 
 // Where the camera rays' hits come from (docs/renderer.md): traced through the TLAS like every
 // other ray, or rasterized (the paper's section 4): a graphics pass draws every object's triangles
@@ -65,6 +79,7 @@ struct RenderSettings {
   uint32_t rr_depth = 4;           // Russian roulette from this bounce on (only with max_bounces > 4)
   bool reference = false;          // triangles instead of LSNIF objects
   PathPipeline pipeline = PathPipeline::inline_rt;
+  BroadPhase broad_phase = BroadPhase::automatic;  // wavefront: lsnifCmdQuery's broad phase
   PrimaryVisibility primary = PrimaryVisibility::traced;  // raster: the one-shot render prepares both modes
                                                            // (set_scene both_modes) for the LSNIF nodes' meshes
   bool warm_up = true;              // a discarded first pass (pipeline compile) before the timed ones
@@ -106,6 +121,8 @@ struct RenderStats {
   uint64_t triangles = 0;           // triangles of the meshes in use (unique, not per instance)
   bool has_stages = false;          // `stages` measured (wavefront with RenderSettings::stage_times)
   StageTimes stages;                // per sample
+  // The broad phase the wavefront pipeline's queries ran with (NONE for the inline pipeline).
+  LsnifQueryBroadPhase broad_phase = LSNIF_QUERY_BROAD_PHASE_NONE;
 };
 
 // Where the camera is and which way the environment faces, for one pass (a viewer changes it
@@ -178,8 +195,8 @@ class Renderer {
   // image; accumulate traces `samples` more samples per pixel, numbered from `first_sample`, from
   // `view` and adds them; resolve writes the mean so far (black before any sample).
   Status reset_accumulation(uint32_t width, uint32_t height);
-  // With PathPipeline::wavefront the ComputeContext needs ContextOptions::ray_query; it fails when
-  // a query answers a ray INCOMPLETE (more LSNIF boxes on one ray than the candidate capacity).
+  // With PathPipeline::wavefront it fails when the device can run no broad phase of lsnifCmdQuery
+  // (set_broad_phase; the plugin's error names what is missing), or when a query answers a ray INCOMPLETE (more LSNIF boxes on one ray than the candidate capacity).
   // With PrimaryVisibility::raster it fails, naming the node, when an LSNIF node of the mode has no
   // mesh to rasterize (none in the scene, or set_scene without both_modes did not upload it).
   Status accumulate(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces = 4,
@@ -187,7 +204,7 @@ class Renderer {
                     PrimaryVisibility primary = PrimaryVisibility::traced);
   // The primary hit of every pixel of sample `sample_index` from `view` (row-major, width x height
   // of the accumulation image): rasterized (the visibility buffer the render uses), or traced (the
-  // camera rays cast through lsnifCmdQuery; needs ContextOptions::ray_query). For tests comparing
+  // camera rays cast through lsnifCmdQuery). For tests comparing
   // the two. Same errors as accumulate.
   Status primary_hits(const View& view, uint32_t sample_index, PrimaryVisibility primary,
                       std::vector<PrimaryHit>& out);
@@ -196,6 +213,12 @@ class Renderer {
   // With `on`, wavefront passes write timestamps after every stage and stage_times() sums them
   // (from the next reset_accumulation on); off by default (the timestamps cost a little).
   void set_stage_timing(bool on) { stage_timing_ = on; }
+  // The broad phase of the wavefront pipeline's queries from the next accumulate on (its query
+  // pipeline is made again when this changes it).
+  void set_broad_phase(BroadPhase b);
+  // The broad phase the wavefront pipeline's query pipeline runs (LSNIF_QUERY_BROAD_PHASE_NONE
+  // before the first wavefront pass on the scene).
+  LsnifQueryBroadPhase broad_phase_used() const;
   // The stage times of the wavefront passes accumulated since reset_accumulation, in total (not per
   // sample), over stage_timed_samples() samples.
   const StageTimes& stage_times() const { return stage_times_; }
@@ -232,6 +255,7 @@ class Renderer {
   vk::Buffer wave_scratch_{}, wave_status_{};
   uint64_t wave_address_ = 0;
   bool stage_timing_ = false;
+  BroadPhase broad_phase_ = BroadPhase::automatic;
   vk::Timestamps wave_timestamps_;               // grown to what a pass needs
   StageTimes stage_times_;
   uint32_t stage_timed_samples_ = 0;

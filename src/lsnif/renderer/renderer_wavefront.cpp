@@ -59,6 +59,21 @@ void wave_barrier(VkCommandBuffer cmd) {
 
 }  // namespace
 
+void Renderer::set_broad_phase(BroadPhase b) {
+  if (b == broad_phase_) return;
+  broad_phase_ = b;
+  // Every submission of the renderer waits for its fence, so the GPU no longer uses the pipeline.
+  if (scene_ && scene_->query) {
+    lsnifDestroyQueryPipeline(scene_->plugin.get(), scene_->query);
+    scene_->query = nullptr;
+  }
+}
+
+LsnifQueryBroadPhase Renderer::broad_phase_used() const {
+  if (!scene_ || !scene_->query) return LSNIF_QUERY_BROAD_PHASE_NONE;
+  return lsnifGetQueryBroadPhase(scene_->plugin.get(), scene_->query);
+}
+
 void Renderer::release_wavefront() {
   for (vk::Buffer& b : wave_buffers_) ctx_.destroy_buffer(b);
   wave_buffers_.clear();
@@ -79,6 +94,8 @@ Status Renderer::prepare_wavefront(uint32_t samples, uint32_t max_bounces) {
     LsnifQueryPipelineFlagsCreateInfo flags{};
     flags.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
     flags.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
+    if (broad_phase_ == BroadPhase::ray_query) flags.flags |= LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT;
+    if (broad_phase_ == BroadPhase::trace_rays) flags.flags |= LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT;
     LsnifQueryPipelineCreateInfo info{};
     info.pNext = &flags;
     if (lsnifCreateQueryPipeline(dev.plugin.get(), &info, &dev.query) != LSNIF_SUCCESS)

@@ -3,7 +3,10 @@
 // the stages of one chunk of rays, in recording order (src/lsnif/plugin/query_pipeline.cpp):
 //  LSNIF_QUERY_CLEAR    the candidate counter and every model's counters = 0 (the status
 //                       accumulators too on the first chunk).
-//  LSNIF_QUERY_BROAD    1 invocation per ray, GL_EXT_ray_query: a traversal committing triangles
+//  LSNIF_QUERY_BROAD    the ray-query broad phase (LSNIF_QUERY_BROAD_PHASE_RAY_QUERY, the default
+//                       where ray queries are enabled; the ray-tracing one, for devices without
+//                       them, is lsnif_query_broad.rgen with the same records):
+//                       1 invocation per ray, GL_EXT_ray_query: a traversal committing triangles
 //                       only (closest, or any with LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT) whose hit
 //                       is written to the result; then, unless an any-hit ray is already answered, a
 //                       traversal visiting the AABBs up to that hit, appending one candidate per LSNIF
@@ -29,125 +32,18 @@
 //                       have changed become LSNIF_QUERY_HIT_INCOMPLETE (and are counted).
 //  LSNIF_QUERY_STATUS   1 invocation: the accumulated LsnifQueryStatus to the application's address.
 // Layouts: LsnifQueryRay, LsnifQueryResult, LsnifQueryStatus, LsnifQueryPushConstants and the
-// scratch (LsnifQueryModelCounters, LsnifQueryRayState, LsnifQueryCandidate) in host_device.h.
+// scratch (LsnifQueryModelCounters, LsnifQueryRayState, LsnifQueryCandidate) in host_device.h; what
+// the stages share with the ray-tracing broad phase in lsnif_query_common.glsl.
 #version 460
 #extension GL_EXT_ray_query : require
 #extension GL_GOOGLE_include_directive : require
-#include "lsnif/shaders/lsnif_batch_rows.glsl"
+#include "lsnif/shaders/lsnif_query_common.glsl"
 
 layout(local_size_x = LSNIF_BATCH_GROUP_SIZE) in;
-
-layout(push_constant, std430) uniform LsnifQueryPush { LsnifQueryPushConstants pc; };
-
-layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer LsnifQueryRaysRef {
-  LsnifQueryRay r[];
-};
-layout(buffer_reference, std430, buffer_reference_align = 16) buffer LsnifQueryResultsRef {
-  LsnifQueryResult r[];
-};
-layout(buffer_reference, std430, buffer_reference_align = 4) writeonly buffer LsnifQueryStatusRef {
-  LsnifQueryStatus s;
-};
-layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer LsnifQueryTableRef {
-  uint64_t model[];
-};
-layout(buffer_reference, std430, buffer_reference_align = 4) coherent buffer LsnifQueryModelsRef {
-  LsnifQueryModelCounters c[];
-};
-layout(buffer_reference, std430, buffer_reference_align = 4) coherent buffer LsnifQueryStatesRef {
-  LsnifQueryRayState s[];
-};
-layout(buffer_reference, std430, buffer_reference_align = 4) coherent buffer LsnifQueryCandidatesRef {
-  LsnifQueryCandidate c[];
-};
 
 #if defined(LSNIF_QUERY_SCAN)
 shared uint lsnif_query_lane_sums[LSNIF_BATCH_GROUP_SIZE];
 #endif
-
-const uint LSNIF_QUERY_INF_BITS = 0x7f800000u;  // +inf: greater than the bits of every finite t >= 0
-const uint LSNIF_QUERY_NONE = 0xffffffffu;
-
-// Scratch sections (host_device.h), in words from the scratch's start.
-uint lsnif_query_models_word() { return LSNIF_BATCH_HEADER_WORDS; }
-uint lsnif_query_states_word() { return lsnif_query_models_word() + 10u * pc.model_count; }
-uint lsnif_query_candidates_word() { return lsnif_query_states_word() + 8u * pc.ray_count; }
-uint lsnif_query_sorted_word() { return lsnif_query_candidates_word() + 36u * pc.capacity; }
-uint lsnif_query_rows_word() { return lsnif_query_sorted_word() + pc.stride; }
-
-uint64_t lsnif_query_scratch_address() { return lsnif_batch_address(pc.scratch_lo, pc.scratch_hi); }
-LsnifScratchRef lsnif_query_scratch() { return LsnifScratchRef(lsnif_query_scratch_address()); }
-LsnifQueryModelsRef lsnif_query_models() {
-  return LsnifQueryModelsRef(lsnif_query_scratch_address() + 4ul * lsnif_query_models_word());
-}
-LsnifQueryStatesRef lsnif_query_states() {
-  return LsnifQueryStatesRef(lsnif_query_scratch_address() + 4ul * lsnif_query_states_word());
-}
-LsnifQueryCandidatesRef lsnif_query_candidates() {
-  return LsnifQueryCandidatesRef(lsnif_query_scratch_address() + 4ul * lsnif_query_candidates_word());
-}
-LsnifQueryRay lsnif_query_ray(uint ray) {
-  return LsnifQueryRaysRef(lsnif_batch_address(pc.rays_lo, pc.rays_hi)).r[ray];
-}
-LsnifQueryResultsRef lsnif_query_results() {
-  return LsnifQueryResultsRef(lsnif_batch_address(pc.results_lo, pc.results_hi));
-}
-
-// Candidates kept in the chunk (the counter may exceed the capacity).
-uint lsnif_query_kept() { return min(lsnif_query_scratch().w[0], pc.capacity); }
-
-// The ray flags lsnifCmdQuery honours.
-uint lsnif_query_flags(LsnifQueryRay q) {
-  return q.flags & (LSNIF_RAY_FLAG_CULL_BACK_FACING | LSNIF_RAY_FLAG_CULL_FRONT_FACING |
-                    LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT);
-}
-
-// The ordering key of a hit distance t >= 0 (+0 for -0).
-uint lsnif_query_t_key(float t) { return t == 0.0 ? 0u : floatBitsToUint(t); }
-
-// A result without a hit (kind NONE or INCOMPLETE).
-LsnifQueryResult lsnif_query_no_hit(uint kind) {
-  LsnifQueryResult r;
-  r.t = 0.0;
-  r.normal_x = 0.0;
-  r.normal_y = 0.0;
-  r.normal_z = 0.0;
-  r.albedo_r = 0.0;
-  r.albedo_g = 0.0;
-  r.albedo_b = 0.0;
-  r.material = 0u;
-  r.kind = kind;
-  r.instance_index = LSNIF_QUERY_NONE;
-  r.instance_custom_index = LSNIF_QUERY_NONE;
-  r.primitive_index = LSNIF_QUERY_NONE;
-  r.geometry_index = LSNIF_QUERY_NONE;
-  r.barycentric_u = 0.0;
-  r.barycentric_v = 0.0;
-  r.front_face = 0u;
-  return r;
-}
-
-// A ray the traversal must not see (ray query rules): non-finite, zero direction, tmin < 0,
-// tmin > tmax or NaN.
-bool lsnif_query_ray_valid(vec3 origin, vec3 direction, float tmin, float tmax) {
-  return lsnif_finite3(origin) && lsnif_finite3(direction) && direction != vec3(0.0) && !isnan(tmin) &&
-         !isnan(tmax) && tmin >= 0.0 && tmin <= tmax && !isinf(tmin);
-}
-
-// [t_enter, t_exit] of the object-space ray inside the model's box within [tmin, tmax] (empty when
-// t_enter > t_exit).
-vec2 lsnif_query_clip(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax) {
-  const vec3 inv = 1.0 / direction;
-  const vec3 a = (lsnif_bounds_lo(m) - origin) * inv, b = (lsnif_bounds_hi(m) - origin) * inv;
-  const vec3 lo = min(a, b), hi = max(a, b);
-  // A zero direction component gives nan where the origin lies on a face: such an axis does not clip.
-  float t0 = tmin, t1 = tmax;
-  for (int k = 0; k < 3; ++k) {
-    if (!isnan(lo[k])) t0 = max(t0, lo[k]);
-    if (!isnan(hi[k])) t1 = min(t1, hi[k]);
-  }
-  return vec2(t0, t1);
-}
 
 #if defined(LSNIF_QUERY_CLEAR)
 // LSNIF_QUERY_CLEAR: word `id` of the header (a status accumulator only on the first chunk) or of the
@@ -176,75 +72,18 @@ bool lsnif_query_triangles(uint64_t tlas, uint flags, vec3 origin, vec3 directio
   }
   r = lsnif_query_no_hit(LSNIF_QUERY_HIT_NONE);
   if (rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionTriangleEXT) return false;
-  const vec2 bary = rayQueryGetIntersectionBarycentricsEXT(rq, true);
-  r.t = rayQueryGetIntersectionTEXT(rq, true);
-  r.kind = LSNIF_QUERY_HIT_TRIANGLE;
-  r.instance_index = uint(rayQueryGetIntersectionInstanceIdEXT(rq, true));
-  r.instance_custom_index = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
-  r.primitive_index = uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true));
-  r.geometry_index = uint(rayQueryGetIntersectionGeometryIndexEXT(rq, true));
-  r.barycentric_u = bary.x;
-  r.barycentric_v = bary.y;
-  r.front_face = rayQueryGetIntersectionFrontFaceEXT(rq, true) ? 1u : 0u;
+  r = lsnif_query_triangle_hit(
+      rayQueryGetIntersectionTEXT(rq, true), uint(rayQueryGetIntersectionInstanceIdEXT(rq, true)),
+      uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true)), uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true)),
+      uint(rayQueryGetIntersectionGeometryIndexEXT(rq, true)), rayQueryGetIntersectionBarycentricsEXT(rq, true),
+      rayQueryGetIntersectionFrontFaceEXT(rq, true));
   return true;
-}
-
-// A ray's state before its traversals: no hit, no triangle, nothing dropped.
-LsnifQueryRayState lsnif_query_initial_state() {
-  LsnifQueryRayState st;
-  st.best_t = LSNIF_QUERY_INF_BITS;
-  st.best_instance = LSNIF_QUERY_NONE;
-  st.missing_t = LSNIF_QUERY_INF_BITS;
-  st.triangle_t = LSNIF_QUERY_INF_BITS;
-  st.triangle_instance = LSNIF_QUERY_NONE;
-  st.reserved0 = 0u;
-  st.reserved1 = 0u;
-  st.reserved2 = 0u;
-  return st;
-}
-
-// The candidate of ray `ray` at instance `instance_index` (model `custom`), not yet evaluated: the object-space
-// ray o + t d within [tmin, tmax], crossing the model box over span = [t_enter, t_exit], and w2o for normals.
-LsnifQueryCandidate lsnif_query_candidate(uint ray, uint instance_index, uint custom, uint flags, vec3 o, vec3 d,
-                                          float tmin, float tmax, vec2 span, mat3 w2o) {
-  LsnifQueryCandidate c;
-  c.ray = ray;
-  c.instance_index = instance_index;
-  c.custom_index = custom;
-  c.flags = flags;
-  c.origin_x = o.x;
-  c.origin_y = o.y;
-  c.origin_z = o.z;
-  c.tmin = tmin;
-  c.direction_x = d.x;
-  c.direction_y = d.y;
-  c.direction_z = d.z;
-  c.tmax = tmax;
-  c.t_enter = span.x;
-  c.t_exit = span.y;
-  c.accepted = 0u;
-  c.t = 0.0;
-  for (int k = 0; k < 9; ++k) c.normal_matrix[k] = w2o[k / 3][k % 3];
-  c.points = 0u;
-  c.occlusion_logit = 0.0;
-  c.material = 0u;
-  c.normal_x = 0.0;
-  c.normal_y = 0.0;
-  c.normal_z = 0.0;
-  c.albedo_r = 0.0;
-  c.albedo_g = 0.0;
-  c.albedo_b = 0.0;
-  c.front_face = 0u;
-  c.evaluated = 0u;
-  return c;
 }
 
 // The traversal of ray `id` (q, world-space origin and direction) visiting the AABBs up to tmax: appends one
 // candidate per LSNIF instance whose model box the ray crosses; those past the capacity lower st.missing_t.
 void lsnif_query_append_candidates(uint id, LsnifQueryRay q, uint flags, uint64_t tlas, uint64_t table,
                                    vec3 origin, vec3 direction, float tmax, inout LsnifQueryRayState st) {
-  LsnifScratchRef scratch = lsnif_query_scratch();
-  LsnifQueryModelsRef models = lsnif_query_models();
   rayQueryEXT rq;
   // Triangles forced non-opaque are candidates that are never confirmed: nothing is committed,
   // so every AABB up to the triangle hit is visited. (The Skip*Primitives flags would need the
@@ -253,27 +92,12 @@ void lsnif_query_append_candidates(uint id, LsnifQueryRay q, uint flags, uint64_
                         direction, tmax);
   while (rayQueryProceedEXT(rq)) {
     if (rayQueryGetIntersectionTypeEXT(rq, false) != gl_RayQueryCandidateIntersectionAABBEXT) continue;
-    // The intersection shader's lookup: an index past the table, a hole or a block of another
-    // layout is a miss.
-    const uint custom = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));
-    if (custom >= pc.model_count) continue;
-    const uint64_t address = LsnifQueryTableRef(table).model[custom];
-    if (address == 0ul || !lsnif_model_layout_matches(address)) continue;
-    LsnifModel m = lsnif_load_model(address);
-    const vec3 o = rayQueryGetIntersectionObjectRayOriginEXT(rq, false);
-    const vec3 d = rayQueryGetIntersectionObjectRayDirectionEXT(rq, false);
-    const vec2 span = lsnif_query_clip(m, o, d, q.tmin, tmax);
-    if (!(span.x <= span.y)) continue;
-    const uint slot = atomicAdd(scratch.w[0], 1u);
-    if (slot >= pc.capacity) {
-      st.missing_t = min(st.missing_t, lsnif_query_t_key(span.x));
-      continue;
-    }
-    atomicAdd(models.c[custom].count, 1u);
-    const mat3 w2o = mat3(rayQueryGetIntersectionWorldToObjectEXT(rq, false));
-    const uint instance_index = uint(rayQueryGetIntersectionInstanceIdEXT(rq, false));
-    lsnif_query_candidates().c[slot] =
-        lsnif_query_candidate(id, instance_index, custom, flags, o, d, q.tmin, tmax, span, w2o);
+    const uint dropped = lsnif_query_record_candidate(
+        id, q, flags, table, uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false)),
+        uint(rayQueryGetIntersectionInstanceIdEXT(rq, false)), rayQueryGetIntersectionObjectRayOriginEXT(rq, false),
+        rayQueryGetIntersectionObjectRayDirectionEXT(rq, false), mat3(rayQueryGetIntersectionWorldToObjectEXT(rq, false)),
+        tmax);
+    st.missing_t = min(st.missing_t, dropped);
   }
 }
 

@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <cstdlib>
 #include <sstream>
 #include <string>
 #include <system_error>
@@ -30,9 +31,33 @@
 
 namespace lsnif::test {
 
-// The device selector (vk::ContextOptions::device, `lsnif ... --device`) of the GPU tests: lavapipe,
-// their reference platform, also on a machine with a GPU that the automatic choice would prefer.
-inline constexpr const char* kReferenceDevice = "llvmpipe";
+// The device selector (vk::ContextOptions::device, `lsnif ... --device`) of the GPU tests: the
+// environment variable LSNIF_TEST_DEVICE (a part of a device name or an index in `lsnif devices`
+// order, device_choice.h), else lavapipe ("llvmpipe"), their reference platform, also on a machine
+// with a GPU that the automatic choice would prefer. A test that needs what the device lacks skips
+// itself naming it.
+inline std::string test_device() {
+  const char* chosen = std::getenv("LSNIF_TEST_DEVICE");
+  return chosen && *chosen ? chosen : "llvmpipe";
+}
+
+// True when LSNIF_TEST_DEVICE is unset or empty: the tests run on lavapipe, where CI runs them.
+inline bool default_test_device() {
+  const char* chosen = std::getenv("LSNIF_TEST_DEVICE");
+  return !(chosen && *chosen);
+}
+
+// In a test that needs something of the device (`offered` false: it lacks `what`, e.g. "feature
+// rayQuery"): skips the test naming it on a device chosen with LSNIF_TEST_DEVICE; fails it on the
+// default device (lavapipe offers everything the tests need, so there a missing piece is a fault,
+// never a silent pass).
+#define LSNIF_TEST_NEEDS(offered, device_name, what)                                                  \
+  do {                                                                                               \
+    if (!(offered)) {                                                                                \
+      if (::lsnif::test::default_test_device()) FAIL() << "device '" << (device_name) << "' lacks " << (what); \
+      GTEST_SKIP() << "device '" << (device_name) << "' lacks " << (what);                           \
+    }                                                                                                \
+  } while (0)
 
 // The tiny preset (`lsnif train --tiny`, settings_table.h kTinyPreset) as TrainSettings: V=16, grid
 // 32..64 with 2^12 entries, 2x32 MLP, 30 steps of 1024 rays, no progress bar. The command-line

@@ -52,6 +52,7 @@ namespace lsnif::cli::bench_trace {
 struct Options {
   std::string mesh_path, model_path, triangle_order = "morton", device;
   std::string intersection_spv;  // empty: the plugin's intersection shader
+  std::string broad_phase = "auto";  // lsnifCmdQuery's: auto, trace-rays or ray-query
   uint32_t rays = 1u << 18, repeat = 5, gemm_batch = 4096;
   float gemm_seconds = 0.5f;
   uint64_t seed = 1;
@@ -120,6 +121,7 @@ struct Report {
   uint32_t rays = 0, repeat = 0, triangles = 0;
   uint64_t seed = 0;
   double pipeline_create_seconds = 0, query_pipeline_create_seconds = 0;
+  std::string broad_phase;  // the broad phase lsnifCmdQuery ran with ("trace-rays", "ray-query")
   bool device_timestamps = false;
   bool morton_order = true;  // triangle BLAS input in Morton order of the centroids (else file order)
   Timings lsnif, tri, batched, query;
@@ -247,7 +249,8 @@ Status run_traces(DeviceState& st, uint32_t count, uint32_t repeat, Report& repo
 // The batched path on the plugin context of `st`: the query pipeline, the rays as LsnifQueryRay
 // (the same rays: the instance is the identity, so object space is world space; flags 0), the
 // hits, the scratch for the largest call, and the timestamp pool where the queue has timestamps.
-Status set_up_batched(DeviceState& st, const std::vector<Ray>& rays, Report& report);
+// lsnifCmdQuery's broad phase is the one options.broad_phase names (the plugin's choice for auto).
+Status set_up_batched(DeviceState& st, const Options& options, const std::vector<Ray>& rays, Report& report);
 
 // One timed batched run of all rays: lsnifCmdIntersectModelRays (several calls when the rays are
 // more than one call takes, with a barrier between them as they share the scratch) in one command

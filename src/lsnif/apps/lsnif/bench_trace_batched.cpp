@@ -42,11 +42,17 @@ LsnifQueryInfo query_info(const DeviceState& st, uint32_t count) {
 
 }  // namespace
 
-Status set_up_batched(DeviceState& st, const std::vector<Ray>& rays, Report& report) {
+Status set_up_batched(DeviceState& st, const Options& options, const std::vector<Ray>& rays, Report& report) {
   auto plugin_error = [](const char* what) { return Status::error("%s: %s", what, lsnifGetLastErrorMessage()); };
+  LsnifQueryPipelineCreateFlags flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
+  if (options.broad_phase == "trace-rays") flags |= LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT;
+  if (options.broad_phase == "ray-query") flags |= LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT;
   const auto t0 = std::chrono::steady_clock::now();
-  if (st.query.create(st.plugin.get(), LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT) != LSNIF_SUCCESS)
+  if (st.query.create(st.plugin.get(), flags) != LSNIF_SUCCESS)
     return plugin_error("query pipeline of the batched path and lsnifCmdQuery");
+  report.broad_phase = st.query.broad_phase() == LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS
+                           ? "trace-rays"
+                           : "ray-query";
   report.query_pipeline_create_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 

@@ -98,11 +98,10 @@ Status set_up(DeviceState& st, const Options& options, const Mesh& mesh, const s
               Report& report) {
   vk::ContextOptions context_options;
   context_options.ray_tracing = true;
-  context_options.ray_query = true;  // lsnifCmdQuery
   context_options.validation = options.validation;
   context_options.device = options.device;
   Status s = st.ctx.init(context_options);
-  if (!s) return s.context("Vulkan device with ray tracing and ray queries");
+  if (!s) return s.context("Vulkan device with ray tracing");
   report.device = st.ctx.device_name();
   if (s = st.tracer.init(); !s) return s;
   if (st.tracer.max_hit_attribute_size() < sizeof(LsnifHitAttributes))
@@ -170,7 +169,7 @@ Status set_up(DeviceState& st, const Options& options, const Mesh& mesh, const s
     const Ray& r = rays[i];
     out[i] = {r.origin.x, r.origin.y, r.origin.z, r.tmin, r.direction.x, r.direction.y, r.direction.z, r.tmax};
   }
-  return set_up_batched(st, rays, report);
+  return set_up_batched(st, options, rays, report);
 }
 
 double process_cpu_seconds() {

@@ -97,6 +97,7 @@ void print_text(const Report& r) {
               r.device_timestamps ? "; device: timestamps around vkCmdTraceRaysKHR and the batched stages" : "");
   std::printf("pipeline creation      %.3f s (ray tracing), %.3f s (batched path: lsnifCreateQueryPipeline)\n",
               r.pipeline_create_seconds, r.query_pipeline_create_seconds);
+  std::printf("query broad phase      %s (lsnifCmdQuery)\n", r.broad_phase.c_str());
   std::printf("batched path           lsnifCmdIntersectModelRays on the same rays (identity instance: object space "
               "= world space), %u call%s per run, alternating with the traces\n\n",
               r.batched_calls, r.batched_calls == 1 ? "" : "s");
@@ -208,6 +209,7 @@ void print_json(const Report& r) {
   j["median_t_difference_over_diagonal"] = r.median_t_difference;
   j["walk_points_mismatches"] = r.points_mismatch;
   j["query_pipeline_create_seconds"] = r.query_pipeline_create_seconds;
+  j["query_broad_phase"] = r.broad_phase;
   j["batched"] = batched_json(r);
   j["batched_hits"] = r.batched_hits;
   j["batched_network_evaluations"] = r.batched_network_rays;

@@ -71,6 +71,12 @@ uint64_t object_blas_bytes(const CompareReport& c) {
              : 0;
 }
 
+// The row's pipeline, with the broad phase its LSNIF render's queries ran with ("wavefront (trace-rays)").
+std::string pipeline_label(const SceneRow& r) {
+  if (r.pipeline != render::PathPipeline::wavefront) return render::pipeline_name(r.pipeline);
+  return format("%s (%s)", render::pipeline_name(r.pipeline), render::broad_phase_name(r.cmp.lsnif.broad_phase));
+}
+
 std::string table(const std::vector<SceneRow>& rows) {
   std::string t =
       "| Scene | quality | pipeline | Tris (LSNIF objects) | LSNIF count | LSNIF (MiB) | triangle BLAS (MiB) | "
@@ -81,7 +87,7 @@ std::string table(const std::vector<SceneRow>& rows) {
     const render::RenderStats& ref = r.cmp.reference;
     const uint64_t blas = object_blas_bytes(r.cmp);
     t += format("| %s | %s | %s | %s | %u (%u) | %.3f | %.3f | %.2f | %.1f | %.1f | %.2f | %.4f |\n", r.name.c_str(),
-                r.preset.c_str(), render::pipeline_name(r.pipeline), count_text(r.triangles).c_str(),
+                r.preset.c_str(), pipeline_label(r).c_str(), count_text(r.triangles).c_str(),
                 l.lsnif_instances, l.lsnif_models, mib(l.lsnif_bytes), mib(blas),
                 l.lsnif_bytes ? double(blas) / double(l.lsnif_bytes) : 0.0, l.ms_per_sample, ref.ms_per_sample,
                 ref.ms_per_sample > 0 ? l.ms_per_sample / ref.ms_per_sample : 0.0, r.cmp.flip_mean);
@@ -142,11 +148,12 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
 struct BenchCommand {
   std::vector<std::string> names;
   std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "both",
-              preset_names = "high,low", primary_name = "traced";
+              preset_names = "high,low", primary_name = "traced", broad_phase_name = "auto";
   BenchRunOptions run;
   std::string known;  // the bundled scenes' names, for the help and messages
   std::vector<render::PathPipeline> pipelines;
   render::PrimaryVisibility primary{};
+  render::BroadPhase broad_phase{};
   std::vector<std::string> presets, scenes;
 };
 
@@ -167,6 +174,7 @@ std::optional<int> parse_command_line(int argc, char** argv, BenchCommand& cmd) 
   args.option("quality", "the paper's configurations to train and compare, a list: high, low (Table 1's H and L)",
               &cmd.preset_names);
   add_primary_option(args, &cmd.primary_name);
+  add_broad_phase_option(args, &cmd.broad_phase_name);
   add_device_option(args, &cmd.device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   return std::nullopt;
@@ -187,6 +195,7 @@ bool check_choices(BenchCommand& cmd) {
     cmd.pipelines = {one};
   }
   if (!parse_primary_option("bench", cmd.primary_name, cmd.primary)) return false;
+  if (!parse_broad_phase_option("bench", cmd.broad_phase_name, cmd.broad_phase)) return false;
   const std::string& preset_names = cmd.preset_names;
   for (size_t at = 0; at <= preset_names.size();) {
     const size_t comma = std::min(preset_names.find(',', at), preset_names.size());
@@ -241,12 +250,7 @@ bool create_output_folder(const BenchCommand& cmd) {
 
 // Initializes `ctx` for the pipelines; false (message printed) when no device can run them.
 bool init_device(const BenchCommand& cmd, vk::ComputeContext& ctx) {
-  // The wavefront pipeline's options include the inline one's (ray queries besides ray tracing).
-  const bool wavefront =
-      std::find(cmd.pipelines.begin(), cmd.pipelines.end(), render::PathPipeline::wavefront) != cmd.pipelines.end();
-  if (Status s = ctx.init(render::context_options(wavefront ? render::PathPipeline::wavefront
-                                                            : render::PathPipeline::inline_rt,
-                                                  /*validation=*/false, cmd.device));
+  if (Status s = ctx.init(render::context_options(/*validation=*/false, cmd.device));
       !s) {
     std::fprintf(stderr, "lsnif bench: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
                  s.message().c_str());
@@ -348,6 +352,7 @@ bool render_preset(vk::ComputeContext& ctx, const BenchCommand& cmd, const scene
     row.image = name + (preset == "high" ? "" : "." + preset) + "." + render::pipeline_name(pipeline) + ".png";
     render::RenderSettings prs = rs;
     prs.pipeline = pipeline;
+    prs.broad_phase = cmd.broad_phase;
     prs.stage_times = pipeline == render::PathPipeline::wavefront;
     std::printf("\n-- %s, %s quality, %s pipeline\n", name.c_str(), preset.c_str(), render::pipeline_name(pipeline));
     std::fflush(stdout);

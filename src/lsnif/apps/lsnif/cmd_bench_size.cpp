@@ -355,7 +355,7 @@ bool create_output_folder(const SizeCommand& cmd) {
 
 // Initializes `ctx` for the pipeline; false (message printed) when no device can run it.
 bool init_device(const SizeCommand& cmd, vk::ComputeContext& ctx) {
-  if (Status s = ctx.init(render::context_options(cmd.pipeline, /*validation=*/false, cmd.device)); !s) {
+  if (Status s = ctx.init(render::context_options(/*validation=*/false, cmd.device)); !s) {
     std::fprintf(stderr, "lsnif bench-size: no usable Vulkan ray-tracing device (`lsnif devices` tells what is "
                          "missing): %s\n", s.message().c_str());
     return false;

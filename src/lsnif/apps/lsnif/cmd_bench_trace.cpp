@@ -51,6 +51,10 @@ int parse_options(int argc, char** argv, Options& o) {
               "SPIR-V file of the intersection shader instead of the plugin's (to compare shader versions; its "
               "hit attributes and model lookup must keep the layouts of the build)",
               &o.intersection_spv);
+  args.option("broad-phase",
+              "lsnifCmdQuery's broad phase: auto (the plugin's choice), trace-rays (a ray-tracing pipeline) or "
+              "ray-query (ray queries in a compute shader)",
+              &o.broad_phase);
   args.option("gemm-batch", "columns per OpenMP thread of the CPU GEMM (1..65536)", &o.gemm_batch);
   args.option("gemm-seconds", "least time of the timed CPU GEMM passes (0.01..60 s)", &o.gemm_seconds);
   args.flag("json", "print one JSON object instead of text", &o.json);
@@ -77,6 +81,11 @@ int parse_options(int argc, char** argv, Options& o) {
     return 2;
   }
 
+  if (o.broad_phase != "auto" && o.broad_phase != "trace-rays" && o.broad_phase != "ray-query") {
+    std::fprintf(stderr, "lsnif bench-trace: --broad-phase '%s': expected auto, trace-rays or ray-query\n",
+                 o.broad_phase.c_str());
+    return 2;
+  }
   if (o.triangle_order != "morton" && o.triangle_order != "file") {
     std::fprintf(stderr, "lsnif bench-trace: --triangle-order '%s': expected morton or file\n",
                  o.triangle_order.c_str());

@@ -50,6 +50,14 @@ Status report(VkInstance instance, VkPhysicalDevice physical, DeviceReport& r) {
   return Status::ok();
 }
 
+// The broad phase lsnifCmdQuery would run on a device offering `s` (the plugin's automatic choice,
+// LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT of lsnif.h): "trace-rays", "ray-query" or "none".
+const char* broad_phase(const LsnifDeviceSupport& s) {
+  if (!s.supported) return "none";
+  if (s.rayQuery) return "ray-query";
+  return s.rayTraversalPrimitiveCulling ? "trace-rays" : "none";
+}
+
 std::string joined(const std::vector<std::string>& items) {
   std::string s;
   for (const std::string& i : items) s += (s.empty() ? "" : ", ") + i;
@@ -63,7 +71,8 @@ int cmd_devices(int argc, char** argv) {
   std::string selector;
   Args args("devices",
             "Lists the Vulkan devices and which LSNIF paths each supports: the ray-tracing pipeline (with what is "
-            "missing), ray query, NV / KHR cooperative matrix and NV cooperative vector.\n"
+            "missing), ray query, primitive culling, the broad phase lsnifCmdQuery would run and the batched MLP "
+            "kernel, NV / KHR cooperative matrix and NV cooperative vector.\n"
             "Marks the device that render, view, bench, bench-trace, bench-memory and demo use with the same\n"
             "--device (text: '*', JSON: \"selected\": true). Exit code 1 when there is no Vulkan driver or no\n"
             "device, or when --device names no usable device.");
@@ -143,6 +152,9 @@ int cmd_devices(int argc, char** argv) {
                          {"ray_tracing_pipeline", bool(s.supported)},
                          {"ray_tracing_pipeline_missing", r.info.lsnif_missing},
                          {"ray_query", bool(s.rayQuery)},
+                         {"ray_traversal_primitive_culling", bool(s.rayTraversalPrimitiveCulling)},
+                         {"query_broad_phase", broad_phase(s)},
+                         {"mlp_kernel", s.supported ? "portable" : "none"},
                          {"nv_cooperative_matrix", bool(s.cooperativeMatrixNV)},
                          {"khr_cooperative_matrix", bool(s.cooperativeMatrixKHR)},
                          {"nv_cooperative_vector", bool(s.cooperativeVectorNV)},
@@ -165,6 +177,9 @@ int cmd_devices(int argc, char** argv) {
     else
       std::printf("  ray-tracing pipeline    no (missing: %s)\n", joined(r.info.lsnif_missing).c_str());
     std::printf("  ray query               %s\n", yes_no(s.rayQuery));
+    std::printf("  primitive culling       %s (rayTraversalPrimitiveCulling)\n", yes_no(s.rayTraversalPrimitiveCulling));
+    std::printf("  query broad phase       %s (lsnifCmdQuery, automatic choice)\n", broad_phase(s));
+    std::printf("  batched MLP kernel      %s\n", s.supported ? "portable (GLSL, fp32)" : "none");
     std::printf("  NV cooperative matrix   %s\n", yes_no(s.cooperativeMatrixNV));
     std::printf("  KHR cooperative matrix  %s\n", yes_no(s.cooperativeMatrixKHR));
     std::printf("  NV cooperative vector   %s\n", yes_no(s.cooperativeVectorNV));

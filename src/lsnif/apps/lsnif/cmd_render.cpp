@@ -17,7 +17,7 @@
 namespace lsnif::cli {
 
 int cmd_render(int argc, char** argv) {
-  std::string output = "render.png", device, pipeline_name = "inline", primary_name = "traced";
+  std::string output = "render.png", device, pipeline_name = "inline", primary_name = "traced", broad_phase_name = "auto";
   uint32_t width = 640, height = 480, spp = 64, bounces = 4;
   bool reference = false, validation = false, stage_times = false;
   SceneArgs sa;
@@ -36,6 +36,7 @@ int cmd_render(int argc, char** argv) {
   args.option("spp", "samples per pixel", &spp);
   args.option("bounces", "bounces after the camera ray (the paper's 4)", &bounces);
   add_pipeline_option(args, &pipeline_name);
+  add_broad_phase_option(args, &broad_phase_name);
   args.flag("stage-times", "with --pipeline wavefront: time its stages on the device (timestamps) and report them",
             &stage_times);
   add_primary_option(args, &primary_name);
@@ -54,6 +55,8 @@ int cmd_render(int argc, char** argv) {
   }
   render::PrimaryVisibility primary;
   if (!parse_primary_option("render", primary_name, primary)) return 2;
+  render::BroadPhase broad_phase;
+  if (!parse_broad_phase_option("render", broad_phase_name, broad_phase)) return 2;
 
   // The image's place is checked before the render, not after it.
   if (int r = sa.check_output("render", "-o", output)) return r;
@@ -62,7 +65,7 @@ int cmd_render(int argc, char** argv) {
   if (int r = sa.load("render", scene, environment)) return r;
 
   vk::ComputeContext ctx;
-  if (Status s = ctx.init(render::context_options(pipeline, validation, device)); !s) {
+  if (Status s = ctx.init(render::context_options(validation, device)); !s) {
     std::fprintf(stderr, "lsnif render: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
                  s.message().c_str());
     return 1;
@@ -74,6 +77,7 @@ int cmd_render(int argc, char** argv) {
   settings.max_bounces = bounces;
   settings.reference = reference;
   settings.pipeline = pipeline;
+  settings.broad_phase = broad_phase;
   settings.stage_times = stage_times;
   settings.primary = primary;
   settings.camera = sa.camera_index();
@@ -95,6 +99,8 @@ int cmd_render(int argc, char** argv) {
   std::printf("scene            %s (%s mode, %s pipeline, %s primary)\n", sa.scene_path.c_str(),
               reference ? "reference" : "LSNIF", render::pipeline_name(pipeline), render::primary_name(primary));
   std::printf("device           %s\n", ctx.device_name().c_str());
+  if (pipeline == render::PathPipeline::wavefront)
+    std::printf("broad phase      %s (lsnifCmdQuery)\n", render::broad_phase_name(stats.broad_phase));
   std::printf("image            %s, %ux%u, %u spp, %u bounces\n", output.c_str(), width, height, spp, bounces);
   std::printf("time             %.2f s, %.2f ms per sample (%.3g s per frame of 1 spp)\n", stats.seconds,
               stats.ms_per_sample, stats.ms_per_sample / 1000.0);

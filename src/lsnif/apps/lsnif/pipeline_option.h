@@ -1,5 +1,5 @@
-// pipeline_option.h -- the --pipeline and --primary options of render, view and bench
-// (render::PathPipeline, render::PrimaryVisibility, docs/renderer.md): how the path tracer casts
+// pipeline_option.h -- the --pipeline, --broad-phase and --primary options of render, view and bench
+// (render::PathPipeline, render::BroadPhase, render::PrimaryVisibility, docs/renderer.md): how the path tracer casts
 // its rays and where its camera rays' hits come from.
 #pragma once
 #include <cstdio>
@@ -13,8 +13,24 @@ namespace lsnif::cli {
 inline void add_pipeline_option(Args& args, std::string* name) {
   args.option("pipeline",
               "inline (a ray-tracing pipeline, networks in the intersection shader) or wavefront (compute passes, "
-              "every ray cast in batches through lsnifCmdQuery; needs VK_KHR_ray_query); the same estimator",
+              "every ray cast in batches through lsnifCmdQuery); the same estimator",
               name);
+}
+
+inline void add_broad_phase_option(Args& args, std::string* name) {
+  args.option("broad-phase",
+              "wavefront pipeline: how lsnifCmdQuery finds each ray's triangle hit and LSNIF candidates: auto (the "
+              "plugin's choice), trace-rays (a ray-tracing pipeline; needs rayTraversalPrimitiveCulling) or ray-query "
+              "(ray queries in a compute shader; needs VK_KHR_ray_query)",
+              name);
+}
+
+// Parses the option's value; false (after a usage message naming `command`) on anything else.
+inline bool parse_broad_phase_option(const char* command, const std::string& name, render::BroadPhase& out) {
+  if (render::parse_broad_phase(name, out)) return true;
+  std::fprintf(stderr, "lsnif %s: --broad-phase must be auto, trace-rays or ray-query, not '%s'\n", command,
+               name.c_str());
+  return false;
 }
 
 // Parses the option's value; false (after a usage message naming `command`) on anything else.

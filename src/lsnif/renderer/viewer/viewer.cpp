@@ -360,7 +360,7 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
     return Status::error("viewer: the screenshot is what the window shows: write it as .png, not %s",
                          settings.screenshot.c_str());
   if (Status s = init_glfw(); !s) return s;
-  vk::ContextOptions options = render::context_options(settings.pipeline, settings.validation, settings.device);
+  vk::ContextOptions options = render::context_options(settings.validation, settings.device);
   options.swapchain = true;
   if (Status s = window_instance_extensions(options.instance_extensions); !s) return s;
 
