@@ -16,29 +16,21 @@
 #include <set>
 #include <string>
 
+#include "lsnif/testing/scoped_test_dir.h"
+
 namespace lsnif {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    path = fs::temp_directory_path() /
-           ("lsnif_atomic_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  std::string file(const std::string& name) const { return (path / name).string(); }
+// The test's own folder (lsnif/testing/scoped_test_dir.h); file(NAME) is a path in it.
+struct TempDir : test::ScopedTestDir {
+  TempDir() : ScopedTestDir("lsnif_atomic") {}
+  std::string file(const std::string& name) const { return path(name); }
   // Names in the folder (symbolic links not followed).
   std::set<std::string> names() const {
     std::set<std::string> out;
-    for (const fs::directory_entry& e : fs::directory_iterator(path)) out.insert(e.path().filename().string());
+    for (const fs::directory_entry& e : fs::directory_iterator(path())) out.insert(e.path().filename().string());
     return out;
   }
 };

@@ -13,26 +13,17 @@
 #include <string>
 #include <vector>
 
+#include "lsnif/testing/scoped_test_dir.h"
+
 namespace lsnif {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    path = fs::temp_directory_path() /
-           ("lsnif_file_io_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::permissions(path, fs::perms::owner_all, fs::perm_options::add, ec);
-    fs::remove_all(path, ec);
-  }
-  std::string file(const std::string& name) const { return (path / name).string(); }
+// The test's own folder (lsnif/testing/scoped_test_dir.h); file(NAME) is a path in it.
+struct TempDir : test::ScopedTestDir {
+  TempDir() : ScopedTestDir("lsnif_file_io") {}
+  std::string file(const std::string& name) const { return path(name); }
 };
 
 void put(const std::string& path, const std::string& bytes) {

@@ -26,6 +26,7 @@
 #include <glm/glm.hpp>
 
 #include "lsnif/core/intersector.h"
+#include "lsnif/testing/scoped_test_dir.h"
 #include "lsnif/train/settings_io.h"
 #include "lsnif/train/trainer.h"
 
@@ -193,32 +194,6 @@ inline ProcessResult run_process(const std::vector<std::string>& argv, double ti
   if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
   return r;
 }
-
-// A fresh folder PREFIX_PID_TESTNAME under the system's temporary folder for the running test,
-// removed with everything in it when this object goes (construct it while a test runs, e.g. as a
-// fixture member or in SetUp).
-class ScopedTestDir {
- public:
-  explicit ScopedTestDir(const std::string& prefix)
-      : path_(std::filesystem::temp_directory_path() /
-              (prefix + "_" + std::to_string(::getpid()) + "_" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name())) {
-    std::filesystem::create_directories(path_);
-  }
-  ~ScopedTestDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  ScopedTestDir(const ScopedTestDir&) = delete;
-  ScopedTestDir& operator=(const ScopedTestDir&) = delete;
-
-  const std::filesystem::path& path() const { return path_; }
-  // Path of `name` inside the folder.
-  std::string path(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  std::filesystem::path path_;
-};
 
 // The bytes of a file; empty when it cannot be read.
 inline std::string read_text(const std::filesystem::path& path) {
