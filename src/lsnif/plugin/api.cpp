@@ -529,7 +529,7 @@ LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer comman
                   const LsnifQueryInfo& info = *pInfo;
                   const LsnifQueryPipeline_T* p = context->find(pipeline);
                   if (!p) return invalid("%s is not a query pipeline of this context", "pipeline");
-                  if (!p->has_tlas)
+                  if (p->broad_phase == LSNIF_QUERY_BROAD_PHASE_NONE)
                     return invalid("%s was created without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT", "pipeline");
                   std::vector<const LsnifModel_T*> models;
                   if (Outcome o = check_query_counts(*context, info, true, models); !o) return o;

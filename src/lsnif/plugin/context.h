@@ -86,7 +86,7 @@ struct LsnifQueryPipeline_T {
                tie = VK_NULL_HANDLE, resolve_hits = VK_NULL_HANDLE, resolve_rays = VK_NULL_HANDLE,
                status = VK_NULL_HANDLE;
   } tlas;
-  bool has_tlas = false;  // created with LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT
+  // NONE unless created with LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT.
   LsnifQueryBroadPhase broad_phase = LSNIF_QUERY_BROAD_PHASE_NONE;
   // With LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS (tlas.broad stays null): its layout (push constants for
   // the ray-tracing stages), the triangle launch (a pipeline skipping AABBs), the candidate launch

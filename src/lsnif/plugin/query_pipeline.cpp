@@ -7,6 +7,7 @@
 // dispatches and the resolve).
 #include <algorithm>
 #include <cstring>
+#include <string>
 #include <vector>
 
 #include "lsnif/plugin/context.h"
@@ -41,17 +42,22 @@ namespace {
 namespace lsnif::plugin {
 namespace {
 
-Outcome create_stage(LsnifContext_T& ctx, VkPipelineCache cache, VkPipelineLayout layout, const uint32_t* code, size_t bytes,
-                     const char* stage, VkPipeline& out) {
-  const VkAllocationCallbacks* cb = ctx.info.pAllocator;
+// A shader module of `bytes` of SPIR-V at `code` (the caller destroys it); `what` names it in an error.
+Outcome create_module(LsnifContext_T& ctx, const uint32_t* code, size_t bytes, const char* what, VkShaderModule& out) {
   VkShaderModuleCreateInfo mi{};
   mi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
   mi.codeSize = bytes;
   mi.pCode = code;
+  if (VkResult r = ctx.vk.vkCreateShaderModule(ctx.info.device, &mi, ctx.info.pAllocator, &out); r != VK_SUCCESS)
+    return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreateShaderModule (%s) failed (VkResult %d)", what, static_cast<int>(r));
+  return Outcome::ok();
+}
+
+Outcome create_stage(LsnifContext_T& ctx, VkPipelineCache cache, VkPipelineLayout layout, const uint32_t* code, size_t bytes,
+                     const char* stage, VkPipeline& out) {
+  const VkAllocationCallbacks* cb = ctx.info.pAllocator;
   VkShaderModule module = VK_NULL_HANDLE;
-  if (VkResult r = ctx.vk.vkCreateShaderModule(ctx.info.device, &mi, cb, &module); r != VK_SUCCESS)
-    return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreateShaderModule (%s stage) failed (VkResult %d)", stage,
-                         static_cast<int>(r));
+  if (Outcome o = create_module(ctx, code, bytes, (std::string(stage) + " stage").c_str(), module); !o) return o;
   VkComputePipelineCreateInfo pi{};
   pi.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
   pi.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
@@ -90,15 +96,6 @@ uint32_t block_step(uint32_t groups) {
   return step;
 }
 
-Outcome create_module(LsnifContext_T& ctx, const uint32_t* code, size_t bytes, const char* what, VkShaderModule& out) {
-  VkShaderModuleCreateInfo mi{};
-  mi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
-  mi.codeSize = bytes;
-  mi.pCode = code;
-  if (VkResult r = ctx.vk.vkCreateShaderModule(ctx.info.device, &mi, ctx.info.pAllocator, &out); r != VK_SUCCESS)
-    return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreateShaderModule (%s) failed (VkResult %d)", what, static_cast<int>(r));
-  return Outcome::ok();
-}
 
 // The shaders of the ray-tracing broad phase.
 struct TraceRaysModules {
@@ -285,34 +282,18 @@ QueryLayout query_layout(const std::vector<const LsnifModel_T*>& models, uint32_
 
 }  // namespace
 
-// The ray-query broad phase: ray queries offered by the physical device and, where the context
-// knows the enabled features, enabled.
-Outcome check_ray_query(const LsnifContext_T& ctx) {
-  if (!ctx.ray_query_offered)
+// Whether a broad phase can run: what it needs (`what`, e.g. "feature rayQuery") offered by the
+// physical device and, where the context knows the enabled features, enabled.
+Outcome check_broad_phase_feature(const LsnifContext_T& ctx, bool offered, bool not_enabled, const char* offer,
+                                  const char* feature, const char* phase) {
+  if (!offered)
+    return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED, "device '%s' does not offer %s (the %s broad phase needs it)",
+                         ctx.device_name.c_str(), offer, phase);
+  if (not_enabled)
     return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
-                         "device '%s' does not offer extension VK_KHR_ray_query with feature rayQuery "
-                         "(the ray-query broad phase needs them)",
-                         ctx.device_name.c_str());
-  if (ctx.ray_query_not_enabled)
-    return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
-                         "the device '%s' was created without feature rayQuery enabled (the context's "
-                         "pEnabledFeatures; the ray-query broad phase needs VK_KHR_ray_query and rayQuery)",
-                         ctx.device_name.c_str());
-  return Outcome::ok();
-}
-
-// The ray-tracing broad phase: rayTraversalPrimitiveCulling offered and, where known, enabled.
-Outcome check_primitive_culling(const LsnifContext_T& ctx) {
-  if (!ctx.primitive_culling_offered)
-    return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
-                         "device '%s' does not offer feature rayTraversalPrimitiveCulling (the ray-tracing "
-                         "broad phase needs it)",
-                         ctx.device_name.c_str());
-  if (ctx.primitive_culling_not_enabled)
-    return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
-                         "the device '%s' was created without feature rayTraversalPrimitiveCulling enabled (the "
-                         "context's pEnabledFeatures; the ray-tracing broad phase needs it)",
-                         ctx.device_name.c_str());
+                         "the device '%s' was created without feature %s enabled (the context's pEnabledFeatures; "
+                         "the %s broad phase needs %s)",
+                         ctx.device_name.c_str(), feature, phase, offer);
   return Outcome::ok();
 }
 
@@ -320,7 +301,12 @@ Outcome check_primitive_culling(const LsnifContext_T& ctx) {
 // (on lavapipe its broad phase took half the time of the ray-tracing one: docs/batched-queries.md),
 // else the ray-tracing one; an error naming what each lacks when none can run.
 Outcome choose_broad_phase(const LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags flags, LsnifQueryBroadPhase& out) {
-  const Outcome trace_rays = check_primitive_culling(ctx), ray_query = check_ray_query(ctx);
+  const Outcome trace_rays =
+      check_broad_phase_feature(ctx, ctx.primitive_culling_offered, ctx.primitive_culling_not_enabled,
+                                "feature rayTraversalPrimitiveCulling", "rayTraversalPrimitiveCulling", "ray-tracing");
+  const Outcome ray_query =
+      check_broad_phase_feature(ctx, ctx.ray_query_offered, ctx.ray_query_not_enabled,
+                                "extension VK_KHR_ray_query with feature rayQuery", "rayQuery", "ray-query");
   if (flags & LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT) {
     out = LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS;
     return trace_rays;
@@ -396,7 +382,6 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
       if (o) o = create_stage(ctx, cache, p->layout, st.code, st.bytes, st.name, *st.out);
     }
     if (o && broad_phase == LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS) o = create_trace_rays_broad_phase(ctx, cache, *p);
-    p->has_tlas = true;
     p->broad_phase = broad_phase;
   }
   if (!o) {

@@ -134,6 +134,13 @@ const char* broad_phase_name(LsnifQueryBroadPhase b) {
   return "none";
 }
 
+LsnifQueryPipelineCreateFlags query_pipeline_flags(BroadPhase b) {
+  LsnifQueryPipelineCreateFlags flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
+  if (b == BroadPhase::ray_query) flags |= LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT;
+  if (b == BroadPhase::trace_rays) flags |= LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT;
+  return flags;
+}
+
 bool parse_pipeline(const std::string& name, PathPipeline& out) {
   if (name == "inline") out = PathPipeline::inline_rt;
   else if (name == "wavefront") out = PathPipeline::wavefront;

@@ -50,6 +50,8 @@ const char* broad_phase_name(BroadPhase b);
 bool parse_broad_phase(const std::string& name, BroadPhase& out);
 // "ray-query" / "trace-rays" for what a query pipeline runs, "none" without one.
 const char* broad_phase_name(LsnifQueryBroadPhase b);
+// The lsnifCreateQueryPipeline flags of a TLAS query pipeline with broad phase `b`.
+LsnifQueryPipelineCreateFlags query_pipeline_flags(BroadPhase b);
 
 // Where the camera rays' hits come from (docs/renderer.md): traced through the TLAS like every
 // other ray, or rasterized (the paper's section 4): a graphics pass draws every object's triangles

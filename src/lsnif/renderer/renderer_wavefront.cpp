@@ -93,9 +93,7 @@ Status Renderer::prepare_wavefront(uint32_t samples, uint32_t max_bounces) {
   if (!dev.query) {
     LsnifQueryPipelineFlagsCreateInfo flags{};
     flags.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
-    flags.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
-    if (broad_phase_ == BroadPhase::ray_query) flags.flags |= LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT;
-    if (broad_phase_ == BroadPhase::trace_rays) flags.flags |= LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT;
+    flags.flags = query_pipeline_flags(broad_phase_);
     LsnifQueryPipelineCreateInfo info{};
     info.pNext = &flags;
     if (lsnifCreateQueryPipeline(dev.plugin.get(), &info, &dev.query) != LSNIF_SUCCESS)

@@ -52,7 +52,7 @@ namespace lsnif::cli::bench_trace {
 struct Options {
   std::string mesh_path, model_path, triangle_order = "morton", device;
   std::string intersection_spv;  // empty: the plugin's intersection shader
-  std::string broad_phase = "auto";  // lsnifCmdQuery's: auto, trace-rays or ray-query
+  std::string broad_phase = "auto";  // lsnifCmdQuery's: auto, trace-rays or ray-query (render::parse_broad_phase)
   uint32_t rays = 1u << 18, repeat = 5, gemm_batch = 4096;
   float gemm_seconds = 0.5f;
   uint64_t seed = 1;

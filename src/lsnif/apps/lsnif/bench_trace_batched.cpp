@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "lsnif/apps/lsnif/bench_trace.h"
+#include "lsnif/renderer/renderer.h"
 
 namespace lsnif::cli::bench_trace {
 
@@ -44,15 +45,14 @@ LsnifQueryInfo query_info(const DeviceState& st, uint32_t count) {
 
 Status set_up_batched(DeviceState& st, const Options& options, const std::vector<Ray>& rays, Report& report) {
   auto plugin_error = [](const char* what) { return Status::error("%s: %s", what, lsnifGetLastErrorMessage()); };
-  LsnifQueryPipelineCreateFlags flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT;
-  if (options.broad_phase == "trace-rays") flags |= LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT;
-  if (options.broad_phase == "ray-query") flags |= LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT;
+  render::BroadPhase broad_phase = render::BroadPhase::automatic;
+  if (!render::parse_broad_phase(options.broad_phase, broad_phase))
+    return Status::error("--broad-phase '%s': expected auto, trace-rays or ray-query", options.broad_phase.c_str());
+  const LsnifQueryPipelineCreateFlags flags = render::query_pipeline_flags(broad_phase);
   const auto t0 = std::chrono::steady_clock::now();
   if (st.query.create(st.plugin.get(), flags) != LSNIF_SUCCESS)
     return plugin_error("query pipeline of the batched path and lsnifCmdQuery");
-  report.broad_phase = st.query.broad_phase() == LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS
-                           ? "trace-rays"
-                           : "ray-query";
+  report.broad_phase = render::broad_phase_name(st.query.broad_phase());
   report.query_pipeline_create_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 

@@ -11,6 +11,7 @@
 #include "lsnif/apps/lsnif/commands.h"
 #include "lsnif/apps/lsnif/device_option.h"
 #include "lsnif/apps/lsnif/train_options.h"
+#include "lsnif/renderer/renderer.h"
 
 namespace lsnif::cli {
 
@@ -81,7 +82,7 @@ int parse_options(int argc, char** argv, Options& o) {
     return 2;
   }
 
-  if (o.broad_phase != "auto" && o.broad_phase != "trace-rays" && o.broad_phase != "ray-query") {
+  if (render::BroadPhase parsed; !render::parse_broad_phase(o.broad_phase, parsed)) {
     std::fprintf(stderr, "lsnif bench-trace: --broad-phase '%s': expected auto, trace-rays or ray-query\n",
                  o.broad_phase.c_str());
     return 2;
