@@ -290,4 +290,76 @@ TEST(BenchCli, UnknownSceneAndMissingData) {
   EXPECT_TRUE(has(r.out, "--width")) << r.out;
 }
 
+// The GPU check's programs: `lsnif bench --no-render` prepares models; `lsnif-gpu bench` (no training in
+// it) renders with them only through --models, after checking each key names the scene's mesh;
+// `lsnif-gpu` links none of OpenImageIO, Embree and GLFW; `lsnif-gpu check` refuses a wrong folder
+// and numbers out of range.
+TEST(BenchCli, PreparedModelsAndTheGpuProgram) {
+  if (!fs::exists(kBunny)) GTEST_SKIP() << kBunny << " missing: run scripts/setup.sh";
+  lsnif::test::ScopedTestDir dir("lsnif_bench_cli_test");
+  const fs::path models = dir.path() / "models", out = dir.path() / "out";
+  lsnif::test::CommandResult r = run_cli("bench bunny --quick --quality high --no-render --out " + models.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(has(r.out, "--no-render: nothing rendered")) << r.out;
+  EXPECT_TRUE(fs::is_regular_file(models / "bunny" / "bunny.lsnif"));
+  EXPECT_TRUE(fs::is_regular_file(models / "bunny" / "bunny.lsnif.key"));
+  EXPECT_FALSE(fs::exists(models / "results.md"));
+  EXPECT_FALSE(fs::exists(models / "bunny.inline.png"));
+
+  const std::string gpu = std::string(LSNIF_GPU_CLI) + " bench bunny --quick --quality high --pipeline wavefront --out " +
+                          out.string();
+  r = lsnif::test::run_command(gpu + " 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r.out, "--models DIR is required")) << r.out;
+  // The portable image reader reads no EXR: the data folder's environment must be .hdr (as the GPU
+  // check folder carries it), else a clear error.
+  r = lsnif::test::run_command(gpu + " --models " + models.string() + " 2>&1");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(has(r.out, "this build reads no EXR")) << r.out;
+  const fs::path data = dir.path() / "data";
+  fs::create_directories(data / "meshes");
+  fs::create_directories(data / "hdr");
+  fs::copy_file(kBunny, data / "meshes" / "bunny00.off");
+  r = lsnif::test::run_command("oiiotool " + std::string(LSNIF_DATA_DIR) + "/hdr/forest.exr --resize 64x32 -o " +
+                               (data / "hdr" / "forest.hdr").string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = lsnif::test::run_command(gpu + " --models " + models.string() + " --data " + data.string() + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(read_text(out / "bunny" / "bunny.lsnif"), read_text(models / "bunny" / "bunny.lsnif"));
+  const json results = json::parse(read_text(out / "results.json"));
+  ASSERT_EQ(results["rows"].size(), 1u) << results.dump(1);
+  const json& row = results["rows"][0];
+  EXPECT_EQ(row["scene"], "bunny");
+  EXPECT_EQ(row["pipeline"], "wavefront");
+  EXPECT_GT(row["ms_per_sample_lsnif"].get<double>(), 0.0);
+  EXPECT_GT(row["flip_mean"].get<double>(), 0.0);
+  EXPECT_LT(row["flip_mean"].get<double>(), 1.0);
+  EXPECT_TRUE(fs::is_regular_file(out / row["image"].get<std::string>()));
+  EXPECT_TRUE(has(read_text(out / "results.md"), "models prepared in " + models.string()));
+
+  // A preset that was not prepared, and a model of another mesh: named, nothing rendered.
+  r = lsnif::test::run_command(gpu + " --models " + models.string() + " --data " + data.string() + " --quality low 2>&1");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(has(r.out, "bunny.low.lsnif (or its .key) not found")) << r.out;
+  std::ofstream(models / "bunny" / "bunny.lsnif.key", std::ios::trunc) << "mesh 00000000\nsettings x\n";
+  r = lsnif::test::run_command(gpu + " --models " + models.string() + " --data " + data.string() + " 2>&1");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(has(r.out, "was trained on another mesh")) << r.out;
+  r = run_cli("bench bunny --quick --no-render --models " + models.string() + " --out " + out.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+
+  r = lsnif::test::run_command("ldd " + std::string(LSNIF_GPU_CLI));
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* lib : {"libOpenImageIO", "libembree", "libglfw", "libtbb"}) EXPECT_FALSE(has(r.out, lib)) << r.out;
+  EXPECT_TRUE(has(r.out, "liblsnif_vk")) << r.out;
+
+  r = lsnif::test::run_command(std::string(LSNIF_GPU_CLI) + " check " + out.string() + " --folder " +
+                               (dir.path() / "none").string() + " 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r.out, "--folder must name the GPU check folder")) << r.out;
+  r = lsnif::test::run_command(std::string(LSNIF_GPU_CLI) + " check " + out.string() + " --width 5 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(has(r.out, "--width 16..7680")) << r.out;
+}
+
 }  // namespace

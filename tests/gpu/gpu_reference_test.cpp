@@ -24,7 +24,9 @@
 #include "lsnif/import/mesh.h"
 #include "lsnif/core/network.h"
 #include "lsnif/core/ray_walk.h"
+#include "lsnif/testing/test_models.h"
 #include "lsnif/train/trainer.h"
+#include "lsnif_reference_comp_spirv.h"
 #include "lsnif/harness/vk_compute.h"
 #include "lsnif/testing/gpu_test_support.h"
 
@@ -33,7 +35,7 @@ namespace {
 
 using namespace gputest;
 
-const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
+const std::string kElephant = test::data_dir() + "/meshes/elephant.off";
 
 // The push constant block of lsnif_reference.comp (std430: 128 bytes).
 struct Push {
@@ -191,10 +193,10 @@ constexpr size_t kRaysPerInstance = 5000;  // x 2 instances x 2 models = 20k tra
 class GpuReference : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    vk_status_ = vk_.init(/*ray_tracing=*/false, /*validation=*/true, test::test_device());
+    vk_status_ = vk_.init(/*ray_tracing=*/false, test::test_validation(), test::test_device());
     if (vk_status_) {
       std::printf("Vulkan device: %s\n", vk_.device_name().c_str());
-      vk_status_ = vk_.create_pipeline(LSNIF_REFERENCE_SPV, sizeof(Push), pipeline_);
+      vk_status_ = vk_.create_pipeline(vk::Spirv{lsnif_reference_comp_spirv, sizeof lsnif_reference_comp_spirv}, sizeof(Push), pipeline_);
       // lavapipe compiles the shader with LLVM at the first dispatch (unless MESA_SHADER_CACHE_DIR
       // has it): an empty dispatch (ray_count 0, no memory touched) measures that alone.
       const auto t1 = std::chrono::steady_clock::now();
@@ -213,10 +215,10 @@ class GpuReference : public ::testing::Test {
       return;
     }
     const auto t0 = std::chrono::steady_clock::now();
-    train_status_ = train_model(mesh, tiny_settings(HitParam::AabbInterval), aabb_model_);
-    if (train_status_) train_status_ = train_model(mesh, tiny_settings(HitParam::VoxelSegments), segment_model_);
-    if (train_status_) train_status_ = train_model(mesh, unequal_tables_settings(), unequal_model_);
-    if (train_status_) train_status_ = train_model(mesh, indexed_level_settings(), indexed_model_);
+    train_status_ = test::tiny_model("elephant.aabb", mesh, tiny_settings(HitParam::AabbInterval), aabb_model_);
+    if (train_status_) train_status_ = test::tiny_model("elephant.segments", mesh, tiny_settings(HitParam::VoxelSegments), segment_model_);
+    if (train_status_) train_status_ = test::tiny_model("elephant.unequal_tables", mesh, unequal_tables_settings(), unequal_model_);
+    if (train_status_) train_status_ = test::tiny_model("elephant.indexed_level", mesh, indexed_level_settings(), indexed_model_);
     std::printf("trained 4 tiny models in %.2f s\n", seconds_since(t0));
   }
   static void TearDownTestSuite() { vk_.destroy_pipeline(pipeline_); }
@@ -437,6 +439,7 @@ TEST_F(GpuReference, RandomOddSizedModelMatchesCpu) {
 // The zero-message assertions above mean something only if the messenger sees errors: provoke one
 // (a buffer without usage bits, VUID-VkBufferCreateInfo-usage-requiredbitmask) and see it counted.
 TEST_F(GpuReference, ValidationMessengerCountsErrors) {
+  if (!test::test_validation()) GTEST_SKIP() << "needs the validation layer (LSNIF_TEST_VALIDATION=0)";
   const uint32_t before = vk_.validation_errors();
   VkBufferCreateInfo bci{};
   bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;

@@ -37,6 +37,7 @@
 #include "lsnif/harness/plugin_device.h"
 #include "lsnif/testing/test_plugin.h"
 #include "lsnif/testing/test_support.h"
+#include "lsnif/testing/test_models.h"
 #include "lsnif/train/trainer.h"
 #include "lsnif/harness/vk_raytracing.h"
 
@@ -50,8 +51,8 @@ using namespace gputest;
 #include "rt_conformance_rmiss_spirv.h"
 #include "rt_mixed_triangle_rchit_spirv.h"
 
-const std::string kMeshA = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
-const std::string kMeshB = std::string(LSNIF_DATA_DIR) + "/meshes/bunny00.off";
+const std::string kMeshA = test::data_dir() + "/meshes/elephant.off";
+const std::string kMeshB = test::data_dir() + "/meshes/bunny00.off";
 constexpr uint32_t kModeClosest = 0, kModeShadow = 1;  // RT_MODE_* of rt_conformance_common.glsl
 
 std::string last_error() { return lsnifGetLastErrorMessage(); }
@@ -142,7 +143,7 @@ class PluginQuery : public ::testing::Test {
     set_up_ = true;
     vk::ContextOptions options;
     options.ray_tracing = true;
-    options.validation = true;
+    options.validation = test::test_validation();
     options.device = test::test_device();
     status_ = vk_.init(options);  // ray queries and rayTraversalPrimitiveCulling where offered
     if (status_) status_ = tracer_.init();
@@ -161,13 +162,13 @@ class PluginQuery : public ::testing::Test {
     Mesh b;
     if (status_) status_ = load_mesh(kMeshA, mesh_);
     if (status_) status_ = load_mesh(kMeshB, b);
-    if (status_) status_ = train_model(mesh_, tiny_settings(HitParam::VoxelSegments), model_a_);
+    if (status_) status_ = test::tiny_model("elephant.segments", mesh_, tiny_settings(HitParam::VoxelSegments), model_a_);
     // Model b's levels have hash tables of different sizes (2^10 and 2^14 entries): the batched path
     // and the intersection shader decode the per-level layout as the CPU reference does.
     TrainSettings unequal_tables = tiny_settings(HitParam::VoxelSegments);
     const uint32_t table_log2[2] = {10, 14};
     set_table_log2(unequal_tables.config, table_log2, 2);
-    if (status_) status_ = train_model(b, unequal_tables, model_b_);
+    if (status_) status_ = test::tiny_model("bunny.tables_10_14", b, unequal_tables, model_b_);
     if (status_) status_ = plugin_.init(vk_);
     if (status_) status_ = plugin_.upload(model_a_, a_);
     if (status_) status_ = plugin_.upload(model_b_, b_);

@@ -34,6 +34,7 @@
 #include "lsnif/harness/plugin_device.h"
 #include "lsnif/testing/test_plugin.h"
 #include "lsnif/testing/test_support.h"
+#include "lsnif/testing/test_models.h"
 #include "lsnif/train/trainer.h"
 #include "lsnif/harness/vk_raytracing.h"
 
@@ -48,7 +49,7 @@ using namespace gputest;
 #include "rt_conformance_rgen_spirv.h"
 #include "rt_conformance_rmiss_spirv.h"
 
-const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
+const std::string kElephant = test::data_dir() + "/meshes/elephant.off";
 
 // The push constant block of rt_conformance_common.glsl.
 using RtPush = RtConformancePush;
@@ -79,7 +80,7 @@ std::string last_error() { return lsnifGetLastErrorMessage(); }
 class PluginApi : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    vk_status_ = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::test_device());
+    vk_status_ = vk_.init(/*ray_tracing=*/true, test::test_validation(), test::test_device());
     if (vk_status_) vk_status_ = tracer_.init();
     if (vk_status_) vk_status_ = tracer_.create_pipeline(shaders(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE), sizeof(RtPush),
                                                          table_pipeline_);
@@ -89,7 +90,7 @@ class PluginApi : public ::testing::Test {
     }
     Mesh mesh;
     model_status_ = load_mesh(kElephant, mesh);
-    if (model_status_) model_status_ = train_model(mesh, tiny_settings(HitParam::VoxelSegments), model_);
+    if (model_status_) model_status_ = test::tiny_model("elephant.segments", mesh, tiny_settings(HitParam::VoxelSegments), model_);
     if (model_status_) model_status_ = save_model_to_memory(model_, bytes_);
   }
   static void TearDownTestSuite() {
@@ -825,7 +826,7 @@ TEST_F(PluginApi, BatchedQueriesFromTheSurfaceEmptyAndMissingBatchesAndErrors) {
 // leaked object at vkDestroyDevice (own device: the suite's must stay alive for the other tests).
 TEST(PluginLeaks, AllocatorBalancedAndNothingLeaked) {
   vk::ComputeContext vk;
-  Status s = vk.init(/*ray_tracing=*/true, /*validation=*/true, test::test_device());
+  Status s = vk.init(/*ray_tracing=*/true, test::test_validation(), test::test_device());
   ASSERT_TRUE(s) << s.message();
   struct Counts {
     std::atomic<int> live{0}, total{0};
@@ -849,7 +850,7 @@ TEST(PluginLeaks, AllocatorBalancedAndNothingLeaked) {
   Model model;
   TrainSettings settings = tiny_settings(HitParam::VoxelSegments);
   settings.steps = 20;
-  ASSERT_TRUE(train_model(mesh, settings, model));
+  ASSERT_TRUE(test::tiny_model("elephant.segments_20_steps", mesh, settings, model));
   std::vector<uint8_t> bytes;
   ASSERT_TRUE(save_model_to_memory(model, bytes));
   {
@@ -876,8 +877,9 @@ TEST(PluginLeaks, AllocatorBalancedAndNothingLeaked) {
 
 // Negative control for the leak check above: an object left alive is reported at vkDestroyDevice.
 TEST(PluginLeaks, ValidationReportsALeakAtDeviceDestruction) {
+  if (!test::test_validation()) GTEST_SKIP() << "needs the validation layer (LSNIF_TEST_VALIDATION=0)";
   vk::ComputeContext vk;
-  Status s = vk.init(/*ray_tracing=*/true, /*validation=*/true, test::test_device());
+  Status s = vk.init(/*ray_tracing=*/true, test::test_validation(), test::test_device());
   ASSERT_TRUE(s) << s.message();
   VkBufferCreateInfo bci{};
   bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;

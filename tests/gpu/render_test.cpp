@@ -24,6 +24,7 @@
 #include "lsnif/import/mesh.h"
 #include "lsnif/core/model.h"
 #include "lsnif/renderer/renderer.h"
+#include "lsnif/testing/test_models.h"
 #include "lsnif/train/trainer.h"
 
 namespace lsnif {
@@ -31,7 +32,7 @@ namespace {
 
 using namespace gputest;
 
-const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
+const std::string kElephant = test::data_dir() + "/meshes/elephant.off";
 
 // Mean over pixels of the absolute difference (all channels) and the mean of `a`.
 double mean_abs_diff(const image::Image& a, const image::Image& b) {
@@ -60,6 +61,7 @@ class RenderTest : public ::testing::Test {
   static void SetUpTestSuite() {
     vk::ContextOptions options;
     options.ray_tracing = true;
+    options.validation = test::test_validation();
     options.device = test::test_device();
     vk_status_ = vk_.init(options);
     if (!vk_status_) return;
@@ -74,7 +76,7 @@ class RenderTest : public ::testing::Test {
     TrainSettings settings = tiny_settings(HitParam::VoxelSegments);
     settings.steps = 600;
     Model model;
-    train_status_ = train_model(mesh, settings, model);
+    train_status_ = test::tiny_model("elephant.render", mesh, settings, model);
     if (!train_status_) return;
     model_path_ = (std::filesystem::temp_directory_path() / "lsnif_render_test_elephant.lsnif").string();
     train_status_ = save_model(model, model_path_);

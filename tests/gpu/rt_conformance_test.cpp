@@ -1,12 +1,12 @@
 // LSNIF objects as procedural AABB geometry traced by a real Vulkan ray-tracing pipeline
 // (src/lsnif/shaders/lsnif.rint + tests/gpu/rt_conformance.{rgen,rmiss,rchit}, lavapipe on machines without
 // a GPU) against the CPU reference intersector (src/lsnif/core/intersector.cpp), ray by ray: tiny models of
-// both hit parametrizations trained in-process as in gpu_reference_test, one instance (identity,
+// both hit parametrizations (test_models.h) as in gpu_reference_test, one instance (identity,
 // then rotated / non-uniformly scaled / translated), two instances of one model in one TLAS (the
 // closer one must be reported, with its instance id), and shadow rays (TerminateOnFirstHit |
 // SkipClosestHitShader) whose visibility must match; and a mixed TLAS (an LSNIF instance beside a
 // triangle BLAS of the elephant mesh, a triangle hit group at SBT offset 1) whose closest hits and
-// shadow visibility must match the closer of the CPU reference and Embree. The validation layer must
+// shadow visibility must match the closer of the CPU reference and a brute-force triangle test. The validation layer must
 // report nothing.
 #include <gtest/gtest.h>
 
@@ -21,11 +21,11 @@
 #include <random>
 #include <vector>
 
-#include "lsnif/train/ground_truth.h"
 #include "lsnif/core/intersector.h"
 #include "lsnif/import/mesh.h"
 #include "lsnif/core/ray_walk.h"
 #include "lsnif/testing/test_support.h"
+#include "lsnif/testing/test_models.h"
 #include "lsnif/train/trainer.h"
 #include "lsnif/harness/plugin_device.h"
 #include "lsnif/harness/vk_raytracing.h"
@@ -37,7 +37,7 @@ namespace {
 
 using namespace gputest;
 
-const std::string kElephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
+const std::string kElephant = test::data_dir() + "/meshes/elephant.off";
 // The test's shaders (rt_conformance.*, rt_mixed_triangle.rchit), compiled at build time.
 #include "rt_conformance_rchit_spirv.h"
 #include "rt_conformance_rgen_spirv.h"
@@ -219,7 +219,7 @@ class RtConformance : public ::testing::Test {
   static constexpr uint32_t kAabbIndex = 0, kSegmentIndex = 1, kEightBitIndex = 2, kModels = 3;
 
   static void SetUpTestSuite() {
-    vk_status_ = vk_.init(/*ray_tracing=*/true, /*validation=*/true, test::test_device());
+    vk_status_ = vk_.init(/*ray_tracing=*/true, test::test_validation(), test::test_device());
     if (vk_status_) vk_status_ = tracer_.init();
     if (vk_status_) {
       std::printf("Vulkan device: %s (shaderGroupHandleSize %u, shaderGroupBaseAlignment %u, "
@@ -246,8 +246,8 @@ class RtConformance : public ::testing::Test {
       return;
     }
     const auto t0 = std::chrono::steady_clock::now();
-    train_status_ = train_model(mesh, tiny_settings(HitParam::AabbInterval), models_[kAabbIndex]);
-    if (train_status_) train_status_ = train_model(mesh, tiny_settings(HitParam::VoxelSegments), models_[kSegmentIndex]);
+    train_status_ = test::tiny_model("elephant.aabb", mesh, tiny_settings(HitParam::AabbInterval), models_[kAabbIndex]);
+    if (train_status_) train_status_ = test::tiny_model("elephant.segments", mesh, tiny_settings(HitParam::VoxelSegments), models_[kSegmentIndex]);
     std::printf("trained 2 tiny models in %.2f s\n", seconds_since(t0));
     models_[kEightBitIndex] = models_[kSegmentIndex];
     models_[kEightBitIndex].config.grid_bits = 8;
@@ -621,8 +621,8 @@ TEST_F(RtConformance, RaysLeavingTheSurfaceFollowTheRule) {
 // A mixed TLAS: the voxel-segments model as an identity LSNIF instance (custom index 1, hit group 0)
 // beside a triangle instance of the elephant mesh (rotated 90 degrees about y, scaled 0.8, shifted
 // by 55% of the model's x extent so the boxes overlap; custom index kTriangleIndex, hit group 1).
-// Truth per ray: the closer of lsnif::intersect and Embree (lsnif::GroundTruth on the mesh moved to
-// world space). Rays from every direction around the pair and from inside their boxes.
+// Truth per ray: the closer of lsnif::intersect and the closest triangle of the mesh moved to world
+// space, every triangle tested (closest_triangle_hit). Rays from every direction around the pair and from inside their boxes.
 constexpr uint32_t kTriangleIndex = 5;
 
 struct MixedComparison {
@@ -632,7 +632,7 @@ struct MixedComparison {
   double lsnif_t_err_max = 0, lsnif_normal_deg_max = 0, triangle_t_err_max = 0;
 };
 
-TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
+TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndBruteForce) {
   const Model& model = models_[kSegmentIndex];
   const Aabb& b = model.bounds();
   const glm::vec3 ext = b.extent();
@@ -642,8 +642,6 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
   const glm::vec3 T = b.center() + glm::vec3(0.55f * ext.x, 0, 0) - M * mesh_.bounds().center();
   Mesh world_mesh = mesh_;
   for (glm::vec3& p : world_mesh.positions) p = M * p + T;
-  GroundTruth truth;
-  ASSERT_TRUE(truth.build(world_mesh));
 
   std::vector<float> positions;
   std::vector<uint32_t> indices;
@@ -723,7 +721,7 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
     c.rays = kMixedRays;
     for (size_t i = 0; i < kMixedRays; ++i) {
       const LsnifHit& l = lsnif_hits[i];
-      const ReferenceHit e = truth.trace(world[i]);
+      const TriangleHit e = closest_triangle_hit(world_mesh, world[i]);
       const LsnifReferenceHit& g = gpu[i];
       const bool cpu_hit = l.hit || e.hit;
       const bool lsnif_first = l.hit && (!e.hit || l.t < e.t);
@@ -787,6 +785,7 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndEmbree) {
 
 // The zero-message assertions mean something only if this device's messenger counts errors.
 TEST_F(RtConformance, ValidationMessengerCountsErrors) {
+  if (!test::test_validation()) GTEST_SKIP() << "needs the validation layer (LSNIF_TEST_VALIDATION=0)";
   const uint32_t before = vk_.validation_errors();
   VkBufferCreateInfo bci{};
   bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;

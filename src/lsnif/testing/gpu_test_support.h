@@ -1,6 +1,7 @@
 // gpu_test_support.h -- what the GPU tests (gpu_reference_test, rt_conformance_test) share: tiny
-// training settings, instances (A, A^-1 as src/lsnif/core/intersector.cpp computes it, T) and the generator
-// of world-space test rays of four kinds. Header-only; include inside no namespace.
+// training settings, instances (A, A^-1 as src/lsnif/core/intersector.cpp computes it, T), the generator
+// of world-space test rays of four kinds and the brute-force truth of triangle hits. Header-only;
+// include inside no namespace.
 #pragma once
 #include <chrono>
 #include <cmath>
@@ -11,6 +12,7 @@
 
 #include "lsnif/core/intersector.h"
 #include "lsnif/core/model.h"
+#include "lsnif/import/mesh.h"
 #include "lsnif/testing/test_support.h"
 #include "lsnif/train/trainer.h"
 
@@ -110,6 +112,42 @@ inline void make_world_rays(const Model& model, const Instance& in, size_t count
     rays.push_back(w);
     kinds.push_back(kind);
   }
+}
+
+// The closest triangle of `mesh` that `ray` hits with t in [tmin, tmax]: every triangle tested in
+// double precision (Moller-Trumbore, both facings), the independent truth of the triangle hits of
+// the mixed-TLAS tests.
+struct TriangleHit {
+  bool hit = false;
+  float t = 0.0f;
+  uint32_t triangle = 0;
+};
+inline TriangleHit closest_triangle_hit(const Mesh& mesh, const Ray& ray) {
+  const glm::dvec3 o(ray.origin), d(ray.direction);
+  TriangleHit best;
+  double best_t = double(ray.tmax);
+  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const glm::uvec3& tri = mesh.triangles[i];
+    const glm::dvec3 p0(mesh.positions[tri.x]), e1 = glm::dvec3(mesh.positions[tri.y]) - p0,
+        e2 = glm::dvec3(mesh.positions[tri.z]) - p0;
+    const glm::dvec3 pv = glm::cross(d, e2);
+    const double det = glm::dot(e1, pv);
+    if (det == 0.0) continue;
+    const double inv = 1.0 / det;
+    const glm::dvec3 tv = o - p0;
+    const double u = glm::dot(tv, pv) * inv;
+    if (u < 0.0 || u > 1.0) continue;
+    const glm::dvec3 qv = glm::cross(tv, e1);
+    const double v = glm::dot(d, qv) * inv;
+    if (v < 0.0 || u + v > 1.0) continue;
+    const double t = glm::dot(e2, qv) * inv;
+    if (t < double(ray.tmin) || t > best_t) continue;
+    best_t = t;
+    best.hit = true;
+    best.t = float(t);
+    best.triangle = uint32_t(i);
+  }
+  return best;
 }
 
 }  // namespace lsnif::gputest

@@ -32,6 +32,15 @@
 
 namespace lsnif::test {
 
+#ifdef LSNIF_DATA_DIR
+// The folder of the test meshes: the environment variable LSNIF_TEST_DATA (the GPU check folder sets
+// it to the meshes it carries), else the build's LSNIF_DATA_DIR (scripts/setup.sh fetched them there).
+inline std::string data_dir() {
+  const char* chosen = std::getenv("LSNIF_TEST_DATA");
+  return chosen && *chosen ? chosen : LSNIF_DATA_DIR;
+}
+#endif
+
 // The device selector (vk::ContextOptions::device, `lsnif ... --device`) of the GPU tests: the
 // environment variable LSNIF_TEST_DEVICE (a part of a device name or an index in `lsnif devices`
 // order, device_choice.h), else lavapipe ("llvmpipe"), their reference platform, also on a machine
@@ -40,6 +49,15 @@ namespace lsnif::test {
 inline std::string test_device() {
   const char* chosen = std::getenv("LSNIF_TEST_DEVICE");
   return chosen && *chosen ? chosen : "llvmpipe";
+}
+
+// Whether the GPU tests run with the Khronos validation layer (and fail on anything it reports): yes
+// unless the environment variable LSNIF_TEST_VALIDATION is "0" (the GPU check folder, which does not
+// carry the layer, says so in its report). Tests that provoke a message to see it counted skip
+// themselves without it.
+inline bool test_validation() {
+  const char* v = std::getenv("LSNIF_TEST_VALIDATION");
+  return !(v && std::string(v) == "0");
 }
 
 // True when LSNIF_TEST_DEVICE is unset or empty: the tests run on lavapipe, where CI runs them.

@@ -174,4 +174,13 @@ int Args::parse(int argc, char** argv) {
   return 0;
 }
 
+void add_import_flags(Args& args, MeshImportOptions* options, bool meshes) {
+  args.flag("allow-outside-refs",
+            "let files the input refers to (buffers, images, mtllib, models, HDR) lie outside its folder",
+            &options->allow_outside_refs);
+  if (meshes)
+    args.flag("allow-dropped-triangles", "import a mesh even when most of its triangles are degenerate or invalid",
+              &options->allow_dropping_most);
+}
+
 }  // namespace lsnif::cli

@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "lsnif/import/mesh.h"
+
 namespace lsnif::cli {
 
 class Args {
@@ -58,5 +60,9 @@ class Args {
 bool parse_u32(const std::string& text, uint32_t& out);
 bool parse_u64(const std::string& text, uint64_t& out);
 bool parse_f32(const std::string& text, float& out);
+
+// Registers --allow-outside-refs (and, with `meshes`, --allow-dropped-triangles) into `options`:
+// the import policy flags of every command that reads a mesh or a scene.
+void add_import_flags(Args& args, MeshImportOptions* options, bool meshes = true);
 
 }  // namespace lsnif::cli

@@ -34,7 +34,16 @@ const Source kArmadillo{"armadillo.off", {0.55f, 0.58f, 0.80f}, 0.5f, 0.0f};
 const Source kElephant{"elephant.off", {0.35f, 0.60f, 0.22f}, 0.6f, -90.0f};
 
 std::string mesh_path(const std::string& data_dir, const char* file) { return data_dir + "/meshes/" + file; }
-std::string hdr_path(const std::string& data_dir, const char* file) { return data_dir + "/hdr/" + file; }
+// DATA/hdr/FILE; where that EXR is absent but the same image as Radiance HDR (.hdr) is there, that
+// one: the GPU check folder carries its environments as .hdr, which its portable image reader reads.
+std::string hdr_path(const std::string& data_dir, const char* file) {
+  const std::string exr = data_dir + "/hdr/" + file;
+  if (exr.size() > 4 && exr.compare(exr.size() - 4, 4, ".exr") == 0 && !fs::exists(exr)) {
+    const std::string hdr = exr.substr(0, exr.size() - 4) + ".hdr";
+    if (fs::exists(hdr)) return hdr;
+  }
+  return exr;
+}
 
 const char* scene_hdr(const std::string& name) {
   if (name == "bunny") return "forest.exr";

@@ -24,7 +24,45 @@ struct DeviceReport {
   LsnifDeviceSupport support{};  // the plugin's answer
   vk::DeviceInfo info;           // what the harness's choice looks at; lsnif_missing: the plugin's items
   std::string type, driver, driver_info;
+  // VK_NV_cooperative_matrix's shapes and types (vkGetPhysicalDeviceCooperativeMatrixPropertiesNV),
+  // "MxNxK A B C D scope" each, where the device offers the extension.
+  std::vector<std::string> nv_matrix_shapes;
 };
+
+const char* component_type_name(VkComponentTypeNV t) {
+  switch (t) {
+    case VK_COMPONENT_TYPE_FLOAT16_NV: return "fp16";
+    case VK_COMPONENT_TYPE_FLOAT32_NV: return "fp32";
+    case VK_COMPONENT_TYPE_FLOAT64_NV: return "fp64";
+    case VK_COMPONENT_TYPE_SINT8_NV: return "s8";
+    case VK_COMPONENT_TYPE_SINT16_NV: return "s16";
+    case VK_COMPONENT_TYPE_SINT32_NV: return "s32";
+    case VK_COMPONENT_TYPE_SINT64_NV: return "s64";
+    case VK_COMPONENT_TYPE_UINT8_NV: return "u8";
+    case VK_COMPONENT_TYPE_UINT16_NV: return "u16";
+    case VK_COMPONENT_TYPE_UINT32_NV: return "u32";
+    case VK_COMPONENT_TYPE_UINT64_NV: return "u64";
+    default: return "other";
+  }
+}
+
+// The device's VK_NV_cooperative_matrix shapes as "16x8x16 A fp16 B fp16 C fp32 D fp32 subgroup".
+std::vector<std::string> nv_matrix_shapes(VkPhysicalDevice physical) {
+  std::vector<std::string> shapes;
+  if (!vkGetPhysicalDeviceCooperativeMatrixPropertiesNV) return shapes;
+  uint32_t n = 0;
+  if (vkGetPhysicalDeviceCooperativeMatrixPropertiesNV(physical, &n, nullptr) != VK_SUCCESS || n == 0) return shapes;
+  std::vector<VkCooperativeMatrixPropertiesNV> props(n);
+  for (VkCooperativeMatrixPropertiesNV& p : props) p.sType = VK_STRUCTURE_TYPE_COOPERATIVE_MATRIX_PROPERTIES_NV;
+  if (vkGetPhysicalDeviceCooperativeMatrixPropertiesNV(physical, &n, props.data()) != VK_SUCCESS) return shapes;
+  for (uint32_t i = 0; i < n; ++i) {
+    const VkCooperativeMatrixPropertiesNV& p = props[i];
+    shapes.push_back(format("%ux%ux%u A %s B %s C %s D %s %s", p.MSize, p.NSize, p.KSize, component_type_name(p.AType),
+                            component_type_name(p.BType), component_type_name(p.CType), component_type_name(p.DType),
+                            p.scope == VK_SCOPE_SUBGROUP_NV ? "subgroup" : "other scope"));
+  }
+  return shapes;
+}
 
 std::string api_version_string(uint32_t v) {
   return format("%u.%u.%u", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v), VK_API_VERSION_PATCH(v));
@@ -33,6 +71,7 @@ std::string api_version_string(uint32_t v) {
 Status report(VkInstance instance, VkPhysicalDevice physical, DeviceReport& r) {
   if (Status s = vk::query_device_info(instance, physical, r.info, &r.support); !s) return s;
   r.type = vk::device_type_name(r.info.type);
+  if (r.support.cooperativeMatrixNV) r.nv_matrix_shapes = nv_matrix_shapes(physical);
   VkPhysicalDeviceProperties props;
   vkGetPhysicalDeviceProperties(physical, &props);
   if (VK_API_VERSION_MAJOR(props.apiVersion) > 1 || VK_API_VERSION_MINOR(props.apiVersion) >= 2) {
@@ -156,6 +195,7 @@ int cmd_devices(int argc, char** argv) {
                          {"query_broad_phase", broad_phase(s)},
                          {"mlp_kernel", s.supported ? "portable" : "none"},
                          {"nv_cooperative_matrix", bool(s.cooperativeMatrixNV)},
+                         {"nv_cooperative_matrix_shapes", r.nv_matrix_shapes},
                          {"khr_cooperative_matrix", bool(s.cooperativeMatrixKHR)},
                          {"nv_cooperative_vector", bool(s.cooperativeVectorNV)},
                          {"selected", selected(i)}});
@@ -181,6 +221,7 @@ int cmd_devices(int argc, char** argv) {
     std::printf("  query broad phase       %s (lsnifCmdQuery, automatic choice)\n", broad_phase(s));
     std::printf("  batched MLP kernel      %s\n", s.supported ? "portable (GLSL, fp32)" : "none");
     std::printf("  NV cooperative matrix   %s\n", yes_no(s.cooperativeMatrixNV));
+    for (const std::string& shape : r.nv_matrix_shapes) std::printf("                          %s\n", shape.c_str());
     std::printf("  KHR cooperative matrix  %s\n", yes_no(s.cooperativeMatrixKHR));
     std::printf("  NV cooperative vector   %s\n", yes_no(s.cooperativeVectorNV));
   }

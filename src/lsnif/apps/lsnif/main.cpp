@@ -1,16 +1,10 @@
 // lsnif -- command-line front end of the LSNIF library.
-#include <cstdio>
-#include <cstring>
-#include <string>
+#include <iterator>
 
 #include "lsnif/apps/lsnif/commands.h"
 
 namespace {
-struct Command {
-  const char* name;
-  int (*run)(int, char**);
-  const char* summary;
-};
+using lsnif::cli::Command;
 const Command kCommands[] = {
     {"demo", lsnif::cli::cmd_demo, "train a model of the bundled bunny and print its evaluation"},
     {"train", lsnif::cli::cmd_train, "train an LSNIF model of a mesh (.off .obj .ply .gltf .glb)"},
@@ -26,25 +20,9 @@ const Command kCommands[] = {
     {"convert", lsnif::cli::cmd_convert, "train LSNIF models for a glTF scene's heavy objects and write the converted scene"},
     {"bench", lsnif::cli::cmd_bench, "the paper's Table 1 on the bundled scenes: memory, time and FLIP of LSNIF vs triangles"},
 };
-
-void usage(FILE* out) {
-  std::fprintf(out, "usage: lsnif COMMAND [arguments] [--help]\n\nLSNIF: neural intersection functions for ray tracing.\n\ncommands:\n");
-  for (const Command& c : kCommands) std::fprintf(out, "  %-12s %s\n", c.name, c.summary);
-}
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    usage(stderr);
-    return 2;
-  }
-  if (!std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "help")) {
-    usage(stdout);
-    return 0;
-  }
-  for (const Command& c : kCommands)
-    if (!std::strcmp(argv[1], c.name)) return c.run(argc - 2, argv + 2);
-  std::fprintf(stderr, "lsnif: unknown command '%s'\n", argv[1]);
-  usage(stderr);
-  return 2;
+  return lsnif::cli::dispatch(argc, argv, "lsnif", "LSNIF: neural intersection functions for ray tracing.", kCommands,
+                              std::size(kCommands));
 }

@@ -124,15 +124,6 @@ void TrainOptions::add_to(Args& args, const char* output_help) {
   add_import_flags(args, &import_options);
 }
 
-void add_import_flags(Args& args, MeshImportOptions* options, bool meshes) {
-  args.flag("allow-outside-refs",
-            "let files the input refers to (buffers, images, mtllib, models, HDR) lie outside its folder",
-            &options->allow_outside_refs);
-  if (meshes)
-    args.flag("allow-dropped-triangles", "import a mesh even when most of its triangles are degenerate or invalid",
-              &options->allow_dropping_most);
-}
-
 bool TrainOptions::to_settings(TrainSettings& s) const {
   SettingLayer command_line = given;
   for (const auto& [option, choice] : presets) {

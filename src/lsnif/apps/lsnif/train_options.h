@@ -41,10 +41,6 @@ struct TrainOptions {
 // not a number of the setting's kind (a choice's name and every range are checked when resolved).
 bool set_setting_text(SettingLayer& layer, const SettingDef& d, const std::string& text);
 
-// Registers --allow-outside-refs (and, with `meshes`, --allow-dropped-triangles) into `options`:
-// the import policy flags of every command that reads a mesh or a scene.
-void add_import_flags(Args& args, MeshImportOptions* options, bool meshes = true);
-
 // Loads the mesh, trains, writes the model (+ CSV) and prints a summary. Returns the exit code.
 // The outputs are checked before any work: writable, not a link or device, not the mesh itself.
 int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* trained);

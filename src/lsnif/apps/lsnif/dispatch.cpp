@@ -1,0 +1,34 @@
+// dispatch.cpp -- the main of the lsnif programs (commands.h dispatch).
+#include <cstdio>
+#include <cstring>
+
+#include "lsnif/apps/lsnif/commands.h"
+
+namespace lsnif::cli {
+
+namespace {
+
+void usage(FILE* out, const char* program, const char* about, const Command* commands, size_t count) {
+  std::fprintf(out, "usage: %s COMMAND [arguments] [--help]\n\n%s\n\ncommands:\n", program, about);
+  for (size_t i = 0; i < count; ++i) std::fprintf(out, "  %-12s %s\n", commands[i].name, commands[i].summary);
+}
+
+}  // namespace
+
+int dispatch(int argc, char** argv, const char* program, const char* about, const Command* commands, size_t count) {
+  if (argc < 2) {
+    usage(stderr, program, about, commands, count);
+    return 2;
+  }
+  if (!std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "help")) {
+    usage(stdout, program, about, commands, count);
+    return 0;
+  }
+  for (size_t i = 0; i < count; ++i)
+    if (!std::strcmp(argv[1], commands[i].name)) return commands[i].run(argc - 2, argv + 2);
+  std::fprintf(stderr, "%s: unknown command '%s'\n", program, argv[1]);
+  usage(stderr, program, about, commands, count);
+  return 2;
+}
+
+}  // namespace lsnif::cli
