@@ -137,6 +137,10 @@ typedef struct LsnifDeviceSupport {
   /* VkPhysicalDeviceRayTracingPipelineFeaturesKHR::rayTraversalPrimitiveCulling (lsnifCmdQuery's
    * ray-tracing broad phase). */
   VkBool32 rayTraversalPrimitiveCulling;
+  /* The batched MLP on cooperative matrices (LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV)
+   * could run: VK_NV_cooperative_matrix with cooperativeMatrix, shaderFloat16, a 16x8x16 fp16 x fp16 +
+   * fp32 subgroup shape, subgroup size 32 or 64, 48 KiB of compute shared memory. */
+  VkBool32 cooperativeMatrixMlpNV;
 } LsnifDeviceSupport;
 
 /* Fills *pSupport for physicalDevice of instance (functions loaded through
@@ -322,6 +326,14 @@ typedef enum LsnifQueryPipelineCreateFlagBits {
   LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT = 0x00000002,
   /* With LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT: force the ray-tracing broad phase. */
   LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT = 0x00000004,
+  /* The MLP stage (of lsnifCmdIntersectModelRays and lsnifCmdQuery) on VK_NV_cooperative_matrix:
+   * fp16 activations and weights, fp32 accumulation, 64 batch slots per workgroup; models with an
+   * input or hidden width over 128 or more than 32 outputs run the portable kernel in the same
+   * stage. UNVERIFIED: it has not run on a GPU yet (docs/batched-queries.md); off unless asked
+   * for. Needs what LsnifDeviceSupport::cooperativeMatrixMlpNV reports, with the features
+   * cooperativeMatrix and shaderFloat16 enabled on the device; else LSNIF_ERROR_DEVICE_UNSUPPORTED
+   * naming what is missing. */
+  LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV = 0x00000008,
   LSNIF_QUERY_PIPELINE_CREATE_FLAG_BITS_MAX_ENUM = 0x7FFFFFFF
 } LsnifQueryPipelineCreateFlagBits;
 typedef VkFlags LsnifQueryPipelineCreateFlags;

@@ -1102,9 +1102,9 @@ TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
   EXPECT_NE(last_error().find("without feature rayTraversalPrimitiveCulling enabled"), std::string::npos)
       << last_error();
   EXPECT_EQ(p, nullptr);
-  chained.flags = 0x8;
+  chained.flags = 0x10;
   EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
-  EXPECT_NE(last_error().find("unknown flags 0x8"), std::string::npos) << last_error();
+  EXPECT_NE(last_error().find("unknown flags 0x10"), std::string::npos) << last_error();
   chained.flags = LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT | LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT |
                   LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT;
   EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);

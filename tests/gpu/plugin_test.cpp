@@ -701,6 +701,66 @@ TEST_F(PluginApi, BatchedQueriesMatchTheIntersectionShaderAndTheCpu) {
   lsnifDestroyQueryPipeline(plugin.context(), pipeline);
 }
 
+// The cooperative-matrix MLP kernel (LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV,
+// lsnif_mlp_coopmat.glsl) against the portable kernel on the same rays and model: the same walk,
+// encoding, heads and acceptance, the network with fp16 activations instead of fp32, so hit/miss
+// agrees but for rays whose occlusion is near the threshold, t to ~1e-3 of the diagonal and normals
+// to a degree. A device without what the kernel needs must refuse the pipeline naming it; the
+// comparison is then skipped naming it (lavapipe has no cooperative matrices, so until a GPU runs
+// this test the kernel is unverified).
+TEST_F(PluginApi, CooperativeMatrixMlpMatchesThePortableKernel) {
+  TestPlugin plugin;
+  ASSERT_TRUE(plugin.init(vk_));
+  LsnifModel m = nullptr;
+  ASSERT_TRUE(plugin.upload(model_, m));
+  LsnifQueryPipelineFlagsCreateInfo chained{};
+  chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
+  chained.flags = LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV;
+  LsnifQueryPipelineCreateInfo pi{};
+  pi.pNext = &chained;
+  LsnifQueryPipeline coopmat = nullptr;
+  const LsnifResult created = lsnifCreateQueryPipeline(plugin.context(), &pi, &coopmat);
+  if (!vk_.coopmat_mlp()) {
+    EXPECT_EQ(created, LSNIF_ERROR_DEVICE_UNSUPPORTED);
+    EXPECT_NE(last_error().find("LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV"), std::string::npos)
+        << last_error();
+    EXPECT_NE(last_error().find("VK_NV_cooperative_matrix"), std::string::npos) << last_error();
+    EXPECT_EQ(coopmat, nullptr);
+    GTEST_SKIP() << "device '" << vk_.device_name()
+                 << "' lacks the cooperative-matrix MLP kernel's needs (extension VK_NV_cooperative_matrix, "
+                    "a 16x8x16 fp16 x fp16 + fp32 shape, shaderFloat16): " << last_error();
+  }
+  ASSERT_EQ(created, LSNIF_SUCCESS) << last_error();
+  LsnifQueryPipeline portable = nullptr;
+  ASSERT_EQ(lsnifCreateQueryPipeline(plugin.context(), nullptr, &portable), LSNIF_SUCCESS) << last_error();
+  const std::vector<Ray> rays = rays_at(Transform3x4(), kRays, 23);
+  const std::vector<LsnifQueryHit> a = intersect_batched(plugin, portable, m, rays);
+  const std::vector<LsnifQueryHit> b = intersect_batched(plugin, coopmat, m, rays);
+  ASSERT_EQ(a.size(), rays.size());
+  ASSERT_EQ(b.size(), rays.size());
+  const double diag = double(model_.bounds().diagonal());
+  size_t same = 0, both = 0;
+  double max_dt = 0.0, max_angle = 0.0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    EXPECT_EQ(a[i].points, b[i].points) << "ray " << i;
+    same += a[i].kind == b[i].kind;
+    if (a[i].kind != LSNIF_QUERY_HIT_LSNIF || b[i].kind != LSNIF_QUERY_HIT_LSNIF) continue;
+    ++both;
+    max_dt = std::max(max_dt, std::fabs(double(a[i].t - b[i].t)) * double(glm::length(rays[i].direction)) / diag);
+    const glm::vec3 na(a[i].normal_x, a[i].normal_y, a[i].normal_z), nb(b[i].normal_x, b[i].normal_y, b[i].normal_z);
+    max_angle = std::max(max_angle, double(std::acos(std::clamp(glm::dot(na, nb), -1.0f, 1.0f))) * 180.0 / M_PI);
+  }
+  std::printf("[cooperative-matrix MLP] %zu rays, hit/miss agreement %.4f%%, %zu hits compared, max |dt| / diagonal "
+              "%.2e, max normal angle %.3f deg\n", rays.size(), 100.0 * double(same) / double(rays.size()), both,
+              max_dt, max_angle);
+  EXPECT_GE(double(same), 0.995 * double(rays.size())) << "hit/miss vs the portable kernel";
+  EXPECT_GT(both, rays.size() / 20) << "too few hits to tell anything";
+  EXPECT_LE(max_dt, 2e-3) << "largest |t difference| / diagonal vs the portable kernel";
+  EXPECT_LE(max_angle, 2.0) << "largest normal difference (degrees) vs the portable kernel";
+  lsnifDestroyQueryPipeline(plugin.context(), portable);
+  lsnifDestroyQueryPipeline(plugin.context(), coopmat);
+}
+
 // Rays that start on the LSNIF surface, spawned with the self-intersection rule (origin at the
 // predicted hit point, back-face culling, tmin = leaving_tmin): the batched path answers them as
 // the CPU reference does. Also an empty batch (records nothing), a batch in which no ray reaches

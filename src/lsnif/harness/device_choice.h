@@ -42,6 +42,9 @@ struct DeviceInfo {
   bool ray_query = false;  // LsnifDeviceSupport::rayQuery: VK_KHR_ray_query with feature rayQuery
   // LsnifDeviceSupport::rayTraversalPrimitiveCulling (lsnifCmdQuery's ray-tracing broad phase)
   bool primitive_culling = false;
+  // LsnifDeviceSupport::cooperativeMatrixMlpNV: the cooperative-matrix MLP kernel could run (the
+  // harness then enables VK_NV_cooperative_matrix, cooperativeMatrix and shaderFloat16)
+  bool coopmat_mlp = false;
   // The harness's own, beyond what LSNIF needs.
   bool compute_queue = false;         // some queue family has VK_QUEUE_COMPUTE_BIT
   uint32_t compute_queue_family = 0;  // the first such family (when compute_queue)

@@ -46,6 +46,7 @@ Status query_device_info(VkInstance instance, VkPhysicalDevice physical, DeviceI
   if (!lsnif.supported && info.lsnif_missing.empty()) info.lsnif_missing.emplace_back("LSNIF support");
   info.ray_query = lsnif.rayQuery == VK_TRUE;
   info.primitive_culling = lsnif.rayTraversalPrimitiveCulling == VK_TRUE;
+  info.coopmat_mlp = lsnif.cooperativeMatrixMlpNV == VK_TRUE;
 
   // The harness's own: VK_KHR_swapchain (a viewer's window), VK_KHR_spirv_1_4 and scalarBlockLayout
   // (enabled when offered) and a compute queue.
@@ -121,6 +122,23 @@ Status ComputeContext::init(bool ray_tracing, bool validation, const std::string
   options.device = device;
   return init(options);
 }
+
+namespace {
+
+// With `wanted`: VK_NV_cooperative_matrix into `extensions` and `cm` (cooperativeMatrix) chained after
+// `after`; returns `wanted`. (shaderFloat16, the kernel's other feature, is the caller's Vulkan 1.2 struct.)
+bool chain_coopmat_mlp(bool wanted, std::vector<const char*>& extensions, VkPhysicalDeviceCooperativeMatrixFeaturesNV& cm,
+                       VkBaseOutStructure* after) {
+  cm.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_COOPERATIVE_MATRIX_FEATURES_NV;
+  if (!wanted) return false;
+  extensions.push_back(VK_NV_COOPERATIVE_MATRIX_EXTENSION_NAME);
+  cm.cooperativeMatrix = VK_TRUE;
+  cm.pNext = after->pNext;
+  after->pNext = reinterpret_cast<VkBaseOutStructure*>(&cm);
+  return true;
+}
+
+}  // namespace
 
 Status ComputeContext::init(const ContextOptions& options) {
   const bool ray_tracing = options.ray_tracing, validation = options.validation;
@@ -227,8 +245,14 @@ Status ComputeContext::init(const ContextOptions& options) {
     rt_features.pNext = &rq_features;
   }
 
+  // Where offered, for the cooperative-matrix MLP kernel (LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV).
+  VkPhysicalDeviceCooperativeMatrixFeaturesNV cm_features{};
+  coopmat_mlp_ = chain_coopmat_mlp(ray_tracing && infos[chosen].coopmat_mlp, device_extensions, cm_features,
+                                   reinterpret_cast<VkBaseOutStructure*>(&as_features));
+
   VkPhysicalDeviceVulkan12Features e12{};
   e12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+  e12.shaderFloat16 = coopmat_mlp_ ? VK_TRUE : VK_FALSE;
   e12.pNext = ray_tracing ? &as_features : nullptr;
   e12.bufferDeviceAddress = VK_TRUE;
   // Enabled where offered: the path tracer's shaders use scalar layout.

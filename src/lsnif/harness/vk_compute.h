@@ -165,6 +165,8 @@ class ComputeContext {
   VkPhysicalDevice physical_device() const { return physical_; }
   // Whether the device was created with the scalarBlockLayout feature (enabled when offered).
   bool scalar_block_layout() const { return scalar_block_layout_; }
+  // The device was created with what the cooperative-matrix MLP kernel needs (DeviceInfo::coopmat_mlp).
+  bool coopmat_mlp() const { return coopmat_mlp_; }
 
  private:
   static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
@@ -182,6 +184,7 @@ class ComputeContext {
   std::string device_name_;
   uint32_t warnings_ = 0, errors_ = 0;
   bool scalar_block_layout_ = false;
+  bool coopmat_mlp_ = false;
 };
 
 }  // namespace lsnif::vk

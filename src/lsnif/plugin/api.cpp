@@ -207,6 +207,7 @@ LSNIF_API LsnifResult lsnifQueryDeviceSupport(VkInstance instance, VkPhysicalDev
                   out.cooperativeMatrixKHR = s.ext_khr_cooperative_matrix;
                   out.cooperativeVectorNV = s.ext_nv_cooperative_vector;
                   out.rayTraversalPrimitiveCulling = s.ray_traversal_primitive_culling;
+                  out.cooperativeMatrixMlpNV = lsnif::plugin::missing_for_coopmat_mlp(s).empty();
                   *pSupport = out;
                   return Outcome::ok();
                 }),

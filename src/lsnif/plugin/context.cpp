@@ -242,6 +242,10 @@ Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<Lsnif
   ctx->ray_query_not_enabled = info.pEnabledFeatures && !ray_query_enabled(info.pEnabledFeatures);
   ctx->primitive_culling_offered = support.ray_traversal_primitive_culling;
   ctx->primitive_culling_not_enabled = info.pEnabledFeatures && !primitive_culling_enabled(info.pEnabledFeatures);
+  ctx->coopmat_mlp_missing = missing_for_coopmat_mlp(support);
+  if (info.pEnabledFeatures && ctx->coopmat_mlp_missing.empty())
+    for (const std::string& f : coopmat_mlp_features_not_enabled(info.pEnabledFeatures))
+      ctx->coopmat_mlp_missing.push_back(f + " not enabled");
   ctx->device_name = support.name;
   if (const char* missing = load_device_dispatch(ctx->vki, info.device, ctx->vk))
     return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,

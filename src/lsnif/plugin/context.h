@@ -88,6 +88,8 @@ struct LsnifQueryPipeline_T {
   } tlas;
   // NONE unless created with LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT.
   LsnifQueryBroadPhase broad_phase = LSNIF_QUERY_BROAD_PHASE_NONE;
+  // The MLP stages run lsnif_mlp_coopmat.glsl (LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV).
+  bool coopmat_mlp = false;
   // With LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS (tlas.broad stays null): its layout (push constants for
   // the ray-tracing stages), the triangle launch (a pipeline skipping AABBs), the candidate launch
   // (skipping triangles) and the shader binding tables of both.
@@ -110,6 +112,9 @@ struct LsnifContext_T {
   // when the create info had pEnabledFeatures, that chain enabled it.
   bool primitive_culling_offered = false;
   bool primitive_culling_not_enabled = false;
+  // What the cooperative-matrix MLP kernel lacks on this device (missing_for_coopmat_mlp, then the
+  // features the create info's pEnabledFeatures chain did not enable); empty when it can run.
+  std::vector<std::string> coopmat_mlp_missing;
   VkPhysicalDeviceRayTracingPipelinePropertiesKHR ray_tracing{};  // shader group handle sizes and alignments
   std::string device_name;
   bool staging_upload = false;  // blocks always go through a staging buffer (LSNIF_CONTEXT_CREATE_STAGING_UPLOAD_BIT)

@@ -24,6 +24,9 @@ struct FeatureStructs {
   VkPhysicalDeviceAccelerationStructureFeaturesKHR* acceleration_structure = nullptr;
   VkPhysicalDeviceRayTracingPipelineFeaturesKHR* ray_tracing_pipeline = nullptr;
   VkPhysicalDeviceRayQueryFeaturesKHR* ray_query = nullptr;  // lsnifCmdQuery only
+  // The cooperative-matrix MLP kernel only.
+  VkPhysicalDeviceCooperativeMatrixFeaturesNV* cooperative_matrix = nullptr;
+  VkBool32* shader_float16 = nullptr;  // Vulkan12Features or ShaderFloat16Int8Features
 };
 
 FeatureStructs find_feature_structs(const void* chain) {
@@ -42,6 +45,13 @@ FeatureStructs find_feature_structs(const void* chain) {
         break;
       case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES:
         f.buffer_device_address = &reinterpret_cast<VkPhysicalDeviceVulkan12Features*>(s)->bufferDeviceAddress;
+        f.shader_float16 = &reinterpret_cast<VkPhysicalDeviceVulkan12Features*>(s)->shaderFloat16;
+        break;
+      case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_FLOAT16_INT8_FEATURES:
+        f.shader_float16 = &reinterpret_cast<VkPhysicalDeviceShaderFloat16Int8Features*>(s)->shaderFloat16;
+        break;
+      case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_COOPERATIVE_MATRIX_FEATURES_NV:
+        f.cooperative_matrix = reinterpret_cast<VkPhysicalDeviceCooperativeMatrixFeaturesNV*>(s);
         break;
       case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES:
         f.buffer_device_address =
@@ -61,6 +71,36 @@ FeatureStructs find_feature_structs(const void* chain) {
     }
   }
   return f;
+}
+
+// The subgroup and shared-memory limits and the NV cooperative-matrix shapes (coopmat MLP kernel).
+void query_coopmat_properties(const InstanceDispatch& vk, VkPhysicalDevice physical, DeviceSupport& s) {
+  VkPhysicalDeviceProperties props;
+  vk.vkGetPhysicalDeviceProperties(physical, &props);
+  s.max_compute_shared_memory = props.limits.maxComputeSharedMemorySize;
+  if (vk.vkGetPhysicalDeviceProperties2) {
+    VkPhysicalDeviceSubgroupProperties sub{};
+    sub.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES;
+    VkPhysicalDeviceProperties2 p2{};
+    p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    p2.pNext = &sub;
+    vk.vkGetPhysicalDeviceProperties2(physical, &p2);
+    s.subgroup_size = sub.subgroupSize;
+    s.subgroup_compute_basic = (sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0 &&
+                               (sub.supportedOperations & VK_SUBGROUP_FEATURE_BASIC_BIT) != 0;
+  }
+  if (!s.ext_nv_cooperative_matrix || !vk.vkGetPhysicalDeviceCooperativeMatrixPropertiesNV) return;
+  uint32_t n = 0;
+  if (vk.vkGetPhysicalDeviceCooperativeMatrixPropertiesNV(physical, &n, nullptr) != VK_SUCCESS) return;
+  std::vector<VkCooperativeMatrixPropertiesNV> shapes(n);
+  for (VkCooperativeMatrixPropertiesNV& p : shapes) p.sType = VK_STRUCTURE_TYPE_COOPERATIVE_MATRIX_PROPERTIES_NV;
+  if (vk.vkGetPhysicalDeviceCooperativeMatrixPropertiesNV(physical, &n, shapes.data()) != VK_SUCCESS) return;
+  for (uint32_t i = 0; i < n; ++i) {
+    const VkCooperativeMatrixPropertiesNV& p = shapes[i];
+    s.nv_matrix_16x8x16 |= p.MSize == 16 && p.NSize == 8 && p.KSize == 16 && p.AType == VK_COMPONENT_TYPE_FLOAT16_NV &&
+                           p.BType == VK_COMPONENT_TYPE_FLOAT16_NV && p.CType == VK_COMPONENT_TYPE_FLOAT32_NV &&
+                           p.DType == VK_COMPONENT_TYPE_FLOAT32_NV && p.scope == VK_SCOPE_SUBGROUP_NV;
+  }
 }
 
 }  // namespace
@@ -120,7 +160,16 @@ DeviceSupport query_device_support(const InstanceDispatch& vk, VkPhysicalDevice 
     *tail = &rq;
     tail = &rq.pNext;
   }
+  VkPhysicalDeviceCooperativeMatrixFeaturesNV cm{};
+  cm.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_COOPERATIVE_MATRIX_FEATURES_NV;
+  if (s.ext_nv_cooperative_matrix) {
+    *tail = &cm;
+    tail = &cm.pNext;
+  }
   if (vk.vkGetPhysicalDeviceFeatures2) vk.vkGetPhysicalDeviceFeatures2(physical, &f2);
+  s.nv_cooperative_matrix = s.ext_nv_cooperative_matrix && cm.cooperativeMatrix == VK_TRUE;
+  s.shader_float16 = v12 && f12.shaderFloat16 == VK_TRUE;
+  query_coopmat_properties(vk, physical, s);
   s.shader_int64 = f2.features.shaderInt64 == VK_TRUE;
   s.buffer_device_address = v12 && f12.bufferDeviceAddress == VK_TRUE;
   s.acceleration_structure = s.ext_acceleration_structure && as.accelerationStructure == VK_TRUE;
@@ -143,6 +192,21 @@ std::vector<std::string> missing_for_ray_tracing(const DeviceSupport& s) {
   need(s.ray_tracing_pipeline, "feature rayTracingPipeline");
   need(s.buffer_device_address, "feature bufferDeviceAddress");
   need(s.shader_int64, "feature shaderInt64");
+  return missing;
+}
+
+std::vector<std::string> missing_for_coopmat_mlp(const DeviceSupport& s) {
+  std::vector<std::string> missing;
+  auto need = [&](bool present, const char* what) {
+    if (!present) missing.emplace_back(what);
+  };
+  need(s.ext_nv_cooperative_matrix, "extension VK_NV_cooperative_matrix");
+  need(s.nv_cooperative_matrix, "feature cooperativeMatrix");
+  need(s.shader_float16, "feature shaderFloat16");
+  need(s.nv_matrix_16x8x16, "a 16x8x16 fp16 x fp16 + fp32 subgroup shape");
+  need((s.subgroup_size == 32 || s.subgroup_size == 64) && s.subgroup_compute_basic,
+       "subgroup size 32 or 64 with basic operations in compute");
+  need(s.max_compute_shared_memory >= kCoopmatMlpSharedBytes, "49152 bytes of compute shared memory");
   return missing;
 }
 
@@ -175,6 +239,14 @@ bool ray_query_enabled(const void* chain) {
 bool primitive_culling_enabled(const void* chain) {
   const FeatureStructs f = find_feature_structs(chain);
   return f.ray_tracing_pipeline && f.ray_tracing_pipeline->rayTraversalPrimitiveCulling;
+}
+
+std::vector<std::string> coopmat_mlp_features_not_enabled(const void* chain) {
+  const FeatureStructs f = find_feature_structs(chain);
+  std::vector<std::string> missing;
+  if (!f.cooperative_matrix || !f.cooperative_matrix->cooperativeMatrix) missing.emplace_back("feature cooperativeMatrix");
+  if (!f.shader_float16 || !*f.shader_float16) missing.emplace_back("feature shaderFloat16");
+  return missing;
 }
 
 std::vector<std::string> enable_device_features(void* chain) {

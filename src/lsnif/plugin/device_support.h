@@ -36,6 +36,14 @@ struct DeviceSupport {
   // broad phase of lsnifCmdQuery)
   bool ray_traversal_primitive_culling = false;
   bool ext_nv_cooperative_matrix = false;   // VK_NV_cooperative_matrix
+  // What the cooperative-matrix MLP kernel (src/lsnif/shaders/lsnif_mlp_coopmat.glsl) needs beyond
+  // the extension: missing_for_coopmat_mlp.
+  bool nv_cooperative_matrix = false;       // VkPhysicalDeviceCooperativeMatrixFeaturesNV::cooperativeMatrix
+  bool shader_float16 = false;              // VkPhysicalDeviceVulkan12Features::shaderFloat16
+  bool nv_matrix_16x8x16 = false;  // a subgroup shape 16x8x16, A and B fp16, C and D fp32
+  uint32_t subgroup_size = 0;               // VkPhysicalDeviceSubgroupProperties
+  bool subgroup_compute_basic = false;      // basic subgroup operations in compute shaders
+  uint32_t max_compute_shared_memory = 0;   // VkPhysicalDeviceLimits::maxComputeSharedMemorySize
   bool ext_khr_cooperative_matrix = false;  // VK_KHR_cooperative_matrix
   bool ext_nv_cooperative_vector = false;   // VK_NV_cooperative_vector
 };
@@ -47,6 +55,16 @@ DeviceSupport query_device_support(const InstanceDispatch& vk, VkPhysicalDevice 
 // The pieces of the ray-tracing pipeline path that `support` lacks, in the order listed below
 // ("Vulkan 1.2", "extension VK_KHR_...", "feature ..."); empty when it has them all.
 std::vector<std::string> missing_for_ray_tracing(const DeviceSupport& support);
+
+// The shared memory of the cooperative-matrix MLP kernel's workgroup, in bytes.
+constexpr uint32_t kCoopmatMlpSharedBytes = 49152;
+
+// What the cooperative-matrix MLP kernel (LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV)
+// needs that `support` lacks, in this order: "extension VK_NV_cooperative_matrix", "feature
+// cooperativeMatrix", "feature shaderFloat16", "a 16x8x16 fp16 x fp16 + fp32 subgroup shape",
+// "subgroup size 32 or 64 with basic operations in compute", "49152 bytes of compute shared
+// memory"; empty when it can run.
+std::vector<std::string> missing_for_coopmat_mlp(const DeviceSupport& support);
 
 // Ok when `support` has every extension and feature the LSNIF ray-tracing pipeline path needs
 // (Vulkan 1.2, VK_KHR_acceleration_structure, VK_KHR_ray_tracing_pipeline,
@@ -65,6 +83,9 @@ bool ray_query_enabled(const void* chain);
 // True when the feature chain starting at `chain` enables
 // VkPhysicalDeviceRayTracingPipelineFeaturesKHR::rayTraversalPrimitiveCulling.
 bool primitive_culling_enabled(const void* chain);
+// The features of the cooperative-matrix MLP kernel the chain does not enable ("feature
+// cooperativeMatrix", "feature shaderFloat16"), in that order.
+std::vector<std::string> coopmat_mlp_features_not_enabled(const void* chain);
 
 // lsnifEnableDeviceFeatures: sets LSNIF's features in the structs of the chain; returns the names
 // of the structs it needed but did not find (empty: all set).

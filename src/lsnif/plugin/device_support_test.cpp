@@ -146,6 +146,49 @@ TEST(DeviceFeatures, BroadPhaseFeaturesAreReadFromTheChain) {
   EXPECT_TRUE(missing_for_ray_tracing(s).empty());
 }
 
+// The cooperative-matrix MLP kernel: what it needs, each missing piece named in order, none of it
+// required by the ray-tracing path; and its two features read from an application's chain.
+TEST(DeviceFeatures, CooperativeMatrixMlpNeedsAndFeatures) {
+  DeviceSupport s = full_support();
+  EXPECT_TRUE(missing_for_ray_tracing(s).empty());
+  EXPECT_EQ(missing_for_coopmat_mlp(s),
+            (std::vector<std::string>{"extension VK_NV_cooperative_matrix", "feature cooperativeMatrix",
+                                      "feature shaderFloat16", "a 16x8x16 fp16 x fp16 + fp32 subgroup shape",
+                                      "subgroup size 32 or 64 with basic operations in compute",
+                                      "49152 bytes of compute shared memory"}));
+  s.ext_nv_cooperative_matrix = s.nv_cooperative_matrix = s.shader_float16 = s.nv_matrix_16x8x16 = true;
+  s.subgroup_size = 32;
+  s.subgroup_compute_basic = true;
+  s.max_compute_shared_memory = kCoopmatMlpSharedBytes;
+  EXPECT_TRUE(missing_for_coopmat_mlp(s).empty());
+  s.subgroup_size = 64;
+  EXPECT_TRUE(missing_for_coopmat_mlp(s).empty());
+  s.subgroup_size = 16;  // more than two subgroups per workgroup: the kernel's staging has two
+  EXPECT_EQ(missing_for_coopmat_mlp(s),
+            (std::vector<std::string>{"subgroup size 32 or 64 with basic operations in compute"}));
+  s.subgroup_size = 32;
+  s.max_compute_shared_memory = kCoopmatMlpSharedBytes - 1;
+  EXPECT_EQ(missing_for_coopmat_mlp(s), (std::vector<std::string>{"49152 bytes of compute shared memory"}));
+
+  LsnifDeviceFeatures f;
+  lsnifInitDeviceFeatures(&f, nullptr);
+  EXPECT_EQ(coopmat_mlp_features_not_enabled(&f.features2),
+            (std::vector<std::string>{"feature cooperativeMatrix", "feature shaderFloat16"}));
+  VkPhysicalDeviceCooperativeMatrixFeaturesNV cm{};
+  cm.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_COOPERATIVE_MATRIX_FEATURES_NV;
+  cm.cooperativeMatrix = VK_TRUE;
+  cm.pNext = &f.features2;
+  f.vulkan12.shaderFloat16 = VK_TRUE;
+  EXPECT_TRUE(coopmat_mlp_features_not_enabled(&cm).empty());
+  f.features2.pNext = &f.accelerationStructure;  // Vulkan 1.2's struct out (both in one chain is invalid)
+  EXPECT_EQ(coopmat_mlp_features_not_enabled(&cm), (std::vector<std::string>{"feature shaderFloat16"}));
+  VkPhysicalDeviceShaderFloat16Int8Features f16{};  // the extension's struct counts as well
+  f16.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_FLOAT16_INT8_FEATURES;
+  f16.shaderFloat16 = VK_TRUE;
+  f16.pNext = &cm;
+  EXPECT_TRUE(coopmat_mlp_features_not_enabled(&f16).empty());
+}
+
 TEST(DeviceFeatures, EnableSetsWhatItFindsAndNamesWhatIsAbsent) {
   VkPhysicalDeviceBufferDeviceAddressFeatures bda{};
   bda.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES;

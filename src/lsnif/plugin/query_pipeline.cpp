@@ -17,6 +17,7 @@ namespace {
 
 #include "lsnif_batch_clear_spirv.h"
 #include "lsnif_batch_decode_spirv.h"
+#include "lsnif_batch_mlp_coopmat_spirv.h"
 #include "lsnif_batch_mlp_spirv.h"
 #include "lsnif_batch_narrow_spirv.h"
 #include "lsnif_query_batch_args_spirv.h"
@@ -28,6 +29,7 @@ namespace {
 #include "lsnif_query_broad_triangles_rgen_spirv.h"
 #include "lsnif_query_clear_spirv.h"
 #include "lsnif_query_decode_spirv.h"
+#include "lsnif_query_mlp_coopmat_spirv.h"
 #include "lsnif_query_mlp_spirv.h"
 #include "lsnif_query_narrow_spirv.h"
 #include "lsnif_query_resolve_hits_spirv.h"
@@ -326,8 +328,17 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
                               std::unique_ptr<LsnifQueryPipeline_T>& out) {
   const LsnifQueryPipelineCreateFlags broad_bits = LSNIF_QUERY_PIPELINE_CREATE_RAY_QUERY_BROAD_PHASE_BIT |
                                                    LSNIF_QUERY_PIPELINE_CREATE_TRACE_RAYS_BROAD_PHASE_BIT;
-  if (flags & ~(LsnifQueryPipelineCreateFlags(LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT) | broad_bits))
+  const LsnifQueryPipelineCreateFlags coopmat_bit = LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV;
+  if (flags & ~(LsnifQueryPipelineCreateFlags(LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT) | broad_bits | coopmat_bit))
     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pCreateInfo->flags: unknown flags 0x%x", flags);
+  const bool coopmat = (flags & coopmat_bit) != 0;
+  if (coopmat && !ctx.coopmat_mlp_missing.empty()) {
+    std::string list;
+    for (const std::string& m : ctx.coopmat_mlp_missing) list += (list.empty() ? "" : ", ") + m;
+    return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
+                         "LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV: device '%s' lacks: %s",
+                         ctx.device_name.c_str(), list.c_str());
+  }
   const bool tlas = (flags & LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT) != 0;
   if ((flags & broad_bits) == broad_bits)
     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
@@ -352,7 +363,11 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
     return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreatePipelineLayout failed (VkResult %d)", static_cast<int>(r));
   Outcome o = create_stage(ctx, cache, p->layout, lsnif_batch_clear_spirv, sizeof lsnif_batch_clear_spirv, "clear", p->clear);
   if (o) o = create_stage(ctx, cache, p->layout, lsnif_batch_narrow_spirv, sizeof lsnif_batch_narrow_spirv, "narrow", p->narrow);
-  if (o) o = create_stage(ctx, cache, p->layout, lsnif_batch_mlp_spirv, sizeof lsnif_batch_mlp_spirv, "MLP", p->mlp);
+  if (o && coopmat)
+    o = create_stage(ctx, cache, p->layout, lsnif_batch_mlp_coopmat_spirv, sizeof lsnif_batch_mlp_coopmat_spirv,
+                     "MLP (cooperative matrix)", p->mlp);
+  else if (o)
+    o = create_stage(ctx, cache, p->layout, lsnif_batch_mlp_spirv, sizeof lsnif_batch_mlp_spirv, "MLP", p->mlp);
   if (o) o = create_stage(ctx, cache, p->layout, lsnif_batch_decode_spirv, sizeof lsnif_batch_decode_spirv, "decode", p->decode);
   if (tlas) {
     const struct {
@@ -367,7 +382,8 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
         {lsnif_query_scatter_spirv, sizeof lsnif_query_scatter_spirv, "query scatter", &p->tlas.scatter},
         {lsnif_query_narrow_spirv, sizeof lsnif_query_narrow_spirv, "query narrow", &p->tlas.narrow},
         {lsnif_query_batch_args_spirv, sizeof lsnif_query_batch_args_spirv, "query batch args", &p->tlas.batch_args},
-        {lsnif_query_mlp_spirv, sizeof lsnif_query_mlp_spirv, "query MLP", &p->tlas.mlp},
+        {coopmat ? lsnif_query_mlp_coopmat_spirv : lsnif_query_mlp_spirv,
+         coopmat ? sizeof lsnif_query_mlp_coopmat_spirv : sizeof lsnif_query_mlp_spirv, "query MLP", &p->tlas.mlp},
         {lsnif_query_decode_spirv, sizeof lsnif_query_decode_spirv, "query decode", &p->tlas.decode},
         {lsnif_query_tie_spirv, sizeof lsnif_query_tie_spirv, "query tie", &p->tlas.tie},
         {lsnif_query_resolve_hits_spirv, sizeof lsnif_query_resolve_hits_spirv, "query resolve hits",
@@ -384,6 +400,7 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
     if (o && broad_phase == LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS) o = create_trace_rays_broad_phase(ctx, cache, *p);
     p->broad_phase = broad_phase;
   }
+  p->coopmat_mlp = coopmat;
   if (!o) {
     destroy_query_pipeline(ctx, *p);
     return o;

@@ -11,6 +11,8 @@ const char* load_instance_dispatch(PFN_vkGetInstanceProcAddr get, VkInstance ins
   if (!out.name) return #name;
   LSNIF_INSTANCE_FUNCTIONS(LSNIF_LOAD)
 #undef LSNIF_LOAD
+  out.vkGetPhysicalDeviceCooperativeMatrixPropertiesNV = reinterpret_cast<PFN_vkGetPhysicalDeviceCooperativeMatrixPropertiesNV>(
+      get(instance, "vkGetPhysicalDeviceCooperativeMatrixPropertiesNV"));
   return nullptr;
 }
 

@@ -63,6 +63,9 @@ struct InstanceDispatch {
 #define LSNIF_DECLARE(name) PFN_##name name = nullptr;
   LSNIF_INSTANCE_FUNCTIONS(LSNIF_DECLARE)
 #undef LSNIF_DECLARE
+  // Optional (null where no driver exposes VK_NV_cooperative_matrix): the shapes the cooperative-
+  // matrix MLP kernel needs (device_support.h).
+  PFN_vkGetPhysicalDeviceCooperativeMatrixPropertiesNV vkGetPhysicalDeviceCooperativeMatrixPropertiesNV = nullptr;
 };
 
 struct DeviceDispatch {

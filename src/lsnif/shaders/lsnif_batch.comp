@@ -8,7 +8,9 @@
 //                      slot (atomic counter) and leave their walk and network input in the scratch.
 //  LSNIF_BATCH_MLP     1 invocation per batch slot: the MLP (lsnif_mlp.glsl) with the weights read at
 //                      addresses uniform over the dispatch (one load serves every lane: on lavapipe
-//                      a SIMD register of rays, on a GPU a warp), raw outputs to the scratch.
+//                      a SIMD register of rays, on a GPU a warp), raw outputs to the scratch. With
+//                      LSNIF_MLP_COOPMAT_NV as well: the workgroup's 64 slots together on
+//                      cooperative matrices (lsnif_mlp_coopmat.glsl; unverified, opt-in).
 //  LSNIF_BATCH_DECODE  1 invocation per batch slot: the heads (lsnif_head.glsl) and the acceptance
 //                      against the ray's interval and culling flags; the hit to the ray's record.
 // Layouts: LsnifQueryRay, LsnifQueryHit, LsnifBatchPushConstants and the scratch in
@@ -17,6 +19,9 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "lsnif/shaders/lsnif_batch_rows.glsl"
+#if defined(LSNIF_MLP_COOPMAT_NV)
+#include "lsnif/shaders/lsnif_mlp_coopmat.glsl"
+#endif
 
 layout(local_size_x = LSNIF_BATCH_GROUP_SIZE) in;
 
@@ -86,6 +91,10 @@ void main() {
   // of workgroups (lavapipe does): the blocks of slots are spread over the workgroups by a stride
   // coprime to their count, so that every range gets its share of the work.
   const uint block = (gl_WorkGroupID.x * pc.block_step) % gl_NumWorkGroups.x;
+#if defined(LSNIF_BATCH_MLP) && defined(LSNIF_MLP_COOPMAT_NV)
+  lsnif_rows_mlp_block(rows, m, block * LSNIF_BATCH_GROUP_SIZE, scratch.w[0]);
+  return;
+#endif
   const uint slot = block * LSNIF_BATCH_GROUP_SIZE + gl_LocalInvocationID.x;
   if (slot >= scratch.w[0]) return;
 #if defined(LSNIF_BATCH_MLP)

@@ -38,6 +38,9 @@
 #extension GL_EXT_ray_query : require
 #extension GL_GOOGLE_include_directive : require
 #include "lsnif/shaders/lsnif_query_common.glsl"
+#if defined(LSNIF_QUERY_MLP) && defined(LSNIF_MLP_COOPMAT_NV)
+#include "lsnif/shaders/lsnif_mlp_coopmat.glsl"
+#endif
 
 layout(local_size_x = LSNIF_BATCH_GROUP_SIZE) in;
 
@@ -226,14 +229,24 @@ void query_narrow(uint id) {
 #endif
 
 #if defined(LSNIF_QUERY_MLP)
-// LSNIF_QUERY_MLP: the MLP on slot `id` of pc.bucket's batch.
+// LSNIF_QUERY_MLP: the MLP on slot `id` of pc.bucket's batch (with LSNIF_MLP_COOPMAT_NV: the
+// workgroup's 64 slots together, lsnif_mlp_coopmat.glsl).
 void query_mlp(uint id) {
   LsnifModel m;
   LsnifBatchRows rows;
   uint start;
   lsnif_query_bucket(m, rows, start);
-  if (id >= lsnif_query_models().c[pc.bucket].batch) return;
+  const uint batch = lsnif_query_models().c[pc.bucket].batch;
+#if defined(LSNIF_MLP_COOPMAT_NV)
+  const uint first = id - gl_LocalInvocationID.x;
+  if (first >= batch) return;  // uniform over the workgroup
+  LsnifBatchRows shifted = rows;
+  shifted.base += start;  // slot s of the model's batch is column start + s
+  lsnif_rows_mlp_block(shifted, m, first, batch);
+#else
+  if (id >= batch) return;
   lsnif_rows_mlp(rows, m, start + id);
+#endif
 }
 #endif
 

@@ -194,6 +194,7 @@ int cmd_devices(int argc, char** argv) {
                          {"ray_traversal_primitive_culling", bool(s.rayTraversalPrimitiveCulling)},
                          {"query_broad_phase", broad_phase(s)},
                          {"mlp_kernel", s.supported ? "portable" : "none"},
+                         {"cooperative_matrix_mlp", s.cooperativeMatrixMlpNV ? "unverified (opt in)" : "unavailable"},
                          {"nv_cooperative_matrix", bool(s.cooperativeMatrixNV)},
                          {"nv_cooperative_matrix_shapes", r.nv_matrix_shapes},
                          {"khr_cooperative_matrix", bool(s.cooperativeMatrixKHR)},
@@ -220,6 +221,10 @@ int cmd_devices(int argc, char** argv) {
     std::printf("  primitive culling       %s (rayTraversalPrimitiveCulling)\n", yes_no(s.rayTraversalPrimitiveCulling));
     std::printf("  query broad phase       %s (lsnifCmdQuery, automatic choice)\n", broad_phase(s));
     std::printf("  batched MLP kernel      %s\n", s.supported ? "portable (GLSL, fp32)" : "none");
+    std::printf("  cooperative-matrix MLP  %s\n",
+                s.cooperativeMatrixMlpNV
+                    ? "unverified: never run on a GPU; opt in (LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV)"
+                    : "unavailable (VK_NV_cooperative_matrix, a 16x8x16 fp16/fp32 shape, shaderFloat16, 48 KiB shared)");
     std::printf("  NV cooperative matrix   %s\n", yes_no(s.cooperativeMatrixNV));
     for (const std::string& shape : r.nv_matrix_shapes) std::printf("                          %s\n", shape.c_str());
     std::printf("  KHR cooperative matrix  %s\n", yes_no(s.cooperativeMatrixKHR));
