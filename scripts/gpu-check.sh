@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# scripts/gpu-check.sh DIR [--quick]: builds the GPU check folder DIR (docs/gpu-check.md), at most
+# scripts/gpu-check.sh DIR [--quick] [--test-models FROM]: builds the GPU check folder DIR (docs/gpu-check.md), at most
 # 40 MiB, that runs on a bare x86-64 Linux with glibc and a Vulkan driver only:
 #   DIR/run OUT [lsnif-gpu check options]   runs the check, writes OUT/report.json and <= 6 images
 #   DIR/bin/     lsnif-gpu and the portable GPU conformance tests (no OpenImageIO, Embree or GLFW)
@@ -10,22 +10,31 @@
 # Needs the Release build of scripts/build.sh (BUILD_DIR overrides build/); trains what it carries
 # here, reusing the bench models of an earlier run in BUILD/gpu-check-models (lsnif bench reuses a
 # model whose mesh and settings are unchanged). --quick: tiny models of the bunny scene only, for the
-# smoke run CI makes (tests/gpu_check/minimal_root.sh). DIR must not exist or be empty.
+# smoke run CI makes (tests/gpu_check/minimal_root.sh). --test-models FROM: the conformance tests'
+# models from a folder a test run filled (LSNIF_TEST_MODELS=FROM scripts/test.sh, as .ci/run does)
+# instead of running the training tests again; a portable test refuses a model whose key differs.
+# DIR must not exist or be empty.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build="${BUILD_DIR:-$here/build}"
 max_bytes=$((40 * 1024 * 1024))
 
-usage() { echo "usage: scripts/gpu-check.sh DIR [--quick]" >&2; exit 2; }
+usage() { echo "usage: scripts/gpu-check.sh DIR [--quick] [--test-models FROM]" >&2; exit 2; }
 [ $# -ge 1 ] || usage
 dir=$1; shift
 quick=0
-for a in "$@"; do
-  case "$a" in
+test_models_from=""
+while [ $# -gt 0 ]; do
+  case "$1" in
     --quick) quick=1 ;;
-    *) echo "gpu-check.sh: unknown option '$a'" >&2; usage ;;
+    --test-models) [ $# -ge 2 ] || usage; test_models_from=$2; shift ;;
+    *) echo "gpu-check.sh: unknown option '$1'" >&2; usage ;;
   esac
+  shift
 done
+if [ -n "$test_models_from" ] && ! ls "$test_models_from"/*.key >/dev/null 2>&1; then
+  echo "gpu-check.sh: --test-models $test_models_from holds no models (NAME.lsnif and NAME.key)" >&2; exit 1
+fi
 if [ -e "$dir" ] && [ -n "$(ls -A "$dir" 2>/dev/null)" ]; then
   echo "gpu-check.sh: $dir exists and is not empty; give a new folder" >&2; exit 1
 fi
@@ -42,16 +51,21 @@ dir=$(cd "$dir" && pwd)
 # A failure leaves no half-built folder behind.
 trap 'status=$?; if [ $status -ne 0 ]; then rm -rf "$dir"; echo "gpu-check.sh: failed; removed $dir" >&2; fi' EXIT
 
-echo "== the conformance tests' models (the training build of each test saves them)"
-pids=()
-for t in "${tests[@]}"; do
-  LSNIF_TEST_MODELS="$dir/models/tests" LSNIF_TEST_VALIDATION=0 MESA_SHADER_CACHE_DIR="$build/tests/gpu/mesa_shader_cache" \
-    "$build/bin/$t" > "$build/gpu-check-$t.log" 2>&1 &
-  pids+=($!)
-done
-for i in "${!pids[@]}"; do
-  wait "${pids[$i]}" || { echo "gpu-check.sh: ${tests[$i]} failed (log: $build/gpu-check-${tests[$i]}.log)" >&2; exit 1; }
-done
+if [ -n "$test_models_from" ]; then
+  echo "== the conformance tests' models, from $test_models_from"
+  cp "$test_models_from"/*.lsnif "$test_models_from"/*.key "$dir/models/tests/"
+else
+  echo "== the conformance tests' models (the training build of each test saves them)"
+  pids=()
+  for t in "${tests[@]}"; do
+    LSNIF_TEST_MODELS="$dir/models/tests" LSNIF_TEST_VALIDATION=0 MESA_SHADER_CACHE_DIR="$build/tests/gpu/mesa_shader_cache" \
+      "$build/bin/$t" > "$build/gpu-check-$t.log" 2>&1 &
+    pids+=($!)
+  done
+  for i in "${!pids[@]}"; do
+    wait "${pids[$i]}" || { echo "gpu-check.sh: ${tests[$i]} failed (log: $build/gpu-check-${tests[$i]}.log)" >&2; exit 1; }
+  done
+fi
 
 echo "== bench-trace's bunny model"
 if [ $quick -eq 1 ]; then train_preset=(--tiny); else train_preset=(); fi

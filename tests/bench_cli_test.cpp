@@ -240,6 +240,7 @@ TEST(BenchCli, TraceBatchedAndQueryPathsAgreeWithTheIntersectionShader) {
                           "query_inline_both_hit", "query_inline_max_t_difference_over_diagonal"})
     ASSERT_TRUE(j.contains(key)) << key << " missing in " << r.out;
   EXPECT_EQ(j["query_broad_phase"], "ray-query") << "the automatic choice on lavapipe";
+  EXPECT_EQ(j["mlp_kernel"], "portable") << "the default";
   const json& query = j["query"];
   EXPECT_EQ(query["trace_seconds"].size(), 1u);
   EXPECT_GT(query["median_trace_seconds"].get<double>(), 0.0);
@@ -259,6 +260,18 @@ TEST(BenchCli, TraceBatchedAndQueryPathsAgreeWithTheIntersectionShader) {
               j["query_network_evaluations_per_second"].get<double>() /
                   j["network_evaluations_per_second"].get<double>(),
               1e-3 * j["query_over_inline_network_evaluations_per_second"].get<double>());
+
+  // The unverified cooperative-matrix MLP kernel: an error naming what lavapipe lacks, never a
+  // silent run of the portable kernel; an unknown kernel name is a usage error.
+  const std::string again = std::string(LSNIF_CLI) + " bench-trace " + kBunny + " " + model +
+                            " --rays 64 --repeat 1 --gemm-seconds 0.05 --device " + lsnif::test::test_device();
+  r = lsnif::test::run_command(again + " --mlp-kernel cooperative-matrix 2>&1");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("VK_NV_cooperative_matrix"), std::string::npos) << r.out;
+  r = lsnif::test::run_command(again + " --mlp-kernel tensor 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--mlp-kernel 'tensor'"), std::string::npos) << r.out;
 }
 
 TEST(BenchCli, UnknownSceneAndMissingData) {

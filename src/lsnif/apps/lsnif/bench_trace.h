@@ -53,6 +53,9 @@ struct Options {
   std::string mesh_path, model_path, triangle_order = "morton", device;
   std::string intersection_spv;  // empty: the plugin's intersection shader
   std::string broad_phase = "auto";  // lsnifCmdQuery's: auto, trace-rays or ray-query (render::parse_broad_phase)
+  // The batched paths' MLP kernel: portable or cooperative-matrix
+  // (LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV, unverified).
+  std::string mlp_kernel = "portable";
   uint32_t rays = 1u << 18, repeat = 5, gemm_batch = 4096;
   float gemm_seconds = 0.5f;
   uint64_t seed = 1;
@@ -122,6 +125,7 @@ struct Report {
   uint64_t seed = 0;
   double pipeline_create_seconds = 0, query_pipeline_create_seconds = 0;
   std::string broad_phase;  // the broad phase lsnifCmdQuery ran with ("trace-rays", "ray-query")
+  std::string mlp_kernel;   // the batched paths' MLP kernel ("portable", "cooperative-matrix")
   bool device_timestamps = false;
   bool morton_order = true;  // triangle BLAS input in Morton order of the centroids (else file order)
   Timings lsnif, tri, batched, query;

@@ -48,7 +48,9 @@ Status set_up_batched(DeviceState& st, const Options& options, const std::vector
   render::BroadPhase broad_phase = render::BroadPhase::automatic;
   if (!render::parse_broad_phase(options.broad_phase, broad_phase))
     return Status::error("--broad-phase '%s': expected auto, trace-rays or ray-query", options.broad_phase.c_str());
-  const LsnifQueryPipelineCreateFlags flags = render::query_pipeline_flags(broad_phase);
+  LsnifQueryPipelineCreateFlags flags = render::query_pipeline_flags(broad_phase);
+  if (options.mlp_kernel == "cooperative-matrix") flags |= LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV;
+  report.mlp_kernel = options.mlp_kernel;
   const auto t0 = std::chrono::steady_clock::now();
   if (st.query.create(st.plugin.get(), flags) != LSNIF_SUCCESS)
     return plugin_error("query pipeline of the batched path and lsnifCmdQuery");

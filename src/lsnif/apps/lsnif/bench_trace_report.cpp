@@ -98,6 +98,8 @@ void print_text(const Report& r) {
   std::printf("pipeline creation      %.3f s (ray tracing), %.3f s (batched path: lsnifCreateQueryPipeline)\n",
               r.pipeline_create_seconds, r.query_pipeline_create_seconds);
   std::printf("query broad phase      %s (lsnifCmdQuery)\n", r.broad_phase.c_str());
+  std::printf("batched MLP kernel     %s%s\n", r.mlp_kernel.c_str(),
+              r.mlp_kernel == "cooperative-matrix" ? " (VK_NV_cooperative_matrix, unverified)" : " (GLSL, fp32)");
   std::printf("batched path           lsnifCmdIntersectModelRays on the same rays (identity instance: object space "
               "= world space), %u call%s per run, alternating with the traces\n\n",
               r.batched_calls, r.batched_calls == 1 ? "" : "s");
@@ -210,6 +212,7 @@ void print_json(const Report& r) {
   j["walk_points_mismatches"] = r.points_mismatch;
   j["query_pipeline_create_seconds"] = r.query_pipeline_create_seconds;
   j["query_broad_phase"] = r.broad_phase;
+  j["mlp_kernel"] = r.mlp_kernel;
   j["batched"] = batched_json(r);
   j["batched_hits"] = r.batched_hits;
   j["batched_network_evaluations"] = r.batched_network_rays;

@@ -56,6 +56,10 @@ int parse_options(int argc, char** argv, Options& o) {
               "lsnifCmdQuery's broad phase: auto (the plugin's choice), trace-rays (a ray-tracing pipeline) or "
               "ray-query (ray queries in a compute shader)",
               &o.broad_phase);
+  args.option("mlp-kernel",
+              "the batched paths' MLP kernel: portable (GLSL, every device) or cooperative-matrix "
+              "(VK_NV_cooperative_matrix, unverified; an error where the device lacks it)",
+              &o.mlp_kernel);
   args.option("gemm-batch", "columns per OpenMP thread of the CPU GEMM (1..65536)", &o.gemm_batch);
   args.option("gemm-seconds", "least time of the timed CPU GEMM passes (0.01..60 s)", &o.gemm_seconds);
   args.flag("json", "print one JSON object instead of text", &o.json);
@@ -85,6 +89,11 @@ int parse_options(int argc, char** argv, Options& o) {
   if (render::BroadPhase parsed; !render::parse_broad_phase(o.broad_phase, parsed)) {
     std::fprintf(stderr, "lsnif bench-trace: --broad-phase '%s': expected auto, trace-rays or ray-query\n",
                  o.broad_phase.c_str());
+    return 2;
+  }
+  if (o.mlp_kernel != "portable" && o.mlp_kernel != "cooperative-matrix") {
+    std::fprintf(stderr, "lsnif bench-trace: --mlp-kernel '%s': expected portable or cooperative-matrix\n",
+                 o.mlp_kernel.c_str());
     return 2;
   }
   if (o.triangle_order != "morton" && o.triangle_order != "file") {

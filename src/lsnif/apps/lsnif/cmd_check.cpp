@@ -1,7 +1,7 @@
 // lsnif-gpu check OUT --folder DIR: the GPU check (docs/gpu-check.md). Runs, each as a child process
 // of the folder scripts/gpu-check.sh built, on one Vulkan device: `lsnif-gpu devices`, the portable
 // GPU conformance tests (their prepared models and meshes from the folder), `lsnif-gpu bench-trace`
-// and `lsnif-gpu bench` (Table 1 on the prepared scenes' models), then writes OUT/report.json (every
+// (again with the cooperative-matrix MLP kernel where the device offers it) and `lsnif-gpu bench` (Table 1 on the prepared scenes' models), then writes OUT/report.json (every
 // step's result, the device, driver, broad phase and MLP kernel) and at most six images. Each step's
 // files go to OUT/work/ (removed at the end unless --keep-work), the children's temporary files too:
 // nothing outside OUT is written.
@@ -185,7 +185,10 @@ std::optional<int> parse(int argc, char** argv, CheckOptions& o) {
   args.option("rays", "bench-trace rays per trace (1..2^24)", &o.rays);
   args.option("step-timeout", "seconds each step may run before it is stopped and failed (10..3600)",
               &o.step_timeout);
-  args.flag("quick", "a smoke run (CI, lavapipe): the bunny scene only at 96x54 and 1 spp, 2^14 rays", &o.quick);
+  args.flag("quick",
+            "a smoke run (CI, lavapipe): the first test binary runs and the others only list their tests, the "
+            "bunny scene only at 96x54 and 1 spp, 2^14 rays",
+            &o.quick);
   args.flag("validation", "run the tests with the Khronos validation layer (it must be installed there)",
             &o.validation);
   args.flag("keep-work", "keep OUT/work/ (logs, gtest JSON, bench outputs)", &o.keep_work);
@@ -268,8 +271,13 @@ void run_tests(Check& c, const std::string& index) {
   Json list = Json::array();
   for (const char* name : kTests) {
     const std::string gtest_json = (c.work / (std::string(name) + ".json")).string();
+    // --quick (CI's smoke run in the minimal root, after the whole suite ran outside it): the first
+    // binary runs, the others only list their tests (they load and link there, nothing more).
+    const bool list_only = c.o.quick && name != kTests[0];
+    std::vector<std::string> argv = {(c.bin / name).string(), "--gtest_output=json:" + gtest_json};
+    if (list_only) argv.push_back("--gtest_list_tests");
     Child child;
-    c.step(name, {(c.bin / name).string(), "--gtest_output=json:" + gtest_json},
+    c.step(name, argv,
            {{"LSNIF_TEST_DEVICE", index},
             {"LSNIF_TEST_MODELS", (c.folder / "models" / "tests").string()},
             {"LSNIF_TEST_DATA", (c.folder / "data").string()},
@@ -277,16 +285,21 @@ void run_tests(Check& c, const std::string& index) {
             {"TMPDIR", (c.work / "tmp").string()}},
            child);
     Json e = test_entry(name, child, gtest_json, (c.work / (std::string(name) + ".out")).string());
-    std::printf("   %u tests, %u failed, %u skipped\n", e["tests"].get<uint32_t>(), e["failed"].get<uint32_t>(),
-                e["skipped"].get<uint32_t>());
+    if (list_only) e["listed_only"] = true;
+    if (list_only)
+      std::printf("   listed %u tests (not run: --quick)\n", e["tests"].get<uint32_t>());
+    else
+      std::printf("   %u tests, %u failed, %u skipped\n", e["tests"].get<uint32_t>(), e["failed"].get<uint32_t>(),
+                  e["skipped"].get<uint32_t>());
     c.passed &= e["passed"].get<bool>();
     list.push_back(std::move(e));
   }
   c.report["tests"] = std::move(list);
 }
 
-// bench-trace of the bunny: its JSON report into report["bench_trace"].
-void run_bench_trace(Check& c) {
+// bench-trace of the bunny with the MLP kernel `kernel` ("portable", "cooperative-matrix"): its JSON
+// report into report[key].
+void run_bench_trace(Check& c, const std::string& kernel, const std::string& key) {
   std::vector<std::string> argv = {(c.bin / "lsnif-gpu").string(), "bench-trace",
                                    (c.folder / "data" / "meshes" / "bunny00.off").string(),
                                    (c.folder / "models" / "trace" / "bunny.lsnif").string(),
@@ -294,19 +307,22 @@ void run_bench_trace(Check& c) {
                                    "--rays",
                                    std::to_string(c.o.rays),
                                    "--gemm-seconds",
-                                   c.o.quick ? "0.05" : "0.5"};
+                                   c.o.quick ? "0.05" : "0.5",
+                                   "--mlp-kernel",
+                                   kernel};
   for (const std::string& a : c.device_args()) argv.push_back(a);
   Child child;
-  const bool ok = c.step("bench-trace", argv, {}, child);
+  const std::string step = "bench-trace-" + kernel;
+  const bool ok = c.step(step, argv, {}, child);
   std::string why;
-  Json j = read_json((c.work / "bench-trace.out").string(), why);
+  Json j = read_json((c.work / (step + ".out")).string(), why);
   if (!ok || j.is_null()) {
     c.passed = false;
-    c.report["bench_trace"] = {{"exit_code", child.exit_code}, {"error", why},
-                               {"log_tail", tail_lines((c.work / "bench-trace.log").string(), 30)}};
+    c.report[key] = {{"exit_code", child.exit_code}, {"error", why},
+                     {"log_tail", tail_lines((c.work / (step + ".log")).string(), 30)}};
     return;
   }
-  c.report["bench_trace"] = std::move(j);
+  c.report[key] = std::move(j);
 }
 
 // bench on the prepared scenes: its results.json into report["bench"], its images into OUT.
@@ -383,7 +399,10 @@ int cmd_check(int argc, char** argv) {
   std::string index;
   if (run_devices(c, index)) {
     run_tests(c, index);
-    run_bench_trace(c);
+    run_bench_trace(c, "portable", "bench_trace");
+    // The unverified cooperative-matrix MLP kernel wherever the device could run it.
+    if (c.report["device"].value("cooperative_matrix_mlp", "") != "unavailable")
+      run_bench_trace(c, "cooperative-matrix", "bench_trace_cooperative_matrix");
     run_bench(c);
   } else {
     c.passed = false;
