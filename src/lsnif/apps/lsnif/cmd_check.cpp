@@ -333,9 +333,10 @@ void run_bench(Check& c) {
                                    "--out", out.string(), "--quality", c.o.quality, "--width",
                                    std::to_string(c.o.width), "--height", std::to_string(c.o.height), "--spp",
                                    std::to_string(c.o.spp)};
+  size_t position = 2;  // after "bench", in the order --scenes lists them
   for (size_t at = 0; at <= c.o.scenes.size();) {
     const size_t comma = std::min(c.o.scenes.find(',', at), c.o.scenes.size());
-    argv.insert(argv.begin() + 2, c.o.scenes.substr(at, comma - at));
+    argv.insert(argv.begin() + long(position++), c.o.scenes.substr(at, comma - at));
     at = comma + 1;
   }
   for (const std::string& a : c.device_args()) argv.push_back(a);
