@@ -238,8 +238,7 @@ void query_mlp(uint id) {
   lsnif_query_bucket(m, rows, start);
   const uint batch = lsnif_query_models().c[pc.bucket].batch;
 #if defined(LSNIF_MLP_COOPMAT_NV)
-  const uint first = id - gl_LocalInvocationID.x;
-  if (first >= batch) return;  // uniform over the workgroup
+  const uint first = id - gl_LocalInvocationID.x;  // the workgroup's first slot
   LsnifBatchRows shifted = rows;
   shifted.base += start;  // slot s of the model's batch is column start + s
   lsnif_rows_mlp_block(shifted, m, first, batch);
