@@ -6,7 +6,7 @@
 #   DIR/lib/     the plugin, libstdc++, libgcc_s, libgomp and the Vulkan loader
 #   DIR/data/    the meshes, and the bench scenes' environments as .hdr (the portable image reader's)
 #   DIR/models/  tests/ (the conformance tests' models), trace/ (bench-trace's bunny), bench/ (the
-#                bench scenes' models, high and low quality)
+#                bench scenes' models: default and low)
 # Needs the Release build of scripts/build.sh (BUILD_DIR overrides build/); trains what it carries
 # here, reusing the bench models of an earlier run in BUILD/gpu-check-models (lsnif bench reuses a
 # model whose mesh and settings are unchanged). --quick: tiny models of the bunny scene only, for the
@@ -75,7 +75,7 @@ if [ $quick -eq 1 ]; then train_preset=(--tiny); else train_preset=(); fi
 echo "== the bench scenes' models"
 if [ $quick -eq 1 ]; then scenes=(bunny); bench_opts=(--quick); models="$build/gpu-check-models-quick"
 else scenes=(bunny dragons heavy); bench_opts=(); models="$build/gpu-check-models"; fi
-"$build/bin/lsnif" bench "${scenes[@]}" --quality high,low --no-render --out "$models" "${bench_opts[@]}"
+"$build/bin/lsnif" bench "${scenes[@]}" --quality default,low --no-render --out "$models" "${bench_opts[@]}"
 for s in "${scenes[@]}"; do
   mkdir -p "$dir/models/bench/$s"
   cp "$models/$s/"*.lsnif "$models/$s/"*.lsnif.key "$dir/models/bench/$s/"

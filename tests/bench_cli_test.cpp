@@ -51,8 +51,9 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   if (!fs::exists(kBunny)) GTEST_SKIP() << kBunny << " missing: run scripts/setup.sh";
   lsnif::test::ScopedTestDir dir("lsnif_bench_cli_test");
   const std::string out = dir.path().string();
-  // By default both quality presets (Table 1's H and L) and both pipelines: four rows.
-  lsnif::test::CommandResult r = run_cli("bench bunny --quick --out " + out);
+  // The paper's two presets (Table 1's H and L), both pipelines, traced: four rows.
+  lsnif::test::CommandResult r =
+      run_cli("bench bunny --quick --quality high,low --pipeline both --primary traced --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* want : {"scene     wrote", "model     training", "render (LSNIF)", "LDR-FLIP", "results.md"})
     EXPECT_TRUE(has(r.out, want)) << want << " missing in:\n" << r.out;
@@ -66,7 +67,7 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   std::map<std::string, std::string> reference_cell;  // per pipeline: the high row's T reference
   for (const char* preset : {"high", "low"}) {
     // The model of the preset: the low one has the paper's H = 10 (--quick keeps its tiny width).
-    const fs::path model = dir.path() / "bunny" / (std::string(preset) == "high" ? "bunny.lsnif" : "bunny.low.lsnif");
+    const fs::path model = dir.path() / "bunny" / ("bunny." + std::string(preset) + ".lsnif");
     ASSERT_TRUE(fs::exists(model)) << model;
     r = lsnif::test::run_command(std::string(LSNIF_CLI) + " info " + model.string() + " 2>&1");
     ASSERT_EQ(r.code, 0) << r.out;
@@ -105,8 +106,7 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
       EXPECT_NEAR(ratio, mem["triangle_blas"][0]["ratio_blas"].get<double>(), 0.01) << what;
 
       // The side-by-side picture (reference | LSNIF | FLIP) at the quick image size.
-      const std::string image =
-          std::string("bunny") + (std::string(preset) == "high" ? "" : ".low") + "." + pipeline + ".png";
+      const std::string image = "bunny." + std::string(preset) + "." + pipeline + ".png";
       uint32_t w = 0, h = 0;
       ASSERT_TRUE(png_size(dir.path() / image, w, h)) << image;
       EXPECT_EQ(w, 3u * 64u);
@@ -137,7 +137,7 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "forest.exr"));
 
   // Run again, one preset and pipeline: scene and model are reused, not rebuilt or retrained.
-  const fs::path model = dir.path() / "bunny" / "bunny.lsnif";
+  const fs::path model = dir.path() / "bunny" / "bunny.high.lsnif";
   const auto model_time = fs::last_write_time(model);
   r = run_cli("bench bunny --quick --spp 1 --quality high --pipeline inline --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
@@ -156,10 +156,31 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   // Presets and pipelines outside the lists are usage errors.
   r = run_cli("bench bunny --quick --quality medium --out " + out);
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_TRUE(has(r.out, "--quality takes a list of high and low, not 'medium'")) << r.out;
+  EXPECT_TRUE(has(r.out, "--quality takes a list of default, high and low, not 'medium'")) << r.out;
   r = run_cli("bench bunny --quick --pipeline sideways --out " + out);
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_TRUE(has(r.out, "--pipeline must be inline, wavefront or both, not 'sideways'")) << r.out;
+  EXPECT_TRUE(has(r.out, "--pipeline must be auto, inline, wavefront or both, not 'sideways'")) << r.out;
+
+  // The default model and --pipeline auto: the bench's bunny keeps its mesh, so the LSNIF mode runs
+  // the wavefront pipeline with rasterized primary visibility (lavapipe runs lsnifCmdQuery),
+  // against the fastest triangle path (inline, traced).
+  r = run_cli("bench bunny --quick --spp 1 --quality default --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "bunny.lsnif"));
+  const std::string chosen = read_text(dir.path() / "results.md");
+  const std::vector<std::string> row =
+      lsnif::test::table_row(chosen, "| bunny | default | wavefront (ray-query), raster; reference inline, traced |");
+  ASSERT_EQ(row.size(), 12u) << chosen;
+  EXPECT_NEAR(number(row[10]), number(row[8]) / number(row[9]), 0.05 * number(row[10]) + 0.01);
+  const std::vector<std::string> stages = lsnif::test::table_row(chosen, "| bunny | default | LSNIF |");
+  ASSERT_EQ(stages.size(), 12u) << chosen;
+  EXPECT_GT(number(stages[3]), 0.0) << "rasterized primary visibility: a raster pass";
+  EXPECT_EQ(lsnif::test::table_row(chosen, "| bunny | default | reference |").size(), 0u) << "inline: no stages";
+  const json chosen_json = json::parse(read_text(dir.path() / "results.json"));
+  ASSERT_EQ(chosen_json["rows"].size(), 1u);
+  EXPECT_EQ(chosen_json["rows"][0]["primary"], "raster");
+  EXPECT_EQ(chosen_json["rows"][0]["reference_pipeline"], "inline");
+  EXPECT_TRUE(fs::exists(dir.path() / "bunny.auto.png"));
 }
 
 // The batched path (lsnifCmdIntersectModelRays, compute) and lsnifCmdQuery (the model as one LSNIF
@@ -314,8 +335,8 @@ TEST(BenchCli, PreparedModelsAndTheGpuProgram) {
   lsnif::test::CommandResult r = run_cli("bench bunny --quick --quality high --no-render --out " + models.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(has(r.out, "--no-render: nothing rendered")) << r.out;
-  EXPECT_TRUE(fs::is_regular_file(models / "bunny" / "bunny.lsnif"));
-  EXPECT_TRUE(fs::is_regular_file(models / "bunny" / "bunny.lsnif.key"));
+  EXPECT_TRUE(fs::is_regular_file(models / "bunny" / "bunny.high.lsnif"));
+  EXPECT_TRUE(fs::is_regular_file(models / "bunny" / "bunny.high.lsnif.key"));
   EXPECT_FALSE(fs::exists(models / "results.md"));
   EXPECT_FALSE(fs::exists(models / "bunny.inline.png"));
 
@@ -338,7 +359,7 @@ TEST(BenchCli, PreparedModelsAndTheGpuProgram) {
   ASSERT_EQ(r.code, 0) << r.out;
   r = lsnif::test::run_command(gpu + " --models " + models.string() + " --data " + data.string() + " 2>&1");
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_EQ(read_text(out / "bunny" / "bunny.lsnif"), read_text(models / "bunny" / "bunny.lsnif"));
+  EXPECT_EQ(read_text(out / "bunny" / "bunny.high.lsnif"), read_text(models / "bunny" / "bunny.high.lsnif"));
   const json results = json::parse(read_text(out / "results.json"));
   ASSERT_EQ(results["rows"].size(), 1u) << results.dump(1);
   const json& row = results["rows"][0];
@@ -354,7 +375,7 @@ TEST(BenchCli, PreparedModelsAndTheGpuProgram) {
   r = lsnif::test::run_command(gpu + " --models " + models.string() + " --data " + data.string() + " --quality low 2>&1");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(has(r.out, "bunny.low.lsnif (or its .key) not found")) << r.out;
-  std::ofstream(models / "bunny" / "bunny.lsnif.key", std::ios::trunc) << "mesh 00000000\nsettings x\n";
+  std::ofstream(models / "bunny" / "bunny.high.lsnif.key", std::ios::trunc) << "mesh 00000000\nsettings x\n";
   r = lsnif::test::run_command(gpu + " --models " + models.string() + " --data " + data.string() + " 2>&1");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(has(r.out, "was trained on another mesh")) << r.out;

@@ -36,21 +36,22 @@ TEST(BenchSizeCli, QuickBunnyTableMatchesTheFilesAndTheDevice) {
     if (!fs::exists(kData + "/meshes/" + f)) GTEST_SKIP() << f << " missing: run scripts/setup.sh";
   lsnif::test::ScopedTestDir dir("lsnif_bench_size_cli_test");
   const std::string out = dir.path().string();
-  // The second setting's list value keeps its comma; its levels' tables differ in size (version 4).
-  const std::string small_name = "grid-bits=8+table-log2=10,12";
-  const std::string settings = "default," + small_name;
+  // The baseline is the paper's grid (a named setting); the second setting's list value keeps its
+  // comma; its hashed levels' tables differ in size (version 4).
+  const std::string small_name = "grid-bits=8+indexed=0+table-log2=10,12";
+  const std::string settings = "fp16-hashed," + small_name;
   lsnif::test::CommandResult r = run_cli("bench-size bunny --quick --settings " + settings + " --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* want : {"model     training", "render (LSNIF)", "LDR-FLIP", "results.md"})
     EXPECT_TRUE(has(r.out, want)) << want << " missing in:\n" << r.out;
 
   const std::string md = read_text(dir.path() / "results.md");
-  const std::vector<std::string> base = table_row(md, "| bunny | default |");
+  const std::vector<std::string> base = table_row(md, "| bunny | fp16-hashed |");
   const std::vector<std::string> small = table_row(md, "| bunny | " + small_name + " |");
-  ASSERT_EQ(base.size(), 9u) << md;
-  ASSERT_EQ(small.size(), 9u) << md;
+  ASSERT_EQ(base.size(), 11u) << md;
+  ASSERT_EQ(small.size(), 11u) << md;
   // Model bytes: the files themselves.
-  const fs::path base_model = dir.path() / "bunny" / "default.lsnif";
+  const fs::path base_model = dir.path() / "bunny" / "fp16-hashed.lsnif";
   const fs::path small_model = dir.path() / "bunny" / (small_name + ".lsnif");
   ASSERT_TRUE(fs::exists(base_model) && fs::exists(small_model)) << md;
   EXPECT_EQ(number(base[2]), double(fs::file_size(base_model)));
@@ -61,18 +62,29 @@ TEST(BenchSizeCli, QuickBunnyTableMatchesTheFilesAndTheDevice) {
   EXPECT_EQ(base[3], "1.00x");
   EXPECT_NEAR(number(small[3].substr(0, small[3].size() - 1)),
               double(fs::file_size(base_model)) / double(fs::file_size(small_model)), 0.006);
-  for (const std::vector<std::string>* row : {&base, &small}) {
+  for (const auto& [row, model] : {std::pair{&base, base_model}, std::pair{&small, small_model}}) {
     const std::vector<std::string>& c = *row;
-    const double accuracy = number(c[4].substr(0, c[4].size() - 1));
+    // FLOPs per evaluation from the layer shapes `lsnif info` reads from the file: H*L*F inputs,
+    // hidden layers of W, 8 + Nmat outputs.
+    r = lsnif::test::run_command(std::string(LSNIF_CLI) + " info " + model.string() + " --json 2>/dev/null");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const json info = json::parse(r.out);
+    const double in = info["max_points"].get<double>() * info["grid_levels"].get<double>() *
+                      info["features"].get<double>();
+    const double w = info["hidden_width"].get<double>(), layers = info["hidden_layers"].get<double>();
+    const double flops = 2.0 * (in * w + (layers - 1.0) * w * w + w * (8.0 + info["material_count"].get<double>()));
+    EXPECT_NEAR(number(c[4]), flops * 1e-3, 0.051) << c[4];
+    EXPECT_NEAR(number(c[5].substr(0, c[5].size() - 1)), 100.0 * flops / 62720.0, 0.51) << c[5];
+    const double accuracy = number(c[6].substr(0, c[6].size() - 1));
     EXPECT_GT(accuracy, 50.0);
     EXPECT_LE(accuracy, 100.0);
-    EXPECT_GE(number(c[5].substr(0, c[5].size() - 1)), 0.0);
-    EXPECT_GE(number(c[6]), 0.0);
-    EXPECT_GT(number(c[7]), 0.0);
-    EXPECT_LT(number(c[7]), 0.5);  // a render that lost the object entirely would be far off here
+    EXPECT_GE(number(c[7].substr(0, c[7].size() - 1)), 0.0);
+    EXPECT_GE(number(c[8]), 0.0);
+    EXPECT_GT(number(c[9]), 0.0);
+    EXPECT_LT(number(c[9]), 0.5);  // a render that lost the object entirely would be far off here
   }
-  EXPECT_EQ(base[8], "+0.0000");
-  EXPECT_NEAR(number(small[8]), number(small[7]) - number(base[7]), 1.5e-4);
+  EXPECT_EQ(base[10], "+0.0000");
+  EXPECT_NEAR(number(small[10]), number(small[9]) - number(base[9]), 1.5e-4);
 
   // The memory table: device bytes as `lsnif bench-memory` measures them (the plugin's upload of
   // the same file, a separate path from the renderer's statistics); the heavy scene's triangles
@@ -80,7 +92,7 @@ TEST(BenchSizeCli, QuickBunnyTableMatchesTheFilesAndTheDevice) {
   const uint64_t heavy_triangles = off_faces(kBunny) * 16 + off_faces(kData + "/meshes/armadillo.off") * 16 +
                                    off_faces(kData + "/meshes/ChineseDragon-10kv.off") * 64;
   ASSERT_GT(heavy_triangles, 1000000u);
-  for (const auto& [name, model] : {std::pair{std::string("default"), base_model},
+  for (const auto& [name, model] : {std::pair{std::string("fp16-hashed"), base_model},
                                     std::pair{small_name, small_model}}) {
     const std::vector<std::string> h = table_row(md, "| " + name + " | ");
     ASSERT_EQ(h.size(), 6u) << md;
@@ -97,8 +109,8 @@ TEST(BenchSizeCli, QuickBunnyTableMatchesTheFilesAndTheDevice) {
     EXPECT_NEAR(number(h[5].substr(0, h[5].find(' '))), blas / (3.0 * device_bytes), 0.002 * blas / (3.0 * device_bytes)) << name;
     EXPECT_TRUE(has(h[5], "(3 models)")) << h[5];
   }
-  EXPECT_TRUE(fs::exists(dir.path() / "bunny-default.png"));
-  EXPECT_TRUE(has(md, "![bunny default](bunny-default.png)")) << md;
+  EXPECT_TRUE(fs::exists(dir.path() / "bunny-fp16-hashed.png"));
+  EXPECT_TRUE(has(md, "![bunny fp16-hashed](bunny-fp16-hashed.png)")) << md;
 
   // Run again: the models are reused, not retrained.
   const auto model_time = fs::last_write_time(base_model);

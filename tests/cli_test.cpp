@@ -350,15 +350,23 @@ TEST(Cli, RenderAndDemoWithATinyModel) {
   EXPECT_TRUE(fs::exists(image));
   EXPECT_NE(r.out.find("ms per sample"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("1 LSNIF"), std::string::npos) << r.out;
+  // The automatic choice, printed: lavapipe runs lsnifCmdQuery (ray queries), and the node keeps no
+  // mesh to rasterize.
+  EXPECT_NE(r.out.find("wavefront pipeline, traced primary"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("pipeline choice  wavefront: the device runs lsnifCmdQuery (ray-query broad phase); traced "
+                       "primary: LSNIF node 'bunny' keeps no triangle mesh"),
+            std::string::npos)
+      << r.out;
   // The wavefront pipeline's stage times: reported with --stage-times, refused for the inline one.
   r = run_cli("render " + scene + " --lsnif bunny=" + model +
               " --width 16 --height 12 --spp 1 --pipeline wavefront --stage-times -o " + image);
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* want : {"stages (device)", "broad phase", "encode", "MLP", "total"})
     EXPECT_NE(r.out.find(want), std::string::npos) << want << " missing in:\n" << r.out;
-  r = run_cli("render " + scene + " --lsnif bunny=" + model + " --width 8 --height 8 --spp 1 --stage-times -o " + image);
+  r = run_cli("render " + scene + " --lsnif bunny=" + model +
+              " --pipeline inline --width 8 --height 8 --spp 1 --stage-times -o " + image);
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("--stage-times needs --pipeline wavefront"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--stage-times needs the wavefront pipeline"), std::string::npos) << r.out;
   r = run_cli("render " + scene + " --lsnif bunny=" + model + " --reference --width 8 --height 8 --spp 1 -o " + image);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("bunny"), std::string::npos) << r.out;
@@ -369,7 +377,7 @@ TEST(Cli, RenderAndDemoWithATinyModel) {
   EXPECT_NE(r.out.find("'bunny' has no triangle mesh"), std::string::npos) << r.out;
   r = run_cli("render " + scene + " --lsnif bunny=" + model + " --primary rasterized -o " + image);
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.out.find("--primary must be traced or raster"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--primary must be auto, traced or raster"), std::string::npos) << r.out;
   r = run_cli("render " + (d / "nothing.gltf").string() + " -o " + image);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("nothing.gltf"), std::string::npos) << r.out;
@@ -385,8 +393,26 @@ TEST(Cli, RenderAndDemoWithATinyModel) {
               " --eval-rays 1000 --image-width 32 --image-height 24 --spp 2 --picture " + picture);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(fs::exists(picture));
-  for (const char* want : {"reusing", "LDR-FLIP", "geometry memory", "ms per sample"})
+  for (const char* want : {"reusing", "LDR-FLIP", "geometry memory", "ms per sample", "summary:"})
     EXPECT_NE(r.out.find(want), std::string::npos) << want << " missing in:\n" << r.out;
+  // The object on the ground keeps its mesh: the default is the wavefront pipeline with rasterized
+  // primary visibility against the inline triangle reference, and the inline path is the second row.
+  EXPECT_TRUE(fs::exists(d / "compare_inline.png"));
+  const auto line_of = [](const std::string& out, const std::string& label) {
+    const size_t at = out.find("  " + label + " ");
+    return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
+  };
+  for (const auto& [label, path] : {std::pair{"reference (triangles)", "inline, traced"},
+                                    std::pair{"LSNIF (default)", "wavefront, raster"},
+                                    std::pair{"LSNIF (inline path)", "inline, traced"}})
+    EXPECT_NE(line_of(r.out, label).find(path), std::string::npos) << label << ": " << path << " missing in:\n" << r.out;
+  // Forced, the inline path is the only LSNIF row.
+  r = run_cli("demo --reuse --mesh " + kElephant + " -o " + model + " --eval-rays 1000 --image-width 16 "
+              "--image-height 12 --spp 1 --pipeline inline --primary traced --picture " + picture);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("forced by --pipeline inline and --primary traced"), std::string::npos) << r.out;
+  EXPECT_NE(line_of(r.out, "LSNIF (default)").find("inline, traced"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("LSNIF (inline path)"), std::string::npos) << r.out;
   fs::remove_all(d);
 }
 

@@ -82,8 +82,10 @@ class TrainConfigCli : public ::testing::Test {
   // Small enough for a fraction of a second per run. Not the --tiny preset, deliberately: these
   // tests check that a file's values reach the model, so the file lists them (smaller still than
   // --tiny's).
+  // The paper's grid (fp16, both levels hashed): the tests below add 8-bit features, per-level
+  // sizes and indexed levels one at a time.
   const std::string tiny_ = R"({"voxels": 8, "res-min": 16, "res-max": 32, "table-log2": 8, "width": 16,
-                                "points": 6, "steps": 2, "batch": 128})";
+                                "points": 6, "steps": 2, "batch": 128, "grid-bits": "16", "indexed": 0})";
 };
 
 TEST_F(TrainConfigCli, BadConfigFilesFailNamingTheFileAndTheKey) {
@@ -297,6 +299,30 @@ TEST_F(TrainConfigCli, TableSizesPerLevelEndToEnd) {
       {{"--table-log2", "1,2,3,4,5"}, "--table-log2"},
       {{"--levels", "3", "--table-log2", "6,8"}, "2 values for 3 levels"},
   });
+}
+
+// Without grid options a model gets the default grid: 8-bit features with the coarse level indexed
+// (a version 5 file), as `lsnif info` and the record report.
+TEST_F(TrainConfigCli, TheDefaultGridIsEightBitWithTheCoarseLevelIndexed) {
+  const std::string cfg = write("small.json", R"({"voxels": 8, "res-min": 16, "res-max": 32, "table-log2": 8,
+                                                  "width": 16, "points": 6, "steps": 2, "batch": 128})");
+  const std::string model = dir_.path("default.lsnif");
+  ProcessResult r = train(model, {"--config", cfg, "--seed", "5"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(read(model)[8], 5);
+  r = lsnif({"info", "--json", model});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["grid_bits"], 8);
+  EXPECT_GT(j["index_slots"][0].get<uint64_t>(), 0u);
+  EXPECT_EQ(j["index_slots"][1], 0);
+  EXPECT_EQ(j["training"]["settings"]["grid-bits"], "8");
+  EXPECT_EQ(j["training"]["settings"]["indexed"], nlohmann::json::array({1, 0}));
+  expect_record_reproduces(model);
+  // --paper's grid is the paper's: fp16, every level hashed (a version 2 file).
+  r = train(model, {"--config", cfg, "--seed", "5", "--grid-bits", "16", "--indexed", "0"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(read(model)[8], 2);
 }
 
 // `--indexed 1,0`: level 0's table indexed (one entry per vertex it can read, a few spare), level 1

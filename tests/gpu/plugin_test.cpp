@@ -374,19 +374,22 @@ TEST_F(PluginApi, ModelsFromFileAndMemory) {
   EXPECT_EQ(m, reinterpret_cast<LsnifModel>(uintptr_t(0x1)));
 }
 
-// A model with 8-bit grid features (a version 3 file): its block is the one the CPU packs, smaller
-// than the fp16 model's by about half the grid.
+// A model with 8-bit grid features (the default): its block is the one the CPU packs, smaller
+// than the same model's with fp16 features by about half the grid.
 TEST_F(PluginApi, EightBitGridModelFromMemory) {
   plugin::Context ctx;
   ASSERT_EQ(ctx.create(create_info()), LSNIF_SUCCESS) << last_error();
-  Model narrow = model_;
+  Model narrow = model_, wide = model_;
   narrow.config.grid_bits = 8;
   narrow.quantize();
-  std::vector<uint8_t> bytes;
+  wide.config.grid_bits = 16;
+  wide.quantize();
+  std::vector<uint8_t> bytes, wide_bytes;
   ASSERT_TRUE(save_model_to_memory(narrow, bytes));
+  ASSERT_TRUE(save_model_to_memory(wide, wide_bytes));
   plugin::Model m8, m16;
   ASSERT_EQ(m8.create_from_memory(ctx.get(), bytes.data(), bytes.size()), LSNIF_SUCCESS) << last_error();
-  ASSERT_EQ(m16.create_from_memory(ctx.get(), bytes_.data(), bytes_.size()), LSNIF_SUCCESS) << last_error();
+  ASSERT_EQ(m16.create_from_memory(ctx.get(), wide_bytes.data(), wide_bytes.size()), LSNIF_SUCCESS) << last_error();
   std::vector<uint32_t> words;
   ASSERT_TRUE(pack_gpu_model(narrow, words));
   EXPECT_EQ(m8.memory().blockBytes, words.size() * sizeof(uint32_t));

@@ -99,9 +99,16 @@ TEST(Viewer, UnderXvfbShowsTheRenderersImageAndTogglesModes) {
   const Status written = write_scene(dir, gltf);
   ASSERT_TRUE(written) << written.message();
 
-  const std::string view = "xvfb-run -a -s '-screen 0 320x240x24' " + std::string(LSNIF_CLI) + " view " + gltf +
+  std::string view = "xvfb-run -a -s '-screen 0 320x240x24' " + std::string(LSNIF_CLI) + " view " + gltf +
                            " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight) +
                            " --scale 1 --validation --quiet --device " + test::test_device();
+  // By default the viewer chooses (render_choice.h): on lavapipe the wavefront pipeline.
+  CommandResult chosen = run_command(view + " --frames 1 2>&1");
+  ASSERT_EQ(chosen.code, 0) << chosen.out;
+  EXPECT_NE(chosen.out.find("viewer: wavefront pipeline"), std::string::npos) << chosen.out;
+  EXPECT_NE(chosen.out.find("the device runs lsnifCmdQuery"), std::string::npos) << chosen.out;
+  // The comparisons below render in-process with the inline pipeline and traced camera rays.
+  view += " --pipeline inline --primary traced";
   const std::string shot_lsnif = (dir / "lsnif.png").string(), shot_toggled = (dir / "toggled.png").string();
   CommandResult a = run_command(view + " --frames 4 --screenshot " + shot_lsnif + " 2>&1");
   ASSERT_EQ(a.code, 0) << a.out;

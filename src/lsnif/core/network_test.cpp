@@ -124,5 +124,22 @@ TEST(Network, KaimingInitHasExpectedScale) {
   for (uint32_t i = 0; i < v.out; ++i) EXPECT_EQ(p[v.bias_offset + i], 0.0f);
 }
 
+TEST(Network, FlopsPerEvaluationMatchThePaperAndTheLayerShapes) {
+  Config c;
+  c.max_points = 18;
+  c.grid_levels = 2;
+  c.features = 3;
+  c.hidden_width = 128;
+  c.hidden_layers = 2;
+  EXPECT_EQ(mlp_flops_per_evaluation(c), 62720u);  // 62.7 kFLOP: 108 -> 128 -> 128 -> 9
+  // Table 1's L configuration, W=64 and H=10: 60 -> 64 -> 64 -> 9.
+  c.hidden_width = 64;
+  c.max_points = 10;
+  EXPECT_EQ(mlp_flops_per_evaluation(c), 2u * (60 * 64 + 64 * 64 + 64 * 9));
+  c.hidden_layers = 1;
+  c.material_count = 3;  // 60 -> 64 -> 11
+  EXPECT_EQ(mlp_flops_per_evaluation(c), 2u * (60 * 64 + 64 * 11));
+}
+
 }  // namespace
 }  // namespace lsnif

@@ -38,6 +38,12 @@ std::vector<LayerView> mlp_layers(const Config& config) {
   return layers;
 }
 
+uint64_t mlp_flops_per_evaluation(const Config& config) {
+  uint64_t flops = 0;
+  for (const LayerView& v : mlp_layers(config)) flops += 2ull * v.in * v.out;
+  return flops;
+}
+
 namespace {
 // An error when `value` lies outside the range of `id` in settings_table.h; `what` names it.
 Status check_range(SettingId id, uint32_t value, const char* what) {

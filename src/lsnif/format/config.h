@@ -18,7 +18,9 @@ enum class HitParam : uint32_t {
 };
 const char* to_string(HitParam p);
 
-// The defaults and ranges are those of settings_table.h.
+// The defaults and ranges are those of settings_table.h, but for the grid's layout (grid_bits, the
+// indexed levels): a Config{} has the paper's grid, `lsnif train`'s default model another
+// (TrainSettings, default_model_config).
 struct Config {
   uint32_t voxel_resolution = default_u32(SettingId::Voxels);  // V: voxels per axis over the padded object AABB
   uint32_t max_points = default_u32(SettingId::Points);  // H: boundary points fed to the network (zero-filled after)
@@ -37,8 +39,9 @@ struct Config {
   HitParam hit_param = static_cast<HitParam>(default_u32(SettingId::Hit));
   float leaky_slope = default_f32(SettingId::LeakySlope);  // leaky ReLU negative slope
   // Bits per stored hash-grid feature: 16 (fp16) or 8 (int8 codes times a per-level fp32 scale,
-  // Model::grid_scales; .lsnif format version 3).
-  uint32_t grid_bits = default_u32(SettingId::GridBits);
+  // Model::grid_scales; .lsnif format version 3). A Config{} is the paper's layout (fp16, every level
+  // hashed); `lsnif train`'s default model is 8-bit with the coarsest level indexed.
+  uint32_t grid_bits = 16;
   // Per level l < L: 0 for a hashed level (hash_vertex into 2^table_log2[l] entries), else the level
   // is indexed (src/lsnif/core/perfect_hash.h): its table has index_slots[l] entries, one for every vertex the
   // encoder can read (and a few spare), addressed through index_buckets[l] displacements
@@ -87,6 +90,11 @@ struct LayerView {
   size_t weight_offset = 0, bias_offset = 0;
 };
 std::vector<LayerView> mlp_layers(const Config& config);
+
+// Floating-point operations of one network evaluation as the paper counts them: 2 x the
+// multiply-adds of every layer's weights (biases and activations not counted). The paper's
+// configuration (H=18, L=2, F=3, W=128x2, one material) is 62,720.
+uint64_t mlp_flops_per_evaluation(const Config& config);
 
 // Fills grid_resolution[0..L) geometrically from `coarsest` to `finest` (which should be multiples
 // of V); the levels in between are rounded to the nearest multiple of V.

@@ -96,19 +96,27 @@ inline constexpr SettingDef kSettingDefs[] = {
                                   "log2 hash-table entries M of every level, or a comma list of one per level "
                                   "(e.g. 15,17)"),
     setting_detail::u32(SettingId::Features, "features", 3, 1, LSNIF_MAX_FEATURES, "features per entry F"),
+    // The paper's 128. Narrower networks on the default grid (64: 37% of the FLOPs; 96 with H=14:
+    // 58%) matched the former default on one seed but lost t error, occlusion or FLIP on the dragon
+    // with a second (docs/results.md, "The network's cost").
     setting_detail::u32(SettingId::Width, "width", 128, 1, LSNIF_MAX_HIDDEN_WIDTH, "hidden layer width W"),
     setting_detail::u32(SettingId::Layers, "layers", 2, 1, LSNIF_MAX_HIDDEN_LAYERS, "hidden layers"),
     setting_detail::choice(SettingId::Hit, "hit", LSNIF_HIT_PARAM_VOXEL_SEGMENTS, kHitChoices,
                            "hit distance parametrization: segments (ours) or aabb (paper)"),
     setting_detail::f32(SettingId::LeakySlope, "leaky-slope", 0.01, 0, false, 1, true, "",
                         "leaky ReLU negative slope"),
-    setting_detail::choice(SettingId::GridBits, "grid-bits", 16, kGridBitsChoices,
-                           "bits per stored hash-grid feature: 16 (fp16) or 8 (int8 times a per-level scale: half "
-                           "the grid's bytes)"),
-    setting_detail::u32_per_level(SettingId::Indexed, "indexed", 0, 0, 1,
+    // The default grid, 8-bit with the coarsest level indexed, is 2.5-2.8x smaller than the paper's
+    // (fp16, both levels hashed: `--paper`) and better on every eval metric and FLIP on the bunny,
+    // the armadillo and the dragon (docs/results.md, "An indexed coarse level").
+    setting_detail::choice(SettingId::GridBits, "grid-bits", 8, kGridBitsChoices,
+                           "bits per stored hash-grid feature: 8 (int8 times a per-level scale) or 16 (fp16, the "
+                           "paper's: twice the grid's bytes)"),
+    // Per level (default_indexed): the coarsest level indexed, the finer ones hashed.
+    setting_detail::u32_per_level(SettingId::Indexed, "indexed", 1, 0, 1,
                                   "1: the level's table is indexed (a perfect hash of the grid vertices the model "
-                                  "can read: no collisions, sized to the mesh), 0: hashed into 2^table-log2 entries; "
-                                  "one value for every level or a comma list of one per level (e.g. 1,0)"),
+                                  "can read: no collisions, sized to the mesh), 0: hashed into 2^table-log2 entries "
+                                  "(the paper's); one value for every level or a comma list of one per level; by "
+                                  "default the coarsest level indexed, the others hashed"),
     // The training run (TrainSettings).
     setting_detail::u32(SettingId::Steps, "steps", 2400, 1, std::numeric_limits<uint32_t>::max(), "training steps"),
     // Paper: 2^18 on a GPU. On 2 CPU cores the quality per step hardly depends on the batch, so a
@@ -159,6 +167,9 @@ constexpr uint64_t default_u64(SettingId id) { return static_cast<uint64_t>(sett
 constexpr float default_f32(SettingId id) { return static_cast<float>(setting_def(id).def); }
 constexpr uint32_t min_u32(SettingId id) { return static_cast<uint32_t>(setting_def(id).min); }
 constexpr uint32_t max_u32(SettingId id) { return static_cast<uint32_t>(setting_def(id).max); }
+// The default of --indexed at grid level `level`: the coarsest level (0) indexed, the finer levels
+// hashed (their vertices outnumber a hashed table's entries: bunny level 1 has 204,459).
+constexpr uint32_t default_indexed(uint32_t level) { return level == 0 ? default_u32(SettingId::Indexed) : 0; }
 
 namespace setting_detail {
 constexpr bool table_in_id_order() {
@@ -183,12 +194,14 @@ struct Preset {
   const char* help;
 };
 
-// The paper's two configurations (section 6): "high" is the defaults, "low" reduces the hidden width
-// W and the boundary points H.
+// The paper's two network configurations (section 6): "high" is the default network (W=128,
+// H=18), "low" reduces the hidden width W and the boundary points H. Both keep the default grid.
 inline constexpr PresetValue kLowQualityValues[] = {{SettingId::Width, 64}, {SettingId::Points, 10}};
-// The paper's training: its 2000 steps, batch, constant learning rate, hit parametrization and
-// normal loss (slow on a CPU).
-inline constexpr PresetValue kPaperValues[] = {{SettingId::Steps, 2000},
+// The paper's model and training: its grid (fp16, every level hashed), 2000 steps, batch, constant
+// learning rate, hit parametrization and normal loss (slow on a CPU).
+inline constexpr PresetValue kPaperValues[] = {{SettingId::GridBits, 16},
+                                               {SettingId::Indexed, 0},
+                                               {SettingId::Steps, 2000},
                                                {SettingId::Batch, 1u << 18},
                                                {SettingId::LrSchedule, kLrScheduleChoices[0].value},
                                                {SettingId::Hit, LSNIF_HIT_PARAM_AABB_INTERVAL},
@@ -201,9 +214,9 @@ inline constexpr PresetValue kTinyValues[] = {{SettingId::Voxels, 16}, {SettingI
                                               {SettingId::Width, 32},  {SettingId::Steps, 30},
                                               {SettingId::Batch, 1024}};
 inline constexpr Preset kPresets[] = {
-    {"quality", "high", nullptr, 0, "the paper's configuration"},
+    {"quality", "high", nullptr, 0, "the paper's network configurations (with the default grid)"},
     {"quality", "low", kLowQualityValues, uint32_t(std::size(kLowQualityValues)), ""},
-    {"paper", nullptr, kPaperValues, uint32_t(std::size(kPaperValues)), "the paper's training settings"},
+    {"paper", nullptr, kPaperValues, uint32_t(std::size(kPaperValues)), "the paper's grid and training settings"},
     {"tiny", nullptr, kTinyValues, uint32_t(std::size(kTinyValues)),
      "a tiny model trained in seconds, for tests and first trials"},
 };

@@ -416,10 +416,10 @@ Status add_lsnif_instance(const scene::Scene& scene, const scene::Instance& in, 
     else if (mesh->empty())
       md.raster_why_not = "the mesh of LSNIF node '" + in.node_name +
                           "' was not uploaded (set_scene without both_modes)";
-    else if (mesh->size() > 255)
+    else if (mesh->size() > RENDER_VISIBILITY_MAX_PRIMITIVES)
       md.raster_why_not = "the mesh of LSNIF node '" + in.node_name + "' has more than 255 primitives";
   }
-  if (mesh && !mesh->empty() && mesh->size() <= 255) {
+  if (mesh && !mesh->empty() && mesh->size() <= RENDER_VISIBILITY_MAX_PRIMITIVES) {
     ri.first_primitive = mesh->front();
     for (size_t k = 0; k < mesh->size(); ++k) {
       const RenderPrimitive& rp = prims.primitives[(*mesh)[k]];

@@ -1,6 +1,7 @@
 // settings_io.cpp -- see settings_io.h.
 #include "lsnif/train/settings_io.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -267,9 +268,19 @@ bool per_level_value(const uint32_t* values, size_t count, SettingValue& out) {
   return true;
 }
 
+SettingValue default_indexed_value(uint32_t levels) {
+  uint32_t values[LSNIF_MAX_LEVELS] = {};
+  levels = std::clamp(levels, 1u, uint32_t(LSNIF_MAX_LEVELS));
+  for (uint32_t l = 0; l < levels; ++l) values[l] = default_indexed(l);
+  SettingValue v;
+  per_level_value(values, levels, v);
+  return v;
+}
+
 SettingValues SettingValues::defaults() {
   SettingValues v;
   for (const SettingDef& d : kSettingDefs) v[d.id] = setting_value(d, d.def);
+  v[SettingId::Indexed] = default_indexed_value(default_u32(SettingId::Levels));
   return v;
 }
 
@@ -365,6 +376,9 @@ Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingV
   Origins origin{};
   for (const SettingLayer* l : layers)
     if (Status s = apply_layer(*l, v, origin); !s) return s;
+  // The default of the per-level --indexed follows the level count.
+  if (!origin[static_cast<size_t>(SettingId::Indexed)])
+    v[SettingId::Indexed] = default_indexed_value(static_cast<uint32_t>(v[SettingId::Levels].u));
   if (Status s = check_together(v, origin); !s) return s;
   out = v;
   return Status::ok();

@@ -35,6 +35,8 @@ SettingValue setting_value(const SettingDef& def, double value);
 // A U32PerLevel value from `count` numbers (at most LSNIF_MAX_LEVELS; one: every level). False when
 // `count` is 0 or more than LSNIF_MAX_LEVELS.
 bool per_level_value(const uint32_t* values, size_t count, SettingValue& out);
+// The default of --indexed for `levels` grid levels (default_indexed per level).
+SettingValue default_indexed_value(uint32_t levels);
 
 // Every setting's value, indexed by SettingId.
 struct SettingValues {

@@ -184,7 +184,7 @@ TEST(SettingsConfig, JsonAndTrainSettingsRoundTrip) {
   SettingLayer layer;
   ASSERT_TRUE(parse_settings_json(
       R"({"voxels": 16, "points": 7, "levels": 3, "res-min": 32, "res-max": 256, "table-log2": [10, 9, 11], "indexed": [1, 0, 1], "features": 2,
-          "width": 24, "layers": 3, "hit": "aabb", "leaky-slope": 0.02, "grid-bits": "8", "steps": 3, "batch": 100,
+          "width": 24, "layers": 3, "hit": "aabb", "leaky-slope": 0.02, "grid-bits": "16", "steps": 3, "batch": 100,
           "seed": 18446744073709551615, "ray-reuse": 2, "lr": 0.0033333333, "lr-schedule": "cosine",
           "lr-final": 0.05, "lr-warm": 0.3, "adam-beta1": 0.8, "adam-beta2": 0.95,
           "adam-epsilon": 1e-12, "normal-loss": "cosine", "w-occlusion": 0.5, "w-distance": 2, "w-normal": 0.1,
@@ -249,6 +249,51 @@ TEST(SettingsConfig, TableSizesPerLevel) {
   expect_error(R"({"table-log2": [15, "17"]})", {"cfg.json", "\"table-log2\"", "unsigned integer or a list"});
   expect_error(R"({"table-log2": [1, 2, 3, 4, 5]})", {"cfg.json", "\"table-log2\"", "list of 1 to 4"});
   expect_error(R"({"table-log2": -2})", {"cfg.json", "\"table-log2\"", "unsigned integer"});
+}
+
+TEST(SettingsConfig, TheDefaultGridIsEightBitWithTheCoarseLevelIndexedAndPaperRestoresThePapers) {
+  SettingValues v;
+  TrainSettings s;
+  ASSERT_EQ(config_error("{}", &v), "");
+  to_train_settings(v, s);
+  EXPECT_EQ(s.config.grid_bits, 8u);
+  EXPECT_TRUE(s.indexed[0]);
+  EXPECT_FALSE(s.indexed[1]);
+  EXPECT_EQ(settings_to_json(v)["indexed"], nlohmann::json::array({1, 0}));
+  // The default follows the level count: the coarsest level indexed, the finer ones hashed.
+  ASSERT_EQ(config_error(R"({"levels": 3})", &v), "");
+  to_train_settings(v, s);
+  EXPECT_TRUE(s.indexed[0]);
+  EXPECT_FALSE(s.indexed[1]);
+  EXPECT_FALSE(s.indexed[2]);
+  ASSERT_EQ(config_error(R"({"levels": 1})", &v), "");
+  to_train_settings(v, s);
+  EXPECT_TRUE(s.indexed[0]);
+  // Given, it is the value given (and a list must still match the levels).
+  ASSERT_EQ(config_error(R"({"indexed": 0})", &v), "");
+  to_train_settings(v, s);
+  EXPECT_FALSE(s.indexed[0]);
+  expect_error(R"({"levels": 3, "indexed": [1, 0]})", {"cfg.json", "2 values for 3 levels"});
+  // --paper: the paper's grid (fp16, every level hashed) besides its training.
+  ASSERT_EQ(config_error(R"({"paper": true})", &v), "");
+  to_train_settings(v, s);
+  EXPECT_EQ(s.config.grid_bits, 16u);
+  EXPECT_FALSE(s.indexed[0]);
+  EXPECT_FALSE(s.indexed[1]);
+  EXPECT_EQ(s.config.hit_param, HitParam::AabbInterval);
+  // The default network is the paper's 2x128 with H = 18 (--quality high); --quality low is its
+  // W=64, H=10 on the default grid: only the network changes.
+  ASSERT_EQ(config_error("{}", &v), "");
+  to_train_settings(v, s);
+  EXPECT_EQ(s.config.hidden_width, 128u);
+  EXPECT_EQ(s.config.max_points, 18u);
+  EXPECT_EQ(mlp_flops_per_evaluation(s.config), 62720u);
+  ASSERT_EQ(config_error(R"({"quality": "low"})", &v), "");
+  to_train_settings(v, s);
+  EXPECT_EQ(s.config.grid_bits, 8u);
+  EXPECT_TRUE(s.indexed[0]);
+  EXPECT_EQ(s.config.hidden_width, 64u);
+  EXPECT_EQ(s.config.max_points, 10u);
 }
 
 TEST(SettingsConfig, TrainingRecordHoldsTheSettingsAndTheMesh) {

@@ -16,11 +16,20 @@
 
 namespace lsnif {
 
+// The Config of `lsnif train`'s default model: Config{} (the paper's grid) with settings_table.h's
+// grid bits (its indexed levels are TrainSettings::indexed).
+inline Config default_model_config() {
+  Config c;
+  c.grid_bits = default_u32(SettingId::GridBits);
+  return c;
+}
+
 // The defaults and ranges are those of settings_table.h; settings_io.h reads and writes them.
 struct TrainSettings {
-  Config config;
+  Config config = default_model_config();
   // Levels whose table is indexed (Config::index_slots; the trainer builds the index from the voxels).
-  bool indexed[LSNIF_MAX_LEVELS] = {};
+  bool indexed[LSNIF_MAX_LEVELS] = {default_indexed(0) != 0, default_indexed(1) != 0, default_indexed(2) != 0,
+                                    default_indexed(3) != 0};
   uint32_t steps = default_u32(SettingId::Steps);
   uint32_t batch_size = default_u32(SettingId::Batch);  // paper: 2^18 on a GPU; see settings_table.h
   uint64_t seed = default_u64(SettingId::Seed);

@@ -13,7 +13,9 @@
 #include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/json_text.h"
 #include "lsnif/import/mesh_gltf.h"
+#include "lsnif/core/grid_usage.h"
 #include "lsnif/core/model.h"
+#include "lsnif/train/voxelizer.h"
 #include "lsnif/import/resolve_path.h"
 #include "lsnif/renderer/scene_gltf.h"
 
@@ -214,10 +216,19 @@ size_t Plan::failed_models() const {
   return n;
 }
 
-uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_count) {
+uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_count, const Mesh* mesh) {
   Model m;
   m.config = train.config;
   m.config.material_count = std::max(1u, material_count);
+  bool indexed = false;
+  for (uint32_t l = 0; l < m.config.grid_levels && l < LSNIF_MAX_LEVELS; ++l) indexed |= train.indexed[l];
+  if (mesh && indexed && !mesh->triangles.empty()) {
+    // The indexed levels' tables as the trainer sizes them: from the mesh's voxels.
+    const VoxelGrid voxels = voxelize(*mesh, m.config.voxel_resolution, pad_aabb(mesh->bounds()));
+    std::vector<uint16_t> index;
+    Config indexed_config = m.config;
+    if (index_grid_levels(voxels, train.indexed, indexed_config, index)) m.config = indexed_config;
+  }
   return memory_breakdown(m).total();
 }
 

@@ -81,9 +81,11 @@ Status check_settings(const ConvertSettings& settings);
 // is not an error here: its model carries `error`.
 Status make_plan(const ConvertSettings& settings, Plan& plan);
 
-// The model's size on disk and on the GPU, known from the settings before training
-// (memory_breakdown of a model with `material_count` materials).
-uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_count);
+// The model's size on disk and on the GPU, known before training (memory_breakdown of a model with
+// `material_count` materials): from the settings, and for indexed levels (sized to the mesh) from
+// `mesh`'s voxels; without `mesh` an indexed level counts as hashed (2^table-log2 entries: the
+// bunny's indexed coarse level has a third of that).
+uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_count, const Mesh* mesh = nullptr);
 
 // Distinct materials the model of `m` will have (its primitives' materials, the default counted
 // once), as the mesh importer creates them.

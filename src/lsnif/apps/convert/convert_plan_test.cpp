@@ -163,11 +163,16 @@ TEST(ConvertPlan, DryRunPrintsThePlanAndWritesNothing) {
   EXPECT_FALSE(r.wrote_output);
   EXPECT_NE(log.find("would be trained"), std::string::npos) << log;
   EXPECT_NE(log.find("3 instances sharing it"), std::string::npos) << log;
-  // The estimate is the size of a model with the planned material count.
-  Model two;
-  two.config = settings.train.config;
-  two.config.material_count = 2;
-  EXPECT_EQ(r.models[0].bytes, memory_breakdown(two).total());
+  // The estimate is the size of the model training gives (with its material count and, for the
+  // indexed coarse level of the default, the table its mesh needs).
+  const std::vector<ModelResult> planned = r.models;
+  settings.dry_run = false;
+  EXPECT_EQ(run_quiet(settings, r, &log), 0) << log;
+  ASSERT_EQ(r.models.size(), planned.size());
+  for (size_t i = 0; i < planned.size(); ++i) {
+    ASSERT_EQ(r.models[i].state, ModelState::Trained) << i;
+    EXPECT_EQ(planned[i].bytes, r.models[i].bytes) << i;
+  }
 }
 
 TEST(ConvertPlan, NonTriangleModesAndDracoFailTheirObjectOnly) {

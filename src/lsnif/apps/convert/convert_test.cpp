@@ -93,10 +93,17 @@ TEST_F(Convert, ExtensionRoundTripWithInstancesAndMaterials) {
   EXPECT_EQ(model.materials[0].name, "red");
   EXPECT_EQ(model.materials[1].name, "grey");
   expect_contains(model.bounds(), elephant_bounds(glm::mat4(1.0f)));  // object space of the mesh
-  // The plan's estimate is the model's memory; the file holds the training record besides.
-  EXPECT_EQ(memory_breakdown(model).total(), estimated_model_bytes(settings.train, 2));
-  EXPECT_EQ(fs::file_size(sc.lsnif_objects[0].resolved_path),
-            (estimated_model_bytes(settings.train, 2) - 4 + 16 + model.training.size() + 15) / 16 * 16 + 4);
+  // The plan's estimate (from the settings and, for the indexed coarse level, the mesh's voxels) is
+  // the model's memory; the file holds the training record besides.
+  ASSERT_TRUE(model.config.indexed(0)) << "the default indexes the coarse level";
+  Mesh elephant;
+  ASSERT_TRUE(load_mesh(kElephant, elephant));
+  const uint64_t estimate = estimated_model_bytes(settings.train, 2, &elephant);
+  EXPECT_EQ(memory_breakdown(model).total(), estimate);
+  // The record's section: its bytes, a section header and alignment padding.
+  const uint64_t file = fs::file_size(sc.lsnif_objects[0].resolved_path);
+  EXPECT_GE(file, estimate + model.training.size());
+  EXPECT_LE(file, estimate + model.training.size() + 48);
   EXPECT_NE(model.training.find("\"settings\":{\"voxels\":"), std::string::npos) << model.training;
 
   // --keep-meshes: the nodes keep their triangles as the reference.

@@ -122,7 +122,7 @@ void prepare_models(const ConvertSettings& settings, const Plan& plan, const std
       continue;
     }
     r.hash = content_hash(r.mesh, settings.train);
-    r.bytes = estimated_model_bytes(settings.train, uint32_t(r.mesh.materials.size()));
+    r.bytes = estimated_model_bytes(settings.train, uint32_t(r.mesh.materials.size()), &r.mesh);
     const std::string path = (fs::path(out_dir) / m.file).string();
     Sidecar side;
     Model existing;

@@ -3,8 +3,9 @@
 // (glTF with the LSNIF extensions) when missing or changed; per quality preset (--quality high,low:
 // Table 1's H and L columns) get every unique model it needs (trained by the BenchTrainer, or with
 // --models copied from a folder of models prepared before); per
-// pipeline (--pipeline inline|wavefront|both) render it in reference and LSNIF mode with the same
-// random sequences (render_compare.h), the wavefront renders with stage times; report LSNIF count,
+// pipeline (--pipeline auto|inline|wavefront|both; auto: the LSNIF mode's choice for the scene and
+// device against the fastest triangle path, pipeline_option.h) render it in reference and LSNIF mode
+// with the same random sequences (render_compare.h), the wavefront renders with stage times; report LSNIF count,
 // LSNIF memory against the triangle BLAS it replaces, time per sample of both modes, the LDR-FLIP
 // of the LSNIF image and the wavefront stages. Writes OUT/results.md and per row OUT/SCENE[.low].
 // PIPELINE.png (reference | LSNIF | FLIP heatmap).
@@ -42,7 +43,8 @@ namespace fs = std::filesystem;
 // One measurement: a scene with the models of one quality preset, rendered by one pipeline.
 struct SceneRow {
   std::string name, summary, image, preset;
-  render::PathPipeline pipeline = render::PathPipeline::inline_rt;
+  std::string pipeline_entry;  // of --pipeline: auto, inline or wavefront
+  render::RenderChoice path, reference_path;  // of the LSNIF and the reference render
   uint64_t triangles = 0;  // instanced triangles of the LSNIF objects
   CompareReport cmp;
   std::vector<BenchModelRow> models;  // those trained or reused for this preset (listed once per preset)
@@ -63,10 +65,17 @@ uint64_t object_blas_bytes(const CompareReport& c) {
              : 0;
 }
 
-// The row's pipeline, with the broad phase its LSNIF render's queries ran with ("wavefront (trace-rays)").
+// The row's pipeline, with the broad phase its LSNIF render's queries ran with ("wavefront (trace-rays)"),
+// and for --pipeline auto the primary visibility and the reference's path ("wavefront (ray-query),
+// raster; reference inline, traced").
 std::string pipeline_label(const SceneRow& r) {
-  if (r.pipeline != render::PathPipeline::wavefront) return render::pipeline_name(r.pipeline);
-  return format("%s (%s)", render::pipeline_name(r.pipeline), render::broad_phase_name(r.cmp.lsnif.broad_phase));
+  std::string label = render::pipeline_name(r.path.pipeline);
+  if (r.path.pipeline == render::PathPipeline::wavefront)
+    label += format(" (%s)", render::broad_phase_name(r.cmp.lsnif.broad_phase));
+  if (r.pipeline_entry == "auto")
+    label += format(", %s; reference %s, %s", render::primary_name(r.path.primary),
+                    render::pipeline_name(r.reference_path.pipeline), render::primary_name(r.reference_path.primary));
+  return label;
 }
 
 std::string table(const std::vector<SceneRow>& rows) {
@@ -108,16 +117,24 @@ std::string stage_table(const std::vector<SceneRow>& rows) {
 std::string results_markdown(const std::vector<SceneRow>& rows, const render::RenderSettings& rs,
                              const std::string& device, const std::string& training) {
   std::string md = "# lsnif bench: LSNIF vs triangles on the bundled scenes (like Table 1 of the paper)\n\n";
-  md += format("Device: %s. Images %ux%u, %u samples per pixel, %u bounces, %s primary visibility. Training: %s.\n\n",
-               device.c_str(), rs.width, rs.height, rs.spp, rs.max_bounces, render::primary_name(rs.primary),
-               training.c_str());
+  md += format("Device: %s. Images %ux%u, %u samples per pixel, %u bounces. Training: %s.\n\n",
+               device.c_str(), rs.width, rs.height, rs.spp, rs.max_bounces, training.c_str());
+  md += "Pipelines and primary visibility:\n\n";
+  for (const SceneRow& r : rows)
+    md += format("- %s, %s quality: LSNIF %s, %s (%s); reference %s, %s\n", r.name.c_str(), r.preset.c_str(),
+                 render::pipeline_name(r.path.pipeline), render::primary_name(r.path.primary), r.path.why.c_str(),
+                 render::pipeline_name(r.reference_path.pipeline), render::primary_name(r.reference_path.primary));
+  md += "\n";
   md += table(rows);
   md += "\nLSNIF count: LSNIF instances (unique models). LSNIF: device memory of the models (model block + AABB "
         "BLAS). Triangle BLAS: the BLASes of the same objects' meshes in reference mode (one per unique mesh, "
         "instances share it). T: wall time per sample per pixel (one path per pixel), the first pass excluded. "
         "FLIP: mean LDR-FLIP of the LSNIF image against the reference (same random numbers). Quality: the "
-        "paper's configurations (high: the defaults; low: `--quality low`, W=64, H=10). The reference is rendered "
-        "by the row's pipeline, once per scene and pipeline: both quality rows compare against the same render.\n";
+        "model: default (`lsnif train`'s: the paper's network, W=128 and H=18, on the default grid; high: "
+        "`--quality high`, the same network in its own file), low (`--quality low`: the paper's W=64, H=10 on "
+        "the default grid). The reference is rendered "
+        "by the row's pipeline (with `--pipeline auto`: the fastest triangle path), once per scene and path: both "
+        "quality rows compare against the same render.\n";
   if (const std::string st = stage_table(rows); !st.empty()) {
     md += "\n## Wavefront stages (device time per sample, timestamps)\n\n" + st;
     md += "\nBroad phase, sort, encode (walk and sparse-grid encoding), MLP and resolve are lsnifCmdQuery's stages, "
@@ -150,7 +167,6 @@ nlohmann::ordered_json results_json(const std::vector<SceneRow>& rows, const ren
                               {"height", rs.height},
                               {"spp", rs.spp},
                               {"bounces", rs.max_bounces},
-                              {"primary", render::primary_name(rs.primary)},
                               {"training", training}};
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
   for (const SceneRow& r : rows) {
@@ -160,8 +176,12 @@ nlohmann::ordered_json results_json(const std::vector<SceneRow>& rows, const ren
     nlohmann::ordered_json row = {
         {"scene", r.name},
         {"quality", r.preset},
-        {"pipeline", render::pipeline_name(r.pipeline)},
-        {"broad_phase", r.pipeline == render::PathPipeline::wavefront ? render::broad_phase_name(l.broad_phase) : ""},
+        {"pipeline", render::pipeline_name(r.path.pipeline)},
+        {"primary", render::primary_name(r.path.primary)},
+        {"pipeline_choice", r.path.why},
+        {"reference_pipeline", render::pipeline_name(r.reference_path.pipeline)},
+        {"reference_primary", render::primary_name(r.reference_path.primary)},
+        {"broad_phase", r.path.pipeline == render::PathPipeline::wavefront ? render::broad_phase_name(l.broad_phase) : ""},
         {"object_triangles", r.triangles},
         {"lsnif_instances", l.lsnif_instances},
         {"lsnif_models", l.lsnif_models},
@@ -185,14 +205,13 @@ nlohmann::ordered_json results_json(const std::vector<SceneRow>& rows, const ren
 // The command line as given, then as checked (pipelines, primary visibility, presets, scenes).
 struct BenchCommand {
   std::vector<std::string> names;
-  std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "both",
-              preset_names = "high,low", primary_name = "traced", broad_phase_name = "auto";
+  std::string out_dir = "out/bench", data_dir = default_data_dir(), device, pipeline_name = "auto",
+              preset_names = "default,low", primary_name = "auto", broad_phase_name = "auto";
   std::string models_dir;  // --models: take the models from here instead of training
   bool no_render = false;  // --no-render: build the scenes and train their models only
   BenchRunOptions run;
   std::string known;  // the bundled scenes' names, for the help and messages
-  std::vector<render::PathPipeline> pipelines;
-  render::PrimaryVisibility primary{};
+  std::vector<std::string> pipelines;  // auto, inline, wavefront
   render::BroadPhase broad_phase{};
   std::vector<std::string> presets, scenes;
 };
@@ -213,14 +232,19 @@ std::optional<int> parse_command_line(int argc, char** argv, bool trains, BenchC
   args.option("out", "output folder", &cmd.out_dir);
   args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &cmd.data_dir);
   args.option("models",
-              "take the models from this folder (MODELS/SCENE/OBJECT[.low].lsnif and .key, as `lsnif bench --out "
+              "take the models from this folder (MODELS/SCENE/OBJECT[.high|.low].lsnif and .key, as `lsnif bench --out "
               "MODELS` left them) instead of training",
               &cmd.models_dir);
   if (trains) args.flag("no-render", "build the scenes and train their models, render nothing", &cmd.no_render);
   add_bench_run_options(args, &cmd.run);
-  args.option("pipeline", "inline, wavefront or both (docs/renderer.md): the pipelines each scene is rendered with",
+  args.option("pipeline",
+              "auto (the fastest correct pipeline for the scene and device against the fastest triangle path), "
+              "inline, wavefront or both (docs/renderer.md): the pipelines each scene is rendered with; a forced "
+              "one renders the reference too",
               &cmd.pipeline_name);
-  args.option("quality", "the paper's configurations to train and compare, a list: high, low (Table 1's H and L)",
+  args.option("quality",
+              "the models to train and compare, a list: default (lsnif train's), high, low (the paper's Table 1 "
+              "H and L networks; high is the default network, in its own files)",
               &cmd.preset_names);
   add_primary_option(args, &cmd.primary_name);
   add_broad_phase_option(args, &cmd.broad_phase_name);
@@ -229,28 +253,31 @@ std::optional<int> parse_command_line(int argc, char** argv, bool trains, BenchC
   return std::nullopt;
 }
 
-// Checks --pipeline, --primary, --quality and the scene names into cmd.pipelines, cmd.primary,
+// Checks --pipeline, --primary, --quality and the scene names into cmd.pipelines,
 // cmd.presets and cmd.scenes (each once, in order); false (message printed) on an invalid one.
 bool check_choices(BenchCommand& cmd) {
   if (cmd.pipeline_name == "both") {
-    cmd.pipelines = {render::PathPipeline::inline_rt, render::PathPipeline::wavefront};
+    cmd.pipelines = {"inline", "wavefront"};
   } else {
     render::PathPipeline one;
-    if (!render::parse_pipeline(cmd.pipeline_name, one)) {
-      std::fprintf(stderr, "lsnif bench: --pipeline must be inline, wavefront or both, not '%s'\n",
+    if (cmd.pipeline_name != "auto" && !render::parse_pipeline(cmd.pipeline_name, one)) {
+      std::fprintf(stderr, "lsnif bench: --pipeline must be auto, inline, wavefront or both, not '%s'\n",
                    printable(cmd.pipeline_name).c_str());
       return false;
     }
-    cmd.pipelines = {one};
+    cmd.pipelines = {cmd.pipeline_name};
   }
-  if (!parse_primary_option("bench", cmd.primary_name, cmd.primary)) return false;
+  PathOptions primary;
+  primary.primary = cmd.primary_name;
+  if (!check_path_options("bench", primary)) return false;
   if (!parse_broad_phase_option("bench", cmd.broad_phase_name, cmd.broad_phase)) return false;
   const std::string& preset_names = cmd.preset_names;
   for (size_t at = 0; at <= preset_names.size();) {
     const size_t comma = std::min(preset_names.find(',', at), preset_names.size());
     const std::string p = preset_names.substr(at, comma - at);
-    if (p != "high" && p != "low") {
-      std::fprintf(stderr, "lsnif bench: --quality takes a list of high and low, not '%s'\n", printable(p).c_str());
+    if (p != "default" && p != "high" && p != "low") {
+      std::fprintf(stderr, "lsnif bench: --quality takes a list of default, high and low, not '%s'\n",
+                   printable(p).c_str());
       return false;
     }
     if (std::find(cmd.presets.begin(), cmd.presets.end(), p) == cmd.presets.end()) cmd.presets.push_back(p);
@@ -377,18 +404,22 @@ int copy_prepared_models(const BenchCommand& cmd, const BenchScene& bench, const
   return 0;
 }
 
-// Loads the scene file `gltf` into `sc`, its LSNIF objects tracing the models of `preset`; false
-// (message printed) when it cannot be loaded.
-bool load_preset_scene(const fs::path& gltf, const std::string& preset, scene::Scene& sc) {
-  // The scene file names the high models; the low rows trace the low ones in their place.
+// Loads the scene file `gltf` of `bench` into `sc`, its LSNIF objects tracing the models of
+// `preset`; false (message printed) when it cannot be loaded.
+bool load_preset_scene(const fs::path& gltf, const BenchScene& bench, const std::string& preset, scene::Scene& sc) {
+  // The scene file names the default models; the other rows trace theirs in their place (and the
+  // default ones need not exist: a run of other presets prepares none).
   scene::SceneLoadOptions lo;
+  if (preset != "default")
+    for (const BenchObject& o : bench.objects)
+      lo.pending_models.push_back((gltf.parent_path() / bench_model_file(o.name, "default")).lexically_normal().string());
   if (Status s = scene::load_scene(gltf.string(), lo, sc); !s) {
     std::fprintf(stderr, "lsnif bench: %s\n", s.message().c_str());
     return false;
   }
   for (scene::LsnifObject& obj : sc.lsnif_objects) {
-    const fs::path high(obj.resolved_path);
-    obj.resolved_path = (high.parent_path() / bench_model_file(high.stem().string(), preset)).string();
+    const fs::path named(obj.resolved_path);
+    obj.resolved_path = (named.parent_path() / bench_model_file(named.stem().string(), preset)).string();
   }
   return true;
 }
@@ -397,23 +428,35 @@ bool load_preset_scene(const fs::path& gltf, const std::string& preset, scene::S
 // taken from or kept in `references`) and appends a row per pipeline to `rows`, from `models` (the
 // scene's and preset's fields); false (message printed) on failure.
 bool render_preset(vk::ComputeContext& ctx, const BenchCommand& cmd, const scene::Scene& sc, const SceneRow& models,
-                   const render::RenderSettings& rs, std::map<render::PathPipeline, ReferenceRender>& references,
+                   const render::RenderSettings& rs, std::map<std::string, ReferenceRender>& references,
                    std::vector<SceneRow>& rows) {
   const std::string& name = models.name;
   const std::string& preset = models.preset;
-  for (const render::PathPipeline pipeline : cmd.pipelines) {
+  for (const std::string& entry : cmd.pipelines) {
     SceneRow row = models;
-    if (pipeline != cmd.pipelines.front()) row.models.clear();  // listed once per preset
-    row.pipeline = pipeline;
-    row.image = name + (preset == "high" ? "" : "." + preset) + "." + render::pipeline_name(pipeline) + ".png";
+    if (entry != cmd.pipelines.front()) row.models.clear();  // listed once per preset
+    row.pipeline_entry = entry;
+    PathOptions given;
+    given.pipeline = entry;
+    given.primary = cmd.primary_name;
+    if (!resolve_path_options("bench", given, ctx, sc, /*reference=*/false, row.path)) return false;
+    // auto: the reference takes the fastest triangle path; a forced pipeline renders it too.
+    row.reference_path = row.path;
+    if (entry == "auto" && !resolve_path_options("bench", PathOptions(), ctx, sc, /*reference=*/true, row.reference_path))
+      return false;
+    row.image = name + (preset == "default" ? "" : "." + preset) + "." + entry + ".png";
     render::RenderSettings prs = rs;
-    prs.pipeline = pipeline;
+    prs.pipeline = row.path.pipeline;
+    prs.primary = row.path.primary;
     prs.broad_phase = cmd.broad_phase;
-    prs.stage_times = pipeline == render::PathPipeline::wavefront;
-    std::printf("\n-- %s, %s quality, %s pipeline\n", name.c_str(), preset.c_str(), render::pipeline_name(pipeline));
+    prs.stage_times = true;  // the wavefront renders' stages (the inline pipeline has none)
+    std::printf("\n-- %s, %s quality, %s pipeline, %s primary (%s)\n", name.c_str(), preset.c_str(),
+                render::pipeline_name(row.path.pipeline), render::primary_name(row.path.primary), row.path.why.c_str());
     std::fflush(stdout);
+    const std::string ref_key = std::string(render::pipeline_name(row.reference_path.pipeline)) + "," +
+                                render::primary_name(row.reference_path.primary);
     if (Status s = render_compare(ctx, sc, prs, (fs::path(cmd.out_dir) / row.image).string(), row.cmp,
-                                  &references[pipeline]);
+                                  &references[ref_key], &row.reference_path);
         !s) {
       std::fprintf(stderr, "lsnif bench: scene %s: %s\n", name.c_str(), s.message().c_str());
       return false;
@@ -435,7 +478,7 @@ int run_scene(vk::ComputeContext& ctx, const BenchCommand& cmd, const BenchTrain
   if (int r = prepare_scene(name, cmd, bench, base, dir, gltf)) return r;
 
   // The reference render of each pipeline, shared by the quality rows (it traces only meshes).
-  std::map<render::PathPipeline, ReferenceRender> references;
+  std::map<std::string, ReferenceRender> references;  // by the reference's pipeline and primary visibility
   for (const std::string& preset : cmd.presets) {
     SceneRow models = base;
     models.preset = preset;
@@ -445,7 +488,7 @@ int run_scene(vk::ComputeContext& ctx, const BenchCommand& cmd, const BenchTrain
     if (r) return r;
     if (cmd.no_render) continue;
     scene::Scene sc;
-    if (!load_preset_scene(gltf, preset, sc)) return 1;
+    if (!load_preset_scene(gltf, bench, preset, sc)) return 1;
     if (!render_preset(ctx, cmd, sc, models, rs, references, rows)) return 1;
   }
   return 0;
@@ -467,7 +510,7 @@ bool write_report(const BenchCommand& cmd, const std::vector<SceneRow>& rows, co
 }  // namespace
 
 std::string bench_model_file(const std::string& object, const std::string& preset) {
-  return preset == "high" ? object + ".lsnif" : object + "." + preset + ".lsnif";
+  return preset == "default" ? object + ".lsnif" : object + "." + preset + ".lsnif";
 }
 
 int run_bench(int argc, char** argv, const BenchTrainer* trainer) {
@@ -488,7 +531,6 @@ int run_bench(int argc, char** argv, const BenchTrainer* trainer) {
   TrainOptions topt;
   render::RenderSettings rs;
   apply_bench_run_options(cmd.run, topt, rs);
-  rs.primary = cmd.primary;
   // Checked (and described for results.md) before any work.
   std::string training = "models prepared in " + cmd.models_dir;
   if (cmd.models_dir.empty() && !trainer->describe(topt, cmd.out_dir, cmd.run.quick, training)) return 2;

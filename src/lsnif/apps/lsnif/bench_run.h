@@ -21,8 +21,9 @@ struct BenchModelRow {
   double train_seconds = 0;   // when trained
 };
 
-// The model file of `object` for quality `preset` (Table 1's H and L configurations, `lsnif train
-// --quality high|low`): OBJECT.lsnif for high, OBJECT.PRESET.lsnif otherwise.
+// The model file of `object` for quality `preset` (default: `lsnif train`'s defaults; high, low:
+// Table 1's H and L networks, `lsnif train --quality high|low`): OBJECT.lsnif for default,
+// OBJECT.PRESET.lsnif otherwise.
 std::string bench_model_file(const std::string& object, const std::string& preset);
 
 // How `lsnif bench` trains.

@@ -33,26 +33,41 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Named points of the curve; any other entry of --settings is NAME=VALUE pairs joined by '+'.
+// Named points of the curve; any other entry of --settings is NAME=VALUE pairs joined by '+'. They
+// pin the hidden width, so that they mean the same whatever the default is ("default" alone is
+// `lsnif train`'s defaults: 8-bit, the coarse level indexed, W=64).
 struct NamedSetting {
   const char* name;
   const char* values;
 };
 const NamedSetting kNamedSettings[] = {
     {"default", ""},
-    {"b8", "grid-bits=8"},
-    {"b8-m16", "grid-bits=8+table-log2=16"},
-    {"b8-m16-w64", "grid-bits=8+table-log2=16+width=64"},
+    // The paper's model: both levels hashed into 2^17 fp16 entries, 2x128 (the default before b8-i0).
+    {"fp16-hashed", "grid-bits=16+width=128+indexed=0"},
+    {"b8", "grid-bits=8+width=128+indexed=0"},
+    {"b8-m16", "grid-bits=8+width=128+indexed=0+table-log2=16"},
+    {"b8-m16-w64", "grid-bits=8+width=64+indexed=0+table-log2=16"},
     // Per-level table sizes: the coarse level (R=64) needs far fewer entries than the fine one.
-    {"b8-m15-17", "grid-bits=8+table-log2=15,17"},
-    {"b8-m16-17", "grid-bits=8+table-log2=16,17"},
+    {"b8-m15-17", "grid-bits=8+width=128+indexed=0+table-log2=15,17"},
+    {"b8-m16-17", "grid-bits=8+width=128+indexed=0+table-log2=16,17"},
     // The coarse level indexed: every vertex it can read has its own entry (no collisions), and the
     // table has as many entries as the mesh needs.
-    {"b8-i0", "grid-bits=8+indexed=1,0"},
-    {"b8-i0-m16", "grid-bits=8+indexed=1,0+table-log2=16"},
-    {"b8-i0-m15", "grid-bits=8+indexed=1,0+table-log2=15"},
+    {"b8-i0", "grid-bits=8+width=128+indexed=1,0"},
+    {"b8-i0-m16", "grid-bits=8+width=128+table-log2=16+indexed=1,0"},
+    {"b8-i0-m15", "grid-bits=8+width=128+table-log2=15+indexed=1,0"},
+    // The network's cost with the indexed grid: hidden width W, boundary points H, hidden layers.
+    {"b8-i0-w96", "grid-bits=8+width=96+indexed=1,0"},
+    {"b8-i0-w96-h14", "grid-bits=8+width=96+points=14+indexed=1,0"},
+    {"b8-i0-w64", "grid-bits=8+width=64+indexed=1,0"},
+    {"b8-i0-w64-h14", "grid-bits=8+width=64+points=14+indexed=1,0"},
+    {"b8-i0-w32", "grid-bits=8+width=32+indexed=1,0"},
+    {"b8-i0-h10", "grid-bits=8+width=128+points=10+indexed=1,0"},
+    {"b8-i0-l1", "grid-bits=8+width=128+layers=1+indexed=1,0"},
 };
-constexpr const char* kDefaultSettings = "default,b8,b8-m16,b8-m16-w64";
+// The former default (the paper's model), the paper's network on the default grid, the default.
+constexpr const char* kDefaultSettings = "fp16-hashed,b8-i0,default";
+// mlp_flops_per_evaluation of the paper's network (H=18, L=2, F=3, W=128x2, one material).
+constexpr uint64_t kPaperFlopsPerEvaluation = 62720;
 
 struct SizeSetting {
   std::string name;    // as given (a named setting or the pairs themselves): file names, table rows
@@ -146,6 +161,7 @@ struct SizeRow {
   std::string mesh, setting, image;
   uint64_t model_bytes = 0;   // the .lsnif file
   uint64_t device_bytes = 0;  // on the device: model block + AABB BLAS (the renderer's statistics)
+  uint64_t flops = 0;         // per network evaluation (mlp_flops_per_evaluation)
   EvalMetrics eval;
   double flip_mean = 0;
   CachedModel cached;
@@ -172,14 +188,15 @@ const SizeRow& baseline_row(const std::vector<SizeRow>& rows, const std::string&
 
 std::string size_table(const std::vector<SizeRow>& rows) {
   std::string t =
-      "| mesh | setting | model bytes | smaller than the first setting | occlusion acc | t err median | "
-      "normal err median (deg) | FLIP mean | FLIP - first setting's |\n"
-      "|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+      "| mesh | setting | model bytes | smaller than the first setting | kFLOP per evaluation | of the paper's | "
+      "occlusion acc | t err median | normal err median (deg) | FLIP mean | FLIP - first setting's |\n"
+      "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SizeRow& r : rows) {
     const SizeRow& b = baseline_row(rows, r.mesh);
-    t += format("| %s | %s | %s | %.2fx | %.2f%% | %.3f%% | %.2f | %.4f | %+.4f |\n", r.mesh.c_str(),
+    t += format("| %s | %s | %s | %.2fx | %.1f | %.0f%% | %.2f%% | %.3f%% | %.2f | %.4f | %+.4f |\n", r.mesh.c_str(),
                 r.setting.c_str(), grouped(r.model_bytes).c_str(),
-                r.model_bytes ? double(b.model_bytes) / double(r.model_bytes) : 0.0, 100.0 * r.eval.accuracy,
+                r.model_bytes ? double(b.model_bytes) / double(r.model_bytes) : 0.0, 1e-3 * double(r.flops),
+                100.0 * double(r.flops) / double(kPaperFlopsPerEvaluation), 100.0 * r.eval.accuracy,
                 100.0 * r.eval.t_error_median, r.eval.normal_error_median, r.flip_mean, r.flip_mean - b.flip_mean);
   }
   return t;
@@ -227,7 +244,8 @@ std::string results_markdown(const std::vector<SizeRow>& rows, const std::vector
   md += "\n";
   md += size_table(rows);
   md += "\nModel bytes: the .lsnif file. Occlusion accuracy, t error (of the AABB diagonal) and normal error: "
-        "`lsnif eval`'s. FLIP: mean LDR-FLIP of the LSNIF render against the triangle reference (same random "
+        "`lsnif eval`'s. kFLOP per evaluation: 2 x the multiply-adds of the network's layers (the paper's "
+        "network: 62.7). FLIP: mean LDR-FLIP of the LSNIF render against the triangle reference (same random "
         "numbers); the last column subtracts the first setting's on the same mesh.\n";
   md += "\n## Memory at ~3M triangles (the `heavy` scene)\n\n";
   md += heavy_table(heavy);
@@ -279,7 +297,8 @@ std::optional<int> parse_command_line(int argc, char** argv, SizeCommand& cmd) {
   args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &cmd.data_dir);
   args.option("rays", "held-out eval rays (0: 100000, --quick 4000)", &cmd.rays);
   add_bench_run_options(args, &cmd.run);
-  add_pipeline_option(args, &cmd.pipeline_name);
+  args.option("pipeline", "inline or wavefront (docs/renderer.md): the pipeline of the renders (the same estimator)",
+              &cmd.pipeline_name);
   add_device_option(args, &cmd.device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   return std::nullopt;
@@ -429,6 +448,7 @@ int measure_setting(const SizeBench& b, const std::string& mesh_name, const Mesh
     return 1;
   }
   row.eval = report.model;
+  row.flops = mlp_flops_per_evaluation(model.config);
   std::printf("eval      occlusion %.2f%%, t error median %.3f%%, normal error median %.2f deg (%zu rays)\n",
               100.0 * row.eval.accuracy, 100.0 * row.eval.t_error_median, row.eval.normal_error_median, b.es.rays);
   row.image = mesh_name + "-" + setting.name + ".png";

@@ -46,7 +46,7 @@ const char* const kTests[] = {"gpu_reference_test", "rt_conformance_test", "plug
 constexpr size_t kMaxImages = 6;
 
 struct CheckOptions {
-  std::string out, folder, device, scenes = "bunny,dragons,heavy", quality = "high,low";
+  std::string out, folder, device, scenes = "bunny,dragons,heavy", quality = "default,low";
   uint32_t width = 1920, height = 1080, spp = 4, rays = 1u << 20, step_timeout = 300;
   bool quick = false, validation = false, keep_work = false;
 };
@@ -171,13 +171,13 @@ std::optional<int> parse(int argc, char** argv, CheckOptions& o) {
             "The GPU check (docs/gpu-check.md) from the folder scripts/gpu-check.sh built (--folder): on one\n"
             "Vulkan device, `lsnif-gpu devices`, the GPU conformance tests (bin/*_test with the folder's prepared\n"
             "models and meshes), bench-trace on the bunny and bench (Table 1: LSNIF vs triangles, inline and\n"
-            "wavefront, both quality presets) on the prepared scenes. Writes OUT/report.json and at most 6\n"
+            "wavefront, the default model and the paper's low one) on the prepared scenes. Writes OUT/report.json and at most 6\n"
             "images (SCENE.PIPELINE.png: reference | LSNIF | FLIP); exit 0 only when every step passed.\n"
             "The device: --device, else the environment variable LSNIF_DEVICE, else the automatic choice.");
   args.positional("OUT", "output folder (report.json, images; its work/ subfolder is removed at the end)", &o.out);
   args.option("folder", "the GPU check folder (bin/, lib/, data/, models/)", &o.folder);
   args.option("scenes", "bench scenes, a list of bunny, dragons, heavy, foliage", &o.scenes);
-  args.option("quality", "bench quality presets, a list of high, low", &o.quality);
+  args.option("quality", "bench models, a list of default, high, low", &o.quality);
   args.option("width", "bench image width (16..7680)", &o.width);
   args.option("height", "bench image height (16..4320)", &o.height);
   args.option("spp", "bench samples per pixel (1..1024)", &o.spp);
@@ -331,7 +331,9 @@ void run_bench(Check& c) {
                                    (c.folder / "models" / "bench").string(), "--data", (c.folder / "data").string(),
                                    "--out", out.string(), "--quality", c.o.quality, "--width",
                                    std::to_string(c.o.width), "--height", std::to_string(c.o.height), "--spp",
-                                   std::to_string(c.o.spp)};
+                                   std::to_string(c.o.spp),
+                                   // Both pipelines, traced: the measurement behind the automatic choice.
+                                   "--pipeline", "both", "--primary", "traced"};
   size_t position = 2;  // after "bench", in the order --scenes lists them
   for (size_t at = 0; at <= c.o.scenes.size();) {
     const size_t comma = std::min(c.o.scenes.find(',', at), c.o.scenes.size());
@@ -352,7 +354,7 @@ void run_bench(Check& c) {
   Json images = Json::array();
   for (const Json& row : j["rows"]) {
     const std::string image = row.value("image", "");
-    if (row.value("quality", "") != "high" || images.size() >= kMaxImages || image.empty()) continue;
+    if (row.value("quality", "") != "default" || images.size() >= kMaxImages || image.empty()) continue;
     std::error_code ec;
     fs::copy_file(out / image, fs::path(c.o.out) / image, fs::copy_options::overwrite_existing, ec);
     if (!ec) images.push_back(image);

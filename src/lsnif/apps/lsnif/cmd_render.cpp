@@ -17,7 +17,8 @@
 namespace lsnif::cli {
 
 int cmd_render(int argc, char** argv) {
-  std::string output = "render.png", device, pipeline_name = "inline", primary_name = "traced", broad_phase_name = "auto";
+  std::string output = "render.png", device, broad_phase_name = "auto";
+  PathOptions path;
   uint32_t width = 640, height = 480, spp = 64, bounces = 4;
   bool reference = false, validation = false, stage_times = false;
   SceneArgs sa;
@@ -35,11 +36,11 @@ int cmd_render(int argc, char** argv) {
   args.option("height", "image height", &height);
   args.option("spp", "samples per pixel", &spp);
   args.option("bounces", "bounces after the camera ray (the paper's 4)", &bounces);
-  add_pipeline_option(args, &pipeline_name);
+  add_pipeline_option(args, &path.pipeline);
   add_broad_phase_option(args, &broad_phase_name);
   args.flag("stage-times", "with --pipeline wavefront: time its stages on the device (timestamps) and report them",
             &stage_times);
-  add_primary_option(args, &primary_name);
+  add_primary_option(args, &path.primary);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 on any message)", &validation);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
@@ -47,14 +48,11 @@ int cmd_render(int argc, char** argv) {
     std::fprintf(stderr, "lsnif render: --width and --height must be in 1..16384 and --spp positive\n");
     return 2;
   }
-  render::PathPipeline pipeline;
-  if (!parse_pipeline_option("render", pipeline_name, pipeline)) return 2;
-  if (stage_times && pipeline != render::PathPipeline::wavefront) {
-    std::fprintf(stderr, "lsnif render: --stage-times needs --pipeline wavefront (the inline pipeline is one launch)\n");
+  if (!check_path_options("render", path)) return 2;
+  if (stage_times && path.pipeline == "inline") {
+    std::fprintf(stderr, "lsnif render: --stage-times needs the wavefront pipeline (the inline pipeline is one launch)\n");
     return 2;
   }
-  render::PrimaryVisibility primary;
-  if (!parse_primary_option("render", primary_name, primary)) return 2;
   render::BroadPhase broad_phase;
   if (!parse_broad_phase_option("render", broad_phase_name, broad_phase)) return 2;
 
@@ -70,6 +68,15 @@ int cmd_render(int argc, char** argv) {
                  s.message().c_str());
     return 1;
   }
+  render::RenderChoice choice;
+  if (!resolve_path_options("render", path, ctx, scene, reference, choice)) return 1;
+  if (stage_times && choice.pipeline != render::PathPipeline::wavefront) {
+    std::fprintf(stderr, "lsnif render: --stage-times needs the wavefront pipeline, and the choice is %s (%s)\n",
+                 render::pipeline_name(choice.pipeline), choice.why.c_str());
+    return 2;
+  }
+  const render::PathPipeline pipeline = choice.pipeline;
+  const render::PrimaryVisibility primary = choice.primary;
   render::RenderSettings settings;
   settings.width = width;
   settings.height = height;
@@ -98,6 +105,7 @@ int cmd_render(int argc, char** argv) {
   }
   std::printf("scene            %s (%s mode, %s pipeline, %s primary)\n", sa.scene_path.c_str(),
               reference ? "reference" : "LSNIF", render::pipeline_name(pipeline), render::primary_name(primary));
+  std::printf("pipeline choice  %s\n", choice.why.c_str());
   std::printf("device           %s\n", ctx.device_name().c_str());
   if (pipeline == render::PathPipeline::wavefront)
     std::printf("broad phase      %s (lsnifCmdQuery)\n", render::broad_phase_name(stats.broad_phase));

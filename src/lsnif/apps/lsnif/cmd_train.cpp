@@ -14,8 +14,9 @@ int cmd_train(int argc, char** argv) {
   std::string mesh_path;
   TrainOptions opts;
   Args args("train", "Trains an LSNIF model of MESH (.off .obj .ply .gltf .glb) and writes it with a CSV of\n"
-                     "the loss curve beside it (MODEL.csv). Defaults are tuned for a 2-core CPU; --paper\n"
-                     "selects the paper's batch (2^18) and hit parametrization.");
+                     "the loss curve beside it (MODEL.csv). The default model is smaller and cheaper than the\n"
+                     "paper's (8-bit grid, coarse level indexed, docs/results.md) and its training is tuned\n"
+                     "for a 2-core CPU; --paper selects the paper's grid and training, --quality high its network.");
   args.positional("MESH", "input mesh", &mesh_path);
   opts.add_to(args);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;

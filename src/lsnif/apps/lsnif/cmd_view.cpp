@@ -43,12 +43,15 @@ int cmd_view(int argc, char** argv) {
   args.flag("quiet", "no line per frame", &vs.quiet);
   args.flag("validation", "enable the Khronos validation layer (exit 1 on any message)", &vs.validation);
   add_device_option(args, &vs.device);
-  std::string pipeline_name = "inline", primary_name = "traced";
-  add_pipeline_option(args, &pipeline_name);
-  add_primary_option(args, &primary_name);
+  PathOptions path;
+  add_pipeline_option(args, &path.pipeline);
+  add_primary_option(args, &path.primary);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
-  if (!parse_pipeline_option("view", pipeline_name, vs.pipeline)) return 2;
-  if (!parse_primary_option("view", primary_name, vs.primary)) return 2;
+  if (!check_path_options("view", path)) return 2;
+  vs.choose_pipeline = path.pipeline == "auto";
+  vs.choose_primary = path.primary == "auto";
+  if (!vs.choose_pipeline) render::parse_pipeline(path.pipeline, vs.pipeline);
+  if (!vs.choose_primary) render::parse_primary(path.primary, vs.primary);
   if (vs.width == 0 || vs.height == 0 || vs.width > 16384 || vs.height > 16384 || vs.scale == 0 || vs.scale > 64 ||
       !std::isfinite(exposure)) {
     std::fprintf(stderr, "lsnif view: --width/--height must be in 1..16384, --scale in 1..64, --exposure finite\n");
@@ -80,6 +83,8 @@ int cmd_view(int argc, char** argv) {
   std::printf("viewer: %u frames on %s, last image %u spp in %s mode, %.1f ms per frame (render pass)\n",
               report.frames, report.device.c_str(), report.samples, report.reference ? "reference" : "LSNIF",
               report.mean_frame_ms);
+  std::printf("viewer: %s pipeline, %s primary (%s)\n", render::pipeline_name(report.pipeline),
+              render::primary_name(report.primary), report.path_choice.c_str());
   if (!vs.screenshot.empty()) std::printf("screenshot %s\n", vs.screenshot.c_str());
   if (vs.validation && (report.validation_errors || report.validation_warnings)) {
     std::fprintf(stderr, "lsnif view: validation reported %u errors and %u warnings\n", report.validation_errors,

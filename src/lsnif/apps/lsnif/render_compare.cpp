@@ -78,7 +78,8 @@ image::Image clamped(const image::Image& img) {
 }  // namespace
 
 Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render::RenderSettings settings,
-                      const std::string& side_by_side, CompareReport& report, ReferenceRender* shared_reference) {
+                      const std::string& side_by_side, CompareReport& report, ReferenceRender* shared_reference,
+                      const render::RenderChoice* reference_path) {
   report = CompareReport();
   scene::EnvironmentMap env;
   if (!scene.environment.path.empty()) {
@@ -95,9 +96,14 @@ Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render
   }
   for (const bool reference : {true, false}) {
     if (reference && reuse) continue;
-    settings.reference = reference;
-    ProgressBar bar(reference ? "render (reference)" : "render (LSNIF)", settings.spp);
-    if (Status s = renderer.render(scene, settings, reference ? ref : lsnif, reference ? report.reference : report.lsnif,
+    render::RenderSettings rs = settings;
+    rs.reference = reference;
+    if (reference && reference_path) {
+      rs.pipeline = reference_path->pipeline;
+      rs.primary = reference_path->primary;
+    }
+    ProgressBar bar(reference ? "render (reference)" : "render (LSNIF)", rs.spp);
+    if (Status s = renderer.render(scene, rs, reference ? ref : lsnif, reference ? report.reference : report.lsnif,
                                    [&](uint32_t done) { bar.update(done); });
         !s)
       return s;
@@ -126,7 +132,12 @@ Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render
   const render::RenderStats& l = report.lsnif;
   std::printf("\nrendering %ux%u, %u spp, %u bounces on %s\n", settings.width, settings.height, settings.spp,
               settings.max_bounces, ctx.device_name().c_str());
+  const render::PathPipeline ref_pipeline = reference_path ? reference_path->pipeline : settings.pipeline;
+  const render::PrimaryVisibility ref_primary = reference_path ? reference_path->primary : settings.primary;
   std::printf("  %-22s %14s %14s %10s\n", "", "reference", "LSNIF", "ratio");
+  std::printf("  %-22s %14s %14s\n", "pipeline, primary", (std::string(render::pipeline_name(ref_pipeline)) + ", " +
+              render::primary_name(ref_primary)).c_str(), (std::string(render::pipeline_name(settings.pipeline)) +
+              ", " + render::primary_name(settings.primary)).c_str());
   std::printf("  %-22s %14.3f %14.3f %9.2fx\n", "geometry memory (MiB)", double(r.triangle_blas_bytes) / 1048576.0,
               double(l.lsnif_bytes + l.triangle_blas_bytes) / 1048576.0,
               double(r.triangle_blas_bytes) / double(std::max<uint64_t>(1, l.lsnif_bytes + l.triangle_blas_bytes)));

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "lsnif/import/mesh.h"
+#include "lsnif/renderer/render_choice.h"
 #include "lsnif/renderer/renderer.h"
 #include "lsnif/renderer/scene.h"
 #include "lsnif/format/status.h"
@@ -31,9 +32,12 @@ struct ReferenceRender {
 // Renders `scene` in both modes with `settings` (its `reference` field is ignored), computes
 // LDR-FLIP (images clamped to [0, 1] as displayed), writes `side_by_side` (.png) and prints the rows.
 // With `shared_reference`, the reference render is taken from it when it holds one, else rendered
-// and kept there for the next comparison.
+// and kept there for the next comparison. With `reference_path`, the reference is rendered with
+// its pipeline and primary visibility instead of those of `settings` (the same estimator and random
+// sequences: e.g. the fastest triangle path against the LSNIF mode's choice).
 Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render::RenderSettings settings,
                       const std::string& side_by_side, CompareReport& report,
-                      ReferenceRender* shared_reference = nullptr);
+                      ReferenceRender* shared_reference = nullptr,
+                      const render::RenderChoice* reference_path = nullptr);
 
 }  // namespace lsnif::cli

@@ -113,7 +113,8 @@ void TrainOptions::add_to(Args& args, const char* output_help) {
   for (const Preset& p : kPresets) {
     if (&p != &kPresets[0] && std::string_view(p.option) == (&p)[-1].option) continue;  // one option per name
     const bool flag = p.choice == nullptr;
-    args.option(p.option, preset_help(p.option), flag ? "" : "TEXT", flag ? "" : p.choice, [this, &p](const std::string& text) {
+    // No default shown: the defaults are none of a preset's choices.
+    args.option(p.option, preset_help(p.option), flag ? "" : "TEXT", "", [this, &p](const std::string& text) {
       presets.emplace_back(p.option, text);
       return true;
     });

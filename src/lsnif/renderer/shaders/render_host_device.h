@@ -105,6 +105,7 @@ struct RenderPush {
  * per sample, with that sample's camera jitter folded into the projection. */
 #define RENDER_VISIBILITY_NONE 0xffffffffu /* RenderVisibility::instance of a pixel that saw nothing */
 #define RENDER_VISIBILITY_GEOMETRY_SHIFT 24u /* instance = custom index | mesh primitive << 24 */
+#define RENDER_VISIBILITY_MAX_PRIMITIVES 255u /* mesh primitives of one LSNIF node the pass can draw */
 
 /* One texel of the visibility buffer. */
 struct RenderVisibility {

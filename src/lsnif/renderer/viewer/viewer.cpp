@@ -2,6 +2,8 @@
 // 1-sample pass of the path tracer added to the accumulation -> tone mapping, HUD -> present.
 #include "lsnif/renderer/viewer/viewer.h"
 
+#include "lsnif/renderer/render_choice.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -368,13 +370,26 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
   vk::ComputeContext ctx;
   if (Status s = ctx.init(options); !s) return s.context("viewer device");
   report.device = ctx.device_name();
+  ViewerSettings chosen = settings;
+  report.path_choice = "forced by --pipeline and --primary";
+  if (settings.choose_pipeline || settings.choose_primary) {
+    render::DevicePaths paths;
+    if (Status s = render::device_paths(ctx, paths); !s) return s.context("viewer device");
+    // For the LSNIF mode, also in a reference start: the toggle keeps the pipeline.
+    const render::RenderChoice c = render::choose_render_path(scene, /*reference=*/false, paths);
+    if (settings.choose_pipeline) chosen.pipeline = c.pipeline;
+    if (settings.choose_primary) chosen.primary = c.primary;
+    report.path_choice = settings.choose_pipeline && settings.choose_primary ? c.why : "partly forced; chosen: " + c.why;
+  }
+  report.pipeline = chosen.pipeline;
+  report.primary = chosen.primary;
   Status result = Status::ok();
   {
     Presenter presenter;
     render::Renderer renderer(ctx);
     result = [&]() -> Status {
-      if (Status s = open_window(presenter, ctx, input, settings); !s) return s;
-      FrameLoop loop(scene, settings, presenter, renderer, input, report);
+      if (Status s = open_window(presenter, ctx, input, chosen); !s) return s;
+      FrameLoop loop(scene, chosen, presenter, renderer, input, report);
       if (Status s = loop.start(environment); !s) return s;
       return loop.run();
     }();

@@ -26,6 +26,9 @@ struct ViewerSettings {
   uint32_t max_bounces = 4;
   render::PathPipeline pipeline = render::PathPipeline::inline_rt;  // how the renderer casts rays
   render::PrimaryVisibility primary = render::PrimaryVisibility::traced;  // camera rays traced or rasterized
+  // Take the pipeline / the primary visibility from render::choose_render_path (render_choice.h)
+  // for the scene's LSNIF mode on the viewer's device instead of the fields above.
+  bool choose_pipeline = false, choose_primary = false;
   int32_t camera = 0;                  // the scene's camera; -1: frame the scene
   bool reference = false;              // start in reference mode
   float exposure = 0.0f;               // stops
@@ -51,6 +54,10 @@ struct ViewerReport {
   std::string selected;         // the node selected at the end ("": none)
   uint32_t validation_errors = 0, validation_warnings = 0;
   std::string device;
+  // The pipeline and primary visibility the viewer ran with, and what chose them.
+  render::PathPipeline pipeline = render::PathPipeline::inline_rt;
+  render::PrimaryVisibility primary = render::PrimaryVisibility::traced;
+  std::string path_choice;
 };
 
 // Opens the window on the Vulkan device (with window-system support) and runs until the window

@@ -1,0 +1,66 @@
+// render_choice.cpp -- see render_choice.h.
+#include "lsnif/renderer/render_choice.h"
+
+#include <vector>
+
+#include "lsnif/harness/device_choice.h"
+#include "lsnif/renderer/shaders/render_host_device.h"
+
+namespace lsnif::render {
+
+Status device_paths(const vk::ComputeContext& ctx, DevicePaths& out) {
+  vk::DeviceInfo info;
+  if (Status s = vk::query_device_info(ctx.instance(), ctx.physical_device(), info); !s) return s;
+  DevicePaths p;
+  p.ray_query = info.ray_query;
+  p.query = info.ray_query || info.primitive_culling;
+  uint32_t count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(ctx.physical_device(), &count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(count);
+  vkGetPhysicalDeviceQueueFamilyProperties(ctx.physical_device(), &count, families.data());
+  p.graphics = ctx.queue_family() < count && (families[ctx.queue_family()].queueFlags & VK_QUEUE_GRAPHICS_BIT);
+  out = p;
+  return Status::ok();
+}
+
+std::string raster_obstacle(const scene::Scene& scene) {
+  for (const scene::Instance& in : scene.instances) {
+    if (in.lsnif < 0) continue;
+    if (in.mesh < 0 || size_t(in.mesh) >= scene.meshes.size() || scene.meshes[size_t(in.mesh)].primitives.empty())
+      return "LSNIF node '" + in.node_name + "' keeps no triangle mesh (lsnif convert --keep-meshes keeps them)";
+    if (scene.meshes[size_t(in.mesh)].primitives.size() > RENDER_VISIBILITY_MAX_PRIMITIVES)
+      return "the mesh of LSNIF node '" + in.node_name + "' has more primitives than the visibility pass draws";
+  }
+  return "";
+}
+
+RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const DevicePaths& paths) {
+  RenderChoice c;
+  bool lsnif_nodes = false;
+  for (const scene::Instance& in : scene.instances) lsnif_nodes |= in.lsnif >= 0;
+  if (reference || !lsnif_nodes) {
+    c.why = reference ? "reference mode: the fastest triangle path (inline, traced)"
+                      : "no LSNIF node: the fastest triangle path (inline, traced)";
+    return c;
+  }
+  if (paths.query) {
+    c.pipeline = PathPipeline::wavefront;
+    c.why = paths.ray_query ? "wavefront: the device runs lsnifCmdQuery (ray-query broad phase)"
+                            : "wavefront: the device runs lsnifCmdQuery (ray-tracing broad phase)";
+  } else {
+    c.why = "inline: the device runs no broad phase of lsnifCmdQuery (no ray queries, no "
+            "rayTraversalPrimitiveCulling)";
+  }
+  const std::string obstacle = raster_obstacle(scene);
+  if (!paths.graphics) {
+    c.why += "; traced primary: the queue has no graphics";
+  } else if (!obstacle.empty()) {
+    c.why += "; traced primary: " + obstacle;
+  } else {
+    c.primary = PrimaryVisibility::raster;
+    c.why += "; rasterized primary: every LSNIF node keeps its mesh";
+  }
+  return c;
+}
+
+}  // namespace lsnif::render
