@@ -24,6 +24,12 @@ std::string TrainSettings::describe() const {
                 lr_schedule.describe().c_str(), loss_settings.describe().c_str());
 }
 
+Status model_layout(const Mesh& mesh, const TrainSettings& settings, Config& config, VoxelGrid& voxels,
+                    std::vector<uint16_t>& grid_index) {
+  voxels = voxelize(mesh, config.voxel_resolution, pad_aabb(mesh.bounds()));
+  return index_grid_levels(voxels, settings.indexed, config, grid_index);
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -144,12 +150,10 @@ Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Co
 Status build_model_frame(const Mesh& mesh, const TrainSettings& settings, Config& config, Model& model,
                          uint32_t& occupied) {
   model = Model();
-  model.config = config;
-  model.voxels = voxelize(mesh, config.voxel_resolution, pad_aabb(mesh.bounds()));
+  if (Status s = model_layout(mesh, settings, config, model.voxels, model.grid_index); !s) return s;
   occupied = model.voxels.count_occupied();
   if (occupied == 0) return Status::error("voxelization produced no occupied voxel");
   for (const Material& m : mesh.materials) model.materials.push_back({m.name, m.base_color});
-  if (Status s = index_grid_levels(model.voxels, settings.indexed, config, model.grid_index); !s) return s;
   model.config = config;
   return Status::ok();
 }

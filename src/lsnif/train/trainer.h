@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "lsnif/format/config.h"
 #include "lsnif/train/loss.h"
@@ -46,6 +47,13 @@ struct TrainSettings {
   bool loss_curve = false;         // true: TrainReport::loss_curve receives the loss curve (CSV)
   std::string describe() const;
 };
+
+// The layout training `mesh` with `settings` starts from: the mesh's voxels (in its padded bounds)
+// into `voxels`, and for the levels settings.indexed names the index built from them: `config` (in:
+// settings.config or a copy of it) receives their table sizes, `grid_index` their displacements
+// (index_grid_levels). Fails, naming the level, when an index cannot be built.
+Status model_layout(const Mesh& mesh, const TrainSettings& settings, Config& config, VoxelGrid& voxels,
+                    std::vector<uint16_t>& grid_index);
 
 struct TrainReport {
   double seconds = 0;             // wall time of the training loop

@@ -13,9 +13,7 @@
 #include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/json_text.h"
 #include "lsnif/import/mesh_gltf.h"
-#include "lsnif/core/grid_usage.h"
 #include "lsnif/core/model.h"
-#include "lsnif/train/voxelizer.h"
 #include "lsnif/import/resolve_path.h"
 #include "lsnif/renderer/scene_gltf.h"
 
@@ -224,10 +222,8 @@ uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_cou
   for (uint32_t l = 0; l < m.config.grid_levels && l < LSNIF_MAX_LEVELS; ++l) indexed |= train.indexed[l];
   if (mesh && indexed && !mesh->triangles.empty()) {
     // The indexed levels' tables as the trainer sizes them: from the mesh's voxels.
-    const VoxelGrid voxels = voxelize(*mesh, m.config.voxel_resolution, pad_aabb(mesh->bounds()));
-    std::vector<uint16_t> index;
     Config indexed_config = m.config;
-    if (index_grid_levels(voxels, train.indexed, indexed_config, index)) m.config = indexed_config;
+    if (model_layout(*mesh, train, indexed_config, m.voxels, m.grid_index)) m.config = indexed_config;
   }
   return memory_breakdown(m).total();
 }

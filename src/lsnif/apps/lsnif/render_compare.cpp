@@ -94,14 +94,17 @@ Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render
     report.reference = shared_reference->stats;
     std::printf("render (reference): the same scene's reference render is reused\n");
   }
+  // The reference's settings: the LSNIF mode's, on `reference_path` where given.
+  settings.reference = false;
+  render::RenderSettings ref_settings = settings;
+  ref_settings.reference = true;
+  if (reference_path) {
+    ref_settings.pipeline = reference_path->pipeline;
+    ref_settings.primary = reference_path->primary;
+  }
   for (const bool reference : {true, false}) {
     if (reference && reuse) continue;
-    render::RenderSettings rs = settings;
-    rs.reference = reference;
-    if (reference && reference_path) {
-      rs.pipeline = reference_path->pipeline;
-      rs.primary = reference_path->primary;
-    }
+    const render::RenderSettings& rs = reference ? ref_settings : settings;
     ProgressBar bar(reference ? "render (reference)" : "render (LSNIF)", rs.spp);
     if (Status s = renderer.render(scene, rs, reference ? ref : lsnif, reference ? report.reference : report.lsnif,
                                    [&](uint32_t done) { bar.update(done); });
@@ -132,11 +135,9 @@ Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render
   const render::RenderStats& l = report.lsnif;
   std::printf("\nrendering %ux%u, %u spp, %u bounces on %s\n", settings.width, settings.height, settings.spp,
               settings.max_bounces, ctx.device_name().c_str());
-  const render::PathPipeline ref_pipeline = reference_path ? reference_path->pipeline : settings.pipeline;
-  const render::PrimaryVisibility ref_primary = reference_path ? reference_path->primary : settings.primary;
   std::printf("  %-22s %14s %14s %10s\n", "", "reference", "LSNIF", "ratio");
-  std::printf("  %-22s %14s %14s\n", "pipeline, primary", (std::string(render::pipeline_name(ref_pipeline)) + ", " +
-              render::primary_name(ref_primary)).c_str(), (std::string(render::pipeline_name(settings.pipeline)) +
+  std::printf("  %-22s %14s %14s\n", "pipeline, primary", (std::string(render::pipeline_name(ref_settings.pipeline)) + ", " +
+              render::primary_name(ref_settings.primary)).c_str(), (std::string(render::pipeline_name(settings.pipeline)) +
               ", " + render::primary_name(settings.primary)).c_str());
   std::printf("  %-22s %14.3f %14.3f %9.2fx\n", "geometry memory (MiB)", double(r.triangle_blas_bytes) / 1048576.0,
               double(l.lsnif_bytes + l.triangle_blas_bytes) / 1048576.0,
