@@ -33,7 +33,16 @@ install(TARGETS lsnif_vk EXPORT lsnifTargets
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT runtime NAMELINK_COMPONENT dev)
 install(FILES ${LSNIF_SOURCE_ROOT}/lsnif/lsnif.h ${LSNIF_SOURCE_ROOT}/lsnif/lsnif.hpp
   ${LSNIF_GENERATED_ROOT}/lsnif/lsnif_version.h ${LSNIF_SOURCE_ROOT}/lsnif/host_device.h
-  ${LSNIF_SOURCE_ROOT}/lsnif/lsnif_hit.glsl DESTINATION ${LSNIF_INSTALL_INCLUDEDIR} COMPONENT dev)
+  ${LSNIF_SOURCE_ROOT}/lsnif/lsnif_hit.glsl ${LSNIF_SOURCE_ROOT}/lsnif/lsnif_hit.hlsl
+  DESTINATION ${LSNIF_INSTALL_INCLUDEDIR} COMPONENT dev)
+# The intersection shader's source, for an application that builds it for its own layout
+# (lsnif/shaders/lsnif_intersection.glsl: the model lookup chosen by macros) and the pieces it includes.
+install(FILES ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif.rint
+  ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_intersection.glsl ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_intersect.glsl
+  ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_head.glsl ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_mlp.glsl
+  ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_encoding.glsl ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_walk.glsl
+  ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_perfect_hash.glsl ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_model.glsl
+  DESTINATION ${LSNIF_INSTALL_INCLUDEDIR}/shaders COMPONENT dev)
 install(EXPORT lsnifTargets NAMESPACE lsnif:: DESTINATION ${LSNIF_INSTALL_CMAKEDIR} COMPONENT dev)
 
 # ---- the CPU libraries: COMPONENTS train. lsnif_format is exported here only: lsnif::vk links it
@@ -108,7 +117,8 @@ set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
 set(CPACK_COMPONENT_DEV_DESCRIPTION "LSNIF Vulkan plugin: headers, GLSL includes, CMake and pkg-config files
  find_package(lsnif) gives lsnif::vk, pkg-config --cflags --libs lsnif the flags; the GLSL
- includes for closest-hit shaders are /usr/include/lsnif/lsnif_hit.glsl and host_device.h.")
+ includes for closest-hit shaders are /usr/include/lsnif/lsnif_hit.glsl (HLSL: lsnif_hit.hlsl) and
+ host_device.h; the intersection shader's source is /usr/include/lsnif/shaders/lsnif_intersection.glsl.")
 set(CPACK_COMPONENT_DEV_DEPENDS runtime)
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "libvulkan-dev")
 

@@ -1,6 +1,7 @@
-// hello_common.glsl -- what hello_lsnif's shaders share: the push constants (the LSNIF binding
-// convention's LsnifRtPushConstants first, see host_device.h; the C twin is HelloPush in
-// hello_lsnif.c), the per-pixel record written to the output buffer (the payload) and the shading.
+// hello_common.glsl -- what hello_lsnif's shaders share: the push constants (the C twin is HelloPush
+// in hello_lsnif.c: the LSNIF binding convention's LsnifRtPushConstants first, see host_device.h; or,
+// compiled with HELLO_ENGINE_LAYOUT for hello_lsnif_engine, the application's own first), the
+// per-pixel record written to the output buffer (the payload) and the shading.
 #ifndef HELLO_COMMON_GLSL
 #define HELLO_COMMON_GLSL
 
@@ -21,6 +22,7 @@ struct HelloPixel {
   float r, g, b;
 };
 
+#ifndef HELLO_ENGINE_LAYOUT
 layout(push_constant) uniform HelloPush {
   uint64_t model_table;  // LSNIF_RT_PUSH_MODEL_TABLE_OFFSET: uint64 model block addresses
   uint model_count;      // LSNIF_RT_PUSH_MODEL_COUNT_OFFSET: entries of the table
@@ -32,6 +34,27 @@ layout(push_constant) uniform HelloPush {
   vec4 right;            // image-plane half-width vector at unit distance
   vec4 up;               // image-plane half-height vector at unit distance
 } pc;
+#else
+// hello_lsnif_engine: the application's push constants from offset 0, LSNIF's model table after
+// them (the intersection shader is built with LSNIF_MODEL_TABLE_PUSH_OFFSET=HELLO_LSNIF_PUSH_OFFSET).
+#define HELLO_LSNIF_PUSH_OFFSET 88
+layout(push_constant) uniform HelloPush {
+  uint64_t pixels;       // HelloPixel[width * height], row-major from the top
+  uint width, height;
+  vec4 eye;              // camera position (xyz)
+  vec4 forward;          // unit view direction
+  vec4 right;            // image-plane half-width vector at unit distance
+  vec4 up;               // image-plane half-height vector at unit distance
+  uint64_t objects;      // the application's object table: HelloObjects, indexed by the custom index
+  uint64_t model_table;  // HELLO_LSNIF_PUSH_OFFSET: LSNIF's table, indexed by the TLAS instance index
+  uint model_count;
+} pc;
+
+// The application's own per-object data, indexed by gl_InstanceCustomIndexEXT.
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer HelloObjects {
+  uint kind[];  // the HelloPixel::kind of the object's hits
+};
+#endif
 
 // The shading, in linear RGB: Lambert under one directional light plus a constant ambient term.
 const vec3 kHelloBackground = vec3(0.06, 0.08, 0.12);

@@ -10,7 +10,11 @@ layout(location = 0) rayPayloadInEXT HelloPixel payload;
 void main() {
   const vec3 normal = vec3(0.0, 1.0, 0.0);
   const vec3 color = hello_shade(hello_ground_albedo(gl_WorldRayOriginEXT + gl_HitTEXT * gl_WorldRayDirectionEXT), normal);
+#ifdef HELLO_ENGINE_LAYOUT
+  payload.kind = HelloObjects(pc.objects).kind[gl_InstanceCustomIndexEXT];  // the application's own table
+#else
   payload.kind = HELLO_KIND_GROUND;
+#endif
   payload.t = gl_HitTEXT;
   payload.normal_x = normal.x;
   payload.normal_y = normal.y;

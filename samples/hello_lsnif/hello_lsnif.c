@@ -31,6 +31,21 @@
  *              8 little-endian 32-bit values: uint kind (0 miss, 1 ground, 2 LSNIF), float t, float
  *              normal x, y, z (world), float r, g, b (the shaded value before quantization)
  *
+ * hello_lsnif_engine, the same file built with HELLO_ENGINE_LAYOUT, renders the same scene the way
+ * an engine with its own conventions adopts LSNIF (the same picture and hits):
+ *   push constants  the application's own from offset 0, LSNIF's model table after them at byte
+ *                   HELLO_LSNIF_PUSH_OFFSET (88)
+ *   intersection    hello_engine.rint: LSNIF's installed source (lsnif/shaders/lsnif_intersection.glsl)
+ *                   with LSNIF_MODEL_TABLE_PUSH_OFFSET 88 and LSNIF_MODEL_INDEX uint(gl_InstanceID): the
+ *                   model table is indexed by the TLAS instance index (ground 0, a hole; LSNIF 1)
+ *   custom index    the application's own object table: ground 5, LSNIF 9; the closest-hit shaders
+ *                   read the pixel kind from it
+ *   device          the application's own VkDeviceCreateInfo (core features in pEnabledFeatures, a
+ *                   descriptor-indexing struct in its chain, the extensions a Vulkan 1.1 framework
+ *                   enables for ray tracing) completed by lsnifEnableDeviceFeaturesInCreateInfo
+ *   --vulkan-api    the instance's apiVersion, 1.1 to 1.3 (default 1.2); LSNIF needs 1.2, and with
+ *                   1.1 lsnifCreateContext fails naming the instance's API version
+ *
  * Every error prints a message naming the problem and exits with 1 (2 for a bad command line);
  * --validate enables VK_LAYER_KHRONOS_validation and fails (exit 1) when it reports anything
  * (warnings or errors), including at the destruction of every object. */
@@ -54,6 +69,7 @@
 #include "hello_rgen_spirv.h"
 #include "hello_rmiss_spirv.h"
 
+#ifndef HELLO_ENGINE_LAYOUT
 /* The push constants of hello_common.glsl: LSNIF's binding convention first. */
 typedef struct HelloPush {
   struct LsnifRtPushConstants lsnif;
@@ -64,6 +80,19 @@ typedef struct HelloPush {
 _Static_assert(offsetof(HelloPush, lsnif) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "model table first");
 _Static_assert(offsetof(HelloPush, pixels) == LSNIF_RT_PUSH_APP_OFFSET, "application's push constants after LSNIF's");
 _Static_assert(sizeof(HelloPush) == 96, "std430 layout of HelloPush in hello_common.glsl");
+#else
+/* The push constants of hello_common.glsl with HELLO_ENGINE_LAYOUT: the application's first. */
+typedef struct HelloPush {
+  uint64_t pixels;
+  uint32_t width, height;
+  float eye[4], forward[4], right[4], up[4];
+  uint64_t objects;
+  struct LsnifRtPushConstants lsnif; /* the shader reads its first 12 bytes */
+} HelloPush;
+_Static_assert(offsetof(HelloPush, lsnif) == 88, "HELLO_LSNIF_PUSH_OFFSET of hello_common.glsl");
+_Static_assert(sizeof(HelloPush) == 104, "std430 layout of HelloPush in hello_common.glsl");
+#include "hello_engine_rint_spirv.h"
+#endif
 
 /* HelloPixel of hello_common.glsl. */
 typedef struct HelloPixel {
@@ -73,7 +102,15 @@ typedef struct HelloPixel {
 _Static_assert(sizeof(HelloPixel) == 32, "std430 layout of HelloPixel in hello_common.glsl");
 
 enum { kKindMiss = 0, kKindGround = 1, kKindLsnif = 2 };
+#ifndef HELLO_ENGINE_LAYOUT
+/* The model table is indexed by the custom index: entry 0 the ground (a hole), 1 the model. */
 enum { kGroundCustomIndex = 0, kLsnifCustomIndex = 1, kModelTableCount = 2 };
+#else
+/* The custom index is the application's (its object table of kObjectCount entries); the model table
+ * is indexed by the TLAS instance index (ground 0, LSNIF 1). */
+enum { kGroundCustomIndex = 5, kLsnifCustomIndex = 9, kObjectCount = 12, kModelTableCount = 2 };
+#endif
+enum { kGroundInstance = 0, kLsnifInstance = 1 };
 
 typedef struct Options {
   const char* model;
@@ -81,6 +118,7 @@ typedef struct Options {
   const char* hits;
   const char* device;
   uint32_t width, height;
+  uint32_t api_minor; /* the instance's apiVersion 1.api_minor */
   bool validate;
 } Options;
 
@@ -107,7 +145,7 @@ typedef struct App {
   VkFence fence;
   LsnifContext lsnif;
   LsnifModel model;
-  Buffer vertices, indices, instances, model_table, blas_storage, tlas_storage, scratch, sbt, pixels;
+  Buffer vertices, indices, instances, model_table, objects, blas_storage, tlas_storage, scratch, sbt, pixels;
   VkAccelerationStructureKHR blas, tlas;
   VkDescriptorSetLayout set_layout;
   VkDescriptorPool descriptor_pool;
@@ -184,12 +222,13 @@ static VKAPI_ATTR VkBool32 VKAPI_CALL on_validation_message(VkDebugUtilsMessageS
 
 static const char kUsage[] =
     "usage: hello_lsnif MODEL.lsnif [-o image.ppm] [--hits hits.bin] [--width W] [--height H]\n"
-    "                   [--device NAME] [--validate]\n"
+    "                   [--device NAME] [--vulkan-api 1.1|1.2|1.3] [--validate]\n"
     "  -o PATH        the picture, binary PPM (default hello_lsnif.ppm)\n"
     "  --hits PATH    every pixel's hit record (format: the header of hello_lsnif.c)\n"
     "  --width W      image width (default 160)\n"
     "  --height H     image height (default 120)\n"
     "  --device NAME  the first Vulkan device whose name contains NAME (default: the first device)\n"
+    "  --vulkan-api V the instance's apiVersion (default 1.2; LSNIF needs 1.2 or newer)\n"
     "  --validate     enable VK_LAYER_KHRONOS_validation; any message it reports fails the run\n";
 
 static bool parse_size(const char* text, uint32_t* out) {
@@ -205,6 +244,7 @@ static int parse_options(int argc, char** argv, Options* o) {
   o->image = "hello_lsnif.ppm";
   o->width = 160;
   o->height = 120;
+  o->api_minor = 2;
   for (int i = 1; i < argc; ++i) {
     const char* a = argv[i];
     const bool has_value = i + 1 < argc;
@@ -218,6 +258,13 @@ static int parse_options(int argc, char** argv, Options* o) {
       if (!strcmp(a, "-o")) o->image = v;
       else if (!strcmp(a, "--hits")) o->hits = v;
       else o->device = v;
+    } else if (!strcmp(a, "--vulkan-api") && has_value) {
+      const char* v = argv[++i];
+      if (strcmp(v, "1.1") && strcmp(v, "1.2") && strcmp(v, "1.3")) {
+        fprintf(stderr, "hello_lsnif: --vulkan-api needs 1.1, 1.2 or 1.3, got '%s'\n%s", v, kUsage);
+        return 2;
+      }
+      o->api_minor = (uint32_t)(v[2] - '0');
     } else if ((!strcmp(a, "--width") || !strcmp(a, "--height")) && has_value) {
       if (!parse_size(argv[++i], !strcmp(a, "--width") ? &o->width : &o->height)) {
         fprintf(stderr, "hello_lsnif: %s needs an integer in [1, 8192], got '%s'\n%s", a, argv[i], kUsage);
@@ -267,7 +314,7 @@ static int create_instance(App* app, const Options* o) {
 
   VkApplicationInfo application = {.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO};
   application.pApplicationName = "hello_lsnif";
-  application.apiVersion = VK_API_VERSION_1_2;
+  application.apiVersion = VK_MAKE_API_VERSION(0, 1, o->api_minor, 0);
   VkInstanceCreateInfo info = {.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
   info.pApplicationInfo = &application;
   if (o->validate) {
@@ -287,7 +334,9 @@ static int create_instance(App* app, const Options* o) {
 }
 
 /* The first device whose name contains o->device (any device without --device), which must offer
- * what LSNIF needs (lsnifQueryDeviceSupport), and its first queue family with compute. */
+ * what LSNIF needs (lsnifQueryDeviceSupport; hello_lsnif_engine leaves the check to
+ * lsnifCreateContext, as a framework that picks its device itself), and its first queue family
+ * with compute. */
 static int pick_device(App* app, const Options* o) {
   uint32_t count = 0;
   VK_CHECK(vkEnumeratePhysicalDevices(app->instance, &count, NULL));
@@ -310,9 +359,11 @@ static int pick_device(App* app, const Options* o) {
   }
   if (!app->physical) return fail("no Vulkan device name contains '%s' (devices: %s)", o->device, names);
 
+#ifndef HELLO_ENGINE_LAYOUT
   LsnifDeviceSupport support;
   LSNIF_CHECK(lsnifQueryDeviceSupport(app->instance, app->physical, vkGetInstanceProcAddr, &support));
   if (!support.supported) return fail("the device '%s' lacks what LSNIF needs: %s", support.deviceName, support.missing);
+#endif
 
   uint32_t families = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(app->physical, &families, NULL);
@@ -339,20 +390,45 @@ static int pick_device(App* app, const Options* o) {
 /* The device with LSNIF's extensions and features, and the LSNIF context on it. */
 static int create_device(App* app) {
   uint32_t extension_count = 0;
-  const char* const* extensions = lsnifGetRequiredDeviceExtensions(&extension_count);
-  LsnifDeviceFeatures features;
-  lsnifInitDeviceFeatures(&features, NULL); /* everything this program needs too (buffer device address, int64) */
+  const char* const* lsnif_extensions = lsnifGetRequiredDeviceExtensions(&extension_count);
   const float priority = 1.0f;
   VkDeviceQueueCreateInfo queue = {.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
   queue.queueFamilyIndex = app->queue_family;
   queue.queueCount = 1;
   queue.pQueuePriorities = &priority;
   VkDeviceCreateInfo info = {.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
-  info.pNext = &features.features2;
   info.queueCreateInfoCount = 1;
   info.pQueueCreateInfos = &queue;
+#ifndef HELLO_ENGINE_LAYOUT
+  LsnifDeviceFeatures features;
+  lsnifInitDeviceFeatures(&features, NULL); /* everything this program needs too (buffer device address, int64) */
+  info.pNext = &features.features2;
   info.enabledExtensionCount = extension_count;
+  info.ppEnabledExtensionNames = lsnif_extensions;
+  const void* enabled_features = &features.features2;
+#else
+  /* The engine's own create info: its core features in pEnabledFeatures, its own feature struct in
+   * the chain, and the extensions a framework written for Vulkan 1.1 enables for ray tracing beside
+   * LSNIF's. lsnifEnableDeviceFeaturesInCreateInfo completes it (and says so to the context). */
+  static const char* const kEngineExtensions[] = {
+      VK_KHR_SPIRV_1_4_EXTENSION_NAME, VK_KHR_SHADER_FLOAT_CONTROLS_EXTENSION_NAME,
+      VK_KHR_BUFFER_DEVICE_ADDRESS_EXTENSION_NAME, VK_EXT_DESCRIPTOR_INDEXING_EXTENSION_NAME};
+  enum { kEngineExtensionCount = sizeof kEngineExtensions / sizeof kEngineExtensions[0] };
+  const char* extensions[8];
+  if (extension_count + kEngineExtensionCount > 8) return fail("LSNIF needs %u extensions", extension_count);
+  for (uint32_t i = 0; i < extension_count; ++i) extensions[i] = lsnif_extensions[i];
+  for (uint32_t i = 0; i < kEngineExtensionCount; ++i) extensions[extension_count + i] = kEngineExtensions[i];
+  info.enabledExtensionCount = extension_count + kEngineExtensionCount;
   info.ppEnabledExtensionNames = extensions;
+  const VkPhysicalDeviceFeatures core = {0}; /* the engine's own core features (none needed here) */
+  VkPhysicalDeviceDescriptorIndexingFeatures indexing = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DESCRIPTOR_INDEXING_FEATURES};
+  indexing.runtimeDescriptorArray = VK_TRUE;
+  info.pNext = &indexing;
+  info.pEnabledFeatures = &core;
+  LsnifDeviceFeatureStorage lsnif_features;
+  LSNIF_CHECK(lsnifEnableDeviceFeaturesInCreateInfo(&info, &lsnif_features));
+  const void* enabled_features = &info;
+#endif
   VK_CHECK(vkCreateDevice(app->physical, &info, NULL, &app->device));
   vkGetDeviceQueue(app->device, app->queue_family, 0, &app->queue);
   LOAD_DEVICE(app, vkGetAccelerationStructureBuildSizesKHR);
@@ -378,7 +454,7 @@ static int create_device(App* app) {
   ci.queueFamilyIndex = app->queue_family;
   ci.queue = app->queue;
   ci.pfnGetInstanceProcAddr = vkGetInstanceProcAddr;
-  ci.pEnabledFeatures = &features.features2;
+  ci.pEnabledFeatures = enabled_features;
   LSNIF_CHECK(lsnifCreateContext(&ci, &app->lsnif));
   return 0;
 }
@@ -545,8 +621,20 @@ static int build_scene(App* app, const Options* o) {
   LsnifModelProperties props;
   LSNIF_CHECK(lsnifGetModelProperties(app->lsnif, app->model, &props));
 
+#ifndef HELLO_ENGINE_LAYOUT
   /* The model table: entry kLsnifCustomIndex is the model, entry kGroundCustomIndex a hole. */
   const LsnifModel table_models[kModelTableCount] = {[kGroundCustomIndex] = NULL, [kLsnifCustomIndex] = app->model};
+#else
+  /* The model table: entry kLsnifInstance (the TLAS instance index) is the model, kGroundInstance a
+   * hole; the application's object table, indexed by the custom index, holds each object's pixel
+   * kind (the other entries are not kinds, so a wrong index shows). */
+  const LsnifModel table_models[kModelTableCount] = {[kGroundInstance] = NULL, [kLsnifInstance] = app->model};
+  uint32_t objects[kObjectCount];
+  for (uint32_t i = 0; i < kObjectCount; ++i) objects[i] = 0xBADu;
+  objects[kGroundCustomIndex] = kKindGround;
+  objects[kLsnifCustomIndex] = kKindLsnif;
+  if (create_buffer(app, sizeof objects, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true, objects, &app->objects)) return 1;
+#endif
   uint64_t table[kModelTableCount];
   LSNIF_CHECK(lsnifWriteModelTable(app->lsnif, kModelTableCount, table_models, table));
   if (create_buffer(app, sizeof table, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true, table, &app->model_table)) return 1;
@@ -558,7 +646,7 @@ static int build_scene(App* app, const Options* o) {
   if (create_buffer(app, sizeof vertices, input, true, vertices, &app->vertices)) return 1;
   if (create_buffer(app, sizeof indices, input, true, indices, &app->indices)) return 1;
 
-  VkAccelerationStructureInstanceKHR instances[2];
+  VkAccelerationStructureInstanceKHR instances[2]; /* [kGroundInstance], [kLsnifInstance] */
   memset(instances, 0, sizeof instances);
   VkAccelerationStructureGeometryKHR ground = {.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR};
   ground.geometryType = VK_GEOMETRY_TYPE_TRIANGLES_KHR;
@@ -590,7 +678,7 @@ static int build_scene(App* app, const Options* o) {
                      &app->blas, &scratch, record))
       return 1;
     if (record) {
-      VkAccelerationStructureInstanceKHR* quad = &instances[0];
+      VkAccelerationStructureInstanceKHR* quad = &instances[kGroundInstance];
       quad->transform.matrix[0][0] = quad->transform.matrix[1][1] = quad->transform.matrix[2][2] = 1.0f;
       quad->instanceCustomIndex = kGroundCustomIndex;
       quad->mask = 0xFF;
@@ -602,7 +690,7 @@ static int build_scene(App* app, const Options* o) {
       info.instanceCustomIndex = kLsnifCustomIndex;
       info.mask = 0xFF;
       info.instanceShaderBindingTableRecordOffset = 1;
-      LSNIF_CHECK(lsnifMakeInstance(app->lsnif, &info, &instances[1]));
+      LSNIF_CHECK(lsnifMakeInstance(app->lsnif, &info, &instances[kLsnifInstance]));
       if (create_buffer(app, sizeof instances, VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
                         true, instances, &app->instances))
         return 1;
@@ -672,9 +760,16 @@ static int create_pipeline(App* app) {
   write.descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
   vkUpdateDescriptorSets(app->device, 1, &write, 0, NULL);
 
+#ifndef HELLO_ENGINE_LAYOUT
+  /* The library's intersection shader for its default layout. */
   const uint32_t* rint = NULL;
   size_t rint_bytes = 0;
   LSNIF_CHECK(lsnifGetIntersectionShaderSpirv(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE, &rint, &rint_bytes));
+#else
+  /* LSNIF's intersection shader built for this layout (hello_engine.rint). */
+  const uint32_t* rint = hello_engine_rint_spirv;
+  const size_t rint_bytes = sizeof hello_engine_rint_spirv;
+#endif
   enum { kStages = 5 };
   const struct {
     const uint32_t* code;
@@ -782,6 +877,9 @@ static int trace(App* app, const Options* o) {
   const VkDeviceSize bytes = (VkDeviceSize)o->width * o->height * sizeof(HelloPixel);
   if (create_buffer(app, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true, NULL, &app->pixels)) return 1;
   HelloPush* p = &app->push;
+#ifdef HELLO_ENGINE_LAYOUT
+  p->objects = app->objects.address;
+#endif
   p->lsnif.model_table = app->model_table.address;
   p->lsnif.model_count = kModelTableCount;
   p->pixels = app->pixels.address;
@@ -848,8 +946,8 @@ static void destroy_all(App* app) {
     if (app->set_layout) vkDestroyDescriptorSetLayout(app->device, app->set_layout, NULL);
     if (app->tlas) app->vkDestroyAccelerationStructureKHR(app->device, app->tlas, NULL);
     if (app->blas) app->vkDestroyAccelerationStructureKHR(app->device, app->blas, NULL);
-    Buffer* buffers[] = {&app->vertices,     &app->indices,      &app->instances, &app->model_table, &app->blas_storage,
-                         &app->tlas_storage, &app->scratch,      &app->sbt,       &app->pixels};
+    Buffer* buffers[] = {&app->vertices,     &app->indices, &app->instances, &app->model_table, &app->objects,
+                         &app->blas_storage, &app->tlas_storage, &app->scratch, &app->sbt, &app->pixels};
     for (size_t i = 0; i < sizeof buffers / sizeof buffers[0]; ++i) destroy_buffer(app, buffers[i]);
     lsnifDestroyContext(app->lsnif); /* and the model */
     if (app->fence) vkDestroyFence(app->device, app->fence, NULL);

@@ -13,7 +13,11 @@ hitAttributeEXT LsnifHitAttributes lsnif_attributes;
 void main() {
   const LsnifSurface s = lsnif_surface(lsnif_attributes);
   const vec3 color = hello_shade(s.albedo, s.normal);
+#ifdef HELLO_ENGINE_LAYOUT
+  payload.kind = HelloObjects(pc.objects).kind[gl_InstanceCustomIndexEXT];  // the application's own table
+#else
   payload.kind = HELLO_KIND_LSNIF;
+#endif
   payload.t = gl_HitTEXT;
   payload.normal_x = s.normal.x;
   payload.normal_y = s.normal.y;

@@ -41,6 +41,12 @@
  * facing; these are their SPIR-V values. */
 #define LSNIF_RAY_FLAG_CULL_BACK_FACING 0x10u
 #define LSNIF_RAY_FLAG_CULL_FRONT_FACING 0x20u
+/* The hit kind the intersection shader reports (gl_HitKindEXT in the closest-hit shader; a
+ * procedural hit's kind is below 128, so not the triangles' 0xFE / 0xFF): front-facing when
+ * dot(n, d) < 0 in object space, back-facing otherwise, as LsnifQueryResult::front_face of the
+ * batched query. */
+#define LSNIF_HIT_KIND_FRONT_FACING 0u
+#define LSNIF_HIT_KIND_BACK_FACING 1u
 /* Any-hit queries (LsnifQueryRay::flags of lsnifCmdQuery): the ray is answered by any accepted hit
  * in its interval, not necessarily the closest (SPIR-V's TerminateOnFirstHit). */
 #define LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT 0x04u
@@ -160,6 +166,8 @@ struct LsnifReferenceHit {
  *  shader record (compiled with LSNIF_MODEL_FROM_SHADER_RECORD): the hit group's shader record
  *    holds the model's block address (uint64) at byte LSNIF_SHADER_RECORD_MODEL_OFFSET after the
  *    group handle; no push constants, and the custom index stays the application's.
+ * An application with other conventions builds the shader from lsnif/shaders/lsnif_intersection.glsl,
+ * whose macros move the table (push-constant offset, storage buffer), the record offset or the index.
  * Broken conventions are misses, never faults: a table address of 0, a custom index >= the table's
  * entry count, a table entry or shader record of 0 (a hole), or a block whose header is not
  * LSNIF_GPU_MAGIC / LSNIF_GPU_VERSION make the shader report no intersection. */

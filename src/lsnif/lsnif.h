@@ -119,6 +119,32 @@ LSNIF_API void lsnifInitDeviceFeatures(LsnifDeviceFeatures* pFeatures, void* pNe
  * each struct the chain lacks; structs found are still updated. */
 LSNIF_API LsnifResult lsnifEnableDeviceFeatures(void* pFeatureChain);
 
+/* Storage for the feature structs lsnifEnableDeviceFeaturesInCreateInfo appends to a chain; it must
+ * outlive vkCreateDevice. Its contents are written by that call only. */
+typedef struct LsnifDeviceFeatureStorage {
+  VkPhysicalDeviceFeatures2 features2;
+  VkPhysicalDeviceBufferDeviceAddressFeatures bufferDeviceAddress;
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR accelerationStructure;
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rayTracingPipeline;
+} LsnifDeviceFeatureStorage;
+
+/* For an application (or framework) that owns its VkDeviceCreateInfo and feature chain, in any
+ * order: sets the features LSNIF needs in the structs of pCreateInfo->pNext that hold them
+ * (VkPhysicalDeviceFeatures2, VkPhysicalDeviceVulkan12Features or
+ * VkPhysicalDeviceBufferDeviceAddressFeatures, VkPhysicalDeviceAccelerationStructureFeaturesKHR,
+ * VkPhysicalDeviceRayTracingPipelineFeaturesKHR), leaving every other member as it was, and
+ * appends the structs of *pStorage that the chain lacks at its end (initialized with exactly LSNIF's
+ * features). Without a VkPhysicalDeviceFeatures2 in the chain, pStorage->features2 is appended with a
+ * copy of *pCreateInfo->pEnabledFeatures (if any) plus shaderInt64, and pEnabledFeatures is set to
+ * NULL (the two must not be given together); *pEnabledFeatures itself is never written. Buffer
+ * device address is appended as VkPhysicalDeviceBufferDeviceAddressFeatures, which may share a chain
+ * with the application's other structs of features promoted to Vulkan 1.2. Calling it again with
+ * the same storage appends nothing more. Pass the same pCreateInfo as
+ * LsnifContextCreateInfo::pEnabledFeatures. Fails (LSNIF_ERROR_INVALID_ARGUMENT, nothing written)
+ * on a null argument or a pCreateInfo whose sType is not VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO. */
+LSNIF_API LsnifResult lsnifEnableDeviceFeaturesInCreateInfo(VkDeviceCreateInfo* pCreateInfo,
+                                                            LsnifDeviceFeatureStorage* pStorage);
+
 /* What a physical device offers, for LSNIF. */
 typedef struct LsnifDeviceSupport {
   VkBool32 supported;                           /* everything LSNIF needs is offered */
@@ -294,7 +320,11 @@ LSNIF_API LsnifResult lsnifWriteModelTable(LsnifContext context, uint32_t count,
 
 /* The SPIR-V of the intersection shader (entry point "main", SPIR-V 1.5, Vulkan 1.2) for `lookup`:
  * *ppCode points at static words, *pCodeSize is in bytes (for VkShaderModuleCreateInfo). Its hit
- * group's closest-hit shader decodes the hit with lsnif_hit.glsl. */
+ * group's closest-hit shader decodes the hit with lsnif_hit.glsl (HLSL: lsnif_hit.hlsl); the hit
+ * kind is LSNIF_HIT_KIND_FRONT_FACING or LSNIF_HIT_KIND_BACK_FACING (host_device.h). For another
+ * layout (push-constant offset, a descriptor binding, a shader-record offset, the table indexed by
+ * gl_InstanceID or a custom-index base, an application function), build the shader from the
+ * installed source lsnif/shaders/lsnif_intersection.glsl, whose macros choose the lookup. */
 LSNIF_API LsnifResult lsnifGetIntersectionShaderSpirv(LsnifModelLookup lookup, const uint32_t** ppCode,
                                                       size_t* pCodeSize);
 

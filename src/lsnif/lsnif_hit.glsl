@@ -1,13 +1,18 @@
-// lsnif_hit.glsl -- the hit attributes of src/lsnif/shaders/lsnif.rint (layout: LsnifHitAttributes in
-// src/lsnif/host_device.h): packing for the intersection shader and decoding for an application's
-// closest-hit shader. Usage in a closest-hit shader (GL_EXT_ray_tracing enabled first):
+// lsnif_hit.glsl -- the hit attributes of the LSNIF intersection shader
+// (src/lsnif/shaders/lsnif_intersection.glsl; layout: LsnifHitAttributes in src/lsnif/host_device.h):
+// packing for the intersection shader and decoding for an application's closest-hit shader. Usage in
+// a closest-hit shader (GL_EXT_ray_tracing enabled first):
 //   #include "lsnif/lsnif_hit.glsl"
 //   hitAttributeEXT LsnifHitAttributes lsnif_attributes;
 //   ... const LsnifSurface s = lsnif_surface(lsnif_attributes);  // world normal, albedo, material
-// The hit distance is gl_HitTEXT; the instance gl_InstanceID / gl_InstanceCustomIndexEXT.
+// The hit distance is gl_HitTEXT; the instance gl_InstanceID / gl_InstanceCustomIndexEXT; the facing
+// gl_HitKindEXT (LSNIF_HIT_KIND_FRONT_FACING or LSNIF_HIT_KIND_BACK_FACING, host_device.h).
 // A ray leaving the surface (self-intersection rule, host_device.h): origin = the hit point
 // gl_WorldRayOriginEXT + gl_HitTEXT * gl_WorldRayDirectionEXT, tmin = lsnif_leaving_tmin(s, dir),
 // flags |= gl_RayFlagsCullBackFacingTrianglesEXT.
+// Outside the ray-tracing stages (e.g. a compute pass decoding stored attributes), define
+// LSNIF_HIT_DECODE_ONLY before the include: only the functions that take the instance's world-to-object
+// matrix (lsnif_decode_hit, lsnif_leaving_tmin with 3 arguments) and lsnif_pack_hit are declared. HLSL: lsnif/lsnif_hit.hlsl, the same decoding.
 #ifndef LSNIF_HIT_GLSL
 #define LSNIF_HIT_GLSL
 
@@ -39,18 +44,18 @@ LsnifHitAttributes lsnif_pack_hit(vec3 object_normal, vec3 albedo, uint material
 }
 
 // Object-space normal to world space with the inverse transpose of the instance's linear part:
-// (A^-1)^T n, A^-1 being the linear part of gl_WorldToObjectEXT. Closest-hit / intersection only.
-vec3 lsnif_world_normal(vec3 object_normal) {
-  const vec3 n = transpose(mat3(gl_WorldToObjectEXT)) * object_normal;
+// (A^-1)^T n, A^-1 = `world_to_object` (the linear part of the instance's world-to-object matrix).
+vec3 lsnif_world_normal_of(vec3 object_normal, mat3 world_to_object) {
+  const vec3 n = transpose(world_to_object) * object_normal;
   const float len = length(n);
   return len > 0.0 ? n / len : vec3(0.0);
 }
 
-// Decodes the attributes of the current hit (closest-hit shader).
-LsnifSurface lsnif_surface(LsnifHitAttributes a) {
+// Decodes attributes of a hit of the instance whose world-to-object linear part is `world_to_object`.
+LsnifSurface lsnif_decode_hit(LsnifHitAttributes a, mat3 world_to_object) {
   LsnifSurface s;
   s.object_normal = vec3(a.normal_x, a.normal_y, a.normal_z);
-  s.normal = lsnif_world_normal(s.object_normal);
+  s.normal = lsnif_world_normal_of(s.object_normal, world_to_object);
   s.albedo = vec3(unpackUnorm2x16(a.albedo_rg), unpackUnorm2x16(a.albedo_b_material_points & 0xffffu).x);
   s.material = (a.albedo_b_material_points >> 16) & 0xffu;
   s.points = a.albedo_b_material_points >> 24;
@@ -59,12 +64,30 @@ LsnifSurface lsnif_surface(LsnifHitAttributes a) {
   return s;
 }
 
+// tmin of a ray leaving the hit's surface in world direction `world_direction` (any length): the
+// surface's leaving distance in object units as a world ray parameter.
+float lsnif_leaving_tmin(LsnifSurface s, vec3 world_direction, mat3 world_to_object) {
+  const float len = length(world_to_object * world_direction);
+  return len > 0.0 ? s.leaving_distance / len : 0.0;
+}
+
+#ifndef LSNIF_HIT_DECODE_ONLY
+// lsnif_world_normal_of with the current instance's matrix. Closest-hit / intersection only.
+vec3 lsnif_world_normal(vec3 object_normal) {
+  return lsnif_world_normal_of(object_normal, mat3(gl_WorldToObjectEXT));
+}
+
+// Decodes the attributes of the current hit (closest-hit shader).
+LsnifSurface lsnif_surface(LsnifHitAttributes a) {
+  return lsnif_decode_hit(a, mat3(gl_WorldToObjectEXT));
+}
+
 // tmin of a ray leaving the current hit's surface in world direction `world_direction` (any
 // length): s.leaving_distance object units along the object-space direction, as a world ray
 // parameter. Closest-hit shader of the hit (uses gl_WorldToObjectEXT).
 float lsnif_leaving_tmin(LsnifSurface s, vec3 world_direction) {
-  const float len = length(mat3(gl_WorldToObjectEXT) * world_direction);
-  return len > 0.0 ? s.leaving_distance / len : 0.0;
+  return lsnif_leaving_tmin(s, world_direction, mat3(gl_WorldToObjectEXT));
 }
+#endif
 
 #endif

@@ -475,7 +475,7 @@ class PluginQuery : public ::testing::Test {
       a.same_hit += hit == (ref[i].hit != 0);
       if (!hit || !ref[i].hit) continue;
       ++a.both_hit;
-      const uint32_t ref_instance = ref[i].reserved & 0xffffu;
+      const uint32_t ref_instance = ref[i].reserved & 0x7fffu;  // bit 15: the hit kind (rt_conformance.rchit)
       if (r.instance_index != ref_instance) continue;
       ++a.same_instance;
       EXPECT_EQ(r.instance_custom_index, ref[i].reserved >> 16) << "ray " << i;
@@ -731,6 +731,53 @@ TEST_F(PluginQuery, BroadPhasesAgreeHitForHit) {
   }
   EXPECT_GT(lsnif, kRays / 2) << "too few LSNIF hits to tell anything";
   EXPECT_GT(triangles, kRays / 4) << "too few triangle hits to tell anything";
+}
+
+// An application that traced its own geometry first passes the distance it found as each ray's
+// tmax: the query must then report exactly the hits closer than it (at most tmax, inclusive), each
+// the same to the bit as without the limit, and nothing for the others. The limits lie just below,
+// at and just above the unlimited answer's t (and anywhere for misses).
+TEST_F(PluginQuery, ApplicationTmaxKeepsExactlyTheCloserHits) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
+  std::vector<Ray> rays = rays_at(s, kRays, 11);
+  for (Ray& r : rays) r.tmax = std::numeric_limits<float>::infinity();
+  const QueryRun unlimited = query(s, rays, {0u});
+  ASSERT_EQ(unlimited.results.size(), rays.size());
+  ASSERT_EQ(unlimited.status.incomplete_rays, 0u);
+  const float factors[] = {0.5f, 0.9999f, 1.0f, 1.0001f, 3.0f};
+  std::vector<bool> keeps(rays.size());
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const LsnifQueryResult& u = unlimited.results[i];
+    const bool hit = u.kind == LSNIF_QUERY_HIT_LSNIF || u.kind == LSNIF_QUERY_HIT_TRIANGLE;
+    // Exactly at t for LSNIF hits only: a triangle exactly at tmax is the traversal's to decide.
+    float f = factors[i % 5];
+    if (f == 1.0f && u.kind != LSNIF_QUERY_HIT_LSNIF) f = 1.0001f;
+    rays[i].tmax = hit ? u.t * f : s.bounds.diagonal() * float(i % 7) / glm::length(rays[i].direction);
+    keeps[i] = hit && u.t <= rays[i].tmax;
+  }
+  const QueryRun limited = query(s, rays, {0u});
+  ASSERT_EQ(limited.results.size(), rays.size());
+  size_t kept_lsnif = 0, kept_triangles = 0, dropped = 0, wrong = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const LsnifQueryResult& u = unlimited.results[i];
+    const LsnifQueryResult& l = limited.results[i];
+    const bool ok = keeps[i] ? std::memcmp(&u, &l, sizeof u) == 0 : l.kind == LSNIF_QUERY_HIT_NONE;
+    if (!ok && ++wrong <= 3)
+      ADD_FAILURE() << "ray " << i << " tmax " << rays[i].tmax << ": unlimited kind " << u.kind << " t " << u.t
+                    << " instance " << u.instance_index << ", limited kind " << l.kind << " t " << l.t
+                    << " instance " << l.instance_index;
+    kept_lsnif += keeps[i] && u.kind == LSNIF_QUERY_HIT_LSNIF;
+    kept_triangles += keeps[i] && u.kind == LSNIF_QUERY_HIT_TRIANGLE;
+    dropped += !keeps[i] && u.kind != LSNIF_QUERY_HIT_NONE;
+  }
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_EQ(limited.status.incomplete_rays, 0u);
+  std::printf("[application tmax] %zu rays: kept %zu LSNIF and %zu triangle hits, %zu hits beyond tmax dropped\n",
+              rays.size(), kept_lsnif, kept_triangles, dropped);
+  EXPECT_GT(kept_lsnif, kRays / 10) << "too few LSNIF hits to tell anything";
+  EXPECT_GT(dropped, kRays / 10);
 }
 
 // Rays leaving the LSNIF surfaces by the self-intersection rule (origin at the hit, back-face

@@ -1,6 +1,7 @@
 // rt_conformance.rchit -- the closest hit of an LSNIF object, decoded with src/lsnif/lsnif_hit.glsl
 // as an application would: world normal, albedo, material; plus t, the walk's points, the logit
-// and the instance (reserved = gl_InstanceID | gl_InstanceCustomIndexEXT << 16).
+// the instance and the facing (reserved = gl_InstanceID | gl_HitKindEXT << 15 |
+// gl_InstanceCustomIndexEXT << 16; the hit kind is LSNIF_HIT_KIND_FRONT_FACING or _BACK_FACING).
 #version 460
 #extension GL_EXT_ray_tracing : require
 #extension GL_GOOGLE_include_directive : require
@@ -22,6 +23,6 @@ void main() {
   payload.albedo_x = s.albedo.x;
   payload.albedo_y = s.albedo.y;
   payload.albedo_z = s.albedo.z;
-  payload.reserved = uint(gl_InstanceID) | (uint(gl_InstanceCustomIndexEXT) << 16);
+  payload.reserved = uint(gl_InstanceID) | (gl_HitKindEXT << 15) | (uint(gl_InstanceCustomIndexEXT) << 16);
   payload.leaving_tmin = lsnif_leaving_tmin(s, gl_WorldRayDirectionEXT);
 }

@@ -92,6 +92,9 @@ struct Comparison {
   size_t both_hit = 0, material_mismatch = 0, instance_mismatch = 0, instance_ties = 0;
   size_t hits_per_kind[kKinds] = {}, gpu_hits_per_instance[2] = {};
   size_t closest_hit_ran = 0;  // results written by the closest-hit shader (reserved != ~0u)
+  // Hit kinds (bit 15 of reserved) against the facing of the reported normal: back-facing hits seen,
+  // and kinds that disagree where |dot(normal, direction)| > kFacingEps.
+  size_t back_facing = 0, facing_mismatch = 0;
   double leaving_tmin_rel_err_max = 0;  // lsnif_leaving_tmin (closest hit) vs leaving_tmin (CPU)
   double t_err_max = 0, t_err_sum = 0, normal_deg_max = 0, normal_deg_sum = 0, albedo_max = 0;
 };
@@ -101,6 +104,8 @@ struct Comparison {
 // other boundary points, or float and double object-space rays walk differently).
 constexpr double kLogitEps = 1e-3;
 constexpr double kIntervalEps = 1e-4;
+// Normals within this cosine of perpendicular to the ray may round to either facing.
+constexpr double kFacingEps = 1e-4;
 
 double logit_of(float occlusion) {
   const double p = std::clamp(double(occlusion), 1e-30, 1.0 - 1e-16);
@@ -130,7 +135,7 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
     c.cpu_hits += cpu_hit;
     c.gpu_hits += gpu_hit;
     c.closest_hit_ran += g.reserved != 0xffffffffu;
-    const uint32_t gpu_instance = g.reserved & 0xffffu;
+    const uint32_t gpu_instance = g.reserved & 0x7fffu;
     if (gpu_hit && mode == kModeClosest && gpu_instance < 2) ++c.gpu_hits_per_instance[gpu_instance];
     if (gpu_hit && mode == kModeClosest && gpu_instance < xfs.size() &&
         g.points != walk_points(model, ins[gpu_instance], w, false))
@@ -191,6 +196,13 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
     const double deg = std::acos(std::clamp(glm::dot(gn, hn), -1.0, 1.0)) * 180.0 / M_PI;
     c.normal_deg_max = std::max(c.normal_deg_max, deg);
     c.normal_deg_sum += deg;
+    // The hit kind says the facing of the predicted normal: dot(A^-T n, d) has the sign of the
+    // object-space dot(n, A^-1 d) the intersection shader tests.
+    const uint32_t hit_kind = (g.reserved >> 15) & 1u;
+    const double facing = glm::dot(gn, glm::dvec3(glm::normalize(w.direction)));
+    c.back_facing += hit_kind == LSNIF_HIT_KIND_BACK_FACING;
+    if (std::fabs(facing) > kFacingEps)
+      c.facing_mismatch += hit_kind != (facing < 0.0 ? LSNIF_HIT_KIND_FRONT_FACING : LSNIF_HIT_KIND_BACK_FACING);
     const glm::vec3 ga(g.albedo_x, g.albedo_y, g.albedo_z);
     for (int k = 0; k < 3; ++k) c.albedo_max = std::max(c.albedo_max, double(std::fabs(ga[k] - h.albedo[k])));
     c.material_mismatch += g.material != h.material;
@@ -204,13 +216,14 @@ void print(const char* name, const Comparison& c) {
       "%zu walk, %zu other), gpu walk mismatches %zu, gpu hits per instance %zu/%zu\n"
       "  both hit %zu (per kind %zu/%zu/%zu/%zu): t error / diagonal max %.3g mean %.3g, normal angle max "
       "%.3g deg mean %.3g deg, albedo max %.3g, material mismatches %zu, instance mismatches %zu (ties %zu), "
-      "leaving tmin relative error max %.3g\n",
+      "leaving tmin relative error max %.3g, back-facing hits %zu, hit kinds against the normal's facing "
+      "%zu wrong\n",
       name, c.rays, c.cpu_hits, c.gpu_hits, 100.0 * double(c.hit_agree) / double(c.rays), c.flips_threshold,
       c.flips_interval, c.flips_walk, c.flips_other, c.walk_mismatch, c.gpu_hits_per_instance[0],
       c.gpu_hits_per_instance[1], c.both_hit, c.hits_per_kind[0], c.hits_per_kind[1], c.hits_per_kind[2],
       c.hits_per_kind[3], c.t_err_max, c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, c.normal_deg_max,
       c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, c.albedo_max, c.material_mismatch,
-      c.instance_mismatch, c.instance_ties, c.leaving_tmin_rel_err_max);
+      c.instance_mismatch, c.instance_ties, c.leaving_tmin_rel_err_max, c.back_facing, c.facing_mismatch);
 }
 
 class RtConformance : public ::testing::Test {
@@ -361,6 +374,7 @@ class RtConformance : public ::testing::Test {
     EXPECT_LT(c.albedo_max, 1e-4);
     EXPECT_EQ(c.material_mismatch, 0u);
     EXPECT_LT(c.leaving_tmin_rel_err_max, 1e-5);
+    EXPECT_EQ(c.facing_mismatch, 0u);
   }
 
   void SetUp() override {

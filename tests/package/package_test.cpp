@@ -2,7 +2,10 @@
 // in process; this build is installed (`cmake --install`) into a temporary prefix and packaged
 // (`cpack -G DEB`); samples/hello_lsnif, a separate C11 project, is configured and built against the
 // installed package three ways (find_package, pkg-config, the .deb files extracted into a temporary
-// root) and once inside a parent project that add_subdirectory()s this source tree; every build runs
+// root) and once inside a parent project that add_subdirectory()s this source tree (with find_package
+// also hello_lsnif_engine, the same scene as an engine with its own push-constant layout, custom
+// indices and feature chain adopts LSNIF, its intersection shader built from the installed source,
+// and its Vulkan 1.1 instance refused with a message naming the version); every build runs
 // on lavapipe with the validation layer and its picture is compared per pixel with a CPU reference:
 // the ground by exact ray/triangle tests, the LSNIF instance by core's intersect(), closest hit, the
 // shading of hello_lsnif.c's header restated here. Also checked: what the exported lsnif::vk and the
@@ -390,10 +393,27 @@ std::string real_path(const fs::path& p) {
 }
 
 TEST_F(Package, HelloThroughFindPackage) {
-  const std::string exe = build_hello(root_ / "hello_find_package", "-DCMAKE_PREFIX_PATH=" + quote(prefix_));
+  const std::string exe = build_hello(root_ / "hello_find_package",
+                                      "-DHELLO_LSNIF_BUILD_ENGINE=ON -DCMAKE_PREFIX_PATH=" + quote(prefix_));
   ASSERT_FALSE(exe.empty());
   EXPECT_EQ(real_path(resolved_lsnif_library(exe)), real_path(prefix_ / kLibDir / ("liblsnif_vk.so." + kVersion)));
   run_and_compare(exe, "find_package");
+
+  // hello_lsnif_engine, built beside it: an engine with its own push constants at offset 0, its own
+  // custom-index table, a feature chain it built itself (completed by
+  // lsnifEnableDeviceFeaturesInCreateInfo) and an intersection shader built from the installed
+  // source for that layout must render the same picture, validation clean; with a Vulkan 1.1
+  // instance, lsnifCreateContext must fail naming the API version, still validation clean.
+  const fs::path engine = fs::path(exe).parent_path() / "hello_lsnif_engine";
+  ASSERT_TRUE(fs::exists(engine));
+  run_and_compare(engine.string(), "engine");
+  const test::CommandResult r = sh(quote(engine) + " " + quote(model_path_) + " --validate --device llvmpipe " +
+                                   "--vulkan-api 1.1 -o " + quote(root_ / "engine_1_1.ppm"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(contains(r.out, "lsnifCreateContext")) << r.out;
+  EXPECT_TRUE(contains(r.out, "apiVersion below 1.2")) << r.out;
+  EXPECT_FALSE(contains(r.out, "validation")) << r.out;
+  EXPECT_FALSE(fs::exists(root_ / "engine_1_1.ppm"));
 }
 
 TEST_F(Package, HelloThroughPkgConfig) {
@@ -459,6 +479,8 @@ TEST_F(Package, HelloFromTheDebPackages) {
   }
   const fs::path usr = root / "usr";
   EXPECT_TRUE(fs::exists(usr / "include/lsnif/lsnif_hit.glsl"));
+  EXPECT_TRUE(fs::exists(usr / "include/lsnif/lsnif_hit.hlsl"));
+  EXPECT_TRUE(fs::exists(usr / "include/lsnif/shaders/lsnif_intersection.glsl"));
   const std::string exe = build_hello(root_ / "hello_deb", "-DCMAKE_PREFIX_PATH=" + quote(usr));
   ASSERT_FALSE(exe.empty());
   EXPECT_EQ(real_path(resolved_lsnif_library(exe)), real_path(usr / kLibDir / ("liblsnif_vk.so." + kVersion)));

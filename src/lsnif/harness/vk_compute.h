@@ -58,6 +58,10 @@ struct Pipeline {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline pipeline = VK_NULL_HANDLE;
   uint32_t push_size = 0;
+  // Set 0 of storage buffers at bindings 0 .. storage_buffers - 1 (shaders without buffer device
+  // addresses, e.g. HLSL compiled by glslang); none when 0.
+  VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+  uint32_t storage_buffers = 0;
   double create_seconds = 0;      // vkCreateComputePipelines wall time (lavapipe compiles here)
 };
 
@@ -127,12 +131,15 @@ class ComputeContext {
   // A shader module of `code` on this context's device (caller destroys it).
   Status create_shader_module(const Spirv& code, VkShaderModule& out);
   Status create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out);
-  // The same from SPIR-V in memory (a shader embedded at build time).
-  Status create_pipeline(const Spirv& code, uint32_t push_size, Pipeline& out);
+  // The same from SPIR-V in memory (a shader embedded at build time), with `storage_buffers`
+  // storage-buffer bindings in set 0 (Pipeline::storage_buffers).
+  Status create_pipeline(const Spirv& code, uint32_t push_size, Pipeline& out, uint32_t storage_buffers = 0);
   void destroy_pipeline(Pipeline& pipeline);
   // Records push constants + vkCmdDispatch(groups_x, 1, 1), submits, waits; shader writes are
   // made visible to the host before it returns.
-  Status dispatch(const Pipeline& pipeline, const void* push, uint32_t groups_x);
+  // `buffers` (whole buffers) are bound to the pipeline's storage-buffer bindings, one each, in order.
+  Status dispatch(const Pipeline& pipeline, const void* push, uint32_t groups_x,
+                  const std::vector<const Buffer*>& buffers = {});
   // Records `record` into a one-time command buffer, submits it and waits for it (`what` names the
   // work in an error message).
   Status submit(const char* what, const std::function<void(VkCommandBuffer)>& record);

@@ -181,6 +181,21 @@ LSNIF_API LsnifResult lsnifEnableDeviceFeatures(void* pFeatureChain) {
                 "lsnifEnableDeviceFeatures", nullptr);
 }
 
+LSNIF_API LsnifResult lsnifEnableDeviceFeaturesInCreateInfo(VkDeviceCreateInfo* pCreateInfo,
+                                                            LsnifDeviceFeatureStorage* pStorage) {
+  return report(guarded([&]() -> Outcome {
+                  if (!pCreateInfo) return invalid("%s is NULL", "pCreateInfo");
+                  if (!pStorage) return invalid("%s is NULL", "pStorage");
+                  if (pCreateInfo->sType != VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO)
+                    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                                         "pCreateInfo->sType is %d, not VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO",
+                                         int(pCreateInfo->sType));
+                  lsnif::plugin::enable_device_features_appending(*pCreateInfo, *pStorage);
+                  return Outcome::ok();
+                }),
+                "lsnifEnableDeviceFeaturesInCreateInfo", nullptr);
+}
+
 LSNIF_API LsnifResult lsnifQueryDeviceSupport(VkInstance instance, VkPhysicalDevice physicalDevice,
                                               PFN_vkGetInstanceProcAddr pfnGetInstanceProcAddr,
                                               LsnifDeviceSupport* pSupport) {

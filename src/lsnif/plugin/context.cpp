@@ -226,6 +226,19 @@ Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<Lsnif
   if (const char* missing = load_instance_dispatch(info.pfnGetInstanceProcAddr, info.instance, ctx->vki))
     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
                          "the instance does not provide %s (create it with apiVersion 1.2 or newer)", missing);
+  // A Vulkan 1.2 core command that the device does not hand out: the instance's apiVersion caps the
+  // device's (Mesa, the validation layer and the loader hand out no core command newer than it), so
+  // everything else would fail obscurely. Checked first: the queries below chain 1.2 structs. (A
+  // device below 1.2 is named as such by describe_device_support.)
+  VkPhysicalDeviceProperties device_props;
+  ctx->vki.vkGetPhysicalDeviceProperties(info.physicalDevice, &device_props);
+  if (device_props.apiVersion >= VK_API_VERSION_1_2 && !ctx->vki.vkGetDeviceProcAddr(info.device, "vkGetBufferDeviceAddress"))
+    return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
+                         "the device '%s' (Vulkan %s) does not provide the Vulkan 1.2 command "
+                         "vkGetBufferDeviceAddress: the instance was created with an apiVersion below 1.2 "
+                         "(VkApplicationInfo::apiVersion caps the device's version); LSNIF needs Vulkan 1.2 "
+                         "(its shaders are SPIR-V 1.5): create the instance with VK_API_VERSION_1_2 or newer",
+                         device_props.deviceName, api_version_string(device_props.apiVersion).c_str());
   const DeviceSupport support = query_device_support(ctx->vki, info.physicalDevice);
   if (Status s = describe_device_support(support); !s) return Outcome::from(s, LSNIF_ERROR_DEVICE_UNSUPPORTED);
   if (info.pEnabledFeatures) {
@@ -233,9 +246,11 @@ Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<Lsnif
     if (!off.empty()) {
       std::string list;
       for (const std::string& f : off) list += (list.empty() ? "" : ", ") + f;
+      const std::string hint = core_features_hint(info.pEnabledFeatures);
       return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
-                           "the device '%s' was created without what LSNIF needs enabled: %s (lsnifInitDeviceFeatures)",
-                           support.name.c_str(), list.c_str());
+                           "the device '%s' was created without what LSNIF needs enabled: %s (lsnifInitDeviceFeatures, "
+                           "lsnifEnableDeviceFeaturesInCreateInfo)%s%s",
+                           support.name.c_str(), list.c_str(), hint.empty() ? "" : "; ", hint.c_str());
     }
   }
   ctx->ray_query_offered = support.ray_query;

@@ -271,6 +271,52 @@ std::vector<std::string> enable_device_features(void* chain) {
   return absent;
 }
 
+void enable_device_features_appending(VkDeviceCreateInfo& create_info, LsnifDeviceFeatureStorage& storage) {
+  // The structs of the pNext chain only: pEnabledFeatures may point at read-only memory.
+  void* chain = const_cast<void*>(create_info.pNext);
+  if (chain) enable_device_features(chain);
+  const FeatureStructs f = find_feature_structs(chain);
+  // The chain's last struct: appended structs go behind it.
+  VkBaseOutStructure* tail = reinterpret_cast<VkBaseOutStructure*>(&create_info);
+  while (tail->pNext) tail = tail->pNext;
+  auto append = [&](auto& s, VkStructureType type) {
+    std::memset(&s, 0, sizeof s);
+    s.sType = type;
+    tail->pNext = reinterpret_cast<VkBaseOutStructure*>(&s);
+    tail = tail->pNext;
+  };
+  // Core features: a VkPhysicalDeviceFeatures2 in the chain (shaderInt64 set above); else one from the
+  // storage carries a copy of pEnabledFeatures (the two must not be given together).
+  if (!f.core) {
+    const VkPhysicalDeviceFeatures core = create_info.pEnabledFeatures ? *create_info.pEnabledFeatures
+                                                                       : VkPhysicalDeviceFeatures{};
+    append(storage.features2, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
+    storage.features2.features = core;
+    storage.features2.features.shaderInt64 = VK_TRUE;
+    create_info.pEnabledFeatures = nullptr;
+  }
+  // The buffer-device-address struct rather than VkPhysicalDeviceVulkan12Features: the latter must
+  // not share a chain with any struct of a feature promoted to 1.2, which frameworks often chain.
+  if (!f.buffer_device_address) {
+    append(storage.bufferDeviceAddress, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES);
+    storage.bufferDeviceAddress.bufferDeviceAddress = VK_TRUE;
+  }
+  if (!f.acceleration_structure) {
+    append(storage.accelerationStructure, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR);
+    storage.accelerationStructure.accelerationStructure = VK_TRUE;
+  }
+  if (!f.ray_tracing_pipeline) {
+    append(storage.rayTracingPipeline, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR);
+    storage.rayTracingPipeline.rayTracingPipeline = VK_TRUE;
+  }
+}
+
+std::string core_features_hint(const void* chain) {
+  if (find_feature_structs(chain).core) return {};
+  return "the chain given has no VkPhysicalDeviceFeatures2: when the device's core features were in "
+         "VkDeviceCreateInfo::pEnabledFeatures, pass the VkDeviceCreateInfo itself";
+}
+
 std::string api_version_string(uint32_t v) {
   return format("%u.%u.%u", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v), VK_API_VERSION_PATCH(v));
 }

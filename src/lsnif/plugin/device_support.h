@@ -9,6 +9,7 @@
 #include <vulkan/vulkan_core.h>
 
 #include "lsnif/format/status.h"
+#include "lsnif/lsnif.h"
 #include "lsnif/plugin/vk_dispatch.h"
 
 namespace lsnif::plugin {
@@ -90,6 +91,16 @@ std::vector<std::string> coopmat_mlp_features_not_enabled(const void* chain);
 // lsnifEnableDeviceFeatures: sets LSNIF's features in the structs of the chain; returns the names
 // of the structs it needed but did not find (empty: all set).
 std::vector<std::string> enable_device_features(void* chain);
+
+// lsnifEnableDeviceFeaturesInCreateInfo: sets LSNIF's features in the structs of create_info's
+// chain and appends, at the chain's end, the structs of `storage` it needed but did not find
+// (storage.features2 takes over create_info.pEnabledFeatures, which becomes null).
+void enable_device_features_appending(VkDeviceCreateInfo& create_info, LsnifDeviceFeatureStorage& storage);
+
+// A hint for a message naming "feature shaderInt64" as not enabled in `chain`: the core features
+// are in a VkDeviceCreateInfo's pEnabledFeatures that the chain does not reach (empty when the chain
+// has core features).
+std::string core_features_hint(const void* chain);
 
 // "1.3.278" from a VK_MAKE_API_VERSION value.
 std::string api_version_string(uint32_t version);

@@ -215,6 +215,76 @@ TEST(DeviceFeatures, EnableSetsWhatItFindsAndNamesWhatIsAbsent) {
   EXPECT_EQ(lsnifEnableDeviceFeatures(nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
 }
 
+// A framework's own VkDeviceCreateInfo: its structs in its order, the core features in
+// pEnabledFeatures (read-only), a struct of a feature promoted to 1.2 (which rules out
+// VkPhysicalDeviceVulkan12Features). Found structs are updated, missing ones appended once.
+TEST(DeviceFeatures, EnableInCreateInfoUpdatesFoundStructsAndAppendsMissingOnes) {
+  static const VkPhysicalDeviceFeatures core = [] {
+    VkPhysicalDeviceFeatures c{};
+    c.samplerAnisotropy = VK_TRUE;
+    return c;
+  }();
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+  rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+  rt.rayTraversalPrimitiveCulling = VK_TRUE;
+  VkPhysicalDeviceDescriptorIndexingFeatures indexing{};
+  indexing.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DESCRIPTOR_INDEXING_FEATURES;
+  indexing.runtimeDescriptorArray = VK_TRUE;
+  indexing.pNext = &rt;
+  VkDeviceCreateInfo dci{};
+  dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  dci.pNext = &indexing;
+  dci.pEnabledFeatures = &core;
+  EXPECT_FALSE(features_not_enabled(&dci).empty());
+  LsnifDeviceFeatureStorage storage;
+  std::memset(&storage, 0xAB, sizeof storage);  // garbage: what is appended must be written
+  ASSERT_EQ(lsnifEnableDeviceFeaturesInCreateInfo(&dci, &storage), LSNIF_SUCCESS) << lsnifGetLastErrorMessage();
+  EXPECT_TRUE(features_not_enabled(&dci).empty());
+  EXPECT_EQ(rt.rayTracingPipeline, VK_TRUE);
+  EXPECT_EQ(rt.rayTraversalPrimitiveCulling, VK_TRUE) << "the application's own features stay";
+  EXPECT_EQ(indexing.runtimeDescriptorArray, VK_TRUE);
+  EXPECT_EQ(dci.pEnabledFeatures, nullptr) << "VkPhysicalDeviceFeatures2 carries the core features now";
+  EXPECT_EQ(core.shaderInt64, VK_FALSE) << "pEnabledFeatures is never written";
+  EXPECT_EQ(storage.features2.features.samplerAnisotropy, VK_TRUE);
+  EXPECT_EQ(storage.features2.features.shaderInt64, VK_TRUE);
+  EXPECT_EQ(storage.features2.features.robustBufferAccess, VK_FALSE);
+  EXPECT_EQ(storage.accelerationStructure.accelerationStructureCaptureReplay, VK_FALSE);
+  // The chain: the application's structs first, then the appended ones in the storage's order,
+  // without the ray-tracing struct the chain had.
+  std::vector<const void*> chain;
+  for (auto* s = static_cast<const VkBaseInStructure*>(dci.pNext); s; s = s->pNext) chain.push_back(s);
+  EXPECT_EQ(chain, (std::vector<const void*>{&indexing, &rt, &storage.features2, &storage.bufferDeviceAddress,
+                                             &storage.accelerationStructure}));
+  ASSERT_EQ(lsnifEnableDeviceFeaturesInCreateInfo(&dci, &storage), LSNIF_SUCCESS);
+  size_t again = 0;
+  for (auto* s = static_cast<const VkBaseInStructure*>(dci.pNext); s; s = s->pNext) ++again;
+  EXPECT_EQ(again, chain.size()) << "a second call appends nothing";
+
+  // An empty create info gets every struct; pEnabledFeatures NULL stays NULL.
+  VkDeviceCreateInfo empty{};
+  empty.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  ASSERT_EQ(lsnifEnableDeviceFeaturesInCreateInfo(&empty, &storage), LSNIF_SUCCESS);
+  EXPECT_TRUE(features_not_enabled(&empty).empty());
+  EXPECT_EQ(storage.features2.features.samplerAnisotropy, VK_FALSE);
+
+  EXPECT_EQ(lsnifEnableDeviceFeaturesInCreateInfo(nullptr, &storage), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(lsnifEnableDeviceFeaturesInCreateInfo(&empty, nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
+  VkPhysicalDeviceFeatures2 not_a_create_info{};
+  not_a_create_info.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  EXPECT_EQ(lsnifEnableDeviceFeaturesInCreateInfo(reinterpret_cast<VkDeviceCreateInfo*>(&not_a_create_info), &storage),
+            LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(lsnifGetLastErrorMessage()).find("VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO"), std::string::npos);
+  EXPECT_EQ(not_a_create_info.pNext, nullptr);
+}
+
+// The hint for core features that a chain without VkPhysicalDeviceFeatures2 cannot show.
+TEST(DeviceFeatures, CoreFeaturesHintNamesTheCreateInfo) {
+  LsnifDeviceFeatures f;
+  lsnifInitDeviceFeatures(&f, nullptr);
+  EXPECT_EQ(core_features_hint(&f.features2), "");
+  EXPECT_NE(core_features_hint(&f.vulkan12).find("pass the VkDeviceCreateInfo itself"), std::string::npos);
+}
+
 TEST(PluginApi, ExtensionsResultsAndVersions) {
   uint32_t count = 0;
   const char* const* names = lsnifGetRequiredDeviceExtensions(&count);

@@ -28,6 +28,12 @@ bool lsnif_facing_culled(vec3 object_normal, vec3 object_direction, uint ray_fla
          ((ray_flags & LSNIF_RAY_FLAG_CULL_FRONT_FACING) != 0u && facing < 0.0);
 }
 
+// The hit kind of a prediction (host_device.h): LSNIF_HIT_KIND_FRONT_FACING when the normal points
+// against the direction, LSNIF_HIT_KIND_BACK_FACING otherwise (LsnifQueryResult::front_face alike).
+uint lsnif_hit_kind(vec3 object_normal, vec3 object_direction) {
+  return dot(object_normal, object_direction) < 0.0 ? LSNIF_HIT_KIND_FRONT_FACING : LSNIF_HIT_KIND_BACK_FACING;
+}
+
 // The first half of lsnif_intersect: the walk of a valid ray (else 0 boundary points, a miss).
 // Fills lsnif_walk; returns its point count.
 uint lsnif_intersect_walk(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax) {

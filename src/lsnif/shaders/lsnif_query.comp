@@ -278,7 +278,7 @@ void query_decode(uint id) {
   candidates.c[ci].albedo_r = h.albedo.r;
   candidates.c[ci].albedo_g = h.albedo.g;
   candidates.c[ci].albedo_b = h.albedo.b;
-  candidates.c[ci].front_face = dot(h.normal, d) < 0.0 ? 1u : 0u;
+  candidates.c[ci].front_face = lsnif_hit_kind(h.normal, d) == LSNIF_HIT_KIND_FRONT_FACING ? 1u : 0u;
   if (h.hit) atomicMin(lsnif_query_states().s[c.ray].best_t, lsnif_query_t_key(h.t));
 }
 #endif

@@ -1,0 +1,30 @@
+// hit_decode.hlsl -- the HLSL twin of hit_decode.comp: decodes LsnifHitAttributes with
+// lsnif/lsnif_hit.hlsl, compiled by glslang (-D) as a compute shader; the same buffers and results.
+#include "lsnif/lsnif_hit.hlsl"
+
+struct HitDecodeResult {
+  float4 normal;  // xyz: world normal, w: lsnif_leaving_tmin along the direction
+  float4 albedo;  // xyz: albedo, w: occlusion logit
+  uint4 fields;   // material, points, leaving distance (float bits), object normal x (float bits)
+};
+
+struct Push {
+  uint count;
+};
+
+[[vk::binding(0, 0)]] StructuredBuffer<LsnifHitAttributes> attributes;
+[[vk::binding(1, 0)]] StructuredBuffer<float4> inputs;
+[[vk::binding(2, 0)]] RWStructuredBuffer<HitDecodeResult> results;
+[[vk::push_constant]] ConstantBuffer<Push> pc;
+
+[numthreads(64, 1, 1)] void main(uint3 id : SV_DispatchThreadID) {
+  const uint i = id.x;
+  if (i >= pc.count) return;
+  const float3x3 world_to_object = float3x3(inputs[4 * i].xyz, inputs[4 * i + 1].xyz, inputs[4 * i + 2].xyz);
+  const LsnifSurface s = lsnif_decode_hit(attributes[i], world_to_object);
+  HitDecodeResult r;
+  r.normal = float4(s.normal, lsnif_leaving_tmin(s, inputs[4 * i + 3].xyz, world_to_object));
+  r.albedo = float4(s.albedo, s.occlusion_logit);
+  r.fields = uint4(s.material, s.points, asuint(s.leaving_distance), asuint(s.object_normal.x));
+  results[i] = r;
+}
