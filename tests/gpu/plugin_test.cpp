@@ -289,6 +289,82 @@ TEST_F(PluginApi, ContextCreationErrorsAndTheErrorCallback) {
   EXPECT_EQ(seen.calls, 5);
 }
 
+// Debug names: with VK_EXT_debug_utils enabled on the instance (the harness enables it with the
+// validation layer), every object the library creates is named through
+// vkSetDebugUtilsObjectNameEXT. A vkGetInstanceProcAddr wrapper hands the context a recorder of
+// the names, which forwards them to the layer.
+namespace debug_names {
+PFN_vkGetInstanceProcAddr real_get_instance_proc_addr = nullptr;
+PFN_vkSetDebugUtilsObjectNameEXT real_set_name = nullptr;
+std::vector<std::pair<VkObjectType, uint64_t>> handles;
+std::vector<std::string> names;
+VKAPI_ATTR VkResult VKAPI_CALL record(VkDevice device, const VkDebugUtilsObjectNameInfoEXT* info) {
+  handles.emplace_back(info->objectType, info->objectHandle);
+  names.emplace_back(info->pObjectName ? info->pObjectName : "");
+  return real_set_name(device, info);
+}
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL get_instance_proc_addr(VkInstance instance, const char* name) {
+  if (std::strcmp(name, "vkSetDebugUtilsObjectNameEXT") != 0) return real_get_instance_proc_addr(instance, name);
+  real_set_name = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(real_get_instance_proc_addr(instance, name));
+  return real_set_name ? reinterpret_cast<PFN_vkVoidFunction>(&record) : nullptr;
+}
+}  // namespace debug_names
+
+TEST_F(PluginApi, EveryObjectTheLibraryCreatesHasADebugName) {
+  LsnifContextCreateInfo info = create_info();
+  debug_names::real_get_instance_proc_addr = info.pfnGetInstanceProcAddr;
+  debug_names::handles.clear();
+  debug_names::names.clear();
+  info.pfnGetInstanceProcAddr = debug_names::get_instance_proc_addr;
+  plugin::Context ctx;
+  ASSERT_EQ(ctx.create(info), LSNIF_SUCCESS) << last_error();
+  if (!debug_names::real_set_name) GTEST_SKIP() << "the instance was created without VK_EXT_debug_utils";
+  plugin::Model model;
+  ASSERT_EQ(model.create_from_memory(ctx.get(), bytes_.data(), bytes_.size()), LSNIF_SUCCESS) << last_error();
+  LsnifModel handle = model.get();
+  ASSERT_EQ(lsnifBuildModels(ctx.get(), 1, &handle), LSNIF_SUCCESS) << last_error();
+  plugin::QueryPipeline batched, tlas;
+  ASSERT_EQ(batched.create(ctx.get()), LSNIF_SUCCESS) << last_error();
+  const bool with_tlas = tlas.create(ctx.get(), LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT) == LSNIF_SUCCESS;
+
+  auto count = [](VkObjectType type) {
+    return size_t(std::count_if(debug_names::handles.begin(), debug_names::handles.end(),
+                                [&](const auto& h) { return h.first == type; }));
+  };
+  auto named = [](const std::string& name) {
+    return std::find(debug_names::names.begin(), debug_names::names.end(), name) != debug_names::names.end();
+  };
+  for (size_t i = 0; i < debug_names::names.size(); ++i) {
+    EXPECT_EQ(debug_names::names[i].rfind("lsnif ", 0), 0u) << debug_names::names[i];
+    EXPECT_NE(debug_names::handles[i].second, 0u) << debug_names::names[i];
+  }
+  // The model: its block, the BLAS and its buffers, each buffer with its memory.
+  EXPECT_TRUE(named("lsnif model 1: block")) << "names of the model's block";
+  EXPECT_TRUE(named("lsnif model 1: block memory"));
+  EXPECT_TRUE(named("lsnif model 1: BLAS storage"));
+  EXPECT_TRUE(named("lsnif model 1: BLAS input"));
+  const LsnifModelProperties props = model.properties();
+  EXPECT_NE(std::find(debug_names::handles.begin(), debug_names::handles.end(),
+                      std::make_pair(VK_OBJECT_TYPE_ACCELERATION_STRUCTURE_KHR, reinterpret_cast<uint64_t>(props.blas))),
+            debug_names::handles.end())
+      << "the model's BLAS";
+  EXPECT_EQ(count(VK_OBJECT_TYPE_BUFFER), count(VK_OBJECT_TYPE_DEVICE_MEMORY));
+  // The blocking build's pool, fence and command buffer; the query pipelines' stages and layout.
+  EXPECT_EQ(count(VK_OBJECT_TYPE_COMMAND_POOL), 1u);
+  EXPECT_EQ(count(VK_OBJECT_TYPE_FENCE), 1u);
+  EXPECT_EQ(count(VK_OBJECT_TYPE_COMMAND_BUFFER), 1u);
+  EXPECT_TRUE(named("lsnif query pipeline: narrow stage"));
+  EXPECT_TRUE(named("lsnif query pipeline: MLP stage"));
+  EXPECT_GE(count(VK_OBJECT_TYPE_PIPELINE), with_tlas ? 8u : 4u);
+  EXPECT_GE(count(VK_OBJECT_TYPE_PIPELINE_LAYOUT), with_tlas ? 2u : 1u);
+  EXPECT_EQ(count(VK_OBJECT_TYPE_SHADER_MODULE), count(VK_OBJECT_TYPE_PIPELINE) +
+                                                      (named("lsnif query pipeline: candidate broad phase") ? 4u : 0u))
+      << "one module per compute stage, three per broad-phase pipeline";
+  std::printf("debug names: %zu objects (%zu buffers, %zu pipelines), TLAS pipeline %s\n",
+              debug_names::names.size(), count(VK_OBJECT_TYPE_BUFFER), count(VK_OBJECT_TYPE_PIPELINE),
+              with_tlas ? "created" : "not available here");
+}
+
 // A real device of the same physical device created without any extension: the plugin cannot load
 // the acceleration-structure functions and says so instead of crashing later.
 TEST_F(PluginApi, DeviceWithoutTheExtensionsIsRefused) {

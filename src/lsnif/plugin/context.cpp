@@ -74,8 +74,18 @@ void release(LsnifContext_T& ctx, Allocation& a) {
   a = Allocation();
 }
 
+void name_object(const LsnifContext_T& ctx, VkObjectType type, uint64_t handle, const std::string& name) {
+  if (!ctx.set_object_name || handle == 0) return;
+  VkDebugUtilsObjectNameInfoEXT info{};
+  info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT;
+  info.objectType = type;
+  info.objectHandle = handle;
+  info.pObjectName = name.c_str();
+  ctx.set_object_name(ctx.info.device, &info);
+}
+
 Outcome allocate(LsnifContext_T& ctx, VkDeviceSize bytes, VkBufferUsageFlags usage, Placement placement,
-                 const void* data, Allocation& out) {
+                 const void* data, const std::string& name, Allocation& out) {
   out = Allocation();
   const VkDevice device = ctx.info.device;
   const VkAllocationCallbacks* cb = ctx.info.pAllocator;
@@ -125,6 +135,8 @@ Outcome allocate(LsnifContext_T& ctx, VkDeviceSize bytes, VkBufferUsageFlags usa
                          "allocating a %llu-byte buffer failed (VkResult %d)", static_cast<unsigned long long>(bytes),
                          static_cast<int>(r));
   }
+  name_object(ctx, VK_OBJECT_TYPE_BUFFER, out.buffer, name);
+  name_object(ctx, VK_OBJECT_TYPE_DEVICE_MEMORY, out.memory, name + " memory");
   VkBufferDeviceAddressInfo ai{};
   ai.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO;
   ai.buffer = out.buffer;
@@ -162,21 +174,24 @@ Outcome create_device_objects(LsnifContext_T& ctx, LsnifModel_T& m, const std::v
                               const VkAabbPositionsKHR& box) {
   const VkDeviceSize block_bytes = words.size() * sizeof(uint32_t);
   const VkBufferUsageFlags block_usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  const std::string name = "lsnif model " + std::to_string(++ctx.models_created);
   Outcome o;
   if (!ctx.staging_upload) {
-    o = allocate(ctx, block_bytes, block_usage, Placement::DeviceDirect, words.data(), m.block);
+    o = allocate(ctx, block_bytes, block_usage, Placement::DeviceDirect, words.data(), name + ": block", m.block);
     if (!o && o.code != LSNIF_ERROR_VULKAN) return o;
   }
   if (ctx.staging_upload || !o) {  // no device-local host-visible memory (or asked for): stage it
-    o = allocate(ctx, block_bytes, block_usage, Placement::DeviceOnly, nullptr, m.block);
-    if (o) o = allocate(ctx, block_bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Placement::HostWrite, words.data(), m.staging);
+    o = allocate(ctx, block_bytes, block_usage, Placement::DeviceOnly, nullptr, name + ": block", m.block);
+    if (o)
+      o = allocate(ctx, block_bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Placement::HostWrite, words.data(),
+                   name + ": block staging", m.staging);
     if (!o) return o.context("GPU block");
   }
   if (m.block.address % 32 != 0)  // the shaders read the MLP in 32-byte loads
     return Outcome::fail(LSNIF_ERROR_VULKAN, "model block at device address 0x%llx is not 32-byte aligned",
                          static_cast<unsigned long long>(m.block.address));
   o = allocate(ctx, sizeof box, VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
-               Placement::HostWrite, &box, m.aabb);
+               Placement::HostWrite, &box, name + ": BLAS input", m.aabb);
   if (!o) return o.context("BLAS input");
 
   const VkAccelerationStructureGeometryKHR geometry = aabb_geometry(m);
@@ -187,10 +202,10 @@ Outcome create_device_objects(LsnifContext_T& ctx, LsnifModel_T& m, const std::v
   ctx.vk.vkGetAccelerationStructureBuildSizesKHR(ctx.info.device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR,
                                                  &info, &primitives, &sizes);
   o = allocate(ctx, sizes.accelerationStructureSize, VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR,
-               Placement::DeviceOnly, nullptr, m.blas_storage);
+               Placement::DeviceOnly, nullptr, name + ": BLAS storage", m.blas_storage);
   if (!o) return o.context("BLAS storage");
   o = allocate(ctx, sizes.buildScratchSize + ctx.scratch_alignment, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-               Placement::DeviceOnly, nullptr, m.scratch);
+               Placement::DeviceOnly, nullptr, name + ": BLAS scratch", m.scratch);
   if (!o) return o.context("BLAS scratch");
   m.scratch_address = align_up(m.scratch.address, ctx.scratch_alignment);
 
@@ -200,6 +215,7 @@ Outcome create_device_objects(LsnifContext_T& ctx, LsnifModel_T& m, const std::v
   aci.size = sizes.accelerationStructureSize;
   aci.type = VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR;
   LSNIF_VK_TRY(ctx.vk.vkCreateAccelerationStructureKHR(ctx.info.device, &aci, ctx.info.pAllocator, &m.blas));
+  name_object(ctx, VK_OBJECT_TYPE_ACCELERATION_STRUCTURE_KHR, m.blas, name + ": BLAS");
   VkAccelerationStructureDeviceAddressInfoKHR dai{};
   dai.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_DEVICE_ADDRESS_INFO_KHR;
   dai.accelerationStructure = m.blas;
@@ -226,6 +242,9 @@ Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<Lsnif
   if (const char* missing = load_instance_dispatch(info.pfnGetInstanceProcAddr, info.instance, ctx->vki))
     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
                          "the instance does not provide %s (create it with apiVersion 1.2 or newer)", missing);
+  // Null unless the application enabled VK_EXT_debug_utils on the instance.
+  ctx->set_object_name = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(
+      info.pfnGetInstanceProcAddr(info.instance, "vkSetDebugUtilsObjectNameEXT"));
   // A Vulkan 1.2 core command that the device does not hand out: the instance's apiVersion caps the
   // device's (Mesa, the validation layer and the loader hand out no core command newer than it), so
   // everything else would fail obscurely. Checked first: the queries below chain 1.2 structs. (A
@@ -407,11 +426,13 @@ Outcome build_and_wait(LsnifContext_T& ctx, const std::vector<LsnifModel_T*>& mo
     pci.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
     pci.queueFamilyIndex = ctx.info.queueFamilyIndex;
     LSNIF_VK_TRY(ctx.vk.vkCreateCommandPool(device, &pci, cb, &ctx.pool));
+    name_object(ctx, VK_OBJECT_TYPE_COMMAND_POOL, ctx.pool, "lsnif context: command pool of the blocking calls");
   }
   if (!ctx.fence) {
     VkFenceCreateInfo fci{};
     fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     LSNIF_VK_TRY(ctx.vk.vkCreateFence(device, &fci, cb, &ctx.fence));
+    name_object(ctx, VK_OBJECT_TYPE_FENCE, ctx.fence, "lsnif context: fence of the blocking calls");
   }
   VkCommandBufferAllocateInfo cai{};
   cai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
@@ -420,6 +441,7 @@ Outcome build_and_wait(LsnifContext_T& ctx, const std::vector<LsnifModel_T*>& mo
   cai.commandBufferCount = 1;
   VkCommandBuffer cmd = VK_NULL_HANDLE;
   LSNIF_VK_TRY(ctx.vk.vkAllocateCommandBuffers(device, &cai, &cmd));
+  name_object(ctx, VK_OBJECT_TYPE_COMMAND_BUFFER, cmd, "lsnif context: model builds");
   VkCommandBufferBeginInfo bi{};
   bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;

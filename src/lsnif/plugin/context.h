@@ -118,6 +118,10 @@ struct LsnifContext_T {
   VkPhysicalDeviceRayTracingPipelinePropertiesKHR ray_tracing{};  // shader group handle sizes and alignments
   std::string device_name;
   bool staging_upload = false;  // blocks always go through a staging buffer (LSNIF_CONTEXT_CREATE_STAGING_UPLOAD_BIT)
+  // VK_EXT_debug_utils' object naming, where the application enabled the extension on its instance
+  // (null otherwise): every object the library creates gets a name starting with "lsnif".
+  PFN_vkSetDebugUtilsObjectNameEXT set_object_name = nullptr;
+  uint32_t models_created = 0;  // numbers the models in their debug names
   VkCommandPool pool = VK_NULL_HANDLE;  // for the blocking calls (created on first use)
   VkFence fence = VK_NULL_HANDLE;
   std::vector<std::unique_ptr<LsnifModel_T>> models;
@@ -164,9 +168,19 @@ Outcome build_and_wait(LsnifContext_T& ctx, const std::vector<LsnifModel_T*>& mo
 void free_build_resources(LsnifContext_T& ctx, LsnifModel_T& model);
 
 // A buffer of `bytes` with a device address and its own memory placed as `placement` asks,
-// holding `data` (when not null; the memory must then be host-visible); release frees it.
+// holding `data` (when not null; the memory must then be host-visible), both named `name` (the
+// memory with " memory" appended; name_object); release frees it.
 Outcome allocate(LsnifContext_T& ctx, VkDeviceSize bytes, VkBufferUsageFlags usage, Placement placement,
-                 const void* data, Allocation& out);
+                 const void* data, const std::string& name, Allocation& out);
+
+// Gives `handle` (of `type`) the debug name `name` through VK_EXT_debug_utils when the application
+// enabled it (LsnifContext_T::set_object_name); nothing otherwise. Names are for tools only: a
+// failure is ignored.
+void name_object(const LsnifContext_T& ctx, VkObjectType type, uint64_t handle, const std::string& name);
+template <class Handle>
+void name_object(const LsnifContext_T& ctx, VkObjectType type, Handle handle, const std::string& name) {
+  name_object(ctx, type, reinterpret_cast<uint64_t>(handle), name);
+}
 void release(LsnifContext_T& ctx, Allocation& a);
 
 // lsnifCreateQueryPipeline / lsnifDestroyQueryPipeline (query_pipeline.cpp).

@@ -52,6 +52,7 @@ Outcome create_module(LsnifContext_T& ctx, const uint32_t* code, size_t bytes, c
   mi.pCode = code;
   if (VkResult r = ctx.vk.vkCreateShaderModule(ctx.info.device, &mi, ctx.info.pAllocator, &out); r != VK_SUCCESS)
     return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreateShaderModule (%s) failed (VkResult %d)", what, static_cast<int>(r));
+  name_object(ctx, VK_OBJECT_TYPE_SHADER_MODULE, out, std::string("lsnif query pipeline: ") + what);
   return Outcome::ok();
 }
 
@@ -72,6 +73,7 @@ Outcome create_stage(LsnifContext_T& ctx, VkPipelineCache cache, VkPipelineLayou
   if (r != VK_SUCCESS)
     return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreateComputePipelines (%s stage) failed (VkResult %d)", stage,
                          static_cast<int>(r));
+  name_object(ctx, VK_OBJECT_TYPE_PIPELINE, out, std::string("lsnif query pipeline: ") + stage + " stage");
   return Outcome::ok();
 }
 
@@ -152,6 +154,8 @@ Outcome create_trace_pipeline(LsnifContext_T& ctx, VkPipelineCache cache, VkPipe
   if (r != VK_SUCCESS)
     return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreateRayTracingPipelinesKHR (%s broad phase) failed (VkResult %d)",
                          triangles ? "triangle" : "candidate", static_cast<int>(r));
+  name_object(ctx, VK_OBJECT_TYPE_PIPELINE, out,
+              std::string("lsnif query pipeline: ") + (triangles ? "triangle" : "candidate") + " broad phase");
   return Outcome::ok();
 }
 
@@ -166,8 +170,11 @@ Outcome create_shader_binding_tables(LsnifContext_T& ctx, LsnifQueryPipeline_T& 
   const VkDeviceSize record = align_up(handle, rt.shaderGroupHandleAlignment);
   const VkDeviceSize slot = align_up(record, rt.shaderGroupBaseAlignment);
   const VkDeviceSize bytes = 6 * slot + rt.shaderGroupBaseAlignment;
-  Outcome o = allocate(ctx, bytes, VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR, Placement::DeviceDirect, nullptr, p.sbt);
-  if (!o) o = allocate(ctx, bytes, VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR, Placement::HostWrite, nullptr, p.sbt);
+  const char* name = "lsnif query pipeline: broad-phase shader binding tables";
+  Outcome o = allocate(ctx, bytes, VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR, Placement::DeviceDirect, nullptr, name,
+                       p.sbt);
+  if (!o)
+    o = allocate(ctx, bytes, VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR, Placement::HostWrite, nullptr, name, p.sbt);
   if (!o) return o.context("shader binding table");
   const VkDeviceAddress base = align_up(p.sbt.address, rt.shaderGroupBaseAlignment);
   void* mapped = nullptr;
@@ -209,6 +216,7 @@ Outcome create_trace_rays_broad_phase(LsnifContext_T& ctx, VkPipelineCache cache
   if (VkResult r = ctx.vk.vkCreatePipelineLayout(ctx.info.device, &li, cb, &p.trace_layout); r != VK_SUCCESS)
     return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreatePipelineLayout (broad phase) failed (VkResult %d)",
                          static_cast<int>(r));
+  name_object(ctx, VK_OBJECT_TYPE_PIPELINE_LAYOUT, p.trace_layout, "lsnif query pipeline: broad-phase layout");
   TraceRaysModules m;
   Outcome o = create_module(ctx, lsnif_query_broad_triangles_rgen_spirv, sizeof lsnif_query_broad_triangles_rgen_spirv,
                             "broad phase triangle raygen", m.triangles);
@@ -361,6 +369,7 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
   li.pPushConstantRanges = &range;
   if (VkResult r = ctx.vk.vkCreatePipelineLayout(ctx.info.device, &li, cb, &p->layout); r != VK_SUCCESS)
     return Outcome::fail(LSNIF_ERROR_VULKAN, "vkCreatePipelineLayout failed (VkResult %d)", static_cast<int>(r));
+  name_object(ctx, VK_OBJECT_TYPE_PIPELINE_LAYOUT, p->layout, "lsnif query pipeline: layout");
   Outcome o = create_stage(ctx, cache, p->layout, lsnif_batch_clear_spirv, sizeof lsnif_batch_clear_spirv, "clear", p->clear);
   if (o) o = create_stage(ctx, cache, p->layout, lsnif_batch_narrow_spirv, sizeof lsnif_batch_narrow_spirv, "narrow", p->narrow);
   if (o && coopmat)
