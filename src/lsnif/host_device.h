@@ -332,7 +332,7 @@ struct LsnifQueryCandidate { /* 144 bytes: one (ray, LSNIF instance) pair of the
   lsnif_uint evaluated;                               /* 1: the narrow phase ran the model recorded for its
                                                          table entry, which the table holds (0 otherwise) */
 };
-/* Push constants of lsnifCmdQuery's stages (one block for all of them, 88 bytes). */
+/* Push constants of lsnifCmdQuery's stages (one block for all of them, 96 bytes). */
 struct LsnifQueryPushConstants {
   lsnif_uint tlas_lo, tlas_hi;         /* the TLAS's device address */
   lsnif_uint table_lo, table_hi;       /* the model table (uint64 block addresses) */
@@ -348,8 +348,13 @@ struct LsnifQueryPushConstants {
   lsnif_uint bucket;                   /* model-table index of the per-model stages */
   lsnif_uint cull_mask;
   lsnif_uint first_chunk;              /* 1 for the first chunk: the status accumulators start at 0 */
+  lsnif_uint model_index;              /* LSNIF_QUERY_MODEL_INDEX_BY_*: what selects an instance's table entry */
+  lsnif_uint model_index_base;         /* subtracted from the custom index (LSNIF_QUERY_MODEL_INDEX_BY_CUSTOM_INDEX) */
   lsnif_uint reserved;
 };
+/* LsnifQueryPushConstants::model_index (the values of LsnifQueryModelIndex in lsnif.h). */
+#define LSNIF_QUERY_MODEL_INDEX_BY_CUSTOM_INDEX 0u
+#define LSNIF_QUERY_MODEL_INDEX_BY_INSTANCE_INDEX 1u
 
 #if defined(__cplusplus)
 static_assert(sizeof(LsnifQueryRay) == 48, "LsnifQueryRay layout");
@@ -359,7 +364,7 @@ static_assert(sizeof(LsnifQueryStatus) == 20, "LsnifQueryStatus layout");
 static_assert(sizeof(LsnifQueryModelCounters) == 40, "LsnifQueryModelCounters layout");
 static_assert(sizeof(LsnifQueryRayState) == 32, "LsnifQueryRayState layout");
 static_assert(sizeof(LsnifQueryCandidate) == 144, "LsnifQueryCandidate layout");
-static_assert(sizeof(LsnifQueryPushConstants) == 88, "LsnifQueryPushConstants layout");
+static_assert(sizeof(LsnifQueryPushConstants) == 96, "LsnifQueryPushConstants layout");
 #endif
 
 #if !defined(LSNIF_GLSL) && !defined(__cplusplus)

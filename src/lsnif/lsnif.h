@@ -382,6 +382,7 @@ typedef enum LsnifQueryBroadPhase {
 typedef enum LsnifStructureType {
   LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO = 1,
   LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO = 2,
+  LSNIF_STRUCTURE_TYPE_QUERY_MODEL_INDEX_INFO = 3,
   LSNIF_STRUCTURE_TYPE_MAX_ENUM = 0x7FFFFFFF
 } LsnifStructureType;
 
@@ -470,7 +471,7 @@ LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommand
  * dispatches), and a resolve that keeps, per ray, the closest accepted hit of either kind. */
 
 typedef struct LsnifQueryInfo {
-  const void* pNext;                          /* NULL or a LsnifQueryTimestampsInfo */
+  const void* pNext;                          /* NULL, a LsnifQueryTimestampsInfo and/or a LsnifQueryModelIndexInfo */
   uint32_t rayCount;                          /* 0 records nothing; more than LSNIF_QUERY_CHUNK_RAYS run in chunks */
   /* Candidate capacity: candidatesPerRay x min(rayCount, LSNIF_QUERY_CHUNK_RAYS) (LSNIF instances
    * whose box a ray crosses, summed over a chunk's rays), 1 .. LSNIF_QUERY_MAX_CANDIDATES_PER_RAY.
@@ -523,10 +524,32 @@ typedef struct LsnifQueryInfo {
  * into a queue family whose timestampValidBits is not 0. */
 typedef struct LsnifQueryTimestampsInfo {
   LsnifStructureType sType;                   /* LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO */
-  const void* pNext;                          /* NULL */
+  const void* pNext;                          /* NULL or a LsnifQueryModelIndexInfo */
   VkQueryPool timestampPool;                  /* not VK_NULL_HANDLE */
   uint32_t firstQuery;
 } LsnifQueryTimestampsInfo;
+
+/* How lsnifCmdQuery finds an instance's model-table entry (LsnifQueryModelIndexInfo). */
+typedef enum LsnifQueryModelIndex {
+  /* instanceCustomIndex - customIndexBase (the default, with base 0: the intersection shader's
+   * LSNIF_MODEL_LOOKUP_INSTANCE_TABLE convention); an index below the base is past the table. */
+  LSNIF_QUERY_MODEL_INDEX_CUSTOM_INDEX = 0,
+  /* The instance's index in the TLAS (gl_InstanceID): the custom index stays entirely the
+   * application's (the intersection shader built with LSNIF_MODEL_INDEX uint(gl_InstanceID)). */
+  LSNIF_QUERY_MODEL_INDEX_INSTANCE_INDEX = 1,
+  LSNIF_QUERY_MODEL_INDEX_MAX_ENUM = 0x7FFFFFFF
+} LsnifQueryModelIndex;
+
+/* Chained into LsnifQueryInfo::pNext (at most once, before or after a LsnifQueryTimestampsInfo):
+ * which index of an instance selects its model-table entry, so that an application whose custom
+ * indices number its own objects keeps them (LsnifQueryResult::instance_custom_index still
+ * reports the instance's custom index). Without it: the custom index, base 0. */
+typedef struct LsnifQueryModelIndexInfo {
+  LsnifStructureType sType;                   /* LSNIF_STRUCTURE_TYPE_QUERY_MODEL_INDEX_INFO */
+  const void* pNext;                          /* NULL or a LsnifQueryTimestampsInfo */
+  LsnifQueryModelIndex modelIndex;
+  uint32_t customIndexBase;                   /* < 2^24; 0 with LSNIF_QUERY_MODEL_INDEX_INSTANCE_INDEX */
+} LsnifQueryModelIndexInfo;
 
 /* The scratch bytes lsnifCmdQuery needs for pInfo's rayCount, candidatesPerRay, modelCount and
  * pModels (the addresses and the scratch fields are not read): per ray of a chunk 32 bytes, per
@@ -562,10 +585,13 @@ LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const Lsnif
  * application makes its TLAS build and ray writes visible to compute-shader reads before (the
  * command's first pass is a compute pass, whatever the broad phase), and waits for compute-shader
  * writes before reading results or status.
- * Stage times: chain a LsnifQueryTimestampsInfo (LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS above).
+ * Stage times: chain a LsnifQueryTimestampsInfo (LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS above). The
+ * table entry of an instance: its custom index by default, or as a chained LsnifQueryModelIndexInfo
+ * says.
  * Fails, recording nothing, on an unknown pipeline or one created without
  * LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT, a candidatesPerRay or cullMask out of range, a model not of
- * this context or not built, an unknown structure in pInfo->pNext or a null timestamp pool, a null
+ * this context or not built, an unknown or repeated structure in pInfo->pNext, a null timestamp pool,
+ * a model index out of range or a base with the instance index, a null
  * or misaligned address, a null scratch buffer, or scratch smaller
  * than lsnifGetQueryScratchSize. The rays of a batch of more than LSNIF_QUERY_CHUNK_RAYS run in
  * chunks, one after the other, in the same scratch. */

@@ -330,11 +330,12 @@ class PluginQuery : public ::testing::Test {
   // result and status buffers start as 0xFF bytes, so a field left unwritten shows.
   // `models` (when given) replaces the scene's table models as pModels (the device table stays).
   // `stamps` (when given) gets the stage timestamps (LsnifQueryTimestampsInfo chained) as ticks,
-  // with their availability: {tick, available} per query.
+  // with their availability: {tick, available} per query. `model_index` (when given) is chained too.
   static QueryRun query(const Scene& s, const std::vector<Ray>& rays, const std::vector<uint32_t>& flags,
                         uint32_t per_ray = 4, const std::vector<LsnifModel>* models = nullptr,
                         std::vector<std::array<uint64_t, 2>>* stamps = nullptr,
-                        const plugin::QueryPipeline* pipeline = nullptr) {
+                        const plugin::QueryPipeline* pipeline = nullptr,
+                        const LsnifQueryModelIndexInfo* model_index = nullptr) {
     QueryRun out;
     if (!pipeline) pipeline = current_;
     if (!models) models = &s.table_models;
@@ -373,9 +374,11 @@ class PluginQuery : public ::testing::Test {
       LsnifQueryTimestampsInfo chained{};
       chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO;
       chained.firstQuery = 1;  // not at the pool's start
+      info.pNext = model_index;
       if (stamps) {
         st = vk_.create_timestamps(1 + LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(uint32_t(n)), pool);
         chained.timestampPool = pool.pool;
+        chained.pNext = model_index;
         info.pNext = &chained;
       }
       if (st) st = vk_.submit("lsnifCmdQuery", [&](VkCommandBuffer cmd) {
@@ -780,6 +783,72 @@ TEST_F(PluginQuery, ApplicationTmaxKeepsExactlyTheCloserHits) {
   EXPECT_GT(dropped, kRays / 10);
 }
 
+// The model-table entry chosen by LsnifQueryModelIndexInfo: the mixed scene again with the custom
+// indices moved by a base (and the base given), and with custom indices of the application's own
+// (the table then indexed by the TLAS instance index) must answer every ray as the scene numbered
+// by the custom index does, reporting each instance's own custom index.
+TEST_F(PluginQuery, ModelTableIndexedByABaseOrTheInstanceIndex) {
+  Scene reference, based, by_instance;
+  const Cleanup cleanup{[&] {
+    release(reference);
+    release(based);
+    release(by_instance);
+  }};
+  ASSERT_NO_FATAL_FAILURE(mixed_scene(reference));
+  // The same instances; only custom indices and tables differ.
+  constexpr uint32_t kBase = 1000;
+  based.records = by_instance.records = reference.records;
+  based.lsnif = by_instance.lsnif = reference.lsnif;
+  based.boxes = by_instance.boxes = reference.boxes;
+  based.table_models = reference.table_models;
+  std::vector<uint32_t> own_index(reference.records.size());
+  for (size_t i = 0; i < reference.records.size(); ++i) {
+    based.records[i].instanceCustomIndex = (reference.records[i].instanceCustomIndex + kBase) & 0xffffffu;
+    own_index[i] = 7000 + 13 * uint32_t(i);
+    by_instance.records[i].instanceCustomIndex = own_index[i] & 0xffffffu;
+    const uint32_t entry = reference.records[i].instanceCustomIndex;
+    by_instance.table_models.push_back(entry < reference.table_models.size() ? reference.table_models[entry] : nullptr);
+  }
+  ASSERT_NO_FATAL_FAILURE(finish(based));
+  ASSERT_NO_FATAL_FAILURE(finish(by_instance));
+  const std::vector<Ray> rays = rays_at(reference, kRays, 13);
+  const QueryRun want = query(reference, rays, {0u});
+  LsnifQueryModelIndexInfo base_info{};
+  base_info.sType = LSNIF_STRUCTURE_TYPE_QUERY_MODEL_INDEX_INFO;
+  base_info.modelIndex = LSNIF_QUERY_MODEL_INDEX_CUSTOM_INDEX;
+  base_info.customIndexBase = kBase;
+  LsnifQueryModelIndexInfo instance_info = base_info;
+  instance_info.modelIndex = LSNIF_QUERY_MODEL_INDEX_INSTANCE_INDEX;
+  instance_info.customIndexBase = 0;
+  std::vector<std::array<uint64_t, 2>> stamps;  // chained before the model index
+  const QueryRun got_based = query(based, rays, {0u}, 4, nullptr, &stamps, nullptr, &base_info);
+  const QueryRun got_by_instance = query(by_instance, rays, {0u}, 4, nullptr, nullptr, nullptr, &instance_info);
+  const QueryRun unbased = query(based, rays, {0u});  // the base not given: every LSNIF entry is past the table
+  size_t lsnif = 0, wrong = 0, unbased_lsnif = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    LsnifQueryResult expect_based = want.results[i], expect_by_instance = want.results[i];
+    const bool hit = want.results[i].kind == LSNIF_QUERY_HIT_LSNIF || want.results[i].kind == LSNIF_QUERY_HIT_TRIANGLE;
+    if (hit) {
+      expect_based.instance_custom_index += kBase;
+      expect_by_instance.instance_custom_index = own_index[want.results[i].instance_index];
+    }
+    const bool same = std::memcmp(&expect_based, &got_based.results[i], sizeof expect_based) == 0 &&
+                      std::memcmp(&expect_by_instance, &got_by_instance.results[i], sizeof expect_by_instance) == 0;
+    if (!same && ++wrong <= 3)
+      ADD_FAILURE() << "ray " << i << ": kind " << want.results[i].kind << " instance " << want.results[i].instance_index
+                    << " t " << want.results[i].t << " | with a base: kind " << got_based.results[i].kind << " custom "
+                    << got_based.results[i].instance_custom_index << " | by instance: kind "
+                    << got_by_instance.results[i].kind << " custom " << got_by_instance.results[i].instance_custom_index;
+    lsnif += want.results[i].kind == LSNIF_QUERY_HIT_LSNIF;
+    unbased_lsnif += unbased.results[i].kind == LSNIF_QUERY_HIT_LSNIF;
+  }
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_GT(lsnif, kRays / 10) << "too few LSNIF hits to tell anything";
+  EXPECT_EQ(unbased_lsnif, 0u) << "without the base, the moved custom indices name no table entry";
+  EXPECT_EQ(got_based.status.candidates, want.status.candidates);
+  EXPECT_EQ(got_by_instance.status.candidates, want.status.candidates);
+}
+
 // Rays leaving the LSNIF surfaces by the self-intersection rule (origin at the hit, back-face
 // culling, tmin = leaving_tmin of the hit's instance) against the shader with the same flags.
 TEST_P(PluginQueryPerBroadPhase, RaysLeavingAnLsnifSurfaceMatchTheIntersectionShader) {
@@ -1055,10 +1124,28 @@ TEST_P(PluginQueryPerBroadPhase, StageTimestamps) {
   Status st = vk_.submit("refused", [&](VkCommandBuffer cmd) {
     EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, current_->get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
     EXPECT_NE(last_error().find("timestampPool is VK_NULL_HANDLE"), std::string::npos) << last_error();
+    // A pool handle that is never used: every call below fails before recording anything.
+    chained.timestampPool = reinterpret_cast<VkQueryPool>(uintptr_t(0x10));
     LsnifQueryTimestampsInfo more = chained;
     chained.pNext = &more;
     EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, current_->get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
-    EXPECT_NE(last_error().find("LsnifQueryTimestampsInfo::pNext must be NULL"), std::string::npos) << last_error();
+    EXPECT_NE(last_error().find("structure type 2 appears twice"), std::string::npos) << last_error();
+    // The model-index structure: its enum, its base's range, a base with the instance index.
+    LsnifQueryModelIndexInfo index{};
+    index.sType = LSNIF_STRUCTURE_TYPE_QUERY_MODEL_INDEX_INFO;
+    chained.pNext = &index;
+    const struct {
+      uint32_t model_index, base;
+      const char* error;
+    } bad[] = {{7, 0, "modelIndex 7 is not a LsnifQueryModelIndex"},
+               {LSNIF_QUERY_MODEL_INDEX_CUSTOM_INDEX, 1u << 24, "customIndexBase 16777216 is not below 2^24"},
+               {LSNIF_QUERY_MODEL_INDEX_INSTANCE_INDEX, 3, "customIndexBase 3 with LSNIF_QUERY_MODEL_INDEX_INSTANCE_INDEX"}};
+    for (const auto& b : bad) {
+      index.modelIndex = LsnifQueryModelIndex(b.model_index);
+      index.customIndexBase = b.base;
+      EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, current_->get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
+      EXPECT_NE(last_error().find(b.error), std::string::npos) << last_error();
+    }
   });
   EXPECT_TRUE(st) << st.message();
 }

@@ -77,25 +77,53 @@ Outcome collect(const LsnifContext_T& ctx, uint32_t count, const LsnifModel* pMo
 
 // The checks lsnifGetQueryScratchSize and lsnifCmdQuery share: reserved fields, the counts, and the
 // table's models (each of this context, or null; built, with `built`), collected into `models`.
-// The structures chained to a LsnifQueryInfo: a LsnifQueryTimestampsInfo (into `timestamps`) or none.
-Outcome query_chain(const LsnifQueryInfo& info, const LsnifQueryTimestampsInfo*& timestamps) {
+// The structures chained to a LsnifQueryInfo, each at most once in either order: a
+// LsnifQueryTimestampsInfo (into `timestamps`) and a LsnifQueryModelIndexInfo (`model_index`).
+Outcome query_chain(const LsnifQueryInfo& info, const LsnifQueryTimestampsInfo*& timestamps,
+                    const LsnifQueryModelIndexInfo*& model_index) {
   timestamps = nullptr;
-  if (!info.pNext) return Outcome::ok();
-  const auto* chained = static_cast<const LsnifQueryTimestampsInfo*>(info.pNext);
-  if (chained->sType != LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO)
-    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
-                         "pInfo->pNext: unknown structure type %d (expected LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO)",
-                         static_cast<int>(chained->sType));
-  if (chained->pNext) return invalid("%s must be NULL", "LsnifQueryTimestampsInfo::pNext");
-  if (!chained->timestampPool) return invalid("%s is VK_NULL_HANDLE", "LsnifQueryTimestampsInfo::timestampPool");
-  timestamps = chained;
+  model_index = nullptr;
+  for (const void* next = info.pNext; next;) {
+    const auto type = static_cast<const LsnifQueryTimestampsInfo*>(next)->sType;
+    if (type == LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO && !timestamps) {
+      timestamps = static_cast<const LsnifQueryTimestampsInfo*>(next);
+      if (!timestamps->timestampPool) return invalid("%s is VK_NULL_HANDLE", "LsnifQueryTimestampsInfo::timestampPool");
+      next = timestamps->pNext;
+    } else if (type == LSNIF_STRUCTURE_TYPE_QUERY_MODEL_INDEX_INFO && !model_index) {
+      model_index = static_cast<const LsnifQueryModelIndexInfo*>(next);
+      if (model_index->modelIndex != LSNIF_QUERY_MODEL_INDEX_CUSTOM_INDEX &&
+          model_index->modelIndex != LSNIF_QUERY_MODEL_INDEX_INSTANCE_INDEX)
+        return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "LsnifQueryModelIndexInfo::modelIndex %d is not a LsnifQueryModelIndex",
+                             static_cast<int>(model_index->modelIndex));
+      if (model_index->customIndexBase >= (1u << 24))
+        return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                             "LsnifQueryModelIndexInfo::customIndexBase %u is not below 2^24 (custom indices have 24 bits)",
+                             model_index->customIndexBase);
+      if (model_index->modelIndex == LSNIF_QUERY_MODEL_INDEX_INSTANCE_INDEX && model_index->customIndexBase != 0)
+        return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                             "LsnifQueryModelIndexInfo::customIndexBase %u with LSNIF_QUERY_MODEL_INDEX_INSTANCE_INDEX "
+                             "(the base applies to custom indices only; give 0)",
+                             model_index->customIndexBase);
+      next = model_index->pNext;
+    } else {
+      const bool repeated = (type == LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO && timestamps) ||
+                            (type == LSNIF_STRUCTURE_TYPE_QUERY_MODEL_INDEX_INFO && model_index);
+      return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                           repeated ? "pInfo->pNext: structure type %d appears twice"
+                                    : "pInfo->pNext: unknown structure type %d (expected "
+                                      "LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO or "
+                                      "LSNIF_STRUCTURE_TYPE_QUERY_MODEL_INDEX_INFO)",
+                           static_cast<int>(type));
+    }
+  }
   return Outcome::ok();
 }
 
 Outcome check_query_counts(const LsnifContext_T& ctx, const LsnifQueryInfo& info, bool built,
                            std::vector<const LsnifModel_T*>& models) {
   const LsnifQueryTimestampsInfo* timestamps = nullptr;
-  if (Outcome o = query_chain(info, timestamps); !o) return o;
+  const LsnifQueryModelIndexInfo* model_index = nullptr;
+  if (Outcome o = query_chain(info, timestamps, model_index); !o) return o;
   if (info.candidatesPerRay < 1 || info.candidatesPerRay > LSNIF_QUERY_MAX_CANDIDATES_PER_RAY)
     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->candidatesPerRay %u is not in 1 .. %u",
                          info.candidatesPerRay, LSNIF_QUERY_MAX_CANDIDATES_PER_RAY);
@@ -553,7 +581,8 @@ LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer comman
                     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->cullMask 0x%x does not fit its 8 bits",
                                          info.cullMask);
                   const LsnifQueryTimestampsInfo* timestamps = nullptr;
-                  if (Outcome o = query_chain(info, timestamps); !o) return o;
+                  const LsnifQueryModelIndexInfo* model_index = nullptr;
+                  if (Outcome o = query_chain(info, timestamps, model_index); !o) return o;
                   if (info.rayCount == 0) {
                     if (timestamps) lsnif::plugin::record_query_timestamps(*context, commandBuffer, *timestamps);
                     return Outcome::ok();
@@ -578,7 +607,7 @@ LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer comman
                                          "(lsnifGetQueryScratchSize)",
                                          static_cast<unsigned long long>(info.scratchSize),
                                          static_cast<unsigned long long>(need));
-                  lsnif::plugin::record_query(*context, *p, commandBuffer, models, info, timestamps);
+                  lsnif::plugin::record_query(*context, *p, commandBuffer, models, info, timestamps, model_index);
                   return Outcome::ok();
                 }),
                 "lsnifCmdQuery", context);

@@ -200,7 +200,8 @@ VkDeviceSize query_scratch_bytes(const std::vector<const LsnifModel_T*>& models,
 // table entry i or null; `timestamps` (may be null): where the stage timestamps go.
 void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& pipeline, VkCommandBuffer cmd,
                   const std::vector<const LsnifModel_T*>& models, const LsnifQueryInfo& info,
-                  const LsnifQueryTimestampsInfo* timestamps);
+                  const LsnifQueryTimestampsInfo* timestamps,
+                  const LsnifQueryModelIndexInfo* model_index);
 // Records the LSNIF_QUERY_TIMESTAMP_COUNT timestamps of an lsnifCmdQuery that has no rays.
 void record_query_timestamps(LsnifContext_T& ctx, VkCommandBuffer cmd, const LsnifQueryTimestampsInfo& timestamps);
 

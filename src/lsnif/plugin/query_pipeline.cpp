@@ -498,7 +498,7 @@ void record_query_timestamps(LsnifContext_T& ctx, VkCommandBuffer cmd, const Lsn
 
 void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandBuffer cmd,
                   const std::vector<const LsnifModel_T*>& models, const LsnifQueryInfo& info,
-                  const LsnifQueryTimestampsInfo* timestamps) {
+                  const LsnifQueryTimestampsInfo* timestamps, const LsnifQueryModelIndexInfo* model_index) {
   const DeviceDispatch& vk = ctx.vk;
   // Stage timestamp k (1 .. LSNIF_QUERY_TIMESTAMPS_PER_CHUNK) of the chunk starting at ray `base`
   // (timestamp 0, the start, with k = 0 and base = 0).
@@ -523,6 +523,12 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
   pc.capacity = layout.capacity;
   pc.stride = layout.stride;
   pc.cull_mask = info.cullMask;
+  if (model_index) {
+    pc.model_index = model_index->modelIndex == LSNIF_QUERY_MODEL_INDEX_INSTANCE_INDEX
+                         ? LSNIF_QUERY_MODEL_INDEX_BY_INSTANCE_INDEX
+                         : LSNIF_QUERY_MODEL_INDEX_BY_CUSTOM_INDEX;
+    pc.model_index_base = model_index->customIndexBase;
+  }
   auto bind = [&](VkPipeline stage) {
     vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, stage);
     vk.vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof pc, &pc);

@@ -174,7 +174,8 @@ void query_scan() {
 void query_scatter(uint id) {
   if (id >= lsnif_query_kept()) return;
   LsnifQueryModelsRef models = lsnif_query_models();
-  const uint b = lsnif_query_candidates().c[id].custom_index;
+  const uint b = lsnif_query_entry(lsnif_query_candidates().c[id].instance_index,
+                                   lsnif_query_candidates().c[id].custom_index);
   lsnif_query_scratch().w[lsnif_query_sorted_word() + models.c[b].start + atomicAdd(models.c[b].cursor, 1u)] = id;
 }
 #endif

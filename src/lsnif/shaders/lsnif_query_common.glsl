@@ -146,7 +146,7 @@ LsnifQueryRayState lsnif_query_initial_state() {
   return st;
 }
 
-// The candidate of ray `ray` at instance `instance_index` (model `custom`), not yet evaluated: the object-space
+// The candidate of ray `ray` at instance `instance_index` (custom index `custom`), not yet evaluated: the object-space
 // ray o + t d within [tmin, tmax], crossing the model box over span = [t_enter, t_exit], and w2o for normals.
 LsnifQueryCandidate lsnif_query_candidate(uint ray, uint instance_index, uint custom, uint flags, vec3 o, vec3 d,
                                           float tmin, float tmax, vec2 span, mat3 w2o) {
@@ -182,6 +182,12 @@ LsnifQueryCandidate lsnif_query_candidate(uint ray, uint instance_index, uint cu
   return c;
 }
 
+// The model-table entry of an instance (LsnifQueryPushConstants::model_index): its custom index less
+// the base (one below the base wraps to a huge index, past the table), or its TLAS index.
+uint lsnif_query_entry(uint instance_index, uint custom) {
+  return pc.model_index == LSNIF_QUERY_MODEL_INDEX_BY_INSTANCE_INDEX ? instance_index : custom - pc.model_index_base;
+}
+
 // One AABB the broad phase meets on ray `id` (q, flags) within [q.tmin, tmax]: instance
 // `instance_index` with custom index `custom`, the object-space ray o + t d and the world-to-object
 // matrix w2o (for normals). The intersection shader's lookup decides whether it is an LSNIF
@@ -191,15 +197,16 @@ LsnifQueryCandidate lsnif_query_candidate(uint ray, uint instance_index, uint cu
 // missing_t), else LSNIF_QUERY_INF_BITS.
 uint lsnif_query_record_candidate(uint id, LsnifQueryRay q, uint flags, uint64_t table, uint custom,
                                   uint instance_index, vec3 o, vec3 d, mat3 w2o, float tmax) {
-  if (custom >= pc.model_count) return LSNIF_QUERY_INF_BITS;
-  const uint64_t address = LsnifQueryTableRef(table).model[custom];
+  const uint entry = lsnif_query_entry(instance_index, custom);
+  if (entry >= pc.model_count) return LSNIF_QUERY_INF_BITS;
+  const uint64_t address = LsnifQueryTableRef(table).model[entry];
   if (address == 0ul || !lsnif_model_layout_matches(address)) return LSNIF_QUERY_INF_BITS;
   LsnifModel m = lsnif_load_model(address);
   const vec2 span = lsnif_query_clip(m, o, d, q.tmin, tmax);
   if (!(span.x <= span.y)) return LSNIF_QUERY_INF_BITS;
   const uint slot = atomicAdd(lsnif_query_scratch().w[0], 1u);
   if (slot >= pc.capacity) return lsnif_query_t_key(span.x);
-  atomicAdd(lsnif_query_models().c[custom].count, 1u);
+  atomicAdd(lsnif_query_models().c[entry].count, 1u);
   lsnif_query_candidates().c[slot] = lsnif_query_candidate(id, instance_index, custom, flags, o, d, q.tmin, tmax, span, w2o);
   return LSNIF_QUERY_INF_BITS;
 }
