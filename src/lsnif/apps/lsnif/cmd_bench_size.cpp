@@ -35,7 +35,7 @@ namespace fs = std::filesystem;
 
 // Named points of the curve; any other entry of --settings is NAME=VALUE pairs joined by '+'. They
 // pin the hidden width, so that they mean the same whatever the default is ("default" alone is
-// `lsnif train`'s defaults: 8-bit, the coarse level indexed, W=64).
+// `lsnif train`'s defaults: 8-bit, the coarse level indexed, W=128).
 struct NamedSetting {
   const char* name;
   const char* values;
