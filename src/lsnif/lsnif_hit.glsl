@@ -11,8 +11,9 @@
 // gl_WorldRayOriginEXT + gl_HitTEXT * gl_WorldRayDirectionEXT, tmin = lsnif_leaving_tmin(s, dir),
 // flags |= gl_RayFlagsCullBackFacingTrianglesEXT.
 // Outside the ray-tracing stages (e.g. a compute pass decoding stored attributes), define
-// LSNIF_HIT_DECODE_ONLY before the include: only the functions that take the instance's world-to-object
-// matrix (lsnif_decode_hit, lsnif_leaving_tmin with 3 arguments) and lsnif_pack_hit are declared. HLSL: lsnif/lsnif_hit.hlsl, the same decoding.
+// LSNIF_HIT_DECODE_ONLY before the include: only lsnif_pack_hit and the functions that take the
+// instance's world-to-object matrix (lsnif_decode_hit, lsnif_world_normal_of, lsnif_leaving_tmin with
+// 3 arguments) are declared. HLSL: lsnif/lsnif_hit.hlsl, the same decoding.
 #ifndef LSNIF_HIT_GLSL
 #define LSNIF_HIT_GLSL
 

@@ -75,8 +75,6 @@ Outcome collect(const LsnifContext_T& ctx, uint32_t count, const LsnifModel* pMo
   return Outcome::ok();
 }
 
-// The checks lsnifGetQueryScratchSize and lsnifCmdQuery share: reserved fields, the counts, and the
-// table's models (each of this context, or null; built, with `built`), collected into `models`.
 // The structures chained to a LsnifQueryInfo, each at most once in either order: a
 // LsnifQueryTimestampsInfo (into `timestamps`) and a LsnifQueryModelIndexInfo (`model_index`).
 Outcome query_chain(const LsnifQueryInfo& info, const LsnifQueryTimestampsInfo*& timestamps,
@@ -119,10 +117,12 @@ Outcome query_chain(const LsnifQueryInfo& info, const LsnifQueryTimestampsInfo*&
   return Outcome::ok();
 }
 
+// The checks lsnifGetQueryScratchSize and lsnifCmdQuery share: the chained structures (into
+// `timestamps` and `model_index`, query_chain), the counts, and the table's models (each of this
+// context, or null; built, with `built`), collected into `models`.
 Outcome check_query_counts(const LsnifContext_T& ctx, const LsnifQueryInfo& info, bool built,
-                           std::vector<const LsnifModel_T*>& models) {
-  const LsnifQueryTimestampsInfo* timestamps = nullptr;
-  const LsnifQueryModelIndexInfo* model_index = nullptr;
+                           std::vector<const LsnifModel_T*>& models, const LsnifQueryTimestampsInfo*& timestamps,
+                           const LsnifQueryModelIndexInfo*& model_index) {
   if (Outcome o = query_chain(info, timestamps, model_index); !o) return o;
   if (info.candidatesPerRay < 1 || info.candidatesPerRay > LSNIF_QUERY_MAX_CANDIDATES_PER_RAY)
     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->candidatesPerRay %u is not in 1 .. %u",
@@ -556,7 +556,10 @@ LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const Lsnif
                   if (!pInfo) return invalid("%s is NULL", "pInfo");
                   if (!pSize) return invalid("%s is NULL", "pSize");
                   std::vector<const LsnifModel_T*> models;
-                  if (Outcome o = check_query_counts(*context, *pInfo, false, models); !o) return o;
+                  const LsnifQueryTimestampsInfo* timestamps = nullptr;
+                  const LsnifQueryModelIndexInfo* model_index = nullptr;
+                  if (Outcome o = check_query_counts(*context, *pInfo, false, models, timestamps, model_index); !o)
+                    return o;
                   *pSize = lsnif::plugin::query_scratch_bytes(models, pInfo->modelCount, pInfo->rayCount,
                                                               pInfo->candidatesPerRay);
                   return Outcome::ok();
@@ -576,13 +579,13 @@ LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer comman
                   if (p->broad_phase == LSNIF_QUERY_BROAD_PHASE_NONE)
                     return invalid("%s was created without LSNIF_QUERY_PIPELINE_CREATE_TLAS_BIT", "pipeline");
                   std::vector<const LsnifModel_T*> models;
-                  if (Outcome o = check_query_counts(*context, info, true, models); !o) return o;
+                  const LsnifQueryTimestampsInfo* timestamps = nullptr;
+                  const LsnifQueryModelIndexInfo* model_index = nullptr;
+                  if (Outcome o = check_query_counts(*context, info, true, models, timestamps, model_index); !o)
+                    return o;
                   if (info.cullMask > 0xFFu)
                     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pInfo->cullMask 0x%x does not fit its 8 bits",
                                          info.cullMask);
-                  const LsnifQueryTimestampsInfo* timestamps = nullptr;
-                  const LsnifQueryModelIndexInfo* model_index = nullptr;
-                  if (Outcome o = query_chain(info, timestamps, model_index); !o) return o;
                   if (info.rayCount == 0) {
                     if (timestamps) lsnif::plugin::record_query_timestamps(*context, commandBuffer, *timestamps);
                     return Outcome::ok();
