@@ -67,6 +67,8 @@ if(LSNIF_BUILD_TOOLS)
   file(RELATIVE_PATH lsnif_bin_to_lib /prefix/${CMAKE_INSTALL_BINDIR} /prefix/${CMAKE_INSTALL_LIBDIR})
   set_target_properties(lsnif PROPERTIES INSTALL_RPATH "$ORIGIN/${lsnif_bin_to_lib}")
   install(TARGETS lsnif RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
+  # The OpenImageIO module it opens at its first image call, where it looks for it (src/lsnif/image).
+  install(TARGETS lsnif_image_oiio LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/lsnif COMPONENT tools)
 endif()
 
 # ---- the license in every package, where Debian keeps it

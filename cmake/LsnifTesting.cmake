@@ -1,7 +1,8 @@
 # lsnif_add_tests_per_file(PREFIX p LIBS ... [DEFINES ...] [TEST_PREFIX t] [LABEL l]): one GoogleTest
 # executable p<name> per *_test.cpp of the calling folder, linked with LIBS, compiled with DEFINES
 # and LSNIF_DATA_DIR, its tests discovered with label l (default "host") and CTest names prefixed
-# by t. Each module's tests build and fail alone.
+# by t. Each module's tests build and fail alone. Files named *_fuzz_test.cpp hold mutation campaigns,
+# the longest unit tests: their COST makes CTest start them first when it has no timings of its own.
 function(lsnif_add_tests_per_file)
   cmake_parse_arguments(ARG "" "PREFIX;TEST_PREFIX;LABEL" "LIBS;DEFINES" ${ARGN})
   if(NOT ARG_LABEL)
@@ -14,7 +15,11 @@ function(lsnif_add_tests_per_file)
     add_executable(${exe} ${src})
     target_link_libraries(${exe} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main lsnif_warnings)
     target_compile_definitions(${exe} PRIVATE LSNIF_DATA_DIR="${LSNIF_DATA_DIR}" ${ARG_DEFINES})
+    set(cost 0)
+    if(name MATCHES "_fuzz_test$")
+      set(cost 60)
+    endif()
     gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60 TEST_PREFIX "${ARG_TEST_PREFIX}"
-      PROPERTIES LABELS ${ARG_LABEL})
+      PROPERTIES LABELS ${ARG_LABEL} COST ${cost})
   endforeach()
 endfunction()

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -68,6 +69,26 @@ TEST(Cli, HelpForEveryCommand) {
               std::string::npos)
         << r.out;
   }
+}
+
+// The program does not link OpenImageIO (its ~260 libraries cost ~0.4 s at every start): it opens
+// the image module at its first image call, as `lsnif flip` on two PPM files shows.
+TEST(Cli, OpenImageIOOnlyForImages) {
+  lsnif::test::CommandResult r = lsnif::test::run_command("ldd " + std::string(LSNIF_CLI));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("libOpenImageIO"), std::string::npos) << r.out;
+  const fs::path d = temp_dir();
+  for (const char* name : {"a.ppm", "b.ppm"}) {
+    std::ofstream f(d / name, std::ios::binary);
+    f << "P6\n2 1\n255\n";
+    f.write("\x10\x80\xf0\x10\x80\xf0", 6);
+  }
+  r = lsnif::test::run_command("LD_DEBUG=files " + std::string(LSNIF_CLI) + " flip " + (d / "a.ppm").string() + " " +
+                               (d / "b.ppm").string() + " 2>&1");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("liblsnif_image_oiio.so"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("libOpenImageIO"), std::string::npos) << r.out;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex("\nmean +0\\.000000\n"))) << r.out;
 }
 
 // `lsnif demo` without its data folder (an installed lsnif away from the source tree): the folder

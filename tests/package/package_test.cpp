@@ -458,10 +458,12 @@ TEST_F(Package, HelloFromTheDebPackages) {
       EXPECT_TRUE(contains(r.out, "liblsnif-vk0 (= " + kVersion + ")")) << r.out;
       EXPECT_TRUE(contains(r.out, "libvulkan-dev")) << r.out;
     }
-    if (name == "lsnif-tools") {  // libc6 and libembree3-3 from dpkg-shlibdeps
+    if (name == "lsnif-tools") {  // libc6, libembree3-3 and OpenImageIO (of the image module) from dpkg-shlibdeps
       for (const std::string& dep : {"liblsnif-vk0 (= " + kVersion + ")", std::string("libvulkan1"),
-                                     std::string("libc6"), std::string("libembree3-3")})
+                                     std::string("libc6"), std::string("libembree3-3"), std::string("libopenimageio")})
         EXPECT_TRUE(contains(r.out, dep)) << dep << " missing:\n" << r.out;
+      const test::CommandResult contents = sh("dpkg-deb -c " + quote(f));
+      EXPECT_TRUE(contains(contents.out, "./usr/" + kLibDir + "/lsnif/liblsnif_image_oiio.so")) << contents.out;
     }
     const test::CommandResult list = sh("dpkg-deb -c " + quote(f));
     if (name == "liblsnif-vk0") {  // the shared library (file and SONAME link) and its license, nothing else
@@ -629,6 +631,17 @@ TEST_F(Package, InstalledToolIsRelocatable) {
   // It runs from the prefix (its shared libraries resolve there or in the system).
   r = sh(quote(tool) + " info " + quote(model_path_));
   EXPECT_EQ(r.code, 0) << r.out;
+  // And opens the image module installed beside it (lib/lsnif), not the build tree's.
+  const fs::path ppm = root_ / "tool.ppm";
+  {
+    std::ofstream f(ppm, std::ios::binary);
+    f << "P6\n2 1\n255\n";
+    f.write("\x10\x80\xf0\x10\x80\xf0", 6);
+  }
+  r = sh("LD_DEBUG=files " + quote(tool) + " flip " + quote(ppm) + " " + quote(ppm));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(contains(r.out, (prefix_ / kLibDir / "lsnif/liblsnif_image_oiio.so").string())) << r.out;
+  EXPECT_FALSE(contains(r.out, kBuildDir + "/")) << r.out;
 }
 
 }  // namespace

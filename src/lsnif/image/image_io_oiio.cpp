@@ -1,6 +1,7 @@
-// image_io_oiio.cpp -- the OpenImageIO backend of image_io.h (lsnif_image_oiio): every format
-// OpenImageIO reads; writes EXR, HDR, PNG and JPEG. The tools link it; the portable build of the GPU
-// check links image_io_portable.cpp instead (CMakeLists.txt beside this file).
+// image_io_oiio.cpp -- the OpenImageIO backend of image_io.h: every format OpenImageIO reads; writes
+// EXR, HDR, PNG and JPEG. Built as the shared module liblsnif_image_oiio.so (image_io_module.h), which
+// the tools open at their first image call through image_io_oiio_loader.cpp; the portable build of the
+// GPU check links image_io_portable.cpp instead (CMakeLists.txt beside this file).
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
@@ -10,6 +11,7 @@
 #include "lsnif/format/atomic_file.h"
 #include "lsnif/image/image_io.h"
 #include "lsnif/image/image_io_detail.h"
+#include "lsnif/image/image_io_module.h"
 
 namespace lsnif::image {
 namespace {
@@ -123,9 +125,7 @@ Status save_impl(const std::string& path, const Image& img) {
   return write_file_atomic(path, encoded.data(), encoded.size());
 }
 
-}  // namespace
-
-Status load_image(const std::string& path, Image& out, bool raw) {
+Status load_image_oiio(const std::string& path, Image& out, bool raw) {
   try {
     return load_impl(path, out, raw);
   } catch (const std::exception& e) {
@@ -134,7 +134,7 @@ Status load_image(const std::string& path, Image& out, bool raw) {
   }
 }
 
-Status save_image(const std::string& path, const Image& img) {
+Status save_image_oiio(const std::string& path, const Image& img) {
   try {
     return save_impl(path, img);
   } catch (const std::exception& e) {
@@ -143,4 +143,12 @@ Status save_image(const std::string& path, const Image& img) {
   }
 }
 
+constexpr module::Codec kCodec = {module::kAbiVersion, &load_image_oiio, &save_image_oiio};
+
+}  // namespace
 }  // namespace lsnif::image
+
+// The module's one exported symbol (image_io_module.h); everything else is hidden.
+extern "C" __attribute__((visibility("default"))) const lsnif::image::module::Codec* lsnif_image_oiio_codec() {
+  return &lsnif::image::kCodec;
+}
