@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # One-time, idempotent setup for a fresh Debian 12 (bookworm): installs every Debian package the
 # project uses (toolchain, CPU training/reference stack, Vulkan stack with Mesa 25 lavapipe from
-# bookworm-backports) and fetches the real test meshes into data/ (ignored by git).
+# bookworm-backports) and fetches the real test meshes and the Khronos glTF validator (npm) into data/
+# (ignored by git).
 # Run as root, or as a user with sudo. Safe to run again: it only does what is missing.
 set -euo pipefail
 
@@ -69,6 +70,7 @@ packages=(
   libvulkan-dev libvulkan-volk-dev vulkan-validationlayers vulkan-tools
   libglfw3-dev libopenimageio-dev openimageio-tools
   xvfb xauth
+  nodejs curl  # the Khronos glTF validator (npm's gltf-validator, fetched below) checks the glTF we write
 )
 missing=()
 for p in "${packages[@]}"; do
@@ -126,5 +128,22 @@ if [ ! -f "$data_dir/hdr/.fetched" ]; then  # CC0 HDR environments of Blender's 
   touch "$data_dir/hdr/.fetched"
   rm -rf "$tmp"; trap - EXIT
 fi
+# --- 4. the Khronos glTF validator from npm's registry (the tests run it on every glTF the tools
+# write, tests/gltf_validator/validate_gltf.js); a pinned version, checked against its sha512.
+gv_version=2.0.0-dev.3.10
+gv_sha512=a1d278934b519065e20c69fbf320c183e7c16c022f0675f187747002d6b47a64b11adc9a80513c078c442c1d6861edd2e510fc0a2dee640b1969ab1c1f62c011
+gv_dir="$data_dir/npm/gltf-validator"
+if [ "$(cat "$gv_dir/.fetched" 2>/dev/null)" != "$gv_version" ]; then
+  tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+  curl -fsSL --retry 3 -o "$tmp/gv.tgz" "https://registry.npmjs.org/gltf-validator/-/gltf-validator-$gv_version.tgz" \
+    || { echo "setup.sh: cannot download gltf-validator $gv_version from registry.npmjs.org" >&2; exit 1; }
+  echo "$gv_sha512  $tmp/gv.tgz" | sha512sum -c --quiet - \
+    || { echo "setup.sh: gltf-validator $gv_version does not match its pinned sha512" >&2; exit 1; }
+  tar xzf "$tmp/gv.tgz" -C "$tmp"
+  rm -rf "$gv_dir" && mkdir -p "$(dirname "$gv_dir")" && mv "$tmp/package" "$gv_dir"
+  echo "$gv_version" > "$gv_dir/.fetched"
+  rm -rf "$tmp"; trap - EXIT
+fi
+
 chmod -R a+rX "$data_dir" 2>/dev/null || true
 echo "setup.sh: ready (packages installed, data in $data_dir)"

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "lsnif/testing/test_support.h"
+#include "gltf_validator/gltf_validator.h"
 
 namespace {
 
@@ -135,6 +136,14 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "bunny.gltf"));
   EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "bunny.bin"));
   EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "forest.exr"));
+  // The scene it wrote is valid glTF (the Khronos validator).
+  r = lsnif::test::validate_gltf({(dir.path() / "bunny" / "bunny.gltf").string()});
+  EXPECT_EQ(r.code, 0) << r.out;
+  // The presets are different models, and render differently.
+  for (const char* pipeline : {"inline", "wavefront"})
+    EXPECT_TRUE(read_text(dir.path() / ("bunny.high." + std::string(pipeline) + ".png")) !=
+                read_text(dir.path() / ("bunny.low." + std::string(pipeline) + ".png")))
+        << pipeline << ": the high and low models rendered the same image";
 
   // Run again, one preset and pipeline: scene and model are reused, not rebuilt or retrained.
   const fs::path model = dir.path() / "bunny" / "bunny.high.lsnif";

@@ -12,6 +12,7 @@
 
 #include "lsnif/import/mesh.h"
 #include "lsnif/testing/test_support.h"
+#include "gltf_validator/gltf_validator.h"
 
 namespace {
 
@@ -68,6 +69,8 @@ TEST(ConvertCli, ConvertsRerunsAndDryRuns) {
   // The bunny's model path is now relative to the output's folder.
   EXPECT_EQ(node_named(scene, "bunny")["extensions"]["LSNIF_neural_object"]["model"], "../in/bunny.lsnif");
   EXPECT_TRUE(scene["extensions"].contains("LSNIF_environment"));
+  r = lsnif::test::validate_gltf({out});  // the Khronos glTF validator: no error
+  EXPECT_EQ(r.code, 0) << r.out;
 
   const auto time = fs::last_write_time(model);
   r = convert(in + " -o " + out + kTiny + " --allow-outside-refs");
@@ -79,6 +82,80 @@ TEST(ConvertCli, ConvertsRerunsAndDryRuns) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("would be trained"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(dir.path("dry")));
+}
+
+// Scenes made elsewhere convert into valid glTF (the Khronos validator): a CAD assembly (assimp's
+// test files) and a scene with a perspective camera without zfar (an infinite projection, which
+// tinygltf reads as zfar 0 and must not write back) and an empty node `{}` (which tinygltf writes
+// as null). Its unnamed node and mesh have the one name every command uses (node_0, mesh_0).
+TEST(ConvertCli, OutputsOfRealScenesPassTheKhronosValidator) {
+  const std::string engine = std::string(LSNIF_DATA_DIR) + "/gltf/2CylinderEngine-glTF-Binary/2CylinderEngine.glb";
+  const std::string cameras = std::string(LSNIF_DATA_DIR) + "/gltf/cameras/Cameras.gltf";
+  if (!fs::exists(engine) || !fs::exists(cameras)) GTEST_SKIP() << "assimp's glTF files missing: run scripts/setup.sh";
+  lsnif::test::ScopedTestDir dir("lsnif_convert_cli");
+  std::ifstream f(cameras);
+  nlohmann::json scene = nlohmann::json::parse(f);
+  ASSERT_TRUE(scene["cameras"][0]["perspective"].contains("zfar"));
+  scene["cameras"][0]["perspective"].erase("zfar");
+  scene["nodes"].push_back(nlohmann::json::object());
+  scene["scenes"][0]["nodes"].push_back(scene["nodes"].size() - 1);
+  ASSERT_FALSE(scene["nodes"][0].contains("name"));
+  ASSERT_FALSE(scene["meshes"][0].contains("name"));
+  fs::create_directories(dir.path() / "in");
+  fs::copy_file(fs::path(cameras).parent_path() / "simpleSquare.bin", dir.path() / "in/simpleSquare.bin");
+  std::ofstream(dir.path("in/cameras.gltf")) << scene.dump();
+  CommandResult r = lsnif::test::validate_gltf({dir.path("in/cameras.gltf"), engine});
+  ASSERT_EQ(r.code, 0) << "the inputs themselves:\n" << r.out;
+
+  r = lsnif::test::run_command(std::string(LSNIF_CLI) + " render " + dir.path("in/cameras.gltf") +
+                               " --width 16 --height 12 --spp 1 --node-transform node_0=0,0,0 -o " +
+                               dir.path("in.png") + " 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = convert(dir.path("in/cameras.gltf") + " -o " + dir.path("out/cameras.gltf") + kTiny + " --select node_0");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("node 'node_0' (mesh 'mesh_0', 2 triangles): convert"), std::string::npos) << r.out;
+  r = convert(engine + " -o " + dir.path("out/engine.gltf") + " --min-triangles 3000 --tiny --eval-rays 1000 --quiet");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = lsnif::test::validate_gltf({dir.path("out/cameras.gltf"), dir.path("out/engine.gltf")});
+  EXPECT_EQ(r.code, 0) << r.out;
+  std::ifstream g(dir.path("out/cameras.gltf"));
+  const nlohmann::json written = nlohmann::json::parse(g);
+  EXPECT_FALSE(written["cameras"][0]["perspective"].contains("zfar")) << written["cameras"].dump();
+  EXPECT_EQ(written["cameras"][1]["orthographic"]["zfar"], 100.0) << written["cameras"].dump();
+}
+
+// A .gltf with an external texture converted into another folder: the image is embedded into the
+// output's buffer (the output folder stands alone and validates), unless --allow-outside-refs asks
+// for a reference to where it lies.
+TEST(ConvertCli, ExternalImagesAreEmbeddedWhenTheOutputGoesElsewhere) {
+  const std::string box = std::string(LSNIF_DATA_DIR) + "/gltf/BoxTextured-glTF/BoxTextured.gltf";
+  if (!fs::exists(box)) GTEST_SKIP() << box << " missing: run scripts/setup.sh";
+  lsnif::test::ScopedTestDir dir("lsnif_convert_cli");
+  const std::string out = dir.path("out/box.gltf"), ref = dir.path("ref/box.gltf");
+  CommandResult r = convert(box + " -o " + out + kTiny);
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream f(out);
+  const nlohmann::json scene = nlohmann::json::parse(f);
+  ASSERT_EQ(scene["images"].size(), 1u);
+  EXPECT_FALSE(scene["images"][0].contains("uri")) << scene["images"].dump();
+  EXPECT_EQ(scene["images"][0]["mimeType"], "image/png");
+  const nlohmann::json& view = scene["bufferViews"][scene["images"][0]["bufferView"].get<size_t>()];
+  EXPECT_EQ(view["byteLength"].get<uint64_t>(),
+            fs::file_size(fs::path(box).parent_path() / "CesiumLogoFlat.png"));
+  r = lsnif::test::validate_gltf({out});
+  EXPECT_EQ(r.code, 0) << r.out;
+  // The output folder alone, moved elsewhere, still renders.
+  fs::rename(dir.path("out"), dir.path("moved"));
+  r = lsnif::test::run_command(std::string(LSNIF_CLI) + " render " + dir.path("moved/box.gltf") +
+                               " --width 16 --height 12 --spp 1 -o " + dir.path("moved.png") + " 2>&1");
+  EXPECT_EQ(r.code, 0) << r.out;
+
+  r = convert(box + " -o " + ref + kTiny + " --allow-outside-refs");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream g(ref);
+  const nlohmann::json referenced = nlohmann::json::parse(g);
+  const std::string uri = referenced["images"][0]["uri"];
+  EXPECT_TRUE(fs::equivalent(fs::path(ref).parent_path() / uri, fs::path(box).parent_path() / "CesiumLogoFlat.png")) << uri;
 }
 
 TEST(ConvertCli, HelpAndErrors) {

@@ -331,6 +331,24 @@ int find_attribute(const tinygltf::Primitive& prim, const std::string& key) {
   return it == prim.attributes.end() ? -1 : it->second;
 }
 
+bool is_triangle_mode(int mode) {
+  return mode < 0 || mode == TINYGLTF_MODE_TRIANGLES || mode == TINYGLTF_MODE_TRIANGLE_STRIP ||
+         mode == TINYGLTF_MODE_TRIANGLE_FAN;
+}
+
+std::vector<uint32_t> triangle_list(int mode, const std::vector<uint32_t>& idx) {
+  std::vector<uint32_t> out;
+  if (mode < 0 || mode == TINYGLTF_MODE_TRIANGLES) {
+    out.assign(idx.begin(), idx.begin() + std::ptrdiff_t(idx.size() - idx.size() % 3));
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+    for (size_t i = 0; i + 2 < idx.size(); ++i)
+      out.insert(out.end(), {idx[i], idx[i % 2 == 0 ? i + 1 : i + 2], idx[i % 2 == 0 ? i + 2 : i + 1]});
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_FAN) {
+    for (size_t i = 0; i + 2 < idx.size(); ++i) out.insert(out.end(), {idx[i + 1], idx[i + 2], idx[0]});
+  }
+  return out;
+}
+
 const char* mode_name(int mode) {
   switch (mode) {
     case TINYGLTF_MODE_POINTS: return "POINTS";

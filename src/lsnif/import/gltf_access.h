@@ -92,6 +92,17 @@ int find_attribute(const tinygltf::Primitive& prim, const std::string& key);
 // Name of a primitive mode for messages ("POINTS", "LINES", ..., "unknown").
 const char* mode_name(int mode);
 
+// True for the modes that draw triangles: TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN (-1, absent,
+// means TRIANGLES).
+bool is_triangle_mode(int mode);
+
+// The triangles a primitive of triangle mode `mode` draws from `indices`, as a list of index
+// triples, the glTF specification's rules: TRIANGLES takes consecutive triples (a remainder is
+// ignored), TRIANGLE_STRIP triangle i is (i, i+1, i+2) with every odd one reversed to (i, i+2, i+1)
+// so all keep the first one's winding, TRIANGLE_FAN triangle i is (0, i+1, i+2) (written as
+// (i+1, i+2, 0), the same winding). The one expansion of the renderer and the converter.
+std::vector<uint32_t> triangle_list(int mode, const std::vector<uint32_t>& indices);
+
 // Nodes that are no node's child (the roots when a file has no scenes), in index order.
 std::vector<int> parentless_nodes(const tinygltf::Model& model);
 

@@ -119,6 +119,16 @@ std::string gltf_node_label(const tinygltf::Model& model, int index) {
   return format("node %d ('%s')", index, excerpt(n).c_str());
 }
 
+std::string gltf_node_name(const tinygltf::Model& model, int index) {
+  const std::string& n = model.nodes[size_t(index)].name;
+  return n.empty() ? format("node_%d", index) : n;
+}
+
+std::string gltf_mesh_name(const tinygltf::Model& model, int index) {
+  const std::string& n = model.meshes[size_t(index)].name;
+  return n.empty() ? format("mesh_%d", index) : n;
+}
+
 Status gltf_local_transform(const tinygltf::Model& model, int index, const std::string& name, glm::dmat4& out) {
   const tinygltf::Node& node = model.nodes[size_t(index)];
   const std::string who = gltf_node_label(model, index);

@@ -55,4 +55,11 @@ Status check_world_transform(const glm::dmat4& world, glm::mat4& out);
 // "node 3" or "node 3 ('wheel')" (the name shortened and made printable) for messages.
 std::string gltf_node_label(const tinygltf::Model& model, int index);
 
+// The name every tool shows and matches for node `index` (render's and view's --node-transform and
+// --lsnif, convert's --select / --exclude and its report): the node's own name, or "node_<index>"
+// when it has none (names are optional in glTF).
+std::string gltf_node_name(const tinygltf::Model& model, int index);
+// The same for mesh `index`: its own name, or "mesh_<index>".
+std::string gltf_mesh_name(const tinygltf::Model& model, int index);
+
 }  // namespace lsnif

@@ -1,8 +1,10 @@
 // mesh_gltf.cpp -- glTF 2.0 (.gltf / .glb) reader on top of tinygltf. The default scene's nodes
 // (walked by read_gltf_scene, gltf_scene.h: the same rules as the renderer's scene loader) are
 // flattened into one object-space triangle soup: world transforms are applied to positions, their
-// inverse transpose to normals, and the winding flips under mirroring transforms. TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives are kept (others are skipped
-// with a warning). Loading and every checked read of the file's data go through gltf_access.h
+// inverse transpose to normals, and the winding flips under mirroring transforms. TRIANGLES,
+// TRIANGLE_STRIP and TRIANGLE_FAN primitives are kept (gltf::triangle_list, as the renderer reads
+// them; others are skipped with a warning); a primitive without usable normals gets flat ones, as
+// the renderer shades it (glTF). Loading and every checked read of the file's data go through gltf_access.h
 // (library lsnif_import), shared with the renderer's scene loader.
 #include <algorithm>
 
@@ -115,8 +117,7 @@ class GltfFlattener {
                        const std::string& where, int mesh_index) {
     const bool first_time = !warned_mesh_[size_t(mesh_index)];
     const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
-    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
-        mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+    if (!gltf::is_triangle_mode(mode)) {
       if (first_time) {
         ++skipped_primitives_;
         report_.warnings.push_back(format("%s: mode %d (%s) is not triangles; skipped", where.c_str(),
@@ -140,6 +141,17 @@ class GltfFlattener {
     if (int acc = gltf::find_attribute(prim, "NORMAL"); acc >= 0) {
       s = reader.read_attribute(acc, "NORMAL", {TINYGLTF_TYPE_VEC3}, false, n, where, nrm, nc);
       if (!s) return s;
+    }
+    // The renderer's rule (scene_gltf_meshes.cpp): one NaN, infinite or zero normal and the whole
+    // primitive is shaded with face normals, as one without NORMAL is (the glTF specification).
+    for (size_t i = 0; i < nrm.size(); i += 3) {
+      const double len = glm::length(glm::dvec3(nrm[i], nrm[i + 1], nrm[i + 2]));
+      if (!std::isfinite(len) || !(len > 1e-20)) {
+        if (first_time)
+          report_.warnings.push_back(format("%s: NORMAL %zu is NaN, infinite or zero; the primitive uses face normals",
+                                            where.c_str(), i / 3));
+        nrm.clear();
+      }
     }
     int material = -1;
     s = material_index(prim.material, where, material);
@@ -169,24 +181,23 @@ class GltfFlattener {
       idx.resize(n);
       for (size_t i = 0; i < n; ++i) idx[i] = static_cast<uint32_t>(i);
     }
+    if (mode == TINYGLTF_MODE_TRIANGLES && idx.size() % 3 != 0 && first_time)
+      report_.warnings.push_back(format("%s: %zu indices is not a multiple of 3; ignored the last %zu",
+                                        where.c_str(), idx.size(), idx.size() % 3));
+    const std::vector<uint32_t> list = gltf::triangle_list(mode, idx);
     std::vector<glm::uvec3> tris;
-    if (mode == TINYGLTF_MODE_TRIANGLES) {
-      if (idx.size() % 3 != 0 && first_time)
-        report_.warnings.push_back(format("%s: %zu indices is not a multiple of 3; ignored the last %zu",
-                                          where.c_str(), idx.size(), idx.size() % 3));
-      for (size_t i = 0; i + 2 < idx.size(); i += 3) tris.emplace_back(idx[i], idx[i + 1], idx[i + 2]);
-    } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
-      for (size_t i = 0; i + 2 < idx.size(); ++i)
-        tris.push_back(i % 2 == 0 ? glm::uvec3(idx[i], idx[i + 1], idx[i + 2])
-                                  : glm::uvec3(idx[i], idx[i + 2], idx[i + 1]));
-    } else {
-      for (size_t i = 0; i + 2 < idx.size(); ++i) tris.emplace_back(idx[i + 1], idx[i + 2], idx[0]);
-    }
+    for (size_t i = 0; i + 2 < list.size(); i += 3) tris.emplace_back(list[i], list[i + 1], list[i + 2]);
 
     // Append in object space.
+    const bool mirror = glm::determinant(glm::dmat3(world)) < 0.0;
+    if (nrm.empty()) {
+      if (mesh_.positions.size() + 3 * tris.size() >= kInvalidIndex)
+        return Status::error("%s: too many vertices in the flattened scene", where.c_str());
+      append_flat(pos, uv, col, color_components, tris, world, mirror, material);
+      return Status::ok();
+    }
     const uint32_t base = static_cast<uint32_t>(mesh_.positions.size());
     const glm::dmat3 normal_matrix = glm::inverseTranspose(glm::dmat3(world));
-    const bool mirror = glm::determinant(glm::dmat3(world)) < 0.0;
     if (!uv.empty() && mesh_.uvs.empty()) mesh_.uvs.resize(base, glm::vec2(0.0f));
     if (!col.empty() && mesh_.colors.empty()) mesh_.colors.resize(base, glm::vec3(1.0f));
     if (!nrm.empty() && mesh_.normals.empty())
@@ -202,16 +213,7 @@ class GltfFlattener {
       } else if (!mesh_.normals.empty()) {
         mesh_.normals.emplace_back(std::numeric_limits<float>::quiet_NaN());
       }
-      if (!uv.empty())
-        mesh_.uvs.emplace_back(to_float(uv[2 * i]), to_float(uv[2 * i + 1]));
-      else if (!mesh_.uvs.empty())
-        mesh_.uvs.emplace_back(0.0f);
-      if (!col.empty()) {
-        const size_t o = i * size_t(color_components);
-        mesh_.colors.emplace_back(to_float(col[o]), to_float(col[o + 1]), to_float(col[o + 2]));
-      } else if (!mesh_.colors.empty()) {
-        mesh_.colors.emplace_back(1.0f);
-      }
+      append_uv_and_color(i, uv, col, color_components);
     }
     for (glm::uvec3 t : tris) {
       if (mirror) std::swap(t.y, t.z);
@@ -219,6 +221,54 @@ class GltfFlattener {
       mesh_.triangle_material.push_back(static_cast<uint32_t>(material));
     }
     return Status::ok();
+  }
+
+  // Appends the uv and colour of the primitive's vertex `i` to the mesh's arrays, defaults (uv 0,
+  // white) where the primitive has none but the mesh has the array.
+  void append_uv_and_color(size_t i, const std::vector<double>& uv, const std::vector<double>& col,
+                           int color_components) {
+    if (!uv.empty())
+      mesh_.uvs.emplace_back(to_float(uv[2 * i]), to_float(uv[2 * i + 1]));
+    else if (!mesh_.uvs.empty())
+      mesh_.uvs.emplace_back(0.0f);
+    if (!col.empty()) {
+      const size_t o = i * size_t(color_components);
+      mesh_.colors.emplace_back(to_float(col[o]), to_float(col[o + 1]), to_float(col[o + 2]));
+    } else if (!mesh_.colors.empty()) {
+      mesh_.colors.emplace_back(1.0f);
+    }
+  }
+
+  // Appends the triangles `tris` of a primitive without usable normals as glTF shades it: flat,
+  // every triangle with three vertices of its own carrying its face normal (after the winding fix
+  // of a mirroring transform, so the normal faces the front side); a degenerate triangle's normal is
+  // NaN, for finalize_mesh to drop the triangle or repair the normal.
+  void append_flat(const std::vector<double>& pos, const std::vector<double>& uv, const std::vector<double>& col,
+                   int color_components, const std::vector<glm::uvec3>& tris, const glm::dmat4& world, bool mirror,
+                   int material) {
+    const glm::vec3 nan(std::numeric_limits<float>::quiet_NaN());
+    const size_t base = mesh_.positions.size();
+    if (mesh_.normals.empty()) mesh_.normals.resize(base, nan);
+    if (!uv.empty() && mesh_.uvs.empty()) mesh_.uvs.resize(base, glm::vec2(0.0f));
+    if (!col.empty() && mesh_.colors.empty()) mesh_.colors.resize(base, glm::vec3(1.0f));
+    for (glm::uvec3 t : tris) {
+      if (mirror) std::swap(t.y, t.z);
+      glm::dvec3 p[3];
+      for (int k = 0; k < 3; ++k)
+        p[k] = glm::dvec3(world * glm::dvec4(pos[3 * t[k]], pos[3 * t[k] + 1], pos[3 * t[k] + 2], 1.0));
+      const glm::dvec3 c = glm::cross(p[1] - p[0], p[2] - p[0]);
+      const double len = glm::length(c);
+      const glm::vec3 face = std::isfinite(len) && len > 0.0 ? glm::vec3(c / len) : nan;
+      const uint32_t first = static_cast<uint32_t>(mesh_.positions.size());
+      for (int k = 0; k < 3; ++k) {
+        const size_t i = t[k];
+        mesh_.positions.emplace_back(to_float(p[k].x), to_float(p[k].y), to_float(p[k].z));
+        mesh_.normals.push_back(face);
+        append_uv_and_color(i, uv, col, color_components);
+      }
+      mesh_.triangles.emplace_back(first, first + 1, first + 2);
+      mesh_.triangle_material.push_back(static_cast<uint32_t>(material));
+    }
   }
 
   // Mesh material index for a glTF material index (-1: the default material) in `out`, created on

@@ -1,6 +1,7 @@
 // flatten_gltf_meshes (mesh_gltf.h): chosen meshes of a parsed glTF model under chosen transforms
 // become one training mesh; materials in first-use order with their glTF sources; a mirroring
-// transform keeps the triangles facing outwards; bad parts are errors naming the mesh.
+// transform keeps the triangles facing outwards; primitives without usable normals are flat; bad
+// parts are errors naming the mesh.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -94,6 +95,47 @@ TEST(FlattenGltfMeshes, MirroringKeepsTheFacing) {
                   c = mesh.positions[mesh.triangles[0].z];
   // The input triangle faces +z; mirroring x keeps it facing +z once the winding is swapped.
   EXPECT_GT(glm::cross(b - a, c - a).z, 0.0f);
+}
+
+// A tetrahedron of 4 shared vertices without NORMAL: glTF shades it flat (the renderer's face
+// normals), so the flattened mesh carries each face's normal on vertices of its own, never the
+// smooth normals of the shared corners; with a zero NORMAL the same (the renderer's rule).
+TEST(FlattenGltfMeshes, PrimitivesWithoutUsableNormalsAreFlat) {
+  for (const bool zero_normal : {false, true}) {
+    SCOPED_TRACE(zero_normal ? "a zero NORMAL" : "no NORMAL");
+    tinygltf::Model g = three_materials();
+    const std::vector<float> corners = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const int pos = append(g, corners, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 4);
+    const int idx = append(g, std::vector<uint32_t>{0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3},
+                           TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, 12);
+    tinygltf::Primitive p;
+    p.attributes["POSITION"] = pos;
+    if (zero_normal)
+      p.attributes["NORMAL"] = append(g, std::vector<float>{0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0},
+                                      TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 4);
+    p.indices = idx;
+    p.material = 0;
+    p.mode = TINYGLTF_MODE_TRIANGLES;
+    tinygltf::Mesh m;
+    m.primitives.push_back(p);
+    g.meshes.push_back(m);
+    Mesh mesh;
+    std::vector<int> sources;
+    const glm::dmat4 mirror = glm::scale(glm::dmat4(1.0), glm::dvec3(1, -1, 1));
+    for (const glm::dmat4& world : {glm::dmat4(1.0), mirror}) {
+      ASSERT_TRUE(flatten_gltf_meshes(g, {{0, world}}, "test", mesh, sources));
+      ASSERT_EQ(mesh.triangles.size(), 4u);
+      ASSERT_EQ(mesh.normals.size(), mesh.positions.size());
+      glm::vec3 centre(0.0f);
+      for (const glm::vec3& v : mesh.positions) centre += v / float(mesh.positions.size());
+      for (const glm::uvec3& t : mesh.triangles) {
+        const glm::vec3 a = mesh.positions[t.x], b = mesh.positions[t.y], c = mesh.positions[t.z];
+        const glm::vec3 face = glm::normalize(glm::cross(b - a, c - a));
+        EXPECT_GT(glm::dot(face, a - centre), 0.0f) << "faces outwards";
+        for (int k = 0; k < 3; ++k) EXPECT_LT(glm::length(mesh.normals[t[k]] - face), 1e-6f) << k;
+      }
+    }
+  }
 }
 
 TEST(FlattenGltfMeshes, BadPartsAreErrorsNamingTheMesh) {

@@ -4,6 +4,7 @@
 // values.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -12,7 +13,6 @@
 #include <functional>
 #include <map>
 #include <set>
-#include <array>
 #include <unistd.h>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -606,22 +606,21 @@ TEST(MeshGltf, StripFanColorsSparseAndPoints) {
   Loaded l = load(dir.write("s.gltf", g.gltf("s.bin")));
   ASSERT_TRUE(l.status) << l.status.message();
   ASSERT_EQ(l.mesh.triangles.size(), 4u);
-  // Strip (0 1 2 3): (0 1 2), (1 3 2). Fan (0 1 3 2): (1 3 0), (3 2 0), offset by 4 vertices.
-  EXPECT_EQ(l.mesh.triangles[0], glm::uvec3(0, 1, 2));
-  EXPECT_EQ(l.mesh.triangles[1], glm::uvec3(1, 3, 2));
-  EXPECT_EQ(l.mesh.triangles[2], glm::uvec3(5, 7, 4));
-  EXPECT_EQ(l.mesh.triangles[3], glm::uvec3(7, 6, 4));
-  for (const glm::uvec3& t : l.mesh.triangles) {
-    glm::vec3 n = glm::cross(l.mesh.positions[t.y] - l.mesh.positions[t.x],
-                             l.mesh.positions[t.z] - l.mesh.positions[t.x]);
-    EXPECT_GT(n.z, 0.0f);  // consistent winding across strip and fan
+  // Strip (0 1 2 3): (0 1 2), (1 3 2). Fan (0 1 3 2): (1 3 0), (3 2 0). Without NORMAL both are
+  // flat (glTF), so every triangle has three vertices of its own carrying the face normal +z.
+  const glm::vec3 p0(0, 0, 0), p1(1, 0, 0), p2(0, 1, 0), p3(1, 1, 0), q3(2, 2, 0);  // q3: sparse substitution
+  const std::vector<std::array<glm::vec3, 3>> want = {{p0, p1, p2}, {p1, p3, p2}, {p1, q3, p0}, {q3, p2, p0}};
+  for (size_t t = 0; t < 4; ++t) {
+    EXPECT_EQ(l.mesh.triangles[t], glm::uvec3(uint32_t(3 * t), uint32_t(3 * t + 1), uint32_t(3 * t + 2)));
+    for (int k = 0; k < 3; ++k) {
+      expect_vec3(l.mesh.positions[l.mesh.triangles[t][k]], want[t][size_t(k)]);
+      expect_vec3(l.mesh.normals[l.mesh.triangles[t][k]], glm::vec3(0, 0, 1));  // consistent winding
+    }
   }
-  expect_vec3(l.mesh.positions[7], glm::vec3(2, 2, 0));  // sparse substitution
-  expect_vec3(l.mesh.positions[3], glm::vec3(1, 1, 0));
-  ASSERT_EQ(l.mesh.colors.size(), 8u);
-  expect_vec3(l.mesh.colors[0], glm::vec3(1, 0, 0));
-  expect_vec3(l.mesh.colors[3], glm::vec3(0.2f), 1e-6f);  // 51 / 255
-  expect_vec3(l.mesh.colors[5], glm::vec3(1.0f));         // fan primitive has no colors: white
+  ASSERT_EQ(l.mesh.colors.size(), 12u);
+  expect_vec3(l.mesh.colors[0], glm::vec3(1, 0, 0));        // corner 0
+  expect_vec3(l.mesh.colors[4], glm::vec3(0.2f), 1e-6f);    // corner 3 of the strip: 51 / 255
+  expect_vec3(l.mesh.colors[7], glm::vec3(1.0f));           // the fan primitive has no colors: white
   EXPECT_TRUE(any_warning(l.report, "POINTS"));
   EXPECT_TRUE(any_warning(l.report, "mesh 0 ('m') primitive 2"));
 }

@@ -219,6 +219,38 @@ void set_environment(tinygltf::Model& model, const EnvironmentSpec& env) {
   use_extension(model, kEnvironmentExtension);
 }
 
+namespace {
+
+// Repairs what tinygltf writes against the specification (gltf_text, gltf_text_embedded).
+void repair_tinygltf_json(nlohmann::json& j) {
+  // tinygltf writes an object without properties (a node `{}`) as null, which no
+  // glTF reader takes (its own loader included): each becomes the empty object it was.
+  for (auto& [key, value] : j.items())
+    if (value.is_array())
+      for (nlohmann::json& element : value)
+        if (element.is_null()) element = nlohmann::json::object();
+  // tinygltf keeps an absent perspective zfar (an infinite projection) as 0 and writes it back as
+  // 0, which the specification forbids (zfar > 0 when present): such a camera is written without it.
+  if (j.contains("cameras") && j["cameras"].is_array())
+    for (nlohmann::json& camera : j["cameras"])
+      if (camera.contains("perspective") && camera["perspective"].contains("zfar") &&
+          camera["perspective"]["zfar"].is_number() && camera["perspective"]["zfar"].get<double>() == 0.0)
+        camera["perspective"].erase("zfar");
+}
+
+// tinygltf's JSON of `model` (which the writer may change: pass a copy), repaired.
+Status serialize(tinygltf::Model& model, nlohmann::json& j) {
+  std::ostringstream stream;
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&model, stream, /*prettyPrint=*/false, /*writeBinary=*/false))
+    return Status::error("tinygltf could not serialize the scene");
+  if (Status s = json::parse(stream.str(), "the serialized scene", j); !s) return s;
+  repair_tinygltf_json(j);
+  return Status::ok();
+}
+
+}  // namespace
+
 Status gltf_text(const tinygltf::Model& model, const std::string& bin_uri, std::string& text) {
   if (model.buffers.size() > 1)
     return Status::error("the model has %zu buffers; only buffer 0 is written", model.buffers.size());
@@ -228,12 +260,8 @@ Status gltf_text(const tinygltf::Model& model, const std::string& bin_uri, std::
   const size_t bin_bytes = out.buffers.empty() ? 0 : out.buffers[0].data.size();
   const std::string buffer_name = out.buffers.empty() ? std::string() : out.buffers[0].name;
   out.buffers.clear();
-  std::ostringstream stream;
-  tinygltf::TinyGLTF writer;
-  if (!writer.WriteGltfSceneToStream(&out, stream, /*prettyPrint=*/false, /*writeBinary=*/false))
-    return Status::error("tinygltf could not serialize the scene");
   nlohmann::json j;
-  if (Status s = json::parse(stream.str(), "the serialized scene", j); !s) return s;
+  if (Status s = serialize(out, j); !s) return s;
   if (bin_bytes > 0) {
     nlohmann::json buffer = {{"byteLength", bin_bytes}};
     if (bin_uri.empty()) return Status::error("the scene has binary data but no buffer file name");
@@ -242,6 +270,14 @@ Status gltf_text(const tinygltf::Model& model, const std::string& bin_uri, std::
     j["buffers"] = nlohmann::json::array({buffer});
   }
   text = json::dump(j) + "\n";
+  return Status::ok();
+}
+
+Status gltf_text_embedded(const tinygltf::Model& model, std::string& text) {
+  tinygltf::Model out = model;
+  nlohmann::json j;
+  if (Status s = serialize(out, j); !s) return s;
+  text = json::dump(j);
   return Status::ok();
 }
 

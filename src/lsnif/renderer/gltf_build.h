@@ -81,6 +81,12 @@ void set_environment(tinygltf::Model& model, const EnvironmentSpec& env);
 // `bin_uri` (its bytes are not in the text). Fails when the model has more than one buffer.
 Status gltf_text(const tinygltf::Model& model, const std::string& bin_uri, std::string& text);
 
+// The glTF JSON of `model` with its buffers embedded as data URIs (a scene checked before it is
+// written: nothing goes to disk). Both texts are what tinygltf writes, repaired where it breaks the
+// specification: objects without properties (a node `{}`) are written as {}, not
+// null, and a perspective camera without zfar (infinite) without it, not as zfar 0.
+Status gltf_text_embedded(const tinygltf::Model& model, std::string& text);
+
 // Writes `model` to `path` (a .gltf file: JSON, pretty-printed) and its buffer 0 to the file
 // named STEM.bin beside it (STEM = `path`'s file name without extension), replacing both, each
 // atomically (src/lsnif/format/atomic_file.h; the buffer first). The folder must exist. Fails naming the

@@ -257,6 +257,40 @@ TEST(GltfBuild, WrittenJsonFollowsGltf) {
   EXPECT_EQ(w.materials.size(), j["materials"].size());
 }
 
+// What tinygltf writes against the specification is repaired in both texts: objects without
+// properties (a node) stay {} instead of null (a default sampler is an object too), an infinite perspective camera (zfar 0 in
+// tinygltf) has no zfar; a finite one and an orthographic one keep theirs.
+TEST(GltfBuild, TextsRepairWhatTinygltfWritesWrong) {
+  tinygltf::Model m;
+  m.asset.version = "2.0";
+  m.nodes.resize(2);
+  m.nodes[1].camera = 0;
+  m.samplers.resize(1);
+  tinygltf::Camera infinite, finite, ortho;
+  infinite.type = finite.type = "perspective";
+  infinite.perspective.yfov = finite.perspective.yfov = 0.8;
+  infinite.perspective.znear = finite.perspective.znear = 0.1;
+  finite.perspective.zfar = 100.0;
+  ortho.type = "orthographic";
+  ortho.orthographic.xmag = ortho.orthographic.ymag = 1.0;
+  ortho.orthographic.znear = 0.1;
+  ortho.orthographic.zfar = 10.0;
+  m.cameras = {infinite, finite, ortho};
+  m.scenes.resize(1);
+  m.scenes[0].nodes = {0, 1};
+  std::string a, b;
+  ASSERT_TRUE(gltf_text(m, "scene.bin", a));
+  ASSERT_TRUE(gltf_text_embedded(m, b));
+  for (const std::string& text : {a, b}) {
+    const json j = json::parse(text);
+    EXPECT_EQ(j["nodes"][0], json::object()) << text;
+    EXPECT_TRUE(j["samplers"][0].is_object()) << text;
+    EXPECT_FALSE(j["cameras"][0]["perspective"].contains("zfar")) << text;
+    EXPECT_EQ(j["cameras"][1]["perspective"]["zfar"], 100.0) << text;
+    EXPECT_EQ(j["cameras"][2]["orthographic"]["zfar"], 10.0) << text;
+  }
+}
+
 TEST(GltfBuild, RefusesBadInputNamingIt) {
   tinygltf::Model model = new_gltf_model("test");
   add_material(model, material("only", glm::vec4(1), 0, 1, glm::vec3(0)));

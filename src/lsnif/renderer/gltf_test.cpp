@@ -23,6 +23,7 @@
 
 #include "lsnif/testing/fuzz_support.h"
 #include "lsnif/core/model.h"
+#include "lsnif/import/mesh.h"
 #include "lsnif/format/model_format.h"
 #include "lsnif/renderer/scene_edit.h"
 #include "lsnif/renderer/scene_gltf.h"
@@ -276,11 +277,13 @@ TEST(GltfLoad, BrokenFilesFailWithAMessage) {
   EXPECT_TRUE(!st && contains(st.message(), "not a glTF")) << st.message();
 }
 
-// The Asset Generator's primitive-mode files: TRIANGLES ones load with the accessor's triangle
-// count; the others are skipped with counted warnings (and leave nothing to render).
-TEST(GltfLoad, PrimitiveModesOtherThanTrianglesAreSkippedWithAWarning) {
+// The Asset Generator's primitive-mode files: the renderer draws what glTF's triangle modes draw
+// (TRIANGLES: count / 3, TRIANGLE_STRIP and TRIANGLE_FAN: count - 2, counted here from the files'
+// accessors) and skips points and lines with counted warnings; the converter's reading of the same
+// file (load_mesh, what convert and train flatten) has the same triangles, corner for corner.
+TEST(GltfLoad, PrimitiveModesReadAlikeByTheRendererAndTheConverter) {
   const std::string dir = kData + "glTF-Asset-Generator/Mesh_PrimitiveMode/";
-  int loaded = 0, skipped = 0;
+  int loaded = 0, skipped = 0, strips_or_fans = 0;
   for (const auto& entry : fs::directory_iterator(dir)) {
     if (entry.path().extension() != ".gltf") continue;
     const std::string path = entry.path().string();
@@ -288,32 +291,51 @@ TEST(GltfLoad, PrimitiveModesOtherThanTrianglesAreSkippedWithAWarning) {
     const json doc = read_json(path);
     size_t tris = 0, others = 0;
     for (const json& prim : doc["meshes"][0]["primitives"]) {
-      if (prim.value("mode", 4) != 4) {
-        ++others;
-        continue;
-      }
+      const int mode = prim.value("mode", 4);
       const json& a = prim.contains("indices") ? doc["accessors"][size_t(prim["indices"].get<int>())]
                                                : doc["accessors"][size_t(prim["attributes"]["POSITION"].get<int>())];
-      tris += a["count"].get<size_t>() / 3;
+      const size_t count = a["count"].get<size_t>();
+      if (mode == 4) {
+        tris += count / 3;
+      } else if (mode == 5 || mode == 6) {
+        tris += count >= 3 ? count - 2 : 0;
+        ++strips_or_fans;
+      } else {
+        ++others;
+      }
     }
     Scene s;
     Status st = load_scene(path, quiet(), s);
     if (others) {
       ++skipped;
-      EXPECT_TRUE(any_warning(s, "is not TRIANGLES; skipped"));
-      EXPECT_TRUE(any_warning(s, format("skipped %zu primitives that are not TRIANGLES", others)));
+      EXPECT_TRUE(any_warning(s, "draws no triangles; skipped"));
+      EXPECT_TRUE(any_warning(s, format("skipped %zu primitives that draw no triangles", others)));
     }
-    if (tris) {
-      ++loaded;
-      ASSERT_TRUE(st) << st.message();
-      EXPECT_EQ(instanced_triangle_count(s), tris);
-    } else {
+    if (!tris) {
       EXPECT_FALSE(st);
       EXPECT_TRUE(contains(st.message(), "no instance")) << st.message();
+      continue;
     }
+    ++loaded;
+    ASSERT_TRUE(st) << st.message();
+    ASSERT_EQ(instanced_triangle_count(s), tris);
+    // The renderer's triangles in world space, in file order.
+    std::vector<glm::vec3> corners;
+    for (const Instance& in : s.instances)
+      for (const Primitive& p : s.meshes[size_t(in.mesh)].primitives)
+        for (uint32_t i : p.indices) corners.push_back(glm::vec3(in.object_to_world * glm::vec4(p.positions[i], 1.0f)));
+    ::lsnif::Mesh flat;
+    const Status ms = ::lsnif::load_mesh(path, flat);
+    ASSERT_TRUE(ms) << ms.message();
+    ASSERT_EQ(flat.triangles.size(), tris);
+    for (size_t t = 0; t < tris; ++t)
+      for (int k = 0; k < 3; ++k)
+        EXPECT_LT(glm::length(flat.positions[flat.triangles[t][k]] - corners[3 * t + size_t(k)]), 1e-5f)
+            << "triangle " << t << " corner " << k;
   }
-  EXPECT_GE(loaded, 2);
-  EXPECT_GE(skipped, 6);
+  EXPECT_GE(loaded, 4);
+  EXPECT_GE(strips_or_fans, 2);
+  EXPECT_GE(skipped, 4);
 }
 
 TEST(GltfLoad, WarningsForWhatIsIgnored) {
@@ -453,8 +475,8 @@ TEST(GltfSynthetic, AccessorsIndicesTransformsMaterialsCamera) {
   ASSERT_EQ(two.primitives.size(), 2u);
   EXPECT_EQ(two.primitives[0].material, 1u);
   EXPECT_EQ(two.primitives[1].material, 0u);
-  EXPECT_TRUE(any_warning(s, "mode 0 (POINTS) is not TRIANGLES"));
-  EXPECT_TRUE(any_warning(s, "skipped 1 primitives that are not TRIANGLES (POINTS: 1)"));
+  EXPECT_TRUE(any_warning(s, "mode 0 (POINTS) draws no triangles"));
+  EXPECT_TRUE(any_warning(s, "skipped 1 primitives that draw no triangles (POINTS: 1)"));
   // Materials: the file's two plus the default one for quad_uint.
   ASSERT_EQ(s.materials.size(), 3u);
   const Primitive& pd = s.meshes[size_t(s.instances[size_t(instance_of(s, "d"))].mesh)].primitives[0];

@@ -83,7 +83,7 @@ Status SceneBuilder::run() {
   if (scene_.instances.empty())
     return Status::error("%s: the scene has no instance to render (no node with a triangle mesh "
                          "or %s)%s", file(), kNodeExtension,
-                         skipped_primitives_ ? " (primitives that are not TRIANGLES were skipped)" : "");
+                         skipped_primitives_ ? " (primitives that draw no triangles were skipped)" : "");
   return Status::ok();
 }
 
@@ -100,7 +100,7 @@ void SceneBuilder::summarize_warnings() {
     std::string by_mode;
     for (const auto& [mode, n] : skipped_by_mode_)
       by_mode += format("%s%s: %zu", by_mode.empty() ? "" : ", ", gltf::mode_name(mode), n);
-    warn(format("skipped %zu primitives that are not TRIANGLES (%s)", skipped_primitives_,
+    warn(format("skipped %zu primitives that draw no triangles (%s)", skipped_primitives_,
                 by_mode.c_str()));
   }
 }

@@ -21,7 +21,7 @@ Status SceneBuilder::mesh_index(int gltf_mesh, int32_t& out) {
   }
   const tinygltf::Mesh& gm = model_.meshes[size_t(gltf_mesh)];
   Mesh mesh;
-  mesh.name = gm.name.empty() ? format("mesh_%d", gltf_mesh) : gm.name;
+  mesh.name = gltf_mesh_name(model_, gltf_mesh);
   for (size_t p = 0; p < gm.primitives.size(); ++p) {
     const std::string where = format("%s: mesh %d ('%s') primitive %zu", file(), gltf_mesh,
                                      excerpt(mesh.name).c_str(), p);
@@ -32,7 +32,7 @@ Status SceneBuilder::mesh_index(int gltf_mesh, int32_t& out) {
     if (keep) mesh.primitives.push_back(std::move(prim));
   }
   if (mesh.primitives.empty()) {
-    warn(format("mesh %d ('%s') has no TRIANGLES primitive with triangles; nodes using it draw "
+    warn(format("mesh %d ('%s') has no primitive with triangles; nodes using it draw "
                 "no triangles", gltf_mesh, excerpt(mesh.name).c_str()));
     mapped = -1;
   } else {
@@ -48,11 +48,11 @@ Status SceneBuilder::load_primitive(const tinygltf::Primitive& gp, const std::st
   keep = false;
   const std::string short_where = where.substr(name_.size() + 2);
   const int mode = gp.mode < 0 ? TINYGLTF_MODE_TRIANGLES : gp.mode;
-  if (mode != TINYGLTF_MODE_TRIANGLES) {
+  if (!gltf::is_triangle_mode(mode)) {
     ++skipped_primitives_;
     ++skipped_by_mode_[mode];
-    warn_counted("non-TRIANGLES primitives",
-                 format("%s: mode %d (%s) is not TRIANGLES; skipped", short_where.c_str(), mode,
+    warn_counted("non-triangle primitives",
+                 format("%s: mode %d (%s) draws no triangles; skipped", short_where.c_str(), mode,
                         gltf::mode_name(mode)));
     return Status::ok();
   }
@@ -128,12 +128,11 @@ Status SceneBuilder::load_primitive(const tinygltf::Primitive& gp, const std::st
     prim.indices.resize(n);
     for (size_t i = 0; i < n; ++i) prim.indices[i] = static_cast<uint32_t>(i);
   }
-  if (prim.indices.size() % 3 != 0) {
+  if (mode == TINYGLTF_MODE_TRIANGLES && prim.indices.size() % 3 != 0)
     warn_counted("index counts", short_where + format(": %zu indices is not a multiple of 3; the "
                                                       "last %zu ignored", prim.indices.size(),
                                                       prim.indices.size() % 3));
-    prim.indices.resize(prim.indices.size() - prim.indices.size() % 3);
-  }
+  prim.indices = gltf::triangle_list(mode, prim.indices);  // strips and fans as triangle lists
   if (prim.indices.empty()) {
     warn_counted("empty primitives", short_where + ": no triangles; skipped");
     return Status::ok();

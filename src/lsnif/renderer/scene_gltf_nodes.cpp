@@ -160,7 +160,7 @@ Status SceneBuilder::add_instance(int index, const glm::dmat4& world) {
   if (mesh < 0 && lsnif < 0) return Status::ok();  // a mesh without triangles (warned)
 
   Instance inst;
-  inst.node_name = node.name.empty() ? format("node_%d", index) : node.name;
+  inst.node_name = gltf_node_name(model_, index);
   Status s = check_world_transform(world, inst.object_to_world);
   if (!s) return s.context(who);
   inst.mesh = mesh;

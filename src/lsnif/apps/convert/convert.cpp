@@ -4,10 +4,10 @@
 #include <filesystem>
 #include <map>
 #include <set>
-#include <sstream>
 
 #include "lsnif/format/atomic_file.h"
 
+#include "lsnif/renderer/gltf_build.h"
 #include "lsnif/renderer/scene_gltf.h"
 
 namespace lsnif::convert {
@@ -141,10 +141,8 @@ Status validate_output(const ConvertSettings& settings, const ConvertResult& res
   WriteReport unused;
   if (Status s = build_output(settings, result.plan, result.models, true, out, unused); !s) return s;
   if (!out.buffers.empty() && out.buffers[0].data.empty()) out.buffers.clear();  // as save_gltf writes it
-  std::ostringstream text;  // buffers embedded as data URIs: nothing is written
-  tinygltf::TinyGLTF writer;
-  if (!writer.WriteGltfSceneToStream(&out, text, /*prettyPrint=*/false, /*writeBinary=*/false))
-    return Status::error("%s: tinygltf could not serialize the scene", settings.output.c_str());
+  std::string text;  // buffers embedded as data URIs: nothing is written
+  if (Status s = scene::gltf_text_embedded(out, text); !s) return s.context(settings.output);
   const std::string base = out_dir.empty() ? std::string(".") : out_dir;
   scene::SceneLoadOptions options;
   options.quiet = true;
@@ -153,7 +151,7 @@ Status validate_output(const ConvertSettings& settings, const ConvertResult& res
     if (result.models[i].state != ModelState::Failed)
       options.pending_models.push_back((fs::path(base) / result.plan.models[i].file).lexically_normal().string());
   scene::Scene scene;
-  return scene::load_scene_from_memory(text.str(), false, settings.output, base, options, scene);
+  return scene::load_scene_from_memory(text, false, settings.output, base, options, scene);
 }
 
 }  // namespace

@@ -301,9 +301,9 @@ Status collect_nodes(const std::string& in, Plan& plan) {
     }
     PlannedNode p;
     p.node = item.node;
-    p.name = n.name.empty() ? format("node%d", item.node) : n.name;
+    p.name = gltf_node_name(g, item.node);
     p.mesh = n.mesh;
-    p.mesh_name = g.meshes[size_t(n.mesh)].name.empty() ? format("mesh%d", n.mesh) : g.meshes[size_t(n.mesh)].name;
+    p.mesh_name = gltf_mesh_name(g, n.mesh);
     for (const tinygltf::Primitive& prim : g.meshes[size_t(n.mesh)].primitives) p.triangles += primitive_triangles(g, prim);
     p.world = item.world;
     plan.nodes.push_back(std::move(p));

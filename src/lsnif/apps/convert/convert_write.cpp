@@ -1,9 +1,11 @@
 // convert_write.cpp -- OUT.gltf from the plan and the models (convert_write.h).
 #include "lsnif/apps/convert/convert_write.h"
 
+#include <cstring>
 #include <filesystem>
 #include <map>
 
+#include "lsnif/format/file_io.h"
 #include "lsnif/renderer/gltf_build.h"
 #include "lsnif/import/mesh_gltf.h"
 
@@ -163,8 +165,55 @@ std::string relocate(const std::string& uri, const std::string& input_dir, const
   return ec || rel.empty() ? fs::absolute(p).generic_string() : rel.generic_string();
 }
 
-// Files the input refers to stay where they are: external images, the models of nodes that were
-// LSNIF objects already and the environment image get paths relative to the output folder.
+// True when `relocated` (a path relocate made) leads out of the output folder.
+bool leaves_folder(const std::string& relocated) {
+  const fs::path p(relocated);
+  return p.is_absolute() || (!p.empty() && *p.begin() == "..");
+}
+
+// An external PNG or JPEG image the output would reach outside its folder (the input's images,
+// converted into another folder) is embedded into the output's binary buffer instead, so that the
+// output folder is self-contained and loads without --allow-outside-refs; with that option the
+// image is referenced where it lies. A file that is missing, too large or neither PNG nor JPEG
+// (the formats glTF embeds) is an error naming it and the way out.
+Status embed_outside_images(tinygltf::Model& g, const std::string& input_dir, const std::string& output_dir,
+                            bool allow_outside_refs, WriteReport& report) {
+  constexpr uint64_t kMaxEmbeddedImageBytes = uint64_t(1) << 28;
+  for (size_t i = 0; i < g.images.size(); ++i) {
+    tinygltf::Image& im = g.images[i];
+    if (im.uri.empty() || im.uri.rfind("data:", 0) == 0 || allow_outside_refs) continue;
+    if (!leaves_folder(relocate(im.uri, input_dir, output_dir))) continue;
+    const fs::path source = fs::path(im.uri).is_relative() ? fs::path(input_dir) / im.uri : fs::path(im.uri);
+    std::vector<uint8_t> bytes;
+    if (Status s = read_file(source.string(), bytes, kMaxEmbeddedImageBytes); !s)
+      return s.context(format("image %zu ('%s') lies outside the output folder and cannot be embedded", i,
+                              excerpt(im.uri).c_str()));
+    const bool png = bytes.size() >= 8 && std::memcmp(bytes.data(), "\x89PNG\r\n\x1a\n", 8) == 0;
+    const bool jpeg = bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF;
+    if (!png && !jpeg)
+      return Status::error("image %zu ('%s') lies outside the output folder and is neither PNG nor JPEG, so it "
+                           "cannot be embedded: write the output beside it or pass --allow-outside-refs",
+                           i, excerpt(im.uri).c_str());
+    tinygltf::Buffer buffer;
+    buffer.data.assign(bytes.begin(), bytes.end());
+    g.buffers.push_back(std::move(buffer));
+    tinygltf::BufferView view;
+    view.buffer = int(g.buffers.size() - 1);
+    view.byteLength = bytes.size();
+    g.bufferViews.push_back(view);
+    report.notes.push_back(format("image %zu ('%s'): embedded into the binary buffer (it lies outside the output "
+                                  "folder; --allow-outside-refs references it there instead)",
+                                  i, excerpt(im.uri).c_str()));
+    im.bufferView = int(g.bufferViews.size() - 1);
+    im.mimeType = png ? "image/png" : "image/jpeg";
+    im.uri.clear();
+  }
+  return Status::ok();
+}
+
+// Files the input refers to stay where they are: external images (those not embedded), the models
+// of nodes that were LSNIF objects already and the environment image get paths relative to the
+// output folder.
 void relocate_files(tinygltf::Model& g, const std::string& input_dir, const std::string& output_dir) {
   for (tinygltf::Image& im : g.images)
     if (!im.uri.empty() && im.uri.rfind("data:", 0) != 0) im.uri = relocate(im.uri, input_dir, output_dir);
@@ -220,7 +269,11 @@ Status build_output(const ConvertSettings& settings, const Plan& plan, const std
                     bool planned_as_trained, tinygltf::Model& out, WriteReport& report) {
   report = WriteReport();
   out = plan.gltf;
-  relocate_files(out, plan.input_dir, fs::path(settings.output).parent_path().string());
+  const std::string output_dir = fs::path(settings.output).parent_path().string();
+  if (Status s = embed_outside_images(out, plan.input_dir, output_dir, settings.import_options.allow_outside_refs, report);
+      !s)
+    return s;
+  relocate_files(out, plan.input_dir, output_dir);
   if (out.scenes.empty()) {  // make the implicit scene (every root node) explicit before adding nodes
     out.scenes.resize(1);
     out.scenes[0].nodes = gltf::parentless_nodes(out);

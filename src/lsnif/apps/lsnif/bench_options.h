@@ -27,7 +27,7 @@ struct BenchRunOptions {
 void add_bench_run_options(Args& args, BenchRunOptions* options);
 
 // Applies them (to the fields of `train`, none of its functions): the default image (render_defaults.h) and the default training, or with --quick the
-// models of the tiny preset (settings_table.h kTinyPreset, as given values) and 64x48 images at
+// models of the tiny preset (settings_table.h kTinyPreset, as given values) trained 200 steps, and 64x48 images at
 // 2 spp; then the values given. Sets the seed and threads of `train`.
 void apply_bench_run_options(const BenchRunOptions& options, TrainOptions& train, render::RenderSettings& rs);
 
