@@ -5,7 +5,7 @@
 // (liblsnif_image_oiio.so, target lsnif_image_oiio) that exports one C entry point, and the tools
 // link image_io_oiio_loader.cpp, which opens the module with dlopen on the first load_image /
 // save_image. The module lives at a fixed path relative to the executables' folder, the same in the
-// build tree and in an installed prefix (kModuleFromExecutable); it is built by the same compiler
+// build tree and in an installed prefix (LSNIF_IMAGE_MODULE_FROM_EXECUTABLE, CMakeLists.txt beside this file); it is built by the same compiler
 // and standard library as the executables, so the C++ types below cross the boundary unchanged.
 #pragma once
 #include <cstdint>

@@ -7,7 +7,6 @@
 
 #include <climits>
 #include <filesystem>
-#include <mutex>
 #include <string>
 
 #include "lsnif/image/image_io.h"
@@ -54,32 +53,35 @@ std::string module_path_for_this_executable() {
 
 namespace {
 
-// The codec of this process's module, opened once by the first caller (any thread).
-Status the_codec(const module::Codec*& codec) {
-  static std::once_flag once;
-  static Status status;
-  static const module::Codec* loaded = nullptr;
-  std::call_once(once, [] {
+// This process's module: opened by the first caller (a function-local static: once, thread-safe).
+struct Opened {
+  Status status;
+  const module::Codec* codec = nullptr;
+};
+
+const Opened& the_module() {
+  static const Opened opened = [] {
+    Opened o;
     const std::string path = module::module_path_for_this_executable();
-    status = path.empty() ? Status::error("cannot find the OpenImageIO image module: /proc/self/exe is unreadable")
-                          : module::open_codec(path, loaded);
-  });
-  codec = loaded;
-  return status;
+    o.status = path.empty() ? Status::error("cannot find the OpenImageIO image module: /proc/self/exe is unreadable")
+                            : module::open_codec(path, o.codec);
+    return o;
+  }();
+  return opened;
 }
 
 }  // namespace
 
 Status load_image(const std::string& path, Image& out, bool raw) {
-  const module::Codec* codec = nullptr;
-  if (Status s = the_codec(codec); !s) return s.context(format("cannot read image '%s'", path.c_str()));
-  return codec->load(path, out, raw);
+  const Opened& m = the_module();
+  if (!m.status) return Status(m.status).context(format("cannot read image '%s'", path.c_str()));
+  return m.codec->load(path, out, raw);
 }
 
 Status save_image(const std::string& path, const Image& img) {
-  const module::Codec* codec = nullptr;
-  if (Status s = the_codec(codec); !s) return s.context(format("cannot write '%s'", path.c_str()));
-  return codec->save(path, img);
+  const Opened& m = the_module();
+  if (!m.status) return Status(m.status).context(format("cannot write '%s'", path.c_str()));
+  return m.codec->save(path, img);
 }
 
 }  // namespace lsnif::image

@@ -200,19 +200,15 @@ class GltfFlattener {
     const glm::dmat3 normal_matrix = glm::inverseTranspose(glm::dmat3(world));
     if (!uv.empty() && mesh_.uvs.empty()) mesh_.uvs.resize(base, glm::vec2(0.0f));
     if (!col.empty() && mesh_.colors.empty()) mesh_.colors.resize(base, glm::vec3(1.0f));
-    if (!nrm.empty() && mesh_.normals.empty())
-      mesh_.normals.resize(base, glm::vec3(std::numeric_limits<float>::quiet_NaN()));
+    // Every primitive appends a normal per vertex (given here, flat in append_flat), so the mesh's
+    // normals stay aligned with its positions.
     for (size_t i = 0; i < n; ++i) {
       glm::dvec4 p = world * glm::dvec4(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], 1.0);
       mesh_.positions.emplace_back(to_float(p.x), to_float(p.y), to_float(p.z));
-      if (!nrm.empty()) {
-        glm::dvec3 q = normal_matrix * glm::dvec3(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]);
-        double len = glm::length(q);
-        q = len > 0.0 ? q / len : q;  // zero stays zero: finalize_mesh recomputes it
-        mesh_.normals.emplace_back(to_float(q.x), to_float(q.y), to_float(q.z));
-      } else if (!mesh_.normals.empty()) {
-        mesh_.normals.emplace_back(std::numeric_limits<float>::quiet_NaN());
-      }
+      glm::dvec3 q = normal_matrix * glm::dvec3(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]);
+      double len = glm::length(q);
+      q = len > 0.0 ? q / len : q;  // zero stays zero: finalize_mesh recomputes it
+      mesh_.normals.emplace_back(to_float(q.x), to_float(q.y), to_float(q.z));
       append_uv_and_color(i, uv, col, color_components);
     }
     for (glm::uvec3 t : tris) {
@@ -248,7 +244,6 @@ class GltfFlattener {
                    int material) {
     const glm::vec3 nan(std::numeric_limits<float>::quiet_NaN());
     const size_t base = mesh_.positions.size();
-    if (mesh_.normals.empty()) mesh_.normals.resize(base, nan);
     if (!uv.empty() && mesh_.uvs.empty()) mesh_.uvs.resize(base, glm::vec2(0.0f));
     if (!col.empty() && mesh_.colors.empty()) mesh_.colors.resize(base, glm::vec3(1.0f));
     for (glm::uvec3 t : tris) {
