@@ -153,7 +153,7 @@ void expect_every_command_refuses(const std::string& file, const std::string& wo
       with_tiny({"train", file, "-o", work + "/t.lsnif"}),
       {"eval", model, file, "--rays", "100"},
       {"render", file, "-o", work + "/r.png", "--width", "8", "--height", "8", "--spp", "1"},
-      with_tiny({"convert", file, "-o", work + "/c/out.gltf", "--min-triangles", "1"}),
+      with_tiny({"convert", file, "-o", work + "/c/out.gltf", "--convert-when", "triangles", "--min-triangles", "1"}),
   };
   for (const std::vector<std::string>& run : runs) {
     SCOPED_TRACE(run[0]);
@@ -173,7 +173,7 @@ TEST_F(HostileCli, NodeGraphControlPassesEveryCommand) {
       with_tiny({"train", file, "-o", path("t.lsnif")}),
       {"eval", path("t.lsnif"), file, "--rays", "100"},
       {"render", file, "-o", path("r.png"), "--width", "8", "--height", "8", "--spp", "1"},
-      with_tiny({"convert", file, "-o", path("c/out.gltf"), "--min-triangles", "1", "--dry-run"}),
+      with_tiny({"convert", file, "-o", path("c/out.gltf"), "--convert-when", "triangles", "--min-triangles", "1", "--dry-run"}),
   };
   for (const std::vector<std::string>& run : runs) {
     SCOPED_TRACE(run[0]);
@@ -269,12 +269,12 @@ TEST_F(HostileCli, PatternsOnHugeNamesAndZeroVoxels) {
   put(path("scene/long.gltf"), j.dump());
   for (const char* option : {"--select", "--exclude"}) {
     const ProcessResult r = lsnif_run({"convert", path("scene/long.gltf"), "-o", path("c/out.gltf"), "--dry-run",
-                                       "--min-triangles", "1", option, "a*"});
+                                       "--convert-when", "triangles", "--min-triangles", "1", option, "a*"});
     EXPECT_FALSE(r.crashed()) << r.signal << r.output;
     EXPECT_EQ(r.exit_code, 0) << r.output;
   }
   ProcessResult r = lsnif_run({"convert", path("scene/long.gltf"), "-o", path("c/out.gltf"), "--dry-run",
-                               "--min-triangles", "1", "--group", "g=(a|a)*"});
+                               "--convert-when", "triangles", "--min-triangles", "1", "--group", "g=(a|a)*"});
   EXPECT_FALSE(r.crashed()) << r.output;
   EXPECT_FAILS_WITH(lsnif_run({"train", kElephant, "-o", path("v.lsnif"), "--voxels", "0"}), 2,
                     "--voxels 0 out of range [1, 256]");
@@ -350,7 +350,7 @@ TEST_F(HostileCli, OutputsThatAreInputsAreRefused) {
   EXPECT_EQ(read_all(path("v.png")), read_all(model_));
   const std::string scene_text = read_all(path("scene/in.gltf"));
   EXPECT_FAILS_WITH(lsnif_run(with_tiny({"convert", path("scene/in.gltf"), "-o", path("scene/in.gltf"),
-                                         "--min-triangles", "1"})),
+                                         "--convert-when", "triangles", "--min-triangles", "1"})),
                     1, "which the input scene");
   EXPECT_EQ(read_all(path("scene/in.gltf")), scene_text);
 }
@@ -382,7 +382,7 @@ TEST_F(HostileCli, ReferencesStayInTheSceneFolderUnlessAllowed) {
       {"render", path("scene/s.gltf"), "-o", path("r.png"), "--width", "8", "--height", "8", "--spp", "1"},
       with_tiny({"train", path("scene/s.gltf"), "-o", path("t.lsnif")}),
       {"eval", model_, path("scene/s.gltf"), "--rays", "100"},
-      with_tiny({"convert", path("scene/s.gltf"), "-o", path("c/out.gltf"), "--min-triangles", "1"}),
+      with_tiny({"convert", path("scene/s.gltf"), "-o", path("c/out.gltf"), "--convert-when", "triangles", "--min-triangles", "1"}),
       {"bench-memory", path("scene/s.gltf"), model_},
   };
   for (const std::vector<std::string>& run : runs) {
@@ -421,7 +421,7 @@ TEST_F(HostileCli, SceneErrorsAreFoundByRenderAndByTheDryRun) {
   put(path("scene/hdr.gltf"), h.dump());
   for (const char* dry : {"--dry-run", "--quiet"}) {
     ProcessResult r = lsnif_run(with_tiny({"convert", path("scene/hdr.gltf"), "-o", path("c/out.gltf"),
-                                           "--min-triangles", "1", dry}));
+                                           "--convert-when", "triangles", "--min-triangles", "1", dry}));
     EXPECT_FAILS_WITH(r, 1, "the converted scene would not load");
     EXPECT_EQ(r.output.find("trained "), std::string::npos) << r.output;
   }
@@ -447,7 +447,7 @@ TEST_F(HostileCli, OptionValuesAndNamesAreChecked) {
   j["nodes"][0]["name"] = "evil\x1b[2J\x07name";
   put(path("scene/names.gltf"), j.dump());
   ProcessResult r = lsnif_run({"convert", path("scene/names.gltf"), "-o", path("c/out.gltf"), "--dry-run",
-                               "--min-triangles", "1"});
+                               "--convert-when", "triangles", "--min-triangles", "1"});
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("node 'evil\\x1b[2J\\x07name'"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find('\x1b'), std::string::npos);

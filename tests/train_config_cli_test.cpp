@@ -372,7 +372,7 @@ TEST_F(TrainConfigCli, ConvertTakesTheConfigAndRecordsTheSettings) {
   write("bunny.lsnif", std::string("LSNIF\0\r\n", 8) + "rest");
   const std::string cfg = write("tiny.json", tiny_);
   std::vector<std::string> args = {"convert", dir_.path("scene.gltf"), "-o", dir_.path("out/s.gltf"),
-                                   "--min-triangles", "1", "--eval-rays", "0", "--quiet", "--allow-outside-refs",
+                                   "--convert-when", "triangles", "--min-triangles", "1", "--eval-rays", "0", "--quiet", "--allow-outside-refs",
                                    "--config", cfg, "--seed", "3"};
   ProcessResult r = lsnif(args);
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -12,15 +12,34 @@
 #define LSNIF_MAX_HIDDEN_WIDTH 256u /* upper bound for W */
 #define LSNIF_MAX_HIDDEN_LAYERS 4u
 
-/* Network output layout (raw, before activations): 8 + Nmat values per ray.
+/* Network output layout (raw, before activations): 8 + Nmat values per ray, then, for a model with
+ * surface channels (LsnifGpuModelHeader::surface_channels, Config::surface_channels),
+ * LSNIF_OUT_SURFACE_COUNT more starting at LSNIF_OUT_MATERIAL + Nmat.
  * occlusion: sigmoid; distance: sigmoid (see hit parametrization); normal: identity;
- * albedo: sigmoid; material: softmax over Nmat. */
+ * albedo: sigmoid; material: softmax over Nmat.
+ * Surface channels (the glTF metallic-roughness material's textured values at the hit, learned as
+ * the albedo is): metallic, roughness and ambient occlusion (glTF's occlusion texture, strength
+ * applied): sigmoid; emission (emissiveFactor x emissiveTexture x KHR_materials_emissive_strength,
+ * linear RGB): sigmoid x the model's emission scale. */
 #define LSNIF_OUT_OCCLUSION 0u
 #define LSNIF_OUT_DISTANCE 1u
 #define LSNIF_OUT_NORMAL 2u
 #define LSNIF_OUT_ALBEDO 5u
 #define LSNIF_OUT_MATERIAL 8u
 #define LSNIF_OUT_FIXED 8u
+#define LSNIF_OUT_SURFACE_METALLIC 0u  /* offsets from LSNIF_OUT_MATERIAL + Nmat */
+#define LSNIF_OUT_SURFACE_ROUGHNESS 1u
+#define LSNIF_OUT_SURFACE_AMBIENT_OCCLUSION 2u
+#define LSNIF_OUT_SURFACE_EMISSION 3u
+#define LSNIF_OUT_SURFACE_COUNT 6u
+/* Largest emission scale a model may have (the emission head's range). */
+#define LSNIF_MAX_EMISSION_SCALE 65504.0
+
+/* Packed surface channels of a hit (LsnifQueryHit::surface, LsnifQueryResult::surface,
+ * LsnifReferenceHit::surface): bytes 0, 1, 2 metallic, roughness and ambient occlusion as unorm8
+ * (packUnorm4x8), byte 3 LSNIF_SURFACE_LEARNED when the model learned them; 0 for a model without
+ * surface channels (the application takes them from the material index's material). */
+#define LSNIF_SURFACE_LEARNED 1u
 
 /* Hit-distance parametrization (paper: AABB interval; ours: crossed voxel segments). */
 #define LSNIF_HIT_PARAM_AABB_INTERVAL 0u
@@ -86,7 +105,7 @@
  *          Every layer has a multiple of 8 words.
  * All fields are 32-bit uint or float, so the struct has identical std430 layout in C++ and GLSL. */
 #define LSNIF_GPU_MAGIC 0x4647534Cu /* "LSGF" little-endian */
-#define LSNIF_GPU_VERSION 5u
+#define LSNIF_GPU_VERSION 6u
 #define LSNIF_GPU_ROW_WORDS(n) (((n) + 1u) >> 1)
 /* M_l of level l from LsnifGpuModelHeader::table_log2. */
 #define LSNIF_GPU_TABLE_LOG2(packed, level) (((packed) >> (8u * (level))) & 0xffu)
@@ -129,9 +148,12 @@ struct LsnifGpuModelHeader {
   lsnif_uint index_offset;     /* words: the indexed levels' displacements (0 when none is indexed) */
   /* Per level: 0 for a hashed level, else its perfect hash (Config::index_slots / index_buckets). */
   lsnif_uint index_slots0, index_slots1, index_slots2, index_slots3;
-  lsnif_uint index_buckets0, index_buckets1, index_buckets2, index_buckets3; /* 40 words */
+  lsnif_uint index_buckets0, index_buckets1, index_buckets2, index_buckets3;
+  lsnif_uint surface_channels; /* 1: the output has LSNIF_OUT_SURFACE_COUNT surface channels, else 0 */
+  float emission_scale;        /* the emission head's scale (0 without surface channels) */
+  lsnif_uint reserved0, reserved1, reserved2, reserved3, reserved4, reserved5; /* zero; 48 words */
 };
-#define LSNIF_GPU_HEADER_WORDS 40u
+#define LSNIF_GPU_HEADER_WORDS 48u
 
 /* Test interface of tests/gpu/lsnif_reference.comp: one world-space ray in, one result out. */
 struct LsnifReferenceRay {
@@ -146,8 +168,11 @@ struct LsnifReferenceHit {
   float normal_x, normal_y, normal_z; /* world space, normalized */
   lsnif_uint material;
   float albedo_x, albedo_y, albedo_z;
-  lsnif_uint reserved;
+  lsnif_uint surface;   /* packed surface channels (LSNIF_SURFACE_LEARNED) */
   float leaving_tmin;   /* lsnif_leaving_tmin for the ray's own direction (0 without a hit) */
+  float emission_r, emission_g, emission_b;
+  lsnif_uint instance;  /* the ray-tracing tests' closest-hit shaders: gl_InstanceID | hit kind << 15 |
+                           gl_InstanceCustomIndexEXT << 16 (~0u when none ran); 0 from lsnif_reference.comp */
 };
 
 /* ---- Ray tracing binding convention (src/lsnif/shaders/lsnif.rint, src/lsnif/lsnif_hit.glsl) ----
@@ -186,23 +211,30 @@ struct LsnifRtPushConstants {
 };
 #endif
 
-/* Hit attributes that lsnif.rint reports (28 bytes <= maxRayHitAttributeSize 32); decode them in a
- * closest-hit shader with lsnif_hit.glsl. The hit distance is gl_HitTEXT (world = object ray
- * parameter), the instance gl_InstanceID / gl_InstanceCustomIndexEXT, the model the table entry.
+/* Hit attributes that lsnif.rint reports (32 bytes = maxRayHitAttributeSize 32 of lavapipe); decode
+ * them in a closest-hit shader with lsnif_hit.glsl. The hit distance is gl_HitTEXT (world = object
+ * ray parameter), the instance gl_InstanceID / gl_InstanceCustomIndexEXT, the model the table entry.
  *  normal_*:      object-space unit normal as predicted (fp32); world normal = normalize(A^-T n)
- *  albedo_rg:     packUnorm2x16(albedo.r, albedo.g)
- *  albedo_b_material_points: bits 0-15 albedo.b as unorm16, bits 16-23 material index (< 256,
- *                 LSNIF_MAX_MATERIALS <= 64), bits 24-31 boundary points of the walk (<= 32)
+ *  albedo_material: packUnorm4x8(albedo.r, albedo.g, albedo.b, 0) with the material index
+ *                 (< LSNIF_MAX_MATERIALS <= 64) in byte 3
+ *  surface_points: bytes 0-2 metallic, roughness, ambient occlusion as unorm8 (0 without surface
+ *                 channels), byte 3 the boundary points of the walk (<= 32) in bits 0-6 and
+ *                 LSNIF_HIT_SURFACE_LEARNED_BIT when the model learned the surface channels
+ *  emission_rgbe: emission (linear RGB, >= 0) as shared-exponent RGBE: bytes 0-2 mantissas m, byte 3
+ *                 exponent e, each channel m x 2^(e - 136); 0 is black (lsnif_pack_rgbe)
  *  occlusion_logit: raw occlusion output (>= 0 for every reported hit)
  *  leaving_distance: LSNIF_LEAVING_TMIN_VOXELS x the model's voxel edge, object units (for
  *                 lsnif_leaving_tmin) */
 struct LsnifHitAttributes {
   float normal_x, normal_y, normal_z;
-  lsnif_uint albedo_rg;
-  lsnif_uint albedo_b_material_points;
+  lsnif_uint albedo_material;
+  lsnif_uint surface_points;
+  lsnif_uint emission_rgbe;
   float occlusion_logit;
   float leaving_distance;
 };
+#define LSNIF_HIT_SURFACE_LEARNED_BIT 0x80000000u
+#define LSNIF_RGBE_BIAS 136
 
 /* ---- Batched queries (the wavefront path: lsnifCmdIntersectModelRays, src/lsnif/shaders/lsnif_batch.comp) ----
  * The application's rays and the hits the library writes, in device buffers addressed by their
@@ -219,7 +251,7 @@ struct LsnifQueryRay { /* 48 bytes */
 #define LSNIF_QUERY_HIT_TRIANGLE 2u   /* LsnifQueryResult: a triangle of the application's TLAS */
 #define LSNIF_QUERY_HIT_INCOMPLETE 3u /* LsnifQueryResult: a candidate of the ray did not fit the scratch
                                          and could have changed the answer (lsnifCmdQuery) */
-struct LsnifQueryHit { /* 48 bytes; every field is written, also for a miss */
+struct LsnifQueryHit { /* 64 bytes; every field is written, also for a miss */
   float t;                              /* ray parameter (also when not accepted, if points > 0) */
   float normal_x, normal_y, normal_z;   /* object space, normalized (zero when points == 0) */
   float albedo_r, albedo_g, albedo_b;
@@ -227,6 +259,8 @@ struct LsnifQueryHit { /* 48 bytes; every field is written, also for a miss */
   lsnif_uint kind;                      /* LSNIF_QUERY_HIT_* */
   lsnif_uint points;                    /* boundary points of the walk (0: the network was not evaluated) */
   float occlusion_logit;                /* raw occlusion output (0 when points == 0) */
+  lsnif_uint surface;                   /* packed surface channels (LSNIF_SURFACE_LEARNED); 0 when points == 0 */
+  float emission_r, emission_g, emission_b; /* learned emission (0 without surface channels) */
   lsnif_uint reserved;                  /* zero */
 };
 
@@ -257,7 +291,7 @@ struct LsnifBatchPushConstants {
  * a triangle hit is the closest (or, with LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT, any) triangle
  * the TLAS traversal commits, every triangle taken as opaque. The answer is the closest of both;
  * at equal t the lower instance index wins. */
-struct LsnifQueryResult { /* 64 bytes; every field is written */
+struct LsnifQueryResult { /* 80 bytes; every field is written */
   float t;                              /* ray parameter of the hit (0 when kind is NONE or INCOMPLETE) */
   float normal_x, normal_y, normal_z;   /* LSNIF: world-space unit normal, normalize(A^-T n) of the
                                            instance's object-to-world A; zero for triangles */
@@ -271,6 +305,8 @@ struct LsnifQueryResult { /* 64 bytes; every field is written */
   float barycentric_u, barycentric_v;   /* triangle: the hit's barycentrics (weights of vertices 1 and 2) */
   lsnif_uint front_face;                /* 1 when front-facing: triangles by winding and instance flags,
                                            LSNIF by the predicted normal (dot(n, d) < 0 in object space) */
+  lsnif_uint surface;                   /* LSNIF: packed surface channels (LSNIF_SURFACE_LEARNED); 0 for triangles */
+  float emission_r, emission_g, emission_b; /* LSNIF: learned emission (0 without surface channels) */
 };
 /* What lsnifCmdQuery counted, written to LsnifQueryInfo::status when given (20 bytes): candidates
  * the broad phase produced over all chunks, the capacity of one chunk, candidates that did not fit
@@ -315,7 +351,7 @@ struct LsnifQueryRayState { /* 32 bytes; t values as float bits (non-negative: o
   lsnif_uint triangle_instance; /* its instance index; ~0u without one */
   lsnif_uint reserved0, reserved1, reserved2;
 };
-struct LsnifQueryCandidate { /* 144 bytes: one (ray, LSNIF instance) pair of the broad phase */
+struct LsnifQueryCandidate { /* 160 bytes: one (ray, LSNIF instance) pair of the broad phase */
   lsnif_uint ray, instance_index, custom_index, flags;
   float origin_x, origin_y, origin_z, tmin;           /* object space (as the intersection shader sees it) */
   float direction_x, direction_y, direction_z, tmax;  /* tmax: the ray's, cut at the closest triangle hit */
@@ -331,6 +367,8 @@ struct LsnifQueryCandidate { /* 144 bytes: one (ray, LSNIF instance) pair of the
   lsnif_uint front_face;
   lsnif_uint evaluated;                               /* 1: the narrow phase ran the model recorded for its
                                                          table entry, which the table holds (0 otherwise) */
+  lsnif_uint surface;                                 /* packed surface channels */
+  float emission_r, emission_g, emission_b;
 };
 /* Push constants of lsnifCmdQuery's stages (one block for all of them, 96 bytes). */
 struct LsnifQueryPushConstants {
@@ -358,12 +396,12 @@ struct LsnifQueryPushConstants {
 
 #if defined(__cplusplus)
 static_assert(sizeof(LsnifQueryRay) == 48, "LsnifQueryRay layout");
-static_assert(sizeof(LsnifQueryHit) == 48, "LsnifQueryHit layout");
-static_assert(sizeof(LsnifQueryResult) == 64, "LsnifQueryResult layout");
+static_assert(sizeof(LsnifQueryHit) == 64, "LsnifQueryHit layout");
+static_assert(sizeof(LsnifQueryResult) == 80, "LsnifQueryResult layout");
 static_assert(sizeof(LsnifQueryStatus) == 20, "LsnifQueryStatus layout");
 static_assert(sizeof(LsnifQueryModelCounters) == 40, "LsnifQueryModelCounters layout");
 static_assert(sizeof(LsnifQueryRayState) == 32, "LsnifQueryRayState layout");
-static_assert(sizeof(LsnifQueryCandidate) == 144, "LsnifQueryCandidate layout");
+static_assert(sizeof(LsnifQueryCandidate) == 160, "LsnifQueryCandidate layout");
 static_assert(sizeof(LsnifQueryPushConstants) == 96, "LsnifQueryPushConstants layout");
 #endif
 

@@ -455,9 +455,34 @@ LSNIF_API LsnifResult lsnifGetIntersectScratchSize(LsnifContext context, LsnifMo
  * writes before reading the hits. Fails, recording nothing, on an unknown model or pipeline, a
  * model not built yet, a null or misaligned address, or scratch smaller than
  * lsnifGetIntersectScratchSize. The rays of a batch of more than LSNIF_BATCH_CHUNK_RAYS run in
- * chunks, one after the other, in the same scratch. */
+ * chunks, one after the other, in the same scratch. A hit carries the surface channels of a model
+ * that learned them (LsnifQueryHit::surface, lsnifUnpackSurface; emission_r/g/b) and 0 for one that
+ * did not; every field is 0 for a ray without boundary points. */
 LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommandBuffer commandBuffer,
                                                  LsnifQueryPipeline pipeline, const LsnifIntersectModelRaysInfo* pInfo);
+
+/* The surface channels of a hit, unpacked from LsnifQueryHit::surface or LsnifQueryResult::surface
+ * (host_device.h, LSNIF_SURFACE_LEARNED: bytes 0, 1, 2 metallic, roughness and ambient occlusion as
+ * unorm8, byte 3 LSNIF_SURFACE_LEARNED when the model learned them, the word 0 otherwise). The
+ * emission is in the hit's emission_r/g/b (linear RGB, 0 for a model without surface channels). In
+ * GLSL: lsnif_unpack_surface of lsnif/lsnif_hit.glsl. */
+typedef struct LsnifSurfaceChannels {
+  VkBool32 learned;          /* VK_TRUE: the model learned them; VK_FALSE: the others are 0, the
+                                application takes them from the material of the hit's material index */
+  float metallic;            /* in [0, 1], multiples of 1/255 */
+  float roughness;           /* in [0, 1] */
+  float ambientOcclusion;    /* in [0, 1]: glTF's occlusion texture, strength applied (1: unoccluded) */
+} LsnifSurfaceChannels;
+
+static inline LsnifSurfaceChannels lsnifUnpackSurface(uint32_t surface) {
+  LsnifSurfaceChannels c = {VK_FALSE, 0.0f, 0.0f, 0.0f};
+  if ((surface >> 24U) != LSNIF_SURFACE_LEARNED) return c;
+  c.learned = VK_TRUE;
+  c.metallic = (float)(surface & 0xFFU) / 255.0f;
+  c.roughness = (float)((surface >> 8U) & 0xFFU) / 255.0f;
+  c.ambientOcclusion = (float)((surface >> 16U) & 0xFFU) / 255.0f;
+  return c;
+}
 
 /* ---- Queries against the application's TLAS ------------------------------------------------- *
  * World-space rays against the application's TLAS holding triangle instances and LSNIF instances
@@ -553,7 +578,7 @@ typedef struct LsnifQueryModelIndexInfo {
 
 /* The scratch bytes lsnifCmdQuery needs for pInfo's rayCount, candidatesPerRay, modelCount and
  * pModels (the addresses and the scratch fields are not read): per ray of a chunk 32 bytes, per
- * candidate slot 148 bytes plus the batch rows of the largest model (about 4 x (4 + H + input +
+ * candidate slot 164 bytes plus the batch rows of the largest model (about 4 x (4 + H + input +
  * output) bytes), per table entry 40 bytes. Fails on the errors of lsnifCmdQuery's counts and models. */
 LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const LsnifQueryInfo* pInfo, VkDeviceSize* pSize);
 
@@ -564,10 +589,13 @@ LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const Lsnif
  *    report for that instance: same object-space ray (the instance's ObjectToWorld applied to the
  *    world ray, the direction not renormalized, so t is the world ray parameter), walk, network,
  *    acceptance (occlusion >= 0.5, tmin <= t <= tmax) and culling of the predicted facing by
- *    LSNIF_RAY_FLAG_CULL_*_FACING; the normal in world space, albedo and material predicted;
+ *    LSNIF_RAY_FLAG_CULL_*_FACING; the normal in world space, albedo and material predicted, and
+ *    for a model with surface channels their packed word (surface, lsnifUnpackSurface) and the
+ *    emission (else 0);
  *  - LSNIF_QUERY_HIT_TRIANGLE: the traversal's committed triangle (every triangle taken as opaque,
  *    the culling flags applied as ray flags): instance, primitive, geometry, barycentrics and
- *    facing; the application shades it (normal, albedo and material are left zero);
+ *    facing; the application shades it (normal, albedo, material, surface and emission are left
+ *    zero);
  *  - LSNIF_QUERY_HIT_NONE: no accepted hit (also for a ray with a non-finite or zero direction, a
  *    non-finite origin, tmin < 0, tmin > tmax, or NaN);
  *  - LSNIF_QUERY_HIT_INCOMPLETE: a candidate of the ray did not fit the capacity and could have

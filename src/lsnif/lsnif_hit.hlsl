@@ -1,11 +1,12 @@
 // lsnif_hit.hlsl -- the HLSL twin of lsnif_hit.glsl: decodes the hit attributes of the LSNIF
-// intersection shader (LsnifHitAttributes of src/lsnif/host_device.h, 28 bytes) in an application's
+// intersection shader (LsnifHitAttributes of src/lsnif/host_device.h, 32 bytes) in an application's
 // HLSL (or Slang) closest-hit shader. The intersection shader itself stays the library's SPIR-V (or
 // one built from lsnif/shaders/lsnif_intersection.glsl); SPIR-V pipelines mix stages compiled from
 // either language, so only the decoding is needed here. Usage in a closest-hit shader:
 //   #include "lsnif/lsnif_hit.hlsl"
 //   [shader("closesthit")] void main(inout Payload p, in LsnifHitAttributes a) {
 //     LsnifSurface s = lsnif_decode_hit(a, (float3x3)WorldToObject3x4());  // world normal, albedo, ...
+//     if (s.surface_learned) ...  // s.metallic, s.roughness, s.ambient_occlusion, s.emission
 //     bool front = HitKind() == LSNIF_HIT_KIND_FRONT_FACING;                 // hit distance: RayTCurrent()
 //   }
 // Every function takes the instance's world-to-object matrix as a parameter, so the file compiles
@@ -17,11 +18,15 @@
 // host_device.h: the hit kinds (HitKind()) and the leaving rule's constant.
 #define LSNIF_HIT_KIND_FRONT_FACING 0u
 #define LSNIF_HIT_KIND_BACK_FACING 1u
+#define LSNIF_HIT_SURFACE_LEARNED_BIT 0x80000000u
+#define LSNIF_RGBE_BIAS 136
 
 struct LsnifHitAttributes {
   float normal_x, normal_y, normal_z;  // object-space unit normal as predicted
-  uint albedo_rg;                      // albedo r, g as unorm16 (low half r)
-  uint albedo_b_material_points;       // bits 0-15 albedo b as unorm16, 16-23 material, 24-31 points
+  uint albedo_material;                // albedo r, g, b as unorm8 in bytes 0-2, material in byte 3
+  uint surface_points;                 // metallic, roughness, ambient occlusion as unorm8 in bytes 0-2;
+                                       // byte 3: walk points in bits 0-6, LSNIF_HIT_SURFACE_LEARNED_BIT
+  uint emission_rgbe;                  // emission as shared-exponent RGBE (lsnif_unpack_rgbe)
   float occlusion_logit;
   float leaving_distance;              // object units
 };
@@ -29,16 +34,36 @@ struct LsnifHitAttributes {
 struct LsnifSurface {
   float3 normal;         // world space, normalized (zero if the prediction was zero)
   float3 object_normal;  // object space
-  float3 albedo;         // in [0, 1], unorm16-rounded
+  float3 albedo;         // in [0, 1], unorm8-rounded
   uint material;         // index into the model's materials
   uint points;           // boundary points of the walk that produced the hit
   float occlusion_logit;
   float leaving_distance;  // object units
+  // The surface channels, when the model learned them (surface_learned; else all zero and the
+  // application takes them from the material `material`): unorm8-rounded, in [0, 1].
+  bool surface_learned;
+  float metallic, roughness, ambient_occlusion;
+  float3 emission;       // linear RGB, >= 0 (RGBE-rounded)
 };
 
-// The unorm16 in the low 16 bits of `bits` (GLSL's unpackUnorm2x16 component).
-float lsnif_unorm16(uint bits) {
-  return float(bits & 0xffffu) / 65535.0;
+// Bytes 0, 1, 2 of `bits` as unorm8 (GLSL's unpackUnorm4x8 components x, y, z).
+float3 lsnif_unorm8x3(uint bits) {
+  return float3(float(bits & 0xffu), float((bits >> 8) & 0xffu), float((bits >> 16) & 0xffu)) / 255.0;
+}
+
+// 2^k for k in [-126, 127], built from its bits (exact; HLSL's ldexp takes a float exponent).
+float lsnif_pow2(int k) {
+  return asfloat(uint(k + 127) << 23);
+}
+
+// The colour of an RGBE word (lsnif_hit.glsl lsnif_unpack_rgbe): m x 2^(e - LSNIF_RGBE_BIAS), the
+// power of two applied in two exact halves (e - LSNIF_RGBE_BIAS spans [-135, 119]).
+float3 lsnif_unpack_rgbe(uint rgbe) {
+  const int e = int(rgbe >> 24);
+  if (e == 0) return float3(0.0, 0.0, 0.0);
+  const float3 m = float3(float(rgbe & 0xffu), float((rgbe >> 8) & 0xffu), float((rgbe >> 16) & 0xffu));
+  const int k = e - LSNIF_RGBE_BIAS, half_k = k / 2;
+  return m * lsnif_pow2(half_k) * lsnif_pow2(k - half_k);
 }
 
 // Object-space normal to world space with the inverse transpose of the instance's linear part:
@@ -54,11 +79,17 @@ LsnifSurface lsnif_decode_hit(LsnifHitAttributes a, float3x3 world_to_object) {
   LsnifSurface s;
   s.object_normal = float3(a.normal_x, a.normal_y, a.normal_z);
   s.normal = lsnif_world_normal_of(s.object_normal, world_to_object);
-  s.albedo = float3(lsnif_unorm16(a.albedo_rg), lsnif_unorm16(a.albedo_rg >> 16), lsnif_unorm16(a.albedo_b_material_points));
-  s.material = (a.albedo_b_material_points >> 16) & 0xffu;
-  s.points = a.albedo_b_material_points >> 24;
+  s.albedo = lsnif_unorm8x3(a.albedo_material);
+  s.material = a.albedo_material >> 24;
+  s.points = (a.surface_points >> 24) & 0x7fu;
   s.occlusion_logit = a.occlusion_logit;
   s.leaving_distance = a.leaving_distance;
+  s.surface_learned = (a.surface_points & LSNIF_HIT_SURFACE_LEARNED_BIT) != 0u;
+  const float3 channels = lsnif_unorm8x3(a.surface_points);
+  s.metallic = channels.x;
+  s.roughness = channels.y;
+  s.ambient_occlusion = channels.z;
+  s.emission = lsnif_unpack_rgbe(a.emission_rgbe);
   return s;
 }
 

@@ -106,6 +106,8 @@ struct Comparison {
   size_t both_hit = 0, material_mismatch = 0, hits_per_kind[kKinds] = {};
   double t_err_max = 0, t_err_sum = 0, normal_deg_max = 0, normal_deg_sum = 0, albedo_max = 0;
   double occlusion_max = 0;  // |sigmoid(gpu logit) - cpu occlusion| where both walks match
+  bool surface_channels = false;  // the model's: every hit's surface word is learned, else 0
+  SurfaceAgreement surface;       // where both hit
 };
 
 // A flip (hit on one side only) is "threshold" when the occlusion logit is within kLogitEps of 0,
@@ -120,6 +122,11 @@ Comparison compare(const Model& model, const Instance& in, const std::vector<Ray
                    const std::vector<LsnifReferenceHit>& gpu) {
   Comparison c;
   c.rays = world.size();
+  c.surface_channels = model.config.surface_channels != 0;
+  const float scale = model.config.emission_scale;
+  // The emission is fp32 here (no RGBE): the sigmoid's difference between the two sides, bounded as
+  // the albedo's, times the scale.
+  const auto emission_tolerance = [scale](float) { return 1e-4f * scale; };
   const float diag = model.bounds().diagonal();
   for (size_t i = 0; i < world.size(); ++i) {
     Ray o;
@@ -170,6 +177,8 @@ Comparison compare(const Model& model, const Instance& in, const std::vector<Ray
     const glm::vec3 ga(g.albedo_x, g.albedo_y, g.albedo_z);
     for (int k = 0; k < 3; ++k) c.albedo_max = std::max(c.albedo_max, double(std::fabs(ga[k] - h.albedo[k])));
     c.material_mismatch += g.material != h.material;
+    add_surface(c.surface, g.surface, glm::vec3(g.emission_r, g.emission_g, g.emission_b), h, scale,
+                emission_tolerance);
   }
   return c;
 }
@@ -179,13 +188,16 @@ void print(const char* name, const Comparison& c) {
       "%s: %zu rays, cpu hits %zu, gpu hits %zu, hit agreement %.4f%% (flips: %zu threshold, %zu interval, "
       "%zu walk, %zu other), walk mismatches %zu\n"
       "  both hit %zu (per kind %zu/%zu/%zu/%zu): t error / diagonal max %.3g mean %.3g, normal angle max "
-      "%.3g deg mean %.3g deg, albedo max %.3g, material mismatches %zu, occlusion max diff %.3g\n",
+      "%.3g deg mean %.3g deg, albedo max %.3g, material mismatches %zu, occlusion max diff %.3g\n"
+      "  surface channels: %zu of %zu hits learned, %zu words bit-identical, %zu beyond one unorm8 step, "
+      "emission max error / scale %.3g\n",
       name, c.rays, c.cpu_hits, c.gpu_hits, 100.0 * double(c.hit_agree) / double(c.rays), c.flips_threshold,
       c.flips_interval, c.flips_walk, c.flips_other, c.walk_mismatch, c.both_hit, c.hits_per_kind[0],
       c.hits_per_kind[1], c.hits_per_kind[2], c.hits_per_kind[3], c.t_err_max,
       c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, c.normal_deg_max,
       c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, c.albedo_max, c.material_mismatch,
-      c.occlusion_max);
+      c.occlusion_max, c.surface.learned, c.surface.hits, c.surface.exact, c.surface.step_mismatch,
+      c.surface.emission_max);
 }
 
 constexpr size_t kRaysPerInstance = 5000;  // x 2 instances x 2 models = 20k trained-model rays
@@ -297,6 +309,10 @@ class GpuReference : public ::testing::Test {
     EXPECT_LT(c.albedo_max, 1e-4);
     EXPECT_LT(c.occlusion_max, 5e-4);
     EXPECT_EQ(c.material_mismatch, 0u);
+    // Surface channels: the learned flag on every hit of a model with them (and the word 0 without),
+    // each unorm8 within one step of pack_surface of the CPU's sigmoids, the emission within the
+    // albedo's bound times the emission scale.
+    expect_surface_agreement(c.surface, c.surface_channels);
   }
 
   // Two comparisons of a trained model: each within the bounds, not vacuous (hits of every kind).
@@ -353,6 +369,40 @@ TEST_F(GpuReference, VoxelSegmentsModelMatchesCpu) {
   const Comparison a = run(segment_model_, Transform3x4(), kRaysPerInstance, 3, "voxel segments, identity");
   const Comparison b = run(segment_model_, skewed_instance(), kRaysPerInstance, 4, "voxel segments, skewed instance");
   expect_trained_agreement(a, b);
+}
+
+// Surface channels (metallic, roughness, ambient occlusion, emission) after the material logits:
+// the voxel-segments model with random surface rows (with_surface_channels: the hits stay the
+// trained model's), emission up to 40, on both instances; RandomOddSizedModelMatchesCpu adds them
+// to the odd-sized model (after its 2 material logits: outputs 10 to 15).
+TEST_F(GpuReference, SurfaceChannelsModelMatchesCpu) {
+  ASSERT_TRUE(train_status_) << train_status_.message();
+  const Model model = with_surface_channels(segment_model_, 40.0f, 21);
+  ASSERT_EQ(model.config.output_dim(), segment_model_.config.output_dim() + LSNIF_OUT_SURFACE_COUNT);
+  const Comparison a = run(model, Transform3x4(), kRaysPerInstance, 12, "surface channels, identity");
+  const Comparison b = run(model, skewed_instance(), kRaysPerInstance, 13, "surface channels, skewed instance");
+  expect_trained_agreement(a, b);
+  for (const Comparison* c : {&a, &b}) {
+    EXPECT_EQ(c->surface.learned, c->both_hit);
+    EXPECT_GT(c->surface.emission_max, 0.0) << "not vacuous: the GPU reports emission";
+  }
+  // The packed words vary: the random rows are not saturated.
+  std::vector<LsnifHit> cpu(2000);
+  const Instance in = instance_of(Transform3x4());
+  std::vector<int> kinds;
+  std::vector<Ray> world;
+  make_world_rays(model, in, cpu.size(), 14, world, kinds);
+  ASSERT_TRUE(intersect(model, Transform3x4(), world.data(), world.size(), cpu.data()));
+  float lo = 1.0f, hi = 0.0f, emission_hi = 0.0f;
+  for (const LsnifHit& h : cpu) {
+    if (!h.hit) continue;
+    lo = std::min({lo, h.metallic, h.roughness, h.ambient_occlusion});
+    hi = std::max({hi, h.metallic, h.roughness, h.ambient_occlusion});
+    emission_hi = std::max({emission_hi, h.emission.r, h.emission.g, h.emission.b});
+  }
+  EXPECT_LT(lo, 0.2f);
+  EXPECT_GT(hi, 0.8f);
+  EXPECT_GT(emission_hi, 20.0f);
 }
 
 // 8-bit grid features: the trained models' grids as int8 codes times a per-level scale. The
@@ -433,6 +483,12 @@ TEST_F(GpuReference, RandomOddSizedModelMatchesCpu) {
     expect_agreement(c);
     EXPECT_GT(c.cpu_hits, 400u);
     EXPECT_LT(c.cpu_hits, 3600u);
+    // The same model with surface channels after its 2 material logits (outputs 10 to 15).
+    const Comparison s = run(with_surface_channels(model, 3.0f, 15 + variant), skewed_instance(), 4000, 5,
+                             "the same with surface channels");
+    expect_agreement(s);
+    EXPECT_EQ(s.surface.learned, s.both_hit);
+    EXPECT_GT(s.both_hit, 400u);
   }
 }
 
@@ -477,6 +533,9 @@ TEST(GpuModelPacking, EveryValueAtItsDocumentedPlace) {
   EXPECT_EQ(h.grid_scale0, 0.0f);
   EXPECT_EQ(h.index_offset, 0u);  // no indexed level, no index section
   EXPECT_EQ(h.index_slots0 | h.index_buckets0, 0u);
+  EXPECT_EQ(h.surface_channels, 0u);
+  EXPECT_EQ(h.emission_scale, 0.0f);
+  EXPECT_EQ(h.reserved0 | h.reserved1 | h.reserved2 | h.reserved3 | h.reserved4 | h.reserved5, 0u);
   auto half_at = [&](uint32_t base, uint64_t e) {
     return half_to_float(uint16_t(words[base + (e >> 1)] >> ((e & 1u) * 16u)));
   };
@@ -522,6 +581,34 @@ TEST(GpuModelPacking, EveryValueAtItsDocumentedPlace) {
     EXPECT_EQ(g.end_word, expect_word);
   }
   EXPECT_EQ(h.mlp_offset + expect_word, h.total_words);
+}
+
+// Surface channels: the header's flag and emission scale, the output layer LSNIF_OUT_SURFACE_COUNT
+// rows taller (16 = two blocks of 8 for the odd-sized model), the rest of the block unchanged in
+// layout.
+TEST(GpuModelPacking, SurfaceChannelsInTheHeaderAndTheOutputLayer) {
+  const Model plain = random_odd_model();
+  const Model model = gputest::with_surface_channels(plain, 3.5f, 3);
+  std::vector<uint32_t> words;
+  const Status packed = pack_gpu_model(model, words);
+  ASSERT_TRUE(packed) << packed.message();
+  ASSERT_TRUE(check_gpu_block_header(words));
+  const LsnifGpuModelHeader h = gpu_block_header(words);
+  EXPECT_EQ(h.surface_channels, 1u);
+  EXPECT_EQ(h.emission_scale, 3.5f);
+  EXPECT_EQ(h.reserved0 | h.reserved1 | h.reserved2 | h.reserved3 | h.reserved4 | h.reserved5, 0u);
+  const std::vector<GpuLayerLayout> layers = gpu_layer_layout(model.config);
+  ASSERT_EQ(layers.size(), 4u);
+  EXPECT_EQ(layers[3].out, 10u + LSNIF_OUT_SURFACE_COUNT);
+  EXPECT_EQ(layers[3].blocks, 2u);
+  // The output rows the plain model has are its own, the surface rows follow them.
+  const LayerView with = mlp_layers(model.config).back(), without = mlp_layers(plain.config).back();
+  for (uint32_t r = 0; r < without.out; ++r) {
+    EXPECT_EQ(model.mlp[with.bias_offset + r], plain.mlp[without.bias_offset + r]) << r;
+    for (uint32_t i = 0; i < with.in; ++i)
+      ASSERT_EQ(model.mlp[with.weight_offset + size_t(r) * with.in + i],
+                plain.mlp[without.weight_offset + size_t(r) * without.in + i]);
+  }
 }
 
 // 8-bit grid features: four two's complement codes per word (element e in byte e & 3 of word

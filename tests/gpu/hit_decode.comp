@@ -1,7 +1,9 @@
 // hit_decode.comp -- decodes LsnifHitAttributes with lsnif/lsnif_hit.glsl (LSNIF_HIT_DECODE_ONLY),
 // one record per invocation: the twin of hit_decode.hlsl (the same buffers and results), both run
-// by hit_decode_test.cpp. Set 0: binding 0 the attributes, binding 1 per record 4 vec4 (the rows of
-// the instance's world-to-object linear part, then a world direction), binding 2 the results.
+// by hit_decode_test.cpp. Set 0: binding 0 the attributes, binding 1 per record 5 vec4 (the rows of
+// the instance's world-to-object linear part, a world direction, then a colour and a channel value
+// for the packers), binding 2 the results. The packers exist in GLSL only (the intersection shader
+// is GLSL): `packed` is theirs, the HLSL twin writes 0 there.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define LSNIF_HIT_DECODE_ONLY
@@ -13,6 +15,10 @@ struct HitDecodeResult {
   vec4 normal;        // xyz: world normal, w: lsnif_leaving_tmin along the direction
   vec4 albedo;        // xyz: albedo, w: occlusion logit
   uvec4 fields;       // material, points, leaving distance (float bits), object normal x (float bits)
+  vec4 surface;       // metallic, roughness, ambient occlusion, 1 when learned (else 0)
+  vec4 emission;      // xyz: emission, w: 0
+  uvec4 packed;       // lsnif_pack_rgbe(colour), lsnif_pack_surface(true, v, 1 - v, v / 2), and
+                      // lsnif_pack_hit's albedo_material and surface_points (below)
 };
 
 layout(set = 0, binding = 0, std430) readonly buffer Attributes { LsnifHitAttributes attributes[]; };
@@ -24,11 +30,19 @@ void main() {
   const uint i = gl_GlobalInvocationID.x;
   if (i >= pc.count) return;
   // mat3 takes columns: the rows given, transposed.
-  const mat3 world_to_object = transpose(mat3(inputs[4 * i].xyz, inputs[4 * i + 1].xyz, inputs[4 * i + 2].xyz));
+  const mat3 world_to_object = transpose(mat3(inputs[5 * i].xyz, inputs[5 * i + 1].xyz, inputs[5 * i + 2].xyz));
   const LsnifSurface s = lsnif_decode_hit(attributes[i], world_to_object);
   HitDecodeResult r;
-  r.normal = vec4(s.normal, lsnif_leaving_tmin(s, inputs[4 * i + 3].xyz, world_to_object));
+  r.normal = vec4(s.normal, lsnif_leaving_tmin(s, inputs[5 * i + 3].xyz, world_to_object));
   r.albedo = vec4(s.albedo, s.occlusion_logit);
   r.fields = uvec4(s.material, s.points, floatBitsToUint(s.leaving_distance), floatBitsToUint(s.object_normal.x));
+  r.surface = vec4(s.metallic, s.roughness, s.ambient_occlusion, s.surface_learned ? 1.0 : 0.0);
+  r.emission = vec4(s.emission, 0.0);
+  // The packers: the colour as RGBE, v as the three surface channels, and a whole hit of the record's
+  // material and points with the colour as albedo (clamped by unorm8) and emission.
+  const vec4 c = inputs[5 * i + 4];
+  const uint surface = lsnif_pack_surface(true, c.w, 1.0 - c.w, 0.5 * c.w);
+  const LsnifHitAttributes a = lsnif_pack_hit(vec3(0.0), c.xyz, s.material, s.points, surface, c.xyz, 0.0, 0.0);
+  r.packed = uvec4(lsnif_pack_rgbe(c.xyz), surface, a.albedo_material, a.surface_points);
   results[i] = r;
 }

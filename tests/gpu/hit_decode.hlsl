@@ -6,6 +6,9 @@ struct HitDecodeResult {
   float4 normal;  // xyz: world normal, w: lsnif_leaving_tmin along the direction
   float4 albedo;  // xyz: albedo, w: occlusion logit
   uint4 fields;   // material, points, leaving distance (float bits), object normal x (float bits)
+  float4 surface;   // metallic, roughness, ambient occlusion, 1 when learned (else 0)
+  float4 emission;  // xyz: emission, w: 0
+  uint4 packed;     // 0: the packers are GLSL's only (hit_decode.comp)
 };
 
 struct Push {
@@ -20,11 +23,14 @@ struct Push {
 [numthreads(64, 1, 1)] void main(uint3 id : SV_DispatchThreadID) {
   const uint i = id.x;
   if (i >= pc.count) return;
-  const float3x3 world_to_object = float3x3(inputs[4 * i].xyz, inputs[4 * i + 1].xyz, inputs[4 * i + 2].xyz);
+  const float3x3 world_to_object = float3x3(inputs[5 * i].xyz, inputs[5 * i + 1].xyz, inputs[5 * i + 2].xyz);
   const LsnifSurface s = lsnif_decode_hit(attributes[i], world_to_object);
   HitDecodeResult r;
-  r.normal = float4(s.normal, lsnif_leaving_tmin(s, inputs[4 * i + 3].xyz, world_to_object));
+  r.normal = float4(s.normal, lsnif_leaving_tmin(s, inputs[5 * i + 3].xyz, world_to_object));
   r.albedo = float4(s.albedo, s.occlusion_logit);
   r.fields = uint4(s.material, s.points, asuint(s.leaving_distance), asuint(s.object_normal.x));
+  r.surface = float4(s.metallic, s.roughness, s.ambient_occlusion, s.surface_learned ? 1.0 : 0.0);
+  r.emission = float4(s.emission, 0.0);
+  r.packed = uint4(0, 0, 0, 0);
   results[i] = r;
 }

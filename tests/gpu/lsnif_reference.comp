@@ -7,6 +7,8 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "lsnif/shaders/lsnif_intersect.glsl"
+#define LSNIF_HIT_DECODE_ONLY  // a compute shader: the packers of lsnif_hit.glsl only
+#include "lsnif/lsnif_hit.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -55,7 +57,10 @@ void main() {
   out_hit.albedo_x = h.albedo.x;
   out_hit.albedo_y = h.albedo.y;
   out_hit.albedo_z = h.albedo.z;
-  out_hit.reserved = 0u;
+  out_hit.surface = lsnif_pack_surface(h.surface_learned, h.metallic, h.roughness, h.ambient_occlusion);
+  out_hit.emission_r = h.emission.r;
+  out_hit.emission_g = h.emission.g;
+  out_hit.emission_b = h.emission.b;
   const float dir_len = length(A_inv * direction);
   out_hit.leaving_tmin = h.hit && dir_len > 0.0 ? lsnif_leaving_distance(m) / dir_len : 0.0;
   HitRef(pc.hits).hits[i] = out_hit;

@@ -169,6 +169,9 @@ class PluginQuery : public ::testing::Test {
     const uint32_t table_log2[2] = {10, 14};
     set_table_log2(unequal_tables.config, table_log2, 2);
     if (status_) status_ = test::tiny_model("bunny.tables_10_14", b, unequal_tables, model_b_);
+    // Model b also has surface channels (random surface rows, emission up to 8: with_surface_channels),
+    // model a none: every query mixes both kinds of results.
+    if (status_) model_b_ = with_surface_channels(model_b_, 8.0f, 31);
     if (status_) status_ = plugin_.init(vk_);
     if (status_) status_ = plugin_.upload(model_a_, a_);
     if (status_) status_ = plugin_.upload(model_b_, b_);
@@ -454,6 +457,11 @@ class PluginQuery : public ::testing::Test {
   struct Agreement {
     size_t rays = 0, same_hit = 0, same_instance = 0, both_hit = 0, lsnif = 0, triangles = 0, incomplete = 0;
     double max_dt = 0, max_angle = 0, max_albedo = 0;
+    // Surface channels of the LSNIF hits: learned ones, words whose flag differs or a channel by
+    // more than one unorm8 step, the largest emission difference beyond the RGBE step of the
+    // shader's attributes (<= 0: within).
+    size_t surface_learned = 0, surface_mismatch = 0;
+    double emission_excess = -1.0;
   };
   static Agreement compare(const Scene& s, const std::vector<Ray>& rays, const std::vector<LsnifQueryResult>& q,
                            const std::vector<LsnifReferenceHit>& ref) {
@@ -474,14 +482,15 @@ class PluginQuery : public ::testing::Test {
       if (!hit) {
         EXPECT_EQ(r.instance_index, ~0u) << "ray " << i;
         EXPECT_EQ(r.t, 0.0f) << "ray " << i;
+        EXPECT_EQ(r.surface, 0u) << "ray " << i;
       }
       a.same_hit += hit == (ref[i].hit != 0);
       if (!hit || !ref[i].hit) continue;
       ++a.both_hit;
-      const uint32_t ref_instance = ref[i].reserved & 0x7fffu;  // bit 15: the hit kind (rt_conformance.rchit)
+      const uint32_t ref_instance = ref[i].instance & 0x7fffu;  // bit 15: the hit kind (rt_conformance.rchit)
       if (r.instance_index != ref_instance) continue;
       ++a.same_instance;
-      EXPECT_EQ(r.instance_custom_index, ref[i].reserved >> 16) << "ray " << i;
+      EXPECT_EQ(r.instance_custom_index, ref[i].instance >> 16) << "ray " << i;
       const double len = double(glm::length(rays[i].direction));
       a.max_dt = std::max(a.max_dt, std::fabs(double(r.t) - double(ref[i].t)) * len / diag);
       if (r.kind == LSNIF_QUERY_HIT_TRIANGLE) {
@@ -490,6 +499,8 @@ class PluginQuery : public ::testing::Test {
         EXPECT_NEAR(r.barycentric_u, ref[i].albedo_x, 1e-4) << "ray " << i;
         EXPECT_NEAR(r.barycentric_v, ref[i].albedo_y, 1e-4) << "ray " << i;
         EXPECT_EQ(r.geometry_index, 0u);
+        EXPECT_EQ(r.surface, 0u) << "ray " << i << ": a triangle has no learned surface";
+        EXPECT_EQ(r.emission_r + r.emission_g + r.emission_b, 0.0f) << "ray " << i;
         continue;
       }
       EXPECT_GT(ref[i].points, 0u) << "ray " << i << ": the shader hit a triangle";
@@ -500,23 +511,41 @@ class PluginQuery : public ::testing::Test {
                                std::fabs(double(r.albedo_b - ref[i].albedo_z))});
       EXPECT_EQ(r.material, ref[i].material) << "ray " << i;
       EXPECT_EQ(r.primitive_index, 0u);
+      // The same network on both sides: the same packed channels (one step where the two paths'
+      // sums straddle a rounding boundary), the shader's emission RGBE-rounded (half a step of the
+      // shared exponent, <= 2^-8 of the largest channel).
+      a.surface_learned += (r.surface >> 24) == LSNIF_SURFACE_LEARNED;
+      bool mismatch = (r.surface >> 24) != (ref[i].surface >> 24);
+      for (int k = 0; k < 3; ++k)
+        mismatch |= std::abs(int((r.surface >> (8 * k)) & 0xffu) - int((ref[i].surface >> (8 * k)) & 0xffu)) > 1;
+      a.surface_mismatch += mismatch;
+      const float qe[3] = {r.emission_r, r.emission_g, r.emission_b};
+      const float re[3] = {ref[i].emission_r, ref[i].emission_g, ref[i].emission_b};
+      const double largest = std::max({qe[0], qe[1], qe[2]});
+      for (int k = 0; k < 3; ++k)
+        a.emission_excess = std::max(a.emission_excess, std::fabs(double(qe[k]) - double(re[k])) -
+                                                            (std::ldexp(largest, -8) * 1.001 + 1e-6));
     }
     return a;
   }
   // The shader is the truth: hit/miss and the instance on >= 99.9% of rays, t within 1e-5 of the
   // scene's diagonal and the normal within 0.05 degrees where both hit the same instance (the same
-  // GLSL in fp32 on both sides; fp16 weights are read the same way), albedo to its unorm16 packing.
+  // GLSL in fp32 on both sides; fp16 weights are read the same way), albedo to the unorm8 packing
+  // of the shader's attributes, the surface channels as compare() says.
   static void expect_agreement(const Agreement& a, const char* what) {
     SCOPED_TRACE(what);
     std::printf("[%s] %zu rays: LSNIF hits %zu, triangle hits %zu; hit/miss agreement %zu, same instance %zu of %zu; "
-                "max |dt| / diagonal %.3g, max normal %.3g deg, max albedo %.3g\n",
+                "max |dt| / diagonal %.3g, max normal %.3g deg, max albedo %.3g; surface channels learned %zu, "
+                "mismatched %zu, emission beyond the RGBE step %.3g\n",
                 what, a.rays, a.lsnif, a.triangles, a.same_hit, a.same_instance, a.both_hit, a.max_dt, a.max_angle,
-                a.max_albedo);
+                a.max_albedo, a.surface_learned, a.surface_mismatch, a.emission_excess);
     EXPECT_GE(double(a.same_hit), 0.999 * double(a.rays)) << "hit/miss vs the intersection shader";
     EXPECT_GE(double(a.same_instance), 0.999 * double(a.both_hit)) << "closest instance vs the intersection shader";
     EXPECT_LE(a.max_dt, 1e-5) << "largest |t difference| / scene diagonal";
     EXPECT_LE(a.max_angle, 0.05) << "largest world normal difference (degrees)";
-    EXPECT_LE(a.max_albedo, 1.0 / 65535.0 + 1e-6) << "largest albedo difference";
+    EXPECT_LE(a.max_albedo, 0.5 / 255.0 + 1e-6) << "largest albedo difference";
+    EXPECT_EQ(a.surface_mismatch, 0u) << "surface channels vs the intersection shader's attributes";
+    EXPECT_LE(a.emission_excess, 0.0) << "emission vs the intersection shader's attributes";
   }
 
   // CPU reference of a scene's LSNIF instances alone: the closest accepted hit over them.
@@ -645,16 +674,35 @@ TEST_P(PluginQueryPerBroadPhase, MixedTlasMatchesTheIntersectionShader) {
     std::vector<uint32_t> cpu_instance;
     const std::vector<LsnifHit> cpu = cpu_lsnif(s, rays, flags, cpu_instance);
     size_t compared = 0, agree = 0;
+    SurfaceAgreement surface;
     for (size_t i = 0; i < rays.size(); ++i) {
       if (q.results[i].kind == LSNIF_QUERY_HIT_TRIANGLE) continue;
       ++compared;
-      const bool hit = q.results[i].kind == LSNIF_QUERY_HIT_LSNIF;
-      agree += hit == cpu[i].hit &&
-               (!hit || (q.results[i].instance_index == cpu_instance[i] &&
-                         std::fabs(double(q.results[i].t - cpu[i].t)) * double(glm::length(rays[i].direction)) <=
-                             2e-4 * double(s.bounds.diagonal())));
+      const LsnifQueryResult& r = q.results[i];
+      const bool hit = r.kind == LSNIF_QUERY_HIT_LSNIF;
+      const bool same = hit == cpu[i].hit &&
+                        (!hit || (r.instance_index == cpu_instance[i] &&
+                                  std::fabs(double(r.t - cpu[i].t)) * double(glm::length(rays[i].direction)) <=
+                                      2e-4 * double(s.bounds.diagonal())));
+      agree += same;
+      if (!same || !hit) continue;
+      // The surface channels of the same hit: the CPU's, as gpu_reference_test bounds them (fp32
+      // emission: the albedo's bound times the model's scale).
+      const Model* model = nullptr;
+      for (const LsnifInstance& li : s.lsnif)
+        if (li.index == r.instance_index) model = li.model;
+      if (!model) continue;
+      const float scale = model->config.emission_scale;
+      add_surface(surface, r.surface, glm::vec3(r.emission_r, r.emission_g, r.emission_b), cpu[i], scale,
+                  [scale](float) { return 1e-4f * scale; });
     }
     EXPECT_GE(double(agree), 0.999 * double(compared)) << "agreement with the CPU reference";
+    EXPECT_EQ(surface.flag_mismatch, 0u) << "surface channels learned as the CPU's model says";
+    EXPECT_EQ(surface.step_mismatch, 0u);
+    EXPECT_LE(surface.emission_excess, 0.0);
+    EXPECT_GE(double(surface.exact), 0.99 * double(surface.hits));
+    EXPECT_GT(surface.learned, surface.hits / 20) << "not vacuous: model b's hits carry surface channels";
+    EXPECT_LT(surface.learned, surface.hits) << "model a's hits carry none";
   }
 
   // Any-hit rays (15% end early): occluded or not as the shader's shadow rays; an answered hit is a

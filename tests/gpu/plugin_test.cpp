@@ -110,6 +110,18 @@ class PluginApi : public ::testing::Test {
   // A context on the harness's device.
   static LsnifContextCreateInfo create_info() { return vk::plugin_create_info(vk_); }
 
+  // One instance of model m at `xf` (custom index 0) in `rec`, and a host-visible one-entry model
+  // table for it in `table_buf`.
+  static Status one_model_table(TestPlugin& plugin, LsnifModel m, const Transform3x4& xf,
+                                VkAccelerationStructureInstanceKHR& rec, vk::Buffer& table_buf) {
+    std::vector<uint64_t> table;
+    if (!plugin.make_instance(m, xf, 0, 0xFF, 0, rec) || !plugin.model_table({m}, table))
+      return Status::error("instance record or model table refused");
+    if (Status s = vk_.create_buffer(sizeof(uint64_t), table_buf); !s) return s;
+    std::memcpy(table_buf.mapped, table.data(), sizeof(uint64_t));
+    return Status::ok();
+  }
+
   // Traces `rays` through a TLAS of `records` with `pipeline`, the push constants naming the model
   // table `table` with `count` entries.
   static std::vector<LsnifReferenceHit> trace(vk::RtPipeline& pipeline,
@@ -533,12 +545,8 @@ TEST_F(PluginApi, RecordedBuildThroughStagingMatchesTheCpu) {
 
   const Transform3x4 xf = skewed();
   VkAccelerationStructureInstanceKHR rec;
-  ASSERT_TRUE(plugin.make_instance(m, xf, 0, 0xFF, 0, rec));
-  std::vector<uint64_t> table;
-  ASSERT_TRUE(plugin.model_table({m}, table));
   vk::Buffer table_buf;
-  ASSERT_TRUE(vk_.create_buffer(sizeof(uint64_t), table_buf));
-  std::memcpy(table_buf.mapped, table.data(), sizeof(uint64_t));
+  ASSERT_TRUE(one_model_table(plugin, m, xf, rec, table_buf));
   const std::vector<Ray> rays = rays_at(xf, kRays, 5);
   size_t agree = 0, hits = 0;
   agreement(xf, rays, trace(table_pipeline_, {rec}, table_buf.address, 1, rays), agree, hits);
@@ -703,7 +711,7 @@ TEST_F(PluginApi, ShaderRecordLookupMatchesTheCpu) {
   EXPECT_GT(hits, rays.size() / 10);
   for (const LsnifReferenceHit& h : gpu) {
     if (!h.hit) continue;
-    EXPECT_EQ(h.reserved >> 16, 12345u) << "gl_InstanceCustomIndexEXT is the application's";
+    EXPECT_EQ(h.instance >> 16, 12345u) << "gl_InstanceCustomIndexEXT is the application's";
   }
   ASSERT_TRUE(plugin.make_instance(m, xf, 12345, 0xFF, 1, rec));  // the record holding 0
   EXPECT_EQ(count_hits(trace(pipeline, {rec}, 0, 0, rays)), 0u);
@@ -718,66 +726,86 @@ TEST_F(PluginApi, ShaderRecordLookupMatchesTheCpu) {
 TEST_F(PluginApi, BatchedQueriesMatchTheIntersectionShaderAndTheCpu) {
   TestPlugin plugin;
   ASSERT_TRUE(plugin.init(vk_));
-  LsnifModel m = nullptr;
-  ASSERT_TRUE(plugin.upload(model_, m));
-  LsnifQueryPipeline pipeline = nullptr;
-  ASSERT_EQ(lsnifCreateQueryPipeline(plugin.context(), nullptr, &pipeline), LSNIF_SUCCESS) << last_error();
-  const Transform3x4 xf;  // identity
-  VkAccelerationStructureInstanceKHR rec;
-  ASSERT_TRUE(plugin.make_instance(m, xf, 0, 0xFF, 0, rec));
-  std::vector<uint64_t> table;
-  ASSERT_TRUE(plugin.model_table({m}, table));
-  vk::Buffer table_buf;
-  ASSERT_TRUE(vk_.create_buffer(sizeof(uint64_t), table_buf));
-  std::memcpy(table_buf.mapped, table.data(), sizeof(uint64_t));
-  const std::vector<Ray> rays = rays_at(xf, kRays, 21);
-  const double diag = double(model_.bounds().diagonal());
+  // The trained model, then the same with surface channels (random surface rows, emission up to 8):
+  // LsnifQueryHit::surface and the emission against the shader's attributes and the CPU's.
+  const Model surface_model = with_surface_channels(model_, 8.0f, 41);
+  const Model* const models[] = {&model_, &surface_model};
+  for (const Model* model : models) {
+    SCOPED_TRACE(model->config.describe());
+    LsnifModel m = nullptr;
+    ASSERT_TRUE(plugin.upload(*model, m));
+    LsnifQueryPipeline pipeline = nullptr;
+    ASSERT_EQ(lsnifCreateQueryPipeline(plugin.context(), nullptr, &pipeline), LSNIF_SUCCESS) << last_error();
+    const Transform3x4 xf;  // identity
+    VkAccelerationStructureInstanceKHR rec;
+    vk::Buffer table_buf;
+    ASSERT_TRUE(one_model_table(plugin, m, xf, rec, table_buf));
+    const std::vector<Ray> rays = rays_at(xf, kRays, 21);
+    const double diag = double(model->bounds().diagonal());
+    const float scale = model->config.emission_scale;
 
-  for (const uint32_t flags : {0u, LSNIF_RAY_FLAG_CULL_BACK_FACING, LSNIF_RAY_FLAG_CULL_FRONT_FACING}) {
-    SCOPED_TRACE(testing::Message() << "ray flags 0x" << std::hex << flags);
-    const std::vector<LsnifQueryHit> batched =
-        intersect_batched(plugin, pipeline, m, rays, std::vector<uint32_t>(rays.size(), flags));
-    const std::vector<LsnifReferenceHit> inline_hits = trace(table_pipeline_, {rec}, table_buf.address, 1, rays, flags);
-    std::vector<LsnifHit> cpu(rays.size());
-    ASSERT_TRUE(intersect(model_, xf, rays.data(), rays.size(), cpu.data(), flags));
-    ASSERT_EQ(batched.size(), rays.size());
-    ASSERT_EQ(inline_hits.size(), rays.size());
-    size_t same_hit = 0, cpu_agree = 0, hits = 0, evaluated = 0;
-    double max_dt = 0.0, max_angle = 0.0;
-    for (size_t i = 0; i < rays.size(); ++i) {
-      const LsnifQueryHit& b = batched[i];
-      ASSERT_TRUE(b.kind == LSNIF_QUERY_HIT_NONE || b.kind == LSNIF_QUERY_HIT_LSNIF) << "ray " << i;
-      EXPECT_EQ(b.reserved, 0u) << "ray " << i;
-      const bool hit = b.kind == LSNIF_QUERY_HIT_LSNIF;
-      hits += hit;
-      evaluated += b.points > 0;
-      if (b.points == 0) {
-        EXPECT_FALSE(hit);
-        EXPECT_EQ(b.occlusion_logit, 0.0f);
+    for (const uint32_t flags : {0u, LSNIF_RAY_FLAG_CULL_BACK_FACING, LSNIF_RAY_FLAG_CULL_FRONT_FACING}) {
+      SCOPED_TRACE(testing::Message() << "ray flags 0x" << std::hex << flags);
+      const std::vector<LsnifQueryHit> batched =
+          intersect_batched(plugin, pipeline, m, rays, std::vector<uint32_t>(rays.size(), flags));
+      const std::vector<LsnifReferenceHit> inline_hits = trace(table_pipeline_, {rec}, table_buf.address, 1, rays, flags);
+      std::vector<LsnifHit> cpu(rays.size());
+      ASSERT_TRUE(intersect(*model, xf, rays.data(), rays.size(), cpu.data(), flags));
+      ASSERT_EQ(batched.size(), rays.size());
+      ASSERT_EQ(inline_hits.size(), rays.size());
+      size_t same_hit = 0, cpu_agree = 0, hits = 0, evaluated = 0;
+      SurfaceAgreement surface;  // the batched hits' channels against the CPU's
+      double max_dt = 0.0, max_angle = 0.0;
+      for (size_t i = 0; i < rays.size(); ++i) {
+        const LsnifQueryHit& b = batched[i];
+        ASSERT_TRUE(b.kind == LSNIF_QUERY_HIT_NONE || b.kind == LSNIF_QUERY_HIT_LSNIF) << "ray " << i;
+        EXPECT_EQ(b.reserved, 0u) << "ray " << i;
+        const bool hit = b.kind == LSNIF_QUERY_HIT_LSNIF;
+        hits += hit;
+        evaluated += b.points > 0;
+        if (b.points == 0) {
+          EXPECT_FALSE(hit);
+          EXPECT_EQ(b.occlusion_logit, 0.0f);
+          EXPECT_EQ(b.surface, 0u);
+          EXPECT_EQ(b.emission_r + b.emission_g + b.emission_b, 0.0f);
+        }
+        // The shader reports points only for hits; where it hit, they must agree exactly.
+        if (inline_hits[i].hit) {
+          EXPECT_EQ(b.points, inline_hits[i].points) << "ray " << i;
+        }
+        if (hit == bool(inline_hits[i].hit)) ++same_hit;
+        if (hit && inline_hits[i].hit) {
+          const double len = double(glm::length(rays[i].direction));
+          max_dt = std::max(max_dt, std::fabs(double(b.t - inline_hits[i].t)) * len / diag);
+          const glm::vec3 nb(b.normal_x, b.normal_y, b.normal_z);
+          const glm::vec3 ni(inline_hits[i].normal_x, inline_hits[i].normal_y, inline_hits[i].normal_z);
+          max_angle = std::max(max_angle, double(std::acos(std::clamp(glm::dot(nb, ni), -1.0f, 1.0f))) * 180.0 / M_PI);
+          // The shader's attributes hold the same channels (unorm8) and the emission as RGBE.
+          EXPECT_EQ(b.surface >> 24, inline_hits[i].surface >> 24) << "ray " << i;
+          for (int k = 0; k < 3; ++k)
+            EXPECT_LE(std::abs(int((b.surface >> (8 * k)) & 0xffu) - int((inline_hits[i].surface >> (8 * k)) & 0xffu)), 1)
+                << "ray " << i;
+          const float largest = std::max({b.emission_r, b.emission_g, b.emission_b});
+          EXPECT_NEAR(b.emission_r, inline_hits[i].emission_r, std::ldexp(largest, -8) * 1.001f + 1e-6f) << "ray " << i;
+          EXPECT_NEAR(b.emission_b, inline_hits[i].emission_b, std::ldexp(largest, -8) * 1.001f + 1e-6f) << "ray " << i;
+        }
+        const bool agree = agrees(hit, b.t, cpu[i], rays[i]);
+        cpu_agree += agree;
+        if (agree && hit)
+          add_surface(surface, b.surface, glm::vec3(b.emission_r, b.emission_g, b.emission_b), cpu[i], scale,
+                      [scale](float) { return 1e-4f * scale; });
       }
-      // The shader reports points only for hits; where it hit, they must agree exactly.
-      if (inline_hits[i].hit) {
-        EXPECT_EQ(b.points, inline_hits[i].points) << "ray " << i;
-      }
-      if (hit == bool(inline_hits[i].hit)) ++same_hit;
-      if (hit && inline_hits[i].hit) {
-        const double len = double(glm::length(rays[i].direction));
-        max_dt = std::max(max_dt, std::fabs(double(b.t - inline_hits[i].t)) * len / diag);
-        const glm::vec3 nb(b.normal_x, b.normal_y, b.normal_z);
-        const glm::vec3 ni(inline_hits[i].normal_x, inline_hits[i].normal_y, inline_hits[i].normal_z);
-        max_angle = std::max(max_angle, double(std::acos(std::clamp(glm::dot(nb, ni), -1.0f, 1.0f))) * 180.0 / M_PI);
-      }
-      cpu_agree += agrees(hit, b.t, cpu[i], rays[i]);
+      EXPECT_GE(double(same_hit), 0.999 * double(rays.size())) << "hit/miss vs the intersection shader";
+      EXPECT_LE(max_dt, 1e-5) << "largest |t difference| / diagonal vs the intersection shader";
+      EXPECT_LE(max_angle, 0.05) << "largest normal difference (degrees) vs the intersection shader";
+      EXPECT_GE(double(cpu_agree), 0.999 * double(rays.size())) << "agreement with the CPU reference";
+      EXPECT_GT(hits, rays.size() / 20) << "too few hits to tell anything";
+      EXPECT_LT(evaluated, rays.size()) << "every ray had boundary points: the miss-before-network path is untested";
+      expect_surface_agreement(surface, model->config.surface_channels != 0);
     }
-    EXPECT_GE(double(same_hit), 0.999 * double(rays.size())) << "hit/miss vs the intersection shader";
-    EXPECT_LE(max_dt, 1e-5) << "largest |t difference| / diagonal vs the intersection shader";
-    EXPECT_LE(max_angle, 0.05) << "largest normal difference (degrees) vs the intersection shader";
-    EXPECT_GE(double(cpu_agree), 0.999 * double(rays.size())) << "agreement with the CPU reference";
-    EXPECT_GT(hits, rays.size() / 20) << "too few hits to tell anything";
-    EXPECT_LT(evaluated, rays.size()) << "every ray had boundary points: the miss-before-network path is untested";
+    vk_.destroy_buffer(table_buf);
+    lsnifDestroyQueryPipeline(plugin.context(), pipeline);
   }
-  vk_.destroy_buffer(table_buf);
-  lsnifDestroyQueryPipeline(plugin.context(), pipeline);
 }
 
 // The cooperative-matrix MLP kernel (LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV,

@@ -480,7 +480,7 @@ TEST_F(RenderTest, WavefrontMatchesInlineWithoutLsnifObjects) {
 
 // With the LSNIF elephant the pipelines evaluate the same networks on the same rays, but the
 // batched MLP (lsnifCmdQuery) and the intersection shader's round differently (summation order,
-// the hit attributes' unorm16 albedo), so a few paths may take other branches (a hit accepted at
+// the hit attributes' unorm8 albedo), so a few paths may take other branches (a hit accepted at
 // occlusion ~0.5, a Russian-roulette draw at the threshold) and go on with other random numbers.
 // The difference is then the noise of those paths: if a fraction p of the N paths of a pixel
 // diverge, the pixels differ by about sqrt(p) times the difference between two renders with

@@ -1,6 +1,6 @@
 // rt_conformance.rchit -- the closest hit of an LSNIF object, decoded with src/lsnif/lsnif_hit.glsl
-// as an application would: world normal, albedo, material; plus t, the walk's points, the logit
-// the instance and the facing (reserved = gl_InstanceID | gl_HitKindEXT << 15 |
+// as an application would: world normal, albedo, material, surface channels and emission; plus t,
+// the walk's points, the logit, the instance and the facing (instance = gl_InstanceID | gl_HitKindEXT << 15 |
 // gl_InstanceCustomIndexEXT << 16; the hit kind is LSNIF_HIT_KIND_FRONT_FACING or _BACK_FACING).
 #version 460
 #extension GL_EXT_ray_tracing : require
@@ -23,6 +23,11 @@ void main() {
   payload.albedo_x = s.albedo.x;
   payload.albedo_y = s.albedo.y;
   payload.albedo_z = s.albedo.z;
-  payload.reserved = uint(gl_InstanceID) | (gl_HitKindEXT << 15) | (uint(gl_InstanceCustomIndexEXT) << 16);
+  // The learned channels as the device packs them (lsnif_pack_surface), the emission decoded from RGBE.
+  payload.surface = lsnif_pack_surface(s.surface_learned, s.metallic, s.roughness, s.ambient_occlusion);
   payload.leaving_tmin = lsnif_leaving_tmin(s, gl_WorldRayDirectionEXT);
+  payload.emission_r = s.emission.r;
+  payload.emission_g = s.emission.g;
+  payload.emission_b = s.emission.b;
+  payload.instance = uint(gl_InstanceID) | (gl_HitKindEXT << 15) | (uint(gl_InstanceCustomIndexEXT) << 16);
 }

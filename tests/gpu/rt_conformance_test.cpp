@@ -91,12 +91,14 @@ struct Comparison {
   size_t flips_threshold = 0, flips_interval = 0, flips_walk = 0, flips_other = 0;
   size_t both_hit = 0, material_mismatch = 0, instance_mismatch = 0, instance_ties = 0;
   size_t hits_per_kind[kKinds] = {}, gpu_hits_per_instance[2] = {};
-  size_t closest_hit_ran = 0;  // results written by the closest-hit shader (reserved != ~0u)
-  // Hit kinds (bit 15 of reserved) against the facing of the reported normal: back-facing hits seen,
+  size_t closest_hit_ran = 0;  // results written by the closest-hit shader (instance != ~0u)
+  // Hit kinds (bit 15 of instance) against the facing of the reported normal: back-facing hits seen,
   // and kinds that disagree where |dot(normal, direction)| > kFacingEps.
   size_t back_facing = 0, facing_mismatch = 0;
   double leaving_tmin_rel_err_max = 0;  // lsnif_leaving_tmin (closest hit) vs leaving_tmin (CPU)
   double t_err_max = 0, t_err_sum = 0, normal_deg_max = 0, normal_deg_sum = 0, albedo_max = 0;
+  bool surface_channels = false;  // the model's: every hit's surface word is learned, else 0
+  SurfaceAgreement surface;       // the closest-hit shader's decode of the attributes, where both hit
 };
 
 // Flip explanations, as in gpu_reference_test: a logit within kLogitEps of 0 (on either side), a t
@@ -120,6 +122,13 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
                    const std::vector<LsnifReferenceHit>& gpu, uint32_t mode) {
   Comparison c;
   c.rays = world.size();
+  c.surface_channels = model.config.surface_channels != 0;
+  const float scale = model.config.emission_scale;
+  // The attributes carry the emission as RGBE: half a step of the shared exponent (<= 2^-8 of the
+  // largest channel), on top of the sigmoid's difference bounded as the albedo's, times the scale.
+  const auto emission_tolerance = [scale](float largest) {
+    return std::ldexp(largest, -8) + 2e-4f * scale;
+  };
   const double diag = double(model.bounds().diagonal());
   std::vector<Instance> ins;
   for (const Transform3x4& xf : xfs) ins.push_back(instance_of(xf));
@@ -134,8 +143,8 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
     const bool gpu_hit = g.hit != 0;
     c.cpu_hits += cpu_hit;
     c.gpu_hits += gpu_hit;
-    c.closest_hit_ran += g.reserved != 0xffffffffu;
-    const uint32_t gpu_instance = g.reserved & 0x7fffu;
+    c.closest_hit_ran += g.instance != 0xffffffffu;
+    const uint32_t gpu_instance = g.instance & 0x7fffu;
     if (gpu_hit && mode == kModeClosest && gpu_instance < 2) ++c.gpu_hits_per_instance[gpu_instance];
     if (gpu_hit && mode == kModeClosest && gpu_instance < xfs.size() &&
         g.points != walk_points(model, ins[gpu_instance], w, false))
@@ -198,7 +207,7 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
     c.normal_deg_sum += deg;
     // The hit kind says the facing of the predicted normal: dot(A^-T n, d) has the sign of the
     // object-space dot(n, A^-1 d) the intersection shader tests.
-    const uint32_t hit_kind = (g.reserved >> 15) & 1u;
+    const uint32_t hit_kind = (g.instance >> 15) & 1u;
     const double facing = glm::dot(gn, glm::dvec3(glm::normalize(w.direction)));
     c.back_facing += hit_kind == LSNIF_HIT_KIND_BACK_FACING;
     if (std::fabs(facing) > kFacingEps)
@@ -206,6 +215,8 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
     const glm::vec3 ga(g.albedo_x, g.albedo_y, g.albedo_z);
     for (int k = 0; k < 3; ++k) c.albedo_max = std::max(c.albedo_max, double(std::fabs(ga[k] - h.albedo[k])));
     c.material_mismatch += g.material != h.material;
+    add_surface(c.surface, g.surface, glm::vec3(g.emission_r, g.emission_g, g.emission_b), h, scale,
+                emission_tolerance);
   }
   return c;
 }
@@ -217,19 +228,23 @@ void print(const char* name, const Comparison& c) {
       "  both hit %zu (per kind %zu/%zu/%zu/%zu): t error / diagonal max %.3g mean %.3g, normal angle max "
       "%.3g deg mean %.3g deg, albedo max %.3g, material mismatches %zu, instance mismatches %zu (ties %zu), "
       "leaving tmin relative error max %.3g, back-facing hits %zu, hit kinds against the normal's facing "
-      "%zu wrong\n",
+      "%zu wrong\n"
+      "  surface channels: %zu of %zu hits learned, %zu words bit-identical, %zu beyond one unorm8 step, "
+      "emission max error / scale %.3g\n",
       name, c.rays, c.cpu_hits, c.gpu_hits, 100.0 * double(c.hit_agree) / double(c.rays), c.flips_threshold,
       c.flips_interval, c.flips_walk, c.flips_other, c.walk_mismatch, c.gpu_hits_per_instance[0],
       c.gpu_hits_per_instance[1], c.both_hit, c.hits_per_kind[0], c.hits_per_kind[1], c.hits_per_kind[2],
       c.hits_per_kind[3], c.t_err_max, c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, c.normal_deg_max,
       c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, c.albedo_max, c.material_mismatch,
-      c.instance_mismatch, c.instance_ties, c.leaving_tmin_rel_err_max, c.back_facing, c.facing_mismatch);
+      c.instance_mismatch, c.instance_ties, c.leaving_tmin_rel_err_max, c.back_facing, c.facing_mismatch,
+      c.surface.learned, c.surface.hits, c.surface.exact, c.surface.step_mismatch, c.surface.emission_max);
 }
 
 class RtConformance : public ::testing::Test {
  protected:
-  // Model table entries; the third is the voxel-segments model with 8-bit grid features.
-  static constexpr uint32_t kAabbIndex = 0, kSegmentIndex = 1, kEightBitIndex = 2, kModels = 3;
+  // Model table entries; the third is the voxel-segments model with 8-bit grid features, the fourth
+  // the voxel-segments model with surface channels (random surface rows: with_surface_channels).
+  static constexpr uint32_t kAabbIndex = 0, kSegmentIndex = 1, kEightBitIndex = 2, kSurfaceIndex = 3, kModels = 4;
 
   static void SetUpTestSuite() {
     vk_status_ = vk_.init(/*ray_tracing=*/true, test::test_validation(), test::test_device());
@@ -265,6 +280,7 @@ class RtConformance : public ::testing::Test {
     models_[kEightBitIndex] = models_[kSegmentIndex];
     models_[kEightBitIndex].config.grid_bits = 8;
     models_[kEightBitIndex].quantize();
+    models_[kSurfaceIndex] = with_surface_channels(models_[kSegmentIndex], 40.0f, 21);
     if (!train_status_ || !vk_status_) return;
 
     // Through the plugin, on the harness's device: model blocks and one AABB BLAS per model, and
@@ -272,7 +288,7 @@ class RtConformance : public ::testing::Test {
     train_status_ = plugin_.init(vk_);
     for (uint32_t m = 0; m < kModels && train_status_; ++m) train_status_ = plugin_.upload(models_[m], handles_[m]);
     std::vector<uint64_t> addresses;
-    if (train_status_) train_status_ = plugin_.model_table({handles_[0], handles_[1], handles_[2]}, addresses);
+    if (train_status_) train_status_ = plugin_.model_table({handles_[0], handles_[1], handles_[2], handles_[3]}, addresses);
     if (train_status_) train_status_ = vk_.create_buffer(addresses.size() * sizeof(uint64_t), table_);
     if (train_status_) std::memcpy(table_.mapped, addresses.data(), addresses.size() * sizeof(uint64_t));
   }
@@ -354,9 +370,10 @@ class RtConformance : public ::testing::Test {
   // Agreement bounds: those of gpu_reference_test (same shared GLSL, same fp16 parameters in fp32;
   // the object-space ray now comes from the driver's gl_ObjectRay*EXT instead of the host's A^-1,
   // a difference of a few ulps that the hash grid amplifies to ~1e-5 in the features: measured
-  // maxima ~1e-5 diagonals in t and < 0.1 deg in the normal), plus the unorm16 albedo packing of
-  // the hit attributes (<= 7.7e-6). Formula, layout or attribute-packing errors give errors of
-  // percent and degrees.
+  // maxima ~1e-5 diagonals in t and < 0.1 deg in the normal), plus the unorm8 packing of the hit
+  // attributes' albedo (<= 1/510 = 2e-3). Formula, layout or attribute-packing errors give errors of
+  // percent and degrees. The surface channels: the learned flag on every hit of a model with them
+  // (the word 0 without), each unorm8 within one step of the CPU's, the emission within RGBE's step.
   static void expect_agreement(const Comparison& c, uint32_t mode) {
     EXPECT_GE(double(c.hit_agree), 0.999 * double(c.rays));
     EXPECT_EQ(c.flips_other, 0u);
@@ -371,10 +388,11 @@ class RtConformance : public ::testing::Test {
     EXPECT_LT(c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, 2e-6);
     EXPECT_LT(c.normal_deg_max, 0.3);
     EXPECT_LT(c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, 0.03);
-    EXPECT_LT(c.albedo_max, 1e-4);
+    EXPECT_LT(c.albedo_max, 0.5 / 255.0 + 1e-4);
     EXPECT_EQ(c.material_mismatch, 0u);
     EXPECT_LT(c.leaving_tmin_rel_err_max, 1e-5);
     EXPECT_EQ(c.facing_mismatch, 0u);
+    expect_surface_agreement(c.surface, c.surface_channels);
   }
 
   void SetUp() override {
@@ -442,6 +460,22 @@ TEST_F(RtConformance, EightBitGridModelMatchesCpu) {
     expect_agreement(*c, kModeClosest);
     EXPECT_GT(c->cpu_hits, kRays / 5);
     for (size_t k = 0; k < kKinds; ++k) EXPECT_GT(c->hits_per_kind[k], 20u) << kKindNames[k];
+  }
+}
+
+// Surface channels: the intersection shader packs the model's metallic, roughness, ambient occlusion
+// (unorm8) and emission (RGBE, up to 40 here) into the hit attributes, the closest-hit shader decodes
+// them with lsnif_hit.glsl: the CPU reference's channels per ray, on both instances.
+TEST_F(RtConformance, SurfaceChannelsReachTheClosestHitShader) {
+  const Comparison a =
+      run_single(kSurfaceIndex, Transform3x4(), kRays, 14, kModeClosest, "surface channels, identity");
+  const Comparison b =
+      run_single(kSurfaceIndex, test::skewed_instance(), kRays, 15, kModeClosest, "surface channels, skewed instance");
+  for (const Comparison* c : {&a, &b}) {
+    expect_agreement(*c, kModeClosest);
+    EXPECT_GT(c->cpu_hits, kRays / 5);
+    EXPECT_EQ(c->surface.learned, c->both_hit);
+    EXPECT_GT(c->surface.emission_max, 0.0) << "not vacuous: the closest-hit shader decodes emission";
   }
 }
 
@@ -741,13 +775,13 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndBruteForce) {
       const bool lsnif_first = l.hit && (!e.hit || l.t < e.t);
       c.cpu_hits += cpu_hit;
       c.gpu_hits += g.hit != 0;
-      c.closest_hit_ran += g.reserved != 0xffffffffu;
+      c.closest_hit_ran += g.instance != 0xffffffffu;
       c.both_kinds_hit += l.hit && e.hit;
       if (g.hit != 0 && cpu_hit) ++c.hit_agree;
       else if (g.hit == 0 && !cpu_hit) ++c.hit_agree;
       if (mode != kModeClosest || !cpu_hit || !g.hit) continue;
       lsnif_first ? ++c.lsnif_closest : ++c.triangle_closest;
-      const bool gpu_triangle = (g.reserved >> 16) == kTriangleIndex;
+      const bool gpu_triangle = (g.instance >> 16) == kTriangleIndex;
       const double span = double(diag) / double(glm::length(world[i].direction));
       if (gpu_triangle == lsnif_first) {
         // Either kind may be reported when both hits lie within kIntervalEps diagonals.
@@ -761,7 +795,7 @@ TEST_F(RtConformance, MixedTlasWithTrianglesMatchesCpuAndBruteForce) {
         c.triangle_index_mismatch += g.material != e.triangle;
       } else {
         ++c.lsnif_compared;
-        EXPECT_EQ(g.reserved >> 16, kSegmentIndex);
+        EXPECT_EQ(g.instance >> 16, kSegmentIndex);
         c.lsnif_t_err_max = std::max(c.lsnif_t_err_max, std::fabs(double(g.t) - double(l.t)) / span);
         const glm::dvec3 gn(g.normal_x, g.normal_y, g.normal_z), hn(l.normal);
         c.lsnif_normal_deg_max =

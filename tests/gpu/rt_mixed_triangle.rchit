@@ -1,6 +1,6 @@
 // rt_mixed_triangle.rchit -- the closest hit of a triangle instance in the mixed TLAS of
 // rt_conformance_test (hit group 1): t, the triangle (material = gl_PrimitiveID), the barycentrics
-// (albedo_x, albedo_y) and the instance (reserved = gl_InstanceID | gl_InstanceCustomIndexEXT << 16);
+// (albedo_x, albedo_y) and the instance (instance = gl_InstanceID | gl_InstanceCustomIndexEXT << 16);
 // points = 0 marks a triangle hit.
 #version 460
 #extension GL_EXT_ray_tracing : require
@@ -22,5 +22,9 @@ void main() {
   payload.albedo_x = barycentrics.x;
   payload.albedo_y = barycentrics.y;
   payload.albedo_z = 0.0;
-  payload.reserved = uint(gl_InstanceID) | (uint(gl_InstanceCustomIndexEXT) << 16);
+  payload.surface = 0u;
+  payload.emission_r = 0.0;
+  payload.emission_g = 0.0;
+  payload.emission_b = 0.0;
+  payload.instance = uint(gl_InstanceID) | (uint(gl_InstanceCustomIndexEXT) << 16);
 }

@@ -217,8 +217,9 @@ Status read_picture(const fs::path& hits_path, const fs::path& ppm_path, Picture
 // occlusion logit is within fp16 rounding of the threshold may flip). For pixels on the LSNIF object
 // in both: that test's bounds, 2e-4 object diagonals in t and 0.3 degrees in the normal (fp16
 // parameters evaluated in fp32 on both sides, the object-space ray from the driver). Shaded values:
-// albedo x (0.25 + 0.75 n.L) changes by at most |d albedo| (< 1e-4, unorm16) + 0.75 sin(0.3 deg)
-// (0.004) = 1.1 / 255 on the object, plus one step of rounding either side: <= 2 / 255. On the
+// albedo x (0.25 + 0.75 n.L) changes by at most |d albedo| (< 0.5 / 255 + 1e-4, the hit attributes'
+// unorm8) + 0.75 sin(0.3 deg) (0.004) = 1.6 / 255 on the object, plus less than one step of
+// rounding: < 2.6 / 255, so at most 2 / 255 apart. On the
 // ground the color is exact except where the hit point lies within float error of a checker line:
 // those pixels count with the kind flips against the 0.1%.
 constexpr double kKindAgreement = 0.999, kTErrMax = 2e-4, kNormalDegMax = 0.3;
@@ -607,7 +608,9 @@ TEST_F(Package, ConsumerWithHeadersOfTheSameNames) {
     EXPECT_EQ(r.out, want) << order;
     r = sh(quote((dir / ("consumer_c_" + std::string(order))).string()));
     ASSERT_EQ(r.code, 0) << order << ": " << r.out;
-    EXPECT_EQ(r.out, "plugin " + kVersion + "\nmax_points " + std::to_string(LSNIF_MAX_POINTS) + "\n") << order;
+    EXPECT_EQ(r.out, "plugin " + kVersion + "\nmax_points " + std::to_string(LSNIF_MAX_POINTS) +
+                         "\nsurface 1 1.00 0.20 0.00\n")
+        << order;
   }
 }
 

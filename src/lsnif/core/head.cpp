@@ -53,7 +53,50 @@ Prediction decode(const Config& config, const float* raw, const RayWalk& walk) {
   for (uint32_t m = 1; m < config.material_count; ++m)
     if (raw[LSNIF_OUT_MATERIAL + m] > raw[LSNIF_OUT_MATERIAL + best]) best = m;
   p.material = best;
+  if (config.surface_channels) {
+    const float* surface = raw + config.surface_output();
+    p.surface_learned = true;
+    p.metallic = sigmoid(surface[LSNIF_OUT_SURFACE_METALLIC]);
+    p.roughness = sigmoid(surface[LSNIF_OUT_SURFACE_ROUGHNESS]);
+    p.ambient_occlusion = sigmoid(surface[LSNIF_OUT_SURFACE_AMBIENT_OCCLUSION]);
+    for (int c = 0; c < 3; ++c) p.emission[c] = config.emission_scale * sigmoid(surface[LSNIF_OUT_SURFACE_EMISSION + c]);
+  }
   return p;
+}
+
+namespace {
+uint32_t unorm8(float x) { return uint32_t(std::lround(std::clamp(x, 0.0f, 1.0f) * 255.0f)); }
+}  // namespace
+
+uint32_t pack_surface(const Prediction& p) {
+  if (!p.surface_learned) return 0;
+  return unorm8(p.metallic) | unorm8(p.roughness) << 8 | unorm8(p.ambient_occlusion) << 16 | LSNIF_SURFACE_LEARNED << 24;
+}
+
+uint32_t pack_rgbe(glm::vec3 c) {
+  float largest = 0.0f;
+  for (int k = 0; k < 3; ++k) {
+    if (!(c[k] > 0.0f)) c[k] = 0.0f;  // negative or NaN
+    largest = std::max(largest, c[k]);
+  }
+  int x = 0;
+  std::frexp(largest, &x);  // largest = f 2^x, f in [0.5, 1)
+  if (largest == 0.0f || x < 1 - 128 || !std::isfinite(largest)) return 0;
+  x = std::min(x, 127);
+  uint32_t out = uint32_t(x + 128) << 24;
+  for (int k = 0; k < 3; ++k) {
+    const float m = std::round(std::ldexp(c[k], 8 - x));
+    out |= uint32_t(std::min(m, 255.0f)) << (8 * k);
+  }
+  return out;
+}
+
+glm::vec3 unpack_rgbe(uint32_t rgbe) {
+  const int e = int(rgbe >> 24);
+  if (e == 0) return glm::vec3(0.0f);
+  glm::vec3 c;
+  for (int k = 0; k < 3; ++k) c[k] = std::ldexp(float((rgbe >> (8 * k)) & 0xffu), e - LSNIF_RGBE_BIAS);
+  return c;
 }
 
 }  // namespace lsnif

@@ -1,6 +1,7 @@
 // head.h -- LSNIF output heads (paper 5.3): turns the MLP's raw outputs for one ray into occlusion,
-// hit distance, normal, albedo and material. The one C++ definition of the decoding; mirrored by
-// src/lsnif/shaders/lsnif_head.glsl.
+// hit distance, normal, albedo and material, and for a model with surface channels metallic,
+// roughness, ambient occlusion and emission. The one C++ definition of the decoding and of the
+// packed surface channels; mirrored by src/lsnif/shaders/lsnif_head.glsl and src/lsnif/lsnif_hit.glsl.
 //
 // Hit distance. The network's distance output s = sigmoid(raw) in (0, 1) is mapped to a ray
 // parameter t in one of two ways (Config::hit_param):
@@ -34,7 +35,23 @@ struct Prediction {
   glm::vec3 normal{0.0f};  // object space, normalized (zero if the raw normal is zero)
   glm::vec3 albedo{0.0f};
   uint32_t material = 0;   // argmax of the material logits
+  // Surface channels (config.surface_channels; else false and zero): sigmoid of the raw outputs,
+  // emission times config.emission_scale.
+  bool surface_learned = false;
+  float metallic = 0.0f, roughness = 0.0f, ambient_occlusion = 0.0f;
+  glm::vec3 emission{0.0f};
 };
+
+// Packed surface channels of a hit (host_device.h, LSNIF_SURFACE_LEARNED): metallic, roughness and
+// ambient occlusion as unorm8 (round to nearest, as packUnorm4x8) and the learned flag; 0 when
+// !p.surface_learned.
+uint32_t pack_surface(const Prediction& p);
+// Shared-exponent RGBE of a non-negative colour (LsnifHitAttributes::emission_rgbe): bytes 0-2 the
+// mantissas m, byte 3 the exponent e, each channel m x 2^(e - LSNIF_RGBE_BIAS). The largest channel
+// keeps 8 significant bits (relative error <= 2^-8); channels below 2^-127 of the largest, negative
+// or NaN ones are 0; colours whose largest channel is below 2^-128 are 0.
+uint32_t pack_rgbe(glm::vec3 c);
+glm::vec3 unpack_rgbe(uint32_t rgbe);
 
 // Decodes one ray's raw outputs (config.output_dim() floats). Rays with walk.count == 0 are misses
 // and must not be passed here (the network is never evaluated for them).

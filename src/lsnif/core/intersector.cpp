@@ -101,6 +101,11 @@ Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, si
     h.normal = len > 0.0f ? nw / len : glm::vec3(0.0f);
     h.albedo = p.albedo;
     h.material = p.material;
+    h.surface_learned = p.surface_learned;
+    h.metallic = p.metallic;
+    h.roughness = p.roughness;
+    h.ambient_occlusion = p.ambient_occlusion;
+    h.emission = p.emission;
   }
   return Status::ok();
 }

@@ -20,6 +20,11 @@ struct LsnifHit {
   glm::vec3 albedo{0.0f};
   uint32_t material = 0;
   float occlusion = 0.0f;     // predicted probability (0 when the ray crosses no occupied voxel)
+  // The surface channels (Prediction, src/lsnif/core/head.h): false and zero for a model without
+  // them and for misses. pack_surface / pack_rgbe (head.h) give what the device packs of them.
+  bool surface_learned = false;
+  float metallic = 0.0f, roughness = 0.0f, ambient_occlusion = 0.0f;
+  glm::vec3 emission{0.0f};   // linear RGB, emission_scale x sigmoid
 };
 
 // Row-major 3x4 object-to-world matrix (the layout of VkTransformMatrixKHR).

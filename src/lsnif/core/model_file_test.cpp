@@ -11,6 +11,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <unistd.h>
@@ -548,10 +549,10 @@ TEST(ModelFileErrors, WrongMagic) {
 
 TEST(ModelFileErrors, FutureVersion) {
   Bytes b = saved(small_model());
-  wr32(b, kVersionAt, 6);
-  expect_load_error(b, {"version 6", "versions 1 to 5"});  // reported before the checksum
+  wr32(b, kVersionAt, 7);
+  expect_load_error(b, {"version 7", "versions 1 to 6"});  // reported before the checksum
   fix_crc(b);
-  expect_load_error(b, {"version 6", "versions 1 to 5"});
+  expect_load_error(b, {"version 7", "versions 1 to 6"});
   wr32(b, kVersionAt, 0);
   fix_crc(b);
   expect_load_error(b, {"version 0"});
@@ -900,6 +901,81 @@ TEST(ModelFileErrors, IndexedLevels) {
   const Status s = save_model_to_memory(short_index, out);
   EXPECT_FALSE(s);
   EXPECT_NE(s.message().find("grid index"), std::string::npos) << s.message();
+}
+
+// ---- format version 6: surface channels ------------------------------------------------------------
+
+constexpr size_t kSurfaceChannelsAt = 272, kEmissionScaleAt = 276, kV6ReservedAt = 280;
+
+// `m` with surface channels and emission scale `scale`: the MLP LSNIF_OUT_SURFACE_COUNT outputs
+// taller, its parameters drawn again (any values are a valid file).
+Model with_surface_channels(Model m, float scale, uint64_t seed = 6) {
+  Rng rng(seed, 2, 0);
+  m.config.surface_channels = 1;
+  m.config.emission_scale = scale;
+  m.mlp.resize(m.config.mlp_parameter_count());
+  for (float& v : m.mlp) v = rng.next_float() - 0.5f;
+  m.quantize();
+  return m;
+}
+
+TEST(ModelFile, SurfaceChannelsAreAVersion6File) {
+  // On a plain model (else version 1), an 8-bit grid (else 3), per-level tables (else 4) and an
+  // indexed level (else 5): version 6 holds every layout of the versions before it.
+  const std::pair<Model, uint32_t> cases[] = {
+      {small_model(5), 1u}, {unequal_model(8), 4u}, {indexed_model(16), 5u}, {indexed_model(8), 5u}};
+  for (const auto& [plain, plain_version] : cases) {
+    SCOPED_TRACE(plain.config.describe());
+    EXPECT_EQ(rd32(saved(plain), kVersionAt), plain_version);
+    const Model m = with_surface_channels(plain, 12.5f);
+    ASSERT_TRUE(m.validate()) << m.validate().message();
+    EXPECT_EQ(m.config.output_dim(), LSNIF_OUT_FIXED + m.config.material_count + LSNIF_OUT_SURFACE_COUNT);
+    const Bytes b = saved(m);
+    EXPECT_EQ(rd32(b, kVersionAt), 6u);
+    EXPECT_EQ(rd32(b, kHeaderSizeAt), 288u);
+    EXPECT_EQ(rd32(b, kSurfaceChannelsAt), 1u);
+    float scale;
+    const uint32_t scale_bits = rd32(b, kEmissionScaleAt);
+    std::memcpy(&scale, &scale_bits, 4);
+    EXPECT_EQ(scale, 12.5f);
+    EXPECT_EQ(rd32(b, kV6ReservedAt), 0u);
+    EXPECT_EQ(rd32(b, kV6ReservedAt + 4), 0u);
+    EXPECT_EQ(section_offset(b, kMaterials), 288u);  // the sections right after the (aligned) header
+    EXPECT_EQ(section_size(b, kMlp), 2 * m.config.mlp_parameter_count());
+    EXPECT_EQ(memory_breakdown(m).total(), b.size());
+    const Model back = expect_round_trip(m, b);
+    EXPECT_EQ(back.config.surface_channels, 1u);
+    EXPECT_EQ(back.config.emission_scale, 12.5f);
+  }
+  // The emission scale's ends: 0 (no emission learned) and LSNIF_MAX_EMISSION_SCALE.
+  for (const float scale : {0.0f, float(LSNIF_MAX_EMISSION_SCALE)}) {
+    const Model m = with_surface_channels(small_model(5), scale);
+    expect_round_trip(m, saved(m));
+  }
+}
+
+TEST(ModelFileErrors, SurfaceChannels) {
+  const Model m = with_surface_channels(indexed_model(8), 3.0f);
+  const Bytes good = saved(m);
+  const auto with = [&](const std::function<void(Bytes&)>& change) { return changed(good, change); };
+  // Version 6 is the format of a model with surface channels: 0 is refused, as is any other value.
+  expect_load_error(with([&](Bytes& b) { wr32(b, kSurfaceChannelsAt, 0); }), {"surface channels 0", "version 6"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kSurfaceChannelsAt, 2); }), {"surface channels 2"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kV6ReservedAt, 1); }), {"reserved header word", "offset 280"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kV6ReservedAt + 4, 0x80000000u); }),
+                    {"reserved header word", "offset 284"});
+  for (const float bad : {-1.0f, 65536.0f, std::numeric_limits<float>::quiet_NaN(),
+                          std::numeric_limits<float>::infinity()})
+    expect_load_error(with([&](Bytes& b) { wrf32(b, kEmissionScaleAt, bad); }), {"emission scale"});
+  // The header size belongs to the version.
+  expect_load_error(with([&](Bytes& b) { wr32(b, kVersionAt, 5); }), {"header size 288", "272"});
+  // A model with surface channels saved without them (or the reverse) is refused by the writer.
+  Model no_scale = small_model(5);
+  no_scale.config.emission_scale = 2.0f;
+  Bytes out;
+  const Status s = save_model_to_memory(no_scale, out);
+  EXPECT_FALSE(s);
+  EXPECT_NE(s.message().find("emission scale"), std::string::npos) << s.message();
 }
 
 TEST(ModelFileErrors, TrainingSection) {

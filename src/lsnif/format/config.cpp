@@ -83,6 +83,11 @@ Status Config::validate() const {
   if (!(leaky_slope >= slope.min && leaky_slope < slope.max))
     return Status::error("leaky ReLU slope %g out of range [%g, %g)", double(leaky_slope), slope.min, slope.max);
   if (grid_bits != 8 && grid_bits != 16) return Status::error("grid bits %u is neither 8 nor 16", grid_bits);
+  if (surface_channels > 1) return Status::error("surface channels %u is neither 0 nor 1", surface_channels);
+  if (!(emission_scale >= 0.0f && emission_scale <= float(LSNIF_MAX_EMISSION_SCALE)))
+    return Status::error("emission scale %g out of range [0, %g]", double(emission_scale), LSNIF_MAX_EMISSION_SCALE);
+  if (!surface_channels && emission_scale != 0.0f)
+    return Status::error("emission scale %g without surface channels (must be 0)", double(emission_scale));
   const uint32_t max_slots = 1u << max_u32(SettingId::TableLog2);
   for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) {
     const uint32_t slots = index_slots[l], buckets = index_buckets[l];
@@ -137,10 +142,11 @@ std::string Config::describe() const {
     if (l == 0 || !uniform_table_log2())
       m.append(l ? "," : "").append(indexed(l) ? format("indexed:%u", index_slots[l]) : std::to_string(table_log2[l]));
   }
-  return format("V=%u H=%u L=%u res=%s M=%s F=%u W=%ux%u Nmat=%u hit=%s leaky=%g%s", voxel_resolution,
+  return format("V=%u H=%u L=%u res=%s M=%s F=%u W=%ux%u Nmat=%u hit=%s leaky=%g%s%s", voxel_resolution,
                 max_points, grid_levels, res.c_str(), m.c_str(), features, hidden_width,
                 hidden_layers, material_count, to_string(hit_param), double(leaky_slope),
-                grid_bits == 16 ? "" : format(" grid-bits=%u", grid_bits).c_str());
+                grid_bits == 16 ? "" : format(" grid-bits=%u", grid_bits).c_str(),
+                surface_channels ? format(" surface emission-scale=%g", double(emission_scale)).c_str() : "");
 }
 
 void set_grid_resolutions(Config& config, uint32_t coarsest, uint32_t finest) {

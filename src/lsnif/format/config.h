@@ -49,6 +49,14 @@ struct Config {
   // voxels; an indexed level's table_log2 is unused. 0 for unused levels.
   uint32_t index_slots[LSNIF_MAX_LEVELS] = {};
   uint32_t index_buckets[LSNIF_MAX_LEVELS] = {};
+  // Surface channels (.lsnif format version 6): 1 when the network also learns the glTF material's
+  // textured metallic, roughness, ambient occlusion and emission at the hit (LSNIF_OUT_SURFACE_*,
+  // src/lsnif/core/head.h), else 0 (a model of base colour only; the renderer takes the other
+  // channels from the material its material index names).
+  uint32_t surface_channels = 0;
+  // The emission head's scale: emission = sigmoid(raw) * emission_scale, the largest emission of the
+  // object's materials (linear RGB), in [0, LSNIF_MAX_EMISSION_SCALE]; 0 without surface channels.
+  float emission_scale = 0.0f;
 
   bool indexed(uint32_t level) const { return index_slots[level] != 0; }
   bool any_indexed() const;
@@ -66,7 +74,11 @@ struct Config {
   // version); false when a level is indexed.
   bool uniform_table_log2() const;
   uint32_t input_dim() const { return max_points * grid_levels * features; }
-  uint32_t output_dim() const { return LSNIF_OUT_FIXED + material_count; }
+  uint32_t output_dim() const {
+    return LSNIF_OUT_FIXED + material_count + (surface_channels ? LSNIF_OUT_SURFACE_COUNT : 0u);
+  }
+  // Where the surface channels start in the output (LSNIF_OUT_SURFACE_* are offsets from here).
+  uint32_t surface_output() const { return LSNIF_OUT_MATERIAL + material_count; }
   uint64_t voxel_count() const {
     return uint64_t(voxel_resolution) * voxel_resolution * voxel_resolution;
   }
@@ -82,7 +94,7 @@ struct Config {
   std::string describe() const;
 };
 
-// The layers of the MLP in order (hidden layers, then the output layer of 8 + Nmat) and the offsets
+// The layers of the MLP in order (hidden layers, then the output layer of output_dim()) and the offsets
 // of their weights and biases in the flat parameter array (Model::mlp, the .lsnif mlp section): per
 // layer the weight matrix row-major [out][in], then the bias [out].
 struct LayerView {

@@ -7,7 +7,7 @@
 namespace lsnif {
 
 static_assert(sizeof(LsnifGpuModelHeader) == LSNIF_GPU_HEADER_WORDS * 4, "header must be LSNIF_GPU_HEADER_WORDS words");
-static_assert(sizeof(LsnifReferenceRay) == 32 && sizeof(LsnifReferenceHit) == 52, "test structs");
+static_assert(sizeof(LsnifReferenceRay) == 32 && sizeof(LsnifReferenceHit) == 68, "test structs");
 
 std::vector<GpuLayerLayout> gpu_layer_layout(const Config& config) {
   std::vector<GpuLayerLayout> layers;
@@ -103,6 +103,8 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   if (c.any_indexed()) h.index_offset = uint32_t(index_offset);
   set_levels(h.index_slots0, h.index_slots1, h.index_slots2, h.index_slots3, c.index_slots);
   set_levels(h.index_buckets0, h.index_buckets1, h.index_buckets2, h.index_buckets3, c.index_buckets);
+  h.surface_channels = c.surface_channels;
+  h.emission_scale = c.emission_scale;
   if (c.grid_bits == 8)
     set_levels(h.grid_scale0, h.grid_scale1, h.grid_scale2, h.grid_scale3, view.grid_scales);
   std::memcpy(words.data(), &h, sizeof h);

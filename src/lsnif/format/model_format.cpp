@@ -1,8 +1,8 @@
 // model_format.cpp -- reading and writing .lsnif files at the byte level (model_format.h). The byte layout is specified in
 // docs/model-format.md; in short (all little-endian, packed byte by byte, no struct copies):
 //
-//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1 to 5)
-//   12   u32 header size (168, 184, 208, 224, 272) 16 u64 total file size
+//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1 to 6)
+//   12   u32 header size (168, 184, 208, 224, 272, 288) 16 u64 total file size
 //   24   Config (13 x u32, leaky slope f32) 80  AABB lo.xyz, hi.xyz (6 x f32)
 //   104  section table: {u64 offset, u64 size} for materials, voxels, grid, mlp (and, in version 2,
 //        training at 168; in versions 3 and 4 training, possibly empty, at 168 and grid scales at 184)
@@ -13,6 +13,9 @@
 //        each of the 4 levels, 256 u32 index buckets of each (0 for hashed and unused levels): at
 //        least one level is indexed (Config::index_slots); the grid index section after the grid
 //        scales holds the indexed levels' displacements (u16 each, level order).
+//   version 6: the layout of version 5 (the grid index section possibly empty, index sizes 0 when no
+//        level is indexed) plus 272 u32 surface channels (1), 276 f32 emission scale, 280 two u32
+//        zero: the network has surface channels (Config::surface_channels).
 //   then zero padding to a multiple of 16, then the sections in that order, each at a 16-byte
 //        aligned offset with zero padding between them, then (16-byte aligned) u32 CRC-32 of all
 //        bytes before. Grid values are fp16 (versions 1, 2) or int8 codes in [-127, 127] (version 3,
@@ -39,6 +42,8 @@ constexpr uint32_t kHeaderSizeV3 = kHeaderSizeV2 + 24;  // + grid scales {offset
 constexpr uint32_t kHeaderSizeV4 = kHeaderSizeV3 + 4 * LSNIF_MAX_LEVELS;  // + table_log2 per level
 // + the grid index {offset, size}, index slots and buckets per level
 constexpr uint32_t kHeaderSizeV5 = kHeaderSizeV4 + 16 + 8 * LSNIF_MAX_LEVELS;
+// + surface channels, emission scale, two reserved words
+constexpr uint32_t kHeaderSizeV6 = kHeaderSizeV5 + 16;
 constexpr uint64_t kNameBytes = kModelMaterialNameBytes;
 constexpr uint64_t kMaterialRecordSize = kNameBytes + 3 * 4;  // name + base_color[3]
 constexpr uint64_t kAlignment = 16;
@@ -47,7 +52,8 @@ constexpr uint64_t kCrcSize = 4;
 // Header field offsets.
 constexpr size_t kOffVersion = 8, kOffHeaderSize = 12, kOffFileSize = 16, kOffConfig = 24,
                  kOffAabb = 80, kOffSections = 104, kOffGridBits = 200, kOffReserved = 204, kOffTableLog2 = 208,
-                 kOffGridIndexEntry = 224, kOffIndexSlots = 240, kOffIndexBuckets = 256;
+                 kOffGridIndexEntry = 224, kOffIndexSlots = 240, kOffIndexBuckets = 256,
+                 kOffSurfaceChannels = 272, kOffEmissionScale = 276, kOffReservedV6 = 280;
 // The Config's M field (offset 52 of the file): the size of every level's table in versions 1 to 3.
 constexpr size_t kConfigTableLog2 = 28;
 
@@ -64,11 +70,13 @@ uint32_t header_size_of(uint32_t version) {
        : version == 2 ? kHeaderSizeV2
        : version == 3 ? kHeaderSizeV3
        : version == 4 ? kHeaderSizeV4
-                      : kHeaderSizeV5;
+       : version == 5 ? kHeaderSizeV5
+                      : kHeaderSizeV6;
 }
 
 // Where everything lives in the file of a model with this (valid) config and a training record of
-// `training_bytes`: version 5 when a level is indexed, else version 4 when the levels' tables differ
+// `training_bytes`: version 6 with surface channels, else version 5 when a level is indexed, else
+// version 4 when the levels' tables differ
 // in size, else version 3 for 8-bit grid features, else version 1 (no record) or 2.
 struct Layout {
   uint32_t version = 1, header_size = kHeaderSizeV1;
@@ -80,7 +88,10 @@ struct Layout {
 
 Layout layout_of(const Config& c, uint64_t training_bytes) {
   Layout l;
-  if (c.any_indexed()) {
+  if (c.surface_channels) {
+    l.version = 6;
+    l.sections = kSectionCount;
+  } else if (c.any_indexed()) {
     l.version = 5;
     l.sections = kSectionCount;
   } else if (!c.uniform_table_log2()) {
@@ -123,9 +134,10 @@ uint64_t max_file_size() {
   c.hidden_width = max_u32(SettingId::Width);
   c.hidden_layers = max_u32(SettingId::Layers);
   c.material_count = LSNIF_MAX_MATERIALS;
+  c.surface_channels = 1;
   const uint64_t largest = layout_of(c, kMaxTrainingRecordBytes).file_size;
   // Indexed levels: tables of at most 2^M entries (as hashed ones), plus a displacement per slot.
-  return largest + 2u * c.grid_levels * (uint64_t(1) << max_u32(SettingId::TableLog2)) + kHeaderSizeV5;
+  return largest + 2u * c.grid_levels * (uint64_t(1) << max_u32(SettingId::TableLog2)) + kHeaderSizeV6;
 }
 
 // ---- little-endian packing ----------------------------------------------------------------------
@@ -178,10 +190,11 @@ bool aabb_usable(const float lo[3], const float hi[3]) {
   return true;
 }
 
-// Config fields in file order (docs/model-format.md, offsets 24..79); M is 0 when the levels'
-// tables differ in size (version 4 stores them per level).
-void write_config(uint8_t* p, const Config& c) {
-  const uint32_t M = c.uniform_table_log2() ? c.table_log2[0] : 0;
+// Config fields in file order (docs/model-format.md, offsets 24..79) of a file of `version`; M is 0
+// in versions 4 to 6 (they store the tables' sizes per level, also when all levels' are equal, as a
+// version 6 file of a model with surface channels may have).
+void write_config(uint8_t* p, const Config& c, uint32_t version) {
+  const uint32_t M = version <= 3 ? c.table_log2[0] : 0;
   const uint32_t fields[13] = {c.voxel_resolution, c.max_points,        c.grid_levels,
                                c.grid_resolution[0], c.grid_resolution[1], c.grid_resolution[2],
                                c.grid_resolution[3], M,                   c.features,
@@ -262,7 +275,7 @@ Status read_header_config(const uint8_t* data, uint32_t version, Config& config)
     if (config.grid_levels <= LSNIF_MAX_LEVELS) set_table_log2(config, stored_m);
   } else {
     if (stored_m != 0)
-      return Status::error("config field M (offset %zu) is %u in a version %u file: versions 4 and 5 store the "
+      return Status::error("config field M (offset %zu) is %u in a version %u file: versions 4 to 6 store the "
                            "table sizes per level at offset %zu, M must be 0", kOffConfig + kConfigTableLog2,
                            stored_m, version, kOffTableLog2);
     for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) config.table_log2[l] = get_u32(data + kOffTableLog2 + 4 * l);
@@ -280,6 +293,16 @@ Status read_header_config(const uint8_t* data, uint32_t version, Config& config)
     if (get_u32(data + kOffReserved) != 0)
       return Status::error("reserved header word at offset %zu is 0x%08x, not zero", kOffReserved,
                            get_u32(data + kOffReserved));
+  }
+  if (version >= 6) {
+    config.surface_channels = get_u32(data + kOffSurfaceChannels);
+    config.emission_scale = get_f32(data + kOffEmissionScale);
+    if (config.surface_channels != 1)
+      return Status::error("surface channels %u in a version 6 file: version 6 stores a model with surface channels "
+                           "(1)", config.surface_channels);
+    for (size_t off = kOffReservedV6; off < kHeaderSizeV6; off += 4)
+      if (get_u32(data + off) != 0)
+        return Status::error("reserved header word at offset %zu is 0x%08x, not zero", off, get_u32(data + off));
   }
   if (Status s = config.validate(); !s) return s.context("invalid config in header");
   const Config& c = config;
@@ -567,7 +590,7 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   put_u32(d + kOffVersion, l.version);
   put_u32(d + kOffHeaderSize, l.header_size);
   put_u64(d + kOffFileSize, l.file_size);
-  write_config(d + kOffConfig, c);
+  write_config(d + kOffConfig, c, l.version);
   if (l.version >= 3) put_u32(d + kOffGridBits, c.grid_bits);
   if (l.version >= 4)
     for (uint32_t lv = 0; lv < LSNIF_MAX_LEVELS; ++lv) put_u32(d + kOffTableLog2 + 4 * lv, c.table_log2[lv]);
@@ -576,6 +599,10 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
       put_u32(d + kOffIndexSlots + 4 * lv, c.index_slots[lv]);
       put_u32(d + kOffIndexBuckets + 4 * lv, c.index_buckets[lv]);
     }
+  if (l.version >= 6) {
+    put_u32(d + kOffSurfaceChannels, c.surface_channels);
+    put_f32(d + kOffEmissionScale, c.emission_scale);
+  }
   for (int a = 0; a < 3; ++a) {
     put_f32(d + kOffAabb + 4 * a, contents.bounds_lo[a]);
     put_f32(d + kOffAabb + 12 + 4 * a, contents.bounds_hi[a]);

@@ -18,9 +18,11 @@ namespace lsnif {
 // (int8 codes and per-level fp32 scales, the record optional); models whose levels' hash tables
 // differ in size (Config::table_log2) as version 4 (the layout of version 3 plus the size of every
 // level's table; 16- or 8-bit features); models with an indexed grid level (Config::index_slots) as
-// version 5 (the layout of version 4 plus every level's index sizes and the grid index section). All
-// five are read.
-constexpr uint32_t kModelFormatVersion = 5;
+// version 5 (the layout of version 4 plus every level's index sizes and the grid index section);
+// models with surface channels as version 6 (the layout of version 5 plus the surface channels and
+// the emission scale). All
+// six are read.
+constexpr uint32_t kModelFormatVersion = 6;
 // The training section (version 2): compact JSON text, at most this many bytes.
 constexpr size_t kMaxTrainingRecordBytes = 65536;
 constexpr size_t kModelMaterialNameBytes = 64;  // NUL-terminated: at most 63 bytes of name
@@ -45,7 +47,7 @@ struct ModelFileView {
   const uint8_t* mlp = nullptr;                // config.mlp_parameter_count() fp16 values
   float grid_scales[LSNIF_MAX_LEVELS] = {};    // grid_bits 8: per level, finite, >= 0 (else 0)
   const uint8_t* grid_index = nullptr;         // version 5: config.grid_index_count() u16 displacements
-  uint32_t version = 0;                        // 1 to 5
+  uint32_t version = 0;                        // 1 to 6
   std::string training;                        // the training record (version 2), else empty
 };
 
@@ -64,7 +66,7 @@ struct ModelFileSizes {
 };
 ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes);
 
-// Parses and validates a whole .lsnif file in memory (format version 1 to 5): magic, version,
+// Parses and validates a whole .lsnif file in memory (format version 1 to 6): magic, version,
 // sizes, the config, the AABB,
 // section table, zero padding, CRC-32, material names (valid UTF-8 without control characters),
 // the AABB within +-kMaxModelCoordinate, no voxel bits beyond V^3, no NaN or
@@ -92,7 +94,8 @@ struct ModelFileContents {
   // The training record (src/lsnif/train/settings_io.h): empty writes a version 1 file, else version 2 with
   // a training section (valid UTF-8 without control characters, at most kMaxTrainingRecordBytes).
   // grid_bits 8 always writes version 3, its training section possibly empty; levels with tables of
-  // different sizes version 4 (its training section possibly empty); an indexed level version 5.
+  // different sizes version 4 (its training section possibly empty); an indexed level version 5;
+  // surface channels version 6.
   std::string training;
 };
 

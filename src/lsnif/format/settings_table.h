@@ -31,8 +31,9 @@ struct SettingChoice {
 // In table order (kSettingDefs[i].id == i).
 enum class SettingId : uint32_t {
   Voxels, Points, Levels, ResMin, ResMax, TableLog2, Features, Width, Layers, Hit, LeakySlope, GridBits, Indexed,
+  SurfaceMaps,
   Steps, Batch, Seed, RayReuse, Lr, LrSchedule, LrFinal, LrWarm, AdamBeta1, AdamBeta2, AdamEpsilon, NormalLoss,
-  WOcclusion, WDistance, WNormal, WAlbedo, WMaterial,
+  WOcclusion, WDistance, WNormal, WAlbedo, WMaterial, WSurface,
   SurfaceFraction, SphereScale, SurfaceOffset, GridInitRange,
   Count
 };
@@ -56,6 +57,13 @@ inline constexpr SettingChoice kHitChoices[] = {{"segments", LSNIF_HIT_PARAM_VOX
 inline constexpr SettingChoice kGridBitsChoices[] = {{"16", 16}, {"8", 8}};
 // NormalLoss (src/lsnif/train/loss.h) values.
 inline constexpr SettingChoice kNormalLossChoices[] = {{"angle", 1}, {"cosine", 0}};
+// What the model learns of the mesh's material textures (SurfaceMaps, src/lsnif/train/trainer.h):
+// auto: surface channels when a material has a metallic-roughness, occlusion or emissive texture,
+// and normal maps baked into the normal; on: surface channels always (and normal maps baked); off:
+// base colour only (the albedo), every other texture ignored.
+inline constexpr uint32_t kSurfaceMapsOff = 0, kSurfaceMapsOn = 1, kSurfaceMapsAuto = 2;
+inline constexpr SettingChoice kSurfaceMapsChoices[] = {
+    {"auto", kSurfaceMapsAuto}, {"on", kSurfaceMapsOn}, {"off", kSurfaceMapsOff}};
 // LrSchedule (src/lsnif/train/lr_schedule.h) values.
 inline constexpr SettingChoice kLrScheduleChoices[] = {{"constant", 0}, {"exponential", 1}, {"cosine", 2}};
 
@@ -117,6 +125,10 @@ inline constexpr SettingDef kSettingDefs[] = {
                                   "can read: no collisions, sized to the mesh), 0: hashed into 2^table-log2 entries "
                                   "(the paper's); one value for every level or a comma list of one per level; by "
                                   "default the coarsest level indexed, the others hashed"),
+    setting_detail::choice(SettingId::SurfaceMaps, "surface-maps", kSurfaceMapsAuto, kSurfaceMapsChoices,
+                           "what the model learns of the material textures: auto (metallic, roughness, occlusion "
+                           "and emission as extra network outputs when a material has such a texture, normal maps "
+                           "baked into the normal), on (those outputs always), off (base colour only)"),
     // The training run (TrainSettings).
     setting_detail::u32(SettingId::Steps, "steps", 2400, 1, std::numeric_limits<uint32_t>::max(), "training steps"),
     // Paper: 2^18 on a GPU. On 2 CPU cores the quality per step hardly depends on the batch, so a
@@ -150,6 +162,8 @@ inline constexpr SettingDef kSettingDefs[] = {
                         "loss weight of albedo"),
     setting_detail::f32(SettingId::WMaterial, "w-material", 1, 0, false, kF32Max, false, "weight",
                         "loss weight of the material"),
+    setting_detail::f32(SettingId::WSurface, "w-surface", 1, 0, false, kF32Max, false, "weight",
+                        "loss weight of the surface channels (metallic, roughness, occlusion, emission)"),
     setting_detail::f32(SettingId::SurfaceFraction, "surface-fraction", 0.5, 0, false, 1, false, "",
                         "share of training rays starting on the surface"),
     setting_detail::f32(SettingId::SphereScale, "sphere-scale", 1, 0, true, 100, false, "",

@@ -64,8 +64,6 @@ Status read_slot(const tinygltf::Model& model, const tinygltf::TextureInfo& info
   if (size_t(info.index) >= model.textures.size())
     return Status::error("%s: %s references missing texture %d (%zu textures)", where.c_str(), slot, info.index,
                          model.textures.size());
-  if (info.extensions.count("KHR_texture_transform"))
-    warnings.push_back({"KHR_texture_transform", label + ": " + slot + ": KHR_texture_transform ignored"});
   const int source = model.textures[size_t(info.index)].source;
   if (source < 0) {
     warnings.push_back({"", label + format(": %s: texture %d has no PNG/JPEG source (extension-only images are not "
@@ -77,6 +75,66 @@ Status read_slot(const tinygltf::Model& model, const tinygltf::TextureInfo& info
                          info.index, source, model.images.size());
   out = source;
   return Status::ok();
+}
+
+// `count` finite numbers of `value` (an array of that many) into `out`.
+bool read_numbers(const tinygltf::Value& value, int count, double* out) {
+  if (!value.IsArray() || int(value.ArrayLen()) != count) return false;
+  for (int i = 0; i < count; ++i) {
+    const tinygltf::Value& v = value.Get(i);
+    if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble())) return false;
+    out[i] = v.GetNumberAsDouble();
+  }
+  return true;
+}
+
+// The KHR_texture_transform of slot `info` into `out` (the identity without one), and in
+// `tex_coord` its texCoord override (-1: none).
+Status read_uv_transform(const tinygltf::TextureInfo& info, const char* slot, const std::string& where,
+                         UvTransform& out, int& tex_coord) {
+  out = kIdentityUvTransform;
+  tex_coord = -1;
+  const auto it = info.extensions.find("KHR_texture_transform");
+  if (it == info.extensions.end()) return Status::ok();
+  const tinygltf::Value& ext = it->second;
+  if (!ext.IsObject()) return Status::error("%s: %s: KHR_texture_transform must be an object", where.c_str(), slot);
+  double offset[2] = {0, 0}, rotation = 0, scale[2] = {1, 1};
+  if (ext.Has("offset") && !read_numbers(ext.Get("offset"), 2, offset))
+    return Status::error("%s: %s: KHR_texture_transform offset must be 2 finite numbers", where.c_str(), slot);
+  if (ext.Has("rotation")) {
+    const tinygltf::Value& r = ext.Get("rotation");
+    if (!r.IsNumber() || !std::isfinite(r.GetNumberAsDouble()))
+      return Status::error("%s: %s: KHR_texture_transform rotation must be a finite number", where.c_str(), slot);
+    rotation = r.GetNumberAsDouble();
+  }
+  if (ext.Has("scale") && !read_numbers(ext.Get("scale"), 2, scale))
+    return Status::error("%s: %s: KHR_texture_transform scale must be 2 finite numbers", where.c_str(), slot);
+  if (ext.Has("texCoord")) {
+    const tinygltf::Value& t = ext.Get("texCoord");
+    if (!t.IsInt() || t.GetNumberAsInt() < 0)
+      return Status::error("%s: %s: KHR_texture_transform texCoord must be an integer >= 0", where.c_str(), slot);
+    tex_coord = t.GetNumberAsInt();
+  }
+  // T(offset) R(rotation) S(scale), the extension's order, with R's rows (cos, sin) and (-sin, cos):
+  // the direction Khronos' TextureTransformTest asset marks correct (its "Rotation" quad, rendered
+  // in docs/convert.md's check). m holds the three columns of the 2x3 result.
+  const double c = std::cos(rotation), s = std::sin(rotation);
+  const double m[6] = {c * scale[0], -s * scale[0], s * scale[1], c * scale[1], offset[0], offset[1]};
+  for (int k = 0; k < 6; ++k)
+    if (!std::isfinite(float(m[k])))
+      return Status::error("%s: %s: KHR_texture_transform overflows a float", where.c_str(), slot);
+  out = UvTransform(float(m[0]), float(m[1]), float(m[2]), float(m[3]), float(m[4]), float(m[5]));
+  return Status::ok();
+}
+
+// The slot's texture index, uv set and extensions as a TextureInfo.
+template <class Slot>
+tinygltf::TextureInfo texture_info(const Slot& slot) {
+  tinygltf::TextureInfo info;
+  info.index = slot.index;
+  info.texCoord = slot.texCoord;
+  info.extensions = slot.extensions;
+  return info;
 }
 
 }  // namespace
@@ -99,15 +157,37 @@ Status read_gltf_material(const tinygltf::Model& model, size_t index, const std:
     s = read_slot(model, pbr.metallicRoughnessTexture, "metallicRoughnessTexture", where, label,
                   out.metallic_roughness_image, warnings);
   if (s) s = read_slot(model, gm.emissiveTexture, "emissiveTexture", where, label, out.emission_image, warnings);
+  // tinygltf keeps the occlusion and normal slots in types of their own: their common fields are
+  // read through a TextureInfo.
+  const tinygltf::TextureInfo occlusion = texture_info(gm.occlusionTexture);
+  const tinygltf::TextureInfo normal = texture_info(gm.normalTexture);
+  if (s) s = read_slot(model, occlusion, "occlusionTexture", where, label, out.occlusion_image, warnings);
+  if (s) s = read_slot(model, normal, "normalTexture", where, label, out.normal_image, warnings);
   if (!s) return s;
-  if (gm.normalTexture.index >= 0 || gm.occlusionTexture.index >= 0)
-    warnings.push_back({"normal/occlusion maps", label + ": normal / occlusion textures ignored"});
-  // The one uv set: the base colour's, else the first textured slot's.
+  if (!std::isfinite(gm.normalTexture.scale) || std::fabs(gm.normalTexture.scale) > 1e6)
+    return Status::error("%s: normalTexture.scale must be a finite number within +-1e6", where.c_str());
+  out.normal_scale = static_cast<float>(gm.normalTexture.scale);
+  if (!std::isfinite(gm.occlusionTexture.strength))
+    return Status::error("%s: occlusionTexture.strength must be finite", where.c_str());
+  const double strength = std::clamp(gm.occlusionTexture.strength, 0.0, 1.0);
+  out.occlusion_strength = static_cast<float>(strength);
+  if (strength != gm.occlusionTexture.strength)
+    warnings.push_back({"", label + ": occlusionTexture.strength outside [0, 1] was clamped"});
+  // Each slot's KHR_texture_transform, and the one uv set: the base colour's, else the first
+  // textured slot's (a transform's texCoord overrides its slot's).
   int set = -1;
-  for (const tinygltf::TextureInfo* info : {&pbr.baseColorTexture, &pbr.metallicRoughnessTexture, &gm.emissiveTexture}) {
+  const tinygltf::TextureInfo* slots[kTextureSlotCount] = {&pbr.baseColorTexture, &pbr.metallicRoughnessTexture,
+                                                           &gm.emissiveTexture, &occlusion, &normal};
+  const char* slot_names[kTextureSlotCount] = {"baseColorTexture", "metallicRoughnessTexture", "emissiveTexture",
+                                               "occlusionTexture", "normalTexture"};
+  for (uint32_t k = 0; k < kTextureSlotCount; ++k) {
+    const tinygltf::TextureInfo* info = slots[k];
     if (info->index < 0) continue;
-    if (set < 0) set = info->texCoord;
-    else if (info->texCoord != set)
+    int tex_coord = -1;
+    if (Status st = read_uv_transform(*info, slot_names[k], where, out.uv_transform[k], tex_coord); !st) return st;
+    const int slot_set = tex_coord >= 0 ? tex_coord : info->texCoord;
+    if (set < 0) set = slot_set;
+    else if (slot_set != set)
       warnings.push_back({"", label + format(": textures use different TEXCOORD sets; TEXCOORD_%d used for all", set)});
   }
   if (set > 15) warnings.push_back({"", label + format(": texCoord %d unsupported; TEXCOORD_0 used", set)});

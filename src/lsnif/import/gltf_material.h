@@ -1,8 +1,7 @@
 // gltf_material.h -- the one reader of a glTF material for every tool: its factors checked and
 // clamped, KHR_materials_emissive_strength applied, its texture slots resolved to image indices and
 // its TEXCOORD set chosen, with what is ignored as warnings. The mesh importer (`lsnif train`,
-// `eval`, `convert`) keeps the base colour and its texture; the renderer's scene loader keeps all of
-// it. Both decode images under the same budget (kGltfMaxImagePixels) and read accessors under the
+// `eval`, `convert`) and the renderer's scene loader keep all of it. Both decode images under the same budget (kGltfMaxImagePixels) and read accessors under the
 // same element limit (kGltfMaxAccessorCount). Part of lsnif_import.
 #pragma once
 #include <cstdint>
@@ -13,6 +12,7 @@
 
 #include "lsnif/format/status.h"
 #include "lsnif/import/gltf_access.h"
+#include "lsnif/import/mesh.h"
 
 namespace lsnif {
 
@@ -29,23 +29,30 @@ struct GltfMaterial {
   int base_color_image = -1;        // glTF image of each texture slot; -1: none, or a texture without
   int metallic_roughness_image = -1;  // a PNG / JPEG source (warned)
   int emission_image = -1;
+  int occlusion_image = -1;         // occlusionTexture (occlusion in R)
+  float occlusion_strength = 1.0f;  // its strength, clamped to [0, 1]
+  int normal_image = -1;            // normalTexture (tangent space, +Y up)
+  float normal_scale = 1.0f;        // its scale (finite)
   int uv_set = 0;                   // TEXCOORD set: the base colour texture's, else the first textured slot's
+  UvTransform uv_transform[kTextureSlotCount] = {kIdentityUvTransform, kIdentityUvTransform, kIdentityUvTransform,
+                                                 kIdentityUvTransform, kIdentityUvTransform};  // KHR_texture_transform
 };
 
 // A warning of read_gltf_material: `text` names the material; `kind` is empty, or a kind the
-// renderer lists a few of and counts the rest ("KHR_texture_transform", "normal/occlusion maps").
+// renderer lists a few of and counts the rest (none at present).
 struct GltfWarning {
   std::string kind;
   std::string text;
 };
 
 // Reads material `index` of `model` into `out`, appending warnings to `warnings` (factors clamped,
-// normal and occlusion textures and KHR_texture_transform ignored, textures on different TEXCOORD
+// textures on different TEXCOORD
 // sets, a texCoord above 15, a texture without a PNG / JPEG source). Errors name `name`, the material
 // and the problem: a baseColorFactor that is not 4 finite numbers, an emissiveFactor that is not 3
 // (an empty one is absent: glTF's default),
 // a non-finite metallic or roughness factor, a bad KHR_materials_emissive_strength, an emission
-// that overflows a float, a texture or image index past its list.
+// that overflows a float, a texture or image index past its list, a KHR_texture_transform that is
+// not an object or whose offset, rotation or scale is not finite numbers of the right count.
 Status read_gltf_material(const tinygltf::Model& model, size_t index, const std::string& name, GltfMaterial& out,
                           std::vector<GltfWarning>& warnings);
 

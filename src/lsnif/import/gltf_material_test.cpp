@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <limits>
+#include <tuple>
 #include <string>
 
 namespace lsnif {
@@ -76,6 +78,9 @@ TEST(GltfMaterial, SlotsResolveToImagesAndTheUvSet) {
   m.emissiveTexture.index = 1;  // image 0
   m.emissiveTexture.texCoord = 2;
   m.normalTexture.index = 0;
+  m.occlusionTexture.index = 0;  // image 1
+  m.occlusionTexture.texCoord = 2;
+  m.occlusionTexture.strength = 0.25;
   m.pbrMetallicRoughness.baseColorTexture.index = 2;  // no source: warned, untextured
   GltfMaterial out;
   std::vector<GltfWarning> w;
@@ -85,7 +90,11 @@ TEST(GltfMaterial, SlotsResolveToImagesAndTheUvSet) {
   EXPECT_EQ(out.emission_image, 0);
   EXPECT_EQ(out.uv_set, 0);  // the base colour texture's (set 0), though it has no image
   EXPECT_TRUE(any_warning(w, "baseColorTexture: texture 2 has no PNG/JPEG source"));
-  EXPECT_TRUE(any_warning(w, "normal / occlusion textures ignored", "normal/occlusion maps"));
+  EXPECT_EQ(out.occlusion_image, 1);
+  EXPECT_EQ(out.occlusion_strength, 0.25f);
+  EXPECT_EQ(out.normal_image, 1);
+  EXPECT_FALSE(any_warning(w, "occlusion"));
+  EXPECT_FALSE(any_warning(w, "normal"));
   EXPECT_TRUE(any_warning(w, "different TEXCOORD sets; TEXCOORD_0 used for all"));
   m.pbrMetallicRoughness.baseColorTexture.index = -1;
   w.clear();
@@ -97,10 +106,51 @@ TEST(GltfMaterial, SlotsResolveToImagesAndTheUvSet) {
   ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
   EXPECT_EQ(out.uv_set, 0);
   EXPECT_TRUE(any_warning(w, "texCoord 20 unsupported; TEXCOORD_0 used"));
-  m.pbrMetallicRoughness.metallicRoughnessTexture.extensions["KHR_texture_transform"] = tinygltf::Value();
-  w.clear();
+}
+
+// KHR_texture_transform: uv' = T(offset) R(rotation) S(scale) uv per slot, the extension's matrices
+// multiplied out by hand; its texCoord overrides the slot's uv set.
+TEST(GltfMaterial, TextureTransformsAreTheExtensionsAffineMaps) {
+  tinygltf::Model g = one_material();
+  tinygltf::Material& m = g.materials[0];
+  m.emissiveTexture.index = 1;
+  m.pbrMetallicRoughness.metallicRoughnessTexture.index = 0;
+  tinygltf::Value::Object ext;
+  ext["offset"] = tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(0.5), tinygltf::Value(-0.25)});
+  ext["rotation"] = tinygltf::Value(0.5);
+  ext["scale"] = tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(2.0), tinygltf::Value(3.0)});
+  m.emissiveTexture.extensions["KHR_texture_transform"] = tinygltf::Value(ext);
+  GltfMaterial out;
+  std::vector<GltfWarning> w;
   ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
-  EXPECT_TRUE(any_warning(w, "metallicRoughnessTexture: KHR_texture_transform ignored", "KHR_texture_transform"));
+  EXPECT_TRUE(w.empty());
+  const glm::vec2 uv(0.3f, 0.7f), s(2.0f * uv.x, 3.0f * uv.y);
+  const float c = std::cos(0.5f), sn = std::sin(0.5f);
+  const glm::vec2 expected(c * s.x + sn * s.y + 0.5f, -sn * s.x + c * s.y - 0.25f);
+  const glm::vec2 got = apply_uv_transform(out.uv_transform[kSlotEmission], uv);
+  EXPECT_NEAR(got.x, expected.x, 1e-6f);
+  EXPECT_NEAR(got.y, expected.y, 1e-6f);
+  const glm::vec2 same = apply_uv_transform(out.uv_transform[kSlotMetallicRoughness], uv);  // no extension
+  EXPECT_EQ(same, uv);
+  // texCoord in the extension: the slot's set.
+  ext["texCoord"] = tinygltf::Value(1);
+  m.emissiveTexture.extensions["KHR_texture_transform"] = tinygltf::Value(ext);
+  m.pbrMetallicRoughness.metallicRoughnessTexture.index = -1;
+  ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
+  EXPECT_EQ(out.uv_set, 1);
+  // Malformed transforms are errors naming the slot.
+  for (const auto& [key, value, message] :
+       {std::tuple{"offset", tinygltf::Value(1.0), "emissiveTexture: KHR_texture_transform offset must be 2 finite numbers"},
+        std::tuple{"rotation", tinygltf::Value(std::string("x")), "rotation must be a finite number"},
+        std::tuple{"scale", tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(1.0)}), "scale must be 2 finite numbers"},
+        std::tuple{"texCoord", tinygltf::Value(-1), "texCoord must be an integer >= 0"}}) {
+    tinygltf::Value::Object bad = ext;
+    bad[key] = value;
+    m.emissiveTexture.extensions["KHR_texture_transform"] = tinygltf::Value(bad);
+    const Status st = read_gltf_material(g, 0, "f.gltf", out, w);
+    EXPECT_FALSE(st) << key;
+    EXPECT_NE(st.message().find(message), std::string::npos) << st.message();
+  }
 }
 
 TEST(GltfMaterial, ErrorsNameTheFileTheMaterialAndTheProblem) {

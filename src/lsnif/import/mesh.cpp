@@ -85,7 +85,7 @@ void remove_unused_vertices(Mesh& mesh) {
 
 }  // namespace
 
-glm::vec3 Texture::sample(glm::vec2 uv) const {
+glm::vec3 Texture::sample(glm::vec2 uv, bool srgb) const {
   if (width == 0 || height == 0 || rgba.size() < size_t(width) * height * 4) return glm::vec3(1.0f);
   // Wrap into [0, 1) first so huge coordinates cannot overflow the texel arithmetic.
   double u = std::isfinite(uv.x) ? uv.x - std::floor(double(uv.x)) : 0.0;
@@ -99,6 +99,7 @@ glm::vec3 Texture::sample(glm::vec2 uv) const {
   const auto& lut = srgb_to_linear_table();
   auto texel = [&](uint32_t tx, uint32_t ty) {
     size_t o = (size_t(ty) * width + tx) * 4;
+    if (!srgb) return glm::vec3(rgba[o], rgba[o + 1], rgba[o + 2]) / 255.0f;
     return glm::vec3(lut[rgba[o]], lut[rgba[o + 1]], lut[rgba[o + 2]]);
   };
   glm::vec3 top = glm::mix(texel(xs[0], ys[0]), texel(xs[1], ys[0]), fx);
@@ -119,6 +120,68 @@ Aabb Mesh::bounds() const {
   return box;
 }
 
+glm::vec3 normal_mapped_shading_normal(glm::vec3 n, const glm::vec3 p[3], const glm::vec2 uv[3], glm::vec3 texel,
+                                       float scale) {
+  const glm::vec3 dp1 = p[1] - p[0], dp2 = p[2] - p[0];
+  const glm::vec2 duv1 = uv[1] - uv[0], duv2 = uv[2] - uv[0];
+  const float det = duv1.x * duv2.y - duv2.x * duv1.y;
+  if (!(std::fabs(det) > 1e-20f)) return n;
+  const glm::vec3 t = (dp1 * duv2.y - dp2 * duv1.y) / det;
+  const glm::vec3 b = (dp2 * duv1.x - dp1 * duv2.x) / det;
+  const glm::vec3 t_ortho = t - n * glm::dot(n, t);
+  const float t_len = glm::length(t_ortho);
+  if (!(t_len > 1e-20f) || !std::isfinite(t_len)) return n;
+  const glm::vec3 tangent = t_ortho / t_len;
+  const glm::vec3 bitangent = glm::cross(n, tangent) * (glm::dot(glm::cross(n, tangent), b) < 0.0f ? -1.0f : 1.0f);
+  const glm::vec3 m = 2.0f * texel - 1.0f;
+  const glm::vec3 mapped = tangent * (m.x * scale) + bitangent * (m.y * scale) + n * m.z;
+  const float len = glm::length(mapped);
+  if (!(len > 1e-20f) || !std::isfinite(len) || !(glm::dot(mapped, n) > 0.0f)) return n;
+  return mapped / len;
+}
+
+SurfaceSample Mesh::surface(uint32_t triangle, float u, float v) const {
+  SurfaceSample out;
+  out.albedo = albedo(triangle, u, v);
+  out.normal = shading_normal(triangle, u, v);
+  if (triangle >= triangles.size()) return out;
+  const uint32_t m = triangle < triangle_material.size() ? triangle_material[triangle] : 0u;
+  if (m >= materials.size()) return out;
+  const Material& mat = materials[m];
+  out.metallic = mat.metallic;
+  out.roughness = mat.roughness;
+  out.emission = mat.emission;
+  const glm::uvec3& t = triangles[triangle];
+  if (uvs.size() != positions.size() || t.x >= uvs.size() || t.y >= uvs.size() || t.z >= uvs.size()) return out;
+  const glm::vec2 uv = (1.0f - u - v) * uvs[t.x] + u * uvs[t.y] + v * uvs[t.z];
+  auto texture = [&](int index) { return index >= 0 && size_t(index) < textures.size() ? &textures[size_t(index)] : nullptr; };
+  auto at = [&](TextureSlot slot) { return apply_uv_transform(mat.uv_transform[slot], uv); };
+  if (const Texture* tex = texture(mat.metallic_roughness_texture)) {
+    const glm::vec3 mr = tex->sample(at(kSlotMetallicRoughness), false);
+    out.metallic *= mr.b;
+    out.roughness *= mr.g;
+  }
+  if (const Texture* tex = texture(mat.emission_texture)) out.emission *= tex->sample(at(kSlotEmission), true);
+  if (const Texture* tex = texture(mat.occlusion_texture))
+    out.ambient_occlusion = 1.0f + mat.occlusion_strength * (tex->sample(at(kSlotOcclusion), false).r - 1.0f);
+  if (const Texture* tex = texture(mat.normal_texture)) {
+    // The tangent frame follows the uvs the normal map is read with.
+    const UvTransform& transform = mat.uv_transform[kSlotNormal];
+    const glm::vec3 p[3] = {positions[t.x], positions[t.y], positions[t.z]};
+    const glm::vec2 uvs3[3] = {apply_uv_transform(transform, uvs[t.x]), apply_uv_transform(transform, uvs[t.y]),
+                               apply_uv_transform(transform, uvs[t.z])};
+    out.normal = normal_mapped_shading_normal(out.normal, p, uvs3, tex->sample(at(kSlotNormal), false), mat.normal_scale);
+  }
+  return out;
+}
+
+float Mesh::max_emission() const {
+  float largest = 0.0f;
+  for (const Material& mat : materials)
+    for (int c = 0; c < 3; ++c) largest = std::max(largest, mat.emission[c]);
+  return largest;
+}
+
 glm::vec3 Mesh::albedo(uint32_t triangle, float u, float v) const {
   if (triangle >= triangles.size()) return glm::vec3(0.0f);
   const glm::uvec3& t = triangles[triangle];
@@ -130,8 +193,8 @@ glm::vec3 Mesh::albedo(uint32_t triangle, float u, float v) const {
     color = mat.base_color;
     if (mat.texture >= 0 && size_t(mat.texture) < textures.size() && uvs.size() == positions.size() &&
         t.x < uvs.size() && t.y < uvs.size() && t.z < uvs.size()) {
-      glm::vec2 uv = w * uvs[t.x] + u * uvs[t.y] + v * uvs[t.z];
-      color *= textures[size_t(mat.texture)].sample(uv);
+      const glm::vec2 uv = w * uvs[t.x] + u * uvs[t.y] + v * uvs[t.z];
+      color *= textures[size_t(mat.texture)].sample(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
     }
   }
   if (colors.size() == positions.size() && t.x < colors.size() && t.y < colors.size() &&
@@ -311,14 +374,18 @@ Status drop_bad_triangles(Mesh& mesh, const std::string& name, bool allow_droppi
   return Status::ok();
 }
 
-// Recomputes the missing or unusable normals from the cleaned triangles (all of them when the array's
-// length is not `n`, the vertex count the mesh was imported with), counted in rep.fixed_normals.
-void fix_normals(Mesh& mesh, size_t n, const std::string& name, MeshImportReport& rep) {
+// Recomputes the missing or unusable normals from the cleaned triangles, counted in
+// rep.fixed_normals: all of them when the mesh was imported with `imported_normals` normals for
+// `imported_vertices` vertices (a count that differs, 0 included); else the non-finite or zero ones
+// (the normals of the vertices kept by remove_unused_vertices).
+void fix_normals(Mesh& mesh, size_t imported_normals, size_t imported_vertices, const std::string& name,
+                 MeshImportReport& rep) {
   uint32_t fixed = 0;
-  if (mesh.normals.size() != n) {
-    if (!mesh.normals.empty())
+  const size_t n = mesh.positions.size();
+  if (imported_normals != imported_vertices || mesh.normals.size() != n) {
+    if (imported_normals != 0)
       rep.warnings.push_back(format("%s: %zu normals for %zu vertices; recomputed all",
-                                    name.c_str(), mesh.normals.size(), n));
+                                    name.c_str(), imported_normals, imported_vertices));
     else
       rep.warnings.push_back(format("%s: no vertex normals; computed %zu (area-weighted)",
                                     name.c_str(), n));
@@ -368,10 +435,11 @@ Status finalize_mesh(Mesh& mesh, MeshImportReport* report, const std::string& na
 
   Status s = drop_bad_triangles(mesh, name, allow_dropping_most, rep);
   if (!s) return s;
-  remove_unused_vertices(mesh);
+  const size_t imported_normals = mesh.normals.size();
+  remove_unused_vertices(mesh);  // keeps a complete normal array aligned with the kept vertices
 
   // Normals: recompute the missing or unusable ones from the cleaned triangles.
-  fix_normals(mesh, n, name, rep);
+  fix_normals(mesh, imported_normals, n, name, rep);
   return Status::ok();
 }
 

@@ -14,16 +14,70 @@ namespace lsnif {
 
 struct Texture {
   uint32_t width = 0, height = 0;
-  std::vector<uint8_t> rgba;  // 8-bit sRGB-encoded RGBA, row-major, top row first
-  // Bilinear lookup with repeat wrapping at uv; returns linear RGB (sRGB decoded).
-  glm::vec3 sample(glm::vec2 uv) const;
+  std::vector<uint8_t> rgba;  // 8-bit RGBA, row-major, top row first (colour: sRGB-encoded)
+  // Bilinear lookup with repeat wrapping at uv; returns linear RGB: sRGB decoded (colour textures:
+  // base colour, emission) or, with srgb false, the 8-bit values / 255 (data textures:
+  // metallic-roughness, occlusion).
+  glm::vec3 sample(glm::vec2 uv, bool srgb = true) const;
 };
+
+// The texture slots of a metallic-roughness material, the index of the per-slot arrays
+// (Material::uv_transform, GltfMaterial::uv_transform, RenderMaterial's).
+enum TextureSlot : uint32_t {
+  kSlotBaseColor = 0, kSlotMetallicRoughness, kSlotEmission, kSlotOcclusion, kSlotNormal, kTextureSlotCount
+};
+
+// A slot's uv transform (glTF's KHR_texture_transform): uv' = m * vec3(uv, 1), glm's 3 columns of 2
+// rows.
+using UvTransform = glm::mat3x2;
+inline constexpr UvTransform kIdentityUvTransform(1, 0, 0, 1, 0, 0);
+inline glm::vec2 apply_uv_transform(const UvTransform& m, glm::vec2 uv) { return m * glm::vec3(uv, 1.0f); }
 
 struct Material {
   std::string name;
   glm::vec3 base_color{1.0f};  // linear RGB factor (glTF baseColorFactor.rgb)
   int texture = -1;            // index into Mesh::textures or -1 (glTF baseColorTexture)
+  // The rest of glTF's metallic-roughness material (gltf_material.h), learned as surface channels
+  // (src/lsnif/core/head.h): factors, and textures as indices into Mesh::textures or -1.
+  float metallic = 1.0f, roughness = 1.0f;     // metallicFactor, roughnessFactor
+  glm::vec3 emission{0.0f};                    // emissiveFactor x emissive strength, linear RGB
+  float occlusion_strength = 1.0f;             // occlusionTexture.strength
+  float normal_scale = 1.0f;                   // normalTexture.scale
+  int metallic_roughness_texture = -1;         // metallic in B, roughness in G (linear)
+  int emission_texture = -1;                   // sRGB
+  int occlusion_texture = -1;                  // occlusion in R (linear)
+  int normal_texture = -1;                     // tangent-space normal map (linear, glTF's +Y up)
+  // Per TextureSlot: the uv transform the slot's texture is read with.
+  UvTransform uv_transform[kTextureSlotCount] = {kIdentityUvTransform, kIdentityUvTransform, kIdentityUvTransform,
+                                                 kIdentityUvTransform, kIdentityUvTransform};
+  // Whether a channel besides the base colour varies over the surface (a metallic-roughness,
+  // emission or occlusion texture): what surface channels are for.
+  bool has_surface_textures() const {
+    return metallic_roughness_texture >= 0 || emission_texture >= 0 || occlusion_texture >= 0;
+  }
+  bool has_textures() const { return texture >= 0 || has_surface_textures() || normal_texture >= 0; }
 };
+
+// The material channels at a point of the surface (Mesh::surface).
+struct SurfaceSample {
+  glm::vec3 albedo{1.0f};       // base colour factor x texture x vertex colour
+  float metallic = 1.0f, roughness = 1.0f;
+  float ambient_occlusion = 1.0f;  // 1 + strength x (texture.r - 1); 1 without a texture
+  glm::vec3 emission{0.0f};
+  // The shading normal with the material's normal map applied (normal_mapped_shading_normal); the
+  // interpolated shading normal without one.
+  glm::vec3 normal{0.0f, 0.0f, 1.0f};
+};
+
+// The shading normal `n` (unit) of a triangle with positions p0..p2 and texture coordinates
+// uv0..uv2, perturbed by the tangent-space normal map value `texel` (linear RGB in [0, 1]) with
+// glTF's `scale`: the tangent T and bitangent B are the triangle's directions of increasing u and v
+// (its uv derivatives; glTF's TANGENT attribute is not read), made orthonormal to n with B's
+// handedness kept, and the result is normalize(T (2 r - 1) s + B (2 g - 1) s + n (2 b - 1)). A
+// triangle whose uv map is degenerate, or a result that is not finite or not in n's hemisphere,
+// keeps n. The one rule of the trainer (Mesh::surface) and the renderer (render_surface.glsl).
+glm::vec3 normal_mapped_shading_normal(glm::vec3 n, const glm::vec3 p[3], const glm::vec2 uv[3], glm::vec3 texel,
+                                       float scale);
 
 struct Mesh {
   std::vector<glm::vec3> positions;
@@ -39,6 +93,10 @@ struct Mesh {
   // Reference albedo at a hit: base color * texture(uv) * vertex color, barycentrics (u, v) as in
   // Embree (p = (1-u-v) p0 + u p1 + v p2).
   glm::vec3 albedo(uint32_t triangle, float u, float v) const;
+  // Every material channel at a hit (the albedo as albedo()), textures sampled at the hit's uv.
+  SurfaceSample surface(uint32_t triangle, float u, float v) const;
+  // The largest emission component any point of the surface can have (factor x texture <= factor).
+  float max_emission() const;
   // Interpolated shading normal (normalized) at a hit; falls back to the face normal if the
   // interpolated one degenerates.
   glm::vec3 shading_normal(uint32_t triangle, float u, float v) const;

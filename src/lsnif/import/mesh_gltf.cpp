@@ -161,7 +161,7 @@ class GltfFlattener {
     if (int acc = gltf::find_attribute(prim, uv_key); acc >= 0) {
       s = reader.read_attribute(acc, uv_key, {TINYGLTF_TYPE_VEC2}, false, n, where, uv, nc);
       if (!s) return s;
-    } else if (first_time && mesh_.materials[size_t(material)].texture >= 0) {
+    } else if (first_time && mesh_.materials[size_t(material)].has_textures()) {
       report_.warnings.push_back(format("%s: textured material but no %s; texture unused there",
                                         where.c_str(), uv_key.c_str()));
     }
@@ -287,6 +287,17 @@ class GltfFlattener {
       mat.name = gm.name;
       mat.base_color = glm::vec3(gm.base_color);
       if (gm.base_color_image >= 0) mat.texture = image_texture(gm.base_color_image, mat.name);
+      mat.metallic = gm.metallic;
+      mat.roughness = gm.roughness;
+      mat.emission = gm.emission;
+      mat.occlusion_strength = gm.occlusion_strength;
+      if (gm.metallic_roughness_image >= 0)
+        mat.metallic_roughness_texture = image_texture(gm.metallic_roughness_image, mat.name);
+      if (gm.emission_image >= 0) mat.emission_texture = image_texture(gm.emission_image, mat.name);
+      if (gm.occlusion_image >= 0) mat.occlusion_texture = image_texture(gm.occlusion_image, mat.name);
+      mat.normal_scale = gm.normal_scale;
+      for (uint32_t k = 0; k < kTextureSlotCount; ++k) mat.uv_transform[k] = gm.uv_transform[k];
+      if (gm.normal_image >= 0) mat.normal_texture = image_texture(gm.normal_image, mat.name);
       mapped = int(mesh_.materials.size());
       mesh_.materials.push_back(std::move(mat));
     }

@@ -741,6 +741,72 @@ TEST(MeshQueries, AlbedoMultipliesBaseTextureAndVertexColor) {
   expect_vec3(m.albedo(0, 0.2f, 0.3f), glm::vec3(0.25f, 0.2f, 0.3f));
 }
 
+TEST(MeshQueries, SurfaceMultipliesFactorsWithTheirTextures) {
+  Mesh m = tiny_triangle();
+  m.uvs = {{0, 0}, {1, 0}, {0, 1}};
+  // Data textures (metallic-roughness, occlusion) are linear; the emission texture is sRGB.
+  const float s200 = static_cast<float>(std::pow((200.0 / 255.0 + 0.055) / 1.055, 2.4));
+  m.textures = {Texture{1, 1, {0, 51, 204, 255}},     // roughness G = 0.2, metallic B = 0.8
+                Texture{1, 1, {200, 200, 0, 255}},    // emission (sRGB)
+                Texture{1, 1, {102, 0, 0, 255}}};     // occlusion R = 0.4
+  Material& mat = m.materials[0];
+  mat.metallic = 0.5f;
+  mat.roughness = 0.75f;
+  mat.emission = glm::vec3(2.0f, 4.0f, 1.0f);
+  mat.occlusion_strength = 0.5f;
+  SurfaceSample f = m.surface(0, 0.2f, 0.3f);  // factors only
+  EXPECT_FLOAT_EQ(f.metallic, 0.5f);
+  EXPECT_FLOAT_EQ(f.roughness, 0.75f);
+  EXPECT_FLOAT_EQ(f.ambient_occlusion, 1.0f);
+  expect_vec3(f.emission, glm::vec3(2.0f, 4.0f, 1.0f));
+  expect_vec3(f.albedo, m.albedo(0, 0.2f, 0.3f));
+  EXPECT_FALSE(mat.has_surface_textures());
+  mat.metallic_roughness_texture = 0;
+  mat.emission_texture = 1;
+  mat.occlusion_texture = 2;
+  EXPECT_TRUE(mat.has_surface_textures());
+  SurfaceSample t = m.surface(0, 0.2f, 0.3f);
+  EXPECT_NEAR(t.metallic, 0.5f * 0.8f, 1e-6f);
+  EXPECT_NEAR(t.roughness, 0.75f * 0.2f, 1e-6f);
+  EXPECT_NEAR(t.ambient_occlusion, 1.0f + 0.5f * (0.4f - 1.0f), 1e-6f);  // 1 + strength (R - 1)
+  expect_vec3(t.emission, glm::vec3(2.0f * s200, 4.0f * s200, 0.0f), 1e-6f);
+  EXPECT_FLOAT_EQ(m.max_emission(), 4.0f);
+  m.uvs.clear();  // textures without uvs are not applied
+  EXPECT_FLOAT_EQ(m.surface(0, 0.2f, 0.3f).metallic, 0.5f);
+}
+
+TEST(MeshQueries, NormalMapTiltsTheNormalInTheUvTangentFrame) {
+  // A triangle in the xy plane facing +z, u along +x and v along +y: tangent +x, bitangent +y.
+  const glm::vec3 p[3] = {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}};
+  const glm::vec2 uv[3] = {{0, 0}, {1, 0}, {0, 1}};
+  const glm::vec3 n(0, 0, 1);
+  const glm::vec3 tilt_u(0.75f, 0.5f, 0.5f + 0.5f * std::sqrt(0.75f));  // (0.5, 0, 0.866) in tangent space
+  expect_vec3(normal_mapped_shading_normal(n, p, uv, tilt_u, 1.0f), glm::vec3(0.5f, 0.0f, std::sqrt(0.75f)), 1e-5f);
+  // The scale multiplies the tangent-space x and y (glTF normalTexture.scale).
+  const glm::vec3 scaled = glm::normalize(glm::vec3(0.25f, 0.0f, std::sqrt(0.75f)));
+  expect_vec3(normal_mapped_shading_normal(n, p, uv, tilt_u, 0.5f), scaled, 1e-5f);
+  // Tilt along v goes to +y; u running along -x flips the tangent; a flat texel keeps the normal.
+  const glm::vec3 tilt_v(0.5f, 0.75f, 0.5f + 0.5f * std::sqrt(0.75f));
+  expect_vec3(normal_mapped_shading_normal(n, p, uv, tilt_v, 1.0f), glm::vec3(0.0f, 0.5f, std::sqrt(0.75f)), 1e-5f);
+  const glm::vec2 mirrored[3] = {{1, 0}, {0, 0}, {1, 1}};
+  expect_vec3(normal_mapped_shading_normal(n, p, mirrored, tilt_u, 1.0f), glm::vec3(-0.5f, 0.0f, std::sqrt(0.75f)), 1e-5f);
+  expect_vec3(normal_mapped_shading_normal(n, p, uv, glm::vec3(0.5f, 0.5f, 1.0f), 1.0f), n, 1e-6f);
+  // A degenerate uv map, or a texel pointing below the surface, keeps n.
+  const glm::vec2 degenerate[3] = {{0, 0}, {1, 1}, {2, 2}};
+  expect_vec3(normal_mapped_shading_normal(n, p, degenerate, tilt_u, 1.0f), n);
+  expect_vec3(normal_mapped_shading_normal(n, p, uv, glm::vec3(0.5f, 0.5f, 0.0f), 1.0f), n);
+  // Through Mesh::surface: the material's normal texture at the hit's uv.
+  Mesh m = tiny_triangle();
+  m.uvs = {{0, 0}, {1, 0}, {0, 1}};
+  m.textures = {Texture{1, 1, {191, 128, 238, 255}}};
+  m.materials[0].normal_texture = 0;
+  const glm::vec3 texel(191 / 255.0f, 128 / 255.0f, 238 / 255.0f);
+  const glm::vec3 q[3] = {m.positions[0], m.positions[1], m.positions[2]};
+  expect_vec3(m.surface(0, 0.2f, 0.3f).normal, normal_mapped_shading_normal(m.shading_normal(0, 0.2f, 0.3f), q, uv, texel, 1.0f),
+              1e-6f);
+  EXPECT_GT(m.surface(0, 0.2f, 0.3f).normal.x, 0.4f);
+}
+
 TEST(MeshQueries, TextureSampleIsBilinearRepeatAndSrgbDecoded) {
   Texture t{2, 1, {0, 0, 0, 255, 255, 255, 255, 255}};  // black, white
   expect_vec3(t.sample({0.25f, 0.5f}), glm::vec3(0.0f));    // centre of texel 0
@@ -751,6 +817,7 @@ TEST(MeshQueries, TextureSampleIsBilinearRepeatAndSrgbDecoded) {
   expect_vec3(t.sample({0.375f, 0.5f}), glm::vec3(0.25f));  // a quarter of the way
   Texture g{1, 1, {188, 188, 188, 255}};
   expect_vec3(g.sample({0.3f, 0.9f}), glm::vec3(std::pow((188.0f / 255.0f + 0.055f) / 1.055f, 2.4f)), 1e-6f);
+  expect_vec3(g.sample({0.3f, 0.9f}, false), glm::vec3(188.0f / 255.0f), 1e-6f);  // data: not decoded
   Texture empty;
   expect_vec3(empty.sample({0.5f, 0.5f}), glm::vec3(1.0f));
 }
@@ -784,6 +851,29 @@ TEST(MeshQueries, FinalizeFixesOnlyBadNormalsAndPadsMaterials) {
   EXPECT_TRUE(m.uvs.empty());
   EXPECT_TRUE(any_warning(r, "texture coordinates"));
   EXPECT_TRUE(any_warning(r, "normals"));
+}
+
+// A vertex no triangle uses is removed with its normal; the given normals of the others stay (not
+// recomputed as if their count were wrong).
+TEST(MeshQueries, FinalizeKeepsGivenNormalsWhenAnUnusedVertexGoes) {
+  Mesh m = tiny_triangle();
+  m.positions.push_back({5, 5, 5});  // used by no triangle
+  const glm::vec3 tilted = glm::normalize(glm::vec3(0.3f, 0.0f, 1.0f));
+  m.normals = {tilted, tilted, tilted, {0, 1, 0}};
+  MeshImportReport r;
+  ASSERT_TRUE(finalize_mesh(m, &r, "tiny"));
+  ASSERT_EQ(m.positions.size(), 3u);
+  ASSERT_EQ(m.normals.size(), 3u);
+  for (const glm::vec3& n : m.normals) expect_vec3(n, tilted);  // the face normal would be (0, 0, 1)
+  EXPECT_EQ(r.fixed_normals, 0u);
+  EXPECT_FALSE(any_warning(r, "normals"));
+  // A normal array of the wrong length is still replaced as a whole.
+  Mesh w = tiny_triangle();
+  w.positions.push_back({5, 5, 5});
+  w.normals = {tilted, tilted, tilted};
+  ASSERT_TRUE(finalize_mesh(w, &r, "tiny"));
+  EXPECT_TRUE(any_warning(r, "3 normals for 4 vertices; recomputed all"));
+  expect_vec3(w.normals[0], glm::vec3(0, 0, 1));
 }
 
 // ---------------------------------------------------------------- real meshes

@@ -352,7 +352,7 @@ Outcome create_model(LsnifContext_T& ctx, const uint8_t* data, size_t size, Lsni
   m->layout_version = header.version;
   m->max_points = header.max_points;
   m->input_dim = header.max_points * header.grid_levels * header.features;
-  m->output_dim = LSNIF_OUT_FIXED + header.material_count;
+  m->output_dim = view.config.output_dim();  // with the surface channels when the model has them
   Outcome o = create_device_objects(ctx, *m, words, box);
   if (!o) {
     destroy_model(ctx, *m);

@@ -325,16 +325,27 @@ Status load_models(const scene::Scene& scene, const ScenePlan& plan, DeviceScene
 // size, or a device error.
 Status upload_materials(const scene::Scene& scene, DeviceScene& dev, std::vector<RenderMaterial>& materials,
                         std::vector<RenderTexture>& textures) {
-  for (const scene::Material& m : scene.materials) {
-    auto tex = [&](int32_t t) -> uint32_t {
-      return t >= 0 && size_t(t) < scene.textures.size() ? uint32_t(t) : RENDER_NO_TEXTURE;
-    };
-    materials.push_back({m.base_color.r, m.base_color.g, m.base_color.b, m.base_color.a, m.metallic, m.roughness,
-                         m.emission.r, m.emission.g, m.emission.b, tex(m.base_color_texture),
-                         tex(m.metallic_roughness_texture), tex(m.emission_texture)});
+  auto tex = [&](int32_t t) -> uint32_t {
+    return t >= 0 && size_t(t) < scene.textures.size() ? uint32_t(t) : RENDER_NO_TEXTURE;
+  };
+  auto add = [&](const scene::Material& m) {
+    RenderMaterial r{m.base_color.r, m.base_color.g, m.base_color.b, m.base_color.a, m.metallic, m.roughness,
+                     m.emission.r, m.emission.g, m.emission.b, tex(m.base_color_texture),
+                     tex(m.metallic_roughness_texture), tex(m.emission_texture), tex(m.occlusion_texture),
+                     m.occlusion_strength, tex(m.normal_texture), m.normal_scale, {}};
+    static_assert(sizeof(r.uv_transform) == sizeof(float) * 6 * kTextureSlotCount, "one 2x3 transform per slot");
+    for (uint32_t k = 0; k < kTextureSlotCount; ++k)
+      for (int c = 0; c < 3; ++c)
+        for (int row = 0; row < 2; ++row) r.uv_transform[6 * k + 2 * c + row] = m.uv_transform[k][c][row];
+    materials.push_back(r);
+  };
+  for (const scene::Material& m : scene.materials) add(m);
+  if (materials.empty()) {
+    scene::Material fallback;
+    fallback.base_color = glm::vec4(0.8f, 0.8f, 0.8f, 1.0f);
+    fallback.metallic = 0.0f;
+    add(fallback);
   }
-  if (materials.empty())
-    materials.push_back({0.8f, 0.8f, 0.8f, 1, 0, 1, 0, 0, 0, RENDER_NO_TEXTURE, RENDER_NO_TEXTURE, RENDER_NO_TEXTURE});
   for (const scene::Texture& t : scene.textures) {
     if (t.rgba.size() != size_t(t.width) * t.height * 4 || t.width == 0)
       return Status::error("texture '%s' has %zu bytes for %ux%u texels", t.name.c_str(), t.rgba.size(), t.width,

@@ -10,6 +10,7 @@
 #include <glm/glm.hpp>
 
 #include "lsnif/format/status.h"
+#include "lsnif/import/mesh.h"
 
 namespace lsnif::scene {
 
@@ -29,6 +30,13 @@ struct Material {
   int32_t metallic_roughness_texture = -1;  // B = metallic, G = roughness (linear), times the factors
   glm::vec3 emission{0.0f};           // linear RGB radiance factor
   int32_t emission_texture = -1;      // sRGB
+  int32_t occlusion_texture = -1;     // R = ambient occlusion (linear)
+  float occlusion_strength = 1.0f;    // occlusion = 1 + strength x (R - 1)
+  int32_t normal_texture = -1;        // tangent-space normal map (normal_mapped_shading_normal, mesh.h)
+  float normal_scale = 1.0f;
+  // Per TextureSlot (src/lsnif/import/mesh.h): KHR_texture_transform's uv transform.
+  UvTransform uv_transform[kTextureSlotCount] = {kIdentityUvTransform, kIdentityUvTransform, kIdentityUvTransform,
+                                                 kIdentityUvTransform, kIdentityUvTransform};
 };
 
 // One triangle list with one material (a glTF primitive of mode TRIANGLES, indexed or not).

@@ -108,7 +108,7 @@ void SceneBuilder::summarize_warnings() {
 Status SceneBuilder::check_extensions() {
   if (Status s = check_extension_types(model_, name_); !s) return s;
   static const std::set<std::string> supported = {
-      kNodeExtension, kEnvironmentExtension, "KHR_materials_emissive_strength",
+      kNodeExtension, kEnvironmentExtension, "KHR_materials_emissive_strength", "KHR_texture_transform",
       "KHR_mesh_quantization"};
   for (const std::string& ext : model_.extensionsRequired)
     if (!supported.count(ext))

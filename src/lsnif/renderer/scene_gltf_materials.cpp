@@ -42,6 +42,11 @@ Status SceneBuilder::load_material(size_t index) {
   m.metallic_roughness_texture =
       gm.metallic_roughness_image < 0 ? -1 : image_texture(gm.metallic_roughness_image, where);
   m.emission_texture = gm.emission_image < 0 ? -1 : image_texture(gm.emission_image, where);
+  m.occlusion_texture = gm.occlusion_image < 0 ? -1 : image_texture(gm.occlusion_image, where);
+  m.occlusion_strength = gm.occlusion_strength;
+  m.normal_texture = gm.normal_image < 0 ? -1 : image_texture(gm.normal_image, where);
+  m.normal_scale = gm.normal_scale;
+  for (uint32_t k = 0; k < kTextureSlotCount; ++k) m.uv_transform[k] = gm.uv_transform[k];
   material_uv_set_.push_back(gm.uv_set);
   scene_.materials.push_back(std::move(m));
   return Status::ok();

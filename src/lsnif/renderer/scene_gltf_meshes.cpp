@@ -115,7 +115,8 @@ Status SceneBuilder::load_primitive(const tinygltf::Primitive& gp, const std::st
     }
   } else {
     const Material& m = scene_.materials[prim.material];
-    if (m.base_color_texture >= 0 || m.metallic_roughness_texture >= 0 || m.emission_texture >= 0)
+    if (m.base_color_texture >= 0 || m.metallic_roughness_texture >= 0 || m.emission_texture >= 0 ||
+        m.occlusion_texture >= 0 || m.normal_texture >= 0)
       warn_counted("missing uvs", short_where + ": textured material but no " + uv_key +
                                       "; textures read at uv (0, 0)");
   }

@@ -19,6 +19,8 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "lsnif/shaders/lsnif_batch_rows.glsl"
+#define LSNIF_HIT_DECODE_ONLY  // a compute shader: the packers of lsnif_hit.glsl only
+#include "lsnif/lsnif_hit.glsl"
 #if defined(LSNIF_MLP_COOPMAT_NV)
 #include "lsnif/shaders/lsnif_mlp_coopmat.glsl"
 #endif
@@ -58,6 +60,10 @@ void lsnif_batch_write_hit(uint ray, LsnifHitInfo h) {
   q.kind = h.hit ? LSNIF_QUERY_HIT_LSNIF : LSNIF_QUERY_HIT_NONE;
   q.points = h.points;
   q.occlusion_logit = h.occlusion_logit;
+  q.surface = lsnif_pack_surface(h.surface_learned, h.metallic, h.roughness, h.ambient_occlusion);
+  q.emission_r = h.emission.r;
+  q.emission_g = h.emission.g;
+  q.emission_b = h.emission.b;
   q.reserved = 0u;
   LsnifQueryHitsRef(lsnif_batch_address(pc.hits_lo, pc.hits_hi)).h[ray] = q;
 }

@@ -1,6 +1,8 @@
 // lsnif_head.glsl -- the LSNIF output heads on the device (src/lsnif/core/head.cpp decode and
 // distance_from_unit): occlusion (hit when the logit >= 0, i.e. sigmoid >= 0.5), distance for both
-// hit parametrizations, normalized normal, sigmoid albedo, argmax material.
+// hit parametrizations, normalized normal, sigmoid albedo, argmax material and, for a model with
+// surface channels, sigmoid metallic, roughness and ambient occlusion and emission_scale x sigmoid
+// emission.
 #ifndef LSNIF_HEAD_GLSL
 #define LSNIF_HEAD_GLSL
 
@@ -28,6 +30,10 @@ struct LsnifPrediction {
   vec3 normal;    // object space, normalized (zero if the raw normal is zero)
   vec3 albedo;
   uint material;  // argmax of the material logits
+  // Surface channels (LsnifGpuModelHeader::surface_channels; else false and zero).
+  bool surface_learned;
+  float metallic, roughness, ambient_occlusion;
+  vec3 emission;  // linear RGB: emission_scale x sigmoid
 };
 
 // decode: raw outputs at lsnif_act[base, base + output_dim). Only for walks with count > 0.
@@ -47,6 +53,19 @@ LsnifPrediction lsnif_decode(LsnifModel m, uint base) {
   for (uint k = 1u; k < m.h.material_count; ++k)
     if (lsnif_act[base + LSNIF_OUT_MATERIAL + k] > lsnif_act[base + LSNIF_OUT_MATERIAL + best]) best = k;
   p.material = best;
+  p.surface_learned = m.h.surface_channels != 0u;
+  p.metallic = 0.0;
+  p.roughness = 0.0;
+  p.ambient_occlusion = 0.0;
+  p.emission = vec3(0.0);
+  if (p.surface_learned) {
+    const uint s = base + lsnif_surface_output(m);
+    p.metallic = lsnif_sigmoid(lsnif_act[s + LSNIF_OUT_SURFACE_METALLIC]);
+    p.roughness = lsnif_sigmoid(lsnif_act[s + LSNIF_OUT_SURFACE_ROUGHNESS]);
+    p.ambient_occlusion = lsnif_sigmoid(lsnif_act[s + LSNIF_OUT_SURFACE_AMBIENT_OCCLUSION]);
+    for (uint c = 0u; c < 3u; ++c)
+      p.emission[c] = m.h.emission_scale * lsnif_sigmoid(lsnif_act[s + LSNIF_OUT_SURFACE_EMISSION + c]);
+  }
   return p;
 }
 

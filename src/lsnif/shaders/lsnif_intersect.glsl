@@ -19,6 +19,10 @@ struct LsnifHitInfo {
   vec3 normal;            // object space, normalized
   vec3 albedo;
   uint material;
+  // The prediction's surface channels (LsnifPrediction; false and zero without them or a walk).
+  bool surface_learned;
+  float metallic, roughness, ambient_occlusion;
+  vec3 emission;
 };
 
 // Facing of a prediction (host_device.h): true when a culling flag in `ray_flags` rejects it.
@@ -55,6 +59,11 @@ LsnifHitInfo lsnif_intersect_accept(LsnifPrediction p, uint points, vec3 directi
   r.normal = p.normal;
   r.albedo = p.albedo;
   r.material = p.material;
+  r.surface_learned = p.surface_learned;
+  r.metallic = p.metallic;
+  r.roughness = p.roughness;
+  r.ambient_occlusion = p.ambient_occlusion;
+  r.emission = p.emission;
   return r;
 }
 
@@ -68,6 +77,11 @@ LsnifHitInfo lsnif_intersect_none() {
   r.normal = vec3(0.0);
   r.albedo = vec3(0.0);
   r.material = 0u;
+  r.surface_learned = false;
+  r.metallic = 0.0;
+  r.roughness = 0.0;
+  r.ambient_occlusion = 0.0;
+  r.emission = vec3(0.0);
   return r;
 }
 

@@ -99,7 +99,13 @@ float lsnif_grid_value(LsnifModel m, uint level, uint e) {
 }
 
 uint lsnif_input_dim(LsnifModel m) { return m.h.max_points * m.h.grid_levels * m.h.features; }
-uint lsnif_output_dim(LsnifModel m) { return LSNIF_OUT_FIXED + m.h.material_count; }
+// Config::output_dim: the fixed outputs, the material logits and, for a model with surface channels,
+// LSNIF_OUT_SURFACE_COUNT more (starting at lsnif_surface_output).
+uint lsnif_output_dim(LsnifModel m) {
+  return LSNIF_OUT_FIXED + m.h.material_count + (m.h.surface_channels != 0u ? LSNIF_OUT_SURFACE_COUNT : 0u);
+}
+// Config::surface_output: where the surface channels start (LSNIF_OUT_SURFACE_* are offsets from here).
+uint lsnif_surface_output(LsnifModel m) { return LSNIF_OUT_MATERIAL + m.h.material_count; }
 
 vec3 lsnif_bounds_lo(LsnifModel m) { return vec3(m.h.bounds_lo_x, m.h.bounds_lo_y, m.h.bounds_lo_z); }
 vec3 lsnif_bounds_hi(LsnifModel m) { return vec3(m.h.bounds_hi_x, m.h.bounds_hi_y, m.h.bounds_hi_z); }

@@ -38,6 +38,8 @@
 #extension GL_EXT_ray_query : require
 #extension GL_GOOGLE_include_directive : require
 #include "lsnif/shaders/lsnif_query_common.glsl"
+#define LSNIF_HIT_DECODE_ONLY  // a compute shader: the packers of lsnif_hit.glsl only
+#include "lsnif/lsnif_hit.glsl"
 #if defined(LSNIF_QUERY_MLP) && defined(LSNIF_MLP_COOPMAT_NV)
 #include "lsnif/shaders/lsnif_mlp_coopmat.glsl"
 #endif
@@ -280,6 +282,10 @@ void query_decode(uint id) {
   candidates.c[ci].albedo_g = h.albedo.g;
   candidates.c[ci].albedo_b = h.albedo.b;
   candidates.c[ci].front_face = lsnif_hit_kind(h.normal, d) == LSNIF_HIT_KIND_FRONT_FACING ? 1u : 0u;
+  candidates.c[ci].surface = lsnif_pack_surface(h.surface_learned, h.metallic, h.roughness, h.ambient_occlusion);
+  candidates.c[ci].emission_r = h.emission.r;
+  candidates.c[ci].emission_g = h.emission.g;
+  candidates.c[ci].emission_b = h.emission.b;
   if (h.hit) atomicMin(lsnif_query_states().s[c.ray].best_t, lsnif_query_t_key(h.t));
 }
 #endif
@@ -328,6 +334,10 @@ void query_resolve_hits(uint id) {
   r.barycentric_u = 0.0;
   r.barycentric_v = 0.0;
   r.front_face = c.front_face;
+  r.surface = c.surface;
+  r.emission_r = c.emission_r;
+  r.emission_g = c.emission_g;
+  r.emission_b = c.emission_b;
   lsnif_query_results().r[c.ray] = r;
 }
 #endif

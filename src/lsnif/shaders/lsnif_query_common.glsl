@@ -35,11 +35,13 @@ layout(buffer_reference, std430, buffer_reference_align = 4) coherent buffer Lsn
 const uint LSNIF_QUERY_INF_BITS = 0x7f800000u;  // +inf: greater than the bits of every finite t >= 0
 const uint LSNIF_QUERY_NONE = 0xffffffffu;
 
-// Scratch sections (host_device.h), in words from the scratch's start.
+// Scratch sections (host_device.h), in words from the scratch's start: per table entry 10 words
+// (LsnifQueryModelCounters), per ray 8 (LsnifQueryRayState), per candidate slot 40
+// (LsnifQueryCandidate, 160 bytes), then the sorted candidate indices and the batch rows.
 uint lsnif_query_models_word() { return LSNIF_BATCH_HEADER_WORDS; }
 uint lsnif_query_states_word() { return lsnif_query_models_word() + 10u * pc.model_count; }
 uint lsnif_query_candidates_word() { return lsnif_query_states_word() + 8u * pc.ray_count; }
-uint lsnif_query_sorted_word() { return lsnif_query_candidates_word() + 36u * pc.capacity; }
+uint lsnif_query_sorted_word() { return lsnif_query_candidates_word() + 40u * pc.capacity; }
 uint lsnif_query_rows_word() { return lsnif_query_sorted_word() + pc.stride; }
 
 uint64_t lsnif_query_scratch_address() { return lsnif_batch_address(pc.scratch_lo, pc.scratch_hi); }
@@ -91,11 +93,15 @@ LsnifQueryResult lsnif_query_no_hit(uint kind) {
   r.barycentric_u = 0.0;
   r.barycentric_v = 0.0;
   r.front_face = 0u;
+  r.surface = 0u;
+  r.emission_r = 0.0;
+  r.emission_g = 0.0;
+  r.emission_b = 0.0;
   return r;
 }
 
-// The result of a committed triangle hit (the application shades it: normal, albedo and material
-// stay zero).
+// The result of a committed triangle hit (the application shades it: normal, albedo, material,
+// surface channels and emission stay zero).
 LsnifQueryResult lsnif_query_triangle_hit(float t, uint instance_index, uint custom_index, uint primitive_index,
                                           uint geometry_index, vec2 barycentrics, bool front_face) {
   LsnifQueryResult r = lsnif_query_no_hit(LSNIF_QUERY_HIT_TRIANGLE);
@@ -179,6 +185,10 @@ LsnifQueryCandidate lsnif_query_candidate(uint ray, uint instance_index, uint cu
   c.albedo_b = 0.0;
   c.front_face = 0u;
   c.evaluated = 0u;
+  c.surface = 0u;
+  c.emission_r = 0.0;
+  c.emission_g = 0.0;
+  c.emission_b = 0.0;
   return c;
 }
 

@@ -91,11 +91,14 @@ inline void save_or_fail(const tinygltf::Model& g, const std::string& path) {
 }
 
 // Settings that train a tiny model in about a second: the tiny preset (`lsnif convert --tiny`; 30
-// steps of 1024 rays, V=16, 2x32 MLP).
+// steps of 1024 rays, V=16, 2x32 MLP). The tests of these settings decide by the triangle rule
+// (ConvertWhen::Triangles, --min-triangles 1000: the elephant converts, the quad stays); the
+// memory rule's tests set ConvertWhen::Memory themselves.
 inline ConvertSettings tiny_settings(const std::string& in, const std::string& out) {
   ConvertSettings s;
   s.input = in;
   s.output = out;
+  s.convert_when = ConvertWhen::Triangles;
   s.train = lsnif::test::tiny_preset_settings();
   s.eval_rays = 2000;
   s.progress = false;

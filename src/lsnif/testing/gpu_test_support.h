@@ -3,13 +3,16 @@
 // of world-space test rays of four kinds and the brute-force truth of triangle hits. Header-only;
 // include inside no namespace.
 #pragma once
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <random>
 #include <vector>
 
 #include <glm/glm.hpp>
 
+#include "lsnif/core/head.h"
 #include "lsnif/core/intersector.h"
 #include "lsnif/core/model.h"
 #include "lsnif/import/mesh.h"
@@ -148,6 +151,83 @@ inline TriangleHit closest_triangle_hit(const Mesh& mesh, const Ray& ray) {
     best.triangle = uint32_t(i);
   }
   return best;
+}
+
+// `model` with surface channels (config.surface_channels = 1, the emission scale `emission_scale`)
+// whose LSNIF_OUT_SURFACE_COUNT extra output rows have random weights and biases (fp16 after
+// quantize): no training, but the other outputs, hence the hits, stay the model's. Weights of the
+// scale of a Kaiming initialisation plus biases in [-1, 1] spread the raw outputs over the sigmoid's
+// range, so the decoded channels and the emission's RGBE exponents vary from hit to hit.
+inline Model with_surface_channels(const Model& model, float emission_scale, uint32_t seed) {
+  Model m = model;
+  m.config.surface_channels = 1;
+  m.config.emission_scale = emission_scale;
+  const LayerView old_out = mlp_layers(model.config).back();
+  const LayerView out = mlp_layers(m.config).back();
+  m.mlp.resize(size_t(m.config.mlp_parameter_count()));
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  const float a = std::sqrt(6.0f / float(out.in));
+  for (uint32_t r = 0; r < out.out; ++r) {
+    const bool kept = r < old_out.out;
+    for (uint32_t i = 0; i < out.in; ++i)
+      m.mlp[out.weight_offset + size_t(r) * out.in + i] =
+          kept ? model.mlp[old_out.weight_offset + size_t(r) * old_out.in + i] : a * u(rng);
+    m.mlp[out.bias_offset + r] = kept ? model.mlp[old_out.bias_offset + r] : u(rng);
+  }
+  m.quantize();
+  return m;
+}
+
+// Agreement of a device's surface channels with the CPU reference's, over the hits both report.
+struct SurfaceAgreement {
+  size_t hits = 0, learned = 0;
+  size_t flag_mismatch = 0;    // the learned flag (byte 3) differs
+  size_t step_mismatch = 0;    // a channel's unorm8 differs by more than one step
+  size_t exact = 0;            // the packed word equals pack_surface of the CPU's channels
+  double emission_max = 0.0;   // max |device - CPU| / emission scale over the channels
+  double emission_excess = 0.0;  // max of |device - CPU| less the tolerance given (<= 0: within)
+};
+
+// Adds one hit: `surface` the device's packed word, `emission` its emission, `h` the CPU reference
+// hit, `scale` the model's emission scale; `tolerance(c)` the allowed |device - CPU| of a channel
+// whose CPU value is the largest channel `c` of the colour.
+template <typename Tolerance>
+void add_surface(SurfaceAgreement& a, uint32_t surface, glm::vec3 emission, const LsnifHit& h, float scale,
+                 Tolerance tolerance) {
+  Prediction p;
+  p.surface_learned = h.surface_learned;
+  p.metallic = h.metallic;
+  p.roughness = h.roughness;
+  p.ambient_occlusion = h.ambient_occlusion;
+  const uint32_t want = pack_surface(p);
+  ++a.hits;
+  a.learned += h.surface_learned;
+  a.exact += surface == want;
+  a.flag_mismatch += (surface >> 24) != (want >> 24);
+  bool step = false;
+  for (int k = 0; k < 3; ++k) {
+    const int got = int((surface >> (8 * k)) & 0xffu), expect = int((want >> (8 * k)) & 0xffu);
+    step |= std::abs(got - expect) > 1;
+  }
+  a.step_mismatch += step;
+  const float largest = std::max({h.emission.r, h.emission.g, h.emission.b});
+  for (int k = 0; k < 3; ++k) {
+    const double err = std::fabs(double(emission[k]) - double(h.emission[k]));
+    if (scale > 0.0f) a.emission_max = std::max(a.emission_max, err / double(scale));
+    a.emission_excess = std::max(a.emission_excess, err - double(tolerance(largest)));
+  }
+}
+
+// What the surface tests expect of every hit (the tolerance passed to add_surface decides emission).
+inline void expect_surface_agreement(const SurfaceAgreement& a, bool learned) {
+  EXPECT_EQ(a.learned, learned ? a.hits : 0u);
+  EXPECT_EQ(a.flag_mismatch, 0u);
+  EXPECT_EQ(a.step_mismatch, 0u);
+  EXPECT_LE(a.emission_excess, 0.0) << "emission beyond tolerance";
+  // A one-step difference happens only where the CPU's and the device's sigmoid straddle a rounding
+  // boundary of unorm8 (~1e-4 of 1/255 apart): nearly every word is bit-identical.
+  EXPECT_GE(double(a.exact), 0.99 * double(a.hits));
 }
 
 }  // namespace lsnif::gputest

@@ -30,8 +30,17 @@ double angle_degrees(const glm::vec3& a, const glm::vec3& b) {
 struct Accumulator {
   EvalMetrics m;
   std::vector<double> t_err, n_err;
-  double albedo_sum = 0;
+  double albedo_sum = 0, surface_sum = 0, emission_sum = 0;
   uint64_t material_ok = 0;
+  // The surface channels of an agreed hit: `predicted` (metallic, roughness, ambient occlusion,
+  // emission) against the reference's.
+  void add_surface(const SurfaceSample& ref, const SurfaceSample& predicted) {
+    surface_sum += (std::fabs(double(predicted.metallic) - ref.metallic) +
+                    std::fabs(double(predicted.roughness) - ref.roughness) +
+                    std::fabs(double(predicted.ambient_occlusion) - ref.ambient_occlusion)) / 3.0;
+    const glm::vec3 d = glm::abs(predicted.emission - ref.emission);
+    emission_sum += (double(d.x) + d.y + d.z) / 3.0;
+  }
   void add(bool ref_hit, bool hit, float t_ref, float t, const glm::vec3& n_ref, const glm::vec3& n,
            const glm::vec3& a_ref, const glm::vec3& a, uint32_t mat_ref, uint32_t mat, float diag,
            bool has_albedo) {
@@ -62,6 +71,8 @@ struct Accumulator {
     if (has_albedo && m.agreed_hits) {
       m.albedo_mae = albedo_sum / double(m.agreed_hits);
       m.material_accuracy = double(material_ok) / double(m.agreed_hits);
+      m.surface_mae = surface_sum / double(m.agreed_hits);
+      m.emission_mae = emission_sum / double(m.agreed_hits);
     }
     return m;
   }
@@ -82,7 +93,9 @@ nlohmann::ordered_json metrics_json(const EvalMetrics& m) {
           {"normal_error_median_deg", m.normal_error_median},
           {"normal_error_p90_deg", m.normal_error_p90},
           {"albedo_mae", m.albedo_mae},
-          {"material_accuracy", m.material_accuracy}};
+          {"material_accuracy", m.material_accuracy},
+          {"surface_mae", m.surface_mae},
+          {"emission_mae", m.emission_mae}};
 }
 
 std::string metrics_text(const char* name, const EvalMetrics& m, bool albedo) {
@@ -91,7 +104,27 @@ std::string metrics_text(const char* name, const EvalMetrics& m, bool albedo) {
       "of diag | normal err median %5.2f deg p90 %5.2f deg",
       name, 100 * m.accuracy, 100 * m.precision, 100 * m.recall, 100 * m.t_error_median,
       100 * m.t_error_p90, m.normal_error_median, m.normal_error_p90);
-  if (albedo) s += format(" | albedo MAE %.4f  material acc %.2f%%", m.albedo_mae, 100 * m.material_accuracy);
+  if (albedo)
+    s += format(" | albedo MAE %.4f  material acc %.2f%% | metallic/roughness/occlusion MAE %.4f  emission MAE %.4f",
+                m.albedo_mae, 100 * m.material_accuracy, m.surface_mae, m.emission_mae);
+  return s;
+}
+
+// The surface channels a renderer shades an LSNIF hit with: the learned ones, or those of the
+// material its material index names (the mesh's factors) for a model without surface channels.
+SurfaceSample predicted_surface(const LsnifHit& h, const Mesh& mesh) {
+  SurfaceSample s;
+  if (h.surface_learned) {
+    s.metallic = h.metallic;
+    s.roughness = h.roughness;
+    s.ambient_occlusion = h.ambient_occlusion;
+    s.emission = h.emission;
+  } else if (h.material < mesh.materials.size()) {
+    const Material& m = mesh.materials[h.material];
+    s.metallic = m.metallic;
+    s.roughness = m.roughness;
+    s.emission = m.emission;
+  }
   return s;
 }
 
@@ -149,11 +182,13 @@ Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& 
     truncated += walks[i].truncated;
     beyond += ref.hit && walks[i].count > 0 && ref.t > walks[i].t[walks[i].count - 1];
     const LsnifHit& h = hits[i];
-    acc_model.add(ref.hit, h.hit, ref.t, h.t, ref.normal, h.normal, ref.albedo, h.albedo, ref.material,
-                  h.material, diag, true);
-    (samples[i].from_surface ? acc_surface : acc_outer)
-        .add(ref.hit, h.hit, ref.t, h.t, ref.normal, h.normal, ref.albedo, h.albedo, ref.material, h.material,
-             diag, true);
+    Accumulator& by_origin = samples[i].from_surface ? acc_surface : acc_outer;
+    const glm::vec3 ref_normal = settings.normal_maps ? ref.surface.normal : ref.normal;
+    for (Accumulator* acc : {&acc_model, &by_origin}) {
+      acc->add(ref.hit, h.hit, ref.t, h.t, ref_normal, h.normal, ref.albedo, h.albedo, ref.material, h.material,
+               diag, true);
+      if (ref.hit && h.hit) acc->add_surface(ref.surface, predicted_surface(h, mesh));
+    }
     const BaselineHit b = voxel_baseline(model.voxels, rays[i], walks[i]);
     acc_base.add(ref.hit, b.hit, ref.t, b.t, ref.normal, b.normal, ref.albedo, glm::vec3(0.0f), 0, 0,
                  diag, false);

@@ -14,6 +14,9 @@ namespace lsnif {
 
 struct EvalSettings {
   size_t rays = 100000;
+  // The reference normal: the materials' normal maps applied (what a model trained with
+  // bakes_normal_maps learns) or the interpolated shading normal.
+  bool normal_maps = true;
   uint64_t seed = 0x5eed0e7a1ull;  // differs from every training seed's stream space
   SamplerSettings sampler;
 };
@@ -26,6 +29,10 @@ struct EvalMetrics {
   double normal_error_median = 0, normal_error_p90 = 0;  // degrees
   double albedo_mae = 0;             // mean |albedo error| over channels and agreed hits
   double material_accuracy = 0;      // over agreed hits
+  // The other material channels on agreed hits: the model's learned surface channels, or (a model
+  // without them) its material's factors, as the renderer shades them, against Mesh::surface.
+  double surface_mae = 0;            // mean |error| of metallic, roughness and ambient occlusion
+  double emission_mae = 0;           // mean |emission error| over channels (linear radiance)
 };
 
 struct EvalReport {

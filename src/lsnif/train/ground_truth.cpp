@@ -162,7 +162,8 @@ ReferenceHit GroundTruth::trace(const Ray& ray) const {
   result.triangle = prim;
   result.material = mesh.triangle_material[prim];
   result.normal = mesh.shading_normal(prim, rh.hit.u, rh.hit.v);
-  result.albedo = mesh.albedo(prim, rh.hit.u, rh.hit.v);
+  result.surface = mesh.surface(prim, rh.hit.u, rh.hit.v);
+  result.albedo = result.surface.albedo;
   // Face normal as wound (counter-clockwise p0, p1, p2 seen from its front), independent of
   // Embree's Ng convention. A sliver too thin for float falls back to the shading normal.
   const glm::dvec3 n = glm::cross(glm::dvec3(p1) - glm::dvec3(p0), glm::dvec3(p2) - glm::dvec3(p0));

@@ -16,6 +16,7 @@ struct ReferenceHit {
   glm::vec3 normal{0.0f};            // interpolated shading normal, normalized, as stored (outward)
   glm::vec3 geometric_normal{0.0f};  // face normal, normalized, as wound
   glm::vec3 albedo{0.0f};            // Mesh::albedo at the hit
+  SurfaceSample surface;             // Mesh::surface at the hit (its albedo == albedo)
   uint32_t material = 0;
   uint32_t triangle = 0;
 };

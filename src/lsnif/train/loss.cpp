@@ -17,8 +17,9 @@ static_assert(kNormalLossChoices[0].value == static_cast<uint32_t>(NormalLoss::A
               kNormalLossChoices[1].value == static_cast<uint32_t>(NormalLoss::Cosine));
 
 std::string LossSettings::describe() const {
-  return format("loss weights occ=%g dist=%g normal=%g albedo=%g mat=%g, normal loss %s", double(occlusion),
-                double(distance), double(normal), double(albedo), double(material), to_string(normal_loss));
+  return format("loss weights occ=%g dist=%g normal=%g albedo=%g mat=%g surface=%g, normal loss %s",
+                double(occlusion), double(distance), double(normal), double(albedo), double(material),
+                double(surface), to_string(normal_loss));
 }
 
 LossTerms ray_loss(const Config& config, const float* raw, const LossTarget& target,
@@ -67,6 +68,26 @@ LossTerms ray_loss(const Config& config, const float* raw, const LossTarget& tar
     d_raw[LSNIF_OUT_ALBEDO + c] = scale * weights.albedo * (2.0f * e / denom / 3.0f) * a * (1.0f - a);
   }
   terms.albedo = weights.albedo * albedo_loss / 3.0;
+
+  // Surface channels: squared error on metallic, roughness and ambient occlusion, relative L2 (as the
+  // albedo's) on the emission in units of the emission scale; the mean of the six.
+  if (config.surface_channels) {
+    const uint32_t base = config.surface_output();
+    const float targets[LSNIF_OUT_SURFACE_COUNT] = {
+        target.metallic, target.roughness, target.ambient_occlusion,
+        config.emission_scale > 0.0f ? target.emission.r / config.emission_scale : 0.0f,
+        config.emission_scale > 0.0f ? target.emission.g / config.emission_scale : 0.0f,
+        config.emission_scale > 0.0f ? target.emission.b / config.emission_scale : 0.0f};
+    double surface_loss = 0;
+    for (uint32_t c = 0; c < LSNIF_OUT_SURFACE_COUNT; ++c) {
+      const float a = sigmoid(raw[base + c]);
+      const float e = a - targets[c];
+      const float denom = c >= LSNIF_OUT_SURFACE_EMISSION ? a * a + 0.01f : 1.0f;
+      surface_loss += e * e / denom;
+      d_raw[base + c] = scale * weights.surface * (2.0f * e / denom / float(LSNIF_OUT_SURFACE_COUNT)) * a * (1.0f - a);
+    }
+    terms.surface = weights.surface * surface_loss / double(LSNIF_OUT_SURFACE_COUNT);
+  }
 
   // Material: softmax cross-entropy.
   if (config.material_count > 1) {

@@ -11,9 +11,11 @@
 namespace lsnif {
 namespace {
 
-Config config_with_materials(uint32_t n) {
+Config config_with_materials(uint32_t n, bool surface = false) {
   Config c;
   c.material_count = n;
+  c.surface_channels = surface ? 1u : 0u;
+  c.emission_scale = surface ? 4.0f : 0.0f;
   return c;
 }
 
@@ -39,6 +41,23 @@ void check_gradient(const Config& c, const LossTarget& target, const LossSetting
       ASSERT_NEAR(grad[i], fd, 1e-4 + 1e-3 * std::fabs(fd)) << "albedo output " << i;
       continue;
     }
+    const uint32_t emission = c.surface_output() + LSNIF_OUT_SURFACE_EMISSION;
+    if (c.surface_channels && i >= emission && i < emission + 3) {
+      // The emission's relative L2 (in units of the emission scale) freezes its denominator too.
+      if (!target.hit) {
+        EXPECT_EQ(grad[i], 0.0f);
+        continue;
+      }
+      const int ch = int(i - emission);
+      const double y = target.emission[ch] / c.emission_scale, a0 = sig(raw[i]), denom = a0 * a0 + 0.01, h = 1e-3;
+      auto frozen = [&](double x) {
+        double e = sig(x) - y;
+        return w.surface * e * e / denom / LSNIF_OUT_SURFACE_COUNT;
+      };
+      double fd = (frozen(raw[i] + h) - frozen(raw[i] - h)) / (2 * h);
+      ASSERT_NEAR(grad[i], fd, 1e-4 + 1e-3 * std::fabs(fd)) << "emission output " << i;
+      continue;
+    }
     const float h = 1e-3f;
     std::vector<float> rp = raw, rm = raw;
     rp[i] += h;
@@ -53,8 +72,8 @@ void check_gradient(const Config& c, const LossTarget& target, const LossSetting
 TEST(Loss, GradientsMatchFiniteDifferences) {
   std::mt19937 rng(4);
   std::uniform_real_distribution<float> u(-2, 2), u01(0.05f, 0.95f);
-  for (uint32_t nmat : {1u, 4u}) {
-    Config c = config_with_materials(nmat);
+  for (uint32_t nmat : {1u, 4u, 2u}) {
+    Config c = config_with_materials(nmat, nmat == 2);
     for (int trial = 0; trial < 300; ++trial) {
       std::vector<float> raw(c.output_dim());
       for (float& v : raw) v = u(rng);
@@ -67,7 +86,12 @@ TEST(Loss, GradientsMatchFiniteDifferences) {
       t.normal = glm::vec3(u(rng), u(rng), u(rng));
       t.albedo = glm::vec3(u01(rng), u01(rng), u01(rng));
       t.material = uint32_t(trial) % nmat;
+      t.metallic = u01(rng);
+      t.roughness = u01(rng);
+      t.ambient_occlusion = u01(rng);
+      t.emission = 4.0f * glm::vec3(u01(rng), u01(rng), u01(rng));
       LossSettings w;
+      w.surface = 0.8f;
       w.distance = 0.7f;
       w.normal = 1.3f;
       w.normal_loss = trial % 2 ? NormalLoss::Angle : NormalLoss::Cosine;
@@ -84,6 +108,29 @@ TEST(Loss, MissesOnlyTrainOcclusion) {
   EXPECT_GT(t.occlusion, 0.0);
   EXPECT_EQ(t.distance + t.normal + t.albedo + t.material, 0.0);
   for (uint32_t i = 1; i < c.output_dim(); ++i) EXPECT_EQ(grad[i], 0.0f);
+}
+
+TEST(Loss, SurfaceChannelsKnownValues) {
+  Config c = config_with_materials(3, true);
+  ASSERT_EQ(c.output_dim(), LSNIF_OUT_FIXED + 3 + LSNIF_OUT_SURFACE_COUNT);
+  std::vector<float> raw(c.output_dim(), 0.0f), grad(c.output_dim());  // every sigmoid 0.5
+  LossTarget t;
+  t.hit = true;
+  t.normal = glm::vec3(0, 0, 1);
+  t.metallic = 1.0f;                       // (0.5 - 1)^2 = 0.25
+  t.roughness = 0.5f;                      // 0
+  t.ambient_occlusion = 0.0f;              // 0.25
+  t.emission = glm::vec3(2.0f, 0.0f, 2.0f);  // / scale 4: 0.5, 0, 0.5 -> 0, 0.25 / 0.26, 0
+  LossSettings w;
+  w.surface = 2.0f;
+  const LossTerms l = ray_loss(c, raw.data(), t, w, 1.0f, grad.data());
+  EXPECT_NEAR(l.surface, 2.0 * (0.25 + 0.25 + 0.25 / 0.26) / 6.0, 1e-6);
+  // A miss trains none of them; a model without surface channels has no such term.
+  LossTarget miss;
+  EXPECT_EQ(ray_loss(c, raw.data(), miss, w, 1.0f, grad.data()).surface, 0.0);
+  Config plain = config_with_materials(3);
+  std::vector<float> raw_plain(plain.output_dim(), 0.0f), grad_plain(plain.output_dim());
+  EXPECT_EQ(ray_loss(plain, raw_plain.data(), t, w, 1.0f, grad_plain.data()).surface, 0.0);
 }
 
 TEST(Loss, KnownValues) {

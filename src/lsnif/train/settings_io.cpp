@@ -168,6 +168,8 @@ Status check_together(const SettingValues& v, const Origins& origin) {
   if (u32(RayReuse) > u32(Batch))
     return Status::error("%s%s %u must be in [1, %s %u]", file_prefix(origin, {RayReuse, Batch}).c_str(),
                          label(RayReuse).c_str(), u32(RayReuse), label(Batch).c_str(), u32(Batch));
+  // The surface channels' weight alone trains nothing of the geometry (and nothing at all for a
+  // model without them): it does not count here.
   if (!(v[WOcclusion].f + v[WDistance].f + v[WNormal].f + v[WAlbedo].f + v[WMaterial].f > 0.0f))
     return Status::error("%severy loss weight (w-*) is 0: nothing would be trained",
                          file_prefix(origin, {WOcclusion, WDistance, WNormal, WAlbedo, WMaterial}).c_str());
@@ -405,6 +407,7 @@ void to_train_settings(const SettingValues& v, TrainSettings& s) {
   const SettingValue& ix = v[Indexed];
   for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l)
     s.indexed[l] = l < c.grid_levels && (ix.level_count ? l < ix.level_count && ix.per_level[l] : ix.u) != 0;
+  s.surface_maps = u32(SurfaceMaps);
   s.steps = u32(Steps);
   s.batch_size = u32(Batch);
   s.seed = v[Seed].u;
@@ -422,6 +425,7 @@ void to_train_settings(const SettingValues& v, TrainSettings& s) {
   s.loss_settings.normal = v[WNormal].f;
   s.loss_settings.albedo = v[WAlbedo].f;
   s.loss_settings.material = v[WMaterial].f;
+  s.loss_settings.surface = v[WSurface].f;
   s.sampler.surface_fraction = v[SurfaceFraction].f;
   s.sampler.sphere_scale = v[SphereScale].f;
   s.sampler.surface_offset = v[SurfaceOffset].f;
@@ -465,6 +469,7 @@ SettingValues from_train_settings(const TrainSettings& s) {
     }
     per_level_value(indexed, uniform ? 1 : c.grid_levels, v[Indexed]);
   }
+  v[SurfaceMaps].u = s.surface_maps;
   v[Steps].u = s.steps;
   v[Batch].u = s.batch_size;
   v[Seed].u = s.seed;
@@ -482,6 +487,7 @@ SettingValues from_train_settings(const TrainSettings& s) {
   v[WNormal].f = s.loss_settings.normal;
   v[WAlbedo].f = s.loss_settings.albedo;
   v[WMaterial].f = s.loss_settings.material;
+  v[WSurface].f = s.loss_settings.surface;
   v[SurfaceFraction].f = s.sampler.surface_fraction;
   v[SphereScale].f = s.sampler.sphere_scale;
   v[SurfaceOffset].f = s.sampler.surface_offset;
@@ -548,6 +554,16 @@ uint64_t mesh_hash(const Mesh& mesh) {
     h.str(m.name);
     h.pod(m.base_color);
     h.pod(m.texture);
+    h.pod(m.metallic);
+    h.pod(m.roughness);
+    h.pod(m.emission);
+    h.pod(m.occlusion_strength);
+    h.pod(m.metallic_roughness_texture);
+    h.pod(m.emission_texture);
+    h.pod(m.occlusion_texture);
+    h.pod(m.normal_scale);
+    h.pod(m.normal_texture);
+    h.pod(m.uv_transform);
   }
   for (const Texture& t : mesh.textures) {
     h.pod(t.width);

@@ -120,6 +120,15 @@ Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Co
     return Status::error("mesh has %zu materials; an LSNIF model supports at most %u",
                          mesh.materials.size(), LSNIF_MAX_MATERIALS);
   config.material_count = uint32_t(mesh.materials.size());
+  config.surface_channels = learns_surface_channels(mesh, settings.surface_maps) ? 1u : 0u;
+  config.emission_scale = 0.0f;
+  if (config.surface_channels) {
+    const float emission = mesh.max_emission();
+    if (!(emission <= float(LSNIF_MAX_EMISSION_SCALE)))
+      return Status::error("a material's emission %g exceeds the %g an LSNIF model can learn", double(emission),
+                           LSNIF_MAX_EMISSION_SCALE);
+    config.emission_scale = emission;
+  }
   if (Status s = config.validate(); !s) return s.context("training config");
   if (settings.batch_size < 1 || settings.steps < 1)
     return Status::error("steps (%u) and batch size (%u) must be at least 1", settings.steps,
@@ -136,10 +145,10 @@ Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Co
     return Status::error("learning-rate schedule: the final fraction %g must be in (0, 1] and the warm share %g in "
                          "[0, 1)", double(ls.final_fraction), double(ls.warm_fraction));
   const LossSettings& w = settings.loss_settings;
-  for (float weight : {w.occlusion, w.distance, w.normal, w.albedo, w.material})
+  for (float weight : {w.occlusion, w.distance, w.normal, w.albedo, w.material, w.surface})
     if (!(weight >= 0.0f) || !std::isfinite(weight))
       return Status::error("loss weights must be finite and >= 0 (%s)", w.describe().c_str());
-  if (!(w.occlusion + w.distance + w.normal + w.albedo + w.material > 0.0f))
+  if (!(w.occlusion + w.distance + w.normal + w.albedo + w.material > 0.0f))  // w.surface alone: see settings_io
     return Status::error("every loss weight is 0: nothing would be trained");
   return Status::ok();
 }
@@ -221,25 +230,29 @@ LossTerms batch_loss(const Config& config, const TrainSettings& settings, StepSt
   const uint32_t B = settings.batch_size, out_dim = config.output_dim();
   st.dO.resize(out_dim, B);
   const float scale = 1.0f / float(B);
-  double lo = 0, ld = 0, ln = 0, la = 0, lm = 0;
-#pragma omp parallel for schedule(static) reduction(+ : lo, ld, ln, la, lm)
+  double lo = 0, ld = 0, ln = 0, la = 0, lm = 0, ls = 0;
+#pragma omp parallel for schedule(static) reduction(+ : lo, ld, ln, la, lm, ls)
   for (long r = 0; r < long(B); ++r) {
     const Sample& smp = st.samples[size_t(r)];
     LossTarget target;
     target.hit = smp.reference.hit;
     if (target.hit) {
       target.s = unit_from_distance(config, st.walks[size_t(r)], smp.reference.t);
-      target.normal = smp.reference.normal;
+      target.normal = bakes_normal_maps(settings.surface_maps) ? smp.reference.surface.normal : smp.reference.normal;
       target.albedo = smp.reference.albedo;
       target.material = smp.reference.material;
+      target.metallic = smp.reference.surface.metallic;
+      target.roughness = smp.reference.surface.roughness;
+      target.ambient_occlusion = smp.reference.surface.ambient_occlusion;
+      target.emission = smp.reference.surface.emission;
     }
     LossTerms t = ray_loss(config, st.O.data() + size_t(r) * out_dim, target, settings.loss_settings,
                            scale, st.dO.data() + size_t(r) * out_dim);
-    lo += t.occlusion; ld += t.distance; ln += t.normal; la += t.albedo; lm += t.material;
+    lo += t.occlusion; ld += t.distance; ln += t.normal; la += t.albedo; lm += t.material; ls += t.surface;
   }
   LossTerms mean;
   mean.occlusion = lo / B; mean.distance = ld / B; mean.normal = ln / B;
-  mean.albedo = la / B; mean.material = lm / B;
+  mean.albedo = la / B; mean.material = lm / B; mean.surface = ls / B;
   return mean;
 }
 
@@ -264,9 +277,9 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
   rep.seconds_loss += since(t0);
   if (!std::isfinite(mean.total()))
     return Status::error("training diverged: the loss of step %u is %g (occlusion %g, distance %g, normal %g, "
-                         "albedo %g, material %g); lower the learning rate (Adam lr %g)",
+                         "albedo %g, material %g, surface %g); lower the learning rate (Adam lr %g)",
                          step, mean.total(), mean.occlusion, mean.distance, mean.normal, mean.albedo,
-                         mean.material, double(settings.adam.learning_rate));
+                         mean.material, mean.surface, double(settings.adam.learning_rate));
 
   t0 = Clock::now();
   std::fill(st.d_mlp.begin(), st.d_mlp.end(), 0.0f);
@@ -301,8 +314,8 @@ void record_step(const TrainSettings& settings, uint32_t step, const LossTerms& 
     ++tail.steps;
   }
   if (settings.loss_curve)
-    rep.loss_curve += format("%u,%.3f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", step, since(t_start), mean.total(),
-                             mean.occlusion, mean.distance, mean.normal, mean.albedo, mean.material);
+    rep.loss_curve += format("%u,%.3f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", step, since(t_start), mean.total(),
+                             mean.occlusion, mean.distance, mean.normal, mean.albedo, mean.material, mean.surface);
 }
 
 // rep.final_loss: the mean of the tail's steps (left 0 when none ran).
@@ -311,7 +324,7 @@ void set_final_loss(const TailLoss& tail, TrainReport& rep) {
     const double k = 1.0 / tail.steps;
     rep.final_loss.occlusion = tail.sum.occlusion * k; rep.final_loss.distance = tail.sum.distance * k;
     rep.final_loss.normal = tail.sum.normal * k; rep.final_loss.albedo = tail.sum.albedo * k;
-    rep.final_loss.material = tail.sum.material * k;
+    rep.final_loss.material = tail.sum.material * k; rep.final_loss.surface = tail.sum.surface * k;
   }
 }
 
@@ -330,6 +343,14 @@ Status check_fp16_range(const Model& model, uint64_t rays, float learning_rate) 
 
 }  // namespace
 
+bool learns_surface_channels(const Mesh& mesh, uint32_t surface_maps) {
+  if (surface_maps == kSurfaceMapsOn) return true;
+  if (surface_maps != kSurfaceMapsAuto) return false;
+  for (const Material& m : mesh.materials)
+    if (m.has_surface_textures()) return true;
+  return false;
+}
+
 Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model, TrainReport* report,
                    const TrainCallback& callback) {
   Config config;
@@ -347,7 +368,7 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   StepState st(model, settings.adam);
 
   TrainReport rep;
-  if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material\n";
+  if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material,surface\n";
   rep.occupied_voxels = occupied;
   TailLoss tail;
   tail.start = settings.steps - std::max(1u, settings.steps / 10);

@@ -31,6 +31,9 @@ struct TrainSettings {
   // Levels whose table is indexed (Config::index_slots; the trainer builds the index from the voxels).
   bool indexed[LSNIF_MAX_LEVELS] = {default_indexed(0) != 0, default_indexed(1) != 0, default_indexed(2) != 0,
                                     default_indexed(3) != 0};
+  // kSurfaceMapsAuto / On / Off (settings_table.h): whether config.surface_channels is set and
+  // normal maps are baked, decided from the mesh's materials by surface_channels_for.
+  uint32_t surface_maps = default_u32(SettingId::SurfaceMaps);
   uint32_t steps = default_u32(SettingId::Steps);
   uint32_t batch_size = default_u32(SettingId::Batch);  // paper: 2^18 on a GPU; see settings_table.h
   uint64_t seed = default_u64(SettingId::Seed);
@@ -47,6 +50,14 @@ struct TrainSettings {
   bool loss_curve = false;         // true: TrainReport::loss_curve receives the loss curve (CSV)
   std::string describe() const;
 };
+
+// Whether a model of `mesh` learns surface channels (Config::surface_channels) under the setting
+// `surface_maps` (kSurfaceMapsAuto: when a material has a metallic-roughness, emission or occlusion
+// texture; kSurfaceMapsOn: always; kSurfaceMapsOff: never).
+bool learns_surface_channels(const Mesh& mesh, uint32_t surface_maps);
+// Whether the normal the network learns has the materials' normal maps applied (SurfaceSample::normal)
+// under `surface_maps`: unless kSurfaceMapsOff.
+inline bool bakes_normal_maps(uint32_t surface_maps) { return surface_maps != kSurfaceMapsOff; }
 
 // The layout training `mesh` with `settings` starts from: the mesh's voxels (in its padded bounds)
 // into `voxels`, and for the levels settings.indexed names the index built from them: `config` (in:

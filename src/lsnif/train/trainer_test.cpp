@@ -139,7 +139,7 @@ TEST(Trainer, LossCurveComesBackInTheReport) {
   TrainReport report;
   Status st = train_model(cube(), s, model, &report);
   ASSERT_TRUE(st) << st.message();
-  ASSERT_EQ(report.loss_curve.rfind("step,seconds,total,occlusion,distance,normal,albedo,material\n", 0), 0u);
+  ASSERT_EQ(report.loss_curve.rfind("step,seconds,total,occlusion,distance,normal,albedo,material,surface\n", 0), 0u);
   size_t rows = 0;
   for (char c : report.loss_curve) rows += c == '\n';
   EXPECT_EQ(rows, 1u + s.steps);

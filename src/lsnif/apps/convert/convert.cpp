@@ -1,6 +1,7 @@
 // convert.cpp -- the conversion run and its report (convert.h).
 #include "lsnif/apps/convert/convert.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -26,9 +27,15 @@ std::string size_text(uint64_t bytes) {
 
 std::string eval_text(const ModelResult& r) {
   if (!r.evaluated) return "";
-  return format("accuracy %.2f%%, median t error %.2f%% of the diagonal, median normal error %.1f deg (%llu rays)",
+  // The material channels besides the albedo, where they vary (textured or emissive materials).
+  const std::string channels =
+      r.metrics.surface_mae > 0.0 || r.metrics.emission_mae > 0.0
+          ? format(", mean metallic/roughness/occlusion error %.3f, emission error %.3f", r.metrics.surface_mae,
+                   r.metrics.emission_mae)
+          : "";
+  return format("accuracy %.2f%%, median t error %.2f%% of the diagonal, median normal error %.1f deg%s (%llu rays)",
                 100.0 * r.metrics.accuracy, 100.0 * r.metrics.t_error_median, r.metrics.normal_error_median,
-                (unsigned long long)r.metrics.rays);
+                channels.c_str(), (unsigned long long)r.metrics.rays);
 }
 
 const char* state_text(const ModelResult& r, bool dry_run) {
@@ -115,6 +122,77 @@ void print_groups(const ConvertSettings& s, const ConvertResult& res, FILE* out)
       std::fprintf(out, "          (%s)\n", s.dry_run ? "its error is measured once it is trained"
                                                      : "no error measured: --eval-rays 0");
   }
+}
+
+const char* short_decision(Decision d) {
+  switch (d) {
+    case Decision::Convert: return "convert";
+    case Decision::BelowThreshold: return "stays: < --min-triangles";
+    case Decision::NoMemorySaved: return "stays: frees < margin x model";
+    case Decision::NotSelected: return "stays: not --select";
+    case Decision::Excluded: return "stays: --exclude";
+    case Decision::TaggedOff: return "stays: lsnif false";
+    case Decision::AlreadyLsnif: return "already LSNIF";
+    case Decision::Failed: return "FAILED";
+  }
+  return "?";
+}
+
+// A row's decision: its nodes' (with counts when they differ) and the model it converts into.
+std::string row_decision(const Plan& plan, const MemoryRow& row) {
+  std::map<Decision, size_t> counts;
+  for (int i : row.nodes) ++counts[plan.nodes[size_t(i)].decision];
+  std::string text;
+  for (const auto& [d, n] : counts) {
+    if (!text.empty()) text += ", ";
+    text += short_decision(d);
+    if (counts.size() > 1) text += format(" (%zu)", n);
+  }
+  if (row.model >= 0) text += " -> model '" + plan.models[size_t(row.model)].name + "'";
+  return text;
+}
+
+// The memory table: per mesh and group, the triangle BLAS converting it frees against its model,
+// the ratio and the decision; then the scene's memory before and after (the renderer's LSNIF mode).
+void print_memory(const ConvertSettings& s, const ConvertResult& res, FILE* out) {
+  const Plan& plan = res.plan;
+  std::vector<uint64_t> model_bytes(plan.models.size(), 0);
+  for (size_t i = 0; i < plan.models.size() && i < res.models.size(); ++i) model_bytes[i] = res.models[i].bytes;
+  const std::string rule =
+      s.convert_when == ConvertWhen::Memory
+          ? format("convert where the BLAS freed >= %g x the model (--memory-margin) and >= %llu triangles",
+                   s.memory_margin, (unsigned long long)s.min_triangles)
+          : format("convert meshes of >= %llu triangles (--convert-when triangles)",
+                   (unsigned long long)s.min_triangles);
+  std::fprintf(out, "trade     the triangle BLASes a conversion frees vs its model; %s; BLAS sizes: %s\n", rule.c_str(),
+               plan.blas_source.c_str());
+  std::vector<std::string> names;
+  int width = 4;
+  for (const MemoryRow& row : plan.memory) {
+    names.push_back(row.group ? "group '" + printable(row.name) + "'" : printable(row.name));
+    width = std::max(width, std::min(40, int(names.back().size())));
+  }
+  std::fprintf(out, "  %-*s %10s %9s %10s %10s %9s  %s\n", width, "mesh", "triangles", "instances", "BLAS MiB",
+               "model MiB", "ratio", "decision");
+  bool shared = false;
+  for (size_t k = 0; k < plan.memory.size(); ++k) {
+    const MemoryRow& row = plan.memory[k];
+    const uint64_t model = row.model >= 0 && model_bytes[size_t(row.model)] ? model_bytes[size_t(row.model)]
+                                                                          : row.model_bytes;
+    const bool partly = row.freed_bytes < row.blas_bytes;
+    shared |= partly;
+    std::fprintf(out, "  %-*s %10llu %9zu %9.3f%s %10.3f %8.2fx  %s\n", width, names[k].c_str(),
+                 (unsigned long long)row.triangles, row.nodes.size(), mib(row.freed_bytes), partly ? "*" : " ",
+                 mib(model), model ? double(row.freed_bytes) / double(model) : 0.0, row_decision(plan, row).c_str());
+  }
+  if (shared)
+    std::fprintf(out, "  * other nodes still draw the mesh as triangles: its BLAS (or part of it) is not freed\n");
+  const SceneMemory m = scene_memory(plan, model_bytes);
+  std::fprintf(out, "scene     %.3f MiB of triangle BLASes before; after: %.3f MiB of triangle BLASes + %.3f MiB of "
+                    "LSNIF models = %.3f MiB (%.2fx)%s\n",
+               mib(m.blas_before), mib(m.blas_after), mib(m.models), mib(m.after()),
+               m.blas_before ? double(m.after()) / double(m.blas_before) : 0.0,
+               s.dry_run ? ", models estimated from the settings" : "");
 }
 
 // The output files are none of the files the input uses, and can be written (the folder is made):
@@ -209,6 +287,7 @@ int run_convert(const ConvertSettings& settings, ConvertResult& result, FILE* ou
   }
   print_models(settings, result, out);
   print_groups(settings, result, out);
+  print_memory(settings, result, out);
   size_t unique_meshes = 0, group_models = 0;
   for (const PlannedModel& m : result.plan.models) (m.group.empty() ? unique_meshes : group_models) += 1;
   std::fprintf(out, "instances %zu nodes become LSNIF objects: %zu mesh models (each trained once however many "

@@ -193,6 +193,7 @@ const char* decision_text(Decision d) {
   switch (d) {
     case Decision::Convert: return "convert";
     case Decision::BelowThreshold: return "stays triangles (below --min-triangles)";
+    case Decision::NoMemorySaved: return "stays triangles (frees less BLAS memory than --memory-margin x its model)";
     case Decision::NotSelected: return "stays triangles (not matched by --select)";
     case Decision::Excluded: return "stays triangles (matched by --exclude)";
     case Decision::TaggedOff: return "stays triangles (extras \"lsnif\": false)";
@@ -218,6 +219,9 @@ uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_cou
   Model m;
   m.config = train.config;
   m.config.material_count = std::max(1u, material_count);
+  // The surface channels' outputs, as the trainer decides them (without the mesh: when always on).
+  m.config.surface_channels =
+      (mesh ? learns_surface_channels(*mesh, train.surface_maps) : train.surface_maps == kSurfaceMapsOn) ? 1u : 0u;
   bool indexed = false;
   for (uint32_t l = 0; l < m.config.grid_levels && l < LSNIF_MAX_LEVELS; ++l) indexed |= train.indexed[l];
   if (mesh && indexed && !mesh->triangles.empty()) {
@@ -236,6 +240,55 @@ uint32_t planned_material_count(const Plan& plan, const PlannedModel& m) {
     for (const tinygltf::Primitive& p : plan.gltf.meshes[size_t(mesh)].primitives)
       materials.insert(p.material >= 0 && size_t(p.material) < plan.gltf.materials.size() ? p.material : -1);
   return std::max<uint32_t>(1, uint32_t(materials.size()));
+}
+
+Decision size_rule(const ConvertSettings& settings, uint64_t triangles, uint64_t freed_blas, uint64_t model_bytes) {
+  if (triangles < settings.min_triangles) return Decision::BelowThreshold;
+  if (settings.convert_when == ConvertWhen::Memory &&
+      double(freed_blas) < settings.memory_margin * double(model_bytes))
+    return Decision::NoMemorySaved;
+  return Decision::Convert;
+}
+
+std::vector<BlasPrimitive> blas_primitives(const tinygltf::Model& g, int mesh) {
+  std::vector<BlasPrimitive> out;
+  if (mesh < 0 || size_t(mesh) >= g.meshes.size()) return out;
+  for (const tinygltf::Primitive& p : g.meshes[size_t(mesh)].primitives) {
+    const int position = gltf::find_attribute(p, "POSITION");
+    if (position < 0 || size_t(position) >= g.accessors.size()) continue;
+    const uint64_t triangles = primitive_triangles(g, p);
+    if (triangles) out.push_back({uint64_t(g.accessors[size_t(position)].count), triangles});
+  }
+  return out;
+}
+
+uint64_t freed_blas_bytes(const Plan& plan, const std::vector<int>& object) {
+  const std::set<int> in_object(object.begin(), object.end());
+  std::set<int> meshes;
+  for (int i : object) meshes.insert(plan.nodes[size_t(i)].mesh);
+  for (size_t i = 0; i < plan.nodes.size(); ++i) {
+    const PlannedNode& n = plan.nodes[i];
+    if (meshes.count(n.mesh) && !in_object.count(int(i)) && n.decision != Decision::AlreadyLsnif) meshes.erase(n.mesh);
+  }
+  uint64_t bytes = 0;
+  for (int m : meshes) bytes += plan.mesh_blas[size_t(m)];
+  return bytes;
+}
+
+SceneMemory scene_memory(const Plan& plan, const std::vector<uint64_t>& model_bytes) {
+  std::set<int> drawn, kept;
+  for (const PlannedNode& n : plan.nodes) {
+    if (n.decision == Decision::AlreadyLsnif) continue;
+    drawn.insert(n.mesh);
+    if (n.decision != Decision::Convert) kept.insert(n.mesh);
+  }
+  SceneMemory out;
+  for (int m : drawn) out.blas_before += plan.mesh_blas[size_t(m)];
+  for (int m : kept) out.blas_after += plan.mesh_blas[size_t(m)];
+  for (size_t i = 0; i < plan.models.size(); ++i)
+    if (plan.models[i].error.empty())
+      out.models += i < model_bytes.size() && model_bytes[i] ? model_bytes[i] : plan.models[i].model_bytes;
+  return out;
 }
 
 namespace {
@@ -366,46 +419,70 @@ Decision selection(const ConvertSettings& settings, const Rules& rules, const ti
   return Decision::Convert;
 }
 
-// Decides every node of plan.nodes and adds the models they use: one per group (its threshold
-// applied later, by settle_models) and one per glTF mesh.
+// Estimated bytes of a model of glTF mesh `mesh` (its materials), from the settings.
+uint64_t mesh_model_bytes(const ConvertSettings& settings, const Plan& plan, int mesh) {
+  PlannedModel one;
+  one.mesh = mesh;
+  return estimated_model_bytes(settings.train, planned_material_count(plan, one));
+}
+
+// Decides every node of plan.nodes and adds the models they use: one per group (its rule applied
+// later, by settle_models) and one per glTF mesh, for its tagged nodes and, when the size rule
+// (size_rule) says so, its other candidates.
 void assign_models(const ConvertSettings& settings, const Rules& rules, Plan& plan) {
   const tinygltf::Model& g = plan.gltf;
   ModelNamer namer(settings, plan);
-  std::map<int, int> mesh_model;
-  std::map<std::string, int> group_model;
+  // Selection and groups first: whether converting a mesh frees its BLAS depends on all its nodes.
+  std::vector<int> tags(plan.nodes.size());
+  std::map<int, std::vector<int>> mesh_candidates;  // per mesh: its candidate nodes outside groups
   for (size_t i = 0; i < plan.nodes.size(); ++i) {
     PlannedNode& p = plan.nodes[i];
     const tinygltf::Node& n = g.nodes[size_t(p.node)];
-    const int tag = extras_tag(n);
-    p.decision = selection(settings, rules, n, tag, p);
+    tags[i] = extras_tag(n);
+    p.decision = selection(settings, rules, n, tags[i], p);
     if (p.decision != Decision::Convert) continue;
-    std::string group = extras_group(n);
-    for (size_t r = 0; group.empty() && r < settings.groups.size(); ++r)
-      if (search(rules.groups[r], p.name)) group = settings.groups[r].name;
-    if (!group.empty()) {
-      auto it = group_model.find(group);
-      if (it == group_model.end()) it = group_model.emplace(group, namer.add_model(plan, group, -1, group)).first;
-      p.model = it->second;
-      p.decision = Decision::Convert;  // the group's threshold is applied by settle_models
+    p.group = extras_group(n);
+    for (size_t r = 0; p.group.empty() && r < settings.groups.size(); ++r)
+      if (search(rules.groups[r], p.name)) p.group = settings.groups[r].name;
+    if (p.group.empty()) mesh_candidates[p.mesh].push_back(int(i));
+  }
+  std::map<int, int> mesh_model;
+  std::map<std::string, int> group_model;
+  std::map<int, Decision> mesh_rule;  // per mesh: the size rule's decision for its untagged nodes
+  for (size_t i = 0; i < plan.nodes.size(); ++i) {
+    PlannedNode& p = plan.nodes[i];
+    if (p.decision != Decision::Convert) continue;
+    if (!p.group.empty()) {
+      auto it = group_model.find(p.group);
+      if (it == group_model.end()) it = group_model.emplace(p.group, namer.add_model(plan, p.group, -1, p.group)).first;
+      p.model = it->second;  // the group's rule is applied by settle_models
       plan.models[size_t(p.model)].nodes.push_back(int(i));
       plan.models[size_t(p.model)].triangles += p.triangles;
       continue;
     }
-    if (tag != 1 && p.triangles < settings.min_triangles) {
-      p.decision = Decision::BelowThreshold;
-      continue;
+    if (tags[i] != 1) {
+      auto rule = mesh_rule.find(p.mesh);
+      if (rule == mesh_rule.end()) {
+        const uint64_t freed = freed_blas_bytes(plan, mesh_candidates[p.mesh]);
+        rule = mesh_rule.emplace(p.mesh, size_rule(settings, p.triangles, freed, mesh_model_bytes(settings, plan, p.mesh)))
+                   .first;
+      }
+      if (rule->second != Decision::Convert) {
+        p.decision = rule->second;
+        continue;
+      }
     }
     auto it = mesh_model.find(p.mesh);
     if (it == mesh_model.end()) it = mesh_model.emplace(p.mesh, namer.add_model(plan, p.mesh_name, p.mesh, "")).first;
     p.model = it->second;
-    p.decision = Decision::Convert;
     plan.models[size_t(p.model)].nodes.push_back(int(i));
     plan.models[size_t(p.model)].triangles = p.triangles;
   }
 }
 
-// Groups below the threshold (unless a member is tagged) stay triangles; bad members fail the model.
-// Drops the former from plan.models and renumbers the nodes' models.
+// Groups the size rule keeps as triangles (unless a member is tagged) stay triangles; bad members
+// fail the model. Drops the former from plan.models and renumbers the nodes' models; sets every
+// model's estimated bytes.
 void settle_models(const ConvertSettings& settings, Plan& plan) {
   const tinygltf::Model& g = plan.gltf;
   std::map<int, std::string> problems;  // per mesh, computed once
@@ -418,11 +495,15 @@ void settle_models(const ConvertSettings& settings, Plan& plan) {
   std::vector<int> remap(plan.models.size(), -1);
   for (size_t k = 0; k < plan.models.size(); ++k) {
     PlannedModel& m = plan.models[k];
+    m.model_bytes = estimated_model_bytes(settings.train, planned_material_count(plan, m));
     bool tagged = false;
     for (int ni : m.nodes) tagged |= extras_tag(g.nodes[size_t(plan.nodes[size_t(ni)].node)]) == 1;
-    if (!m.group.empty() && !tagged && m.triangles < settings.min_triangles) {
+    const Decision rule = m.group.empty() || tagged ? Decision::Convert
+                                                    : size_rule(settings, m.triangles, freed_blas_bytes(plan, m.nodes),
+                                                                m.model_bytes);
+    if (rule != Decision::Convert) {
       for (int ni : m.nodes) {
-        plan.nodes[size_t(ni)].decision = Decision::BelowThreshold;
+        plan.nodes[size_t(ni)].decision = rule;
         plan.nodes[size_t(ni)].model = -1;
       }
       continue;
@@ -444,9 +525,73 @@ void settle_models(const ConvertSettings& settings, Plan& plan) {
   }
 }
 
+// plan.mesh_blas for the meshes of plan.nodes, with `sizer`; its error names the mesh.
+Status size_blases(const BlasSizer& sizer, Plan& plan) {
+  plan.blas_source = sizer.query ? sizer.source : estimated_blas_source();
+  plan.mesh_blas.assign(plan.gltf.meshes.size(), 0);
+  std::set<int> done;
+  for (const PlannedNode& n : plan.nodes) {
+    if (!done.insert(n.mesh).second) continue;
+    if (Status s = blas_bytes(sizer, blas_primitives(plan.gltf, n.mesh), plan.mesh_blas[size_t(n.mesh)]); !s)
+      return Status::error("mesh '%s': the size of its triangle BLAS: %s", printable(n.mesh_name).c_str(),
+                           s.message().c_str());
+  }
+  return Status::ok();
+}
+
+// plan.memory: a row per mesh (its nodes outside groups) and per group, at its first node.
+void fill_memory_table(const ConvertSettings& settings, Plan& plan) {
+  std::map<std::pair<int, std::string>, size_t> row_of;  // (mesh, "") or (-1, group)
+  for (size_t i = 0; i < plan.nodes.size(); ++i) {
+    const PlannedNode& n = plan.nodes[i];
+    if (n.decision == Decision::AlreadyLsnif) continue;
+    const std::pair<int, std::string> key(n.group.empty() ? n.mesh : -1, n.group);
+    auto it = row_of.find(key);
+    if (it == row_of.end()) {
+      it = row_of.emplace(key, plan.memory.size()).first;
+      MemoryRow row;
+      row.group = !n.group.empty();
+      row.name = row.group ? n.group : n.mesh_name;
+      row.mesh = row.group ? -1 : n.mesh;
+      plan.memory.push_back(std::move(row));
+    }
+    MemoryRow& row = plan.memory[it->second];
+    row.nodes.push_back(int(i));
+    if (row.group || row.nodes.size() == 1) row.triangles += n.triangles;
+    if (n.model >= 0) row.model = n.model;
+  }
+  for (MemoryRow& row : plan.memory) {
+    // What the rule weighed: the candidates (nodes outside groups that --select, --exclude and the
+    // tags leave to it); a row without any shows what converting all its nodes would free.
+    std::vector<int> candidates;
+    std::set<int> meshes;
+    for (int i : row.nodes) {
+      const PlannedNode& n = plan.nodes[size_t(i)];
+      meshes.insert(n.mesh);
+      if (n.decision == Decision::Convert || n.decision == Decision::BelowThreshold ||
+          n.decision == Decision::NoMemorySaved || n.decision == Decision::Failed)
+        candidates.push_back(i);
+    }
+    for (int m : meshes) row.blas_bytes += plan.mesh_blas[size_t(m)];
+    row.freed_bytes = freed_blas_bytes(plan, candidates.empty() ? row.nodes : candidates);
+    if (row.model >= 0) {
+      row.model_bytes = plan.models[size_t(row.model)].model_bytes;
+    } else if (row.group) {
+      PlannedModel as_group;
+      for (int i : row.nodes) as_group.nodes.push_back(i);
+      row.model_bytes = estimated_model_bytes(settings.train, planned_material_count(plan, as_group));
+    } else {
+      row.model_bytes = mesh_model_bytes(settings, plan, row.mesh);
+    }
+  }
+}
+
 }  // namespace
 
 Status check_settings(const ConvertSettings& settings) {
+  if (!(settings.memory_margin >= kMinMemoryMargin && settings.memory_margin <= kMaxMemoryMargin))
+    return Status::error("--memory-margin %g is outside [%.10g, %.10g] (the BLAS bytes a conversion must free per byte "
+                         "of its model)", settings.memory_margin, kMinMemoryMargin, kMaxMemoryMargin);
   Rules unused;
   return compile_rules(settings, unused);
 }
@@ -457,9 +602,11 @@ Status make_plan(const ConvertSettings& settings, Plan& plan) {
   if (Status s = compile_rules(settings, rules); !s) return s;
   if (Status s = read_input(settings, plan); !s) return s;
   if (Status s = collect_nodes(settings.input, plan); !s) return s;
+  if (Status s = size_blases(settings.blas, plan); !s) return s;
   // Decisions and models.
   assign_models(settings, rules, plan);
   settle_models(settings, plan);
+  fill_memory_table(settings, plan);
   return Status::ok();
 }
 

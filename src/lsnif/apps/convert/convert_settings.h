@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "lsnif/apps/convert/convert_blas.h"
 #include "lsnif/train/trainer.h"
 
 namespace lsnif::convert {
@@ -16,12 +17,31 @@ struct GroupRule {
   std::string pattern;  // RE2 regular expression, searched in the node name
 };
 
+// The default rule for a mesh or group that no tag forces in or out (`--convert-when`).
+enum class ConvertWhen {
+  Memory,     // the triangle BLASes it frees are at least memory_margin x its model's bytes
+  Triangles,  // it has at least min_triangles triangles (the paper's face-count threshold)
+};
+
+// The range of `--memory-margin` (check_settings).
+constexpr double kMinMemoryMargin = 1.0;
+constexpr double kMaxMemoryMargin = 1e6;
+
 struct ConvertSettings {
   std::string input;   // IN.gltf or IN.glb
   std::string output;  // OUT.gltf; the .lsnif files go beside it
+  ConvertWhen convert_when = ConvertWhen::Memory;
   // The paper's face-count threshold: meshes (groups: all members together) with fewer triangles
-  // stay triangle meshes. Node extras {"lsnif": true} overrides it.
+  // stay triangle meshes; the rule of ConvertWhen::Triangles and a lower bound under Memory. Node
+  // extras {"lsnif": true} overrides it.
   uint64_t min_triangles = 1000;
+  // ConvertWhen::Memory: convert when the freed BLAS bytes >= memory_margin x the model's bytes
+  // (in [kMinMemoryMargin, kMaxMemoryMargin]). 2: an LSNIF hit costs more time than a triangle
+  // hit, so a conversion has to give back clearly more than it takes, and the BLAS sizes of other
+  // drivers than the estimate's differ from it.
+  double memory_margin = 2.0;
+  // How the BLAS bytes are found: the calibrated estimate (empty query) or a device's size query.
+  BlasSizer blas;
   // RE2 regular expressions (linear-time matching: node names are untrusted input) searched in the
   // node name and the mesh name; empty: no rule.
   // A node is a candidate when `select` is empty or matches, and `exclude` is empty or matches

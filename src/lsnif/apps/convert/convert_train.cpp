@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <mutex>
 #include <thread>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
@@ -48,6 +49,8 @@ bool read_sidecar(const std::string& path, Sidecar& out) {
     out.metrics.accuracy = num("accuracy");
     out.metrics.t_error_median = num("t_error_median");
     out.metrics.normal_error_median = num("normal_error_median");
+    out.metrics.surface_mae = num("surface_mae");
+    out.metrics.emission_mae = num("emission_mae");
   }
   return true;
 }
@@ -65,7 +68,9 @@ Status write_sidecar(const std::string& path, const PlannedModel& m, const Model
     j["eval"] = {{"rays", r.metrics.rays},
                  {"accuracy", r.metrics.accuracy},
                  {"t_error_median", r.metrics.t_error_median},
-                 {"normal_error_median", r.metrics.normal_error_median}};
+                 {"normal_error_median", r.metrics.normal_error_median},
+                 {"surface_mae", r.metrics.surface_mae},
+                 {"emission_mae", r.metrics.emission_mae}};
   return write_file_atomic(path, json::dump(j) + "\n").context("sidecar");
 }
 
@@ -82,6 +87,62 @@ Status flatten(const Plan& plan, const PlannedModel& m, bool allow_dropping_most
   Status s = flatten_gltf_meshes(plan.gltf, parts, label, r.mesh, r.material_sources, &report, allow_dropping_most);
   r.warnings = std::move(report.warnings);
   return s;
+}
+
+// Warnings about material channels a model of `mesh` does not learn: its materials' metallic-roughness,
+// emission, occlusion and normal textures when the settings turn surface channels and normal-map
+// baking off (LSNIF hits then take those materials' factors and the unmapped normal).
+void unlearned_channel_warnings(const Mesh& mesh, const TrainSettings& train, std::vector<std::string>& warnings) {
+  const bool surface = learns_surface_channels(mesh, train.surface_maps), normal = bakes_normal_maps(train.surface_maps);
+  for (const Material& m : mesh.materials) {
+    std::string slots;
+    for (const auto& [texture, name, learned] : {std::tuple{m.metallic_roughness_texture, "metallic-roughness", surface},
+                                                 std::tuple{m.emission_texture, "emissive", surface},
+                                                 std::tuple{m.occlusion_texture, "occlusion", surface},
+                                                 std::tuple{m.normal_texture, "normal", normal}})
+      if (texture >= 0 && !learned) slots += (slots.empty() ? "" : ", ") + std::string(name);
+    if (!slots.empty())
+      warnings.push_back(format("material '%s': %s texture not learned (--surface-maps off): LSNIF hits use the "
+                                "material's factors", printable(m.name).c_str(), slots.c_str()));
+  }
+}
+
+// Largest mean errors of learned surface channels on held-out rays that pass without a warning:
+// metallic / roughness / occlusion in [0, 1], emission relative to the model's emission scale.
+// On the textured material of tests/pbr_convert_test.cpp the default model reaches 0.028 and 0.4%
+// of its scale (a quarter of these and less), the test's 600-step W=64 model 0.115 (warned) and
+// 1.3%; a model of the base colour only (--surface-maps off) misses by 0.39 and 97% of the scale.
+constexpr double kSurfaceMaeWarning = 0.1, kEmissionMaeWarning = 0.05;
+
+// "material 'a'" / "materials 'a', 'b'": the materials of `mesh` for which `pick` holds.
+template <class Pick>
+std::string materials_text(const Mesh& mesh, Pick pick) {
+  std::string names;
+  size_t count = 0;
+  for (const Material& m : mesh.materials)
+    if (pick(m)) names += (count++ ? ", '" : "'") + printable(m.name) + "'";
+  return count ? (count == 1 ? "material " : "materials ") + names : "its materials";
+}
+
+// A warning, naming the channels and the materials whose textures drive them, when the model's
+// learned surface channels missed the reference by more than the bounds above on the evaluation rays.
+void surface_quality_warnings(const Model& model, const Mesh& mesh, const EvalMetrics& metrics,
+                              std::vector<std::string>& warnings) {
+  if (!model.config.surface_channels) return;
+  if (metrics.surface_mae > kSurfaceMaeWarning)
+    warnings.push_back(format(
+        "%s: metallic / roughness / occlusion learned with a mean error of %.3f on held-out rays (above %.2f): more "
+        "--steps or a wider network (--width) learn them better",
+        materials_text(mesh, [](const Material& m) { return m.metallic_roughness_texture >= 0 || m.occlusion_texture >= 0; })
+            .c_str(),
+        metrics.surface_mae, kSurfaceMaeWarning));
+  const double scale = model.config.emission_scale;
+  if (scale > 0.0 && metrics.emission_mae > kEmissionMaeWarning * scale)
+    warnings.push_back(format(
+        "%s: emission learned with a mean error of %.3f on held-out rays (above %.2f of its scale %.3g): more "
+        "--steps or a wider network (--width) learn it better",
+        materials_text(mesh, [](const Material& m) { return m.emission_texture >= 0; }).c_str(), metrics.emission_mae,
+        kEmissionMaeWarning, scale));
 }
 
 // "model 'NAME' (node 'a')" / "(nodes 'a', 'b', 'c' and 2 more)": the object an error is about.
@@ -121,6 +182,7 @@ void prepare_models(const ConvertSettings& settings, const Plan& plan, const std
       r.error = object_label(plan, m) + ": " + s.message();
       continue;
     }
+    unlearned_channel_warnings(r.mesh, settings.train, r.warnings);
     r.hash = content_hash(r.mesh, settings.train);
     r.bytes = estimated_model_bytes(settings.train, uint32_t(r.mesh.materials.size()), &r.mesh);
     const std::string path = (fs::path(out_dir) / m.file).string();
@@ -184,10 +246,12 @@ void train_models(const ConvertSettings& settings, const Plan& plan, const std::
         if (s && settings.eval_rays > 0) {
           EvalSettings es;
           es.rays = settings.eval_rays;
+          es.normal_maps = bakes_normal_maps(settings.train.surface_maps);
           EvalReport er;
           s = evaluate_model(model, r.mesh, es, er);
           r.evaluated = bool(s);
           r.metrics = er.model;
+          if (s) surface_quality_warnings(model, r.mesh, er.model, r.warnings);
         }
         if (s) s = write_sidecar(sidecar_path(path), m, r, settings.train);
         if (s) {

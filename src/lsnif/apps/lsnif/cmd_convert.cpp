@@ -10,6 +10,8 @@
 #include "lsnif/apps/lsnif/args.h"
 #include "lsnif/apps/lsnif/commands.h"
 #include "lsnif/apps/convert/convert.h"
+#include "lsnif/apps/convert/convert_blas_device.h"
+#include "lsnif/apps/lsnif/device_option.h"
 #include "lsnif/apps/lsnif/train_options.h"
 
 namespace lsnif::cli {
@@ -51,6 +53,9 @@ int cmd_convert(int argc, char** argv) {
   std::string group_help;  // shown in --help only; the values are taken by take_groups
   uint64_t min_triangles = cs.min_triangles;
   uint32_t jobs = cs.jobs, eval_rays = cs.eval_rays;
+  float margin = float(cs.memory_margin);
+  bool blas_on_device = false;
+  std::string device;
   Args args("convert",
             "Converts a glTF scene for LSNIF rendering: trains one model per selected glTF mesh (instances\n"
             "share it) or per --group, writes OUT.gltf (-o, must end in .gltf) with the LSNIF_neural_object\n"
@@ -59,7 +64,31 @@ int cmd_convert(int argc, char** argv) {
             "force a node in or out; {\"lsnif_group\": \"NAME\"} puts it in a group. See docs/convert.md.\n"
             "The training options are those of `lsnif train`.");
   args.positional("IN", "input scene (.gltf or .glb)", &cs.input);
-  args.option("min-triangles", "meshes with fewer triangles stay triangle meshes", &min_triangles);
+  args.option("convert-when",
+              "the rule for meshes and groups no tag decides: memory (where the triangle BLASes freed are at "
+              "least --memory-margin x the model's bytes) or triangles (at least --min-triangles)",
+              "memory|triangles", "memory", [&cs](const std::string& v) {
+                if (v != "memory" && v != "triangles") return false;
+                cs.convert_when = v == "memory" ? convert::ConvertWhen::Memory : convert::ConvertWhen::Triangles;
+                return true;
+              });
+  args.option("memory-margin",
+              format("--convert-when memory: BLAS bytes freed per byte of model, in [%.10g, %.10g]",
+                     convert::kMinMemoryMargin, convert::kMaxMemoryMargin),
+              &margin);
+  args.option("blas-size",
+              "how the triangle BLAS sizes are found: estimate (calibrated on lavapipe, no device) or device (the "
+              "Vulkan device's size query, as the renderer builds them)",
+              "estimate|device", "estimate", [&blas_on_device](const std::string& v) {
+                if (v != "estimate" && v != "device") return false;
+                blas_on_device = v == "device";
+                return true;
+              });
+  add_device_option(args, &device);
+  args.option("min-triangles",
+              "meshes with fewer triangles stay triangle meshes (the rule of --convert-when triangles, a lower bound "
+              "under memory)",
+              &min_triangles);
   args.option("select", "convert only nodes whose node or mesh name matches this regex (RE2 syntax)", &cs.select);
   args.option("exclude", "never convert nodes whose node or mesh name matches this regex", &cs.exclude);
   args.option("group", "NAME=REGEX: one model for all selected nodes whose name matches (repeatable)", &group_help);
@@ -80,6 +109,23 @@ int cmd_convert(int argc, char** argv) {
   if (opts.threads) omp_set_num_threads(int(opts.threads));
   cs.output = opts.output;
   cs.min_triangles = min_triangles;
+  cs.memory_margin = double(margin);
+  if (!device.empty() && !blas_on_device) {
+    std::fprintf(stderr, "lsnif convert: --device is the device of --blas-size device; add that option\n");
+    return 2;
+  }
+  convert::DeviceBlasSizer blas_device;
+  if (blas_on_device) {
+    if (Status s = convert::check_settings(cs); !s) {  // before opening a device for nothing
+      std::fprintf(stderr, "lsnif convert: %s\n", s.message().c_str());
+      return 2;
+    }
+    if (Status s = blas_device.open(device); !s) {
+      std::fprintf(stderr, "lsnif convert: %s\n", s.message().c_str());
+      return 1;
+    }
+    cs.blas = blas_device.sizer();
+  }
   cs.jobs = jobs < 1 ? 1 : jobs;
   cs.eval_rays = eval_rays;
   cs.progress = !opts.quiet;

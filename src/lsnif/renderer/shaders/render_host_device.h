@@ -47,7 +47,20 @@ struct RenderMaterial {
   float metallic, roughness;
   float emission_r, emission_g, emission_b;
   lsnif_uint base_texture, metallic_roughness_texture, emission_texture;
+  lsnif_uint occlusion_texture;  /* R = ambient occlusion (linear) */
+  float occlusion_strength;      /* occlusion = 1 + strength x (R - 1) */
+  lsnif_uint normal_texture;     /* tangent-space normal map (linear, +Y up) */
+  float normal_scale;
+  /* Per texture slot (base colour, metallic-roughness, emission, occlusion, normal: TextureSlot of
+     src/lsnif/import/mesh.h) the uv transform uv' = M (u, v, 1), M's three columns of two floats
+     (KHR_texture_transform; the identity without one). */
+  float uv_transform[30];
 };
+#define RENDER_SLOT_BASE 0u
+#define RENDER_SLOT_METALLIC_ROUGHNESS 1u
+#define RENDER_SLOT_EMISSION 2u
+#define RENDER_SLOT_OCCLUSION 3u
+#define RENDER_SLOT_NORMAL 4u
 
 /* RGBA8 texels, row 0 at v = 0, one uint per texel (R in the low byte). */
 struct RenderTexture {

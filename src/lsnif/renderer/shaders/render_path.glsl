@@ -128,6 +128,9 @@ bool render_path_hit(RenderFrame f, inout RenderPath path, RenderHit hit, vec3 p
   if (dot(ns, ng) < 0.0) ns = -ns;
   path.radiance += path.throughput * hit.emission;
   if (bounce == f.max_bounces) return false;
+  // glTF's occlusion map darkens the ambient light a surface reflects; the only lights here are
+  // the sky (with its sun disc) and emitters, all of it ambient: every reflection is scaled.
+  path.throughput *= hit.ambient_occlusion;
   const RenderBsdf bsdf = render_bsdf(hit.albedo, hit.metallic, hit.roughness);
   // Next-event estimation towards the environment.
   if (f.env_importance != 0u) {

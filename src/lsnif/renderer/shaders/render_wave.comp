@@ -52,7 +52,9 @@ RenderHit render_result_hit(RenderFrame f, LsnifQueryResult q) {
                                vec2(q.barycentric_u, q.barycentric_v), w2o, q.t);
   LsnifModel m = lsnif_load_model(RenderAddressRef(pc.push.model_table).v[q.instance_custom_index]);
   return render_lsnif_hit(f, q.instance_custom_index, vec3(q.normal_x, q.normal_y, q.normal_z),
-                          vec3(q.albedo_r, q.albedo_g, q.albedo_b), q.material, w2o, lsnif_leaving_distance(m), q.t);
+                          vec3(q.albedo_r, q.albedo_g, q.albedo_b), q.material,
+                          (q.surface >> 24) == LSNIF_SURFACE_LEARNED, unpackUnorm4x8(q.surface).xyz,
+                          vec3(q.emission_r, q.emission_g, q.emission_b), w2o, lsnif_leaving_distance(m), q.t);
 }
 
 #define RENDER_WAVE_MISS 0u
