@@ -573,6 +573,18 @@ uint64_t mesh_hash(const Mesh& mesh) {
   return h.h;
 }
 
+bool recorded_normal_maps(const std::string& record) {
+  if (record.empty()) return false;
+  nlohmann::json j;
+  if (!json::parse(record, "training record", j) || !j.is_object() || !j.contains("settings")) return false;
+  const nlohmann::json& s = j["settings"];
+  const char* name = setting_def(SettingId::SurfaceMaps).name;
+  if (!s.is_object() || !s.contains(name) || !s[name].is_string()) return false;
+  for (const SettingChoice& c : kSurfaceMapsChoices)
+    if (s[name].get<std::string>() == c.name) return bakes_normal_maps(c.value);
+  return false;
+}
+
 std::string training_record(const TrainSettings& settings, const Mesh& mesh, const std::string& mesh_name,
                             int threads) {
   nlohmann::ordered_json j;

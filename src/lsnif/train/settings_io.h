@@ -103,4 +103,10 @@ uint64_t mesh_hash(const Mesh& mesh);
 std::string training_record(const TrainSettings& settings, const Mesh& mesh, const std::string& mesh_name,
                             int threads);
 
+// Whether the model whose training record is `record` learned its normal with the materials'
+// normal maps applied (bakes_normal_maps of its "surface-maps" setting): false without a record,
+// for a record that does not parse, and for records written before the setting existed (no normal
+// maps were baked then).
+bool recorded_normal_maps(const std::string& record);
+
 }  // namespace lsnif

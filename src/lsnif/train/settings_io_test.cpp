@@ -329,5 +329,21 @@ TEST(SettingsConfig, TrainingRecordHoldsTheSettingsAndTheMesh) {
   EXPECT_EQ(hash, nlohmann::json::parse(training_record(s, mesh, "other.obj", 1))["mesh"]["hash"]);
 }
 
+TEST(SettingsConfig, TheRecordSaysWhetherNormalMapsWereBaked) {
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  mesh.triangles = {{0, 1, 2}};
+  TrainSettings s;
+  EXPECT_TRUE(recorded_normal_maps(training_record(s, mesh, "tri.obj", 1)));  // auto
+  s.surface_maps = kSurfaceMapsOn;
+  EXPECT_TRUE(recorded_normal_maps(training_record(s, mesh, "tri.obj", 1)));
+  s.surface_maps = kSurfaceMapsOff;
+  EXPECT_FALSE(recorded_normal_maps(training_record(s, mesh, "tri.obj", 1)));
+  // No record, a record from before the setting, and one that does not parse.
+  EXPECT_FALSE(recorded_normal_maps(""));
+  EXPECT_FALSE(recorded_normal_maps(R"({"settings": {"steps": 10}, "threads": 1})"));
+  EXPECT_FALSE(recorded_normal_maps("{\"settings\": "));
+}
+
 }  // namespace
 }  // namespace lsnif

@@ -8,6 +8,7 @@
 #include "lsnif/apps/lsnif/commands.h"
 #include "lsnif/apps/lsnif/train_options.h"
 #include "lsnif/train/evaluate.h"
+#include "lsnif/train/settings_io.h"
 #include "lsnif/import/mesh.h"
 
 namespace lsnif::cli {
@@ -44,6 +45,8 @@ int cmd_eval(int argc, char** argv) {
   EvalSettings settings;
   settings.rays = rays;
   settings.seed = seed;
+  // The reference normal the model learned: with the normal maps applied, if its training baked them.
+  settings.normal_maps = recorded_normal_maps(model.training);
   EvalReport report;
   if (Status s = evaluate_model(model, mesh, settings, report); !s) {
     std::fprintf(stderr, "lsnif eval: %s\n", s.message().c_str());
