@@ -333,6 +333,10 @@ struct LsnifQueryStatus {
  * of the narrow phase, MLP and decode (the layout of lsnifCmdIntersectModelRays' rows, `stride`
  * words per row, each model's batch in the columns of its sorted range). */
 #define LSNIF_QUERY_STATUS_WORD 4u       /* 5 words, in the order of LsnifQueryStatus */
+/* The words of one scratch record of each per-entry section (the structs below; checked in C++). */
+#define LSNIF_QUERY_MODEL_COUNTERS_WORDS 10u
+#define LSNIF_QUERY_RAY_STATE_WORDS 8u
+#define LSNIF_QUERY_CANDIDATE_WORDS 40u
 #define LSNIF_QUERY_SCATTER_ARGS_WORD 12u
 struct LsnifQueryModelCounters { /* 40 bytes */
   lsnif_uint count;    /* candidates of the model (broad phase) */
@@ -402,6 +406,10 @@ static_assert(sizeof(LsnifQueryStatus) == 20, "LsnifQueryStatus layout");
 static_assert(sizeof(LsnifQueryModelCounters) == 40, "LsnifQueryModelCounters layout");
 static_assert(sizeof(LsnifQueryRayState) == 32, "LsnifQueryRayState layout");
 static_assert(sizeof(LsnifQueryCandidate) == 160, "LsnifQueryCandidate layout");
+static_assert(sizeof(LsnifQueryModelCounters) == 4 * LSNIF_QUERY_MODEL_COUNTERS_WORDS &&
+                  sizeof(LsnifQueryRayState) == 4 * LSNIF_QUERY_RAY_STATE_WORDS &&
+                  sizeof(LsnifQueryCandidate) == 4 * LSNIF_QUERY_CANDIDATE_WORDS,
+              "the scratch record sizes the query shaders use");
 static_assert(sizeof(LsnifQueryPushConstants) == 96, "LsnifQueryPushConstants layout");
 #endif
 

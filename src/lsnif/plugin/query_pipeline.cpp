@@ -283,9 +283,9 @@ QueryLayout query_layout(const std::vector<const LsnifModel_T*>& models, uint32_
   uint64_t rows = 0;
   for (const LsnifModel_T* m : models)
     if (m) rows = std::max(rows, scratch_rows(*m));
-  l.rows_word = LSNIF_BATCH_HEADER_WORDS + uint64_t(sizeof(LsnifQueryModelCounters) / 4) * table_entries +
-                uint64_t(sizeof(LsnifQueryRayState) / 4) * l.chunk_rays +
-                uint64_t(sizeof(LsnifQueryCandidate) / 4) * l.capacity + l.stride;
+  l.rows_word = LSNIF_BATCH_HEADER_WORDS + uint64_t(LSNIF_QUERY_MODEL_COUNTERS_WORDS) * table_entries +
+                uint64_t(LSNIF_QUERY_RAY_STATE_WORDS) * l.chunk_rays +
+                uint64_t(LSNIF_QUERY_CANDIDATE_WORDS) * l.capacity + l.stride;
   l.total_words = l.rows_word + rows * l.stride;
   return l;
 }
@@ -552,7 +552,7 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
     bind(stage);
     vk.vkCmdDispatchIndirect(cmd, info.scratchBuffer, info.scratchOffset + 4u * word);
   };
-  const uint64_t counters_words = sizeof(LsnifQueryModelCounters) / 4;
+  const uint64_t counters_words = LSNIF_QUERY_MODEL_COUNTERS_WORDS;
   auto counters_word = [&](uint32_t b) { return LSNIF_BATCH_HEADER_WORDS + counters_words * b; };
   const uint64_t narrow_args = offsetof(LsnifQueryModelCounters, narrow_groups_x) / 4;
   const uint64_t batch_args = offsetof(LsnifQueryModelCounters, batch_groups_x) / 4;

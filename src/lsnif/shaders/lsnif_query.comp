@@ -58,7 +58,7 @@ void query_clear(uint id) {
   if (id < LSNIF_BATCH_HEADER_WORDS) {
     const bool status = id >= LSNIF_QUERY_STATUS_WORD && id < LSNIF_QUERY_STATUS_WORD + 5u;
     if (!status || pc.first_chunk != 0u) scratch.w[id] = 0u;
-  } else if (id < LSNIF_BATCH_HEADER_WORDS + 10u * pc.model_count) {
+  } else if (id < lsnif_query_states_word()) {  // the model counters
     scratch.w[id] = 0u;
   }
 }

@@ -35,13 +35,13 @@ layout(buffer_reference, std430, buffer_reference_align = 4) coherent buffer Lsn
 const uint LSNIF_QUERY_INF_BITS = 0x7f800000u;  // +inf: greater than the bits of every finite t >= 0
 const uint LSNIF_QUERY_NONE = 0xffffffffu;
 
-// Scratch sections (host_device.h), in words from the scratch's start: per table entry 10 words
-// (LsnifQueryModelCounters), per ray 8 (LsnifQueryRayState), per candidate slot 40
-// (LsnifQueryCandidate, 160 bytes), then the sorted candidate indices and the batch rows.
+// Scratch sections (host_device.h), in words from the scratch's start: per table entry a
+// LsnifQueryModelCounters, per ray a LsnifQueryRayState, per candidate slot a LsnifQueryCandidate,
+// then the sorted candidate indices and the batch rows.
 uint lsnif_query_models_word() { return LSNIF_BATCH_HEADER_WORDS; }
-uint lsnif_query_states_word() { return lsnif_query_models_word() + 10u * pc.model_count; }
-uint lsnif_query_candidates_word() { return lsnif_query_states_word() + 8u * pc.ray_count; }
-uint lsnif_query_sorted_word() { return lsnif_query_candidates_word() + 40u * pc.capacity; }
+uint lsnif_query_states_word() { return lsnif_query_models_word() + LSNIF_QUERY_MODEL_COUNTERS_WORDS * pc.model_count; }
+uint lsnif_query_candidates_word() { return lsnif_query_states_word() + LSNIF_QUERY_RAY_STATE_WORDS * pc.ray_count; }
+uint lsnif_query_sorted_word() { return lsnif_query_candidates_word() + LSNIF_QUERY_CANDIDATE_WORDS * pc.capacity; }
 uint lsnif_query_rows_word() { return lsnif_query_sorted_word() + pc.stride; }
 
 uint64_t lsnif_query_scratch_address() { return lsnif_batch_address(pc.scratch_lo, pc.scratch_hi); }
