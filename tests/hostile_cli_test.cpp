@@ -435,7 +435,7 @@ TEST_F(HostileCli, SceneErrorsAreFoundByRenderAndByTheDryRun) {
 
 TEST_F(HostileCli, OptionValuesAndNamesAreChecked) {
   EXPECT_FAILS_WITH(lsnif_run({"train", kElephant, "-o", path("x.lsnif"), "--batch", "0"}), 2,
-                    "--batch (0) must be at least 1");
+                    "--batch 0 out of range [1, 262144]");
   for (const char* lr : {"0", "-0.01"})
     EXPECT_FAILS_WITH(lsnif_run({"train", kElephant, "-o", path("x.lsnif"), "--lr", lr}), 2,
                       "must be a positive, finite learning rate");
@@ -515,3 +515,93 @@ TEST_F(HostileCli, MeshCleanupIsJudgedPerTriangle) {
 }
 
 }  // namespace
+
+// Numbers on the command line are decimal and every one has a range, checked before any work:
+// huge thread counts crashed or hung, "010" trained V=8 (octal) and "0x20" V=32, a batch of 2^32 - 1
+// aborted in the allocator, a camera index past 2^31 was silently ignored, an environment intensity
+// of 1e10 wrote infinities, and --eval-rays 2^32 - 1 failed only after every model had trained.
+TEST_F(HostileCli, NumbersAreDecimalAndBounded) {
+  const std::string out = path("x.lsnif");
+  EXPECT_FAILS_WITH(lsnif_run(with_tiny({"train", kElephant, "-o", out, "--threads", "100000"})), 2,
+                    "invalid value '100000' for --threads: out of range [0, 256]");
+  EXPECT_FAILS_WITH(lsnif_run({"eval", model_, kElephant, "--threads", "20000"}), 2, "out of range [0, 256]");
+  EXPECT_FAILS_WITH(lsnif_run(with_tiny({"train", kElephant, "-o", out, "--voxels", "010"})), 2,
+                    "for --voxels: leading zeros are not allowed");
+  EXPECT_FAILS_WITH(lsnif_run(with_tiny({"train", kElephant, "-o", out, "--voxels", "0x20"})), 2,
+                    "for --voxels: a decimal whole number expected (hexadecimal is not read)");
+  EXPECT_FAILS_WITH(lsnif_run(with_tiny({"train", kElephant, "-o", out, "--lr", "0x1p-7"})), 2,
+                    "for --lr: a decimal number expected");
+  EXPECT_FAILS_WITH(lsnif_run({"train", kElephant, "-o", out, "--batch", "4294967295"}), 2,
+                    "--batch 4294967295 out of range [1, 262144]");
+  EXPECT_FALSE(fs::exists(out));
+  // Render: the camera, the environment, the image size.
+  put(path("scene/quad.bin"), quad_bin());
+  put(path("scene/quad.gltf"), quad_scene("quad.bin").dump());
+  const std::vector<std::string> render = {"render", path("scene/quad.gltf"), "-o", path("r.png"), "--width", "8",
+                                           "--height", "8", "--spp", "1"};
+  const auto with = [&render](std::vector<std::string> more) {
+    more.insert(more.begin(), render.begin(), render.end());
+    return more;
+  };
+  EXPECT_FAILS_WITH(lsnif_run(with({"--camera", "4000000000"})), 2, "for --camera: out of range [0, 2147483647]");
+  for (const char* intensity : {"1e10", "1e38", "-1"})
+    EXPECT_FAILS_WITH(lsnif_run(with({"--env-intensity", intensity})), 2,
+                      "for --env-intensity: out of range [0, 1e+06]");
+  EXPECT_FAILS_WITH(lsnif_run(with({"--width", "16385"})), 2, "for --width: out of range [1, 16384]");
+  EXPECT_FALSE(fs::exists(path("r.png")));
+  // Convert refuses an eval-ray count before it trains anything.
+  const ProcessResult r = lsnif_run(with_tiny({"convert", path("scene/quad.gltf"), "-o", path("c/out.gltf"),
+                                               "--eval-rays", "4294967295"}));
+  EXPECT_FAILS_WITH(r, 2, "for --eval-rays: out of range [0, 1048576]");
+  EXPECT_FALSE(fs::exists(path("c")));
+}
+
+// --camera names one of the scene's cameras or is an error: past the last one, on a scene without
+// cameras, or beside an option that replaces the scene's cameras.
+TEST_F(HostileCli, CameraIndexNamesACamera) {
+  put(path("scene/quad.bin"), quad_bin());
+  put(path("scene/quad.gltf"), quad_scene("quad.bin").dump());
+  json no_camera = quad_scene("quad.bin");
+  no_camera["scenes"][0]["nodes"] = json::array({0});
+  put(path("scene/none.gltf"), no_camera.dump());
+  const auto render = [this](const std::string& scene, std::vector<std::string> more) {
+    std::vector<std::string> args = {"render", path("scene/" + scene), "-o", path("r.png"), "--width", "8",
+                                     "--height", "8", "--spp", "1"};
+    args.insert(args.end(), more.begin(), more.end());
+    return lsnif_run(args);
+  };
+  EXPECT_FAILS_WITH(render("quad.gltf", {"--camera", "1"}), 2, "--camera 1: the scene has 1 camera (0 to 0)");
+  EXPECT_FAILS_WITH(render("none.gltf", {"--camera", "0"}), 2, "--camera 0: the scene has no camera");
+  EXPECT_FAILS_WITH(render("quad.gltf", {"--camera", "0", "--frame-scene"}), 2, "--frame-scene replaces them");
+  EXPECT_FALSE(fs::exists(path("r.png")));
+  const ProcessResult ok = render("quad.gltf", {"--camera", "0"});
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_TRUE(fs::exists(path("r.png")));
+}
+
+// The format of an image output is checked with the other output checks, before the work: `render
+// -o r.txt` rendered to 100% and only then refused the extension.
+TEST_F(HostileCli, ImageFormatsAreCheckedBeforeTheWork) {
+  put(path("scene/quad.bin"), quad_bin());
+  put(path("scene/quad.gltf"), quad_scene("quad.bin").dump());
+  ProcessResult r = lsnif_run({"render", path("scene/quad.gltf"), "-o", path("r.txt"), "--width", "8", "--height",
+                               "8", "--spp", "1"});
+  EXPECT_FAILS_WITH(r, 2, "unknown image extension 'txt' (expected .exr, .hdr, .png, .jpg or .jpeg)");
+  EXPECT_EQ(r.output.find("render (LSNIF)"), std::string::npos) << "the render started:\n" << r.output;
+  // flip: the heatmap's format is refused before the images are read (these do not exist).
+  r = lsnif_run({"flip", path("a.png"), path("b.png"), "--heatmap", path("h.bmp")});
+  EXPECT_FAILS_WITH(r, 1, "--heatmap: cannot write");
+  EXPECT_NE(r.output.find("'bmp'"), std::string::npos) << r.output;
+  // demo: the picture's format before the training.
+  r = lsnif_run(with_tiny({"demo", "--mesh", kElephant, "-o", path("d.lsnif"), "--picture", path("p.gif")}));
+  EXPECT_FAILS_WITH(r, 2, "--picture: cannot write");
+  EXPECT_FALSE(fs::exists(path("d.lsnif")));
+}
+
+// A settings file with a key given twice is refused, naming the key (the last value silently won).
+TEST_F(HostileCli, SettingsFileKeysAreUnique) {
+  put(path("dup.json"), R"({"steps": 2, "voxels": 16, "steps": 3})");
+  const ProcessResult r = lsnif_run(with_tiny({"train", kElephant, "-o", path("x.lsnif"), "--config", path("dup.json")}));
+  EXPECT_FAILS_WITH(r, 2, "the key \"steps\" appears twice in one object");
+  EXPECT_FALSE(fs::exists(path("x.lsnif")));
+}

@@ -39,7 +39,7 @@ TEST(SceneEditCli, AddedModelsAndMovedNodesRender) {
   EXPECT_NE(r.out.find("--add names 1 models but --at gives 2"), std::string::npos) << r.out;
   r = test::run_command(render + " --add " + m + " --at 1,x,3 2>&1");
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("'x' is not a number"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("'x': a decimal number expected"), std::string::npos) << r.out;
   r = test::run_command(render + " --add /nonexistent/y.lsnif --at 0,0,0 2>&1");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("y.lsnif"), std::string::npos) << r.out;

@@ -522,5 +522,149 @@ TEST(MutationCampaign, OptionLists) {
               seconds_since(start));
 }
 
+// Numeric option values in every form the C library reads besides decimal, and past every range:
+// each must be refused (exit 2) naming the option, before any work. Random mutations of valid
+// values must end cleanly too; the commands' inputs do not exist, so a value that parses ends in
+// "not found" (exit 1) instead of starting work.
+TEST(MutationCampaign, OptionValueForms) {
+  test::ScopedTestDir dir("lsnif_campaign_values");
+  const std::string none = dir.path("missing");
+  struct Numeric {
+    std::vector<std::string> command;  // the command and its (missing) inputs
+    std::string option;
+    std::string valid;  // a value in the option's range (with a point for a real number)
+  };
+  const std::vector<std::string> train = {"train", none + ".off", "-o", dir.path("t.lsnif")};
+  const std::vector<std::string> render = {"render", none + ".gltf", "-o", dir.path("r.png")};
+  const std::vector<std::string> eval = {"eval", none + ".lsnif", none + ".off"};
+  const std::vector<std::string> convert = {"convert", none + ".gltf", "-o", dir.path("c/out.gltf")};
+  const std::vector<std::string> trace = {"bench-trace", none + ".off", none + ".lsnif"};
+  const std::vector<std::string> flip = {"flip", none + ".exr", none + "2.exr"};
+  const std::vector<Numeric> numerics = {
+      {train, "--voxels", "16"},        {train, "--steps", "2"},           {train, "--batch", "256"},
+      {train, "--seed", "7"},           {train, "--table-log2", "12"},     {train, "--threads", "2"},
+      {train, "--lr", "0.01"},          {train, "--w-normal", "1.0"},        {train, "--sphere-scale", "1.5"},
+      {train, "--indexed", "1,0"},      {render, "--width", "8"},          {render, "--spp", "1"},
+      {render, "--camera", "0"},        {render, "--env-intensity", "2.0"},  {render, "--fov", "45.0"},
+      {render, "--bounces", "4"},       {eval, "--rays", "100"},           {eval, "--threads", "1"},
+      {convert, "--eval-rays", "100"},  {convert, "--jobs", "2"},          {convert, "--memory-margin", "2.0"},
+      {convert, "--min-triangles", "5"}, {trace, "--rays", "1000"},        {trace, "--gemm-seconds", "0.5"},
+      {flip, "--ppd", "67.0"},            {flip, "--num-exposures", "3"},
+  };
+  // Forms that are never a value: other bases, signs and spaces, non-finite numbers, and for whole
+  // numbers leading zeros (octal to strtoul), a plus sign, a fraction and numbers past 64 bits.
+  const auto bad_forms = [](const std::string& v) {
+    std::vector<std::string> forms = {"0x" + v, "-" + v + "0", " " + v, v + " ", v + "x", "",
+                                      "nan",    "inf",         "1e400", "0x1p3",
+                                      "\xef\xbc\x91"};  // a full-width digit
+    if (v.find_first_not_of("0123456789,") == std::string::npos)
+      forms.insert(forms.end(), {"0" + v, "+" + v, v + ".5", "18446744073709551616", "99999999999999999999999999"});
+    return forms;
+  };
+  const auto start = Clock::now();
+  size_t runs = 0;
+  for (const Numeric& n : numerics)
+    for (const std::string& v : bad_forms(n.valid)) {
+      std::vector<std::string> args = n.command;
+      args.insert(args.end(), {n.option, v});
+      const test::ProcessResult r = lsnif_run(args, 30.0);
+      ++runs;
+      EXPECT_FALSE(r.crashed()) << describe(args) << ": signal " << r.signal << "\n" << r.output;
+      EXPECT_FALSE(r.timed_out) << describe(args);
+      EXPECT_EQ(r.exit_code, 2) << describe(args) << "\n" << r.output;
+      EXPECT_NE(r.output.find(n.option), std::string::npos) << describe(args) << ": the option is not named\n"
+                                                           << r.output;
+    }
+  std::mt19937_64 rng = fuzz::fuzz_rng(0xA11ull);
+  for (int it = 0; it < scaled(60); ++it) {
+    const Numeric& n = numerics[rng() % numerics.size()];
+    std::string v = n.valid;
+    fuzz::mutate(v, rng);
+    std::vector<std::string> args = n.command;
+    args.insert(args.end(), {n.option, v});
+    const test::ProcessResult r = lsnif_run(args, 30.0);
+    ++runs;
+    EXPECT_FALSE(r.crashed()) << describe(args) << ": signal " << r.signal << "\n" << r.output;
+    EXPECT_FALSE(r.timed_out) << describe(args);
+    EXPECT_TRUE(r.exit_code == 1 || r.exit_code == 2) << describe(args) << "\n" << r.output;
+  }
+  std::printf("[ info ] option values: %zu runs, %.2f s\n", runs, seconds_since(start));
+}
+
+// Settings files (--config): a valid one with one key's value or the document's shape broken in
+// a way no reading can accept (duplicate keys, wrong types, signs, huge and fractional counts,
+// strings for numbers) is refused, naming the file; random byte mutations end cleanly.
+TEST(MutationCampaign, SettingsFiles) {
+  test::ScopedTestDir dir("lsnif_campaign_settings");
+  const std::string config = dir.path("c.json");
+  const std::vector<std::string> train = {"train", dir.path("missing.off"), "-o", dir.path("t.lsnif"), "--config",
+                                          config};
+  const std::string valid = R"({"voxels": 16, "steps": 2, "batch": 256, "lr": 0.01, "seed": 3, "indexed": [1, 0]})";
+  const std::vector<std::pair<std::string, std::string>> replacements = {
+      {"\"voxels\": 16", "\"voxels\": 16, \"voxels\": 32"}, {"\"steps\": 2", "\"steps\": \"2\""},
+      {"\"steps\": 2", "\"steps\": -2"},                   {"\"steps\": 2", "\"steps\": 2.5"},
+      {"\"steps\": 2", "\"steps\": 18446744073709551616"},  {"\"steps\": 2", "\"steps\": 1e400"},
+      {"\"batch\": 256", "\"batch\": 4294967295"},           {"\"batch\": 256", "\"batch\": \"0x100\""},
+      {"\"lr\": 0.01", "\"lr\": -1"},                        {"\"lr\": 0.01", "\"lr\": null"},
+      {"\"lr\": 0.01", "\"lr\": [0.01]"},                    {"\"seed\": 3", "\"seed\": true"},
+      {"\"indexed\": [1, 0]", "\"indexed\": [1, 0, 1, 0, 1, 0, 1, 0, 1]"},
+      {"\"indexed\": [1, 0]", "\"indexed\": {\"a\": 1, \"a\": 2}"},
+      {"\"voxels\": 16", "\"voxles\": 16"},
+  };
+  const auto write = [&config](const std::string& text) { std::ofstream(config, std::ios::binary) << text; };
+  size_t runs = 0;
+  for (const auto& [from, to] : replacements) {
+    std::string text = valid;
+    ASSERT_NE(text.find(from), std::string::npos) << from;
+    text.replace(text.find(from), from.size(), to);
+    write(text);
+    const test::ProcessResult r = lsnif_run(train, 30.0);
+    ++runs;
+    EXPECT_FALSE(r.crashed()) << text << ": signal " << r.signal << "\n" << r.output;
+    EXPECT_EQ(r.exit_code, 2) << text << "\n" << r.output;
+    EXPECT_NE(r.output.find(config), std::string::npos) << text << ": the file is not named\n" << r.output;
+  }
+  write(valid);  // the control: it parses, and the missing mesh ends the run
+  test::ProcessResult control = lsnif_run(train, 30.0);
+  EXPECT_EQ(control.exit_code, 1) << control.output;
+  EXPECT_NE(control.output.find("missing.off"), std::string::npos) << control.output;
+  std::mt19937_64 rng = fuzz::fuzz_rng(0xC0Full);
+  for (int it = 0; it < scaled(60); ++it) {
+    std::string text = valid;
+    fuzz::mutate(text, rng);
+    write(text);
+    const test::ProcessResult r = lsnif_run(train, 30.0);
+    ++runs;
+    EXPECT_FALSE(r.crashed()) << text << ": signal " << r.signal << "\n" << r.output;
+    EXPECT_FALSE(r.timed_out) << text;
+    EXPECT_TRUE(r.exit_code == 1 || r.exit_code == 2) << text << "\n" << r.output;
+  }
+  std::printf("[ info ] settings files: %zu runs\n", runs);
+}
+
+// Runs under an address-space limit (`prlimit --as`, util-linux): sizes in range that do not fit
+// the memory the process may have end with "out of memory" and exit 1, never an abort. (Not under
+// AddressSanitizer: it reserves terabytes of address space for its shadow memory.)
+TEST(MutationCampaign, MemoryCappedRuns) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer cannot run under an address-space limit";
+#else
+  const std::string elephant = std::string(LSNIF_DATA_DIR) + "/meshes/elephant.off";
+  if (!fs::exists(elephant)) GTEST_SKIP() << elephant << " missing: run scripts/setup.sh";
+  if (!fs::exists("/usr/bin/prlimit")) GTEST_SKIP() << "prlimit (util-linux) missing";
+  test::ScopedTestDir dir("lsnif_campaign_capped");
+  const std::string model = dir.path("e.lsnif");
+  const test::ProcessResult trained = lsnif_run({"train", elephant, "-o", model, "--tiny", "--quiet"});
+  ASSERT_EQ(trained.exit_code, 0) << trained.output;
+  // 2^20 held-out rays take ~1.8 GB; 1 GB of address space is not enough.
+  const std::vector<std::string> capped = {"/usr/bin/prlimit", "--as=1000000000", LSNIF_CLI, "eval", model,
+                                           elephant,           "--rays",          "1048576"};
+  const test::ProcessResult r = test::run_process(capped, 120.0);
+  EXPECT_FALSE(r.crashed()) << "signal " << r.signal << "\n" << r.output;
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("lsnif eval: out of memory"), std::string::npos) << r.output;
+#endif
+}
+
 }  // namespace
 }  // namespace lsnif

@@ -7,6 +7,7 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
+#include <iterator>
 
 #include "lsnif/image/image_io_detail.h"
 
@@ -65,17 +66,27 @@ Status check_writable(const std::string& path, const Image& img, const char* con
                          img.rgb.size(), img.width, img.height, size_t(img.width) * img.height * 3);
   if (img.width > uint32_t(INT32_MAX) || img.height > uint32_t(INT32_MAX))
     return Status::error("cannot write '%s': %u x %u is too large", path.c_str(), img.width, img.height);
+  return check_extension(path, extensions, count, ext);
+}
+
+Status check_extension(const std::string& path, const char* const* extensions, size_t count, std::string& ext) {
   ext = lower_extension(path);
   std::string list;
   for (size_t i = 0; i < count; ++i) {
     if (ext == extensions[i]) return Status::ok();
     list += std::string(i == 0 ? "." : i + 1 == count ? " or ." : ", .") + extensions[i];
   }
-  return Status::error("cannot write '%s': unknown image extension '%s' (expected %s)", path.c_str(), ext.c_str(),
-                       list.c_str());
+  return Status::error("cannot write '%s': unknown image extension '%s' (expected %s)", printable(path).c_str(),
+                       printable(ext).c_str(), list.c_str());
 }
 
 }  // namespace detail
+
+Status check_image_extension(const std::string& path) {
+  static const char* const kWritable[] = {"exr", "hdr", "png", "jpg", "jpeg"};
+  std::string ext;
+  return detail::check_extension(path, kWritable, std::size(kWritable), ext);
+}
 
 bool is_hdr_path(const std::string& path) {
   const std::string ext = detail::lower_extension(path);

@@ -25,10 +25,16 @@ bool is_hdr_path(const std::string& path);
 // file name and OpenImageIO's message on a missing, unreadable or empty file.
 Status load_image(const std::string& path, Image& out, bool raw = false);
 
-// Writes `img` to `path`, the format chosen by the extension: .exr (half float), .hdr, .png / .jpg
+// Writes `img` to `path`, the format chosen by the extension: .exr (half float, or 32-bit float
+// when a value lies beyond the half range, +-65504), .hdr, .png / .jpg
 // (sRGB-encoded, clamped to [0, 1], rounded). Fails on an unknown extension, an empty or
 // inconsistent image or a write error, naming the file.
 Status save_image(const std::string& path, const Image& img);
+
+// Ok when save_image would take the extension of `path` (.exr, .hdr, .png, .jpg, .jpeg), else the
+// error it would give: what a command checks before the work whose result it writes. (Builds with
+// the portable writer refuse .exr only when writing.)
+Status check_image_extension(const std::string& path);
 
 // The sRGB transfer function (IEC 61966-2-1), used by load_image / save_image and by FLIP:
 // srgb_to_linear decodes an sRGB-encoded value (linear segment below 0.04045, else

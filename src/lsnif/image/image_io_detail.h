@@ -26,5 +26,7 @@ Status check_png_structure(const std::string& path);
 // fits an int, and an extension of `writable` (a list like ".exr, .hdr, .png"), which `ext` receives.
 Status check_writable(const std::string& path, const Image& img, const char* const* extensions, size_t count,
                       std::string& ext);
+// The extension part of check_writable: ok when the extension of `path` is one of `extensions`.
+Status check_extension(const std::string& path, const char* const* extensions, size_t count, std::string& ext);
 
 }  // namespace lsnif::image::detail

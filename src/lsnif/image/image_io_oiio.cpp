@@ -5,6 +5,8 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
+#include <cmath>
 #include <exception>
 #include <memory>
 
@@ -116,7 +118,11 @@ Status save_impl(const std::string& path, const Image& img) {
     spec.attribute("oiio:ColorSpace", "sRGB");
     ok = out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) && out->close();
   } else {
-    OIIO::ImageSpec spec(w, h, 3, exr ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
+    // Half floats end at 65504: brighter pixels (a visible sun, a strong environment) would be
+    // stored as infinities, so such an image is written in 32-bit floats.
+    const bool half = exr && std::all_of(img.rgb.begin(), img.rgb.end(),
+                                         [](float v) { return !(std::abs(v) > 65504.0f); });
+    OIIO::ImageSpec spec(w, h, 3, half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
     spec.attribute("oiio:ColorSpace", "Linear");
     ok = out->open(path, spec) && out->write_image(OIIO::TypeFloat, img.rgb.data()) && out->close();
   }

@@ -104,6 +104,21 @@ TEST_F(ImageIo, ExrRoundTripIsExactForHalfValues) {
   EXPECT_EQ(raw.rgb, img.rgb);
 }
 
+// Values past the half range (a visible sun, a strong environment) are not written as infinities:
+// such an image is stored in 32-bit floats, exactly.
+TEST_F(ImageIo, ExrBeyondTheHalfRangeKeepsItsValues) {
+  Image img = gradient(6, 3);
+  img.rgb[4] = 65520.0f;  // rounds to infinity as a half
+  img.rgb[7] = -1e10f;
+  img.rgb[11] = 3.0e38f;
+  img.rgb[12] = 0.1f;     // not a half: kept exactly too
+  ASSERT_TRUE(save_image(path("bright.exr"), img).is_ok());
+  Image back;
+  ASSERT_TRUE(load_image(path("bright.exr"), back).is_ok());
+  ASSERT_EQ(back.rgb.size(), img.rgb.size());
+  for (size_t i = 0; i < img.rgb.size(); ++i) EXPECT_EQ(back.rgb[i], img.rgb[i]) << i;
+}
+
 // Values that are not half-representable are rounded to the nearest half (relative error 2^-11).
 TEST_F(ImageIo, ExrRoundsToHalf) {
   Image img = gradient(9, 4);

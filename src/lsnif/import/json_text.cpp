@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <set>
+#include <string>
+#include <vector>
 
 namespace lsnif::json {
 
@@ -33,8 +36,24 @@ Status check_depth(std::string_view text, const std::string& name, size_t max_de
 
 Status parse(std::string_view text, const std::string& name, nlohmann::json& out) {
   if (Status s = check_depth(text, name); !s) return s;
-  out = nlohmann::json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
+  // The keys of each open object, innermost last: a key seen twice in one object is recorded
+  // (nlohmann would keep the last value silently).
+  std::vector<std::set<std::string>> open_objects;
+  std::string duplicate;
+  const auto watch = [&](int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+    using Event = nlohmann::json::parse_event_t;
+    if (event == Event::object_start) open_objects.emplace_back();
+    if (event == Event::object_end && !open_objects.empty()) open_objects.pop_back();
+    if (event == Event::key && !open_objects.empty() && !open_objects.back().insert(parsed.get<std::string>()).second &&
+        duplicate.empty())
+      duplicate = parsed.get<std::string>();
+    return true;
+  };
+  out = nlohmann::json::parse(text.begin(), text.end(), watch, /*allow_exceptions=*/false);
   if (out.is_discarded()) return Status::error("%s: not valid JSON", name.c_str());
+  if (!duplicate.empty())
+    return Status::error("%s: the key \"%s\" appears twice in one object (which value is meant?)", name.c_str(),
+                         excerpt(duplicate, 60).c_str());
   return Status::ok();
 }
 

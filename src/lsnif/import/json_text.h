@@ -24,7 +24,8 @@ inline constexpr size_t kMaxDepth = 128;
 // the limit and the byte offset.
 Status check_depth(std::string_view text, const std::string& name, size_t max_depth = kMaxDepth);
 
-// check_depth, then nlohmann's parser without exceptions. Errors name `name` and what is wrong.
+// check_depth, then nlohmann's parser without exceptions. Errors name `name` and what is wrong; a
+// key given twice in one object is an error (it names the key), not "the last one wins".
 Status parse(std::string_view text, const std::string& name, nlohmann::json& out);
 
 // `v`, or null when it is negative or not finite: a time, rate or ratio that was not measured.

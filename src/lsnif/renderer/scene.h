@@ -93,6 +93,9 @@ struct Environment {
   // environment is this default: constant white, radiance 1. Direction <-> pixel mapping and the
   // importance-sampling tables: environment.h.
 };
+// The largest environment intensity (the LSNIF_environment "intensity" or its override): beyond it
+// the radiance an image holds (environments reach 1e5) overflows 32-bit float sums into infinities.
+inline constexpr double kMaxEnvironmentIntensity = 1e6;
 
 // A distant light (the sun): a uniformly bright disk of `angular_diameter` about `direction`,
 // sampled by next-event estimation. `irradiance` is what it delivers to a surface facing it

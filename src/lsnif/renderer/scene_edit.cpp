@@ -1,7 +1,6 @@
 // scene_edit.cpp -- see scene_edit.h.
 #include "lsnif/renderer/scene_edit.h"
 
-#include <cerrno>
 #include <cmath>
 #include <algorithm>
 #include <cstdlib>
@@ -12,6 +11,7 @@
 
 #include "lsnif/core/geometry.h"
 #include "lsnif/format/model_format.h"
+#include "lsnif/format/number_text.h"
 #include "lsnif/renderer/scene_gltf.h"
 
 namespace lsnif::scene {
@@ -35,12 +35,13 @@ Status parse_numbers(const std::string& text, const char* what, std::vector<doub
   std::stringstream ss(text);
   std::string item;
   while (std::getline(ss, item, ',')) {
-    char* end = nullptr;
-    errno = 0;
-    const double x = std::strtod(item.c_str(), &end);
-    if (item.empty() || end == item.c_str() || *end != '\0' || errno == ERANGE)
-      return Status::error("%s '%s': '%s' is not a number", what, text.c_str(), item.c_str());
-    if (!std::isfinite(x)) return Status::error("%s '%s': %s is not finite", what, text.c_str(), item.c_str());
+    // Spaces around a number are layout ("1, 2, 3"), not part of it.
+    const size_t first = item.find_first_not_of(' '), last = item.find_last_not_of(' ');
+    item = first == std::string::npos ? std::string() : item.substr(first, last - first + 1);
+    double x = 0.0;
+    if (!parse_f64(item, x))
+      return Status::error("%s '%s': '%s': %s", what, excerpt(text, 120).c_str(), excerpt(item, 40).c_str(),
+                           real_number_error(item).c_str());
     v.push_back(x);
   }
   if (!text.empty() && text.back() == ',') return Status::error("%s '%s': trailing comma", what, text.c_str());

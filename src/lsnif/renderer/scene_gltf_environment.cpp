@@ -86,8 +86,8 @@ Status SceneBuilder::load_environment() {
   if (o.rotation_degrees) degrees = double(*o.rotation_degrees);
   if (!std::isfinite(color.x + color.y + color.z) || color.x < 0.0 || color.y < 0.0 || color.z < 0.0)
     return Status::error("%s: color must be finite and >= 0", where.c_str());
-  if (!std::isfinite(intensity) || intensity < 0.0)
-    return Status::error("%s: intensity %g must be finite and >= 0", where.c_str(), intensity);
+  if (!std::isfinite(intensity) || intensity < 0.0 || intensity > kMaxEnvironmentIntensity)
+    return Status::error("%s: intensity %g must be in [0, %g]", where.c_str(), intensity, kMaxEnvironmentIntensity);
   if (!std::isfinite(degrees))
     return Status::error("%s: rotation_degrees must be finite", where.c_str());
   const glm::dvec3 radiance = color * intensity;

@@ -1,9 +1,11 @@
 #include "lsnif/apps/lsnif/args.h"
 
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+
+#include "lsnif/format/number_text.h"
+#include "lsnif/format/status.h"
 
 namespace lsnif::cli {
 
@@ -24,57 +26,69 @@ void Args::rest(const std::string& name, const std::string& help, std::vector<st
 void Args::option(const std::string& name, const std::string& help, std::string* out) {
   opts_.push_back({name, help, "TEXT", out->empty() ? "" : *out, false, [out](const std::string& v) {
                      *out = v;
-                     return true;
+                     return std::string();
                    }});
 }
 
-bool parse_u64(const std::string& v, uint64_t& out) {
-  errno = 0;
-  char* end = nullptr;
-  unsigned long long x = std::strtoull(v.c_str(), &end, 0);
-  if (errno || end == v.c_str() || *end || v[0] == '-') return false;
-  out = uint64_t(x);
-  return true;
+namespace {
+
+std::string range_text(double min, double max) { return format("[%g, %g]", min, max); }
+
+}  // namespace
+
+void Args::option(const std::string& name, const std::string& help, uint32_t* out, uint32_t min, uint32_t max) {
+  checked_option(name, help + " " + format("[%u, %u]", min, max), "N", std::to_string(*out),
+                 [out, min, max](const std::string& v) {
+                   if (std::string why = whole_number_error(v); !why.empty()) return why;
+                   const uint64_t x = std::strtoull(v.c_str(), nullptr, 10);
+                   if (x < min || x > max) return format("out of range [%u, %u]", min, max);
+                   *out = uint32_t(x);
+                   return std::string();
+                 });
 }
 
-bool parse_u32(const std::string& v, uint32_t& out) {
-  uint64_t x = 0;
-  if (!parse_u64(v, x) || x > 0xffffffffull) return false;
-  out = uint32_t(x);
-  return true;
+void Args::option(const std::string& name, const std::string& help, uint64_t* out, uint64_t min, uint64_t max) {
+  checked_option(name, help + " " + format("[%llu, %llu]", (unsigned long long)min, (unsigned long long)max), "N",
+                 std::to_string(*out), [out, min, max](const std::string& v) {
+                   if (std::string why = whole_number_error(v); !why.empty()) return why;
+                   const uint64_t x = std::strtoull(v.c_str(), nullptr, 10);
+                   if (x < min || x > max)
+                     return format("out of range [%llu, %llu]", (unsigned long long)min, (unsigned long long)max);
+                   *out = x;
+                   return std::string();
+                 });
 }
 
-bool parse_f32(const std::string& v, float& out) {
-  char* end = nullptr;
-  float x = std::strtof(v.c_str(), &end);
-  if (end == v.c_str() || *end || !std::isfinite(x)) return false;
-  out = x;
-  return true;
-}
-
-void Args::option(const std::string& name, const std::string& help, uint32_t* out) {
-  option(name, help, "N", std::to_string(*out), [out](const std::string& v) { return parse_u32(v, *out); });
-}
-
-void Args::option(const std::string& name, const std::string& help, uint64_t* out) {
-  option(name, help, "N", std::to_string(*out), [out](const std::string& v) { return parse_u64(v, *out); });
-}
-
-void Args::option(const std::string& name, const std::string& help, float* out) {
+void Args::option(const std::string& name, const std::string& help, float* out, float min, float max) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", double(*out));
-  option(name, help, "X", buf, [out](const std::string& v) { return parse_f32(v, *out); });
+  checked_option(name, help + " " + range_text(min, max), "X", buf, [out, min, max](const std::string& v) {
+    if (std::string why = float_error(v); !why.empty()) return why;
+    const float x = std::strtof(v.c_str(), nullptr);
+    if (!(x >= min && x <= max)) return "out of range " + range_text(min, max);
+    *out = x;
+    return std::string();
+  });
 }
 
 void Args::option(const std::string& name, const std::string& help, const std::string& value_name,
                   const std::string& default_text, std::function<bool(const std::string&)> set) {
-  opts_.push_back({name, help, value_name, default_text, value_name.empty(), std::move(set)});
+  const std::string expected = value_name + " expected";
+  opts_.push_back({name, help, value_name, default_text, value_name.empty(),
+                   [set = std::move(set), expected](const std::string& v) {
+                     return set(v) ? std::string() : expected;
+                   }});
+}
+
+void Args::checked_option(const std::string& name, const std::string& help, const std::string& value_name,
+                          const std::string& default_text, std::function<std::string(const std::string&)> check) {
+  opts_.push_back({name, help, value_name, default_text, false, std::move(check)});
 }
 
 void Args::flag(const std::string& name, const std::string& help, bool* out) {
   opts_.push_back({name, help, "", "", true, [out](const std::string&) {
                      *out = true;
-                     return true;
+                     return std::string();
                    }});
 }
 
@@ -149,9 +163,9 @@ int Args::parse(int argc, char** argv) {
         }
         value = argv[++i];
       }
-      if (!opt->set(value)) {
-        std::fprintf(stderr, "lsnif %s: invalid value '%s' for --%s (%s expected)\n", command_.c_str(),
-                     value.c_str(), name.c_str(), opt->value_name.c_str());
+      if (std::string why = opt->set(value); !why.empty()) {
+        std::fprintf(stderr, "lsnif %s: invalid value '%s' for --%s: %s\n", command_.c_str(),
+                     excerpt(value, 80).c_str(), name.c_str(), why.c_str());
         return 2;
       }
       continue;

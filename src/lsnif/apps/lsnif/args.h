@@ -7,9 +7,20 @@
 #include <utility>
 #include <vector>
 
+#include "lsnif/format/number_text.h"  // parse_u32 ... for option values
 #include "lsnif/import/mesh.h"
 
 namespace lsnif::cli {
+
+// The most worker threads any --threads takes (0 = all cores). More than the cores only adds
+// switching; far more exhausts the address space with thread stacks (each reserves megabytes).
+inline constexpr uint32_t kMaxThreads = 256;
+// Ranges several commands share: an image side (pixels), samples per pixel, path bounces.
+inline constexpr uint32_t kMaxImageSide = 16384, kMaxSpp = 1u << 20, kMaxBounces = 64;
+// Held-out evaluation rays (eval, convert, demo, bench-size): each holds ~1.8 KB of host memory
+// (its reference hit, the model's walk and answer, the per-ray errors; 10^6 rays measured 1.8 GB
+// resident on the elephant).
+inline constexpr uint32_t kMaxEvalRays = 1u << 20;
 
 class Args {
  public:
@@ -20,14 +31,21 @@ class Args {
   // (shown as "[NAME...]" in the usage line).
   void rest(const std::string& name, const std::string& help, std::vector<std::string>* out);
   void option(const std::string& name, const std::string& help, std::string* out);
-  void option(const std::string& name, const std::string& help, uint32_t* out);
-  void option(const std::string& name, const std::string& help, uint64_t* out);
-  void option(const std::string& name, const std::string& help, float* out);
+  // Numeric options: every one declares its range. The value is read as number_text.h reads
+  // numbers (decimal only) into the destination's type and must lie in [min, max]; --help shows the range and an error names the option,
+  // the value and the range.
+  void option(const std::string& name, const std::string& help, uint32_t* out, uint32_t min, uint32_t max);
+  void option(const std::string& name, const std::string& help, uint64_t* out, uint64_t min, uint64_t max);
+  void option(const std::string& name, const std::string& help, float* out, float min, float max);
   void flag(const std::string& name, const std::string& help, bool* out);
   // An option whose value `set` takes (false: not a valid VALUE_NAME); `default_text` is shown in
   // --help. A flag when `value_name` is empty (`set` gets "").
   void option(const std::string& name, const std::string& help, const std::string& value_name,
               const std::string& default_text, std::function<bool(const std::string&)> set);
+  // The same with the reason a value is refused: `check` returns "" to accept it, else why not
+  // ("out of range [1, 64]"), which the error prints after the option and the value.
+  void checked_option(const std::string& name, const std::string& help, const std::string& value_name,
+                      const std::string& default_text, std::function<std::string(const std::string&)> check);
   // A short spelling ("-o") for a long option ("output").
   void alias(const std::string& short_name, const std::string& long_name);
 
@@ -40,7 +58,7 @@ class Args {
   struct Opt {
     std::string name, help, value_name, default_text;
     bool is_flag = false;
-    std::function<bool(const std::string&)> set;
+    std::function<std::string(const std::string&)> set;  // "" or why the value is refused
   };
   struct Pos {
     std::string name, help;
@@ -54,12 +72,6 @@ class Args {
   std::vector<std::string>* rest_ = nullptr;
   std::vector<std::pair<std::string, std::string>> aliases_;
 };
-
-// Option values: a whole decimal (or 0x) number without a sign; a finite float. False when `text`
-// is not one.
-bool parse_u32(const std::string& text, uint32_t& out);
-bool parse_u64(const std::string& text, uint64_t& out);
-bool parse_f32(const std::string& text, float& out);
 
 // Registers --allow-outside-refs (and, with `meshes`, --allow-dropped-triangles) into `options`:
 // the import policy flags of every command that reads a mesh or a scene.

@@ -35,15 +35,18 @@ uint32_t tiny_value(SettingId id) { return static_cast<uint32_t>(preset_value(kT
 
 void add_bench_run_options(Args& args, BenchRunOptions* o) {
   using render::kDefaultImageHeight, render::kDefaultImageWidth, render::kDefaultSpp;
-  args.option("width", format("image width (0: %u, --quick %u)", kDefaultImageWidth, kQuickWidth), &o->width);
-  args.option("height", format("image height (0: %u, --quick %u)", kDefaultImageHeight, kQuickHeight), &o->height);
-  args.option("spp", format("samples per pixel (0: %u, --quick %u)", kDefaultSpp, kQuickSpp), &o->spp);
+  args.option("width", format("image width (0: %u, --quick %u)", kDefaultImageWidth, kQuickWidth), &o->width, 0,
+              kMaxImageSide);
+  args.option("height", format("image height (0: %u, --quick %u)", kDefaultImageHeight, kQuickHeight), &o->height, 0,
+              kMaxImageSide);
+  args.option("spp", format("samples per pixel (0: %u, --quick %u)", kDefaultSpp, kQuickSpp), &o->spp, 0, kMaxSpp);
   const uint32_t quick_steps = kQuickSteps, quick_batch = tiny_value(SettingId::Batch);
-  args.option("steps", format("training steps (0: the default of lsnif train, --quick %u)", quick_steps), &o->steps);
+  args.option("steps", format("training steps (0: the default of lsnif train, --quick %u)", quick_steps), &o->steps, 0,
+              uint32_t(setting_def(SettingId::Steps).max));
   args.option("batch", format("training rays per step (0: the default of lsnif train, --quick %u)", quick_batch),
-              &o->batch);
-  args.option("seed", "training seed", &o->seed);
-  args.option("threads", "training threads (0 = all cores)", &o->threads);
+              &o->batch, 0, uint32_t(setting_def(SettingId::Batch).max));
+  args.option("seed", "training seed", &o->seed, 0, UINT64_MAX);
+  args.option("threads", "training threads (0 = all cores)", &o->threads, 0, kMaxThreads);
   args.flag("quick",
             format("tiny models (V=%u, 2^%u-entry grid, %u-wide MLP, %u steps) and tiny images: seconds, for tests",
                    tiny_value(SettingId::Voxels), tiny_value(SettingId::TableLog2), tiny_value(SettingId::Width),

@@ -112,9 +112,9 @@ bool parse_setting(const std::string& entry, SizeSetting& out) {
                            "`lsnif train`'s options)\n", printable(key).c_str(), printable(entry).c_str());
       return false;
     }
-    if (!set_setting_text(out.layer, *d, pair.substr(eq + 1))) {
-      std::fprintf(stderr, "lsnif bench-size: invalid value '%s' for %s in --settings entry '%s'\n",
-                   printable(pair.substr(eq + 1)).c_str(), d->name, printable(entry).c_str());
+    if (std::string why = set_setting_text(out.layer, *d, pair.substr(eq + 1)); !why.empty()) {
+      std::fprintf(stderr, "lsnif bench-size: invalid value '%s' for %s in --settings entry '%s': %s\n",
+                   printable(pair.substr(eq + 1)).c_str(), d->name, printable(entry).c_str(), why.c_str());
       return false;
     }
     at = plus + 1;
@@ -295,7 +295,7 @@ std::optional<int> parse_command_line(int argc, char** argv, SizeCommand& cmd) {
               "table-log2=15,17 keeps its commas)", &cmd.settings_text);
   args.option("out", "output folder", &cmd.out_dir);
   args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &cmd.data_dir);
-  args.option("rays", "held-out eval rays (0: 100000, --quick 4000)", &cmd.rays);
+  args.option("rays", "held-out eval rays (0: 100000, --quick 4000)", &cmd.rays, 0, kMaxEvalRays);
   add_bench_run_options(args, &cmd.run);
   args.option("pipeline", "inline or wavefront (docs/renderer.md): the pipeline of the renders (the same estimator)",
               &cmd.pipeline_name);

@@ -45,6 +45,9 @@ bool take_groups(int& argc, char** argv, std::vector<convert::GroupRule>& groups
   argc = w;
   return true;
 }
+// Models trained at once: each holds its mesh, rays and optimizer state (tens to hundreds of MiB).
+constexpr uint32_t kMaxConvertJobs = 64;
+
 }  // namespace
 
 int cmd_convert(int argc, char** argv) {
@@ -73,9 +76,8 @@ int cmd_convert(int argc, char** argv) {
                 return true;
               });
   args.option("memory-margin",
-              format("--convert-when memory: BLAS bytes freed per byte of model, in [%.10g, %.10g]",
-                     convert::kMinMemoryMargin, convert::kMaxMemoryMargin),
-              &margin);
+              "--convert-when memory: BLAS bytes freed per byte of model", &margin,
+              float(convert::kMinMemoryMargin), float(convert::kMaxMemoryMargin));
   args.option("blas-size",
               "how the triangle BLAS sizes are found: estimate (calibrated on lavapipe, no device) or device (the "
               "Vulkan device's size query, as the renderer builds them)",
@@ -88,12 +90,13 @@ int cmd_convert(int argc, char** argv) {
   args.option("min-triangles",
               "meshes with fewer triangles stay triangle meshes (the rule of --convert-when triangles, a lower bound "
               "under memory)",
-              &min_triangles);
+              &min_triangles, 0, UINT64_MAX);
   args.option("select", "convert only nodes whose node or mesh name matches this regex (RE2 syntax)", &cs.select);
   args.option("exclude", "never convert nodes whose node or mesh name matches this regex", &cs.exclude);
   args.option("group", "NAME=REGEX: one model for all selected nodes whose name matches (repeatable)", &group_help);
-  args.option("jobs", "models trained at the same time", &jobs);
-  args.option("eval-rays", "held-out rays to measure each trained model for the report (0 = none)", &eval_rays);
+  args.option("jobs", "models trained at the same time", &jobs, 1, kMaxConvertJobs);
+  args.option("eval-rays", "held-out rays to measure each trained model for the report (0 = none)", &eval_rays, 0,
+              kMaxEvalRays);
   args.flag("keep-meshes", "keep the converted nodes' triangles (needed by `lsnif render --reference`)",
             &cs.keep_meshes);
   args.flag("dry-run", "print the plan (models, instances, memory) without training or writing", &cs.dry_run);
@@ -126,7 +129,7 @@ int cmd_convert(int argc, char** argv) {
     }
     cs.blas = blas_device.sizer();
   }
-  cs.jobs = jobs < 1 ? 1 : jobs;
+  cs.jobs = jobs;
   cs.eval_rays = eval_rays;
   cs.progress = !opts.quiet;
   cs.import_options = opts.import_options;

@@ -20,6 +20,7 @@
 #include "lsnif/apps/lsnif/render_compare.h"
 #include "lsnif/harness/vk_compute.h"
 #include "lsnif/apps/lsnif/train_options.h"
+#include "lsnif/image/image_io.h"
 
 namespace lsnif::cli {
 
@@ -62,12 +63,12 @@ int cmd_demo(int argc, char** argv) {
                     "in LSNIF and reference mode (FLIP, memory, time; out/bunny_compare.png).");
   args.option("data", "folder with meshes/ and hdr/ from scripts/setup.sh", &data_dir);
   args.option("mesh", "mesh to train, in --data unless given", &mesh_path);
-  args.option("eval-rays", "held-out rays for the evaluation", &rays);
+  args.option("eval-rays", "held-out rays for the evaluation", &rays, 1, kMaxEvalRays);
   args.flag("reuse", "load the model from --output if it exists instead of training", &reuse);
   args.flag("no-render", "skip the rendering comparison", &no_render);
-  args.option("image-width", "render width (--width is the network's hidden width)", &rs.width);
-  args.option("image-height", "render height", &rs.height);
-  args.option("spp", "render samples per pixel", &rs.spp);
+  args.option("image-width", "render width (--width is the network's hidden width)", &rs.width, 1, kMaxImageSide);
+  args.option("image-height", "render height", &rs.height, 1, kMaxImageSide);
+  args.option("spp", "render samples per pixel", &rs.spp, 1, kMaxSpp);
   args.option("hdr", "environment image for the render (empty: constant sky), in --data unless given", &hdr);
   args.option("picture", "side-by-side image (reference | LSNIF | FLIP)", &picture);
   add_device_option(args, &device);
@@ -76,6 +77,11 @@ int cmd_demo(int argc, char** argv) {
   opts.add_to(args);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (!check_path_options("demo", path)) return 2;
+  if (!no_render)
+    if (Status s = image::check_image_extension(picture); !s) {
+      std::fprintf(stderr, "lsnif demo: --picture: %s\n", s.message().c_str());
+      return 2;
+    }
   // --mesh and --hdr not given: the files of --data.
   const bool mesh_from_data = mesh_path == default_mesh, hdr_from_data = hdr == default_hdr;
   if (mesh_from_data) mesh_path = in_data("meshes/bunny00.off");

@@ -25,9 +25,9 @@ int cmd_eval(int argc, char** argv) {
                     "degrees; albedo MAE; material accuracy. Also scores the voxel-only baseline.");
   args.positional("MODEL", "trained model (.lsnif)", &model_path);
   args.positional("MESH", "the mesh it was trained on", &mesh_path);
-  args.option("rays", "held-out rays", &rays);
-  args.option("seed", "held-out ray seed", &seed);
-  args.option("threads", "worker threads (0 = all cores)", &threads);
+  args.option("rays", "held-out rays", &rays, 1, kMaxEvalRays);
+  args.option("seed", "held-out ray seed", &seed, 0, UINT64_MAX);
+  args.option("threads", "worker threads (0 = all cores)", &threads, 0, kMaxThreads);
   args.flag("json", "print JSON instead of text", &json);
   add_import_flags(args, &import_options);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;

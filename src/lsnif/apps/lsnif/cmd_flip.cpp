@@ -1,10 +1,8 @@
 // lsnif flip REFERENCE TEST: the FLIP difference between two images (LDR-FLIP for 8-bit images,
 // HDR-FLIP for EXR / HDR), pooled to mean, weighted median and quartiles, min and max, with an
 // optional magma heatmap (docs/flip.md).
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <optional>
 #include <string>
 #include <utility>
@@ -19,14 +17,16 @@
 namespace lsnif::cli {
 namespace {
 
-// "auto" (empty optional) or a finite number of stops.
+// The range of --start-exposure and --stop-exposure, in stops (2^64 covers any float image).
+constexpr float kMaxExposureStops = 64.0f;
+
+// "auto" (empty optional) or a number of stops in [-kMaxExposureStops, kMaxExposureStops].
 bool parse_exposure(const std::string& text, const char* name, std::optional<float>& out) {
   if (text.empty() || text == "auto") return true;
-  char* end = nullptr;
-  errno = 0;
-  const float v = std::strtof(text.c_str(), &end);
-  if (errno || end == text.c_str() || *end || !std::isfinite(v)) {
-    std::fprintf(stderr, "lsnif flip: --%s expects a number of stops or 'auto', got '%s'\n", name, text.c_str());
+  float v = 0.0f;
+  if (!parse_f32(text, v) || std::abs(v) > kMaxExposureStops) {
+    std::fprintf(stderr, "lsnif flip: --%s expects a number of stops in [%g, %g] or 'auto', got '%s'\n", name,
+                 -double(kMaxExposureStops), double(kMaxExposureStops), excerpt(text, 80).c_str());
     return false;
   }
   out = v;
@@ -47,10 +47,10 @@ int cmd_flip(int argc, char** argv) {
   args.positional("REFERENCE", "reference image", &reference_path);
   args.positional("TEST", "test image", &test_path);
   args.option("heatmap", "write the error map through the magma colormap (.png, .jpg, .exr, .hdr)", &heatmap_path);
-  args.option("ppd", "pixels per degree of visual angle (67: 0.7 m from a 0.7 m wide 4K monitor)", &ppd);
+  args.option("ppd", "pixels per degree of visual angle (67: 0.7 m from a 0.7 m wide 4K monitor)", &ppd, 1.0f, 2000.0f);
   args.option("start-exposure", "HDR-FLIP: first exposure in stops, or auto (from the reference)", &start_text);
   args.option("stop-exposure", "HDR-FLIP: last exposure in stops, or auto (from the reference)", &stop_text);
-  args.option("num-exposures", "HDR-FLIP: number of exposures, 0 = max(2, ceil(stop - start))", &exposures);
+  args.option("num-exposures", "HDR-FLIP: number of exposures, 0 = max(2, ceil(stop - start))", &exposures, 0, 1000);
   args.flag("json", "print JSON instead of text", &json);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
 
@@ -61,10 +61,6 @@ int cmd_flip(int argc, char** argv) {
   if (!parse_exposure(start_text, "start-exposure", settings.start_exposure) ||
       !parse_exposure(stop_text, "stop-exposure", settings.stop_exposure))
     return 2;
-  if (!(ppd >= 1.0f && ppd <= 2000.0f)) {
-    std::fprintf(stderr, "lsnif flip: --ppd must be in [1, 2000], got %g\n", double(ppd));
-    return 2;
-  }
   const bool hdr = image::is_hdr_path(reference_path);
   if (hdr != image::is_hdr_path(test_path)) {
     std::fprintf(stderr,
@@ -81,6 +77,7 @@ int cmd_flip(int argc, char** argv) {
   if (!heatmap_path.empty()) {
     Status s = check_not_an_input(heatmap_path, "--heatmap", {reference_path, test_path});
     if (s) s = check_output_path(heatmap_path).context("--heatmap");
+    if (s) s = image::check_image_extension(heatmap_path).context("--heatmap");
     if (!s) {
       std::fprintf(stderr, "lsnif flip: %s\n", s.message().c_str());
       return 1;

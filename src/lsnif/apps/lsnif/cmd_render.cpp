@@ -32,10 +32,10 @@ int cmd_render(int argc, char** argv) {
   args.option("output", "output image (.exr, .hdr, .png)", &output);
   args.alias("-o", "output");
   args.flag("reference", "trace LSNIF nodes as their triangle meshes", &reference);
-  args.option("width", "image width", &width);
-  args.option("height", "image height", &height);
-  args.option("spp", "samples per pixel", &spp);
-  args.option("bounces", "bounces after the camera ray (the paper's 4)", &bounces);
+  args.option("width", "image width", &width, 1, kMaxImageSide);
+  args.option("height", "image height", &height, 1, kMaxImageSide);
+  args.option("spp", "samples per pixel", &spp, 1, kMaxSpp);
+  args.option("bounces", "bounces after the camera ray (the paper's 4)", &bounces, 0, kMaxBounces);
   add_pipeline_option(args, &path.pipeline);
   add_broad_phase_option(args, &broad_phase_name);
   args.flag("stage-times", "with --pipeline wavefront: time its stages on the device (timestamps) and report them",
@@ -44,10 +44,6 @@ int cmd_render(int argc, char** argv) {
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 on any message)", &validation);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
-  if (width == 0 || height == 0 || spp == 0 || width > 16384 || height > 16384) {
-    std::fprintf(stderr, "lsnif render: --width and --height must be in 1..16384 and --spp positive\n");
-    return 2;
-  }
   if (!check_path_options("render", path)) return 2;
   if (stage_times && path.pipeline == "inline") {
     std::fprintf(stderr, "lsnif render: --stage-times needs the wavefront pipeline (the inline pipeline is one launch)\n");
@@ -56,8 +52,12 @@ int cmd_render(int argc, char** argv) {
   render::BroadPhase broad_phase;
   if (!parse_broad_phase_option("render", broad_phase_name, broad_phase)) return 2;
 
-  // The image's place is checked before the render, not after it.
+  // The image's place and format are checked before the render, not after it.
   if (int r = sa.check_output("render", "-o", output)) return r;
+  if (Status s = image::check_image_extension(output); !s) {
+    std::fprintf(stderr, "lsnif render: -o: %s\n", s.message().c_str());
+    return 2;
+  }
   scene::Scene scene;
   scene::EnvironmentMap environment;
   if (int r = sa.load("render", scene, environment)) return r;

@@ -2,7 +2,6 @@
 // objects: progressive path tracing in a window, LSNIF / reference toggle, orbit / fly camera,
 // environment rotation and exposure. Scripted runs (--frames, --toggle-at, --screenshot) serve the
 // Xvfb smoke test and screenshots.
-#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -26,18 +25,18 @@ int cmd_view(int argc, char** argv) {
             "reference, Left/Right rotate the environment, +/- set the exposure, Home resets the camera,\n"
             "P saves a screenshot, Esc quits. Needs a display (headless: xvfb-run -a lsnif view ...).");
   sa.add_to(args);
-  args.option("width", "window width", &vs.width);
-  args.option("height", "window height", &vs.height);
-  args.option("scale", "render at window size / scale (lavapipe is slow: 2 or more)", &vs.scale);
-  args.option("bounces", "bounces after the camera ray", &vs.max_bounces);
+  args.option("width", "window width", &vs.width, 1, kMaxImageSide);
+  args.option("height", "window height", &vs.height, 1, kMaxImageSide);
+  args.option("scale", "render at window size / scale (lavapipe is slow: 2 or more)", &vs.scale, 1, 64);
+  args.option("bounces", "bounces after the camera ray", &vs.max_bounces, 0, kMaxBounces);
   args.flag("reference", "start in reference mode (LSNIF objects as their triangle meshes)", &vs.reference);
-  args.option("exposure", "display exposure in stops", &exposure);
-  args.option("frames", "quit after this many frames (0: when the window is closed)", &vs.frames);
-  args.option("toggle-at", "toggle LSNIF / reference before this frame (scripted runs; 0: never)", &vs.toggle_at);
+  args.option("exposure", "display exposure in stops", &exposure, -64.0f, 64.0f);
+  args.option("frames", "quit after this many frames (0: when the window is closed)", &vs.frames, 0, UINT32_MAX);
+  args.option("toggle-at", "toggle LSNIF / reference before this frame (scripted runs; 0: never)", &vs.toggle_at, 0, UINT32_MAX);
   std::string move_by;
   args.option("select", "node selected at the start (N selects the next; J/L, I/K, U/O move it)", &vs.select);
   args.option("move-at", "move the selected node by --move-by before this frame (scripted runs; 0: never)",
-              &vs.move_at);
+              &vs.move_at, 0, UINT32_MAX);
   args.option("move-by", "X,Y,Z: the scripted move, in world units", &move_by);
   args.option("screenshot", "write the last frame, read back from the window, to this .png", &vs.screenshot);
   args.flag("quiet", "no line per frame", &vs.quiet);
@@ -52,11 +51,6 @@ int cmd_view(int argc, char** argv) {
   vs.choose_primary = path.primary == "auto";
   if (!vs.choose_pipeline) render::parse_pipeline(path.pipeline, vs.pipeline);
   if (!vs.choose_primary) render::parse_primary(path.primary, vs.primary);
-  if (vs.width == 0 || vs.height == 0 || vs.width > 16384 || vs.height > 16384 || vs.scale == 0 || vs.scale > 64 ||
-      !std::isfinite(exposure)) {
-    std::fprintf(stderr, "lsnif view: --width/--height must be in 1..16384, --scale in 1..64, --exposure finite\n");
-    return 2;
-  }
   if (!move_by.empty()) {
     if (Status st = scene::parse_point(move_by, "--move-by", vs.move_by); !st) {
       std::fprintf(stderr, "lsnif view: %s\n", st.message().c_str());

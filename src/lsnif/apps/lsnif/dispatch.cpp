@@ -1,6 +1,8 @@
 // dispatch.cpp -- the main of the lsnif programs (commands.h dispatch).
 #include <cstdio>
 #include <cstring>
+#include <new>
+#include <stdexcept>
 
 #include "lsnif/apps/lsnif/commands.h"
 
@@ -11,6 +13,21 @@ namespace {
 void usage(FILE* out, const char* program, const char* about, const Command* commands, size_t count) {
   std::fprintf(out, "usage: %s COMMAND [arguments] [--help]\n\n%s\n\ncommands:\n", program, about);
   for (size_t i = 0; i < count; ++i) std::fprintf(out, "  %-12s %s\n", commands[i].name, commands[i].summary);
+}
+
+// Runs one command. Sizes are checked against budgets before anything large is allocated; an
+// allocation that fails all the same ends the command with a message and exit 1, not an abort.
+int run_command(const char* program, const Command& command, int argc, char** argv) {
+  try {
+    return command.run(argc, argv);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "%s %s: out of memory while the command ran (%s); lower the sizes it was given\n", program,
+                 command.name, command.summary);
+  } catch (const std::length_error& e) {
+    std::fprintf(stderr, "%s %s: out of memory while the command ran (%s): a size past the limit (%s)\n", program,
+                 command.name, command.summary, e.what());
+  }
+  return 1;
 }
 
 }  // namespace
@@ -25,7 +42,7 @@ int dispatch(int argc, char** argv, const char* program, const char* about, cons
     return 0;
   }
   for (size_t i = 0; i < count; ++i)
-    if (!std::strcmp(argv[1], commands[i].name)) return commands[i].run(argc - 2, argv + 2);
+    if (!std::strcmp(argv[1], commands[i].name)) return run_command(program, commands[i], argc - 2, argv + 2);
   std::fprintf(stderr, "%s: unknown command '%s'\n", program, argv[1]);
   usage(stderr, program, about, commands, count);
   return 2;

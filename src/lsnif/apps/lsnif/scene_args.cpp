@@ -13,19 +13,37 @@ namespace lsnif::cli {
 
 void SceneArgs::add_to(Args& args) {
   args.positional("SCENE", "glTF scene (.gltf / .glb)", &scene_path);
-  args.option("camera", "index of the scene's camera", &camera);
+  args.checked_option("camera", "index of the scene's camera, from 0 (default: the first, or a view that frames "
+                      "the scene when it has none)", "N", "", [this](const std::string& v) {
+                        if (std::string why = whole_number_error(v); !why.empty()) return why;
+                        uint32_t x = 0;
+                        if (!parse_u32(v, x) || x > uint32_t(INT32_MAX))
+                          return format("out of range [0, %d]", INT32_MAX);
+                        camera = x;
+                        camera_given = true;
+                        return std::string();
+                      });
   args.flag("frame-scene", "ignore the scene's cameras and frame the whole scene", &frame_scene);
   args.option("lsnif", "NODE=MODEL.lsnif[,NODE=MODEL...]: trace these nodes with these models", &lsnif_list);
   args.option("env", "HDR environment image (.hdr / .exr), replacing the scene's", &env_path);
-  args.option("env-intensity", "environment intensity (default: the scene's)", &env_intensity);
-  args.option("env-rotation", "environment rotation about +y in degrees", &env_rotation);
+  args.checked_option("env-intensity", format("environment intensity [0, %g]", scene::kMaxEnvironmentIntensity), "X",
+                      "the scene's", [this](const std::string& v) {
+                        float x = 0.0f;
+                        if (std::string why = float_error(v); !why.empty()) return why;
+                        parse_f32(v, x);
+                        if (!(x >= 0.0f && double(x) <= scene::kMaxEnvironmentIntensity))
+                          return format("out of range [0, %g]", scene::kMaxEnvironmentIntensity);
+                        env_intensity = x;
+                        return std::string();
+                      });
+  args.option("env-rotation", "environment rotation about +y in degrees", &env_rotation, -360.0f, 360.0f);
   args.option("node-transform",
               "NODE=TRANSFORM[;...]: replace a node's world transform; TRANSFORM is X,Y,Z[,SCALE[,DEGREES_ABOUT_Y]] "
               "or 12 numbers (row-major 3x4)",
               &node_transforms);
   args.option("look-from", "X,Y,Z: a camera at this point (replaces --camera), looking at --look-at", &look_from);
   args.option("look-at", "X,Y,Z: the point the --look-from camera looks at (default: the origin)", &look_at);
-  args.option("fov", "vertical field of view of the --look-from camera in degrees", &fov);
+  args.option("fov", "vertical field of view of the --look-from camera in degrees", &fov, 0.01f, 179.99f);
   args.option("sun", "DX,DY,DZ,IRRADIANCE[,DIAMETER_DEGREES]: a sun towards (DX,DY,DZ) (replaces the scene's)", &sun);
   args.option("add", "MODEL.lsnif[;...]: place pre-trained models the scene does not contain (with --at)", &add_models);
   args.option("at", "TRANSFORM[;...]: where each --add model goes (same forms as --node-transform)", &add_at);
@@ -102,6 +120,25 @@ int SceneArgs::apply_edits(const char* command, scene::Scene& scene) const {
   return 0;
 }
 
+int SceneArgs::check_camera(const char* command, const scene::Scene& scene) const {
+  if (!camera_given) return 0;
+  if (frame_scene || !look_from.empty()) {
+    std::fprintf(stderr, "lsnif %s: --camera chooses one of the scene's cameras; --%s replaces them\n", command,
+                 frame_scene ? "frame-scene" : "look-from");
+    return 2;
+  }
+  if (camera >= scene.cameras.size()) {
+    if (scene.cameras.empty())
+      std::fprintf(stderr, "lsnif %s: --camera %u: the scene has no camera (--frame-scene or --look-from make one)\n",
+                   command, camera);
+    else
+      std::fprintf(stderr, "lsnif %s: --camera %u: the scene has %zu camera%s (0 to %zu)\n", command, camera,
+                   scene.cameras.size(), scene.cameras.size() == 1 ? "" : "s", scene.cameras.size() - 1);
+    return 2;
+  }
+  return 0;
+}
+
 int SceneArgs::load(const char* command, scene::Scene& scene, scene::EnvironmentMap& environment) const {
   scene::SceneLoadOptions options;
   std::stringstream list(lsnif_list);
@@ -124,6 +161,7 @@ int SceneArgs::load(const char* command, scene::Scene& scene, scene::Environment
     std::fprintf(stderr, "lsnif %s: %s\n", command, s.message().c_str());
     return 1;
   }
+  if (int r = check_camera(command, scene)) return r;
   if (int r = apply_edits(command, scene)) return r;
   environment = scene::EnvironmentMap();
   if (!scene.environment.path.empty()) {

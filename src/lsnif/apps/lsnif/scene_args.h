@@ -20,6 +20,7 @@ struct SceneArgs {
   std::string add_models, add_at;  // "MODEL[;MODEL...]" placed at "TRANSFORM[;TRANSFORM...]" (paired)
   float env_intensity = -1.0f, env_rotation = 0.0f;  // < 0: the scene's intensity; degrees
   uint32_t camera = 0;
+  bool camera_given = false;  // --camera was given: it must name one of the scene's cameras
   bool frame_scene = false;
   bool allow_outside_refs = false;
 
@@ -41,6 +42,9 @@ struct SceneArgs {
 
  private:
   int apply_edits(const char* command, scene::Scene& scene) const;
+  // An error (printed, returns 2) when --camera names no camera of `scene` as loaded, or is given
+  // with --frame-scene or --look-from.
+  int check_camera(const char* command, const scene::Scene& scene) const;
 };
 
 }  // namespace lsnif::cli

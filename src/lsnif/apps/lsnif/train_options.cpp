@@ -66,12 +66,12 @@ std::string preset_help(const std::string& option) {
 
 }  // namespace
 
-bool set_setting_text(SettingLayer& layer, const SettingDef& d, const std::string& text) {
+std::string set_setting_text(SettingLayer& layer, const SettingDef& d, const std::string& text) {
   SettingValue v;
   switch (d.kind) {
     case SettingKind::U32: {
       uint32_t x = 0;
-      if (!parse_u32(text, x)) return false;
+      if (!parse_u32(text, x)) return whole_number_error(text).empty() ? "larger than 4294967295" : whole_number_error(text);
       v.u = x;
       break;
     }
@@ -81,23 +81,28 @@ bool set_setting_text(SettingLayer& layer, const SettingDef& d, const std::strin
       while (at <= text.size()) {
         size_t comma = text.find(',', at);
         if (comma == std::string::npos) comma = text.size();
-        if (count == LSNIF_MAX_LEVELS || !parse_u32(text.substr(at, comma - at), values[count])) return false;
+        const std::string item = text.substr(at, comma - at);
+        if (count == LSNIF_MAX_LEVELS) return format("at most %u values (one per level)", LSNIF_MAX_LEVELS);
+        if (!parse_u32(item, values[count]))
+          return "N or a comma list N,N,... of decimal whole numbers expected (" +
+                 (whole_number_error(item).empty() ? std::string("larger than 4294967295") : whole_number_error(item)) +
+                 ")";
         ++count;
         at = comma + 1;
       }
-      if (!per_level_value(values, count, v)) return false;
+      if (!per_level_value(values, count, v)) return "N or a comma list N,N,... expected";
       break;
     }
     case SettingKind::U64:
-      if (!parse_u64(text, v.u)) return false;
+      if (!parse_u64(text, v.u)) return whole_number_error(text);
       break;
     case SettingKind::F32:
-      if (!parse_f32(text, v.f)) return false;
+      if (!parse_f32(text, v.f)) return float_error(text);
       break;
     case SettingKind::Choice: break;  // checked when resolved, naming the choices
   }
   layer.set(d.id, v, d.kind == SettingKind::Choice ? text : std::string());
-  return true;
+  return "";
 }
 
 void TrainOptions::add_to(Args& args, const char* output_help) {
@@ -107,8 +112,8 @@ void TrainOptions::add_to(Args& args, const char* output_help) {
               "given here override it", &config);
   const SettingValues defaults = SettingValues::defaults();
   for (const SettingDef& d : kSettingDefs) {
-    args.option(d.name, setting_help(d), value_name(d), setting_text(d, defaults[d.id]),
-                [this, &d](const std::string& text) { return set_setting_text(given, d, text); });
+    args.checked_option(d.name, setting_help(d), value_name(d), setting_text(d, defaults[d.id]),
+                        [this, &d](const std::string& text) { return set_setting_text(given, d, text); });
   }
   for (const Preset& p : kPresets) {
     if (&p != &kPresets[0] && std::string_view(p.option) == (&p)[-1].option) continue;  // one option per name
@@ -119,7 +124,7 @@ void TrainOptions::add_to(Args& args, const char* output_help) {
       return true;
     });
   }
-  args.option("threads", "worker threads (0 = all cores)", &threads);
+  args.option("threads", "worker threads (0 = all cores)", &threads, 0, kMaxThreads);
   args.option("csv", "loss curve CSV (default: MODEL.csv)", &csv);
   args.flag("quiet", "no progress bar", &quiet);
   add_import_flags(args, &import_options);

@@ -37,9 +37,10 @@ struct TrainOptions {
   std::string csv_path() const { return csv.empty() ? output + ".csv" : csv; }
 };
 
-// Records `text` as the value of setting `d` in `layer`, as the option --NAME does: false when it is
-// not a number of the setting's kind (a choice's name and every range are checked when resolved).
-bool set_setting_text(SettingLayer& layer, const SettingDef& d, const std::string& text);
+// Records `text` as the value of setting `d` in `layer`, as the option --NAME does: "" when it is
+// a number of the setting's kind, else why not (a choice's name and every range are checked when
+// resolved).
+std::string set_setting_text(SettingLayer& layer, const SettingDef& d, const std::string& text);
 
 // Loads the mesh, trains, writes the model (+ CSV) and prints a summary. Returns the exit code.
 // The outputs are checked before any work: writable, not a link or device, not the mesh itself.
