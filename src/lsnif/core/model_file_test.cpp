@@ -1023,6 +1023,53 @@ TEST(ModelFileErrors, TrainingSection) {
   EXPECT_NE(s.message().find("control characters"), std::string::npos) << s.message();
 }
 
+// A record edited in the file (same length, the checksum recomputed, as a person or a tool can) to
+// settings its header contradicts or out of range is a load error naming the setting, both values
+// and the file; the header's own values, or settings the header does not hold, load.
+TEST(ModelFileErrors, TrainingRecordAgainstTheHeader) {
+  TempDir dir;
+  Model m = small_model();
+  m.quantize();
+  const uint32_t V = m.config.voxel_resolution;
+  ASSERT_LT(V, 100u);  // the edits below keep the record's length
+  m.training = format(R"({"settings":{"voxels":%3u,"width":%3u,"seed":555}})", V, m.config.hidden_width);
+  const Bytes good = saved(m);
+  expect_round_trip(m, good);
+  const size_t at = size_t(section_offset(good, 4));
+  const auto edited = [&](const char* from, const char* to) {
+    Bytes b = good;
+    const size_t k = m.training.find(from);
+    EXPECT_NE(k, std::string::npos) << from;
+    EXPECT_EQ(std::strlen(from), std::strlen(to));
+    std::memcpy(b.data() + at + k, to, std::strlen(to));
+    fix_crc(b);
+    return b;
+  };
+  const std::string voxels = format("\"voxels\":%3u", V);
+  const std::string other = format("\"voxels\":%3u", V + 1);
+  const std::string v_text = std::to_string(V), other_text = std::to_string(V + 1);
+  expect_load_error(edited(voxels.c_str(), other.c_str()),
+                    {"training record", "voxels", other_text.c_str(), "voxel resolution", v_text.c_str()});
+  expect_load_error(edited(voxels.c_str(), "\"voxels\": -5"), {"training record", "voxels", "-5", "unsigned"});
+  expect_load_error(edited(voxels.c_str(), "\"voxels\":999"), {"training record", "voxels", "999", "[1, 256]"});
+  expect_load_error(edited("\"seed\":555", "\"seed\":\"x\""), {"training record", "seed", "unsigned"});
+  expect_load_error(edited("{\"settings\"", "[\"settings\""), {"training record", "not valid JSON"});
+  // A training setting, which the header does not hold: the edit loads (as the edited record).
+  Model reseeded = m;
+  reseeded.training.replace(reseeded.training.find("555"), 3, "777");
+  expect_round_trip(reseeded, edited("\"seed\":555", "\"seed\":777"));
+
+  // Through a file: the message names it.
+  const std::string path = dir.file("edited.lsnif");
+  const Bytes b = edited(voxels.c_str(), other.c_str());
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
+  Model loaded;
+  const Status s = load_model(path, loaded);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find(path), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("voxels is " + other_text), std::string::npos) << s.message();
+}
+
 TEST(ModelFileErrors, WrongHeaderSize) {
   Bytes b = saved(small_model());
   wr32(b, kHeaderSizeAt, 176);

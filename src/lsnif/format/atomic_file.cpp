@@ -1,6 +1,7 @@
 // atomic_file.cpp -- see atomic_file.h.
 #include "lsnif/format/atomic_file.h"
 
+#include <dirent.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -12,6 +13,10 @@
 
 namespace lsnif {
 namespace {
+
+// Temporary files are ".TARGET" + kTempTag + kTempDigits lowercase hex digits (48 random bits).
+constexpr std::string_view kTempTag = ".tmp-";
+constexpr size_t kTempDigits = 12;
 
 // The folder part of `path` ("." for a bare file name, "/" for a file in the root).
 std::string folder_of(const std::string& path) {
@@ -68,12 +73,14 @@ Status check_folder(const std::string& path, const std::string& dir) {
 // existing file or link is ever opened). Returns its descriptor, or -1 with `error` set.
 int create_temp(const std::string& path, std::string& temp, Status& error) {
   const std::string dir = folder_of(path);
-  const std::string prefix = (dir == "/" ? std::string("/") : dir + "/") + "." + file_name_of(path) + ".tmp-";
+  const std::string prefix =
+      (dir == "/" ? std::string("/") : dir + "/") + "." + file_name_of(path) + std::string(kTempTag);
   static thread_local std::mt19937_64 rng(
       std::random_device{}() ^ uint64_t(::getpid()) << 32 ^
       uint64_t(std::chrono::steady_clock::now().time_since_epoch().count()));
   for (int attempt = 0; attempt < 64; ++attempt) {
-    temp = prefix + format("%012llx", (unsigned long long)(rng() & 0xffffffffffffull));
+    const unsigned long long digits = rng() & ((1ull << (4 * kTempDigits)) - 1);
+    temp = prefix + format("%0*llx", int(kTempDigits), digits);
     const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
     if (fd >= 0) return fd;
     if (errno != EEXIST) {
@@ -167,6 +174,38 @@ Status write_file_atomic(const std::string& path, const void* data, size_t size)
     if (!synced) return Status::error("wrote '%s' but flushing its folder failed: %s", path.c_str(), std::strerror(e));
   }
   return Status::ok();
+}
+
+std::string atomic_temp_target(std::string_view name) {
+  if (name.size() < 1 + 1 + kTempTag.size() + kTempDigits || name[0] != '.') return {};
+  const std::string_view digits = name.substr(name.size() - kTempDigits);
+  for (const char c : digits)
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return {};
+  const std::string_view rest = name.substr(1, name.size() - 1 - kTempDigits);
+  if (rest.size() <= kTempTag.size() || rest.substr(rest.size() - kTempTag.size()) != kTempTag) return {};
+  return std::string(rest.substr(0, rest.size() - kTempTag.size()));
+}
+
+Status remove_stale_temp_files(const std::string& folder, const std::function<bool(const std::string&)>& pick,
+                               std::vector<std::string>& removed) {
+  const std::string dir = folder.empty() ? std::string(".") : folder;
+  DIR* d = ::opendir(dir.c_str());
+  if (!d) return Status::error("cannot list the folder '%s': %s", dir.c_str(), std::strerror(errno));
+  Status result = Status::ok();
+  while (const dirent* e = ::readdir(d)) {
+    const std::string name = e->d_name, target = atomic_temp_target(name);
+    if (target.empty() || !pick(target)) continue;
+    const std::string path = dir + "/" + name;
+    struct stat st;
+    if (::lstat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
+    if (::unlink(path.c_str()) != 0) {
+      result = Status::error("cannot remove the stale temporary file '%s': %s", path.c_str(), std::strerror(errno));
+      break;
+    }
+    removed.push_back(path);
+  }
+  ::closedir(d);
+  return result;
 }
 
 bool same_file(const std::string& a, const std::string& b) {

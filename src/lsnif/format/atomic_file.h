@@ -8,9 +8,11 @@
 // files (symbolic links, devices, FIFOs, folders) are refused, not replaced.
 #pragma once
 #include <cstddef>
+#include <functional>
 #include <initializer_list>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "lsnif/format/status.h"
 
@@ -30,6 +32,17 @@ Status write_file_atomic(const std::string& path, const void* data, size_t size)
 inline Status write_file_atomic(const std::string& path, std::string_view bytes) {
   return write_file_atomic(path, bytes.data(), bytes.size());
 }
+
+// The target's name when `file_name` is the name of a temporary file write_file_atomic creates
+// (".TARGET.tmp-" and 12 lowercase hex digits), else an empty string.
+std::string atomic_temp_target(std::string_view file_name);
+
+// Removes from `folder` (not its subfolders) the regular files named like write_file_atomic's
+// temporary files whose target name `pick` accepts: what a writer killed before its rename left.
+// Call it only while no writer can be at work on those targets. `removed` receives the paths
+// removed; an error names the file that could not be listed or removed.
+Status remove_stale_temp_files(const std::string& folder, const std::function<bool(const std::string&)>& pick,
+                               std::vector<std::string>& removed);
 
 // True when `a` and `b` both exist and are the same file (same device and inode: hard links and
 // different spellings of one path included; symbolic links are followed).

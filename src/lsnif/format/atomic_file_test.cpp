@@ -15,6 +15,7 @@
 #include <iterator>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "lsnif/testing/scoped_test_dir.h"
 
@@ -123,15 +124,15 @@ TEST(AtomicFile, MissingOrUnwritableFoldersAreNamed) {
   EXPECT_EQ(dir.names(), std::set<std::string>{"plain"});
 }
 
-// A file size limit makes write(2) fail with EFBIG as a full disk fails with ENOSPC.
-TEST(AtomicFile, AFailingWriteKeepsTheOldFileAndLeavesNoTemporaryFile) {
-  TempDir dir;
-  const std::string path = dir.file("model.lsnif");
-  put(path, "old contents");
+// The wait status of a child process that writes 1 MiB to `path` with write_file_atomic under a
+// 4096-byte file size limit, SIGXFSZ handled by `on_limit`: SIG_IGN makes write(2) fail with EFBIG
+// (the child exits 0 when the error names the file and EFBIG, else 1), SIG_DFL kills the writer in
+// the middle of its write.
+int write_1mib_under_limit(const std::string& path, void (*on_limit)(int)) {
   const pid_t pid = ::fork();
-  ASSERT_GE(pid, 0);
+  if (pid < 0) return -1;
   if (pid == 0) {
-    std::signal(SIGXFSZ, SIG_IGN);
+    std::signal(SIGXFSZ, on_limit);
     struct rlimit limit = {4096, 4096};
     ::setrlimit(RLIMIT_FSIZE, &limit);
     const Status s = write_file_atomic(path, std::string(1 << 20, 'n'));
@@ -140,7 +141,15 @@ TEST(AtomicFile, AFailingWriteKeepsTheOldFileAndLeavesNoTemporaryFile) {
     ::_exit(named ? 0 : 1);
   }
   int status = 0;
-  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  return ::waitpid(pid, &status, 0) == pid ? status : -1;
+}
+
+// A file size limit makes write(2) fail with EFBIG as a full disk fails with ENOSPC.
+TEST(AtomicFile, AFailingWriteKeepsTheOldFileAndLeavesNoTemporaryFile) {
+  TempDir dir;
+  const std::string path = dir.file("model.lsnif");
+  put(path, "old contents");
+  const int status = write_1mib_under_limit(path, SIG_IGN);
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0) << "the write did not fail with a message naming the file and EFBIG";
   EXPECT_EQ(read(path), "old contents");
@@ -166,6 +175,38 @@ TEST(AtomicFile, SameFileComparesIdentityNotSpelling) {
             std::string::npos)
       << s.message();
   EXPECT_TRUE(check_not_an_input(dir.file("new.lsnif"), "-o", {dir.file("a.off")}));
+}
+
+// A writer killed in the middle (SIGXFSZ's default action at a file size limit) leaves its temporary
+// file: it is recognised by its name and removed by remove_stale_temp_files, which leaves everything
+// else alone (other targets, other names, folders, the finished file).
+TEST(AtomicFile, TemporaryFilesOfAKilledWriterAreFoundAndRemoved) {
+  TempDir dir;
+  const std::string path = dir.file("model.lsnif");
+  put(path, "old contents");
+  const int status = write_1mib_under_limit(path, SIG_DFL);
+  ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGXFSZ) << "the writer was not killed";
+  std::set<std::string> left = dir.names();
+  left.erase("model.lsnif");
+  ASSERT_EQ(left.size(), 1u) << "the killed writer left no temporary file";
+  const std::string temp = *left.begin();
+  EXPECT_EQ(atomic_temp_target(temp), "model.lsnif") << temp;
+
+  // Decoys: another target's temporary file, names that only look alike, a folder of the pattern.
+  put(dir.file(".scene.gltf.tmp-0123456789ab"), "other target");
+  for (const char* name : {"model.lsnif.tmp-0123456789ab", ".model.lsnif.tmp-0123456789AB",
+                           ".model.lsnif.tmp-0123456789a", ".model.lsnif.tmp0123456789ab", "notes.tmp"}) {
+    EXPECT_EQ(atomic_temp_target(name), "") << name;
+    put(dir.file(name), "decoy");
+  }
+  fs::create_directory(dir.file(".model.lsnif.tmp-aaaaaaaaaaaa"));
+  std::vector<std::string> removed;
+  ASSERT_TRUE(remove_stale_temp_files(dir.path().string(),
+                                      [](const std::string& target) { return target == "model.lsnif"; }, removed));
+  EXPECT_EQ(removed, std::vector<std::string>{dir.file(temp)});
+  EXPECT_EQ(read(path), "old contents");
+  EXPECT_FALSE(fs::exists(dir.file(temp)));
+  EXPECT_EQ(dir.names().size(), 1u + 1u + 5u + 1u);  // the model, the other target's, the decoys, the folder
 }
 
 }  // namespace

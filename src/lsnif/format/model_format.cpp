@@ -30,6 +30,7 @@
 
 #include "lsnif/format/crc32.h"
 #include "lsnif/format/file_io.h"
+#include "lsnif/format/training_record.h"
 
 namespace lsnif {
 
@@ -497,6 +498,7 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   if (Status s = read_parameters(data, version, expected, v); !s) return s;
   v.version = version;
   if (Status s = read_training(data, expected, v); !s) return s;
+  if (Status s = check_training_record(v.training, v.config); !s) return s;
   view = std::move(v);
   return Status::ok();
 }

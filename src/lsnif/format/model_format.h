@@ -71,8 +71,9 @@ ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes);
 // section table, zero padding, CRC-32, material names (valid UTF-8 without control characters),
 // the AABB within +-kMaxModelCoordinate, no voxel bits beyond V^3, no NaN or
 // infinite fp16 value, int8 grid codes in [-127, 127], grid scales finite and >= 0 (127 times a
-// scale finite). Never reads outside [data, data + size). Errors name the problem ("checksum
-// mismatch ...", "truncated ...", "section grid has size ...").
+// scale finite), and the training record a JSON object whose settings agree with the header
+// (check_training_record, training_record.h). Never reads outside [data, data + size). Errors name
+// the problem ("checksum mismatch ...", "truncated ...", "section grid has size ...").
 Status parse_model_file(const uint8_t* data, size_t size, ModelFileView& out);
 
 // Reads a whole .lsnif file into `bytes` (replaced on success) with read_file (file_io.h): a

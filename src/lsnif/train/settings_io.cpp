@@ -16,29 +16,6 @@ namespace {
 
 constexpr uint64_t kMaxConfigFileBytes = 1u << 20;
 
-// "'a' or 'b'", "'a', 'b' or 'c'".
-template <class Name>
-std::string alternatives(size_t count, Name name) {
-  std::string s;
-  for (size_t i = 0; i < count; ++i) {
-    if (i) s += i + 1 == count ? " or " : ", ";
-    s += '\'';
-    s += name(i);
-    s += '\'';
-  }
-  return s;
-}
-
-// The shortest "%.Ng" text that reads back as `f`.
-std::string float_text(float f) {
-  char buf[32];
-  for (int precision = 6; precision <= 9; ++precision) {
-    std::snprintf(buf, sizeof buf, "%.*g", precision, double(f));
-    if (std::strtof(buf, nullptr) == f) break;
-  }
-  return buf;
-}
-
 // Where each resolved value came from, for messages: the layer (nullptr: a default or a preset of
 // no layer).
 using Origins = std::array<const SettingLayer*, kSettingCount>;
@@ -58,48 +35,6 @@ std::string label_of(const Origins& origin, SettingId id) {
   if (l) return l->label(name);
   std::string s = "--";
   return s += name;
-}
-
-// The range of one value (a Choice is checked when its name is looked up).
-Status check_range(const SettingDef& d, const SettingValue& v, const std::string& label) {
-  switch (d.kind) {
-    case SettingKind::U32: {
-      const double x = static_cast<double>(v.u);  // at most 2^32 - 1: exact
-      if (d.max == kU32Max && x < d.min)
-        return Status::error("%s (%llu) must be at least %u", label.c_str(), (unsigned long long)v.u, uint32_t(d.min));
-      if (x < d.min || x > d.max)
-        return Status::error("%s %llu out of range [%u, %u]", label.c_str(), (unsigned long long)v.u, uint32_t(d.min),
-                             uint32_t(d.max));
-      return Status::ok();
-    }
-    case SettingKind::U32PerLevel: {
-      if (v.level_count == 0) {
-        if (v.u < uint64_t(d.min) || v.u > uint64_t(d.max))
-          return Status::error("%s %llu out of range [%u, %u]", label.c_str(), (unsigned long long)v.u,
-                               uint32_t(d.min), uint32_t(d.max));
-        return Status::ok();
-      }
-      for (uint32_t l = 0; l < v.level_count; ++l)
-        if (v.per_level[l] < uint32_t(d.min) || v.per_level[l] > uint32_t(d.max))
-          return Status::error("%s %s: %u (level %u) out of range [%u, %u]", label.c_str(), setting_text(d, v).c_str(),
-                               v.per_level[l], l, uint32_t(d.min), uint32_t(d.max));
-      return Status::ok();
-    }
-    case SettingKind::F32: {
-      const double x = v.f;
-      const bool ok = std::isfinite(v.f) && (d.min_open ? x > d.min : x >= d.min) && (d.max_open ? x < d.max : x <= d.max);
-      if (ok) return Status::ok();
-      if (d.max == kF32Max && d.min == 0 && d.min_open)
-        return Status::error("%s %g must be a positive, finite %s", label.c_str(), x, d.noun);
-      if (d.max == kF32Max && d.min == 0)
-        return Status::error("%s %g must be a finite %s >= 0", label.c_str(), x, d.noun);
-      return Status::error("%s %g out of range %c%g, %g%c", label.c_str(), x, d.min_open ? '(' : '[', d.min, d.max,
-                           d.max_open ? ')' : ']');
-    }
-    case SettingKind::U64:
-    case SettingKind::Choice: return Status::ok();
-  }
-  return Status::ok();
 }
 
 Status apply_layer(const SettingLayer& layer, SettingValues& values, Origins& origin) {
@@ -131,15 +66,14 @@ Status apply_layer(const SettingLayer& layer, SettingValues& values, Origins& or
     SettingValue v = layer.values.v[i];
     if (d.kind == SettingKind::Choice) {
       const std::string& name = layer.choice[i];
-      uint32_t c = 0;
-      while (c < d.choice_count && name != d.choices[c].name) ++c;
-      if (c == d.choice_count)
+      const SettingChoice* c = find_choice(d, name);
+      if (!c)
         return Status::error("%s%s must be %s (got '%s')", prefix.c_str(), layer.label(d.name).c_str(),
-                             alternatives(d.choice_count, [&](size_t k) { return d.choices[k].name; }).c_str(),
+                             quoted_alternatives(d.choice_count, [&](size_t k) { return d.choices[k].name; }).c_str(),
                              printable(name).c_str());
-      v.u = d.choices[c].value;
+      v.u = c->value;
     }
-    if (Status s = check_range(d, v, layer.label(d.name)); !s) return layer.file.empty() ? s : s.context(layer.file);
+    if (Status s = check_setting_range(d, v, layer.label(d.name)); !s) return layer.file.empty() ? s : s.context(layer.file);
     values.v[i] = v;
     origin[i] = &layer;
   }
@@ -179,51 +113,6 @@ Status check_together(const SettingValues& v, const Origins& origin) {
   return Status::ok();
 }
 
-Status json_value(const SettingDef& d, const nlohmann::json& j, SettingValue& out, std::string& choice) {
-  const auto type_error = [&](const char* want) {
-    return Status::error("must be %s, not %s", want, j.is_number() ? j.dump().c_str() : j.type_name());
-  };
-  switch (d.kind) {
-    case SettingKind::U32:
-    case SettingKind::U64:
-      if (!j.is_number_unsigned()) return type_error("an unsigned integer");
-      out.u = j.get<uint64_t>();
-      if (d.kind == SettingKind::U32 && out.u > 0xffffffffull)
-        return Status::error("%llu is larger than %u", (unsigned long long)out.u, uint32_t(kU32Max));
-      return Status::ok();
-    case SettingKind::U32PerLevel: {
-      if (j.is_number_unsigned() && j.get<uint64_t>() <= 0xffffffffull) {
-        out.u = j.get<uint64_t>();
-        return Status::ok();
-      }
-      uint32_t values[LSNIF_MAX_LEVELS] = {};
-      bool ok = j.is_array() && !j.empty() && j.size() <= LSNIF_MAX_LEVELS;
-      for (size_t i = 0; ok && i < j.size(); ++i) {
-        ok = j[i].is_number_unsigned() && j[i].get<uint64_t>() <= 0xffffffffull;
-        if (ok) values[i] = static_cast<uint32_t>(j[i].get<uint64_t>());
-      }
-      if (!ok || !per_level_value(values, j.size(), out))
-        return Status::error("must be an unsigned integer or a list of 1 to %u of them (one per level), not %s",
-                             LSNIF_MAX_LEVELS, printable(j.dump()).c_str());
-      return Status::ok();
-    }
-    case SettingKind::F32: {
-      if (!j.is_number()) return type_error("a number");
-      const double x = j.get<double>();
-      if (!(std::abs(x) <= kF32Max)) return Status::error("%g is beyond the range of a 32-bit float", x);
-      out.f = static_cast<float>(x);
-      return Status::ok();
-    }
-    case SettingKind::Choice:
-      if (!j.is_string())
-        return type_error(("one of " + alternatives(d.choice_count, [&](size_t k) { return d.choices[k].name; }))
-                              .c_str());
-      choice = j.get<std::string>();
-      return Status::ok();
-  }
-  return Status::ok();
-}
-
 // 64-bit FNV-1a, continued from `h`.
 struct Fnv {
   uint64_t h = 0xcbf29ce484222325ull;
@@ -256,18 +145,6 @@ SettingValue setting_value(const SettingDef& d, double value) {
   if (d.kind == SettingKind::F32) v.f = static_cast<float>(value);
   else v.u = static_cast<uint64_t>(value);
   return v;
-}
-
-bool per_level_value(const uint32_t* values, size_t count, SettingValue& out) {
-  if (count == 0 || count > LSNIF_MAX_LEVELS) return false;
-  out = SettingValue();
-  if (count == 1) {
-    out.u = values[0];
-    return true;
-  }
-  out.level_count = static_cast<uint32_t>(count);
-  for (size_t l = 0; l < count; ++l) out.per_level[l] = values[l];
-  return true;
 }
 
 SettingValue default_indexed_value(uint32_t levels) {
@@ -326,7 +203,7 @@ Status parse_settings_json(std::string_view text, const std::string& file, Setti
     if (const SettingDef* d = find_setting(key)) {
       SettingValue v;
       std::string choice;
-      if (Status s = json_value(*d, value, v, choice); !s) return s.context(where);
+      if (Status s = setting_from_json(*d, value, v, choice); !s) return s.context(where);
       layer.set(d->id, v, choice);
       continue;
     }
@@ -345,7 +222,7 @@ Status parse_settings_json(std::string_view text, const std::string& file, Setti
       for (const Preset& q : kPresets)
         if (key == q.option) names.push_back(q.choice);
       return Status::error("%s: must be %s (got %s)", where.c_str(),
-                           alternatives(names.size(), [&](size_t k) { return names[k]; }).c_str(),
+                           quoted_alternatives(names.size(), [&](size_t k) { return names[k]; }).c_str(),
                            printable(value.dump()).c_str());
     }
     layer.presets.push_back(p);
@@ -495,28 +372,6 @@ SettingValues from_train_settings(const TrainSettings& s) {
   return v;
 }
 
-std::string setting_text(const SettingDef& d, const SettingValue& v) {
-  switch (d.kind) {
-    case SettingKind::U32:
-    case SettingKind::U64: return std::to_string(v.u);
-    case SettingKind::U32PerLevel: {
-      if (v.level_count == 0) return std::to_string(v.u);
-      std::string text;
-      for (uint32_t l = 0; l < v.level_count && l < LSNIF_MAX_LEVELS; ++l) {
-        if (l) text += ',';
-        text += std::to_string(v.per_level[l]);
-      }
-      return text;
-    }
-    case SettingKind::F32: return float_text(v.f);
-    case SettingKind::Choice:
-      for (uint32_t c = 0; c < d.choice_count; ++c)
-        if (d.choices[c].value == v.u) return d.choices[c].name;
-      return std::to_string(v.u);
-  }
-  return {};
-}
-
 nlohmann::ordered_json settings_to_json(const SettingValues& values) {
   nlohmann::ordered_json j = nlohmann::ordered_json::object();
   for (const SettingDef& d : kSettingDefs) {
@@ -591,9 +446,35 @@ std::string training_record(const TrainSettings& settings, const Mesh& mesh, con
   j["settings"] = settings_to_json(from_train_settings(settings));
   j["mesh"] = {{"name", clean_utf8(mesh_name, 1024)},
                {"triangles", mesh.triangles.size()},
-               {"hash", format("fnv1a64:%016llx", (unsigned long long)mesh_hash(mesh))}};
+               {"hash", recorded_mesh_hash(mesh_hash(mesh))}};
   j["threads"] = threads;
   return j.dump();
+}
+
+std::string recorded_mesh_hash(uint64_t mesh_hash) { return format("fnv1a64:%016llx", (unsigned long long)mesh_hash); }
+
+std::string training_record_difference(const std::string& record, const TrainSettings& settings, uint64_t mesh_hash) {
+  if (record.empty()) return "it has no training record";
+  nlohmann::json j;
+  if (Status s = json::parse(record, "training record", j); !s) return s.message();
+  if (!j.is_object() || !j.contains("settings") || !j["settings"].is_object())
+    return "its training record holds no settings";
+  const nlohmann::json& recorded = j["settings"];
+  // Compared as parsed JSON values: the record's text and this dump read back the same way.
+  const nlohmann::json wanted = nlohmann::json::parse(settings_to_json(from_train_settings(settings)).dump());
+  for (const auto& [key, value] : wanted.items()) {
+    if (!recorded.contains(key)) return format("it records no %s (the settings give %s)", key.c_str(), value.dump().c_str());
+    if (recorded[key] != value)
+      return format("it records %s=%s, the settings give %s=%s", key.c_str(), printable(recorded[key].dump()).c_str(),
+                    key.c_str(), value.dump().c_str());
+  }
+  for (const auto& [key, value] : recorded.items())
+    if (!wanted.contains(key)) return format("it records the unknown setting %s", printable(key).c_str());
+  const std::string hash = recorded_mesh_hash(mesh_hash);
+  const nlohmann::json* mesh = j.contains("mesh") && j["mesh"].is_object() ? &j["mesh"] : nullptr;
+  if (!mesh || !mesh->contains("hash") || (*mesh)["hash"] != hash)
+    return format("it was trained on another mesh (its record's mesh hash is not %s)", hash.c_str());
+  return "";
 }
 
 }  // namespace lsnif

@@ -13,28 +13,15 @@
 #include <nlohmann/json.hpp>
 
 #include "lsnif/import/mesh.h"
+#include "lsnif/format/setting_value.h"
 #include "lsnif/format/settings_table.h"
 #include "lsnif/format/status.h"
 #include "lsnif/train/trainer.h"
 
 namespace lsnif {
 
-// One setting's value: U32, U64 and Choice (the choice's value) in `u`, F32 in `f`. U32PerLevel:
-// one value for every level in `u` (level_count 0), or level_count (>= 2) values, one per level, in
-// per_level.
-struct SettingValue {
-  uint64_t u = 0;
-  float f = 0.0f;
-  uint32_t level_count = 0;
-  std::array<uint32_t, LSNIF_MAX_LEVELS> per_level{};
-  bool operator==(const SettingValue&) const = default;
-};
-
 // A number of the table (a default, a bound, a preset's value) as a value of setting `def`.
 SettingValue setting_value(const SettingDef& def, double value);
-// A U32PerLevel value from `count` numbers (at most LSNIF_MAX_LEVELS; one: every level). False when
-// `count` is 0 or more than LSNIF_MAX_LEVELS.
-bool per_level_value(const uint32_t* values, size_t count, SettingValue& out);
 // The default of --indexed for `levels` grid levels (default_indexed per level).
 SettingValue default_indexed_value(uint32_t levels);
 
@@ -90,8 +77,6 @@ SettingValues from_train_settings(const TrainSettings& settings);
 // The settings as a JSON object in table order, the form a `--config` file takes; floats written as
 // the shortest decimal that reads back as the same float.
 nlohmann::ordered_json settings_to_json(const SettingValues& values);
-// One value as text: "32", "0.01", "segments", "15,17".
-std::string setting_text(const SettingDef& def, const SettingValue& value);
 
 // 64-bit FNV-1a of `bytes`.
 uint64_t fnv1a64(std::string_view bytes);
@@ -102,6 +87,15 @@ uint64_t mesh_hash(const Mesh& mesh);
 // {"settings": {...}, "mesh": {"name", "triangles", "hash"}, "threads": N}.
 std::string training_record(const TrainSettings& settings, const Mesh& mesh, const std::string& mesh_name,
                             int threads);
+
+// How a training record writes a mesh hash: "fnv1a64:" and 16 hex digits.
+std::string recorded_mesh_hash(uint64_t mesh_hash);
+
+// The first way the training record `record` differs from the one `settings` and a mesh of hash
+// `mesh_hash` (mesh_hash()) give: a setting of another value, missing or unknown ("it records
+// seed=5, the settings give seed=3"), another mesh hash, no record or one that does not parse; an
+// empty string when the record holds exactly these settings and this mesh hash.
+std::string training_record_difference(const std::string& record, const TrainSettings& settings, uint64_t mesh_hash);
 
 // Whether the model whose training record is `record` learned its normal with the materials'
 // normal maps applied (bakes_normal_maps of its "surface-maps" setting): false without a record,

@@ -296,10 +296,16 @@ TEST(SettingsConfig, TheDefaultGridIsEightBitWithTheCoarseLevelIndexedAndPaperRe
   EXPECT_EQ(s.config.max_points, 10u);
 }
 
-TEST(SettingsConfig, TrainingRecordHoldsTheSettingsAndTheMesh) {
+// The mesh of the training records below.
+Mesh one_triangle() {
   Mesh mesh;
   mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
   mesh.triangles = {{0, 1, 2}};
+  return mesh;
+}
+
+TEST(SettingsConfig, TrainingRecordHoldsTheSettingsAndTheMesh) {
+  const Mesh mesh = one_triangle();
   TrainSettings s;
   s.seed = 42;
   const nlohmann::json j = nlohmann::json::parse(training_record(s, mesh, "tri\x1b.obj", 3));
@@ -330,9 +336,7 @@ TEST(SettingsConfig, TrainingRecordHoldsTheSettingsAndTheMesh) {
 }
 
 TEST(SettingsConfig, TheRecordSaysWhetherNormalMapsWereBaked) {
-  Mesh mesh;
-  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-  mesh.triangles = {{0, 1, 2}};
+  const Mesh mesh = one_triangle();
   TrainSettings s;
   EXPECT_TRUE(recorded_normal_maps(training_record(s, mesh, "tri.obj", 1)));  // auto
   s.surface_maps = kSurfaceMapsOn;
@@ -343,6 +347,41 @@ TEST(SettingsConfig, TheRecordSaysWhetherNormalMapsWereBaked) {
   EXPECT_FALSE(recorded_normal_maps(""));
   EXPECT_FALSE(recorded_normal_maps(R"({"settings": {"steps": 10}, "threads": 1})"));
   EXPECT_FALSE(recorded_normal_maps("{\"settings\": "));
+}
+
+// What decides whether a converted model is up to date: the record of the same settings and mesh
+// matches (whatever its thread count and mesh name), every other record says how it differs.
+TEST(SettingsConfig, TheRecordDifferenceNamesTheFirstDifference) {
+  const Mesh mesh = one_triangle();
+  TrainSettings s;
+  s.seed = 3;
+  const uint64_t hash = mesh_hash(mesh);
+  const std::string record = training_record(s, mesh, "tri.obj", 2);
+  EXPECT_EQ(training_record_difference(record, s, hash), "");
+  EXPECT_EQ(training_record_difference(training_record(s, mesh, "other.obj", 7), s, hash), "");
+
+  TrainSettings other = s;
+  other.seed = 5;
+  EXPECT_EQ(training_record_difference(record, other, hash), "it records seed=3, the settings give seed=5");
+  other = s;
+  other.adam.learning_rate = 0.02f;
+  EXPECT_EQ(training_record_difference(record, other, hash), "it records lr=0.01, the settings give lr=0.02");
+  Mesh moved = mesh;
+  moved.positions[2].y = 2;
+  EXPECT_NE(training_record_difference(record, s, mesh_hash(moved)).find("another mesh"), std::string::npos);
+  EXPECT_EQ(training_record_difference("", s, hash), "it has no training record");
+  EXPECT_NE(training_record_difference("{\"settings\": ", s, hash).find("not valid JSON"), std::string::npos);
+  EXPECT_EQ(training_record_difference(R"({"mesh": {}})", s, hash), "its training record holds no settings");
+
+  nlohmann::json edited = nlohmann::json::parse(record);
+  edited["settings"].erase("seed");
+  EXPECT_EQ(training_record_difference(edited.dump(), s, hash), "it records no seed (the settings give 3)");
+  edited = nlohmann::json::parse(record);
+  edited["settings"]["future"] = 1;
+  EXPECT_EQ(training_record_difference(edited.dump(), s, hash), "it records the unknown setting future");
+  edited = nlohmann::json::parse(record);
+  edited.erase("mesh");
+  EXPECT_NE(training_record_difference(edited.dump(), s, hash).find(recorded_mesh_hash(hash)), std::string::npos);
 }
 
 }  // namespace

@@ -17,6 +17,7 @@ double ProgressBar::elapsed_seconds() const {
 }
 
 void ProgressBar::update(uint64_t done, const std::string& status) {
+  done_ = done;
   if (!enabled_) return;
   auto now = std::chrono::steady_clock::now();
   int decile = int(10 * done / total_);
@@ -32,7 +33,7 @@ void ProgressBar::update(uint64_t done, const std::string& status) {
 
 void ProgressBar::finish(const std::string& status) {
   if (!enabled_) return;
-  draw(total_, status, true);
+  draw(done_, status, true);
 }
 
 void ProgressBar::draw(uint64_t done, const std::string& status, bool final) {

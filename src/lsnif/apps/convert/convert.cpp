@@ -7,6 +7,7 @@
 #include <set>
 
 #include "lsnif/format/atomic_file.h"
+#include "lsnif/format/folder_lock.h"
 
 #include "lsnif/renderer/gltf_build.h"
 #include "lsnif/renderer/scene_gltf.h"
@@ -81,6 +82,8 @@ void print_models(const ConvertSettings& s, const ConvertResult& res, FILE* out)
                  mib(bytes), m.file.c_str(), state_text(r, s.dry_run));
     if (r.state == ModelState::Trained) std::fprintf(out, " in %.1f s", r.seconds);
     std::fprintf(out, "\n");
+    if (!r.stale.empty() && r.state != ModelState::Failed)
+      std::fprintf(out, "      %s: %s\n", s.dry_run ? "would be retrained" : "retrained", r.stale.c_str());
     if (std::string e = eval_text(r); !e.empty()) std::fprintf(out, "      %s\n", e.c_str());
   }
   std::fprintf(out, "memory    %.3f MiB of models%s\n", mib(total), s.dry_run ? " (estimated from the settings)" : "");
@@ -214,6 +217,53 @@ Status check_outputs(const ConvertSettings& settings, const Plan& plan, const st
   return check_output_path(bin);
 }
 
+// The lock file of a run in its output folder (docs/convert.md).
+constexpr const char* kLockFile = ".lsnif-convert.lock";
+
+// What a run writes into its output folder: models, their sidecars, the scene and its buffer.
+bool is_convert_output(const ConvertSettings& settings, const std::string& name) {
+  const auto ends_with = [&](std::string_view tail) {
+    return name.size() > tail.size() && name.compare(name.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  const fs::path output = fs::path(settings.output).filename();
+  return ends_with(".lsnif") || ends_with(".lsnif.json") || name == output.string() ||
+         name == output.stem().string() + ".bin";
+}
+
+// Locks the output folder for the whole run, then removes the temporary files of our outputs that
+// an interrupted run left there. A dry run writes nothing: it takes no lock and only warns when
+// another run holds it. Returns the exit code of a failure, or 0.
+int lock_output_folder(const ConvertSettings& settings, const std::string& out_dir, FolderLock& lock, FILE* out,
+                       FILE* err) {
+  const std::string folder = out_dir.empty() ? std::string(".") : out_dir;
+  if (settings.dry_run) {
+    if (folder_lock_busy(folder, kLockFile))
+      std::fprintf(err, "lsnif convert: warning: another lsnif convert is writing into the output folder '%s' (it "
+                        "holds %s/%s): its models may change this plan\n", folder.c_str(), folder.c_str(), kLockFile);
+    return 0;
+  }
+  bool busy = false;
+  if (Status s = lock.acquire(folder, kLockFile, busy); !s) {
+    if (busy)
+      std::fprintf(err, "lsnif convert: another lsnif convert is writing into the output folder '%s' (it holds the "
+                        "lock %s/%s); wait for it to finish or write elsewhere\n", folder.c_str(), folder.c_str(),
+                   kLockFile);
+    else
+      std::fprintf(err, "lsnif convert: cannot lock the output folder '%s': %s\n", folder.c_str(), s.message().c_str());
+    return 1;
+  }
+  std::vector<std::string> removed;
+  const Status s = remove_stale_temp_files(
+      folder, [&](const std::string& target) { return is_convert_output(settings, target); }, removed);
+  for (const std::string& path : removed)
+    std::fprintf(out, "cleanup   removed %s, a temporary file an interrupted run left\n", path.c_str());
+  if (!s) {
+    std::fprintf(err, "lsnif convert: %s\n", s.message().c_str());
+    return 1;
+  }
+  return 0;
+}
+
 Status validate_output(const ConvertSettings& settings, const ConvertResult& result, const std::string& out_dir) {
   tinygltf::Model out;
   WriteReport unused;
@@ -265,6 +315,8 @@ int run_convert(const ConvertSettings& settings, ConvertResult& result, FILE* ou
     std::fprintf(err, "lsnif convert: %s\n", s.message().c_str());
     return 1;
   }
+  FolderLock lock;  // held until the run returns
+  if (int code = lock_output_folder(settings, out_dir, lock, out, err)) return code;
   prepare_models(settings, result.plan, out_dir, result.models);
   // The scene about to be written must load in the renderer before any model is trained, in a dry
   // run too (a missing environment image, a broken camera or transform, a missing model).

@@ -24,9 +24,11 @@ struct ConvertResult {
 };
 
 // Runs the conversion. The plan and report go to `out`, errors (one line per failed object, each
-// naming it) to `err`. Returns the exit code: 0 when every selected object was converted (or, with
-// dry_run, could be), 1 when the input could not be read or written, an output would overwrite a
-// file the input uses, the scene to be written would not load in the renderer's loader (checked
+// naming it) to `err`. A run (not a dry run) holds an exclusive lock on the output folder from before
+// it reads the models there until it returns, and first removes the temporary files of its outputs
+// an interrupted run left there (docs/convert.md). Returns the exit code: 0 when every selected
+// object was converted (or, with dry_run, could be), 1 when the input could not be read or written,
+// another run holds the output folder, an output would overwrite a file the input uses, the scene to be written would not load in the renderer's loader (checked
 // before any training, in a dry run too), any object failed (the good ones are still trained and
 // written) or the written scene does not load (load_scene), 2 for invalid settings.
 int run_convert(const ConvertSettings& settings, ConvertResult& result, FILE* out, FILE* err);

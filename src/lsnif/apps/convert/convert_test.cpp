@@ -2,7 +2,10 @@
 // (models, material maps, transforms, removed or kept meshes), groups, skip-on-rerun by content
 // hash, parallel jobs, and one bad object not losing the others' work.
 #include <filesystem>
+#include <map>
+#include <utility>
 
+#include "lsnif/format/folder_lock.h"
 #include "lsnif/testing/convert_test_support.h"
 #include "lsnif/renderer/scene_gltf.h"
 
@@ -188,6 +191,83 @@ TEST_F(Convert, RerunSkipsUnchangedModelsAndRetrainsChangedOnes) {
   settings.force = true;
   ASSERT_EQ(run_quiet(settings, r, &log), 0) << log;
   EXPECT_EQ(r.trained, 1u);
+}
+
+// Up to date is the model file's own word: its training record of these settings and this mesh,
+// with a sidecar that agrees. A model and a sidecar of different runs (what a kill between their two
+// renames leaves) are retrained, whichever of the two matches the settings, and so is a model
+// without its sidecar; the report says why.
+TEST_F(Convert, UpToDateIsDecidedByTheModelsOwnRecord) {
+  scene::add_node(s.g, "e1", s.elephant, kE1);
+  save_or_fail(s.g, s.path);
+  const std::string out = s.dir.path("converted.gltf"), model = s.dir.path("converted.elephant.lsnif");
+  ConvertSettings settings = tiny_settings(s.path, out);
+  std::map<uint64_t, std::pair<std::string, std::string>> runs;  // seed -> model, sidecar bytes
+  for (const uint64_t seed : {1u, 2u}) {
+    settings.train.seed = seed;
+    ASSERT_EQ(run_quiet(settings, r, &log), 0) << log;
+    ASSERT_EQ(r.trained, 1u) << log;
+    runs[seed] = {lsnif::test::read_text(model), lsnif::test::read_text(sidecar_path(model))};
+  }
+  const auto put = [&](uint64_t model_seed, uint64_t sidecar_seed) {
+    std::ofstream(model, std::ios::binary) << runs[model_seed].first;
+    std::ofstream(sidecar_path(model), std::ios::binary) << runs[sidecar_seed].second;
+  };
+  // Seed 2 asked for: the model of seed 1 with the sidecar of seed 2, then the reverse.
+  put(1, 2);
+  settings.dry_run = true;
+  ASSERT_EQ(run_quiet(settings, r, &log), 0) << log;
+  EXPECT_FALSE(r.models[0].up_to_date_on_disk);
+  EXPECT_NE(log.find("would be retrained: the model on disk is not of these settings and this mesh: it records "
+                     "seed=1, the settings give seed=2"), std::string::npos) << log;
+  settings.dry_run = false;
+  ASSERT_EQ(run_quiet(settings, r, &log), 0) << log;
+  EXPECT_EQ(r.trained, 1u) << log;
+  EXPECT_EQ(lsnif::test::read_text(model), runs[2].first);  // seed 2's model again (deterministic)
+  put(2, 1);
+  ASSERT_EQ(run_quiet(settings, r, &log), 0) << log;
+  EXPECT_EQ(r.trained, 1u) << log;
+  EXPECT_NE(log.find("retrained: its sidecar " + sidecar_path(model) + " is missing or of another run"),
+            std::string::npos) << log;
+  EXPECT_EQ(lsnif::test::read_text(sidecar_path(model)), runs[2].second);
+  fs::remove(sidecar_path(model));
+  ASSERT_EQ(run_quiet(settings, r, &log), 0) << log;
+  EXPECT_EQ(r.trained, 1u) << log;
+  ASSERT_EQ(run_quiet(settings, r, &log), 0) << log;
+  EXPECT_EQ(r.up_to_date, 1u) << log;
+  EXPECT_TRUE(r.models[0].stale.empty()) << r.models[0].stale;
+}
+
+// The output folder is one run's at a time: a held lock fails the run before it reads or trains
+// anything (a dry run only warns); stale temporary files of our outputs go when a run starts.
+TEST_F(Convert, TheOutputFolderIsLockedAndCleaned) {
+  scene::add_node(s.g, "e1", s.elephant, kE1);
+  save_or_fail(s.g, s.path);
+  fs::create_directories(s.dir.path("out"));
+  ConvertSettings settings = tiny_settings(s.path, s.dir.path("out/converted.gltf"));
+  FolderLock other;
+  bool busy = false;
+  ASSERT_TRUE(other.acquire(s.dir.path("out"), ".lsnif-convert.lock", busy));
+  EXPECT_EQ(run_quiet(settings, r, &log), 1);
+  EXPECT_NE(log.find("another lsnif convert is writing into the output folder '" + s.dir.path("out") + "'"),
+            std::string::npos) << log;
+  EXPECT_TRUE(r.models.empty());
+  EXPECT_FALSE(fs::exists(s.dir.path("out/converted.elephant.lsnif")));
+  settings.dry_run = true;
+  EXPECT_EQ(run_quiet(settings, r, &log), 0) << log;
+  EXPECT_NE(log.find("warning: another lsnif convert is writing into the output folder"), std::string::npos) << log;
+  settings.dry_run = false;
+  other.release();
+
+  const std::string stale = s.dir.path("out/.converted.elephant.lsnif.tmp-00112233aabb");
+  const std::string foreign = s.dir.path("out/.notes.md.tmp-00112233aabb");
+  std::ofstream(stale) << "partial";
+  std::ofstream(foreign) << "not ours";
+  ASSERT_EQ(run_quiet(settings, r, &log), 0) << log;
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(foreign));
+  EXPECT_NE(log.find("cleanup   removed " + stale), std::string::npos) << log;
+  EXPECT_FALSE(fs::exists(s.dir.path("out/.lsnif-convert.lock")));
 }
 
 TEST_F(Convert, GroupIsOneObjectInWorldSpaceAndJobsTrainInParallel) {

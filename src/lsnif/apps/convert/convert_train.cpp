@@ -145,6 +145,33 @@ void surface_quality_warnings(const Model& model, const Mesh& mesh, const EvalMe
         kEmissionMaeWarning, scale));
 }
 
+// Whether the .lsnif at `path` is the model `train` gives of r.mesh (of hash `mesh`), by the model's
+// own training record, with a sidecar of the same content hash (prepare_models): sets
+// r.up_to_date_on_disk and what the sidecar caches, or r.stale when a model file is there but is
+// retrained.
+void check_on_disk(const std::string& path, const TrainSettings& train, uint64_t mesh, ModelResult& r) {
+  std::error_code ec;
+  if (!fs::exists(fs::symlink_status(path, ec))) return;
+  Model existing;
+  if (Status s = load_model(path, existing); !s) {
+    r.stale = s.message();
+    return;
+  }
+  if (std::string why = training_record_difference(existing.training, train, mesh); !why.empty()) {
+    r.stale = "the model on disk is not of these settings and this mesh: " + why;
+    return;
+  }
+  Sidecar side;
+  if (!read_sidecar(sidecar_path(path), side) || side.hash != r.hash) {
+    r.stale = "its sidecar " + sidecar_path(path) + " is missing or of another run (an interrupted or concurrent one)";
+    return;
+  }
+  r.up_to_date_on_disk = true;
+  r.bytes = memory_breakdown(existing).total();
+  r.evaluated = side.evaluated;
+  r.metrics = side.metrics;
+}
+
 // "model 'NAME' (node 'a')" / "(nodes 'a', 'b', 'c' and 2 more)": the object an error is about.
 std::string object_label(const Plan& plan, const PlannedModel& m) {
   std::string nodes;
@@ -156,9 +183,9 @@ std::string object_label(const Plan& plan, const PlannedModel& m) {
 
 }  // namespace
 
-std::string content_hash(const Mesh& mesh, const TrainSettings& train) {
+std::string content_hash(uint64_t mesh_hash, const TrainSettings& train) {
   // The mesh's hash and every training setting (settings_io.h), hashed together.
-  const std::string key = format("lsnif-convert-2 %016llx ", (unsigned long long)mesh_hash(mesh)) +
+  const std::string key = format("lsnif-convert-2 %016llx ", (unsigned long long)mesh_hash) +
                           settings_to_json(from_train_settings(train)).dump();
   return format("%016llx", (unsigned long long)fnv1a64(key));
 }
@@ -183,20 +210,12 @@ void prepare_models(const ConvertSettings& settings, const Plan& plan, const std
       continue;
     }
     unlearned_channel_warnings(r.mesh, settings.train, r.warnings);
-    r.hash = content_hash(r.mesh, settings.train);
+    const uint64_t mesh = mesh_hash(r.mesh);
+    r.hash = content_hash(mesh, settings.train);
     r.bytes = estimated_model_bytes(settings.train, uint32_t(r.mesh.materials.size()), &r.mesh);
-    const std::string path = (fs::path(out_dir) / m.file).string();
-    Sidecar side;
-    Model existing;
-    if (!settings.force && read_sidecar(sidecar_path(path), side) && side.hash == r.hash &&
-        load_model(path, existing)) {
-      r.up_to_date_on_disk = true;
-      r.bytes = memory_breakdown(existing).total();
-      r.evaluated = side.evaluated;
-      r.metrics = side.metrics;
-      if (!settings.dry_run) r.state = ModelState::UpToDate;
-      continue;
-    }
+    if (settings.force) continue;
+    check_on_disk((fs::path(out_dir) / m.file).string(), settings.train, mesh, r);
+    if (r.up_to_date_on_disk && !settings.dry_run) r.state = ModelState::UpToDate;
   }
 }
 

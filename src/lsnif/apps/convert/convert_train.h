@@ -14,7 +14,7 @@ namespace lsnif::convert {
 
 enum class ModelState {
   Planned,   // dry run: would be trained
-  UpToDate,  // its .lsnif and sidecar match the mesh and the settings: not retrained
+  UpToDate,  // its .lsnif records the mesh and the settings, and its sidecar agrees: not retrained
   Trained,
   Failed,
 };
@@ -26,6 +26,7 @@ struct ModelResult {
   std::vector<int> material_sources;  // model material i came from glTF material [i] (-1: default)
   std::string hash;                   // 16 hex digits over mesh + training settings
   bool up_to_date_on_disk = false;    // the .lsnif on disk already matches (dry run: would be skipped)
+  std::string stale;                  // why the .lsnif on disk (when there is one) is retrained
   uint64_t bytes = 0;                 // model size (estimated before training, exact after)
   double seconds = 0;                 // training time
   bool evaluated = false;
@@ -33,16 +34,20 @@ struct ModelResult {
   std::vector<std::string> warnings;  // from flattening the mesh
 };
 
-// The content hash of a training mesh and the settings that shape its model (everything in
-// TrainSettings but progress and loss_curve), as 16 hex digits.
-std::string content_hash(const Mesh& mesh, const TrainSettings& train);
+// The content hash of a training mesh (of mesh_hash() `mesh_hash`) and the settings that shape its
+// model (everything in TrainSettings but progress and loss_curve), as 16 hex digits.
+std::string content_hash(uint64_t mesh_hash, const TrainSettings& train);
 
 // The sidecar of a .lsnif file: MODEL.lsnif.json.
 std::string sidecar_path(const std::string& model_path);
 
 // The stage's first half, for plan.models into `results` (one per model, same order): flattens
 // each model's mesh(es), hashes them and marks the models whose .lsnif in `out_dir` is up to date
-// (UpToDate; a dry run only sets up_to_date_on_disk). The others stay Planned, or Failed with
+// (UpToDate; a dry run only sets up_to_date_on_disk). Up to date means: the model file loads (its
+// training record agrees with its header), its training record holds these training settings and
+// the hash of this mesh, and its sidecar holds this content hash (a sidecar of another run, or
+// none, means retraining: the sidecar caches the evaluation, it never vouches for the model). The
+// others stay Planned (with `stale` saying why an existing model is retrained), or Failed with
 // their error (bad mesh data). Nothing is trained or written.
 void prepare_models(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir,
                     std::vector<ModelResult>& results);

@@ -214,6 +214,7 @@ Status run_traces(DeviceState& st, uint32_t count, uint32_t repeat, Report& repo
   if (!s) return s;
   report.device_timestamps =
       !report.lsnif.device.empty() && !report.tri.device.empty() && !report.batched.device.empty();
+  progress.update(done);
   progress.finish(format("LSNIF %.3f s, triangles %.3f s, batched %.3f s, query %.3f s per run (median)",
                          report.lsnif.median_host(), report.tri.median_host(), report.batched.median_host(),
                          report.query.median_host()));
