@@ -27,11 +27,22 @@ struct GridLevelUsage {
 };
 
 // The distinct grid vertices of resolution R (a multiple of voxels.resolution) on faces of occupied
-// voxels, sorted by (z, y, x): the only vertices the encoder reads with a non-zero weight.
+// voxels, sorted by (z, y, x): the only vertices the encoder reads with a non-zero weight. Memory:
+// the list itself (12 bytes a vertex; readable_vertex_count says how many first).
 std::vector<GridVertex> readable_vertices(const VoxelGrid& voxels, uint32_t resolution);
+// How many readable_vertices there are, without listing them: time O(V^3), memory about V^3 / 2
+// bytes (8 MiB at V = 256) whatever R is.
+uint64_t readable_vertex_count(const VoxelGrid& voxels, uint32_t resolution);
+// The most readable vertices an indexed level can take: its table (perfect_hash_default_slots of
+// them) may have at most 2^max(table-log2) entries (Config::validate).
+uint64_t max_indexed_vertices();
 
 // One record per level of `config`, for the occupancy `voxels` (resolution config.voxel_resolution).
-// A hashed level's record says what its own index would cost (indexed_slots, indexed_buckets); an
+// The vertices are counted and hashed without being listed, so the memory is that of the largest
+// level's table (a byte per entry) whatever the resolution and occupancy; only a level whose
+// vertices an index can take (max_indexed_vertices) has them listed to build that index. Time:
+// proportional to the vertices. A hashed level's record says what its own index would cost
+// (indexed_slots, indexed_buckets; 0 when it has more vertices than an index takes); an
 // indexed level's (Config::indexed) is its index: table_entries = entries_used = index_slots would
 // hold every vertex, no entry shared (by construction, checked in grid_usage_test).
 std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& voxels);
@@ -39,7 +50,8 @@ std::vector<GridLevelUsage> grid_usage(const Config& config, const VoxelGrid& vo
 // Makes the levels l < config.grid_levels with indexed[l] indexed for `voxels`: builds each one's
 // perfect hash of its readable vertices (build_level_index), sets config.index_slots[l] and
 // index_buckets[l], and replaces `grid_index` with the displacements in level order (Model::grid_index).
-// Every other level is left hashed. On error (naming the level) config and grid_index are unchanged.
+// Every other level is left hashed. On error (naming the level; a level with more vertices than
+// max_indexed_vertices is refused before any is listed) config and grid_index are unchanged.
 Status index_grid_levels(const VoxelGrid& voxels, const bool* indexed, Config& config,
                          std::vector<uint16_t>& grid_index);
 

@@ -4,9 +4,12 @@
 // reads with a non-zero weight along random walks is one of those vertices.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <random>
 #include <set>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "lsnif/core/grid_usage.h"
@@ -133,6 +136,60 @@ TEST(GridUsage, NeighboursShareTheirFacesAndTinyTablesCollide) {
     expect_matches_brute_force(config_of(6, 1, 2, 4, 12), g);  // level 0 small, level 1 large
     expect_matches_brute_force(config_of(6, 1, 2, 12, 5), g);
   }
+}
+
+// readable_vertex_count against the list and the geometric brute force, and the list ordered by
+// (z, y, x) without repeats, for one to four cells per voxel edge.
+TEST(GridUsage, TheCountWithoutAListMatchesTheListAndTheBruteForce) {
+  std::mt19937 rng(7);
+  for (uint32_t n = 1; n <= 4; ++n)
+    for (uint32_t one_in : {1u, 2u, 5u, 40u}) {
+      SCOPED_TRACE(testing::Message() << "n " << n << " one in " << one_in);
+      const VoxelGrid g = random_grid(rng, 5, one_in);
+      const std::vector<GridVertex> list = readable_vertices(g, 5 * n);
+      EXPECT_EQ(readable_vertex_count(g, 5 * n), list.size());
+      EXPECT_EQ(list.size(), face_vertices(g, 5 * n).size());
+      const auto key = [](const GridVertex& v) { return std::array<uint32_t, 3>{v.z, v.y, v.x}; };
+      for (size_t i = 1; i < list.size(); ++i) EXPECT_LT(key(list[i - 1]), key(list[i])) << i;
+    }
+}
+
+// A full grid: every lattice point but the (n - 1)^3 inside each voxel, (R + 1)^3 - (V (n - 1))^3,
+// counted in O(V^3) even where listing them would take hundreds of gigabytes (V = 256, R = 4096).
+TEST(GridUsage, AFullGridCountsEveryPointButTheVoxelInteriors) {
+  for (const auto& [V, n] : {std::pair<uint32_t, uint32_t>{7, 1}, {7, 3}, {16, 8}, {256, 16}}) {
+    SCOPED_TRACE(testing::Message() << "V " << V << " n " << n);
+    VoxelGrid g = grid_of(V);
+    std::fill(g.bits.begin(), g.bits.end(), ~0u);
+    const uint64_t R = uint64_t(V) * n, inside = uint64_t(V) * (n - 1);
+    EXPECT_EQ(readable_vertex_count(g, V * n), (R + 1) * (R + 1) * (R + 1) - inside * inside * inside);
+  }
+}
+
+// More vertices than an index takes: grid_usage hashes them without listing them (every one of 16
+// entries shared), reports no index, and index_grid_levels refuses the level before listing it.
+TEST(GridUsage, LevelsTooLargeForAnIndexAreHashedWithoutAList) {
+  VoxelGrid g = grid_of(128);
+  std::fill(g.bits.begin(), g.bits.end(), ~0u);
+  Config c = config_of(128, 1, 3, 4);
+  const uint64_t vertices = 385ull * 385 * 385 - 256ull * 256 * 256;
+  ASSERT_GT(vertices, max_indexed_vertices());
+  const std::vector<GridLevelUsage> u = grid_usage(c, g);
+  ASSERT_EQ(u.size(), 2u);
+  EXPECT_EQ(u[1].vertices, vertices);
+  EXPECT_EQ(u[1].entries_used, 16u);
+  EXPECT_EQ(u[1].entries_shared, 16u);
+  EXPECT_EQ(u[1].vertices_in_shared, vertices);
+  EXPECT_EQ(u[1].indexed_slots, 0u);
+  EXPECT_EQ(u[0].vertices, 129ull * 129 * 129);
+  EXPECT_GE(u[0].indexed_slots, u[0].vertices);  // 2.1 million: an index takes them
+  const bool indexed[LSNIF_MAX_LEVELS] = {false, true};
+  std::vector<uint16_t> index;
+  const Status s = index_grid_levels(g, indexed, c, index);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("level 1: its " + std::to_string(vertices) + " readable vertices are more than an "
+                             "indexed level holds"), std::string::npos) << s.message();
+  EXPECT_FALSE(c.indexed(1));
 }
 
 // Every corner the encoder reads with a non-zero weight, along random walks, is an entry that a

@@ -17,7 +17,8 @@ using ull = unsigned long long;
 
 // The message of a failed read of `path`.
 Status describe(const std::string& path, const ReadFailure& f, uint64_t max_bytes) {
-  const char* p = path.c_str();
+  const std::string shown = printable(path);  // a name may hold anything but '\0'
+  const char* p = shown.c_str();
   switch (f.problem) {
     case ReadProblem::None: return Status::ok();
     case ReadProblem::Missing: return Status::error("'%s': no such file", p);

@@ -643,7 +643,8 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
 Status read_model_file(const std::string& path, std::vector<uint8_t>& out) {
   ReadFailure f;
   if (read_file(path, out, max_file_size(), &f)) return Status::ok();
-  const char* p = path.c_str();
+  const std::string shown = printable(path);
+  const char* p = shown.c_str();
   switch (f.problem) {
     case ReadProblem::Missing: return Status::error("loading %s: no such file", p);
     case ReadProblem::CannotAccess: return Status::error("loading %s: cannot access: %s", p, f.reason.c_str());

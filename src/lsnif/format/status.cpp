@@ -60,6 +60,52 @@ size_t clean_char_length(std::string_view s, size_t i) {
   return n;
 }
 
+// The code point of the clean character of `n` bytes at s[i] (clean_char_length(s, i) == n > 0).
+uint32_t code_point(std::string_view s, size_t i, size_t n) {
+  static const unsigned char kLeadMask[5] = {0, 0x7f, 0x1f, 0x0f, 0x07};
+  uint32_t cp = static_cast<unsigned char>(s[i]) & kLeadMask[n];
+  for (size_t k = 1; k < n; ++k) cp = cp << 6 | (static_cast<unsigned char>(s[i + k]) & 0x3f);
+  return cp;
+}
+
+// Characters a terminal shows as nothing, or that reorder or break the text around them: Unicode's
+// format characters (general category Cf: the bidirectional embeddings, overrides and isolates
+// U+202A..U+202E and U+2066..U+2069, the marks U+200E / U+200F, zero-width spaces and joiners,
+// the byte order mark, tags, ...) and the line and paragraph separators U+2028 / U+2029.
+bool is_invisible_format(uint32_t cp) {
+  static const uint32_t kRanges[][2] = {
+      {0x00ad, 0x00ad},   {0x0600, 0x0605},   {0x061c, 0x061c},   {0x06dd, 0x06dd},   {0x070f, 0x070f},
+      {0x0890, 0x0891},   {0x08e2, 0x08e2},   {0x180e, 0x180e},   {0x200b, 0x200f},   {0x2028, 0x202e},
+      {0x2060, 0x2064},   {0x2066, 0x206f},   {0xfeff, 0xfeff},   {0xfff9, 0xfffb},   {0x110bd, 0x110bd},
+      {0x110cd, 0x110cd}, {0x13430, 0x1343f}, {0x1bca0, 0x1bca3}, {0x1d173, 0x1d17a}, {0xe0001, 0xe0001},
+      {0xe0020, 0xe007f}};
+  for (const auto& r : kRanges)
+    if (cp >= r[0] && cp <= r[1]) return true;
+  return false;
+}
+
+// printable(s) appended to `out`.
+void append_printable(std::string_view s, std::string& out) {
+  for (size_t i = 0; i < s.size();) {
+    const size_t n = clean_char_length(s, i);
+    if (n == 0) {
+      out += format("\\x%02x", static_cast<unsigned>(static_cast<unsigned char>(s[i])));
+      ++i;
+      continue;
+    }
+    const uint32_t cp = n > 1 ? code_point(s, i, n) : 0;
+    if (n > 1 && is_invisible_format(cp)) out += format("\\u{%x}", cp);
+    else out.append(s.substr(i, n));
+    i += n;
+  }
+}
+
+// The start of the character that holds byte `i` of `s` (continuation bytes skipped back, at most 3).
+size_t character_start(std::string_view s, size_t i) {
+  for (int k = 0; k < 3 && i > 0 && i < s.size() && (static_cast<unsigned char>(s[i]) & 0xc0) == 0x80; ++k) --i;
+  return i;
+}
+
 }  // namespace
 
 bool is_clean_utf8(std::string_view s) {
@@ -73,16 +119,21 @@ bool is_clean_utf8(std::string_view s) {
 
 std::string printable(std::string_view s) {
   std::string out;
-  for (size_t i = 0; i < s.size();) {
-    const size_t n = clean_char_length(s, i);
-    if (n == 0) {
-      out += format("\\x%02x", static_cast<unsigned>(static_cast<unsigned char>(s[i])));
-      ++i;
-    } else {
-      out.append(s.substr(i, n));
-      i += n;
-    }
+  append_printable(s, out);
+  return out;
+}
+
+std::string elided(std::string_view s, size_t head, size_t tail) {
+  std::string out;
+  // Eliding fewer bytes than the marker takes would not shorten anything.
+  if (s.size() <= head + tail + 32) {
+    append_printable(s, out);
+    return out;
   }
+  const size_t head_end = character_start(s, head), tail_start = character_start(s, s.size() - tail);
+  append_printable(s.substr(0, head_end), out);
+  out += format("...(%zu bytes)...", tail_start - head_end);
+  append_printable(s.substr(tail_start), out);
   return out;
 }
 

@@ -35,8 +35,15 @@ std::string vformat(const char* fmt, va_list args);
 // control character (U+0000..U+001F, U+007F).
 bool is_clean_utf8(std::string_view s);
 // `s` for a message or a terminal: control characters and bytes that are not valid UTF-8 as
-// "\xNN", the rest as it is.
+// "\xNN"; characters a terminal shows as nothing or that reorder the text around them (Unicode
+// format characters such as the bidirectional overrides U+202A..U+202E, isolates U+2066..U+2069 and
+// marks U+200E / U+200F, zero-width spaces, the byte order mark; the line and paragraph separators
+// U+2028 / U+2029) as "\u{202e}"; the rest as it is.
 std::string printable(std::string_view s);
+// printable(s), shortened when `s` is long (untrusted text of any length: a data URI, a token): its
+// first `head` and last `tail` bytes (cut at character boundaries) around "...(N bytes)...", N the
+// bytes left out. Text of at most head + tail + 32 bytes is kept whole.
+std::string elided(std::string_view s, size_t head = 60, size_t tail = 20);
 // `s` with every control character and invalid UTF-8 byte replaced by '?', cut to at most
 // `max_bytes` bytes at a character boundary.
 std::string clean_utf8(std::string_view s, size_t max_bytes);

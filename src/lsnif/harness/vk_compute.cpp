@@ -1,7 +1,11 @@
 // vk_compute.cpp -- the harness of vk_compute.h.
 #include "lsnif/harness/vk_compute.h"  // volk first: lsnif.h then uses its Vulkan declarations
 
+#include <sys/mman.h>
+
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <utility>
@@ -290,9 +294,50 @@ Status ComputeContext::init(const ContextOptions& options) {
   return Status::ok();
 }
 
+BufferLimits ComputeContext::buffer_limits() const {
+  BufferLimits out;
+  if (!physical_) return out;
+  VkPhysicalDeviceMaintenance3Properties m3{};
+  m3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
+  VkPhysicalDeviceProperties2 p2{};
+  p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+  p2.pNext = &m3;
+  vkGetPhysicalDeviceProperties2(physical_, &p2);
+  out.max_allocation = m3.maxMemoryAllocationSize;
+  out.max_storage_range = p2.properties.limits.maxStorageBufferRange;
+  VkPhysicalDeviceMemoryProperties mem;
+  vkGetPhysicalDeviceMemoryProperties(physical_, &mem);
+  const VkMemoryPropertyFlags want = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  for (uint32_t i = 0; i < mem.memoryTypeCount; ++i)
+    if ((mem.memoryTypes[i].propertyFlags & want) == want)
+      out.heap = std::max<uint64_t>(out.heap, mem.memoryHeaps[mem.memoryTypes[i].heapIndex].size);
+  return out;
+}
+
+Status ComputeContext::check_buffer_size(const std::string& what, uint64_t bytes, bool descriptor) const {
+  const BufferLimits limits = buffer_limits();
+  const auto past = [&](uint64_t limit, const char* name) {
+    return Status::error("the %s needs %llu bytes, more than the device's %s (%llu bytes)", what.c_str(),
+                         (unsigned long long)bytes, name, (unsigned long long)limit);
+  };
+  if (limits.max_allocation && bytes > limits.max_allocation) return past(limits.max_allocation, "maxMemoryAllocationSize");
+  if (limits.heap && bytes > limits.heap) return past(limits.heap, "host-visible memory heap");
+  if (descriptor && bytes > limits.max_storage_range) return past(limits.max_storage_range, "maxStorageBufferRange");
+  return Status::ok();
+}
+
+bool address_space_for(uint64_t bytes) {
+  if (bytes > uint64_t(SIZE_MAX)) return false;
+  void* p = ::mmap(nullptr, size_t(bytes), PROT_NONE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+  if (p == MAP_FAILED) return false;
+  ::munmap(p, size_t(bytes));
+  return true;
+}
+
 Status ComputeContext::create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage) {
   out = Buffer();
   if (!device_) return Status::error("create_buffer: context not initialized");
+  if (Status s = check_buffer_size("buffer", bytes); !s) return s;
   VkBufferCreateInfo bci{};
   bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
   bci.size = bytes > 0 ? bytes : 4;
@@ -307,10 +352,13 @@ Status ComputeContext::create_buffer(size_t bytes, Buffer& out, VkBufferUsageFla
   uint32_t type = UINT32_MAX;
   for (uint32_t i = 0; i < mem.memoryTypeCount && type == UINT32_MAX; ++i)
     if ((req.memoryTypeBits & (1u << i)) && (mem.memoryTypes[i].propertyFlags & want) == want) type = i;
-  if (type == UINT32_MAX) {
+  // Every failure from here on releases what was made and names the size.
+  const auto fail = [&](const char* what, VkResult result) {
     destroy_buffer(out);
-    return Status::error("no host-visible coherent memory type for a %zu-byte buffer", bytes);
-  }
+    const std::string code = result == VK_SUCCESS ? std::string() : format(" (VkResult %d)", int(result));
+    return Status::error("a buffer of %llu bytes: %s%s", (unsigned long long)req.size, what, code.c_str());
+  };
+  if (type == UINT32_MAX) return fail("no host-visible coherent memory type", VK_SUCCESS);
   VkMemoryAllocateFlagsInfo flags{};
   flags.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO;
   flags.flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT;
@@ -319,9 +367,16 @@ Status ComputeContext::create_buffer(size_t bytes, Buffer& out, VkBufferUsageFla
   mai.pNext = &flags;
   mai.allocationSize = req.size;
   mai.memoryTypeIndex = type;
-  LSNIF_VK_CHECK(vkAllocateMemory(device_, &mai, nullptr, &out.memory));
-  LSNIF_VK_CHECK(vkBindBufferMemory(device_, out.buffer, out.memory, 0));
-  LSNIF_VK_CHECK(vkMapMemory(device_, out.memory, 0, VK_WHOLE_SIZE, 0, &out.mapped));
+  // The mapping needs the address space (twice: a driver on the CPU may keep its own mapping too).
+  if (!address_space_for(2 * req.size)) return fail("the process's address space cannot take it", VK_SUCCESS);
+  if (VkResult r = vkAllocateMemory(device_, &mai, nullptr, &out.memory); r != VK_SUCCESS)
+    return fail("out of device memory (vkAllocateMemory failed)", r);
+  if (VkResult r = vkBindBufferMemory(device_, out.buffer, out.memory, 0); r != VK_SUCCESS)
+    return fail("vkBindBufferMemory failed", r);
+  if (VkResult r = vkMapMemory(device_, out.memory, 0, VK_WHOLE_SIZE, 0, &out.mapped); r != VK_SUCCESS)
+    return fail("cannot map it into the host's address space (vkMapMemory failed)", r);
+  if (!out.mapped || out.mapped == MAP_FAILED)
+    return fail("cannot map it into the host's address space (vkMapMemory gave no address)", VK_SUCCESS);
   std::memset(out.mapped, 0, bci.size);
   out.size = bci.size;
   VkBufferDeviceAddressInfo ai{};
@@ -459,6 +514,9 @@ Status ComputeContext::dispatch(const Pipeline& pipeline, const void* push, uint
   if (buffers.size() != pipeline.storage_buffers)
     return Status::error("dispatch: %zu buffers for a pipeline with %u storage-buffer bindings", buffers.size(),
                          pipeline.storage_buffers);
+  for (size_t i = 0; i < buffers.size(); ++i)
+    if (Status s = check_buffer_size(format("buffer of binding %zu", i), buffers[i]->size, true); !s)
+      return s.context("dispatch");
   // A descriptor set for this dispatch only (pool destroyed after the wait).
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet set = VK_NULL_HANDLE;

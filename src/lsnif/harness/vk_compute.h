@@ -94,6 +94,19 @@ Status query_device_info(VkInstance instance, VkPhysicalDevice physical, DeviceI
                          LsnifDeviceSupport* support = nullptr);
 
 
+// The device's limits on one buffer of ComputeContext::create_buffer (0: not known).
+struct BufferLimits {
+  uint64_t max_allocation = 0;     // VkPhysicalDeviceMaintenance3Properties::maxMemoryAllocationSize
+  uint64_t max_storage_range = 0;  // VkPhysicalDeviceLimits::maxStorageBufferRange (a buffer bound to a descriptor)
+  uint64_t heap = 0;               // the largest heap with host-visible coherent memory
+};
+
+// Whether the process can map `bytes` more of address space now: a reservation that takes no
+// memory, released at once. Host-visible buffers stay mapped, and a driver whose mapping fails
+// under an address-space limit (RLIMIT_AS) may hand back an unusable pointer instead of an error,
+// so create_buffer checks the room first (twice the size: a driver on the CPU maps memory twice).
+bool address_space_for(uint64_t bytes);
+
 // A pool of timestamp queries on a ComputeContext's queue (create_timestamps).
 struct Timestamps {
   VkQueryPool pool = VK_NULL_HANDLE;
@@ -123,7 +136,17 @@ class ComputeContext {
   Status init(const ContextOptions& options);
   // A host-visible storage buffer of `bytes` with a device address (contents zeroed), with the
   // usage bits `extra_usage` added (e.g. acceleration-structure storage, shader binding table).
+  // A size past the device's limits (check_buffer_size), memory the device or the host cannot give
+  // (vkAllocateMemory failing, a mapping the process's address space cannot take) is an error
+  // naming the bytes, the limit or the VkResult, never a crash; `out` is then left empty.
   Status create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage = 0);
+  BufferLimits buffer_limits() const;
+  // An error unless a buffer of `bytes` fits the device's maxMemoryAllocationSize and its
+  // host-visible heap (and maxStorageBufferRange, with `descriptor`: a buffer bound to a descriptor
+  // of a pipeline, as dispatch binds them): "the WHAT buffer needs N bytes, more than the device's
+  // LIMIT (M bytes)". Callers that know what sets the size check first, naming it in `what`
+  // ("ray buffer (--rays 16777216)").
+  Status check_buffer_size(const std::string& what, uint64_t bytes, bool descriptor = false) const;
   void destroy_buffer(Buffer& buffer);
   // A compute pipeline (entry "main", no descriptor sets) from a SPIR-V file.
   // Reads a SPIR-V file and creates a shader module on this context's device (caller destroys it).

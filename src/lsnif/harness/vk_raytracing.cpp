@@ -211,18 +211,12 @@ Status RayTracer::build_compacted_triangle_blas(const std::vector<float>& positi
                          triangle_count, static_cast<unsigned long long>(as_props_.maxPrimitiveCount));
   s = triangle_blas_sizes(vertex_count, triangle_count, flags, report.sizes);
   if (!s) return s;
-  VkPhysicalDeviceMaintenance3Properties m3{};
-  m3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
-  VkPhysicalDeviceProperties2 p2{};
-  p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
-  p2.pNext = &m3;
-  vkGetPhysicalDeviceProperties2(ctx_.physical_device(), &p2);
+  const uint64_t max_allocation = ctx_.buffer_limits().max_allocation;
   const VkDeviceSize largest = std::max(report.sizes.acceleration_structure, report.sizes.build_scratch);
-  if (largest > m3.maxMemoryAllocationSize)
+  if (largest > max_allocation)
     return Status::error("build_compacted_triangle_blas: the BLAS of %u triangles needs a %llu-byte buffer, more "
                          "than the device's maxMemoryAllocationSize %llu", triangle_count,
-                         static_cast<unsigned long long>(largest),
-                         static_cast<unsigned long long>(m3.maxMemoryAllocationSize));
+                         static_cast<unsigned long long>(largest), static_cast<unsigned long long>(max_allocation));
 
   Buffer vbuf, ibuf, scratch;
   AccelerationStructure full;

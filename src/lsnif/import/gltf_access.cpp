@@ -1,6 +1,7 @@
 // gltf_access.cpp -- checked glTF access (gltf_access.h). The implementations of tinygltf and of
 // the stb_image functions it needs live in this file only, once in any program.
 #include <algorithm>
+#include <cctype>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -187,10 +188,49 @@ bool file_exists_callback(const std::string& joined, void* user) {
       ctx.refused.push_back(s.message());
     return false;
   }
+  // Whatever exists is "found", so that reading it names what is wrong with it (a folder, a
+  // device: read_whole_file) instead of tinygltf's "File not found".
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(resolved, ec)) return false;
+  if (!std::filesystem::exists(resolved, ec)) return false;
   ctx.resolved[joined] = resolved;
   return true;
+}
+
+// The base64 payload of a data URI tinygltf decodes holds this many bytes: tinygltf's decoder
+// stops at the first '=' or other byte outside the alphabet, and a last group of k characters
+// gives k - 1 bytes.
+uint64_t base64_payload_bytes(std::string_view uri) {
+  const size_t comma = uri.find(";base64,");
+  if (comma == std::string_view::npos) return 0;
+  uint64_t chars = 0;
+  for (size_t i = comma + 8; i < uri.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(uri[i]);
+    if (!(std::isalnum(c) || c == '+' || c == '/')) break;
+    ++chars;
+  }
+  return chars / 4 * 3 + (chars % 4 ? chars % 4 - 1 : 0);
+}
+
+// Why tinygltf refused a buffer's data URI, in the file's terms ("buffer 0: data URI holds 96 bytes,
+// byteLength says 100"), or "" when no buffer's data URI is at fault. tinygltf says only "Failed to
+// decode 'uri'" followed by the whole URI (megabytes of base64).
+std::string data_uri_problem(std::string_view json_text) {
+  const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
+  if (!doc.is_object() || !doc.contains("buffers") || !doc["buffers"].is_array()) return "";
+  const nlohmann::json& buffers = doc["buffers"];
+  for (size_t i = 0; i < buffers.size(); ++i) {
+    const nlohmann::json& b = buffers[i];
+    if (!b.is_object() || !b.contains("uri") || !b["uri"].is_string()) continue;
+    const std::string& uri = b["uri"].get_ref<const std::string&>();
+    if (!tinygltf::IsDataURI(uri)) continue;
+    const uint64_t holds = base64_payload_bytes(uri);
+    if (holds == 0) return format("buffer %zu: data URI holds no base64 data", i);
+    if (b.contains("byteLength") && b["byteLength"].is_number_unsigned() &&
+        b["byteLength"].get<uint64_t>() != holds)
+      return format("buffer %zu: data URI holds %llu bytes, byteLength says %llu", i, (unsigned long long)holds,
+                    (unsigned long long)b["byteLength"].get<uint64_t>());
+  }
+  return "";
 }
 
 // tinygltf's ReadWholeFile callback: reads the file file_exists_callback resolved the joined path to
@@ -212,27 +252,16 @@ std::string trim_message(std::string s, size_t max_chars) {
   while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
   for (char& c : s)
     if (c == '\n') c = ';';
-  if (s.size() > max_chars) s = s.substr(0, max_chars) + "...";
-  return s;
+  if (s.size() <= max_chars) return printable(s);
+  const size_t tail = std::min<size_t>(max_chars / 4, 100);
+  return elided(s, max_chars - tail, tail);
 }
 
 bool read_whole_file(std::vector<unsigned char>* out, std::string* err, const std::string& path,
                      void* /*user*/) {
-  ReadFailure f;
-  if (read_file(path, *out, uint64_t(1) << 32, &f)) return true;
-  if (err) {
-    switch (f.problem) {
-      case ReadProblem::Missing:
-      case ReadProblem::CannotAccess:
-      case ReadProblem::Directory:
-      case ReadProblem::NotRegular: *err += "missing or not a regular file: " + path + "\n"; break;
-      case ReadProblem::SizeUnknown:
-      case ReadProblem::TooLarge:
-      case ReadProblem::OutOfMemory: *err += "cannot size or too large: " + path + "\n"; break;
-      default: *err += "read error: " + path + "\n"; break;
-    }
-  }
-  return false;
+  const Status s = read_file(path, *out, uint64_t(1) << 32);
+  if (!s && err) *err += s.message() + "\n";
+  return s.is_ok();
 }
 
 Status load_model(std::string_view data, bool binary, const std::string& name,
@@ -242,15 +271,15 @@ Status load_model(std::string_view data, bool binary, const std::string& name,
   if (data.size() >= std::numeric_limits<uint32_t>::max())
     return Status::error("%s: file too large for glTF", file);
   uint32_t length = static_cast<uint32_t>(data.size());
+  std::string_view json_text = data;
   if (binary) {
     Status s = check_glb(data, file, length);
     if (!s) return s;
     uint32_t json_length;
     std::memcpy(&json_length, data.data() + 12, 4);
-    if (Status d = json::check_depth(data.substr(20, json_length), name); !d) return d;
-  } else if (Status d = json::check_depth(data, name); !d) {
-    return d;
+    json_text = data.substr(20, json_length);
   }
+  if (Status d = json::check_depth(json_text, name); !d) return d;
   FsContext context;
   context.base_dir = base_dir.empty() ? std::string(".") : base_dir;
   context.allow_outside = options.allow_outside_refs;
@@ -271,6 +300,8 @@ Status load_model(std::string_view data, bool binary, const std::string& name,
   if (!context.refused.empty()) return Status::error("%s: %s", file, context.refused.front().c_str());
   if (!warn.empty()) warnings.push_back(name + ": " + trim_message(warn, options.max_message_chars));
   if (!ok) {
+    if (const std::string problem = data_uri_problem(json_text); !problem.empty())
+      return Status::error("%s: invalid glTF: %s", file, problem.c_str());
     // tinygltf rejects Draco primitives' bufferView-less accessors before we can name the cause.
     const bool draco = data.find("KHR_draco_mesh_compression") != std::string_view::npos;
     return Status::error("%s: invalid glTF: %s%s", file,
@@ -346,6 +377,19 @@ std::vector<uint32_t> triangle_list(int mode, const std::vector<uint32_t>& idx) 
   } else if (mode == TINYGLTF_MODE_TRIANGLE_FAN) {
     for (size_t i = 0; i + 2 < idx.size(); ++i) out.insert(out.end(), {idx[i + 1], idx[i + 2], idx[0]});
   }
+  return out;
+}
+
+PrimitiveSize primitive_size(const tinygltf::Model& model, const tinygltf::Primitive& prim) {
+  PrimitiveSize out;
+  if (!is_triangle_mode(prim.mode)) return out;
+  const auto count = [&](int accessor) -> uint64_t {
+    return accessor >= 0 && size_t(accessor) < model.accessors.size() ? model.accessors[size_t(accessor)].count : 0;
+  };
+  out.vertices = count(find_attribute(prim, "POSITION"));
+  const uint64_t indices = prim.indices >= 0 ? count(prim.indices) : out.vertices;
+  if (prim.mode < 0 || prim.mode == TINYGLTF_MODE_TRIANGLES) out.triangles = indices / 3;
+  else out.triangles = indices >= 3 ? indices - 2 : 0;  // a strip or a fan
   return out;
 }
 

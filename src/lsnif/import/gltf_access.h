@@ -32,9 +32,10 @@ namespace lsnif::gltf {
 struct LoadOptions {
   // Images larger than this many pixels are not decoded (they stay empty, with a warning).
   uint64_t max_pixels = uint64_t(1) << 27;
-  // tinygltf's error and warning text is cut to this many characters ("..." appended);
-  // std::string::npos: never cut.
-  size_t max_message_chars = std::string::npos;
+  // tinygltf's error and warning text (which quotes the file: a data URI of megabytes) is made
+  // printable and shortened to about this many characters (elided in the middle, status.h);
+  // std::string::npos: never shortened.
+  size_t max_message_chars = 600;
   // External buffers and images may lie outside `base_dir` (resolve_path.h); default: an error.
   bool allow_outside_refs = false;
   // Keep each object's "extensions" JSON text (tinygltf's extensions_json_string), so that the
@@ -43,7 +44,8 @@ struct LoadOptions {
 };
 
 // tinygltf's multi-line message text on one line: trailing newlines and spaces dropped, inner
-// newlines turned into ';', then cut to `max_chars` characters (+ "...") when longer.
+// newlines turned into ';', then printable() (status.h), or elided() to its first and last
+// characters when longer than `max_chars`.
 std::string trim_message(std::string s, size_t max_chars = std::string::npos);
 
 // Reads a whole regular file (no devices or FIFOs, at most 4 GiB) into `out` with read_file
@@ -102,6 +104,15 @@ bool is_triangle_mode(int mode);
 // so all keep the first one's winding, TRIANGLE_FAN triangle i is (0, i+1, i+2) (written as
 // (i+1, i+2, 0), the same winding). The one expansion of the renderer and the converter.
 std::vector<uint32_t> triangle_list(int mode, const std::vector<uint32_t>& indices);
+
+// What a triangle primitive will be read as, from its accessors' counts alone (no data read): its
+// vertices (POSITION's count) and the triangles triangle_list makes of its indices (the index
+// accessor's count, else one per vertex). Zero for a primitive of another mode; an accessor index
+// out of range counts 0 (reading it is the error).
+struct PrimitiveSize {
+  uint64_t vertices = 0, triangles = 0;
+};
+PrimitiveSize primitive_size(const tinygltf::Model& model, const tinygltf::Primitive& prim);
 
 // Nodes that are no node's child (the roots when a file has no scenes), in index order.
 std::vector<int> parentless_nodes(const tinygltf::Model& model);

@@ -3,6 +3,7 @@
 
 
 #include <algorithm>
+#include <cstdint>
 #include <cmath>
 #include <limits>
 
@@ -186,6 +187,44 @@ Status check_world_transform(const glm::dmat4& world, glm::mat4& out) {
   const double det = glm::determinant(m);
   if (!(norms > 1e-30) || !(std::abs(det) > 1e-6 * norms))
     return Status::error("non-invertible world transform (determinant %g)", det);
+  return Status::ok();
+}
+
+std::vector<int> gltf_placed_meshes(const tinygltf::Model& model, const GltfScene& walk) {
+  std::vector<int> out;
+  for (const GltfSceneNode& n : walk.nodes)
+    if (model.nodes[size_t(n.node)].mesh >= 0) out.push_back(model.nodes[size_t(n.node)].mesh);
+  return out;
+}
+
+static_assert(kGltfMaxGeometry == uint64_t(1) << 27, "the message says 2^27");
+
+Status check_gltf_geometry(const tinygltf::Model& model, const std::vector<int>& meshes, bool placements,
+                           const std::string& name) {
+  // Counts come from the file: sums saturate instead of wrapping.
+  const auto add = [](uint64_t a, uint64_t b) { return a > UINT64_MAX - b ? UINT64_MAX : a + b; };
+  // Each mesh's size once, then the sum over the list (a mesh may be listed many times).
+  std::vector<gltf::PrimitiveSize> size(model.meshes.size());
+  for (size_t m = 0; m < model.meshes.size(); ++m)
+    for (const tinygltf::Primitive& prim : model.meshes[m].primitives) {
+      const gltf::PrimitiveSize p = gltf::primitive_size(model, prim);
+      size[m].vertices = add(size[m].vertices, p.vertices);
+      size[m].triangles = add(size[m].triangles, p.triangles);
+    }
+  uint64_t triangles = 0, vertices = 0;
+  for (const int m : meshes) {
+    if (m < 0 || size_t(m) >= size.size()) continue;
+    triangles = add(triangles, size[size_t(m)].triangles);
+    vertices = add(vertices, size[size_t(m)].vertices);
+  }
+  const bool too_many_triangles = triangles > kGltfMaxGeometry;
+  if (too_many_triangles || vertices > kGltfMaxGeometry)
+    return Status::error("%s: the scene's %zu %s %llu %s, more than the %llu (2^27) a tool builds from one glTF "
+                         "file", name.c_str(), meshes.size(),
+                         meshes.size() == 1 ? (placements ? "mesh placement holds" : "mesh holds")
+                                            : (placements ? "mesh placements hold" : "meshes hold"),
+                         (unsigned long long)(too_many_triangles ? triangles : vertices),
+                         too_many_triangles ? "triangles" : "vertices", (unsigned long long)kGltfMaxGeometry);
   return Status::ok();
 }
 

@@ -30,6 +30,14 @@ namespace lsnif {
 
 inline constexpr int kGltfMaxNodeDepth = 256;
 
+// The most triangles, and the most vertices, a tool builds from one glTF file: the flattened mesh
+// of `lsnif train`, `eval` and `convert`, where every placement of a mesh counts (a mesh placed by
+// 1000 nodes is flattened 1000 times), and the meshes the renderer's scene loader reads (`render`,
+// `view`, `bench`), each once (its nodes instance it). Counted from the accessors' counts before
+// any data is read (check_gltf_geometry), so that a small file placing a large (or a sparse,
+// zero-filled) accessor many times is refused at once rather than after gigabytes.
+inline constexpr uint64_t kGltfMaxGeometry = uint64_t(1) << 27;
+
 struct GltfSceneNode {
   int node = -1;          // index into tinygltf::Model::nodes
   glm::dmat4 world{1.0};  // the node's space -> the scene's: the local transforms from its root down
@@ -43,6 +51,18 @@ struct GltfScene {
 // Walks the rendered scene of `model` under the rules above; `name` names the file in messages.
 // On error `out` is left empty.
 Status read_gltf_scene(const tinygltf::Model& model, const std::string& name, GltfScene& out);
+
+// The nodes of `walk` that place a mesh (node.mesh >= 0), as mesh indices in walk order.
+std::vector<int> gltf_placed_meshes(const tinygltf::Model& model, const GltfScene& walk);
+
+// Sums the triangles and vertices of `meshes` (mesh indices; a repeated one counts again; one out of
+// range counts nothing) with gltf::primitive_size (sums saturate), and refuses more than kGltfMaxGeometry
+// of either:
+// "NAME: the scene's 2000 mesh placements hold 699050000 triangles, more than the 134217728 (2^27)
+// a tool builds from one glTF file". `placements`: the list's entries are called mesh placements in
+// that message (a flattening tool's), else meshes (the renderer's).
+Status check_gltf_geometry(const tinygltf::Model& model, const std::vector<int>& meshes, bool placements,
+                           const std::string& name);
 
 // The local transform of node `index` under the rules above (errors name `name` and the node).
 Status gltf_local_transform(const tinygltf::Model& model, int index, const std::string& name, glm::dmat4& out);

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -209,6 +210,78 @@ TEST(GltfScene, DepthLimit) {
       EXPECT_TRUE(contains(s.message(), "deeper than 256 levels")) << s.message();
     }
   }
+}
+
+// gltf::primitive_size against the triangles gltf::triangle_list actually makes of k indices, for
+// every triangle mode and small k (with and without an index accessor), and 0 for other modes.
+TEST(GltfScene, PrimitiveSizeCountsWhatTheTriangleListMakes) {
+  tinygltf::Model g;
+  g.accessors.resize(2);
+  tinygltf::Primitive prim;
+  prim.attributes["POSITION"] = 0;
+  for (const int mode : {-1, TINYGLTF_MODE_TRIANGLES, TINYGLTF_MODE_TRIANGLE_STRIP, TINYGLTF_MODE_TRIANGLE_FAN,
+                         TINYGLTF_MODE_POINTS, TINYGLTF_MODE_LINE})
+    for (size_t k = 0; k < 12; ++k)
+      for (const bool indexed : {false, true}) {
+        SCOPED_TRACE(testing::Message() << "mode " << mode << " k " << k << " indexed " << indexed);
+        prim.mode = mode;
+        prim.indices = indexed ? 1 : -1;
+        g.accessors[0].count = indexed ? 40 : k;
+        g.accessors[1].count = k;
+        std::vector<uint32_t> indices(k);
+        for (size_t i = 0; i < k; ++i) indices[i] = uint32_t(i);
+        const uint64_t truth = gltf::is_triangle_mode(mode) ? gltf::triangle_list(mode, indices).size() / 3 : 0;
+        const gltf::PrimitiveSize size = gltf::primitive_size(g, prim);
+        EXPECT_EQ(size.triangles, truth);
+        EXPECT_EQ(size.vertices, gltf::is_triangle_mode(mode) ? g.accessors[0].count : 0u);
+      }
+  prim.mode = TINYGLTF_MODE_TRIANGLES;
+  prim.indices = 7;  // past the list: counts nothing (reading it is the error)
+  EXPECT_EQ(gltf::primitive_size(g, prim).triangles, 0u);
+}
+
+// check_gltf_geometry: the sum over a list of placements (a mesh listed twice counts twice) against
+// a sum made by hand, exactly at the budget and one past it, for triangles and for vertices.
+TEST(GltfScene, GeometryBudgetSumsEveryPlacement) {
+  tinygltf::Model g;
+  g.accessors.resize(2);
+  g.accessors[0].count = 3 * 1000;  // positions: 1000 triangles without indices
+  g.accessors[1].count = 6;         // 2 indexed triangles over the same 3000 positions
+  tinygltf::Primitive flat, indexed;
+  flat.attributes["POSITION"] = indexed.attributes["POSITION"] = 0;
+  indexed.indices = 1;
+  g.meshes.resize(2);
+  g.meshes[0].primitives = {flat, indexed};  // 1002 triangles, 6000 vertices
+  g.meshes[1].primitives = {indexed};        // 2 triangles, 3000 vertices
+  EXPECT_TRUE(check_gltf_geometry(g, {0, 0, 1, 9, -1}, true, "f.gltf"));  // 9, -1: nothing
+  g.accessors[0].count = 3 * kGltfMaxGeometry + 3;  // one placement past the budget: a singular message
+  const Status one = check_gltf_geometry(g, {1}, true, "f.gltf");
+  ASSERT_FALSE(one);
+  EXPECT_TRUE(contains(one.message(), "the scene's 1 mesh placement holds " + std::to_string(3 * kGltfMaxGeometry + 3) +
+                                          " vertices")) << one.message();
+  g.accessors[0].count = 3 * 1000;
+  // Vertices past the budget first: placements of mesh 1 alone, 3000 vertices each.
+  const size_t fit = size_t(kGltfMaxGeometry / 3000);
+  std::vector<int> many(fit, 1);
+  EXPECT_TRUE(check_gltf_geometry(g, many, true, "f.gltf"));
+  many.push_back(1);
+  Status s = check_gltf_geometry(g, many, true, "f.gltf");
+  ASSERT_FALSE(s);
+  EXPECT_EQ(s.message(), "f.gltf: the scene's " + std::to_string(fit + 1) + " mesh placements hold " +
+                             std::to_string(3000 * (fit + 1)) + " vertices, more than the 134217728 (2^27) a tool "
+                             "builds from one glTF file");
+  // Triangles past the budget (vertices too: triangles are named first).
+  g.accessors[0].count = 3 * kGltfMaxGeometry;
+  s = check_gltf_geometry(g, {0, 0}, false, "f.gltf");
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "the scene's 2 meshes hold " + std::to_string(2 * (kGltfMaxGeometry + 2)) +
+                                        " triangles")) << s.message();
+  // Counts the file chose near 2^64 saturate instead of wrapping to a small sum.
+  g.accessors[0].count = std::numeric_limits<size_t>::max() / 2;
+  s = check_gltf_geometry(g, std::vector<int>(8, 0), false, "f.gltf");
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), std::to_string(std::numeric_limits<uint64_t>::max()) + " triangles"))
+      << s.message();
 }
 
 }  // namespace

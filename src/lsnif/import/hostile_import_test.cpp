@@ -13,6 +13,7 @@
 #include <string>
 
 #include "lsnif/testing/fuzz_support.h"
+#include "lsnif/import/gltf_access.h"
 #include "lsnif/import/json_text.h"
 #include "lsnif/import/mesh.h"
 #include "lsnif/format/model_format.h"
@@ -193,6 +194,49 @@ std::string off_grid(int n, double scale, const std::string& extra_vertices = ""
     }
   const int nv = (n + 1) * (n + 1) + extra_vertex_count, nf = 2 * n * n + extra_face_count;
   return format("OFF\n%d %d 0\n", nv, nf) + v + extra_vertices + f + extra_faces;
+}
+
+// A buffer's data URI must decode to its byteLength: a mismatch is named with both sizes (tinygltf
+// said "Failed to decode 'uri' : " and quoted the whole URI, megabytes of it), a URI of no base64
+// says so, and tinygltf's own long messages come back escaped and shortened.
+TEST(DataUri, WrongLengthsAreNamedAndLongMessagesShortened) {
+  TempDir dir;
+  const std::string prefix = "data:application/octet-stream;base64,";
+  Mesh mesh;
+  Status s = load_mesh(dir.write("scene/ok.gltf", triangle_gltf(prefix + fuzz::base64(triangle_bytes()))), mesh);
+  ASSERT_TRUE(s) << s.message();
+  EXPECT_EQ(mesh.triangles.size(), 1u);
+  for (const size_t bytes : {size_t(35), size_t(40), size_t(3) << 20}) {
+    SCOPED_TRACE(bytes);
+    const std::string uri = prefix + fuzz::base64(std::string(bytes, '\x01'));
+    s = load_mesh(dir.write("scene/len.gltf", triangle_gltf(uri)), mesh);
+    ASSERT_FALSE(s);
+    EXPECT_TRUE(contains(s.message(), "buffer 0: data URI holds " + std::to_string(bytes) + " bytes, byteLength says 36"))
+        << s.message().substr(0, 300);
+    EXPECT_LT(s.message().size(), 300u);
+  }
+  s = load_mesh(dir.write("scene/none.gltf", triangle_gltf(prefix + "!!!!")), mesh);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "buffer 0: data URI holds no base64 data")) << s.message();
+  // tinygltf's text, whatever it quotes: one line, escaped, at most about the limit.
+  const std::string quoted = "Failed to decode 'uri' : " + prefix + std::string(1 << 20, 'A') + "\x1b[2J in Buffer\n";
+  const std::string trimmed = gltf::trim_message(quoted, 600);
+  EXPECT_LT(trimmed.size(), 700u);
+  EXPECT_TRUE(contains(trimmed, "Failed to decode 'uri' : " + prefix)) << trimmed;
+  EXPECT_TRUE(contains(trimmed, "\\x1b[2J in Buffer")) << trimmed;
+  EXPECT_EQ(trimmed.find('\x1b'), std::string::npos);
+  EXPECT_EQ(gltf::trim_message("two\nlines\n"), "two;lines");
+}
+
+// A buffer that is a link to a device: "not a regular file", not tinygltf's "File not found".
+TEST(DataUri, ADeviceAsABufferIsNotARegularFile) {
+  TempDir dir;
+  fs::create_symlink("/dev/zero", dir.path("scene/zero.bin"));
+  Mesh mesh;
+  const Status s = load_mesh(dir.write("scene/dev.gltf", triangle_gltf("zero.bin")), mesh);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "not a regular file")) << s.message();
+  EXPECT_FALSE(contains(s.message(), "not found")) << s.message();
 }
 
 TEST(MeshCleanup, DegeneracyIsJudgedPerTriangle) {

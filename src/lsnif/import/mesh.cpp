@@ -504,8 +504,12 @@ Status load_mesh(const std::string& path, Mesh& mesh, MeshImportReport* report,
   std::string data;
   ReadFailure f;
   if (!read_file(path, data, mesh_io::kMaxMeshFileBytes, &f)) {
-    const char* p = path.c_str();
+    const std::string shown = printable(path);
+    const char* p = shown.c_str();
     switch (f.problem) {
+      case ReadProblem::Missing: return Status::error("%s: no such mesh file", p);
+      case ReadProblem::Directory: return Status::error("%s: is a folder, not a mesh file", p);
+      case ReadProblem::NotRegular: return Status::error("%s: is not a regular file (a device, FIFO or socket)", p);
       case ReadProblem::CannotOpen: return Status::error("%s: cannot open mesh file", p);
       case ReadProblem::SizeUnknown: return Status::error("%s: cannot read mesh file size", p);
       case ReadProblem::TooLarge: return Status::error("%s: file too large", p);
@@ -516,7 +520,7 @@ Status load_mesh(const std::string& path, Mesh& mesh, MeshImportReport* report,
           return Status::error("%s: read error (got %llu of %llu bytes)", p, (unsigned long long)f.got,
                                (unsigned long long)f.size);
         return Status::error("%s: read error (the file grew while it was read)", p);
-      default: return Status::error("%s: cannot open mesh file (missing or not a regular file)", p);
+      default: return Status::error("%s: cannot access mesh file: %s", p, f.reason.c_str());
     }
   }
   std::string base_dir = std::filesystem::path(path).parent_path().string();

@@ -32,6 +32,9 @@ class GltfFlattener {
 
   // Flattens the given parts only (flatten_gltf_meshes).
   Status run_parts(const std::vector<GltfMeshPart>& parts) {
+    std::vector<int> placed;
+    for (const GltfMeshPart& part : parts) placed.push_back(part.mesh);
+    if (Status s = check_gltf_geometry(model_, placed, true, name_); !s) return s;
     if (Status s = read_materials(); !s) return s;
     for (const GltfMeshPart& part : parts) {
       if (part.mesh < 0 || size_t(part.mesh) >= model_.meshes.size())
@@ -57,9 +60,14 @@ class GltfFlattener {
   Status run() {
     GltfScene walk;  // the node graph's rules: gltf_scene.h
     Status s = read_gltf_scene(model_, name_, walk);
+    const bool every_mesh = model_.scenes.empty() && model_.nodes.empty();
+    std::vector<int> placed = gltf_placed_meshes(model_, walk);
+    if (every_mesh)
+      for (size_t m = 0; m < model_.meshes.size(); ++m) placed.push_back(int(m));
+    if (s) s = check_gltf_geometry(model_, placed, true, name_);
     if (s) s = read_materials();
     if (!s) return s;
-    if (model_.scenes.empty() && model_.nodes.empty()) {
+    if (every_mesh) {
       report_.warnings.push_back(format("%s: no scene and no nodes; importing every mesh untransformed",
                                         file()));
       for (size_t m = 0; m < model_.meshes.size(); ++m) {

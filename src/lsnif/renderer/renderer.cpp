@@ -726,7 +726,8 @@ Status Renderer::reset_accumulation(uint32_t width, uint32_t height) {
   if (uint64_t(width) * height > (1u << 26)) return Status::error("render: %ux%u pixels is too large", width, height);
   if (width != width_ || height != height_ || !accumulation_.buffer) {
     release_accumulation();
-    if (Status s = ctx_.create_buffer(size_t(width) * height * 16, accumulation_); !s) return s;
+    if (Status s = ctx_.create_buffer(size_t(width) * height * 16, accumulation_); !s)
+      return s.context(format("render: the accumulation buffer of a %ux%u image (16 bytes a pixel)", width, height));
     width_ = width;
     height_ = height;
   } else {

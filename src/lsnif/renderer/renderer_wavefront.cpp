@@ -111,7 +111,8 @@ Status Renderer::prepare_wavefront(uint32_t samples, uint32_t max_bounces) {
         {&w.shadows, RENDER_WAVE_SHADOWS * pixels * sizeof(RenderWaveShadow)}};
     for (const auto& [address, bytes] : parts) {
       vk::Buffer b;
-      if (Status s = ctx_.create_buffer(bytes, b); !s) return s;
+      if (Status s = ctx_.create_buffer(bytes, b); !s)
+        return s.context(format("render: the wavefront buffers of a %ux%u image", width_, height_));
       wave_buffers_.push_back(b);
       *address = b.address;
     }

@@ -70,6 +70,12 @@ Status SceneBuilder::run() {
     return Status::error("%s: the file has no scenes and no nodes", file());
   GltfScene walk;  // the node graph's rules: lsnif/import/gltf_scene.h
   s = read_gltf_scene(model_, name_, walk);
+  if (s) {  // each mesh is read once, however many nodes place it
+    std::vector<int> meshes = gltf_placed_meshes(model_, walk);
+    std::sort(meshes.begin(), meshes.end());
+    meshes.erase(std::unique(meshes.begin(), meshes.end()), meshes.end());
+    s = check_gltf_geometry(model_, meshes, false, name_);
+  }
   if (!s) return s;
   if (walk.scene < 0) warn("no 'scenes': rendering every root node");
   visited_.assign(model_.nodes.size(), 0);

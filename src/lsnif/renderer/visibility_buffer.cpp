@@ -234,11 +234,9 @@ Status VisibilityBuffer::resize(uint32_t width, uint32_t height, uint32_t layers
   fci.layers = 1;
   LSNIF_VK_CHECK(vkCreateFramebuffer(d, &fci, nullptr, &framebuffer_));
   const size_t pixels = size_t(width) * height;
-  if (Status s = ctx_.create_buffer(pixels * layers * sizeof(RenderVisibility), texels_, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
-      !s)
-    return s;
-  if (Status s = ctx_.create_buffer(pixels * layers * sizeof(float), distances_, VK_BUFFER_USAGE_TRANSFER_DST_BIT); !s)
-    return s;
+  Status s = ctx_.create_buffer(pixels * layers * sizeof(RenderVisibility), texels_, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  if (s) s = ctx_.create_buffer(pixels * layers * sizeof(float), distances_, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  if (!s) return s.context(format("the visibility buffers of a %ux%u image (%u layers)", width, height, layers));
   width_ = width;
   height_ = height;
   layers_ = layers;

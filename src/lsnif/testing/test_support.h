@@ -155,6 +155,7 @@ struct ProcessResult {
   int exit_code = -1;      // when it exited normally, else -1
   int signal = 0;          // the signal that killed it (SIGSEGV, SIGFPE, SIGABRT, ...), else 0
   bool timed_out = false;  // killed by run_process after the time limit
+  double seconds = 0;      // wall time from the start to the end of the output
   std::string output;      // stdout and stderr together
   bool crashed() const { return signal != 0 && !timed_out; }
 };
@@ -163,9 +164,13 @@ struct ProcessResult {
 // stderr captured, killed after `timeout_s` seconds. With `file_size_limit` > 0 the child's files
 // cannot grow beyond that many bytes (RLIMIT_FSIZE; SIGXFSZ ignored, so a write past it fails with
 // EFBIG): a full disk for the program. `env` entries ("NAME=value") are added to the environment.
+// With `address_space_limit` > 0 the child's virtual memory is limited to that many bytes
+// (RLIMIT_AS, as `prlimit --as`): allocations past it fail (a machine with less memory).
 inline ProcessResult run_process(const std::vector<std::string>& argv, double timeout_s,
-                                 uint64_t file_size_limit = 0, const std::vector<std::string>& env = {}) {
+                                 uint64_t file_size_limit = 0, const std::vector<std::string>& env = {},
+                                 uint64_t address_space_limit = 0) {
   ProcessResult r;
+  const auto start = std::chrono::steady_clock::now();
   int fds[2];
   if (argv.empty() || ::pipe(fds) != 0) return r;
   const pid_t pid = ::fork();
@@ -179,6 +184,10 @@ inline ProcessResult run_process(const std::vector<std::string>& argv, double ti
     if (file_size_limit > 0) {
       struct rlimit limit = {rlim_t(file_size_limit), rlim_t(file_size_limit)};
       ::setrlimit(RLIMIT_FSIZE, &limit);
+    }
+    if (address_space_limit > 0) {
+      struct rlimit limit = {rlim_t(address_space_limit), rlim_t(address_space_limit)};
+      ::setrlimit(RLIMIT_AS, &limit);
     }
     for (const std::string& e : env) ::putenv(const_cast<char*>(e.c_str()));
     std::vector<char*> args;
@@ -206,6 +215,7 @@ inline ProcessResult run_process(const std::vector<std::string>& argv, double ti
     r.output.append(buf.data(), size_t(n));
   }
   ::close(fds[0]);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   int status = 0;
   ::waitpid(pid, &status, 0);
   if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);

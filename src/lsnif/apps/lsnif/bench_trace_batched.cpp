@@ -67,7 +67,7 @@ Status set_up_batched(DeviceState& st, const Options& options, const std::vector
   Status s = st.ctx.create_buffer(size_t(n) * sizeof(LsnifQueryRay), st.query_rays);
   if (s) s = st.ctx.create_buffer(size_t(n) * sizeof(LsnifQueryHit), st.query_hits);
   if (s) s = st.ctx.create_buffer(size_t(scratch_bytes), st.scratch);
-  if (!s) return s.context("buffers of the batched path");
+  if (!s) return s.context(format("buffers of the batched path for --rays %u (lower --rays)", n));
   LsnifQueryInfo qi = query_info(st, n);
   VkDeviceSize query_scratch_bytes = 0;
   if (plugin::query_scratch_size(st.plugin.get(), qi, query_scratch_bytes) != LSNIF_SUCCESS)
@@ -75,7 +75,7 @@ Status set_up_batched(DeviceState& st, const Options& options, const std::vector
   s = st.ctx.create_buffer(size_t(n) * sizeof(LsnifQueryResult), st.query_results);
   if (s) s = st.ctx.create_buffer(size_t(query_scratch_bytes), st.query_scratch, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   if (s) s = st.ctx.create_buffer(sizeof(LsnifQueryStatus), st.query_status);
-  if (!s) return s.context("buffers of lsnifCmdQuery");
+  if (!s) return s.context(format("buffers of lsnifCmdQuery for --rays %u (lower --rays)", n));
   auto* out = static_cast<LsnifQueryRay*>(st.query_rays.mapped);
   for (size_t i = 0; i < rays.size(); ++i) {
     const Ray& r = rays[i];

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "lsnif/apps/common/progress.h"
@@ -92,6 +93,34 @@ Status timed_trace(DeviceState& st, const vk::AccelerationStructure& tlas, const
   return Status::ok();
 }
 
+// The buffers of one element per ray, against the device's limits before any is made: each one's
+// size, then all of them together against the memory heap they share. Errors name the buffer, its
+// bytes, the limit and --rays.
+Status check_ray_buffers(const vk::ComputeContext& ctx, uint64_t rays) {
+  const std::pair<const char*, uint64_t> buffers[] = {
+      {"ray buffer", sizeof(LsnifReferenceRay)},       {"LSNIF result buffer", sizeof(BenchTraceResult)},
+      {"triangle result buffer", sizeof(BenchTraceResult)}, {"batched ray buffer", sizeof(LsnifQueryRay)},
+      {"batched hit buffer", sizeof(LsnifQueryHit)},   {"query result buffer", sizeof(LsnifQueryResult)}};
+  uint64_t total = 0;
+  for (const auto& [name, per_ray] : buffers) {
+    const std::string what = format("%s (%llu bytes a ray x --rays %llu)", name, (unsigned long long)per_ray,
+                                    (unsigned long long)rays);
+    if (Status s = ctx.check_buffer_size(what, per_ray * rays); !s)
+      return Status::error("%s; lower --rays", s.message().c_str());
+    total += per_ray * rays;
+  }
+  const uint64_t heap = ctx.buffer_limits().heap;
+  if (heap && total > heap)
+    return Status::error("the buffers of --rays %llu need %llu bytes in all, more than the device's host-visible "
+                         "memory heap (%llu bytes); lower --rays", (unsigned long long)rays,
+                         (unsigned long long)total, (unsigned long long)heap);
+  // All of them stay mapped into this process: refused now rather than after the pipelines.
+  if (!vk::address_space_for(total))
+    return Status::error("the buffers of --rays %llu need %llu bytes in all, more than the process's address space "
+                         "can take; lower --rays", (unsigned long long)rays, (unsigned long long)total);
+  return Status::ok();
+}
+
 }  // namespace
 
 Status set_up(DeviceState& st, const Options& options, const Mesh& mesh, const std::vector<Ray>& rays,
@@ -103,6 +132,7 @@ Status set_up(DeviceState& st, const Options& options, const Mesh& mesh, const s
   Status s = st.ctx.init(context_options);
   if (!s) return s.context("Vulkan device with ray tracing");
   report.device = st.ctx.device_name();
+  if (s = check_ray_buffers(st.ctx, rays.size()); !s) return s;
   if (s = st.tracer.init(); !s) return s;
   if (st.tracer.max_hit_attribute_size() < sizeof(LsnifHitAttributes))
     return Status::error("device %s: maxRayHitAttributeSize %u < %zu bytes of LsnifHitAttributes",
@@ -161,9 +191,10 @@ Status set_up(DeviceState& st, const Options& options, const Mesh& mesh, const s
   report.pipeline_create_seconds = st.pipeline.create_seconds;
 
   const size_t n = rays.size();
-  if (s = st.ctx.create_buffer(n * sizeof(LsnifReferenceRay), st.rays); !s) return s;
-  if (s = st.ctx.create_buffer(n * sizeof(BenchTraceResult), st.lsnif_results); !s) return s;
-  if (s = st.ctx.create_buffer(n * sizeof(BenchTraceResult), st.tri_results); !s) return s;
+  s = st.ctx.create_buffer(n * sizeof(LsnifReferenceRay), st.rays);
+  if (s) s = st.ctx.create_buffer(n * sizeof(BenchTraceResult), st.lsnif_results);
+  if (s) s = st.ctx.create_buffer(n * sizeof(BenchTraceResult), st.tri_results);
+  if (!s) return s.context(format("the ray and result buffers of --rays %zu (lower --rays)", n));
   auto* out = static_cast<LsnifReferenceRay*>(st.rays.mapped);
   for (size_t i = 0; i < n; ++i) {
     const Ray& r = rays[i];

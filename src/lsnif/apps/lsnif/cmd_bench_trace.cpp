@@ -3,6 +3,7 @@
 // benchmark). This file is the command: its options and the sequence of steps.
 #include <cstdint>
 #include <cstdio>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -145,7 +146,14 @@ int run(const Options& o) {
 int cmd_bench_trace(int argc, char** argv) {
   bench_trace::Options options;
   if (const int r = bench_trace::parse_options(argc, argv, options); r >= 0) return r;
-  return bench_trace::run(options);
+  try {
+    return bench_trace::run(options);
+  } catch (const std::bad_alloc&) {
+    // The host's copies of the rays and their results (a limited address space, a small machine).
+    std::fprintf(stderr, "lsnif bench-trace: out of host memory for the rays of --rays %u; lower --rays\n",
+                 options.rays);
+    return 1;
+  }
 }
 
 }  // namespace lsnif::cli

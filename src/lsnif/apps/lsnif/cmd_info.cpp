@@ -75,12 +75,13 @@ int cmd_info(int argc, char** argv) {
   }
   nlohmann::json training;
   if (Status s = read_training(model, training); !s) {
-    std::fprintf(stderr, "lsnif info: %s: %s\n", path.c_str(), s.message().c_str());
+    std::fprintf(stderr, "lsnif info: %s: %s\n", printable(path).c_str(), s.message().c_str());
     return 1;
   }
   if (settings_only) {
     if (training.is_null()) {
-      std::fprintf(stderr, "lsnif info: %s records no training settings (a format version 1 file)\n", path.c_str());
+      std::fprintf(stderr, "lsnif info: %s records no training settings (a format version 1 file)\n",
+                   printable(path).c_str());
       return 1;
     }
     // In table order, then keys the table does not know (they fail as a --config file, naming them).
@@ -145,7 +146,7 @@ int cmd_info(int argc, char** argv) {
   for (uint32_t l = 0; l < c.grid_levels; ++l)
     table_entries_text += c.indexed(l) ? format("%s%u (indexed)", l ? " + " : "", c.index_slots[l])
                                        : format("%s2^%u", l ? " + " : "", c.table_log2[l]);
-  std::printf("model      %s\n", path.c_str());
+  std::printf("model      %s\n", printable(path).c_str());
   std::printf("config     %s\n", c.describe().c_str());
   std::printf("bounds     [%g %g %g] - [%g %g %g]\n", double(b.lo.x), double(b.lo.y), double(b.lo.z),
               double(b.hi.x), double(b.hi.y), double(b.hi.z));
@@ -165,7 +166,7 @@ int cmd_info(int argc, char** argv) {
     if (training.contains("threads")) std::printf("threads    %s\n", printable(training["threads"].dump()).c_str());
   }
   for (size_t i = 0; i < model.materials.size(); ++i)
-    std::printf("material   %zu: %s (base color %.3f %.3f %.3f)\n", i, model.materials[i].name.c_str(),
+    std::printf("material   %zu: %s (base color %.3f %.3f %.3f)\n", i, printable(model.materials[i].name).c_str(),
                 double(model.materials[i].base_color.r), double(model.materials[i].base_color.g),
                 double(model.materials[i].base_color.b));
   std::printf("memory     voxels %8.1f KB\n", double(m.voxel_bytes) / 1024.0);
@@ -182,14 +183,19 @@ int cmd_info(int argc, char** argv) {
   std::printf("           total  %8.1f KB (%.3f MiB)\n", double(m.total()) / 1024.0, double(m.total()) / 1048576.0);
   for (size_t l = 0; l < levels.size(); ++l) {
     const GridLevelUsage& u = levels[l];
+    const std::string indexed =
+        u.indexed_slots ? format("%llu entries + %llu 2-byte displacements", (unsigned long long)u.indexed_slots,
+                                 (unsigned long long)u.indexed_buckets)
+                        : u.vertices > max_indexed_vertices()
+                              ? format("not possible (more than the %llu vertices an indexed level takes)",
+                                       (unsigned long long)max_indexed_vertices())
+                              : std::string("not found (no displacement placed every bucket)");
     std::printf("%s level %zu (R=%u): %llu vertices on occupied voxel faces -> %llu of %llu entries used (%.1f%%), "
-                "%llu shared by 2+ vertices (%.1f%% of the vertices); collision-free (indexed): %llu entries + %llu "
-                "2-byte displacements\n",
+                "%llu shared by 2+ vertices (%.1f%% of the vertices); collision-free (indexed): %s\n",
                 l ? "          " : "grid use  ", l, u.resolution, (unsigned long long)u.vertices,
                 (unsigned long long)u.entries_used, (unsigned long long)u.table_entries,
                 100.0 * double(u.entries_used) / double(u.table_entries), (unsigned long long)u.entries_shared,
-                u.vertices ? 100.0 * double(u.vertices_in_shared) / double(u.vertices) : 0.0,
-                (unsigned long long)u.indexed_slots, (unsigned long long)u.indexed_buckets);
+                u.vertices ? 100.0 * double(u.vertices_in_shared) / double(u.vertices) : 0.0, indexed.c_str());
   }
   return 0;
 }
