@@ -563,14 +563,20 @@ TEST(MutationCampaign, OptionValueForms) {
   };
   const auto start = Clock::now();
   size_t runs = 0;
+  // Runs the command of `n` with `value`: it must end with an exit code, in time.
+  const auto run_value = [&runs](const Numeric& n, const std::string& value, std::vector<std::string>& args) {
+    args = n.command;
+    args.insert(args.end(), {n.option, value});
+    const test::ProcessResult r = lsnif_run(args, 30.0);
+    ++runs;
+    EXPECT_FALSE(r.crashed()) << describe(args) << ": signal " << r.signal << "\n" << r.output;
+    EXPECT_FALSE(r.timed_out) << describe(args);
+    return r;
+  };
+  std::vector<std::string> args;
   for (const Numeric& n : numerics)
     for (const std::string& v : bad_forms(n.valid)) {
-      std::vector<std::string> args = n.command;
-      args.insert(args.end(), {n.option, v});
-      const test::ProcessResult r = lsnif_run(args, 30.0);
-      ++runs;
-      EXPECT_FALSE(r.crashed()) << describe(args) << ": signal " << r.signal << "\n" << r.output;
-      EXPECT_FALSE(r.timed_out) << describe(args);
+      const test::ProcessResult r = run_value(n, v, args);
       EXPECT_EQ(r.exit_code, 2) << describe(args) << "\n" << r.output;
       EXPECT_NE(r.output.find(n.option), std::string::npos) << describe(args) << ": the option is not named\n"
                                                            << r.output;
@@ -580,12 +586,7 @@ TEST(MutationCampaign, OptionValueForms) {
     const Numeric& n = numerics[rng() % numerics.size()];
     std::string v = n.valid;
     fuzz::mutate(v, rng);
-    std::vector<std::string> args = n.command;
-    args.insert(args.end(), {n.option, v});
-    const test::ProcessResult r = lsnif_run(args, 30.0);
-    ++runs;
-    EXPECT_FALSE(r.crashed()) << describe(args) << ": signal " << r.signal << "\n" << r.output;
-    EXPECT_FALSE(r.timed_out) << describe(args);
+    const test::ProcessResult r = run_value(n, v, args);
     EXPECT_TRUE(r.exit_code == 1 || r.exit_code == 2) << describe(args) << "\n" << r.output;
   }
   std::printf("[ info ] option values: %zu runs, %.2f s\n", runs, seconds_since(start));

@@ -107,7 +107,7 @@ TEST(TrainingRecord, ValuesMustBeOfTheirKindAndInTheirRange) {
   expect_error(with("voxels", "-5"), {"training record: voxels", "unsigned integer", "-5"});
   expect_error(with("voxels", "0"), {"voxels 0 out of range [1, 256]"});
   expect_error(with("voxels", "16.5"), {"voxels", "16.5"});
-  expect_error(with("steps", "0"), {"steps", "at least 1"});
+  expect_error(with("steps", "0"), {"steps", "0 out of range [1, 10000000]"});
   expect_error(with("lr", "-1"), {"lr -1", "positive"});
   expect_error(with("lr-warm", "1"), {"lr-warm 1 out of range [0, 1)"});
   expect_error(with("seed", "\"one\""), {"seed", "unsigned integer", "string"});
