@@ -1,6 +1,5 @@
 #include "lsnif/apps/lsnif/args.h"
 
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
@@ -34,28 +33,33 @@ namespace {
 
 std::string range_text(double min, double max) { return format("[%g, %g]", min, max); }
 
+// "" with `x` set when `v` is a whole number in [min, max], else why not.
+std::string whole_in_range(const std::string& v, uint64_t min, uint64_t max, uint64_t& x) {
+  if (std::string why = whole_number_error(v); !why.empty()) return why;
+  x = std::strtoull(v.c_str(), nullptr, 10);
+  if (x < min || x > max) return format("out of range [%llu, %llu]", (unsigned long long)min, (unsigned long long)max);
+  return "";
+}
+
 }  // namespace
 
 void Args::option(const std::string& name, const std::string& help, uint32_t* out, uint32_t min, uint32_t max) {
   checked_option(name, help + " " + format("[%u, %u]", min, max), "N", std::to_string(*out),
                  [out, min, max](const std::string& v) {
-                   if (std::string why = whole_number_error(v); !why.empty()) return why;
-                   const uint64_t x = std::strtoull(v.c_str(), nullptr, 10);
-                   if (x < min || x > max) return format("out of range [%u, %u]", min, max);
-                   *out = uint32_t(x);
-                   return std::string();
+                   uint64_t x = 0;
+                   std::string why = whole_in_range(v, min, max, x);
+                   if (why.empty()) *out = uint32_t(x);
+                   return why;
                  });
 }
 
 void Args::option(const std::string& name, const std::string& help, uint64_t* out, uint64_t min, uint64_t max) {
   checked_option(name, help + " " + format("[%llu, %llu]", (unsigned long long)min, (unsigned long long)max), "N",
                  std::to_string(*out), [out, min, max](const std::string& v) {
-                   if (std::string why = whole_number_error(v); !why.empty()) return why;
-                   const uint64_t x = std::strtoull(v.c_str(), nullptr, 10);
-                   if (x < min || x > max)
-                     return format("out of range [%llu, %llu]", (unsigned long long)min, (unsigned long long)max);
-                   *out = x;
-                   return std::string();
+                   uint64_t x = 0;
+                   std::string why = whole_in_range(v, min, max, x);
+                   if (why.empty()) *out = x;
+                   return why;
                  });
 }
 

@@ -64,6 +64,12 @@ std::string preset_help(const std::string& option) {
   return help + choices;
 }
 
+// Why `text` is no 32-bit whole number (parse_u32 refused it).
+std::string number_error_u32(const std::string& text) {
+  std::string why = whole_number_error(text);
+  return why.empty() ? "larger than 4294967295" : why;
+}
+
 }  // namespace
 
 std::string set_setting_text(SettingLayer& layer, const SettingDef& d, const std::string& text) {
@@ -71,7 +77,7 @@ std::string set_setting_text(SettingLayer& layer, const SettingDef& d, const std
   switch (d.kind) {
     case SettingKind::U32: {
       uint32_t x = 0;
-      if (!parse_u32(text, x)) return whole_number_error(text).empty() ? "larger than 4294967295" : whole_number_error(text);
+      if (!parse_u32(text, x)) return number_error_u32(text);
       v.u = x;
       break;
     }
@@ -84,9 +90,7 @@ std::string set_setting_text(SettingLayer& layer, const SettingDef& d, const std
         const std::string item = text.substr(at, comma - at);
         if (count == LSNIF_MAX_LEVELS) return format("at most %u values (one per level)", LSNIF_MAX_LEVELS);
         if (!parse_u32(item, values[count]))
-          return "N or a comma list N,N,... of decimal whole numbers expected (" +
-                 (whole_number_error(item).empty() ? std::string("larger than 4294967295") : whole_number_error(item)) +
-                 ")";
+          return "N or a comma list N,N,... of decimal whole numbers expected (" + number_error_u32(item) + ")";
         ++count;
         at = comma + 1;
       }
