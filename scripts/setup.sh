@@ -71,6 +71,7 @@ packages=(
   libglfw3-dev libopenimageio-dev openimageio-tools
   xvfb xauth
   nodejs curl  # the Khronos glTF validator (npm's gltf-validator, fetched below) checks the glTF we write
+  slurm-wlm munge  # the cluster test: a single-node Slurm job array (tests/cluster/slurm_local.sh)
 )
 missing=()
 for p in "${packages[@]}"; do

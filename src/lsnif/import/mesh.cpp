@@ -9,6 +9,7 @@
 
 #include "lsnif/import/mesh.h"
 #include "lsnif/import/mesh_formats.h"
+#include "lsnif/import/training_mesh.h"
 #include "lsnif/format/file_io.h"
 #include "lsnif/format/model_format.h"
 
@@ -454,6 +455,7 @@ MeshFormat format_from_path(const std::string& path) {
   if (ext == ".ply") return MeshFormat::Ply;
   if (ext == ".gltf") return MeshFormat::Gltf;
   if (ext == ".glb") return MeshFormat::Glb;
+  if (ext == kTrainingMeshExtension) return MeshFormat::TrainingMesh;
   return MeshFormat::Unknown;
 }
 
@@ -472,8 +474,9 @@ Status parse_mesh(std::string_view data, MeshFormat format, const std::string& n
       case MeshFormat::Ply: s = parse_ply(data, name, mesh, rep); break;
       case MeshFormat::Gltf: s = parse_gltf(data, false, name, base_dir, options, mesh, rep); break;
       case MeshFormat::Glb: s = parse_gltf(data, true, name, base_dir, options, mesh, rep); break;
+      case MeshFormat::TrainingMesh: s = parse_training_mesh(data, name, mesh); break;
       case MeshFormat::Unknown:
-        return Status::error("%s: unsupported mesh format (expected .off, .obj, .ply, .gltf or .glb)",
+        return Status::error("%s: unsupported mesh format (expected .off, .obj, .ply, .gltf, .glb or .lsmesh)",
                              name.c_str());
     }
     if (!s) {
@@ -499,7 +502,7 @@ Status load_mesh(const std::string& path, Mesh& mesh, MeshImportReport* report,
   mesh = Mesh{};
   mesh_io::MeshFormat format = mesh_io::format_from_path(path);
   if (format == mesh_io::MeshFormat::Unknown)
-    return Status::error("%s: unsupported mesh format '%s' (expected .off, .obj, .ply, .gltf or .glb)",
+    return Status::error("%s: unsupported mesh format '%s' (expected .off, .obj, .ply, .gltf, .glb or .lsmesh)",
                          path.c_str(), std::filesystem::path(path).extension().string().c_str());
   std::string data;
   ReadFailure f;

@@ -122,7 +122,7 @@ struct MeshImportOptions {
 // More than this fraction of a mesh's triangles dropped is an error unless allow_dropping_most.
 inline constexpr double kMaxDroppedFraction = 0.5;
 
-// Loads .off, .obj, .ply, .gltf or .glb by extension (case-insensitive). glTF node transforms are
+// Loads .off, .obj, .ply, .gltf, .glb or .lsmesh (training_mesh.h) by extension (case-insensitive). glTF node transforms are
 // flattened into object space; every triangle primitive of every mesh in the default scene is kept.
 // Degenerate and invalid triangles are dropped and counted in `report`; a mesh with no valid
 // triangle left (or, without options.allow_dropping_most, with most of them dropped), an unreadable

@@ -16,7 +16,7 @@
 
 namespace lsnif::mesh_io {
 
-enum class MeshFormat { Off, Obj, Ply, Gltf, Glb, Unknown };
+enum class MeshFormat { Off, Obj, Ply, Gltf, Glb, TrainingMesh, Unknown };
 
 // The most bytes load_mesh reads from a mesh file, and mesh_obj.cpp from an OBJ's material library.
 inline constexpr uint64_t kMaxMeshFileBytes = uint64_t(1) << 34;
@@ -43,6 +43,9 @@ Status parse_ply(std::string_view data, const std::string& name, Mesh& mesh,
 Status parse_gltf(std::string_view data, bool binary, const std::string& name,
                   const std::string& base_dir, const MeshImportOptions& options, Mesh& mesh,
                   MeshImportReport& report);
+// The training mesh file (training_mesh.h), read as written: its checksum, counts and every index
+// are checked, nothing is re-derived.
+Status parse_training_mesh(std::string_view data, const std::string& name, Mesh& mesh);
 
 // What load_mesh does once the file is read: clears `mesh`, parses `data` as `format`, then
 // finalize_mesh. Exceptions from the standard library (allocation failures) become errors.

@@ -6,6 +6,7 @@
 #include <map>
 #include <set>
 
+#include "lsnif/apps/convert/convert_cluster.h"
 #include "lsnif/format/atomic_file.h"
 #include "lsnif/format/folder_lock.h"
 
@@ -44,6 +45,7 @@ const char* state_text(const ModelResult& r, bool dry_run) {
   if (dry_run) return r.up_to_date_on_disk ? "up to date, would be kept" : "would be trained";
   switch (r.state) {
     case ModelState::Trained: return "trained";
+    case ModelState::Adopted: return "adopted from the plan's models";
     case ModelState::UpToDate: return "up to date, not retrained";
     default: return "not trained";
   }
@@ -207,7 +209,7 @@ Status check_outputs(const ConvertSettings& settings, const Plan& plan, const st
       if (fs::path(output).lexically_normal().string() == input || same_file(output, input))
         return Status::error("%s would overwrite %s, which the input scene %s uses; write the output elsewhere",
                              output.c_str(), input.c_str(), settings.input.c_str());
-  if (settings.dry_run) return Status::ok();
+  if (settings.dry_run || !settings.plan_dir.empty()) return Status::ok();  // the output is not written now
   if (!out_dir.empty()) {
     std::error_code ec;
     fs::create_directories(out_dir, ec);
@@ -236,6 +238,7 @@ bool is_convert_output(const ConvertSettings& settings, const std::string& name)
 int lock_output_folder(const ConvertSettings& settings, const std::string& out_dir, FolderLock& lock, FILE* out,
                        FILE* err) {
   const std::string folder = out_dir.empty() ? std::string(".") : out_dir;
+  if (!settings.plan_dir.empty()) return 0;  // the plan folder's lock is taken in plan_jobs
   if (settings.dry_run) {
     if (folder_lock_busy(folder, kLockFile))
       std::fprintf(err, "lsnif convert: warning: another lsnif convert is writing into the output folder '%s' (it "
@@ -280,6 +283,49 @@ Status validate_output(const ConvertSettings& settings, const ConvertResult& res
       options.pending_models.push_back((fs::path(base) / result.plan.models[i].file).lexically_normal().string());
   scene::Scene scene;
   return scene::load_scene_from_memory(text, false, settings.output, base, options, scene);
+}
+
+// `--plan DIR`: the jobs instead of training, under the plan folder's lock. Returns the exit code.
+int plan_jobs(const ConvertSettings& settings, ConvertResult& result, FILE* out, FILE* err) {
+  for (const ModelResult& r : result.models)
+    if (r.state == ModelState::Failed) std::fprintf(err, "lsnif convert: error: %s\n", r.error.c_str());
+  std::error_code ec;
+  fs::create_directories(settings.plan_dir, ec);
+  if (ec) {
+    std::fprintf(err, "lsnif convert: %s: cannot create the plan folder: %s\n", settings.plan_dir.c_str(),
+                 ec.message().c_str());
+    return 1;
+  }
+  FolderLock lock;
+  bool busy = false;
+  if (Status s = lock.acquire(settings.plan_dir, ".lsnif-plan.lock", busy); !s) {
+    std::fprintf(err, "lsnif convert: %s%s\n", s.message().c_str(),
+                 busy ? " (another lsnif convert --plan writes into this plan folder)" : "");
+    return 1;
+  }
+  if (Status s = write_job_plan(settings, result.plan, result.models, out); !s) {
+    std::fprintf(err, "lsnif convert: %s\n", s.message().c_str());
+    return 1;
+  }
+  for (const ModelResult& r : result.models) result.failed += r.state == ModelState::Failed;
+  return result.failed ? 1 : 0;
+}
+
+// `--assemble DIR`: adopts the models the plan's jobs wrote; the others are listed and, with
+// --retrain-missing, left to train_models. Returns -1 to go on, else the exit code.
+int assemble_models(const ConvertSettings& settings, ConvertResult& result, const std::string& out_dir, FILE* err) {
+  std::vector<std::string> missing;
+  if (Status s = adopt_planned_models(settings, result.plan, out_dir, result.models, missing); !s) {
+    std::fprintf(err, "lsnif convert: %s\n", s.message().c_str());
+    return 1;
+  }
+  for (const std::string& line : missing)
+    std::fprintf(err, "lsnif convert: %s %s\n", settings.retrain_missing ? "retraining here:" : "missing:", line.c_str());
+  if (missing.empty() || settings.retrain_missing) return -1;
+  std::fprintf(err, "lsnif convert: %zu of the plan's models are missing or not current: run their jobs (%s/%s) or "
+                    "add --retrain-missing; nothing written\n", missing.size(), settings.assemble_dir.c_str(),
+               kPlanJobList);
+  return 1;
 }
 
 }  // namespace
@@ -327,10 +373,14 @@ int run_convert(const ConvertSettings& settings, ConvertResult& result, FILE* ou
     std::fprintf(err, "lsnif convert: error: the converted scene would not load: %s\n", s.message().c_str());
     return 1;
   }
+  if (!settings.plan_dir.empty()) return plan_jobs(settings, result, out, err);
+  if (!settings.assemble_dir.empty())
+    if (int code = assemble_models(settings, result, out_dir, err); code >= 0) return code;
   train_models(settings, result.plan, out_dir, result.models);
   for (size_t i = 0; i < result.models.size(); ++i) {
     const ModelResult& r = result.models[i];
     result.trained += r.state == ModelState::Trained;
+    result.adopted += r.state == ModelState::Adopted;
     result.up_to_date += r.state == ModelState::UpToDate;
     result.failed += r.state == ModelState::Failed;
     for (const std::string& w : r.warnings)
@@ -349,7 +399,11 @@ int run_convert(const ConvertSettings& settings, ConvertResult& result, FILE* ou
     std::fprintf(out, "dry run   nothing trained or written\n");
     return result.failed ? 1 : 0;
   }
-  std::fprintf(out, "trained   %zu, up to date %zu, failed %zu\n", result.trained, result.up_to_date, result.failed);
+  if (settings.assemble_dir.empty())
+    std::fprintf(out, "trained   %zu, up to date %zu, failed %zu\n", result.trained, result.up_to_date, result.failed);
+  else
+    std::fprintf(out, "trained   %zu, adopted %zu, up to date %zu, failed %zu\n", result.trained, result.adopted,
+                 result.up_to_date, result.failed);
   if (Status s = write_output(settings, result.plan, result.models, result.written); !s) {
     std::fprintf(err, "lsnif convert: %s\n", s.message().c_str());
     return 1;

@@ -592,6 +592,14 @@ Status check_settings(const ConvertSettings& settings) {
   if (!(settings.memory_margin >= kMinMemoryMargin && settings.memory_margin <= kMaxMemoryMargin))
     return Status::error("--memory-margin %g is outside [%.10g, %.10g] (the BLAS bytes a conversion must free per byte "
                          "of its model)", settings.memory_margin, kMinMemoryMargin, kMaxMemoryMargin);
+  const bool plan = !settings.plan_dir.empty(), assemble = !settings.assemble_dir.empty();
+  if (plan && assemble) return Status::error("--plan writes the jobs, --assemble adopts what they wrote: one at a time");
+  if (plan && settings.dry_run) return Status::error("--plan writes the jobs, --dry-run writes nothing: one at a time");
+  if (assemble && settings.force)
+    return Status::error("--force retrains every model here, --assemble adopts the models of the plan's jobs: one at a "
+                         "time");
+  if (settings.retrain_missing && !assemble) return Status::error("--retrain-missing goes with --assemble DIR");
+  if (!settings.job_command.empty() && !plan) return Status::error("--job-command goes with --plan DIR");
   Rules unused;
   return compile_rules(settings, unused);
 }

@@ -51,6 +51,12 @@ struct ConvertSettings {
   bool keep_meshes = false;  // keep the converted nodes' triangles (the renderer's reference mode)
   bool dry_run = false;      // print the plan, train and write nothing
   bool force = false;        // retrain even models whose .lsnif is up to date
+  // Cluster conversion (convert_cluster.h, docs/cluster.md): `--plan DIR` writes the training jobs
+  // into DIR instead of training, `--assemble DIR` adopts the models they wrote (and with
+  // `--retrain-missing` trains the ones missing here); `--job-command` is the program the jobs run.
+  std::string plan_dir, assemble_dir;
+  bool retrain_missing = false;
+  std::string job_command;
   uint32_t jobs = 1;         // models trained at the same time
   uint32_t eval_rays = 20000;  // held-out rays per trained model for the report (0: no evaluation)
   bool progress = true;      // one overall progress bar on stderr

@@ -211,12 +211,30 @@ void prepare_models(const ConvertSettings& settings, const Plan& plan, const std
     }
     unlearned_channel_warnings(r.mesh, settings.train, r.warnings);
     const uint64_t mesh = mesh_hash(r.mesh);
+    r.mesh_hash = mesh;
     r.hash = content_hash(mesh, settings.train);
     r.bytes = estimated_model_bytes(settings.train, uint32_t(r.mesh.materials.size()), &r.mesh);
     if (settings.force) continue;
     check_on_disk((fs::path(out_dir) / m.file).string(), settings.train, mesh, r);
     if (r.up_to_date_on_disk && !settings.dry_run) r.state = ModelState::UpToDate;
   }
+}
+
+Status record_model(const ConvertSettings& settings, const PlannedModel& m, const Model& model,
+                    const std::string& path, ModelResult& r) {
+  if (settings.eval_rays > 0) {
+    EvalSettings es;
+    es.rays = settings.eval_rays;
+    es.normal_maps = bakes_normal_maps(settings.train.surface_maps);
+    EvalReport er;
+    if (Status s = evaluate_model(model, r.mesh, es, er); !s) return s;
+    r.evaluated = true;
+    r.metrics = er.model;
+    surface_quality_warnings(model, r.mesh, er.model, r.warnings);
+  }
+  if (Status s = write_sidecar(sidecar_path(path), m, r, settings.train); !s) return s;
+  r.bytes = memory_breakdown(model).total();
+  return Status::ok();
 }
 
 void train_models(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir,
@@ -262,21 +280,10 @@ void train_models(const ConvertSettings& settings, const Plan& plan, const std::
         });
         model.training = training_record(train, r.mesh, m.name, omp_get_max_threads());
         if (s) s = save_model(model, path);
-        if (s && settings.eval_rays > 0) {
-          EvalSettings es;
-          es.rays = settings.eval_rays;
-          es.normal_maps = bakes_normal_maps(settings.train.surface_maps);
-          EvalReport er;
-          s = evaluate_model(model, r.mesh, es, er);
-          r.evaluated = bool(s);
-          r.metrics = er.model;
-          if (s) surface_quality_warnings(model, r.mesh, er.model, r.warnings);
-        }
-        if (s) s = write_sidecar(sidecar_path(path), m, r, settings.train);
+        if (s) s = record_model(settings, m, model, path, r);
         if (s) {
           r.state = ModelState::Trained;
           r.seconds = rep.seconds;
-          r.bytes = memory_breakdown(model).total();
         } else {
           r.state = ModelState::Failed;
           r.error = object_label(plan, m) + ": " + s.message();

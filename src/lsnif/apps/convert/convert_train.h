@@ -16,6 +16,7 @@ enum class ModelState {
   Planned,   // dry run: would be trained
   UpToDate,  // its .lsnif records the mesh and the settings, and its sidecar agrees: not retrained
   Trained,
+  Adopted,   // `--assemble`: the model a cluster job wrote (convert_cluster.h)
   Failed,
 };
 
@@ -24,6 +25,7 @@ struct ModelResult {
   std::string error;                  // Failed: names the object and the problem
   Mesh mesh;                          // the training mesh (the model's object space)
   std::vector<int> material_sources;  // model material i came from glTF material [i] (-1: default)
+  uint64_t mesh_hash = 0;             // mesh_hash() of `mesh`
   std::string hash;                   // 16 hex digits over mesh + training settings
   bool up_to_date_on_disk = false;    // the .lsnif on disk already matches (dry run: would be skipped)
   std::string stale;                  // why the .lsnif on disk (when there is one) is retrained
@@ -51,6 +53,12 @@ std::string sidecar_path(const std::string& model_path);
 // their error (bad mesh data). Nothing is trained or written.
 void prepare_models(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir,
                     std::vector<ModelResult>& results);
+
+// What follows a model's file in the output folder, trained here or adopted: the evaluation on
+// settings.eval_rays held-out rays (with warnings about surface channels learned poorly) and the
+// sidecar; sets r's metrics and bytes. Errors name the failing step.
+Status record_model(const ConvertSettings& settings, const PlannedModel& m, const Model& model,
+                    const std::string& path, ModelResult& r);
 
 // The second half: trains the Planned models (several at once) into `out_dir`/PlannedModel::file
 // (+ sidecar). Nothing when settings.dry_run. A model that fails (training error, unwritable file)

@@ -298,8 +298,8 @@ Status build_output(const ConvertSettings& settings, const Plan& plan, const std
   for (size_t i = 0; i < plan.models.size(); ++i) {
     const PlannedModel& m = plan.models[i];
     const ModelResult& r = results[i];
-    const bool made = r.state == ModelState::Trained || r.state == ModelState::UpToDate ||
-                      (planned_as_trained && r.state == ModelState::Planned);
+    const bool made = r.state == ModelState::Trained || r.state == ModelState::Adopted ||
+                      r.state == ModelState::UpToDate || (planned_as_trained && r.state == ModelState::Planned);
     if (!made) continue;
     const std::vector<uint32_t> materials = material_list(r);
     for (int ni : m.nodes) {

@@ -101,6 +101,13 @@ int cmd_convert(int argc, char** argv) {
             &cs.keep_meshes);
   args.flag("dry-run", "print the plan (models, instances, memory) without training or writing", &cs.dry_run);
   args.flag("force", "retrain every model, even up-to-date ones", &cs.force);
+  args.option("plan", "write one training job per model into DIR (DIR/jobs.txt: one `lsnif train` command per line, "
+              "for a Slurm job array, xargs -P or a Kubernetes Indexed Job; docs/cluster.md) instead of training",
+              &cs.plan_dir);
+  args.option("assemble", "adopt the models the jobs of the plan in DIR wrote (by content hash) and write the scene",
+              &cs.assemble_dir);
+  args.flag("retrain-missing", "--assemble: train here the models whose jobs have not written them", &cs.retrain_missing);
+  args.option("job-command", "--plan: the program the jobs run (default: this program's path)", &cs.job_command);
   opts.add_to(args, "output scene (.gltf); the .lsnif models are written beside it");
   if (!take_groups(argc, argv, cs.groups)) return 2;
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;

@@ -13,12 +13,14 @@ namespace lsnif::cli {
 int cmd_train(int argc, char** argv) {
   std::string mesh_path;
   TrainOptions opts;
-  Args args("train", "Trains an LSNIF model of MESH (.off .obj .ply .gltf .glb) and writes it with a CSV of\n"
+  Args args("train", "Trains an LSNIF model of MESH (.off .obj .ply .gltf .glb .lsmesh) and writes it with a CSV of\n"
                      "the loss curve beside it (MODEL.csv). The default model is smaller and cheaper than the\n"
                      "paper's (8-bit grid, coarse level indexed, docs/results.md) and its training is tuned\n"
                      "for a 2-core CPU; --paper selects the paper's grid and training, --quality high its network.");
   args.positional("MESH", "input mesh", &mesh_path);
   opts.add_to(args);
+  args.flag("keep-current", "keep -o when it already holds the model of this mesh and these settings (its "
+            "training record); one run at a time trains it (a cluster job: docs/cluster.md)", &opts.keep_current);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (opts.output.empty()) {
     std::fprintf(stderr, "lsnif train: missing -o MODEL.lsnif\n");

@@ -7,7 +7,7 @@ namespace {
 using lsnif::cli::Command;
 const Command kCommands[] = {
     {"demo", lsnif::cli::cmd_demo, "train a model of the bundled bunny and print its evaluation"},
-    {"train", lsnif::cli::cmd_train, "train an LSNIF model of a mesh (.off .obj .ply .gltf .glb)"},
+    {"train", lsnif::cli::cmd_train, "train an LSNIF model of a mesh (.off .obj .ply .gltf .glb .lsmesh)"},
     {"eval", lsnif::cli::cmd_eval, "measure a model against exact ray casting on held-out rays"},
     {"info", lsnif::cli::cmd_info, "print a model's configuration and memory breakdown"},
     {"devices", lsnif::cli::cmd_devices, "list the Vulkan devices and the LSNIF paths each supports"},

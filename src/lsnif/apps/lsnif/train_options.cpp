@@ -2,12 +2,16 @@
 
 #include <omp.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <thread>
 #include <utility>
 
 #include "lsnif/format/atomic_file.h"
+#include "lsnif/format/folder_lock.h"
 #include "lsnif/import/mesh.h"
+#include "lsnif/import/training_mesh.h"
 #include "lsnif/apps/common/progress.h"
 
 namespace lsnif::cli {
@@ -190,6 +194,61 @@ int check_outputs(const TrainOptions& opts, const std::string& mesh_path) {
   return 0;
 }
 
+// The folder of `path` for the file system calls ("." for a bare name).
+std::string folder_of(const std::string& path) {
+  const std::string folder = std::filesystem::path(path).parent_path().string();
+  return folder.empty() ? std::string(".") : folder;
+}
+
+// --keep-current, before any training: holds the model's lock (waiting for another run of the same
+// model to end), clears what a killed run left, and tells whether -o is already this model.
+// Returns -1 to go on training, else the exit code.
+int keep_current_model(const TrainOptions& opts, const TrainSettings& settings, const Mesh& mesh, FolderLock& lock) {
+  namespace fs = std::filesystem;
+  const std::string folder = folder_of(opts.output), name = fs::path(opts.output).filename().string();
+  const std::string lock_name = "." + name + ".lock";
+  bool told = false;
+  for (;;) {
+    bool busy = false;
+    Status s = lock.acquire(folder, lock_name, busy);
+    if (s) break;
+    if (!busy) {
+      std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
+      return 1;
+    }
+    if (!told)
+      std::printf("waiting   another run is training %s (it holds %s/%s)\n", opts.output.c_str(), folder.c_str(),
+                  lock_name.c_str());
+    told = true;
+    std::fflush(stdout);
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
+  for (const std::string& target : {opts.output, opts.csv_path()}) {
+    std::vector<std::string> removed;
+    const std::string file = fs::path(target).filename().string();
+    Status s = remove_stale_temp_files(folder_of(target), [&](const std::string& t) { return t == file; }, removed);
+    for (const std::string& r : removed) std::printf("cleanup   removed %s, a temporary file a killed run left\n", r.c_str());
+    if (!s) {
+      std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
+      return 1;
+    }
+  }
+  std::error_code ec;
+  if (!fs::exists(fs::symlink_status(opts.output, ec))) return -1;
+  Model existing;
+  std::string why;
+  if (Status s = load_model(opts.output, existing); !s)
+    why = s.message();
+  else
+    why = training_record_difference(existing.training, settings, mesh_hash(mesh));
+  if (why.empty()) {
+    std::printf("current   %s already holds the model of this mesh and these settings: kept\n", opts.output.c_str());
+    return 0;
+  }
+  std::printf("retrain   %s: %s\n", opts.output.c_str(), why.c_str());
+  return -1;
+}
+
 }  // namespace
 
 int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* trained) {
@@ -203,6 +262,9 @@ int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* 
     return 1;
   }
   for (const std::string& w : import.warnings) std::fprintf(stderr, "lsnif: warning: %s\n", w.c_str());
+  FolderLock lock;  // --keep-current: held until the model is written
+  if (opts.keep_current)
+    if (int r = keep_current_model(opts, settings, mesh, lock); r >= 0) return r;
   return train_mesh(mesh, mesh_path, opts, trained);
 }
 
@@ -228,8 +290,11 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
     std::fprintf(stderr, "lsnif: training failed: %s\n", result.message().c_str());
     return 1;
   }
-  model.training = training_record(settings, mesh, std::filesystem::path(label).filename().string(),
-                                   omp_get_max_threads());
+  // The record names the mesh by its file name; a training mesh file (a cluster job's, written for
+  // the object its stem names) by that object, as the converter's own training names it.
+  const std::filesystem::path file = std::filesystem::path(label).filename();
+  const std::string mesh_name = file.extension() == kTrainingMeshExtension ? file.stem().string() : file.string();
+  model.training = training_record(settings, mesh, mesh_name, omp_get_max_threads());
   if (Status s = save_model(model, opts.output); !s) {
     std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
     return 1;

@@ -24,6 +24,10 @@ struct TrainOptions {
   uint32_t threads = 0;
   std::string csv;
   bool quiet = false;
+  // `lsnif train --keep-current` (a cluster job, docs/cluster.md): keep -o when it already holds the
+  // model of this mesh and these settings (its training record says so), and let one run at a time
+  // train it (run_training).
+  bool keep_current = false;
   MeshImportOptions import_options;  // --allow-outside-refs, --allow-dropped-triangles
 
   // Registers the training options (every setting, the presets, --config), the mesh import flags
@@ -44,6 +48,9 @@ std::string set_setting_text(SettingLayer& layer, const SettingDef& d, const std
 
 // Loads the mesh, trains, writes the model (+ CSV) and prints a summary. Returns the exit code.
 // The outputs are checked before any work: writable, not a link or device, not the mesh itself.
+// With opts.keep_current the run first holds the lock file .MODEL.lock beside -o (waiting while
+// another run holds it), removes the temporary files of -o and the CSV that a killed run left, and
+// ends at once (0) when -o holds the model these settings give of this mesh.
 int run_training(const std::string& mesh_path, const TrainOptions& opts, Model* trained);
 
 // The same for a mesh already in memory (`label` names it in the summary): trains, writes

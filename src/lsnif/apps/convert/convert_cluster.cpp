@@ -1,0 +1,250 @@
+// convert_cluster.cpp -- the plan folder of a cluster conversion and the adoption of its models
+// (convert_cluster.h).
+#include "lsnif/apps/convert/convert_cluster.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "lsnif/core/model.h"
+#include "lsnif/format/atomic_file.h"
+#include "lsnif/format/file_io.h"
+#include "lsnif/import/json_text.h"
+#include "lsnif/import/training_mesh.h"
+#include "lsnif/train/settings_io.h"
+
+namespace lsnif::convert {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kPlanFormat = "lsnif-cluster-plan";
+constexpr int kPlanVersion = 1;
+constexpr uint64_t kMaxManifestBytes = uint64_t(64) << 20;
+
+// `text` as one shell word: unchanged when it holds only characters no shell treats specially,
+// else in single quotes.
+std::string shell_word(const std::string& text) {
+  const bool plain = !text.empty() && text.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+                                                             "0123456789_-./+,:=@%") == std::string::npos;
+  if (plain) return text;
+  std::string quoted = "'";
+  for (char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+bool is_hash_name(const std::string& name) {
+  return name.size() == 16 && name.find_first_not_of("0123456789abcdef") == std::string::npos;
+}
+
+struct Job {
+  size_t model = 0;            // Plan::models index
+  std::string folder;          // jobs/HASH
+  std::string mesh, settings;  // relative to the plan folder
+  std::string command;
+};
+
+Job make_job(const Plan& plan, const std::vector<ModelResult>& models, size_t i, const std::string& program) {
+  Job job;
+  job.model = i;
+  const ModelResult& r = models[i];
+  job.folder = std::string(kPlanJobFolder) + "/" + r.hash;
+  // The mesh file carries the model's name: the training record names the mesh by its file name,
+  // as a local conversion names it by the model.
+  job.mesh = job.folder + "/" + plan.models[i].name + kTrainingMeshExtension;
+  job.settings = job.folder + "/settings.json";
+  job.command = shell_word(program) + " train " + shell_word(job.mesh) + " --config " + shell_word(job.settings) +
+                " -o " + shell_word(planned_model_path(r.hash)) + " --csv " + shell_word(job.folder + "/loss.csv") +
+                " --keep-current --quiet";
+  return job;
+}
+
+// Writes one job's folder: the training mesh (read back to prove it is the planned mesh), the
+// settings, job.json.
+Status write_job(const ConvertSettings& settings, const Plan& plan, const ModelResult& r, const Job& job,
+                 const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir / job.folder, ec);
+  if (ec) return Status::error("%s: cannot create the folder: %s", (dir / job.folder).c_str(), ec.message().c_str());
+  const std::string mesh_file = (dir / job.mesh).string();
+  if (Status s = save_training_mesh(r.mesh, mesh_file); !s) return s;
+  Mesh back;
+  if (Status s = load_mesh(mesh_file, back); !s) return s;
+  if (mesh_hash(back) != r.mesh_hash)
+    return Status::error("%s does not read back as the planned mesh (another program changed it?)", mesh_file.c_str());
+  const std::string config = settings_to_json(from_train_settings(settings.train)).dump(2) + "\n";
+  if (Status s = write_file_atomic((dir / job.settings).string(), config); !s) return s;
+  nlohmann::ordered_json j;
+  j["hash"] = r.hash;
+  j["model"] = plan.models[job.model].name;
+  j["triangles"] = r.mesh.triangles.size();
+  j["mesh"] = job.mesh;
+  j["settings"] = job.settings;
+  j["output"] = planned_model_path(r.hash);
+  j["command"] = job.command;
+  return write_file_atomic((dir / job.folder / "job.json").string(), j.dump(2) + "\n");
+}
+
+// Removes the job folders of an earlier plan that this one does not have (jobs/HASH only).
+Status remove_other_jobs(const fs::path& dir, const std::set<std::string>& keep, FILE* out) {
+  std::error_code ec;
+  const fs::path jobs = dir / kPlanJobFolder;
+  if (!fs::is_directory(jobs, ec)) return Status::ok();
+  std::vector<fs::path> stale;
+  for (fs::directory_iterator it(jobs, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (is_hash_name(name) && !keep.count(name) && it->is_directory(ec)) stale.push_back(it->path());
+  }
+  if (ec) return Status::error("%s: cannot list: %s", jobs.c_str(), ec.message().c_str());
+  for (const fs::path& p : stale) {
+    fs::remove_all(p, ec);
+    if (ec) return Status::error("%s: cannot remove the job of an earlier plan: %s", p.c_str(), ec.message().c_str());
+    std::fprintf(out, "cleanup   removed %s, a job of an earlier plan\n", p.c_str());
+  }
+  return Status::ok();
+}
+
+Status read_manifest(const std::string& dir, nlohmann::json& manifest) {
+  const std::string path = (fs::path(dir) / kPlanManifest).string();
+  std::string text;
+  ReadFailure f;
+  if (!read_file(path, text, kMaxManifestBytes, &f))
+    return Status::error("%s is not a plan folder: cannot read %s (%s); write one with `lsnif convert IN -o OUT --plan "
+                         "%s`", dir.c_str(), path.c_str(), f.reason.empty() ? "missing" : f.reason.c_str(), dir.c_str());
+  if (Status s = json::parse(text, path, manifest); !s) return s;
+  if (!manifest.is_object() || manifest.value("format", "") != kPlanFormat || !manifest.contains("version") ||
+      !manifest["version"].is_number_integer() || !manifest.contains("jobs") || !manifest["jobs"].is_array())
+    return Status::error("%s: not an LSNIF plan manifest (format \"%s\", version, jobs)", path.c_str(), kPlanFormat);
+  if (manifest["version"].get<int64_t>() != kPlanVersion)
+    return Status::error("%s: plan version %lld (this build reads version %d)", path.c_str(),
+                         (long long)manifest["version"].get<int64_t>(), kPlanVersion);
+  return Status::ok();
+}
+
+// Checks the job's model of r: returns why it cannot be adopted (empty: `model` holds it).
+std::string check_job_model(const ConvertSettings& settings, const std::string& from, const ModelResult& r,
+                            Model& model) {
+  std::error_code ec;
+  if (!fs::exists(fs::symlink_status(from, ec))) return "missing (its job has not finished)";
+  if (Status s = load_model(from, model); !s) return "not loadable: " + s.message();
+  if (std::string why = training_record_difference(model.training, settings.train, r.mesh_hash); !why.empty())
+    return "not the model of this mesh and these settings: " + why;
+  return "";
+}
+
+// Adopts a checked model: the job's file copied into the output folder, then recorded. Returns
+// why not (empty: adopted).
+std::string adopt(const ConvertSettings& settings, const PlannedModel& m, const Model& model, const std::string& from,
+                  const std::string& to, ModelResult& r) {
+  std::string bytes;
+  ReadFailure f;
+  if (!read_file(from, bytes, uint64_t(1) << 34, &f)) return "cannot read it: " + f.reason;
+  if (Status s = write_file_atomic(to, bytes); !s) return "cannot copy it: " + s.message();
+  if (Status s = record_model(settings, m, model, to, r); !s) return s.message();
+  r.state = ModelState::Adopted;
+  return "";
+}
+
+}  // namespace
+
+std::string planned_model_path(const std::string& hash) { return std::string(kPlanModelFolder) + "/" + hash + ".lsnif"; }
+
+std::string job_program(const std::string& job_command) {
+  if (!job_command.empty()) return job_command;
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return ec || self.empty() ? std::string("lsnif") : self.string();
+}
+
+Status write_job_plan(const ConvertSettings& settings, const Plan& plan, const std::vector<ModelResult>& models,
+                      FILE* out) {
+  const fs::path dir = settings.plan_dir;
+  std::error_code ec;
+  fs::create_directories(dir / kPlanModelFolder, ec);
+  if (ec) return Status::error("%s: cannot create the plan folder: %s", dir.c_str(), ec.message().c_str());
+  const std::string program = job_program(settings.job_command);
+  std::vector<Job> jobs;
+  std::set<std::string> hashes;
+  for (size_t i = 0; i < models.size(); ++i) {
+    if (models[i].state == ModelState::Failed || !hashes.insert(models[i].hash).second) continue;
+    jobs.push_back(make_job(plan, models, i, program));
+    if (Status s = write_job(settings, plan, models[i], jobs.back(), dir); !s) return s;
+  }
+  if (Status s = remove_other_jobs(dir, hashes, out); !s) return s;
+  std::string list;
+  nlohmann::ordered_json manifest;
+  manifest["format"] = kPlanFormat;
+  manifest["version"] = kPlanVersion;
+  manifest["input"] = fs::absolute(settings.input, ec).lexically_normal().string();
+  manifest["output"] = fs::absolute(settings.output, ec).lexically_normal().string();
+  manifest["settings"] = settings_to_json(from_train_settings(settings.train));
+  manifest["program"] = program;
+  manifest["jobs"] = nlohmann::ordered_json::array();
+  for (const Job& job : jobs) {
+    const ModelResult& r = models[job.model];
+    list += job.command + "\n";
+    manifest["jobs"].push_back({{"hash", r.hash},
+                                {"model", plan.models[job.model].name},
+                                {"triangles", r.mesh.triangles.size()},
+                                {"folder", job.folder},
+                                {"output", planned_model_path(r.hash)},
+                                {"command", job.command}});
+    std::fprintf(out, "job       model '%s' (%zu triangles): %s/ -> %s\n", plan.models[job.model].name.c_str(),
+                 r.mesh.triangles.size(), job.folder.c_str(), planned_model_path(r.hash).c_str());
+  }
+  if (Status s = write_file_atomic((dir / kPlanJobList).string(), list); !s) return s;
+  if (Status s = write_file_atomic((dir / kPlanManifest).string(), manifest.dump(2) + "\n"); !s) return s;
+  std::fprintf(out,
+               "plan      %s: %zu jobs, one per line of %s (each a shell command, run from the plan folder, in any "
+               "order, anywhere it is shared); they write %s/HASH.lsnif\n"
+               "          e.g. cd %s && xargs -P 4 -d '\\n' -n 1 sh -c < %s   (Slurm, GNU parallel, Kubernetes: "
+               "docs/cluster.md)\n"
+               "          then: lsnif convert %s -o %s --assemble %s (with the same options)\n",
+               dir.c_str(), jobs.size(), kPlanJobList, (dir / kPlanModelFolder).c_str(), shell_word(dir).c_str(),
+               kPlanJobList, shell_word(settings.input).c_str(), shell_word(settings.output).c_str(),
+               shell_word(dir).c_str());
+  return Status::ok();
+}
+
+Status adopt_planned_models(const ConvertSettings& settings, const Plan& plan, const std::string& out_dir,
+                            std::vector<ModelResult>& models, std::vector<std::string>& missing) {
+  missing.clear();
+  nlohmann::json manifest;
+  if (Status s = read_manifest(settings.assemble_dir, manifest); !s) return s;
+  std::set<std::string> planned;
+  for (const nlohmann::json& job : manifest["jobs"])
+    if (job.is_object() && job.contains("hash") && job["hash"].is_string()) planned.insert(job["hash"].get<std::string>());
+  // Every model is checked before any is copied: a run that stops for a missing model writes nothing.
+  std::vector<Model> checked(models.size());
+  std::vector<size_t> ready;
+  const auto line = [&](size_t i, const std::string& from, const std::string& why) {
+    std::string text = format("model '%s' (hash %s): %s: %s", plan.models[i].name.c_str(), models[i].hash.c_str(),
+                              from.c_str(), why.c_str());
+    if (!planned.count(models[i].hash))
+      text += format("; the plan in %s has no job of this hash: it was made from another input or with other "
+                     "options", settings.assemble_dir.c_str());
+    missing.push_back(text);
+  };
+  for (size_t i = 0; i < models.size(); ++i) {
+    if (models[i].state != ModelState::Planned) continue;
+    const std::string from = (fs::path(settings.assemble_dir) / planned_model_path(models[i].hash)).string();
+    if (std::string why = check_job_model(settings, from, models[i], checked[i]); !why.empty())
+      line(i, from, why);
+    else
+      ready.push_back(i);
+  }
+  if (!missing.empty() && !settings.retrain_missing) return Status::ok();
+  for (size_t i : ready) {
+    const PlannedModel& m = plan.models[i];
+    const std::string from = (fs::path(settings.assemble_dir) / planned_model_path(models[i].hash)).string();
+    if (std::string why = adopt(settings, m, checked[i], from, (fs::path(out_dir) / m.file).string(), models[i]);
+        !why.empty())
+      line(i, from, why);
+  }
+  return Status::ok();
+}
+
+}  // namespace lsnif::convert
