@@ -432,6 +432,193 @@ TEST_F(RenderTest, BadScenesGiveClearErrors) {
   EXPECT_FALSE(renderer.render(bad, small(true), out, s));
 }
 
+// An alpha cut-out in reference mode: a quad [-1, 1]^2 in z = 0 whose base colour texture (4 x 4)
+// has alpha 0 in its centre 2 x 2 cells (a window), in front of a backing quad in z = -1, seen
+// head-on from z = 3. Both only glow (emission, black environment): green where the camera ray stops
+// at the front quad, red where it passes the window. Truth: the ray of pixel centre (x, y) in NDC
+// meets z = 0 at 3 tan(fov / 2) (x, y), inside the window when both are within 0.5; pixels within
+// 1.5 pixels of an edge are not judged (sub-pixel jitter). A MASK cutoff, BLEND (0.5) and OPAQUE
+// (no window); the wavefront pipeline and rasterized primary visibility, which do not alpha-test, are
+// refused naming the material.
+scene::Scene window_scene(float cutoff) {
+  scene::Scene scene;
+  scene.path = "(cut-out test)";
+  scene::Texture t;
+  t.width = t.height = 4;
+  for (uint32_t y = 0; y < 4; ++y)
+    for (uint32_t x = 0; x < 4; ++x) {
+      const bool window = x >= 1 && x <= 2 && y >= 1 && y <= 2;
+      t.rgba.insert(t.rgba.end(), {255, 255, 255, uint8_t(window ? 0 : 255)});
+    }
+  scene.textures = {t};
+  scene::Material front, back;
+  front.name = "leaf";
+  front.base_color = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
+  front.base_color_texture = 0;
+  front.emission = glm::vec3(0.0f, 1.0f, 0.0f);
+  front.alpha_cutoff = cutoff;
+  back.name = "backing";
+  back.base_color = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
+  back.emission = glm::vec3(1.0f, 0.0f, 0.0f);
+  scene.materials = {front, back};
+  const auto quad = [](float z, float r, uint32_t material) {
+    scene::Mesh m;
+    m.name = material ? "back" : "front";
+    scene::Primitive p;
+    p.positions = {{-r, -r, z}, {r, -r, z}, {r, r, z}, {-r, r, z}};
+    p.normals.assign(4, glm::vec3(0, 0, 1));
+    for (const glm::vec3& q : p.positions) p.uvs.emplace_back((q.x / r + 1.0f) / 2.0f, (1.0f - q.y / r) / 2.0f);
+    p.indices = {0, 1, 2, 0, 2, 3};
+    p.material = material;
+    m.primitives.push_back(p);
+    return m;
+  };
+  scene.meshes = {quad(0.0f, 1.0f, 0), quad(-1.0f, 3.0f, 1)};
+  scene::Instance a, b;
+  a.node_name = "front";
+  a.mesh = 0;
+  b.node_name = "back";
+  b.mesh = 1;
+  scene.instances = {a, b};
+  scene.environment.color = glm::vec3(0.0f);
+  scene::Camera cam;
+  cam.name = "head-on";
+  cam.yfov = 2.0f * std::atan(1.5f / 3.0f);  // the quad's edge at 2/3 of the half-height
+  cam.camera_to_world = glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, 0.0f, 3.0f));
+  scene.cameras = {cam};
+  return scene;
+}
+
+TEST_F(RenderTest, AlphaCutoutsAreSeenThroughInReferenceMode) {
+  constexpr uint32_t W = 48, H = 48;
+  for (const auto& [cutoff, window] : {std::pair{0.5f, true}, std::pair{kBlendCutoff, true},
+                                       std::pair{0.0f, false}}) {
+    SCOPED_TRACE(::testing::Message() << "cutoff " << cutoff);
+    render::Renderer renderer(vk_);
+    render::RenderSettings settings = small(true);
+    settings.width = W;
+    settings.height = H;
+    settings.spp = 4;
+    image::Image out;
+    render::RenderStats stats;
+    ASSERT_TRUE(renderer.render(window_scene(cutoff), settings, out, stats));
+    // The truth of a point (x, y) of z = 0: the front quad's alpha there by the CPU's bilinear lookup
+    // (Texture::sample_alpha, the trainer's), which rounds the window's corners.
+    Texture alpha;
+    alpha.width = alpha.height = 4;
+    alpha.rgba = window_scene(cutoff).textures[0].rgba;
+    const auto green_at = [&](float x, float y) {
+      if (!(std::fabs(x) < 1.0f && std::fabs(y) < 1.0f)) return false;
+      return !(cutoff > 0.0f) || alpha.sample_alpha({(x + 1.0f) / 2.0f, (1.0f - y) / 2.0f}) >= cutoff;
+    };
+    size_t judged = 0, red = 0;
+    for (uint32_t py = 0; py < H; ++py)
+      for (uint32_t px = 0; px < W; ++px) {
+        // The pixel's corners and centre on z = 0 (3 tan(fov / 2) = 1.5); judged where all agree.
+        bool votes[5];
+        for (int k = 0; k < 5; ++k) {
+          const float ox = k == 4 ? 0.5f : float(k & 1), oy = k == 4 ? 0.5f : float(k >> 1);
+          votes[k] = green_at(((float(px) + ox) / float(W) * 2.0f - 1.0f) * 1.5f,
+                              (1.0f - (float(py) + oy) / float(H) * 2.0f) * 1.5f);
+        }
+        if (std::count(votes, votes + 5, votes[0]) != 5) continue;
+        const bool on_quad = std::fabs(((float(px) + 0.5f) / float(W) * 2.0f - 1.0f) * 1.5f) < 1.0f &&
+                             std::fabs((1.0f - (float(py) + 0.5f) / float(H) * 2.0f) * 1.5f) < 1.0f;
+        const float* c = out.at(px, py);
+        ++judged;
+        if (votes[4]) {
+          EXPECT_GT(c[1], 0.9f) << "pixel " << px << "," << py;
+          EXPECT_LT(c[0], 0.1f) << "pixel " << px << "," << py;
+        } else {  // around the quad or through its window: the backing, which fills the view
+          red += on_quad;
+          EXPECT_GT(c[0], 0.9f) << "pixel " << px << "," << py;
+          EXPECT_LT(c[1], 0.1f) << "pixel " << px << "," << py;
+        }
+      }
+    EXPECT_EQ(red > 0, window) << red << " pixels of the quad show the backing";
+    EXPECT_GT(judged, size_t(W * H / 2));
+  }
+  // The paths that do not alpha-test refuse the scene, naming the material.
+  render::Renderer renderer(vk_);
+  image::Image out;
+  render::RenderStats stats;
+  render::RenderSettings settings = small(true);
+  settings.pipeline = render::PathPipeline::wavefront;
+  Status st = renderer.render(window_scene(0.5f), settings, out, stats);
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.message().find("material 'leaf' is an alpha cut-out"), std::string::npos) << st.message();
+  settings = small(true);
+  settings.primary = render::PrimaryVisibility::raster;
+  st = renderer.render(window_scene(0.5f), settings, out, stats);
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.message().find("material 'leaf' is an alpha cut-out"), std::string::npos) << st.message();
+}
+
+// The window scene in LSNIF mode: the front quad an LSNIF object whose model learned the window as
+// geometry (trained against the alpha-tested ground truth) renders like the reference; a model of
+// the same quad trained as OPAQUE fills the window. LDR-FLIP against the reference. Measured on
+// lavapipe: 0.0039 and 0.145 (printed); the bounds leave room for other devices and drivers: below
+// 0.02, and a fifth of the opaque model's error.
+TEST_F(RenderTest, ACutoutLearnedAsGeometryRendersLikeItsReference) {
+  const scene::Scene triangles = window_scene(0.5f);
+  const scene::Primitive& p = triangles.meshes[0].primitives[0];
+  Mesh quad;
+  quad.positions = p.positions;
+  quad.normals = p.normals;
+  quad.uvs = p.uvs;
+  quad.triangles = {{p.indices[0], p.indices[1], p.indices[2]}, {p.indices[3], p.indices[4], p.indices[5]}};
+  quad.triangle_material = {0, 0};
+  Material leaf;
+  leaf.name = "leaf";
+  leaf.base_color = glm::vec3(0.0f);
+  leaf.texture = 0;
+  leaf.alpha_mode = AlphaMode::Mask;
+  quad.materials = {leaf};
+  Texture t;
+  t.width = t.height = 4;
+  t.rgba = triangles.textures[0].rgba;
+  quad.textures = {t};
+  render::Renderer renderer(vk_);
+  image::Image ref;
+  render::RenderStats stats;
+  ASSERT_TRUE(renderer.render(triangles, small(true), ref, stats));
+  double error[2] = {0, 0};
+  for (int alpha_tested = 0; alpha_tested < 2; ++alpha_tested) {
+    Mesh trained = quad;
+    if (!alpha_tested) trained.materials[0].alpha_mode = AlphaMode::Opaque;
+    TrainSettings settings = tiny_settings(HitParam::VoxelSegments);
+    settings.steps = 600;
+    Model model;
+    // Trained here, loaded prepared in the GPU check folder (test_models.h).
+    const Status trained_ok = test::tiny_model(alpha_tested ? "window.alpha_tested" : "window.opaque", trained,
+                                               settings, model);
+    ASSERT_TRUE(trained_ok) << trained_ok.message();
+    const std::string path = (std::filesystem::temp_directory_path() /
+                              ("lsnif_render_test_window_" + std::to_string(alpha_tested) + ".lsnif")).string();
+    ASSERT_TRUE(save_model(model, path));
+    scene::Scene with_model = triangles;
+    scene::LsnifObject obj;
+    obj.model_path = path;
+    obj.material_map = {0};
+    with_model.lsnif_objects = {obj};
+    with_model.instances[0].lsnif = 0;
+    image::Image lsnif;
+    const Status st = renderer.render(with_model, small(false), lsnif, stats);
+    std::filesystem::remove(path);
+    ASSERT_TRUE(st) << st.message();
+    EXPECT_EQ(stats.lsnif_instances, 1u);
+    flip::FlipSettings fs;
+    fs.heatmap = false;
+    flip::FlipResult f;
+    ASSERT_TRUE(flip::ldr_flip(ref, lsnif, fs, f));
+    error[alpha_tested] = f.stats.mean;
+  }
+  std::printf("window scene, LDR-FLIP against the reference: model trained with the alpha test %.4f, as opaque %.4f\n",
+              error[1], error[0]);
+  EXPECT_LT(error[1], 0.02);
+  EXPECT_LT(error[1], error[0] / 5.0);
+}
+
 }  // namespace
 }  // namespace lsnif
 

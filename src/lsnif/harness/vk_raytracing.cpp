@@ -15,7 +15,7 @@ VkDeviceSize align_up(VkDeviceSize value, VkDeviceSize alignment) {
 
 constexpr VkShaderStageFlags kPushStages = VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_MISS_BIT_KHR |
                                            VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR |
-                                           VK_SHADER_STAGE_INTERSECTION_BIT_KHR;
+                                           VK_SHADER_STAGE_INTERSECTION_BIT_KHR | VK_SHADER_STAGE_ANY_HIT_BIT_KHR;
 
 // Makes acceleration-structure writes of earlier commands visible to later builds and traces.
 void as_barrier(VkCommandBuffer cmd) {
@@ -125,14 +125,14 @@ Status check_triangles(const char* what, const std::vector<float>& positions, co
   return Status::ok();
 }
 
-// One OPAQUE triangle geometry: float3 positions at `vertices` (`vertex_count` of them), uint32
-// indices at `indices`.
+// One triangle geometry, OPAQUE unless `opaque` is false: float3 positions at `vertices`
+// (`vertex_count` of them), uint32 indices at `indices`.
 VkAccelerationStructureGeometryKHR triangle_geometry(VkDeviceAddress vertices, uint32_t vertex_count,
-                                                     VkDeviceAddress indices) {
+                                                     VkDeviceAddress indices, bool opaque = true) {
   VkAccelerationStructureGeometryKHR geometry{};
   geometry.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR;
   geometry.geometryType = VK_GEOMETRY_TYPE_TRIANGLES_KHR;
-  geometry.flags = VK_GEOMETRY_OPAQUE_BIT_KHR;
+  geometry.flags = opaque ? VK_GEOMETRY_OPAQUE_BIT_KHR : 0;
   VkAccelerationStructureGeometryTrianglesDataKHR& t = geometry.geometry.triangles;
   t.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_TRIANGLES_DATA_KHR;
   t.vertexFormat = VK_FORMAT_R32G32B32_SFLOAT;
@@ -151,7 +151,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 Status RayTracer::build_triangle_blas(const std::vector<float>& positions, const std::vector<uint32_t>& indices,
-                                      AccelerationStructure& out) {
+                                      AccelerationStructure& out, bool opaque) {
   if (Status s = check_triangles("build_triangle_blas", positions, indices); !s) return s;
   Buffer vbuf, ibuf;
   const VkBufferUsageFlags usage = VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR;
@@ -161,7 +161,7 @@ Status RayTracer::build_triangle_blas(const std::vector<float>& positions, const
     std::memcpy(vbuf.mapped, positions.data(), positions.size() * sizeof(float));
     std::memcpy(ibuf.mapped, indices.data(), indices.size() * sizeof(uint32_t));
     const VkAccelerationStructureGeometryKHR geometry =
-        triangle_geometry(vbuf.address, uint32_t(positions.size() / 3), ibuf.address);
+        triangle_geometry(vbuf.address, uint32_t(positions.size() / 3), ibuf.address, opaque);
     s = build(VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, geometry, uint32_t(indices.size() / 3), out);
   }
   ctx_.destroy_buffer(vbuf);
@@ -401,19 +401,23 @@ void RayTracer::destroy(AccelerationStructure& as) {
 
 namespace {
 
+// Raygen, miss, closest hit, intersection, triangle closest hit, triangle any hit.
+constexpr uint32_t kMaxStages = 6;
+
 // Destroys the shader modules that were created (null entries are skipped).
-void destroy_shader_modules(VkDevice device, const VkShaderModule (&modules)[5]) {
+void destroy_shader_modules(VkDevice device, const VkShaderModule (&modules)[kMaxStages]) {
   for (VkShaderModule m : modules)
     if (m) vkDestroyShaderModule(device, m, nullptr);
 }
 
-// The modules of the first `stage_count` shaders of raygen, miss, closest hit, intersection and triangle
-// closest hit, into `modules`; on failure none is left.
+// The modules of the first `stage_count` shaders of raygen, miss, closest hit, intersection, triangle
+// closest hit and triangle any hit, into `modules`; on failure none is left.
 Status create_shader_modules(ComputeContext& ctx, const RtShaders& shaders, uint32_t stage_count,
-                             VkShaderModule (&modules)[5]) {
-  const Spirv* code[5] = {&shaders.raygen, &shaders.miss, &shaders.closest_hit, &shaders.intersection,
-                          &shaders.triangle_closest_hit};
-  const char* stage_names[5] = {"raygen", "miss", "closest hit", "intersection", "triangle closest hit"};
+                             VkShaderModule (&modules)[kMaxStages]) {
+  const Spirv* code[kMaxStages] = {&shaders.raygen, &shaders.miss, &shaders.closest_hit, &shaders.intersection,
+                                   &shaders.triangle_closest_hit, &shaders.triangle_any_hit};
+  const char* stage_names[kMaxStages] = {"raygen", "miss", "closest hit", "intersection", "triangle closest hit",
+                                         "triangle any hit"};
   Status s = Status::ok();
   for (uint32_t i = 0; i < stage_count && s; ++i)
     s = ctx.create_shader_module(*code[i], modules[i]).context(std::string("create_pipeline: ") + stage_names[i]);
@@ -465,13 +469,13 @@ VkResult create_layouts(VkDevice device, uint32_t push_size, RtPipeline& out) {
 // The pipeline of the first `stage_count` modules (entry "main") in the first `group_count` groups of
 // raygen, miss, the procedural hit group and the triangle hit group, with out.layout, into out.pipeline
 // (its creation timed in out.create_seconds).
-VkResult create_rt_pipeline(VkDevice device, const VkShaderModule (&modules)[5], uint32_t stage_count,
+VkResult create_rt_pipeline(VkDevice device, const VkShaderModule (&modules)[kMaxStages], uint32_t stage_count,
                             uint32_t group_count, RtPipeline& out) {
-  const VkShaderStageFlagBits stages[5] = {VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
-                                           VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR,
-                                           VK_SHADER_STAGE_INTERSECTION_BIT_KHR,
-                                           VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR};
-  VkPipelineShaderStageCreateInfo stage_info[5] = {};
+  const VkShaderStageFlagBits stages[kMaxStages] = {VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
+                                                    VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR,
+                                                    VK_SHADER_STAGE_INTERSECTION_BIT_KHR,
+                                                    VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR, VK_SHADER_STAGE_ANY_HIT_BIT_KHR};
+  VkPipelineShaderStageCreateInfo stage_info[kMaxStages] = {};
   for (uint32_t i = 0; i < stage_count; ++i) {
     stage_info[i].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
     stage_info[i].stage = stages[i];
@@ -492,6 +496,7 @@ VkResult create_rt_pipeline(VkDevice device, const VkShaderModule (&modules)[5],
   groups[2].intersectionShader = 3;
   groups[3].type = VK_RAY_TRACING_SHADER_GROUP_TYPE_TRIANGLES_HIT_GROUP_KHR;
   groups[3].closestHitShader = 4;
+  if (stage_count > 5) groups[3].anyHitShader = 5;
   VkRayTracingPipelineCreateInfoKHR pci{};
   pci.sType = VK_STRUCTURE_TYPE_RAY_TRACING_PIPELINE_CREATE_INFO_KHR;
   pci.stageCount = stage_count;
@@ -561,8 +566,10 @@ Status RayTracer::create_pipeline(const RtShaders& shaders, uint32_t push_size, 
   if (!ctx_.device() || props_.shaderGroupHandleSize == 0)
     return Status::error("create_pipeline: RayTracer not initialized");
   const bool triangles = shaders.triangle_closest_hit.code != nullptr;
-  const uint32_t stage_count = triangles ? 5 : 4, group_count = triangles ? 4 : 3;
-  VkShaderModule modules[5] = {};
+  if (shaders.triangle_any_hit.code && !triangles)
+    return Status::error("create_pipeline: a triangle any-hit shader needs a triangle closest-hit shader");
+  const uint32_t stage_count = triangles ? (shaders.triangle_any_hit.code ? 6 : 5) : 4, group_count = triangles ? 4 : 3;
+  VkShaderModule modules[kMaxStages] = {};
   Status s = create_shader_modules(ctx_, shaders, stage_count, modules);
   if (!s) return s;
 

@@ -25,6 +25,9 @@ struct AccelerationStructure {
 struct RtShaders {
   Spirv raygen, miss, closest_hit, intersection;
   Spirv triangle_closest_hit;  // optional (code null: no triangle hit group)
+  // Optional, with triangle_closest_hit: the triangle hit group's any-hit shader, run on the
+  // geometries built without VK_GEOMETRY_OPAQUE_BIT_KHR (build_triangle_blas with opaque false).
+  Spirv triangle_any_hit;
   // Shader-record data of the procedural hit group's records (e.g. the model block address of
   // LSNIF_MODEL_LOOKUP_SHADER_RECORD); empty: one record without data.
   std::vector<std::vector<uint8_t>> procedural_records;
@@ -65,10 +68,11 @@ class RayTracer {
   // Reads the device's ray-tracing properties; fails if the context has no device.
   Status init();
 
-  // A BLAS with one OPAQUE triangle geometry (float3 positions, uint32 indices, 3 per triangle),
-  // built on the device. Fails on an empty mesh or an index out of range.
+  // A BLAS with one triangle geometry (float3 positions, uint32 indices, 3 per triangle), built on
+  // the device: OPAQUE, or with `opaque` false without that flag (its hits run the hit group's
+  // any-hit shader: alpha cut-outs). Fails on an empty mesh or an index out of range.
   Status build_triangle_blas(const std::vector<float>& positions, const std::vector<uint32_t>& indices,
-                             AccelerationStructure& out);
+                             AccelerationStructure& out, bool opaque = true);
   // The build sizes of one OPAQUE triangle geometry (float3 positions, uint32 indices) of
   // `vertex_count` vertices and `triangle_count` triangles built with `flags`; no device work.
   // Fails on a zero count or when the context has no device.

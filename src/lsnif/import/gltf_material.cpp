@@ -137,6 +137,27 @@ tinygltf::TextureInfo texture_info(const Slot& slot) {
   return info;
 }
 
+// alphaMode, alphaCutoff and doubleSided.
+Status read_alpha(const tinygltf::Material& gm, const std::string& where, const std::string& label, GltfMaterial& out,
+                  std::vector<GltfWarning>& warnings) {
+  if (gm.alphaMode.empty() || gm.alphaMode == "OPAQUE")
+    out.alpha_mode = AlphaMode::Opaque;
+  else if (gm.alphaMode == "MASK")
+    out.alpha_mode = AlphaMode::Mask;
+  else if (gm.alphaMode == "BLEND")
+    out.alpha_mode = AlphaMode::Blend;
+  else
+    return Status::error("%s: alphaMode '%s' is none of OPAQUE, MASK and BLEND", where.c_str(),
+                         excerpt(gm.alphaMode).c_str());
+  if (!std::isfinite(gm.alphaCutoff) || gm.alphaCutoff < 0.0)
+    return Status::error("%s: alphaCutoff must be a finite number of at least 0", where.c_str());
+  out.alpha_cutoff = static_cast<float>(std::min(gm.alphaCutoff, 1.0));
+  if (gm.alphaCutoff > 1.0)
+    warnings.push_back({"", label + ": alphaCutoff above 1 was clamped to 1 (only alpha 1 is opaque)"});
+  out.double_sided = gm.doubleSided;
+  return Status::ok();
+}
+
 }  // namespace
 
 Status read_gltf_material(const tinygltf::Model& model, size_t index, const std::string& name, GltfMaterial& out,
@@ -192,7 +213,7 @@ Status read_gltf_material(const tinygltf::Model& model, size_t index, const std:
   }
   if (set > 15) warnings.push_back({"", label + format(": texCoord %d unsupported; TEXCOORD_0 used", set)});
   out.uv_set = set < 0 || set > 15 ? 0 : set;
-  return Status::ok();
+  return read_alpha(gm, where, label, out, warnings);
 }
 
 }  // namespace lsnif

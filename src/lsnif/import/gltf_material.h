@@ -34,6 +34,9 @@ struct GltfMaterial {
   int normal_image = -1;            // normalTexture (tangent space, +Y up)
   float normal_scale = 1.0f;        // its scale (finite)
   int uv_set = 0;                   // TEXCOORD set: the base colour texture's, else the first textured slot's
+  AlphaMode alpha_mode = AlphaMode::Opaque;  // alphaMode
+  float alpha_cutoff = 0.5f;        // alphaCutoff: finite, clamped to [0, 1]
+  bool double_sided = false;        // doubleSided
   UvTransform uv_transform[kTextureSlotCount] = {kIdentityUvTransform, kIdentityUvTransform, kIdentityUvTransform,
                                                  kIdentityUvTransform, kIdentityUvTransform};  // KHR_texture_transform
 };
@@ -52,7 +55,9 @@ struct GltfWarning {
 // (an empty one is absent: glTF's default),
 // a non-finite metallic or roughness factor, a bad KHR_materials_emissive_strength, an emission
 // that overflows a float, a texture or image index past its list, a KHR_texture_transform that is
-// not an object or whose offset, rotation or scale is not finite numbers of the right count.
+// not an object or whose offset, rotation or scale is not finite numbers of the right count, an
+// alphaMode other than OPAQUE, MASK and BLEND, a non-finite or negative alphaCutoff (one above 1 is
+// clamped, with a warning: no alpha reaches it).
 Status read_gltf_material(const tinygltf::Model& model, size_t index, const std::string& name, GltfMaterial& out,
                           std::vector<GltfWarning>& warnings);
 

@@ -6,8 +6,9 @@
 
 #include <cmath>
 #include <limits>
-#include <tuple>
 #include <string>
+#include <tuple>
+#include <utility>
 
 namespace lsnif {
 namespace {
@@ -151,6 +152,44 @@ TEST(GltfMaterial, TextureTransformsAreTheExtensionsAffineMaps) {
     EXPECT_FALSE(st) << key;
     EXPECT_NE(st.message().find(message), std::string::npos) << st.message();
   }
+}
+
+// alphaMode, alphaCutoff (the default 0.5, clamped above 1) and doubleSided; a mode glTF does not
+// define and a negative or non-finite cutoff are errors naming the material.
+TEST(GltfMaterial, AlphaModeCutoffAndDoubleSided) {
+  tinygltf::Model g = one_material();
+  GltfMaterial out;
+  std::vector<GltfWarning> w;
+  ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
+  EXPECT_EQ(out.alpha_mode, AlphaMode::Opaque);
+  EXPECT_EQ(out.alpha_cutoff, 0.5f);
+  EXPECT_FALSE(out.double_sided);
+  for (const auto& [mode, expected] : {std::pair{"OPAQUE", AlphaMode::Opaque}, std::pair{"MASK", AlphaMode::Mask},
+                                       std::pair{"BLEND", AlphaMode::Blend}}) {
+    g.materials[0].alphaMode = mode;
+    g.materials[0].alphaCutoff = 0.25;
+    g.materials[0].doubleSided = true;
+    ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
+    EXPECT_EQ(out.alpha_mode, expected) << mode;
+    EXPECT_EQ(out.alpha_cutoff, 0.25f);
+    EXPECT_TRUE(out.double_sided);
+  }
+  g.materials[0].alphaCutoff = 3.0;
+  w.clear();
+  ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
+  EXPECT_EQ(out.alpha_cutoff, 1.0f);
+  EXPECT_TRUE(any_warning(w, "alphaCutoff above 1 was clamped"));
+  for (double bad : {-0.1, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    g.materials[0].alphaCutoff = bad;
+    const Status s = read_gltf_material(g, 0, "f.gltf", out, w);
+    ASSERT_FALSE(s);
+    EXPECT_TRUE(contains(s.message(), "f.gltf: material 0 ('paint'): alphaCutoff must be a finite number")) << s.message();
+  }
+  g.materials[0].alphaCutoff = 0.5;
+  g.materials[0].alphaMode = "CUTOUT";
+  const Status s = read_gltf_material(g, 0, "f.gltf", out, w);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "alphaMode 'CUTOUT' is none of OPAQUE, MASK and BLEND")) << s.message();
 }
 
 TEST(GltfMaterial, ErrorsNameTheFileTheMaterialAndTheProblem) {

@@ -86,26 +86,50 @@ void remove_unused_vertices(Mesh& mesh) {
 
 }  // namespace
 
-glm::vec3 Texture::sample(glm::vec2 uv, bool srgb) const {
-  if (width == 0 || height == 0 || rgba.size() < size_t(width) * height * 4) return glm::vec3(1.0f);
+namespace {
+
+// The four texels a bilinear lookup at uv blends (repeat wrapping) and its weights.
+struct Footprint {
+  uint32_t xs[2], ys[2];
+  float fx, fy;
+};
+
+Footprint footprint(glm::vec2 uv, uint32_t width, uint32_t height) {
   // Wrap into [0, 1) first so huge coordinates cannot overflow the texel arithmetic.
   double u = std::isfinite(uv.x) ? uv.x - std::floor(double(uv.x)) : 0.0;
   double v = std::isfinite(uv.y) ? uv.y - std::floor(double(uv.y)) : 0.0;
   // Texel centres sit at (i + 0.5) / size.
   double x = u * width - 0.5, y = v * height - 0.5;
   double x0 = std::floor(x), y0 = std::floor(y);
-  float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
-  uint32_t xs[2] = {wrap(int64_t(x0), width), wrap(int64_t(x0) + 1, width)};
-  uint32_t ys[2] = {wrap(int64_t(y0), height), wrap(int64_t(y0) + 1, height)};
+  return {{wrap(int64_t(x0), width), wrap(int64_t(x0) + 1, width)},
+          {wrap(int64_t(y0), height), wrap(int64_t(y0) + 1, height)},
+          static_cast<float>(x - x0),
+          static_cast<float>(y - y0)};
+}
+
+}  // namespace
+
+glm::vec3 Texture::sample(glm::vec2 uv, bool srgb) const {
+  if (width == 0 || height == 0 || rgba.size() < size_t(width) * height * 4) return glm::vec3(1.0f);
+  const Footprint f = footprint(uv, width, height);
   const auto& lut = srgb_to_linear_table();
   auto texel = [&](uint32_t tx, uint32_t ty) {
     size_t o = (size_t(ty) * width + tx) * 4;
     if (!srgb) return glm::vec3(rgba[o], rgba[o + 1], rgba[o + 2]) / 255.0f;
     return glm::vec3(lut[rgba[o]], lut[rgba[o + 1]], lut[rgba[o + 2]]);
   };
-  glm::vec3 top = glm::mix(texel(xs[0], ys[0]), texel(xs[1], ys[0]), fx);
-  glm::vec3 bottom = glm::mix(texel(xs[0], ys[1]), texel(xs[1], ys[1]), fx);
-  return glm::mix(top, bottom, fy);
+  glm::vec3 top = glm::mix(texel(f.xs[0], f.ys[0]), texel(f.xs[1], f.ys[0]), f.fx);
+  glm::vec3 bottom = glm::mix(texel(f.xs[0], f.ys[1]), texel(f.xs[1], f.ys[1]), f.fx);
+  return glm::mix(top, bottom, f.fy);
+}
+
+float Texture::sample_alpha(glm::vec2 uv) const {
+  if (width == 0 || height == 0 || rgba.size() < size_t(width) * height * 4) return 1.0f;
+  const Footprint f = footprint(uv, width, height);
+  auto texel = [&](uint32_t tx, uint32_t ty) { return float(rgba[(size_t(ty) * width + tx) * 4 + 3]) / 255.0f; };
+  const float top = glm::mix(texel(f.xs[0], f.ys[0]), texel(f.xs[1], f.ys[0]), f.fx);
+  const float bottom = glm::mix(texel(f.xs[0], f.ys[1]), texel(f.xs[1], f.ys[1]), f.fx);
+  return glm::mix(top, bottom, f.fy);
 }
 
 Aabb Mesh::bounds() const {
@@ -203,6 +227,33 @@ glm::vec3 Mesh::albedo(uint32_t triangle, float u, float v) const {
     color *= w * colors[t.x] + u * colors[t.y] + v * colors[t.z];
   }
   return color;
+}
+
+float Mesh::alpha(uint32_t triangle, float u, float v) const {
+  if (triangle >= triangles.size() || triangle >= triangle_material.size() ||
+      triangle_material[triangle] >= materials.size())
+    return 1.0f;
+  const Material& mat = materials[triangle_material[triangle]];
+  float a = mat.alpha;
+  const glm::uvec3& t = triangles[triangle];
+  if (mat.texture >= 0 && size_t(mat.texture) < textures.size() && uvs.size() == positions.size() &&
+      t.x < uvs.size() && t.y < uvs.size() && t.z < uvs.size()) {
+    const glm::vec2 uv = (1.0f - u - v) * uvs[t.x] + u * uvs[t.y] + v * uvs[t.z];
+    a *= textures[size_t(mat.texture)].sample_alpha(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
+  }
+  return a;
+}
+
+bool Mesh::opaque_at(uint32_t triangle, float u, float v) const {
+  if (triangle >= triangle_material.size() || triangle_material[triangle] >= materials.size()) return true;
+  const Material& mat = materials[triangle_material[triangle]];
+  return mat.alpha_mode == AlphaMode::Opaque || alpha(triangle, u, v) >= mat.cutoff();
+}
+
+bool Mesh::has_cutouts() const {
+  for (const Material& m : materials)
+    if (m.alpha_mode != AlphaMode::Opaque) return true;
+  return false;
 }
 
 glm::vec3 Mesh::shading_normal(uint32_t triangle, float u, float v) const {

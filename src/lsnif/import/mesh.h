@@ -19,7 +19,16 @@ struct Texture {
   // base colour, emission) or, with srgb false, the 8-bit values / 255 (data textures:
   // metallic-roughness, occlusion).
   glm::vec3 sample(glm::vec2 uv, bool srgb = true) const;
+  // The alpha channel / 255 with the same bilinear lookup and wrapping (alpha is linear); 1 for an
+  // empty texture.
+  float sample_alpha(glm::vec2 uv) const;
 };
+
+// How a material's alpha (base colour factor alpha x base colour texture alpha) is read: glTF's
+// alphaMode. Ray tracing has no blending: a BLEND surface is a cut-out at kBlendCutoff, as a MASK one
+// at its alphaCutoff (docs/convert.md, "Materials").
+enum class AlphaMode : uint32_t { Opaque = 0, Mask = 1, Blend = 2 };
+inline constexpr float kBlendCutoff = 0.5f;
 
 // The texture slots of a metallic-roughness material, the index of the per-slot arrays
 // (Material::uv_transform, GltfMaterial::uv_transform, RenderMaterial's).
@@ -47,6 +56,10 @@ struct Material {
   int emission_texture = -1;                   // sRGB
   int occlusion_texture = -1;                  // occlusion in R (linear)
   int normal_texture = -1;                     // tangent-space normal map (linear, glTF's +Y up)
+  // Alpha cut-outs: a point of the surface exists where alpha >= cutoff() (always with Opaque).
+  AlphaMode alpha_mode = AlphaMode::Opaque;    // alphaMode
+  float alpha = 1.0f;                          // baseColorFactor alpha
+  float alpha_cutoff = 0.5f;                   // alphaCutoff (MASK)
   // Per TextureSlot: the uv transform the slot's texture is read with.
   UvTransform uv_transform[kTextureSlotCount] = {kIdentityUvTransform, kIdentityUvTransform, kIdentityUvTransform,
                                                  kIdentityUvTransform, kIdentityUvTransform};
@@ -56,6 +69,11 @@ struct Material {
     return metallic_roughness_texture >= 0 || emission_texture >= 0 || occlusion_texture >= 0;
   }
   bool has_textures() const { return texture >= 0 || has_surface_textures() || normal_texture >= 0; }
+  // The alpha below which the surface is a hole: alpha_cutoff (MASK), kBlendCutoff (BLEND); none (0)
+  // for OPAQUE.
+  float cutoff() const {
+    return alpha_mode == AlphaMode::Mask ? alpha_cutoff : alpha_mode == AlphaMode::Blend ? kBlendCutoff : 0.0f;
+  }
 };
 
 // The material channels at a point of the surface (Mesh::surface).
@@ -93,6 +111,15 @@ struct Mesh {
   // Reference albedo at a hit: base color * texture(uv) * vertex color, barycentrics (u, v) as in
   // Embree (p = (1-u-v) p0 + u p1 + v p2).
   glm::vec3 albedo(uint32_t triangle, float u, float v) const;
+  // Alpha at a hit: the material's factor alpha x its base colour texture's alpha at the hit's uv
+  // (vertex colour alpha is not read: colours keep RGB).
+  float alpha(uint32_t triangle, float u, float v) const;
+  // Whether a hit at barycentrics (u, v) of `triangle` is on the surface: always for an OPAQUE
+  // material, else alpha() >= the material's cutoff(). The alpha test of the ground truth (training
+  // and evaluation) and of the renderer's reference mode.
+  bool opaque_at(uint32_t triangle, float u, float v) const;
+  // Whether any material is MASK or BLEND (the mesh has cut-outs to test).
+  bool has_cutouts() const;
   // Every material channel at a hit (the albedo as albedo()), textures sampled at the hit's uv.
   SurfaceSample surface(uint32_t triangle, float u, float v) const;
   // The largest emission component any point of the surface can have (factor x texture <= factor).

@@ -306,6 +306,9 @@ class GltfFlattener {
       mat.normal_scale = gm.normal_scale;
       for (uint32_t k = 0; k < kTextureSlotCount; ++k) mat.uv_transform[k] = gm.uv_transform[k];
       if (gm.normal_image >= 0) mat.normal_texture = image_texture(gm.normal_image, mat.name);
+      mat.alpha_mode = gm.alpha_mode;
+      mat.alpha = gm.base_color.a;
+      mat.alpha_cutoff = gm.alpha_cutoff;
       mapped = int(mesh_.materials.size());
       mesh_.materials.push_back(std::move(mat));
     }

@@ -98,6 +98,9 @@ void write_material(ByteWriter& w, const Material& m) {
   w.pod(m.normal_scale);
   for (const int* t : texture_refs(m)) w.pod(int32_t(*t));
   for (const UvTransform& u : m.uv_transform) w.pod(u);
+  w.pod(uint32_t(m.alpha_mode));
+  w.pod(m.alpha);
+  w.pod(m.alpha_cutoff);
 }
 
 Status read_material(ByteReader& r, const std::string& name, size_t textures, Material& m) {
@@ -122,6 +125,13 @@ Status read_material(ByteReader& r, const std::string& name, size_t textures, Ma
   }
   for (UvTransform& u : m.uv_transform)
     if (s) s = r.pod(u, "material");
+  uint32_t mode = 0;
+  if (s) s = r.pod(mode, "material");
+  if (s && mode > uint32_t(AlphaMode::Blend))
+    return Status::error("%s: material '%s' has alpha mode %u (0 to 2)", name.c_str(), printable(m.name).c_str(), mode);
+  m.alpha_mode = AlphaMode(mode);
+  if (s) s = r.pod(m.alpha, "material");
+  if (s) s = r.pod(m.alpha_cutoff, "material");
   return s;
 }
 

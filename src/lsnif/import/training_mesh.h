@@ -7,7 +7,7 @@
 // Layout (docs/cluster.md), little-endian, packed: "LSNIFMSH", u32 version (1), u32 flags (0), seven
 // u64 counts (positions, normals, uvs, colours, triangles, materials, textures), the float arrays,
 // the triangles' u32 corners and materials, each material (u32 name length, the name, its factors,
-// texture indices and five uv transforms), each texture (u32 width, height, the RGBA bytes), and a
+// texture indices, five uv transforms, u32 alpha mode, alpha and alpha cutoff), each texture (u32 width, height, the RGBA bytes), and a
 // CRC-32 of everything before it.
 #pragma once
 #include <string>

@@ -43,7 +43,8 @@ void expect_identical(const Mesh& a, const Mesh& b) {
       std::vector<float> v = {m.base_color.x, m.base_color.y, m.base_color.z, m.metallic, m.roughness,
                               m.emission.x, m.emission.y, m.emission.z, m.occlusion_strength, m.normal_scale,
                               float(m.texture), float(m.metallic_roughness_texture), float(m.emission_texture),
-                              float(m.occlusion_texture), float(m.normal_texture)};
+                              float(m.occlusion_texture), float(m.normal_texture), float(m.alpha_mode), m.alpha,
+                              m.alpha_cutoff};
       for (const UvTransform& u : m.uv_transform)
         for (int c = 0; c < 3; ++c) v.insert(v.end(), {u[c].x, u[c].y});
       return v;
@@ -103,6 +104,9 @@ Mesh synthetic_mesh() {
   mat.metallic_roughness_texture = 1;
   mat.emission = {2.5f, 0, 0};
   mat.uv_transform[kSlotEmission] = UvTransform(0.7f, 0.1f, -0.1f, 0.7f, 0.25f, 1.0f / 3.0f);
+  mat.alpha_mode = AlphaMode::Mask;
+  mat.alpha = 0.9f;
+  mat.alpha_cutoff = 1.0f / 3.0f;
   m.materials = {mat};
   for (uint32_t k = 0; k < 2; ++k) {
     Texture t;

@@ -37,6 +37,9 @@ struct DeviceScene {
   std::vector<plugin::Model> models;     // per LSNIF object of the scene: its device model (or empty)
   std::vector<vk::Buffer> buffers;
   std::vector<vk::AccelerationStructure> blases;
+  // The first alpha cut-out material (scene::Material::alpha_cutoff > 0) of an uploaded primitive, ""
+  // when none: only the inline pipeline's traced rays alpha-test (render_triangle.rahit).
+  std::string cutout_material;
   // What one mode (LSNIF: 0, reference: 1) traces: its TLAS over the shared BLASes and models, and
   // the tables its shaders read. set_mode switches between prepared modes without uploads.
   struct Mode {

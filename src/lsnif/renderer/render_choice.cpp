@@ -34,6 +34,16 @@ std::string raster_obstacle(const scene::Scene& scene) {
   return "";
 }
 
+std::string cutout_material(const scene::Scene& scene) {
+  for (const scene::Instance& in : scene.instances) {
+    if (in.mesh < 0 || size_t(in.mesh) >= scene.meshes.size()) continue;
+    for (const scene::Primitive& p : scene.meshes[size_t(in.mesh)].primitives)
+      if (p.material < scene.materials.size() && scene.materials[p.material].alpha_cutoff > 0.0f)
+        return scene.materials[p.material].name;
+  }
+  return "";
+}
+
 RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const DevicePaths& paths) {
   RenderChoice c;
   bool lsnif_nodes = false;
@@ -41,6 +51,11 @@ RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const
   if (reference || !lsnif_nodes) {
     c.why = reference ? "reference mode: the fastest triangle path (inline, traced)"
                       : "no LSNIF node: the fastest triangle path (inline, traced)";
+    return c;
+  }
+  if (const std::string cutout = cutout_material(scene); !cutout.empty()) {
+    c.why = "inline, traced: material '" + printable(cutout) +
+            "' is an alpha cut-out, which only the ray-tracing pipeline's any-hit shaders test";
     return c;
   }
   if (paths.query) {

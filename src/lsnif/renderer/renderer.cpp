@@ -32,6 +32,7 @@ namespace {
 #include "render_lsnif_rchit_spirv.h"
 #include "render_rgen_spirv.h"
 #include "render_rmiss_spirv.h"
+#include "render_triangle_rahit_spirv.h"
 #include "render_triangle_rchit_spirv.h"
 
 static_assert(offsetof(RenderPush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
@@ -171,6 +172,7 @@ Status Renderer::create_pipeline() {
   shaders.miss = spirv(render_rmiss_spirv, sizeof render_rmiss_spirv);
   shaders.closest_hit = spirv(render_lsnif_rchit_spirv, sizeof render_lsnif_rchit_spirv);
   shaders.triangle_closest_hit = spirv(render_triangle_rchit_spirv, sizeof render_triangle_rchit_spirv);
+  shaders.triangle_any_hit = spirv(render_triangle_rahit_spirv, sizeof render_triangle_rahit_spirv);
   if (lsnifGetIntersectionShaderSpirv(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE, &shaders.intersection.code,
                                       &shaders.intersection.bytes) != LSNIF_SUCCESS)
     return plugin_error("render pipeline");
@@ -332,7 +334,7 @@ Status upload_materials(const scene::Scene& scene, DeviceScene& dev, std::vector
     RenderMaterial r{m.base_color.r, m.base_color.g, m.base_color.b, m.base_color.a, m.metallic, m.roughness,
                      m.emission.r, m.emission.g, m.emission.b, tex(m.base_color_texture),
                      tex(m.metallic_roughness_texture), tex(m.emission_texture), tex(m.occlusion_texture),
-                     m.occlusion_strength, tex(m.normal_texture), m.normal_scale, {}};
+                     m.occlusion_strength, tex(m.normal_texture), m.normal_scale, m.alpha_cutoff, {}};
     static_assert(sizeof(r.uv_transform) == sizeof(float) * 6 * kTextureSlotCount, "one 2x3 transform per slot");
     for (uint32_t k = 0; k < kTextureSlotCount; ++k)
       for (int c = 0; c < 3; ++c)
@@ -395,8 +397,11 @@ Status build_primitives(const scene::Scene& scene, const ScenePlan& plan, size_t
       }
       std::vector<float> flat(p.positions.size() * 3);
       std::memcpy(flat.data(), p.positions.data(), flat.size() * sizeof(float));
+      // A cut-out material's geometry is not opaque: its hits run the alpha test (render_triangle.rahit).
+      const bool opaque = p.material >= scene.materials.size() || !(scene.materials[p.material].alpha_cutoff > 0.0f);
+      if (!opaque && dev.cutout_material.empty()) dev.cutout_material = scene.materials[p.material].name;
       vk::AccelerationStructure blas;
-      if (Status s = dev.tracer.build_triangle_blas(flat, indices, blas); !s)
+      if (Status s = dev.tracer.build_triangle_blas(flat, indices, blas, opaque); !s)
         return s.context(("mesh '" + scene.meshes[m].name + "'").c_str());
       ++built;
       out.mesh_blas_bytes[m] += blas.storage.size;
@@ -761,6 +766,9 @@ Status Renderer::prepare_frame(const View& view, uint32_t first_sample, uint32_t
   if (primary == PrimaryVisibility::raster) {
     if (!md.raster_why_not.empty())
       return Status::error("render: rasterized primary visibility: %s", md.raster_why_not.c_str());
+    if (!scene_->cutout_material.empty())
+      return Status::error("render: rasterized primary visibility does not alpha-test, and material '%s' is an alpha "
+                           "cut-out: use --primary traced (or auto)", printable(scene_->cutout_material).c_str());
     if (!visibility_) visibility_ = std::make_unique<VisibilityBuffer>(ctx_);
     VisibilityCamera camera;
     camera.camera_to_world = view.camera_to_world;
@@ -797,6 +805,10 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   push.sample_index = first_sample;
   push.samples = samples;
   if (pipeline == PathPipeline::wavefront) {
+    if (!scene_->cutout_material.empty())
+      return Status::error("render: the wavefront pipeline's lsnifCmdQuery treats every triangle as opaque, and "
+                           "material '%s' is an alpha cut-out: use --pipeline inline (or auto)",
+                           printable(scene_->cutout_material).c_str());
     if (Status s = accumulate_wavefront(first_sample, samples, max_bounces, primary == PrimaryVisibility::raster); !s)
       return s;
   } else if (Status s = tracer_.trace(pipeline_, md.tlas, &push, width_ * height_); !s) {

@@ -34,6 +34,9 @@ struct Material {
   float occlusion_strength = 1.0f;    // occlusion = 1 + strength x (R - 1)
   int32_t normal_texture = -1;        // tangent-space normal map (normal_mapped_shading_normal, mesh.h)
   float normal_scale = 1.0f;
+  // Alpha cut-out (glTF alphaMode, src/lsnif/import/mesh.h AlphaMode): a triangle point whose alpha
+  // (base_color.a x the base colour texture's alpha) is below this is a hole; 0: opaque (OPAQUE).
+  float alpha_cutoff = 0.0f;
   // Per TextureSlot (src/lsnif/import/mesh.h): KHR_texture_transform's uv transform.
   UvTransform uv_transform[kTextureSlotCount] = {kIdentityUvTransform, kIdentityUvTransform, kIdentityUvTransform,
                                                  kIdentityUvTransform, kIdentityUvTransform};

@@ -46,6 +46,9 @@ Status SceneBuilder::load_material(size_t index) {
   m.occlusion_strength = gm.occlusion_strength;
   m.normal_texture = gm.normal_image < 0 ? -1 : image_texture(gm.normal_image, where);
   m.normal_scale = gm.normal_scale;
+  m.alpha_cutoff = gm.alpha_mode == AlphaMode::Mask ? gm.alpha_cutoff
+                   : gm.alpha_mode == AlphaMode::Blend ? kBlendCutoff
+                                                       : 0.0f;
   for (uint32_t k = 0; k < kTextureSlotCount; ++k) m.uv_transform[k] = gm.uv_transform[k];
   material_uv_set_.push_back(gm.uv_set);
   scene_.materials.push_back(std::move(m));

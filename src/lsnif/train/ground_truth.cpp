@@ -1,5 +1,6 @@
 // ground_truth.cpp -- exact closest-hit ray casting with Embree 3: one triangle geometry over the
-// mesh (robust, watertight traversal), queried one ray at a time from any thread.
+// mesh (robust, watertight traversal), queried one ray at a time from any thread; materials with
+// cut-outs alpha-tested by an intersection filter.
 #include "lsnif/train/ground_truth.h"
 
 #include <embree3/rtcore.h>
@@ -44,6 +45,21 @@ struct GroundTruth::Impl {
     return Status::error("ground truth: %s failed: %s", what, message.c_str());
   }
 };
+
+namespace {
+
+// Embree's intersection filter for meshes with cut-outs (Mesh::has_cutouts): a candidate hit where
+// the material's alpha test fails (Mesh::opaque_at) is rejected and traversal goes on behind it.
+void alpha_test_filter(const RTCFilterFunctionNArguments* args) {
+  const Mesh& mesh = *static_cast<const Mesh*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] == 0) continue;
+    const uint32_t prim = RTCHitN_primID(args->hit, args->N, i);
+    if (!mesh.opaque_at(prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i))) args->valid[i] = 0;
+  }
+}
+
+}  // namespace
 
 GroundTruth::GroundTruth() : impl_(std::make_unique<Impl>()) {}
 GroundTruth::~GroundTruth() = default;
@@ -106,6 +122,10 @@ Status GroundTruth::build(const Mesh& mesh) {
     for (int k = 0; k < 3; ++k) vertices[3 * i + size_t(k)] = mesh.positions[i][k];
   for (size_t i = 0; i < mesh.triangles.size(); ++i)
     for (int k = 0; k < 3; ++k) indices[3 * i + size_t(k)] = mesh.triangles[i][k];
+  if (mesh.has_cutouts()) {  // the alpha test: holes are not surface
+    rtcSetGeometryUserData(geometry, const_cast<Mesh*>(&mesh));
+    rtcSetGeometryIntersectFilterFunction(geometry, &alpha_test_filter);
+  }
   rtcCommitGeometry(geometry);
   rtcAttachGeometry(impl_->scene, geometry);
   rtcReleaseGeometry(geometry);

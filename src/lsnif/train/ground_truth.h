@@ -30,7 +30,8 @@ class GroundTruth {
 
   // Builds an Embree scene over `mesh` (kept by reference: it must outlive this object).
   Status build(const Mesh& mesh);
-  // Closest hit within [ray.tmin, ray.tmax]. Thread-safe after build().
+  // Closest hit within [ray.tmin, ray.tmax] that passes the alpha test (Mesh::opaque_at: the holes
+  // of MASK and BLEND materials are no surface). Thread-safe after build().
   ReferenceHit trace(const Ray& ray) const;
 
  private:

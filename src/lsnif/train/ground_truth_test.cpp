@@ -377,5 +377,82 @@ TEST(GroundTruth, BuildErrors) {
   EXPECT_TRUE(truth.trace(ray).hit);
 }
 
+// A unit quad in z = 0 (uv = xy) over an opaque one in z = -1. The front quad's base colour
+// texture is an N x N checkerboard of alpha 255 (even cells) and `hole_alpha` (odd cells).
+Mesh checkerboard_over_backing(AlphaMode mode, float cutoff, uint8_t hole_alpha, float factor_alpha) {
+  constexpr uint32_t N = 4;
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, -1}, {1, 0, -1}, {1, 1, -1}, {0, 1, -1}};
+  m.normals.assign(8, glm::vec3(0, 0, 1));
+  for (const glm::vec3& p : m.positions) m.uvs.emplace_back(p.x, p.y);
+  m.triangles = {{0, 1, 2}, {0, 2, 3}, {4, 5, 6}, {4, 6, 7}};
+  m.triangle_material = {0, 0, 1, 1};
+  Material cut;
+  cut.name = "cut";
+  cut.texture = 0;
+  cut.alpha_mode = mode;
+  cut.alpha_cutoff = cutoff;
+  cut.alpha = factor_alpha;
+  Material backing;
+  backing.name = "backing";
+  backing.alpha_mode = mode;  // no texture: alpha 1, always surface
+  m.materials = {cut, backing};
+  Texture t;
+  t.width = t.height = N;
+  // Row y of the texture is read at v = (y + 0.5) / N (top row first, uv as given).
+  for (uint32_t y = 0; y < N; ++y)
+    for (uint32_t x = 0; x < N; ++x) t.rgba.insert(t.rgba.end(), {200, 100, 50, (x + y) % 2 ? hole_alpha : uint8_t(255)});
+  m.textures = {t};
+  return m;
+}
+
+// Rays straight down through every cell centre: the alpha test decides, cell by cell, between the
+// front quad and the backing behind it, as the checkerboard says (the texture is read at texel
+// centres, where bilinear filtering returns the texel itself).
+void expect_cells(const Mesh& mesh, float alpha_times_factor_hole, bool holes_expected) {
+  GroundTruth truth;
+  ASSERT_TRUE(truth.build(mesh));
+  for (uint32_t y = 0; y < 4; ++y)
+    for (uint32_t x = 0; x < 4; ++x) {
+      Ray r;
+      r.origin = {(float(x) + 0.5f) / 4.0f, (float(y) + 0.5f) / 4.0f, 1.0f};
+      r.direction = {0, 0, -1};
+      const ReferenceHit h = truth.trace(r);
+      ASSERT_TRUE(h.hit);
+      const bool hole = (x + y) % 2 == 1 && holes_expected;
+      EXPECT_FLOAT_EQ(h.t, hole ? 2.0f : 1.0f) << "cell " << x << "," << y << " alpha " << alpha_times_factor_hole;
+      EXPECT_EQ(h.material, hole ? 1u : 0u);
+    }
+}
+
+TEST(GroundTruth, CutoutsAreAlphaTested) {
+  // MASK at its cutoff: a hole of alpha 0 is seen through; factor alpha multiplies the texture.
+  expect_cells(checkerboard_over_backing(AlphaMode::Mask, 0.5f, 0, 1.0f), 0.0f, true);
+  expect_cells(checkerboard_over_backing(AlphaMode::Mask, 0.3f, 102, 1.0f), 0.4f, false);  // 0.4 >= 0.3
+  expect_cells(checkerboard_over_backing(AlphaMode::Mask, 0.5f, 102, 1.0f), 0.4f, true);   // 0.4 < 0.5
+  // The opaque cells fail too when the factor brings them under the cutoff: everything is a hole
+  // but the backing.
+  {
+    GroundTruth truth;
+    const Mesh m = checkerboard_over_backing(AlphaMode::Mask, 0.5f, 255, 0.25f);
+    ASSERT_TRUE(truth.build(m));
+    Ray r;
+    r.origin = {0.125f, 0.125f, 1.0f};
+    r.direction = {0, 0, -1};
+    EXPECT_EQ(truth.trace(r).material, 1u);
+  }
+  // BLEND is a cut-out at 0.5 whatever alphaCutoff says; OPAQUE ignores alpha.
+  expect_cells(checkerboard_over_backing(AlphaMode::Blend, 0.1f, 102, 1.0f), 0.4f, true);
+  expect_cells(checkerboard_over_backing(AlphaMode::Blend, 0.9f, 153, 1.0f), 0.6f, false);
+  expect_cells(checkerboard_over_backing(AlphaMode::Opaque, 0.5f, 0, 1.0f), 0.0f, false);
+  // Mesh::opaque_at, the test itself, agrees at the cell centres (barycentrics of triangle 0:
+  // p = (1-u-v) p0 + u p1 + v p2 with p0 (0,0), p1 (1,0), p2 (1,1): x = u + v, y = v).
+  const Mesh m = checkerboard_over_backing(AlphaMode::Mask, 0.5f, 0, 1.0f);
+  EXPECT_TRUE(m.opaque_at(0, 0.125f - 0.125f, 0.125f));  // cell (0, 0)
+  EXPECT_FALSE(m.opaque_at(0, 0.375f - 0.125f, 0.125f));  // cell (1, 0)
+  EXPECT_TRUE(m.has_cutouts());
+  EXPECT_FALSE(make_unit_triangle().has_cutouts());
+}
+
 }  // namespace
 }  // namespace lsnif

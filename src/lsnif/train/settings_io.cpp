@@ -419,6 +419,13 @@ uint64_t mesh_hash(const Mesh& mesh) {
     h.pod(m.normal_scale);
     h.pod(m.normal_texture);
     h.pod(m.uv_transform);
+    // Cut-outs only where there are some: the hash of an opaque mesh stays what it was before
+    // materials had an alpha mode (its models stay up to date).
+    if (m.alpha_mode != AlphaMode::Opaque) {
+      h.pod(m.alpha_mode);
+      h.pod(m.alpha);
+      h.pod(m.alpha_cutoff);
+    }
   }
   for (const Texture& t : mesh.textures) {
     h.pod(t.width);

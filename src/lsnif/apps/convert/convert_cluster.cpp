@@ -220,7 +220,7 @@ Status adopt_planned_models(const ConvertSettings& settings, const Plan& plan, c
   // Every model is checked before any is copied: a run that stops for a missing model writes nothing.
   std::vector<Model> checked(models.size());
   std::vector<size_t> ready;
-  const auto line = [&](size_t i, const std::string& from, const std::string& why) {
+  const auto list_missing = [&](size_t i, const std::string& from, const std::string& why) {
     std::string text = format("model '%s' (hash %s): %s: %s", plan.models[i].name.c_str(), models[i].hash.c_str(),
                               from.c_str(), why.c_str());
     if (!planned.count(models[i].hash))
@@ -232,7 +232,7 @@ Status adopt_planned_models(const ConvertSettings& settings, const Plan& plan, c
     if (models[i].state != ModelState::Planned) continue;
     const std::string from = (fs::path(settings.assemble_dir) / planned_model_path(models[i].hash)).string();
     if (std::string why = check_job_model(settings, from, models[i], checked[i]); !why.empty())
-      line(i, from, why);
+      list_missing(i, from, why);
     else
       ready.push_back(i);
   }
@@ -242,7 +242,7 @@ Status adopt_planned_models(const ConvertSettings& settings, const Plan& plan, c
     const std::string from = (fs::path(settings.assemble_dir) / planned_model_path(models[i].hash)).string();
     if (std::string why = adopt(settings, m, checked[i], from, (fs::path(out_dir) / m.file).string(), models[i]);
         !why.empty())
-      line(i, from, why);
+      list_missing(i, from, why);
   }
   return Status::ok();
 }

@@ -51,6 +51,7 @@ struct RenderMaterial {
   float occlusion_strength;      /* occlusion = 1 + strength x (R - 1) */
   lsnif_uint normal_texture;     /* tangent-space normal map (linear, +Y up) */
   float normal_scale;
+  float alpha_cutoff;            /* a triangle point of lower alpha (base_a x base texture alpha) is a hole; 0: opaque */
   /* Per texture slot (base colour, metallic-roughness, emission, occlusion, normal: TextureSlot of
      src/lsnif/import/mesh.h) the uv transform uv' = M (u, v, 1), M's three columns of two floats
      (KHR_texture_transform; the identity without one). */

@@ -39,6 +39,26 @@ vec2 render_slot_uv(RenderMaterial m, uint slot, vec2 uv) {
               m.uv_transform[k + 1u] * uv.x + m.uv_transform[k + 3u] * uv.y + m.uv_transform[k + 5u]);
 }
 
+// Whether the point of triangle `primitive` of geometry `geometry` of TLAS instance `custom_index` at
+// barycentrics (weights of vertices 1 and 2) is surface: its material's alpha (base_a x the base
+// colour texture's alpha at the point's uv) is at least its alpha_cutoff; always for a cutoff of 0.
+// The alpha test of Mesh::opaque_at (src/lsnif/import/mesh.h), run by render_triangle.rahit.
+bool render_triangle_opaque(RenderFrame f, uint custom_index, uint geometry, uint primitive, vec2 barycentrics) {
+  const RenderInstance inst = RenderInstanceRef(f.instances).v[custom_index];
+  const RenderPrimitive prim = RenderPrimitiveRef(f.primitives).v[inst.first_primitive + geometry];
+  const RenderMaterial m = RenderMaterialRef(f.materials).v[prim.material];
+  if (!(m.alpha_cutoff > 0.0)) return true;
+  float alpha = m.base_a;
+  if (m.base_texture != RENDER_NO_TEXTURE && prim.uvs != 0ul) {
+    RenderUintRef idx = RenderUintRef(prim.indices);
+    RenderVec2Ref tex = RenderVec2Ref(prim.uvs);
+    const vec2 uv = (1.0 - barycentrics.x - barycentrics.y) * tex.v[idx.v[3 * primitive]] +
+                    barycentrics.x * tex.v[idx.v[3 * primitive + 1]] + barycentrics.y * tex.v[idx.v[3 * primitive + 2]];
+    alpha *= render_texture(f, m.base_texture, render_slot_uv(m, RENDER_SLOT_BASE, uv), true).a;
+  }
+  return alpha >= m.alpha_cutoff;
+}
+
 // Triangle `primitive` of geometry `geometry` of TLAS instance `custom_index` at barycentrics
 // (weights of vertices 1 and 2), hit at ray parameter t; world_to_object: the instance's linear part.
 RenderHit render_triangle_hit(RenderFrame f, uint custom_index, uint geometry, uint primitive, vec2 barycentrics,
