@@ -107,6 +107,14 @@ Footprint footprint(glm::vec2 uv, uint32_t width, uint32_t height) {
           static_cast<float>(y - y0)};
 }
 
+// The uv at barycentrics (u, v) of triangle t of `mesh`, when the mesh has a uv per vertex.
+bool interpolated_uv(const Mesh& mesh, const glm::uvec3& t, float u, float v, glm::vec2& uv) {
+  const size_t n = mesh.uvs.size();
+  if (n != mesh.positions.size() || t.x >= n || t.y >= n || t.z >= n) return false;
+  uv = (1.0f - u - v) * mesh.uvs[t.x] + u * mesh.uvs[t.y] + v * mesh.uvs[t.z];
+  return true;
+}
+
 }  // namespace
 
 glm::vec3 Texture::sample(glm::vec2 uv, bool srgb) const {
@@ -177,8 +185,8 @@ SurfaceSample Mesh::surface(uint32_t triangle, float u, float v) const {
   out.roughness = mat.roughness;
   out.emission = mat.emission;
   const glm::uvec3& t = triangles[triangle];
-  if (uvs.size() != positions.size() || t.x >= uvs.size() || t.y >= uvs.size() || t.z >= uvs.size()) return out;
-  const glm::vec2 uv = (1.0f - u - v) * uvs[t.x] + u * uvs[t.y] + v * uvs[t.z];
+  glm::vec2 uv;
+  if (!interpolated_uv(*this, t, u, v, uv)) return out;
   auto texture = [&](int index) { return index >= 0 && size_t(index) < textures.size() ? &textures[size_t(index)] : nullptr; };
   auto at = [&](TextureSlot slot) { return apply_uv_transform(mat.uv_transform[slot], uv); };
   if (const Texture* tex = texture(mat.metallic_roughness_texture)) {
@@ -216,11 +224,9 @@ glm::vec3 Mesh::albedo(uint32_t triangle, float u, float v) const {
   if (m < materials.size()) {
     const Material& mat = materials[m];
     color = mat.base_color;
-    if (mat.texture >= 0 && size_t(mat.texture) < textures.size() && uvs.size() == positions.size() &&
-        t.x < uvs.size() && t.y < uvs.size() && t.z < uvs.size()) {
-      const glm::vec2 uv = w * uvs[t.x] + u * uvs[t.y] + v * uvs[t.z];
+    glm::vec2 uv;
+    if (mat.texture >= 0 && size_t(mat.texture) < textures.size() && interpolated_uv(*this, t, u, v, uv))
       color *= textures[size_t(mat.texture)].sample(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
-    }
   }
   if (colors.size() == positions.size() && t.x < colors.size() && t.y < colors.size() &&
       t.z < colors.size()) {
@@ -235,12 +241,9 @@ float Mesh::alpha(uint32_t triangle, float u, float v) const {
     return 1.0f;
   const Material& mat = materials[triangle_material[triangle]];
   float a = mat.alpha;
-  const glm::uvec3& t = triangles[triangle];
-  if (mat.texture >= 0 && size_t(mat.texture) < textures.size() && uvs.size() == positions.size() &&
-      t.x < uvs.size() && t.y < uvs.size() && t.z < uvs.size()) {
-    const glm::vec2 uv = (1.0f - u - v) * uvs[t.x] + u * uvs[t.y] + v * uvs[t.z];
+  glm::vec2 uv;
+  if (mat.texture >= 0 && size_t(mat.texture) < textures.size() && interpolated_uv(*this, triangles[triangle], u, v, uv))
     a *= textures[size_t(mat.texture)].sample_alpha(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
-  }
   return a;
 }
 

@@ -124,26 +124,33 @@ Status read_manifest(const std::string& dir, nlohmann::json& manifest) {
   return Status::ok();
 }
 
-// Checks the job's model of r: returns why it cannot be adopted (empty: `model` holds it).
+// A job's model as read: its file's bytes (what is copied) and the model they hold.
+struct JobModel {
+  std::string bytes;
+  Model model;
+};
+
+// Reads and checks the job's model of r, once: returns why it cannot be adopted (empty: `out`
+// holds it).
 std::string check_job_model(const ConvertSettings& settings, const std::string& from, const ModelResult& r,
-                            Model& model) {
-  std::error_code ec;
-  if (!fs::exists(fs::symlink_status(from, ec))) return "missing (its job has not finished)";
-  if (Status s = load_model(from, model); !s) return "not loadable: " + s.message();
-  if (std::string why = training_record_difference(model.training, settings.train, r.mesh_hash); !why.empty())
+                            JobModel& out) {
+  ReadFailure f;
+  if (!read_file(from, out.bytes, uint64_t(1) << 34, &f))
+    return f.problem == ReadProblem::Missing ? "missing (its job has not finished)" : "cannot read it: " + f.reason;
+  if (Status s = load_model_from_memory(reinterpret_cast<const uint8_t*>(out.bytes.data()), out.bytes.size(), out.model);
+      !s)
+    return "not loadable: " + s.message();
+  if (std::string why = training_record_difference(out.model.training, settings.train, r.mesh_hash); !why.empty())
     return "not the model of this mesh and these settings: " + why;
   return "";
 }
 
-// Adopts a checked model: the job's file copied into the output folder, then recorded. Returns
-// why not (empty: adopted).
-std::string adopt(const ConvertSettings& settings, const PlannedModel& m, const Model& model, const std::string& from,
-                  const std::string& to, ModelResult& r) {
-  std::string bytes;
-  ReadFailure f;
-  if (!read_file(from, bytes, uint64_t(1) << 34, &f)) return "cannot read it: " + f.reason;
-  if (Status s = write_file_atomic(to, bytes); !s) return "cannot copy it: " + s.message();
-  if (Status s = record_model(settings, m, model, to, r); !s) return s.message();
+// Adopts a checked model: its bytes written into the output folder, then recorded. Returns why not
+// (empty: adopted).
+std::string adopt(const ConvertSettings& settings, const PlannedModel& m, const JobModel& job, const std::string& to,
+                  ModelResult& r) {
+  if (Status s = write_file_atomic(to, job.bytes); !s) return "cannot copy it: " + s.message();
+  if (Status s = record_model(settings, m, job.model, to, r); !s) return s.message();
   r.state = ModelState::Adopted;
   return "";
 }
@@ -218,7 +225,7 @@ Status adopt_planned_models(const ConvertSettings& settings, const Plan& plan, c
   for (const nlohmann::json& job : manifest["jobs"])
     if (job.is_object() && job.contains("hash") && job["hash"].is_string()) planned.insert(job["hash"].get<std::string>());
   // Every model is checked before any is copied: a run that stops for a missing model writes nothing.
-  std::vector<Model> checked(models.size());
+  std::vector<JobModel> checked(models.size());
   std::vector<size_t> ready;
   const auto list_missing = [&](size_t i, const std::string& from, const std::string& why) {
     std::string text = format("model '%s' (hash %s): %s: %s", plan.models[i].name.c_str(), models[i].hash.c_str(),
@@ -239,10 +246,9 @@ Status adopt_planned_models(const ConvertSettings& settings, const Plan& plan, c
   if (!missing.empty() && !settings.retrain_missing) return Status::ok();
   for (size_t i : ready) {
     const PlannedModel& m = plan.models[i];
-    const std::string from = (fs::path(settings.assemble_dir) / planned_model_path(models[i].hash)).string();
-    if (std::string why = adopt(settings, m, checked[i], from, (fs::path(out_dir) / m.file).string(), models[i]);
-        !why.empty())
-      list_missing(i, from, why);
+    if (std::string why = adopt(settings, m, checked[i], (fs::path(out_dir) / m.file).string(), models[i]); !why.empty())
+      list_missing(i, (fs::path(settings.assemble_dir) / planned_model_path(models[i].hash)).string(), why);
+    checked[i] = JobModel();  // adopted models are released as they go
   }
   return Status::ok();
 }
