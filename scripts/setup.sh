@@ -129,6 +129,18 @@ if [ ! -f "$data_dir/hdr/.fetched" ]; then  # CC0 HDR environments of Blender's 
   touch "$data_dir/hdr/.fetched"
   rm -rf "$tmp"; trap - EXIT
 fi
+if [ ! -f "$data_dir/textures/.fetched" ]; then  # alpha-tested plant sprites (Minetest Game, CC BY-SA 3.0)
+  tmp=$(mktemp -d); chmod 755 "$tmp"; chown _apt "$tmp" 2>/dev/null || true; trap 'rm -rf "$tmp"' EXIT
+  fetch_deb minetest-data "$tmp"
+  mkdir -p "$data_dir/textures"
+  for t in default_aspen_leaves.png default_fern_3.png; do
+    src=$(find "$tmp/root" -path '*minetest_game/mods/default/textures/*' -name "$t" | head -n1)
+    [ -n "$src" ] || { echo "setup.sh: $t not found in minetest-data" >&2; exit 1; }
+    cp "$src" "$data_dir/textures/$t"
+  done
+  touch "$data_dir/textures/.fetched"
+  rm -rf "$tmp"; trap - EXIT
+fi
 # --- 4. the Khronos glTF validator from npm's registry (the tests run it on every glTF the tools
 # write, tests/gltf_validator/validate_gltf.js); a pinned version, checked against its sha512.
 gv_version=2.0.0-dev.3.10

@@ -329,6 +329,15 @@ bool resolve_image(const tinygltf::Model& model, tinygltf::Image& image, uint64_
          image.image.size() == expected && expected != 0;
 }
 
+Status decode_image_file(const std::string& path, uint64_t max_pixels, tinygltf::Image& image) {
+  std::vector<unsigned char> bytes;
+  if (Status s = read_file(path, bytes, uint64_t(1) << 32); !s) return s;
+  std::string why;
+  if (!decode_image(image, bytes.data(), bytes.size(), max_pixels, why))
+    return Status::error("%s: %s", path.c_str(), why.c_str());
+  return Status::ok();
+}
+
 Status view_range(const tinygltf::Model& model, int view, size_t offset, uint64_t needed,
                   const unsigned char*& out) {
   if (view < 0 || size_t(view) >= model.bufferViews.size())

@@ -78,6 +78,12 @@ Status load_model(std::string_view data, bool binary, const std::string& name,
 bool resolve_image(const tinygltf::Model& model, tinygltf::Image& image, uint64_t max_pixels,
                    std::string& why);
 
+// Reads the PNG or JPEG file `path` (read_file, lsnif/format/file_io.h) and decodes it to RGBA8 with the decoder
+// load_model uses for glTF images (palette and grey images expanded, a missing alpha set to 255):
+// `image` then holds width x height x 4 bytes, top row first. Errors name the file: unreadable,
+// not a decodable PNG/JPEG, more than `max_pixels` pixels.
+Status decode_image_file(const std::string& path, uint64_t max_pixels, tinygltf::Image& image);
+
 // Bytes [offset, offset + needed) of bufferView `view` in `out`, after checking that the view
 // exists, its buffer exists, the view lies inside the buffer and the range inside the view;
 // otherwise an error naming what was out of range.

@@ -155,6 +155,9 @@ Status read_alpha(const tinygltf::Material& gm, const std::string& where, const 
   if (gm.alphaCutoff > 1.0)
     warnings.push_back({"", label + ": alphaCutoff above 1 was clamped to 1 (only alpha 1 is opaque)"});
   out.double_sided = gm.doubleSided;
+  if (out.alpha_mode == AlphaMode::Blend)
+    warnings.push_back({"", label + format(": alphaMode BLEND is read as a cut-out at alpha %.1f (ray tracing does not "
+                                           "blend; docs/convert.md, \"Materials\")", double(kBlendCutoff))});
   return Status::ok();
 }
 

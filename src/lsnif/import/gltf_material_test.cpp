@@ -169,10 +169,13 @@ TEST(GltfMaterial, AlphaModeCutoffAndDoubleSided) {
     g.materials[0].alphaMode = mode;
     g.materials[0].alphaCutoff = 0.25;
     g.materials[0].doubleSided = true;
+    w.clear();
     ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
     EXPECT_EQ(out.alpha_mode, expected) << mode;
     EXPECT_EQ(out.alpha_cutoff, 0.25f);
     EXPECT_TRUE(out.double_sided);
+    // BLEND has no blending here, and says so.
+    EXPECT_EQ(any_warning(w, "alphaMode BLEND is read as a cut-out at alpha 0.5"), expected == AlphaMode::Blend) << mode;
   }
   g.materials[0].alphaCutoff = 3.0;
   w.clear();

@@ -37,9 +37,6 @@ struct DeviceScene {
   std::vector<plugin::Model> models;     // per LSNIF object of the scene: its device model (or empty)
   std::vector<vk::Buffer> buffers;
   std::vector<vk::AccelerationStructure> blases;
-  // The first alpha cut-out material (scene::Material::alpha_cutoff > 0) of an uploaded primitive, ""
-  // when none: only the inline pipeline's traced rays alpha-test (render_triangle.rahit).
-  std::string cutout_material;
   // What one mode (LSNIF: 0, reference: 1) traces: its TLAS over the shared BLASes and models, and
   // the tables its shaders read. set_mode switches between prepared modes without uploads.
   struct Mode {
@@ -60,6 +57,11 @@ struct DeviceScene {
     // mesh), or why the mode cannot be rasterized (an LSNIF node without a mesh).
     std::vector<VisibilityDraw> raster_draws;
     std::string raster_why_not;
+    // The first alpha cut-out material (scene::Material::alpha_cutoff > 0) among the mode's triangle
+    // records, "" when none: the inline pipeline's rays alpha-test them (render_triangle.rahit) and
+    // the visibility pass does, but lsnifCmdQuery, which the wavefront pipeline casts its rays
+    // through, treats every triangle as opaque. (An LSNIF record's cut-outs are in its model.)
+    std::string cutout_material;
   };
   Mode modes[2];
   int active = 0;

@@ -114,8 +114,23 @@ int add_material(tinygltf::Model& model, const Material& material) {
   } else {
     m.emissiveFactor = {material.emission.r, material.emission.g, material.emission.b};
   }
+  if (material.base_color_texture >= 0) m.pbrMetallicRoughness.baseColorTexture.index = material.base_color_texture;
+  if (material.alpha_cutoff > 0.0f) {
+    m.alphaMode = "MASK";
+    m.alphaCutoff = material.alpha_cutoff;
+  }
   model.materials.push_back(std::move(m));
   return int(model.materials.size() - 1);
+}
+
+int add_image_texture(tinygltf::Model& model, const std::string& uri) {
+  tinygltf::Image image;
+  image.uri = uri;
+  model.images.push_back(std::move(image));
+  tinygltf::Texture texture;
+  texture.source = int(model.images.size() - 1);
+  model.textures.push_back(std::move(texture));
+  return int(model.textures.size() - 1);
 }
 
 Status add_mesh(tinygltf::Model& model, const Mesh& mesh, int& index) {

@@ -32,9 +32,17 @@ tinygltf::Model new_gltf_model(const std::string& generator);
 // Appends `material` as a glTF metallic-roughness material and returns its index. Written: name,
 // baseColorFactor (RGBA), metallicFactor, roughnessFactor, emission (emissiveFactor, scaled into
 // [0, 1] with KHR_materials_emissive_strength carrying the rest when a component exceeds 1).
-// Textures are not written (the *_texture fields are ignored). Factors are written as given: the
-// caller keeps them finite (the loader clamps base color, metallic and roughness to [0, 1]).
+// baseColorTexture when base_color_texture >= 0, which is then a glTF texture index (from
+// add_image_texture), not a Scene::textures one; alphaMode MASK with alphaCutoff when
+// alpha_cutoff > 0. The other textures and the uv transforms are not written. Factors are written
+// as given: the caller keeps them finite (the loader clamps base color, metallic and roughness to
+// [0, 1]).
 int add_material(tinygltf::Model& model, const Material& material);
+
+// Appends an image with `uri` (a PNG or JPEG file relative to the folder the model will be saved
+// in; neither read nor checked here) and a texture of it with the default sampler (bilinear,
+// repeat, as the renderer samples); returns the texture's index.
+int add_image_texture(tinygltf::Model& model, const std::string& uri);
 
 // Appends `mesh` (its name and one TRIANGLES primitive per Primitive, in order) and sets `index`
 // to the new glTF mesh index. Per primitive: POSITION (float VEC3, with the min / max glTF

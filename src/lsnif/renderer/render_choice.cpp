@@ -34,9 +34,9 @@ std::string raster_obstacle(const scene::Scene& scene) {
   return "";
 }
 
-std::string cutout_material(const scene::Scene& scene) {
+std::string cutout_material(const scene::Scene& scene, bool reference) {
   for (const scene::Instance& in : scene.instances) {
-    if (in.mesh < 0 || size_t(in.mesh) >= scene.meshes.size()) continue;
+    if ((in.lsnif >= 0 && !reference) || in.mesh < 0 || size_t(in.mesh) >= scene.meshes.size()) continue;
     for (const scene::Primitive& p : scene.meshes[size_t(in.mesh)].primitives)
       if (p.material < scene.materials.size() && scene.materials[p.material].alpha_cutoff > 0.0f)
         return scene.materials[p.material].name;
@@ -53,12 +53,11 @@ RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const
                       : "no LSNIF node: the fastest triangle path (inline, traced)";
     return c;
   }
-  if (const std::string cutout = cutout_material(scene); !cutout.empty()) {
-    c.why = "inline, traced: material '" + printable(cutout) +
-            "' is an alpha cut-out, which only the ray-tracing pipeline's any-hit shaders test";
-    return c;
-  }
-  if (paths.query) {
+  const std::string cutout = cutout_material(scene, /*reference=*/false);
+  if (!cutout.empty()) {
+    c.why = "inline: material '" + printable(cutout) +
+            "' is an alpha cut-out on triangles, which lsnifCmdQuery does not alpha-test";
+  } else if (paths.query) {
     c.pipeline = PathPipeline::wavefront;
     c.why = paths.ray_query ? "wavefront: the device runs lsnifCmdQuery (ray-query broad phase)"
                             : "wavefront: the device runs lsnifCmdQuery (ray-tracing broad phase)";

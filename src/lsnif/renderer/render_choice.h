@@ -8,8 +8,10 @@
 //   Primary visibility rasterized where every LSNIF node keeps a triangle mesh the visibility pass
 //   can draw and the queue has graphics (the paper's section 4: camera rays never meet a network),
 //   else traced.
-// - A scene whose instanced meshes use an alpha cut-out material: inline and traced (the only path
-//   that alpha-tests triangles).
+// - LSNIF mode where a node traced as triangles (not an LSNIF node) uses an alpha cut-out material:
+//   the inline pipeline (its any-hit shaders alpha-test triangles; lsnifCmdQuery does not), primary
+//   visibility as above (the visibility pass alpha-tests too). An LSNIF node's cut-outs are
+//   geometry in its model and change nothing.
 // - Reference mode, or no LSNIF node: the inline pipeline, traced (the fastest triangle path: a
 //   ray-tracing pipeline traverses triangles ~2x faster than ray queries on lavapipe).
 #pragma once
@@ -44,9 +46,10 @@ RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const
 // Why a node keeps no mesh the visibility pass can draw ("" when every LSNIF node keeps one).
 std::string raster_obstacle(const scene::Scene& scene);
 
-// The name of the first alpha cut-out material (scene::Material::alpha_cutoff > 0) a primitive of an
-// instanced mesh uses, "" when none. Only the inline pipeline's traced rays alpha-test triangles
-// (render_triangle.rahit): such a scene is rendered inline and traced.
-std::string cutout_material(const scene::Scene& scene);
+// The name of the first alpha cut-out material (scene::Material::alpha_cutoff > 0) a primitive of the
+// mesh of a node traced as triangles uses, "" when none: in reference mode (`reference`) every node
+// with a mesh, in LSNIF mode the nodes without an LSNIF object. The wavefront pipeline's
+// lsnifCmdQuery does not alpha-test triangles: the renderer refuses it for such a mode.
+std::string cutout_material(const scene::Scene& scene, bool reference);
 
 }  // namespace lsnif::render

@@ -216,6 +216,8 @@ struct SceneModels {
 struct ScenePrimitives {
   std::vector<RenderPrimitive> primitives;
   std::vector<uint32_t> primitive_triangles;           // per primitives entry
+  std::vector<std::string> primitive_cutout;           // per primitives entry: its material's name when
+                                                       // that is an alpha cut-out, else ""
   std::vector<std::vector<uint32_t>> mesh_primitives;  // per scene mesh: -> primitives / blases index
   std::vector<uint64_t> mesh_blas_bytes, mesh_triangles;  // per scene mesh
 };
@@ -399,7 +401,6 @@ Status build_primitives(const scene::Scene& scene, const ScenePlan& plan, size_t
       std::memcpy(flat.data(), p.positions.data(), flat.size() * sizeof(float));
       // A cut-out material's geometry is not opaque: its hits run the alpha test (render_triangle.rahit).
       const bool opaque = p.material >= scene.materials.size() || !(scene.materials[p.material].alpha_cutoff > 0.0f);
-      if (!opaque && dev.cutout_material.empty()) dev.cutout_material = scene.materials[p.material].name;
       vk::AccelerationStructure blas;
       if (Status s = dev.tracer.build_triangle_blas(flat, indices, blas, opaque); !s)
         return s.context(("mesh '" + scene.meshes[m].name + "'").c_str());
@@ -410,6 +411,7 @@ Status build_primitives(const scene::Scene& scene, const ScenePlan& plan, size_t
       out.mesh_primitives[m].push_back(uint32_t(out.primitives.size()));
       out.primitives.push_back(rp);
       out.primitive_triangles.push_back(uint32_t(p.indices.size() / 3));
+      out.primitive_cutout.push_back(opaque ? std::string() : scene.materials[p.material].name);
     }
   }
   return Status::ok();
@@ -440,7 +442,8 @@ Status add_lsnif_instance(const scene::Scene& scene, const scene::Instance& in, 
     for (size_t k = 0; k < mesh->size(); ++k) {
       const RenderPrimitive& rp = prims.primitives[(*mesh)[k]];
       md.raster_draws.push_back({uint32_t(t.instances.size()) | uint32_t(k << RENDER_VISIBILITY_GEOMETRY_SHIFT),
-                                 rp.positions, rp.indices, prims.primitive_triangles[(*mesh)[k]], in.object_to_world});
+                                 rp.positions, rp.indices, prims.primitive_triangles[(*mesh)[k]], in.object_to_world,
+                                 !prims.primitive_cutout[(*mesh)[k]].empty()});
     }
   }
   t.material_maps.insert(t.material_maps.end(), obj.material_map.begin(), obj.material_map.end());
@@ -483,8 +486,11 @@ Status add_triangle_instance(const scene::Instance& in, const ScenePrimitives& p
     rec.mask = 0xFF;
     rec.instanceShaderBindingTableRecordOffset = triangle_sbt_offset & 0xffffffu;  // triangle hit group
     rec.accelerationStructureReference = dev.blases[prim].address;
+    const std::string& cutout = prims.primitive_cutout[prim];
+    if (!cutout.empty() && md.cutout_material.empty()) md.cutout_material = cutout;
     md.raster_draws.push_back({uint32_t(t.instances.size()), prims.primitives[prim].positions,
-                               prims.primitives[prim].indices, prims.primitive_triangles[prim], in.object_to_world});
+                               prims.primitives[prim].indices, prims.primitive_triangles[prim], in.object_to_world,
+                               !cutout.empty()});
     t.instances.push_back({RENDER_INSTANCE_TRIANGLES, prim, 0, 0});
     t.model_table.push_back(0);
     md.table_models.push_back(nullptr);
@@ -766,9 +772,6 @@ Status Renderer::prepare_frame(const View& view, uint32_t first_sample, uint32_t
   if (primary == PrimaryVisibility::raster) {
     if (!md.raster_why_not.empty())
       return Status::error("render: rasterized primary visibility: %s", md.raster_why_not.c_str());
-    if (!scene_->cutout_material.empty())
-      return Status::error("render: rasterized primary visibility does not alpha-test, and material '%s' is an alpha "
-                           "cut-out: use --primary traced (or auto)", printable(scene_->cutout_material).c_str());
     if (!visibility_) visibility_ = std::make_unique<VisibilityBuffer>(ctx_);
     VisibilityCamera camera;
     camera.camera_to_world = view.camera_to_world;
@@ -777,7 +780,11 @@ Status Renderer::prepare_frame(const View& view, uint32_t first_sample, uint32_t
     // Near plane: far below the scene's size (closer surfaces are clipped, which traced rays see).
     camera.near_plane = 1e-6f * std::max(glm::length(scene_->hi - scene_->lo), 1e-6f);
     const auto t0 = std::chrono::steady_clock::now();
-    if (Status s = visibility_->rasterize(md.raster_draws, camera, width_, height_, first_sample, samples); !s)
+    // The alpha test of cut-out draws reads the scene's tables through the frame.
+    std::memcpy(scene_->frame_on_device, &frame, sizeof frame);
+    if (Status s = visibility_->rasterize(md.raster_draws, camera, scene_->frame_address, width_, height_, first_sample,
+                                          samples);
+        !s)
       return s;
     // Its own submission, waited for: its wall time is the stage's time.
     if (stage_timing_)
@@ -805,10 +812,10 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   push.sample_index = first_sample;
   push.samples = samples;
   if (pipeline == PathPipeline::wavefront) {
-    if (!scene_->cutout_material.empty())
+    if (!md.cutout_material.empty())
       return Status::error("render: the wavefront pipeline's lsnifCmdQuery treats every triangle as opaque, and "
                            "material '%s' is an alpha cut-out: use --pipeline inline (or auto)",
-                           printable(scene_->cutout_material).c_str());
+                           printable(md.cutout_material).c_str());
     if (Status s = accumulate_wavefront(first_sample, samples, max_bounces, primary == PrimaryVisibility::raster); !s)
       return s;
   } else if (Status s = tracer_.trace(pipeline_, md.tlas, &push, width_ * height_); !s) {

@@ -244,9 +244,12 @@ Status VisibilityBuffer::resize(uint32_t width, uint32_t height, uint32_t layers
 }
 
 Status VisibilityBuffer::rasterize(const std::vector<VisibilityDraw>& draws, const VisibilityCamera& camera,
-                                   uint32_t width, uint32_t height, uint32_t first_sample, uint32_t samples) {
+                                   uint64_t frame, uint32_t width, uint32_t height, uint32_t first_sample,
+                                   uint32_t samples) {
   if (width == 0 || height == 0 || samples == 0)
     return Status::error("visibility pass: width, height and samples must be positive");
+  for (const VisibilityDraw& d : draws)
+    if (d.alpha_test && frame == 0) return Status::error("visibility pass: an alpha-tested draw needs the frame's tables");
   if (!pipeline_)
     if (Status s = create_pipeline(); !s) return s;
   if (Status s = resize(width, height, samples); !s) return s;
@@ -283,6 +286,8 @@ Status VisibilityBuffer::rasterize(const std::vector<VisibilityDraw>& draws, con
         push.tan_half_fov_y = camera.tan_half_fov_y;
         push.aspect = camera.aspect;
         push.near_plane = camera.near_plane;
+        push.alpha_test = draw.alpha_test ? 1u : 0u;
+        push.frame = draw.alpha_test ? frame : 0;
         vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof push,
                            &push);
         vkCmdDraw(cmd, 3 * draw.triangles, 1, 0, 0);

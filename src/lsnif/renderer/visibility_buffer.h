@@ -18,12 +18,14 @@
 namespace lsnif::render {
 
 // One triangle list to draw: RenderVisibility::instance it writes, its object-space vertex data
-// (float3 positions, uint32 indices, 3 per triangle) and where it stands.
+// (float3 positions, uint32 indices, 3 per triangle) and where it stands. `alpha_test`: its
+// material is an alpha cut-out; the fragments in holes are discarded (RenderRasterPush::alpha_test).
 struct VisibilityDraw {
   uint32_t instance = 0;
   uint64_t positions = 0, indices = 0;
   uint32_t triangles = 0;
   glm::mat4 object_to_world{1.0f};
+  bool alpha_test = false;
 };
 
 // The pinhole camera of the traced camera rays (render_path_start).
@@ -41,10 +43,12 @@ class VisibilityBuffer {
   VisibilityBuffer& operator=(const VisibilityBuffer&) = delete;
 
   // Rasterizes `draws` for samples first_sample .. first_sample + samples - 1 into layers 0 ..
-  // samples - 1 of a width x height visibility buffer (texels(), distances()), and waits. Fails on
-  // a zero size, a device whose queue cannot do graphics, or a device error.
-  Status rasterize(const std::vector<VisibilityDraw>& draws, const VisibilityCamera& camera, uint32_t width,
-                   uint32_t height, uint32_t first_sample, uint32_t samples);
+  // samples - 1 of a width x height visibility buffer (texels(), distances()), and waits. `frame`
+  // is the device address of the RenderFrame whose tables the alpha test of the draws with
+  // alpha_test reads (its instance table indexed by the draws' instance). Fails on a zero size, a
+  // device whose queue cannot do graphics, an alpha-tested draw without a frame, or a device error.
+  Status rasterize(const std::vector<VisibilityDraw>& draws, const VisibilityCamera& camera, uint64_t frame,
+                   uint32_t width, uint32_t height, uint32_t first_sample, uint32_t samples);
   // RenderVisibility per (layer, pixel) and its distance (float), layer-major; device addresses.
   uint64_t texels_address() const { return texels_.address; }
   uint64_t distances_address() const { return distances_.address; }

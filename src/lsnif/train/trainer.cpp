@@ -26,7 +26,9 @@ std::string TrainSettings::describe() const {
 
 Status model_layout(const Mesh& mesh, const TrainSettings& settings, Config& config, VoxelGrid& voxels,
                     std::vector<uint16_t>& grid_index) {
-  voxels = voxelize(mesh, config.voxel_resolution, pad_aabb(mesh.bounds()));
+  // Cut-outs: only the voxels of their opaque parts (docs/convert.md, "Materials": measured smaller and
+  // no worse).
+  voxels = voxelize(mesh, config.voxel_resolution, pad_aabb(mesh.bounds()), /*opaque_cells_only=*/true);
   return index_grid_levels(voxels, settings.indexed, config, grid_index);
 }
 

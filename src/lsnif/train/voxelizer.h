@@ -10,7 +10,11 @@ namespace lsnif {
 
 // Marks every voxel whose closed box overlaps at least one triangle (exact separating-axis
 // triangle/box test; polygon soup, no topology assumed). `bounds` is normally pad_aabb(mesh.bounds()).
-VoxelGrid voxelize(const Mesh& mesh, uint32_t resolution, const Aabb& bounds);
+// With `opaque_cells_only`, a triangle of an alpha cut-out material marks only the voxels its
+// possibly-opaque parts overlap: it is cut into sub-triangles of about half a texel (at most 64 per
+// edge) and one whose texels' largest alpha (times the factor alpha) is below the cutoff marks
+// nothing. Conservative: a voxel holding a point where Mesh::opaque_at is true is always marked.
+VoxelGrid voxelize(const Mesh& mesh, uint32_t resolution, const Aabb& bounds, bool opaque_cells_only = false);
 
 // Exact triangle / axis-aligned box overlap test (separating axis theorem, 13 axes). Touching
 // counts as overlap.

@@ -400,3 +400,83 @@ TEST(Voxelize, BunnyAt32) {
 
 }  // namespace
 }  // namespace lsnif
+
+namespace lsnif {
+namespace {
+
+// Cut-out triangles with opaque_cells_only: every voxel that holds a point of a triangle where
+// Mesh::opaque_at holds (dense random samples, the truth the trainer's ground truth uses) is
+// marked; the marked voxels are a subset of the plain voxelization's and strictly fewer for a
+// texture with large holes; a cut-out whose factor alpha is below its cutoff (no texture) marks
+// nothing; opaque materials, and opaque_cells_only false, give the plain voxelization.
+TEST(Voxelize, CutoutsMarkOnlyTheVoxelsOfTheirOpaqueParts) {
+  std::mt19937 rng(77);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  Mesh mesh;
+  // An 8 x 8 alpha texture of random 2 x 2 blocks, half of them holes.
+  Texture t;
+  t.width = t.height = 8;
+  t.rgba.assign(8 * 8 * 4, 255);
+  for (uint32_t by = 0; by < 4; ++by)
+    for (uint32_t bx = 0; bx < 4; ++bx) {
+      const uint8_t a = u(rng) < 0.5f ? 0 : 255;
+      for (uint32_t y = 2 * by; y < 2 * by + 2; ++y)
+        for (uint32_t x = 2 * bx; x < 2 * bx + 2; ++x) t.rgba[(y * 8 + x) * 4 + 3] = a;
+    }
+  mesh.textures = {t};
+  Material mask, blend, faint, opaque;
+  mask.texture = blend.texture = 0;
+  mask.alpha_mode = AlphaMode::Mask;
+  mask.alpha_cutoff = 0.3f;
+  mask.uv_transform[kSlotBaseColor] = UvTransform(1.5f, 0.2f, -0.1f, 1.25f, 0.3f, -0.6f);
+  blend.alpha_mode = AlphaMode::Blend;
+  faint.alpha_mode = AlphaMode::Mask;
+  faint.alpha = 0.2f;  // below the cutoff everywhere: all hole
+  mesh.materials = {mask, blend, faint, opaque};
+  for (int tri = 0; tri < 60; ++tri) {
+    const glm::vec3 c(0.1f + 0.8f * u(rng), 0.1f + 0.8f * u(rng), 0.1f + 0.8f * u(rng));
+    const uint32_t base = uint32_t(mesh.positions.size());
+    const glm::vec2 uv0(3.0f * u(rng) - 1.0f, 3.0f * u(rng) - 1.0f);  // beyond [0, 1]: wrapping
+    for (int v = 0; v < 3; ++v) {
+      mesh.positions.push_back(c + 0.3f * glm::vec3(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1));
+      mesh.uvs.push_back(uv0 + 0.4f * glm::vec2(u(rng), u(rng)));
+    }
+    mesh.triangles.push_back({base, base + 1, base + 2});
+    mesh.triangle_material.push_back(tri < 25 ? 0 : tri < 50 ? 1 : 2);
+  }
+  Aabb bounds;
+  bounds.lo = glm::vec3(-0.25f);
+  bounds.hi = glm::vec3(1.25f);
+  const uint32_t V = 16;
+  const VoxelGrid all = voxelize(mesh, V, bounds);
+  const VoxelGrid cut = voxelize(mesh, V, bounds, /*opaque_cells_only=*/true);
+  ASSERT_EQ(cut.resolution, V);
+  uint32_t samples_opaque = 0;
+  for (uint32_t tri = 0; tri < mesh.triangles.size(); ++tri)
+    for (int s = 0; s < 4000; ++s) {
+      float a = u(rng), b = u(rng);
+      if (a + b > 1.0f) a = 1.0f - a, b = 1.0f - b;
+      if (!mesh.opaque_at(tri, a, b)) continue;
+      const glm::uvec3 idx = mesh.triangles[tri];
+      const glm::vec3 p = (1.0f - a - b) * mesh.positions[idx.x] + a * mesh.positions[idx.y] + b * mesh.positions[idx.z];
+      const glm::vec3 q = glm::floor(cut.to_unit(p) * float(V));
+      ++samples_opaque;
+      ASSERT_TRUE(cut.occupied(int(q.x), int(q.y), int(q.z))) << "triangle " << tri << " at (" << a << ", " << b << ")";
+    }
+  EXPECT_GT(samples_opaque, 20000u);
+  for (size_t w = 0; w < cut.bits.size(); ++w) EXPECT_EQ(cut.bits[w] & ~all.bits[w], 0u) << "word " << w;
+  EXPECT_LT(cut.count_occupied(), all.count_occupied() * 19 / 20) << "half the texture is holes";
+  std::printf("[ cut-out ] %u voxels of the opaque parts, %u of the whole triangles\n", cut.count_occupied(),
+              all.count_occupied());
+
+  Mesh faint_only = mesh;
+  faint_only.triangle_material.assign(mesh.triangles.size(), 2);
+  EXPECT_EQ(voxelize(faint_only, V, bounds, true).count_occupied(), 0u);
+  Mesh opaque_only = mesh;
+  opaque_only.triangle_material.assign(mesh.triangles.size(), 3);
+  EXPECT_EQ(voxelize(opaque_only, V, bounds, true).bits, voxelize(opaque_only, V, bounds).bits);
+  EXPECT_EQ(voxelize(mesh, V, bounds, false).bits, all.bits);
+}
+
+}  // namespace
+}  // namespace lsnif

@@ -121,9 +121,10 @@ std::string results_markdown(const std::vector<SceneRow>& rows, const render::Re
                device.c_str(), rs.width, rs.height, rs.spp, rs.max_bounces, training.c_str());
   md += "Pipelines and primary visibility:\n\n";
   for (const SceneRow& r : rows)
-    md += format("- %s, %s quality: LSNIF %s, %s (%s); reference %s, %s\n", r.name.c_str(), r.preset.c_str(),
+    md += format("- %s, %s quality: LSNIF %s, %s (%s); reference %s, %s (%s)\n", r.name.c_str(), r.preset.c_str(),
                  render::pipeline_name(r.path.pipeline), render::primary_name(r.path.primary), r.path.why.c_str(),
-                 render::pipeline_name(r.reference_path.pipeline), render::primary_name(r.reference_path.primary));
+                 render::pipeline_name(r.reference_path.pipeline), render::primary_name(r.reference_path.primary),
+                 r.reference_path.why.c_str());
   md += "\n";
   md += table(rows);
   md += "\nLSNIF count: LSNIF instances (unique models). LSNIF: device memory of the models (model block + AABB "
@@ -181,6 +182,7 @@ nlohmann::ordered_json results_json(const std::vector<SceneRow>& rows, const ren
         {"pipeline_choice", r.path.why},
         {"reference_pipeline", render::pipeline_name(r.reference_path.pipeline)},
         {"reference_primary", render::primary_name(r.reference_path.primary)},
+        {"reference_choice", r.reference_path.why},
         {"broad_phase", r.path.pipeline == render::PathPipeline::wavefront ? render::broad_phase_name(l.broad_phase) : ""},
         {"object_triangles", r.triangles},
         {"lsnif_instances", l.lsnif_instances},
@@ -306,7 +308,7 @@ bool check_inputs(const BenchCommand& cmd) {
       if (!fs::is_regular_file(f)) {
         std::fprintf(stderr,
                      "lsnif bench: %s (needed by scene '%s') not found: run scripts/setup.sh first (it fetches "
-                     "the meshes and HDR environments)\n", f.c_str(), n.c_str());
+                     "the meshes, textures and HDR environments)\n", f.c_str(), n.c_str());
         return false;
       }
   return true;
@@ -440,10 +442,18 @@ bool render_preset(vk::ComputeContext& ctx, const BenchCommand& cmd, const scene
     given.pipeline = entry;
     given.primary = cmd.primary_name;
     if (!resolve_path_options("bench", given, ctx, sc, /*reference=*/false, row.path)) return false;
-    // auto: the reference takes the fastest triangle path; a forced pipeline renders it too.
+    // auto: the reference takes the fastest triangle path; a forced pipeline renders it too, unless
+    // that is the wavefront pipeline and the reference's triangles have cut-outs (which it does not
+    // alpha-test): then the reference is inline, and the report says why.
     row.reference_path = row.path;
     if (entry == "auto" && !resolve_path_options("bench", PathOptions(), ctx, sc, /*reference=*/true, row.reference_path))
       return false;
+    if (const std::string cutout = render::cutout_material(sc, /*reference=*/true);
+        row.reference_path.pipeline == render::PathPipeline::wavefront && !cutout.empty()) {
+      row.reference_path.pipeline = render::PathPipeline::inline_rt;
+      row.reference_path.why = "inline: material '" + printable(cutout) +
+                               "' is an alpha cut-out, which lsnifCmdQuery does not alpha-test";
+    }
     row.image = name + (preset == "default" ? "" : "." + preset) + "." + entry + ".png";
     render::RenderSettings prs = rs;
     prs.pipeline = row.path.pipeline;

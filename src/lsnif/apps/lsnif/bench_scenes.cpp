@@ -9,7 +9,10 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "lsnif/core/rng.h"
 #include "lsnif/format/crc32.h"
+#include "lsnif/import/gltf_access.h"
+#include "lsnif/import/gltf_material.h"
 #include "lsnif/renderer/gltf_build.h"
 #include "lsnif/renderer/render_defaults.h"
 #include "lsnif/import/mesh_subdivide.h"
@@ -33,7 +36,14 @@ const Source kDragon{"ChineseDragon-10kv.off", {0.30f, 0.62f, 0.42f}, 0.35f, 0.0
 const Source kArmadillo{"armadillo.off", {0.55f, 0.58f, 0.80f}, 0.5f, 0.0f};
 const Source kElephant{"elephant.off", {0.35f, 0.60f, 0.22f}, 0.6f, -90.0f};
 
+// Alpha-tested plant sprites (data/textures, from Debian's minetest-data: Minetest Game's textures,
+// CC BY-SA 3.0): a tileable cluster of leaves with holes (16 x 16) and a fern (32 x 32), RGBA.
+constexpr const char* kLeavesTexture = "default_aspen_leaves.png";
+constexpr const char* kFernTexture = "default_fern_3.png";
+constexpr float kCardCutoff = 0.5f;  // glTF's default alphaCutoff
+
 std::string mesh_path(const std::string& data_dir, const char* file) { return data_dir + "/meshes/" + file; }
+std::string texture_path(const std::string& data_dir, const char* file) { return data_dir + "/textures/" + file; }
 // DATA/hdr/FILE; where that EXR is absent but the same image as Radiance HDR (.hdr) is there, that
 // one: the GPU check folder carries its environments as .hdr, which its portable image reader reads.
 std::string hdr_path(const std::string& data_dir, const char* file) {
@@ -49,6 +59,7 @@ const char* scene_hdr(const std::string& name) {
   if (name == "bunny") return "forest.exr";
   if (name == "dragons") return "sunset.exr";
   if (name == "heavy") return "city.exr";
+  if (name == "foliage") return "courtyard.exr";
   return "sunrise.exr";
 }
 
@@ -56,7 +67,7 @@ std::vector<const Source*> scene_sources(const std::string& name) {
   if (name == "bunny") return {&kBunny};
   if (name == "dragons") return {&kDragon};
   if (name == "heavy") return {&kBunny, &kArmadillo, &kDragon};
-  if (name == "foliage") return {&kElephant};
+  if (name == "strands") return {&kElephant};
   return {};
 }
 
@@ -148,7 +159,7 @@ std::string hex(uint32_t v) { return format("%08x", v); }
 Status require_files(const std::vector<std::string>& files) {
   for (const std::string& f : files)
     if (!fs::is_regular_file(f))
-      return Status::error("%s not found: run scripts/setup.sh first (it fetches the meshes and HDR environments)",
+      return Status::error("%s not found: run scripts/setup.sh first (it fetches the meshes, textures and HDR environments)",
                            f.c_str());
   return Status::ok();
 }
@@ -157,22 +168,96 @@ scene::Primitive scene_primitive(const Mesh& mesh, uint32_t material) {
   scene::Primitive p;
   p.positions = mesh.positions;
   p.normals = mesh.normals;
+  p.uvs = mesh.uvs;
   p.indices.reserve(3 * mesh.triangles.size());
   for (const glm::uvec3& t : mesh.triangles) p.indices.insert(p.indices.end(), {t.x, t.y, t.z});
   p.material = material;
   return p;
 }
 
+// Reads a sprite with the glTF loader's image decoder: the texels the renderer reads from the copy
+// beside the scene file.
+Status load_sprite(const std::string& path, Texture& out) {
+  tinygltf::Image image;
+  if (Status s = gltf::decode_image_file(path, kGltfMaxImagePixels, image); !s) return s;
+  out.width = uint32_t(image.width);
+  out.height = uint32_t(image.height);
+  out.rgba = std::move(image.image);
+  return Status::ok();
+}
+
+// A bush: `count` square leaf cards of half-size `half`, centres uniform in the ellipsoid of
+// semi-axes `radii` about `center`, facing uniformly random directions, each turned by a random
+// angle about its normal (the numbers of card i depend only on (seed, i)).
+std::vector<Card> bush_cards(uint32_t count, glm::vec3 center, glm::vec3 radii, float half, uint64_t seed) {
+  constexpr float kTwoPi = 6.28318530718f;
+  std::vector<Card> cards;
+  cards.reserve(count);
+  for (uint32_t i = 0; i < count; ++i) {
+    Rng rng(seed, 0, i);
+    glm::vec3 u;
+    do {
+      u = 2.0f * glm::vec3(rng.next_float(), rng.next_float(), rng.next_float()) - 1.0f;
+    } while (glm::dot(u, u) > 1.0f);
+    const float u1 = rng.next_float(), u2 = rng.next_float();
+    const glm::vec3 n = sample_uniform_sphere(u1, u2);
+    const glm::vec3 helper = std::abs(n.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+    const glm::vec3 a = glm::normalize(glm::cross(n, helper)), b = glm::cross(n, a);
+    const float angle = kTwoPi * rng.next_float();
+    const glm::vec3 right = half * (std::cos(angle) * a + std::sin(angle) * b);
+    cards.push_back({center + radii * u, right, glm::cross(n, right)});
+  }
+  return cards;
+}
+
+// A plant sprite as game engines draw one: three upright cards `width` x `height` crossed at 60
+// degrees about the y axis, standing on y = 0.
+std::vector<Card> crossed_cards(float width, float height) {
+  std::vector<Card> cards;
+  for (int k = 0; k < 3; ++k) {
+    const float a = glm::radians(60.0f * float(k));
+    cards.push_back({glm::vec3(0.0f, 0.5f * height, 0.0f), 0.5f * width * glm::vec3(std::cos(a), 0.0f, std::sin(a)),
+                     glm::vec3(0.0f, 0.5f * height, 0.0f)});
+  }
+  return cards;
+}
+
 }  // namespace
 
+Mesh card_mesh(const std::vector<Card>& cards, Texture texture, const std::string& name, float cutoff) {
+  Mesh out;
+  for (const Card& c : cards) {
+    const uint32_t base = uint32_t(out.positions.size());
+    const glm::vec3 n = glm::normalize(glm::cross(c.right, c.up));
+    out.positions.insert(out.positions.end(), {c.center - c.right + c.up, c.center + c.right + c.up,
+                                               c.center + c.right - c.up, c.center - c.right - c.up});
+    out.uvs.insert(out.uvs.end(), {{0.0f, 0.0f}, {1.0f, 0.0f}, {1.0f, 1.0f}, {0.0f, 1.0f}});
+    out.normals.insert(out.normals.end(), 4, n);
+    // Counter-clockwise seen from the side n points to.
+    out.triangles.push_back(glm::uvec3(base + 3, base + 2, base + 1));
+    out.triangles.push_back(glm::uvec3(base + 3, base + 1, base + 0));
+  }
+  Material m;
+  m.name = name;
+  m.base_color = glm::vec3(1.0f);
+  m.texture = 0;
+  m.alpha_mode = AlphaMode::Mask;
+  m.alpha_cutoff = cutoff;
+  out.materials = {m};
+  out.textures = {std::move(texture)};
+  out.triangle_material.assign(out.triangles.size(), 0);
+  return out;
+}
+
 const std::vector<std::string>& bench_scene_names() {
-  static const std::vector<std::string> names = {"bunny", "dragons", "heavy", "foliage"};
+  static const std::vector<std::string> names = {"bunny", "dragons", "heavy", "strands", "foliage"};
   return names;
 }
 
 std::vector<std::string> bench_scene_inputs(const std::string& name, const std::string& data_dir) {
   std::vector<std::string> files;
   for (const Source* s : scene_sources(name)) files.push_back(mesh_path(data_dir, s->file));
+  if (name == "foliage") files = {texture_path(data_dir, kLeavesTexture), texture_path(data_dir, kFernTexture)};
   if (!files.empty()) files.push_back(hdr_path(data_dir, scene_hdr(name)));
   return files;
 }
@@ -270,8 +355,8 @@ Mesh wireframe_mesh(const Mesh& mesh, float radius) {
 
 Status make_bench_scene(const std::string& name, const std::string& data_dir, BenchScene& out) {
   out = BenchScene();
-  const std::vector<const Source*> sources = scene_sources(name);
-  if (sources.empty()) {
+  const std::vector<std::string>& names = bench_scene_names();
+  if (std::find(names.begin(), names.end(), name) == names.end()) {
     std::string known;
     for (const std::string& n : bench_scene_names()) known += (known.empty() ? "" : ", ") + n;
     return Status::error("unknown scene '%s' (scenes: %s)", name.c_str(), known.c_str());
@@ -298,6 +383,24 @@ Status make_bench_scene(const std::string& name, const std::string& data_dir, Be
     out.objects.push_back(std::move(o));
     return Status::ok();
   };
+  auto add_cards = [&](const std::string& object_name, const char* texture, const std::vector<Card>& cards,
+                       const std::string& origin, std::vector<glm::mat4> placements) -> Status {
+    BenchObject o;
+    o.name = object_name;
+    o.texture = texture_path(data_dir, texture);
+    Texture sprite;
+    if (Status s = load_sprite(o.texture, sprite); !s) return s;
+    o.mesh = card_mesh(cards, std::move(sprite), object_name, kCardCutoff);
+    o.origin = origin;
+    o.material.name = object_name;
+    o.material.base_color = glm::vec4(1.0f);
+    o.material.metallic = 0.0f;
+    o.material.roughness = 0.6f;
+    o.material.alpha_cutoff = kCardCutoff;
+    o.placements = std::move(placements);
+    out.objects.push_back(std::move(o));
+    return Status::ok();
+  };
   Status s;
   if (name == "bunny") {
     out.summary = "the Stanford bunny on a ground quad";
@@ -317,6 +420,21 @@ Status make_bench_scene(const std::string& name, const std::string& data_dir, Be
     view = glm::vec3(0.05f, 0.3f, 1.0f);
     fill = 0.7f;
     out.env_intensity = 0.6f;  // the overcast city sky would wash the ground out at 1
+  } else if (name == "foliage") {
+    out.summary = "alpha-tested cards: a bush of leaf cards and five instances of a fern (glTF alphaMode MASK)";
+    constexpr uint32_t kLeafCards = 900;
+    s = add_cards("bush", kLeavesTexture, bush_cards(kLeafCards, {0.0f, 0.5f, 0.0f}, {0.5f, 0.42f, 0.5f}, 0.08f, 7),
+                  format("%u cards textured with %s, random in an ellipsoid", kLeafCards, kLeavesTexture),
+                  {glm::mat4(1.0f)});
+    std::vector<glm::mat4> ferns;
+    for (int k = 0; k < 5; ++k) {
+      const float a = glm::radians(30.0f + 72.0f * float(k));
+      ferns.push_back(placement({0.78f * std::cos(a), 0.0f, 0.78f * std::sin(a)}, 40.0f * float(k), 0.8f + 0.1f * float(k % 3)));
+    }
+    if (s) s = add_cards("fern", kFernTexture, crossed_cards(0.45f, 0.45f),
+                         format("three crossed cards textured with %s", kFernTexture), std::move(ferns));
+    view = glm::vec3(0.3f, 0.35f, 1.0f);
+    fill = 0.7f;
   } else {
     out.summary = "thin geometry: every edge of the elephant mesh as a thin closed prism (a wire sculpture)";
     BenchObject o;
@@ -366,7 +484,15 @@ Status write_bench_scene(const BenchScene& scene, const std::string& dir) {
   if (Status s = scene::add_mesh(model, quad, mesh); !s) return s;
   scene::add_node(model, "ground", mesh, glm::mat4(1.0f));
   for (const BenchObject& o : scene.objects) {
-    const int material = scene::add_material(model, o.material);
+    scene::Material material_spec = o.material;
+    if (!o.texture.empty()) {
+      const std::string file = fs::path(o.texture).filename().string();
+      std::error_code ec;
+      fs::copy_file(o.texture, fs::path(dir) / file, fs::copy_options::overwrite_existing, ec);
+      if (ec) return Status::error("copying %s into %s: %s", o.texture.c_str(), dir.c_str(), ec.message().c_str());
+      material_spec.base_color_texture = scene::add_image_texture(model, file);
+    }
+    const int material = scene::add_material(model, material_spec);
     scene::Mesh m;
     m.name = o.name;
     m.primitives = {scene_primitive(o.mesh, uint32_t(material))};
@@ -391,8 +517,14 @@ Status write_bench_scene(const BenchScene& scene, const std::string& dir) {
 std::string mesh_fingerprint(const Mesh& mesh) {
   uint32_t crc = crc_of(mesh.positions, 0);
   crc = crc_of(mesh.normals, crc);
+  crc = crc_of(mesh.uvs, crc);
   crc = crc_of(mesh.triangles, crc);
-  for (const Material& m : mesh.materials) crc = crc_of_value(m.base_color, crc);
+  for (const Material& m : mesh.materials) {
+    crc = crc_of_value(m.base_color, crc);
+    if (m.alpha_mode == AlphaMode::Opaque) continue;
+    crc = crc_of_value(m.cutoff(), crc);
+    if (m.texture >= 0 && size_t(m.texture) < mesh.textures.size()) crc = crc_of(mesh.textures[size_t(m.texture)].rgba, crc);
+  }
   return hex(crc);
 }
 
@@ -407,6 +539,7 @@ std::string scene_fingerprint(const BenchScene& scene) {
     crc = crc_of(o.placements, crc);
     crc = crc_of_value(o.material.base_color, crc);
     crc = crc_of_value(o.material.roughness, crc);
+    if (!o.texture.empty()) crc = crc_of_value(o.material.alpha_cutoff, crc);
   }
   crc = crc_of_value(scene.ground_center, crc);
   crc = crc_of_value(scene.ground_half_size, crc);

@@ -23,6 +23,10 @@ struct BenchObject {
   Mesh mesh;           // object space, standing on y = 0; one material whose base color is the
                        // object's color (the albedo the model learns)
   scene::Material material;            // the scene material (base color = mesh.materials[0]'s)
+  // The base colour image (PNG with alpha) of an alpha-tested object: mesh.textures[0], which
+  // mesh.materials[0] uses with mesh.uvs and a MASK cutoff equal to material.alpha_cutoff; the
+  // scene file refers to a copy beside it. Empty for the untextured objects.
+  std::string texture;
   std::vector<glm::mat4> placements;   // object-to-world per instance (node NAME, NAME_1, ...)
 };
 
@@ -36,10 +40,11 @@ struct BenchScene {
   float env_intensity = 1.0f, env_rotation_degrees = 0.0f;
 };
 
-// The scenes, in the order `lsnif bench` runs them by default: bunny, dragons, heavy, foliage.
+// The scenes, in the order `lsnif bench` runs them by default: bunny, dragons, heavy, strands,
+// foliage.
 const std::vector<std::string>& bench_scene_names();
 
-// The files under `data_dir` that scene `name` needs (meshes and HDR image).
+// The files under `data_dir` that scene `name` needs (meshes or textures, and the HDR image).
 std::vector<std::string> bench_scene_inputs(const std::string& name, const std::string& data_dir);
 
 // Builds scene `name` from the files under `data_dir`. Errors: an unknown name (listing the
@@ -47,12 +52,12 @@ std::vector<std::string> bench_scene_inputs(const std::string& name, const std::
 Status make_bench_scene(const std::string& name, const std::string& data_dir, BenchScene& out);
 
 // Writes `scene` into the existing folder `dir` as NAME.gltf + NAME.bin and copies its HDR image
-// there; object nodes carry LSNIF_neural_object with the model OBJECT.lsnif (relative to `dir`) and
+// and the objects' textures there; object nodes carry LSNIF_neural_object with the model OBJECT.lsnif (relative to `dir`) and
 // the object's mesh as their reference. The models themselves are not written.
 Status write_bench_scene(const BenchScene& scene, const std::string& dir);
 
 // Fingerprints (hex CRC-32) for reuse decisions: of a training mesh or an object's (positions,
-// normals, triangles, colors), and of a whole scene as written (objects, placements, ground,
+// normals, uvs, triangles, colors, the alpha test and texels of cut-out materials), and of a whole scene as written (objects, placements, ground,
 // camera, environment).
 std::string mesh_fingerprint(const Mesh& mesh);
 std::string object_fingerprint(const BenchObject& object);  // its mesh's
@@ -71,5 +76,15 @@ uint64_t object_triangles(const BenchScene& scene);
 // Every edge of `mesh` as a closed triangular prism of the given radius (three sides with normals
 // pointing away from the edge, two end caps): a wire sculpture of thin strands.
 Mesh wireframe_mesh(const Mesh& mesh, float radius);
+
+// One alpha-tested card: a parallelogram centre +- right +- up, its texture spanning it (uv (0, 0)
+// at centre - right + up, the image's top left; (1, 1) at centre + right - up).
+struct Card {
+  glm::vec3 center, right, up;
+};
+
+// The cards as a mesh of two triangles each (normal cross(right, up)) with one material: white
+// base colour times `texture`, alpha MASK at `cutoff` (`name` names the material).
+Mesh card_mesh(const std::vector<Card>& cards, Texture texture, const std::string& name, float cutoff);
 
 }  // namespace lsnif::cli

@@ -176,7 +176,7 @@ std::optional<int> parse(int argc, char** argv, CheckOptions& o) {
             "The device: --device, else the environment variable LSNIF_DEVICE, else the automatic choice.");
   args.positional("OUT", "output folder (report.json, images; its work/ subfolder is removed at the end)", &o.out);
   args.option("folder", "the GPU check folder (bin/, lib/, data/, models/)", &o.folder);
-  args.option("scenes", "bench scenes, a list of bunny, dragons, heavy, foliage", &o.scenes);
+  args.option("scenes", "bench scenes, a list of bunny, dragons, heavy, strands, foliage", &o.scenes);
   args.option("quality", "bench models, a list of default, high, low", &o.quality);
   args.option("width", "bench image width", &o.width, 16, 7680);
   args.option("height", "bench image height", &o.height, 16, 4320);

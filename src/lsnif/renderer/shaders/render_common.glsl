@@ -10,9 +10,13 @@
 #extension GL_EXT_scalar_block_layout : require
 #include "lsnif/renderer/shaders/render_host_device.h"
 
+// A stage with push constants of its own (render_visibility.frag) defines RENDER_COMMON_OWN_PUSH and
+// passes the RenderFrame to the functions it calls.
+#ifndef RENDER_COMMON_OWN_PUSH
 layout(push_constant, scalar) uniform RenderPushBlock {
   RenderPush push;
 } pc;
+#endif
 
 layout(buffer_reference, scalar, buffer_reference_align = 8) readonly buffer RenderFrameRef { RenderFrame f; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer RenderInstanceRef { RenderInstance v[]; };
@@ -41,7 +45,9 @@ struct RenderHit {
   float leaving_distance;  // LSNIF hits: object units (LsnifSurface::leaving_distance)
 };
 
+#ifndef RENDER_COMMON_OWN_PUSH
 RenderFrame render_frame() { return RenderFrameRef(pc.push.frame).f; }
+#endif
 
 // Texel (x, y) of `t` as linear RGBA (sRGB-decoded when `srgb`).
 vec4 render_texel(RenderTexture t, uint x, uint y, bool srgb) {

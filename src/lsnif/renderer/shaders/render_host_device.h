@@ -138,7 +138,10 @@ struct RenderRasterPush {
   lsnif_uint width, height;
   float tan_half_fov_y, aspect;
   float near_plane;            /* closer points are clipped (reversed-z depth = near / distance along -z) */
-  lsnif_uint pad;
+  lsnif_uint alpha_test;       /* 1: the primitive's material is an alpha cut-out: fragments in its holes
+                                  are discarded (render_triangle_opaque, as the traced rays' any-hit) */
+  lsnif_address frame;         /* RenderFrame whose instance, primitive, material and texture tables the
+                                  alpha test reads (0 without alpha_test) */
 };
 
 /* ---- The wavefront pipeline (render_wave.comp; the rays cast by lsnifCmdQuery between stages) ----
