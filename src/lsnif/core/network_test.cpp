@@ -1,5 +1,7 @@
-// MLP forward against a naive per-ray loop, and backward against central finite differences.
+// MLP forward against a naive per-ray loop, and backward against central finite differences; a
+// batch of many column chunks against one column at a time and across thread counts.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <cmath>
 #include <random>
@@ -108,6 +110,65 @@ TEST(Network, BackwardMatchesFiniteDifferences) {
     double fd = (loss(p, Xp) - loss(p, Xm)) / (2.0 * h);
     ASSERT_NEAR(dX.data()[i], fd, 2e-3 + 2e-3 * std::fabs(fd)) << "input " << i;
   }
+}
+
+// A batch spanning several column chunks (and a partial last one) gives, column by column, what
+// that column alone gives (forward output and input gradient), weight gradients equal to the sum of
+// the single columns' within float rounding, and the same bits with one thread as with two.
+TEST(Network, ChunkedBatchesMatchSingleColumnsAndAnyThreadCount) {
+  Config c = tiny_config();
+  std::vector<float> p(c.mlp_parameter_count());
+  mlp_init_kaiming(c, 11, p.data());
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (float& v : p) v += 0.1f * u(rng);
+  const int B = 1300;
+  Matrix X(c.input_dim(), B), G(c.output_dim(), B);
+  for (int i = 0; i < X.size(); ++i) X.data()[i] = u(rng);
+  for (int i = 0; i < G.size(); ++i) G.data()[i] = u(rng);
+  auto run = [&](int threads, std::vector<float>& dp, Matrix& O, Matrix& dX) {
+    const int before = omp_get_max_threads();
+    omp_set_num_threads(threads);
+    MlpTrace trace;
+    mlp_forward(c, p.data(), X, O, &trace);
+    dp.assign(p.size(), 0.0f);
+    mlp_backward(c, p.data(), trace, G, dp.data(), &dX);
+    omp_set_num_threads(before);
+  };
+  std::vector<float> dp1, dp2;
+  Matrix O1, O2, dX1, dX2;
+  run(1, dp1, O1, dX1);
+  run(2, dp2, O2, dX2);
+  EXPECT_EQ(dp1, dp2);
+  EXPECT_TRUE(O1 == O2);
+  EXPECT_TRUE(dX1 == dX2);
+  {  // A batch with wider chunks (beyond 64 x 512 columns): the same across thread counts.
+    Matrix X_big(c.input_dim(), 40000), G_big(c.output_dim(), 40000);
+    for (int i = 0; i < X_big.size(); ++i) X_big.data()[i] = u(rng);
+    for (int i = 0; i < G_big.size(); ++i) G_big.data()[i] = u(rng);
+    std::swap(X, X_big);
+    std::swap(G, G_big);
+    std::vector<float> a, b;
+    Matrix Oa, Ob, dXa, dXb;
+    run(1, a, Oa, dXa);
+    run(3, b, Ob, dXb);
+    EXPECT_EQ(a, b);
+    EXPECT_TRUE(dXa == dXb);
+    std::swap(X, X_big);
+    std::swap(G, G_big);
+  }
+  std::vector<double> dp_sum(p.size(), 0.0);
+  for (int b = 0; b < B; ++b) {
+    Matrix x = X.col(b), g = G.col(b), o, dx;
+    MlpTrace trace;
+    mlp_forward(c, p.data(), x, o, &trace);
+    std::vector<float> dp(p.size(), 0.0f);
+    mlp_backward(c, p.data(), trace, g, dp.data(), &dx);
+    for (size_t i = 0; i < p.size(); ++i) dp_sum[i] += dp[i];
+    for (uint32_t k = 0; k < c.output_dim(); ++k) ASSERT_NEAR(O1(k, b), o(k, 0), 1e-5) << "column " << b;
+    for (uint32_t k = 0; k < c.input_dim(); ++k) ASSERT_NEAR(dX1(k, b), dx(k, 0), 1e-5) << "column " << b;
+  }
+  for (size_t i = 0; i < p.size(); ++i) EXPECT_NEAR(dp1[i], dp_sum[i], 1e-3 + 1e-5 * std::fabs(dp_sum[i])) << i;
 }
 
 TEST(Network, KaimingInitHasExpectedScale) {
