@@ -4,7 +4,8 @@
 #   DIR/run OUT [lsnif-gpu check options]   runs the check, writes OUT/report.json and <= 6 images
 #   DIR/bin/     lsnif-gpu and the portable GPU conformance tests (no OpenImageIO, Embree or GLFW)
 #   DIR/lib/     the plugin, libstdc++, libgcc_s, libgomp and the Vulkan loader
-#   DIR/data/    the meshes, and the bench scenes' environments as .hdr (the portable image reader's)
+#   DIR/data/    the meshes, the foliage scene's sprites, and the bench scenes' environments as .hdr
+#                (the portable image reader's)
 #   DIR/models/  tests/ (the conformance tests' models), trace/ (bench-trace's bunny), bench/ (the
 #                bench scenes' models: default and low)
 # Needs the Release build of scripts/build.sh (BUILD_DIR overrides build/); trains what it carries
@@ -46,7 +47,7 @@ targets=(lsnif lsnif-gpu lsnif_vk)
 for t in "${tests[@]}"; do targets+=("$t" "${t}_portable"); done
 cmake --build "$build" -j "$(nproc)" --target "${targets[@]}"
 
-mkdir -p "$dir"/{bin,lib,data/meshes,data/hdr,models/tests,models/trace,models/bench}
+mkdir -p "$dir"/{bin,lib,data/meshes,data/hdr,data/textures,models/tests,models/trace,models/bench}
 dir=$(cd "$dir" && pwd)
 # A failure leaves no half-built folder behind.
 trap 'status=$?; if [ $status -ne 0 ]; then rm -rf "$dir"; echo "gpu-check.sh: failed; removed $dir" >&2; fi' EXIT
@@ -74,7 +75,7 @@ if [ $quick -eq 1 ]; then train_preset=(--tiny); else train_preset=(); fi
 
 echo "== the bench scenes' models"
 if [ $quick -eq 1 ]; then scenes=(bunny); bench_opts=(--quick); models="$build/gpu-check-models-quick"
-else scenes=(bunny dragons heavy); bench_opts=(); models="$build/gpu-check-models"; fi
+else scenes=(bunny dragons heavy foliage); bench_opts=(); models="$build/gpu-check-models"; fi
 "$build/bin/lsnif" bench "${scenes[@]}" --quality default,low --no-render --out "$models" "${bench_opts[@]}"
 for s in "${scenes[@]}"; do
   mkdir -p "$dir/models/bench/$s"
@@ -93,9 +94,10 @@ for lib in $libs /lib/x86_64-linux-gnu/libvulkan.so.1; do
   strip --strip-unneeded -o "$dir/lib/$(basename "$lib")" "$(readlink -f "$lib")"
 done
 for m in elephant.off bunny00.off armadillo.off ChineseDragon-10kv.off; do cp "$here/data/meshes/$m" "$dir/data/meshes/"; done
+cp "$here"/data/textures/*.png "$dir/data/textures/"  # the foliage scene's alpha-tested sprites
 # As Radiance HDR at 512x256 (0.5 MiB each instead of 1.9 at full size: the folder must stay within
 # 40 MiB with ten 1.6 MiB bench models); both renders of a row see the same environment.
-for e in forest sunset city; do oiiotool "$here/data/hdr/$e.exr" --resize 512x256 -o "$dir/data/hdr/$e.hdr"; done
+for e in forest sunset city courtyard; do oiiotool "$here/data/hdr/$e.exr" --resize 512x256 -o "$dir/data/hdr/$e.hdr"; done
 
 cat > "$dir/run" <<'EOF'
 #!/bin/sh

@@ -46,7 +46,7 @@ const char* const kTests[] = {"gpu_reference_test", "rt_conformance_test", "plug
 constexpr size_t kMaxImages = 6;
 
 struct CheckOptions {
-  std::string out, folder, device, scenes = "bunny,dragons,heavy", quality = "default,low";
+  std::string out, folder, device, scenes = "bunny,dragons,heavy,foliage", quality = "default,low";
   uint32_t width = 1920, height = 1080, spp = 4, rays = 1u << 20, step_timeout = 300;
   bool quick = false, validation = false, keep_work = false;
 };
