@@ -212,8 +212,10 @@ TEST_F(ClusterConvert, KilledJobsRerunAndMissingModelsRetrainToTheSameResult) {
   const std::vector<std::string> jobs = plan();
   ASSERT_EQ(jobs.size(), kJobs);
   const nlohmann::json manifest = nlohmann::json::parse(lsnif::test::read_text(path("plan/manifest.json")));
-  // Killed after a fraction of its run (the tiny model trains in about a second).
-  ProcessResult killed = shell("cd " + sh_quoted(path("plan")) + " && exec " + jobs[0], 0.4);
+  // Killed while it runs: made long by --steps (options after --config override it), since the
+  // tiny model itself trains in less than the 0.4 s before the kill on a fast host; the reruns
+  // below run the plan's own command.
+  ProcessResult killed = shell("cd " + sh_quoted(path("plan")) + " && exec " + jobs[0] + " --steps 100000", 0.4);
   EXPECT_TRUE(killed.timed_out) << killed.output;
   const std::string second = manifest["jobs"][1]["hash"];
   const fs::path leftover = dir_.path() / "plan/models" / ("." + second + ".lsnif.tmp-0123456789ab");
