@@ -50,6 +50,13 @@ struct FaceCorners {
 void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint32_t axis,
                   FaceCorners& out, const GridLayout& layout);
 
+// The leading rows of a walk's encoding that can be non-zero: those of its first
+// min(walk.count, max_points) points (the rest are zero; mlp_forward's `input_rows`).
+inline uint32_t encoded_rows(const Config& config, const RayWalk& walk) {
+  const uint32_t n = walk.count < config.max_points ? walk.count : config.max_points;
+  return n * config.grid_levels * config.features;
+}
+
 // Encodes a walk into config.input_dim() floats (layout above).
 void encode(const Config& config, const float* table, const RayWalk& walk, float* features,
             const GridLayout& layout);

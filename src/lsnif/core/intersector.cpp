@@ -1,5 +1,6 @@
 #include "lsnif/core/intersector.h"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -78,13 +79,20 @@ Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, si
   for (size_t i = 0; i < count; ++i)
     if (walks[i].count > 0) active.push_back(i);
   if (active.empty()) return Status::ok();
+  // By descending point count, so that the network's first layer skips the empty slots of whole
+  // column chunks (mlp_forward's input_rows); each ray's result does not depend on the order.
+  std::stable_sort(active.begin(), active.end(), [&](size_t a, size_t b) {
+    return std::min(walks[a].count, config.max_points) > std::min(walks[b].count, config.max_points);
+  });
+  std::vector<uint32_t> rows(active.size());
+  for (size_t k = 0; k < active.size(); ++k) rows[k] = encoded_rows(config, walks[active[k]]);
 
   Matrix X(config.input_dim(), long(active.size())), O;
   const GridLayout layout = model.layout();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static, 64)  // interleaved: the columns are ordered by cost
   for (long k = 0; k < long(active.size()); ++k)
     encode(config, model.grid.data(), walks[active[size_t(k)]], X.data() + size_t(k) * config.input_dim(), layout);
-  mlp_forward(config, model.mlp.data(), X, O);
+  mlp_forward(config, model.mlp.data(), X, O, nullptr, rows.data());
 
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < long(active.size()); ++k) {

@@ -26,22 +26,33 @@ Eigen::Index chunk_size(Eigen::Index cols) { return std::max(kMinChunk, (cols + 
 }  // namespace
 
 void mlp_forward(const Config& config, const float* params, const Matrix& input, Matrix& out,
-                 MlpTrace* trace) {
+                 MlpTrace* trace, const uint32_t* input_rows) {
   const std::vector<LayerView> layers = mlp_layers(config);
   const Eigen::Index B = input.cols();
+  const Eigen::Index chunk = chunk_size(B);
+  const long chunks = long((B + chunk - 1) / chunk);
+  // Per chunk, the leading input rows any of its columns may use.
+  std::vector<Eigen::Index> rows(size_t(chunks), input.rows());
+  if (input_rows)
+    for (long c = 0; c < chunks; ++c) {
+      const Eigen::Index c0 = c * chunk, n = std::min(chunk, B - c0);
+      rows[size_t(c)] = Eigen::Index(*std::max_element(input_rows + c0, input_rows + c0 + n));
+      rows[size_t(c)] = std::min(rows[size_t(c)], input.rows());
+    }
   if (trace) {
     trace->layer_input.resize(layers.size());
     trace->layer_input[0] = input;
     for (size_t l = 1; l < layers.size(); ++l) trace->layer_input[l].resize(layers[l].in, B);
+    trace->chunk_input_rows = rows;
   }
   out.resize(layers.back().out, B);
-  const Eigen::Index chunk = chunk_size(B);
-  const long chunks = long((B + chunk - 1) / chunk);
   const float slope = config.leaky_slope;
 #pragma omp parallel
   {
     Matrix a, b;  // per-thread activations of one chunk when no trace is kept
-#pragma omp for schedule(static)
+    // Dynamic: chunks of a batch ordered by point count differ in cost; each chunk's result is
+    // its own, so which thread runs it changes nothing.
+#pragma omp for schedule(dynamic, 1)
     for (long c = 0; c < chunks; ++c) {
       const Eigen::Index c0 = c * chunk, n = std::min(chunk, B - c0);
       for (size_t l = 0; l < layers.size(); ++l) {
@@ -64,7 +75,15 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
           out_ptr = b.data();
         }
         Eigen::Map<Matrix> y(out_ptr, v.out, n);
-        y.noalias() = W * x;
+        if (l == 0) {
+          const Eigen::Index k = rows[size_t(c)];
+          if (k > 0)
+            y.noalias() = W.leftCols(k) * x.topRows(k);
+          else
+            y.setZero();
+        } else {
+          y.noalias() = W * x;
+        }
         y.colwise() += bias;
         if (!last) {
           y = y.cwiseMax(slope * y);  // leaky ReLU (0 <= slope < 1)
@@ -113,7 +132,7 @@ void mlp_backward(const Config& config, const float* params, const MlpTrace& tra
     // Per-thread scratch, allocated once: the gradient w.r.t. the current layer's pre-activation
     // (delta) and w.r.t. its input (prev).
     std::vector<float> delta_buf(size_t(widest * chunk)), prev_buf(size_t(widest * chunk));
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic, 1)
     for (long c = 0; c < chunks; ++c) {
       const Eigen::Index c0 = c * chunk, n = std::min(chunk, B - c0);
       float* dp = partial.data() + size_t(c) * P;
@@ -123,14 +142,19 @@ void mlp_backward(const Config& config, const float* params, const MlpTrace& tra
         Eigen::Map<const Matrix> delta(delta_ptr, v.out, n);
         Eigen::Map<const Matrix> x(trace.layer_input[li].data() + c0 * v.in, v.in, n);
         RowMajorMapMut dW(dp + v.weight_offset, v.out, v.in);
-        dW.noalias() = delta * x.transpose();
-        sum_columns(dp + v.bias_offset, delta_ptr, v.out, n);
-        if (li == 0 && !d_input) break;
         RowMajorMap W(params + v.weight_offset, v.out, v.in);
-        if (li == 0) {
-          d_input->middleCols(c0, n).noalias() = W.transpose() * delta;
+        sum_columns(dp + v.bias_offset, delta_ptr, v.out, n);
+        if (li == 0) {  // only the input rows the forward pass read (the others are zero)
+          const Eigen::Index k = trace.chunk_input_rows.empty() ? v.in : trace.chunk_input_rows[size_t(c)];
+          dW.leftCols(k).noalias() = delta * x.topRows(k).transpose();
+          dW.rightCols(v.in - k).setZero();
+          if (d_input) {
+            d_input->middleCols(c0, n).topRows(k).noalias() = W.leftCols(k).transpose() * delta;
+            d_input->middleCols(c0, n).bottomRows(v.in - k).setZero();
+          }
           break;
         }
+        dW.noalias() = delta * x.transpose();
         Eigen::Map<Matrix> prev(prev_buf.data(), v.in, n);
         prev.noalias() = W.transpose() * delta;
         leaky_backward(delta_buf.data(), prev_buf.data(), x.data(), slope, v.in * n);

@@ -18,18 +18,29 @@ namespace lsnif {
 using Matrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor>;
 
 // Activations kept by the forward pass for the backward pass: layer_input[l] is the input of
-// layer l (layer_input[0] is the encoded features).
+// layer l (layer_input[0] is the encoded features); chunk_input_rows[c] the leading input rows the
+// first layer read for column chunk c (the rest are zero: see mlp_forward's `input_rows`).
 struct MlpTrace {
   std::vector<Matrix> layer_input;
+  std::vector<Eigen::Index> chunk_input_rows;
 };
 
 // out = MLP(input): input is input_dim x B, out becomes output_dim x B (raw, pre-activation).
 // When `trace` is given, keeps what mlp_backward needs.
+//
+// `input_rows` (optional, B entries): the caller promises that rows input_rows[b] and beyond of
+// column b are zero, as the encoding leaves the slots of the points a walk does not have
+// (encoded_rows); counts beyond input_dim read as input_dim. The first layer then multiplies only
+// the leading rows that some column of a column chunk uses, which changes no output (the skipped
+// products are exact zeros) and saves the most when columns with similar counts are adjacent (a
+// batch ordered by point count).
 void mlp_forward(const Config& config, const float* params, const Matrix& input, Matrix& out,
-                 MlpTrace* trace = nullptr);
+                 MlpTrace* trace = nullptr, const uint32_t* input_rows = nullptr);
 
 // Given d(loss)/d(out), accumulates d(loss)/d(params) into d_params (same layout, not cleared) and,
-// if d_input is given, writes d(loss)/d(input).
+// if d_input is given, writes d(loss)/d(input). After a forward pass given `input_rows`, the
+// gradients equal the full products' to float rounding (Eigen blocks the smaller products
+// differently), and d_input is zero on the rows beyond those the column's chunk used.
 void mlp_backward(const Config& config, const float* params, const MlpTrace& trace,
                   const Matrix& d_out, float* d_params, Matrix* d_input);
 

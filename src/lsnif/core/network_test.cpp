@@ -171,6 +171,69 @@ TEST(Network, ChunkedBatchesMatchSingleColumnsAndAnyThreadCount) {
   for (size_t i = 0; i < p.size(); ++i) EXPECT_NEAR(dp1[i], dp_sum[i], 1e-3 + 1e-5 * std::fabs(dp_sum[i])) << i;
 }
 
+// A batch whose columns have zero rows beyond a per-column count (a walk's unused point slots),
+// given those counts as input_rows: outputs equal the plain run's exactly and gradients to float
+// rounding, across chunks of very different counts. The skipped rows
+// are not read (the same results with garbage beyond each chunk's largest count), and d_input is
+// zero beyond the chunk's rows.
+TEST(Network, InputRowsSkipTheZeroSlotsAndChangeNoResult) {
+  Config c = tiny_config();
+  c.max_points = 6;  // input 18: rows in steps of 3 per point
+  c.hidden_width = 16;
+  std::vector<float> p(c.mlp_parameter_count());
+  mlp_init_kaiming(c, 21, p.data());
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (float& v : p) v += 0.1f * u(rng);
+  const int B = 1700, chunk = 512;  // 4 chunks, the last partial
+  const uint32_t in = c.input_dim();
+  std::vector<uint32_t> rows(B);
+  for (int b = 0; b < B; ++b)  // descending counts as the trainer orders them, a few out of order
+    rows[size_t(b)] = (b % 97 == 0 ? 1u : uint32_t(c.max_points - (b * c.max_points) / B)) * c.features;
+  std::vector<uint32_t> chunk_max((B + chunk - 1) / chunk, 0);
+  for (int b = 0; b < B; ++b) chunk_max[size_t(b / chunk)] = std::max(chunk_max[size_t(b / chunk)], rows[size_t(b)]);
+  Matrix X(in, B), garbage(in, B), G(c.output_dim(), B);
+  for (int b = 0; b < B; ++b)
+    for (uint32_t k = 0; k < in; ++k) {
+      X(k, b) = k < rows[size_t(b)] ? u(rng) : 0.0f;
+      garbage(k, b) = k < chunk_max[size_t(b / chunk)] ? X(k, b) : 1e3f + u(rng);
+    }
+  for (int i = 0; i < G.size(); ++i) G.data()[i] = u(rng);
+  auto run = [&](const Matrix& input, const uint32_t* input_rows, std::vector<float>& dp, Matrix& O, Matrix& dX) {
+    MlpTrace trace;
+    mlp_forward(c, p.data(), input, O, &trace, input_rows);
+    dp.assign(p.size(), 0.0f);
+    mlp_backward(c, p.data(), trace, G, dp.data(), &dX);
+    return trace.chunk_input_rows;
+  };
+  std::vector<float> dp_full, dp_rows, dp_garbage;
+  Matrix O_full, O_rows, O_garbage, dX_full, dX_rows, dX_garbage;
+  run(X, nullptr, dp_full, O_full, dX_full);
+  const std::vector<Eigen::Index> chunk_rows = run(X, rows.data(), dp_rows, O_rows, dX_rows);
+  run(garbage, rows.data(), dp_garbage, O_garbage, dX_garbage);
+  ASSERT_EQ(chunk_rows.size(), chunk_max.size());
+  for (size_t k = 0; k < chunk_max.size(); ++k) EXPECT_EQ(chunk_rows[k], Eigen::Index(chunk_max[k])) << "chunk " << k;
+  EXPECT_LT(chunk_max.back(), in);  // the last chunks really skip rows
+  EXPECT_TRUE(O_rows == O_full);
+  EXPECT_TRUE(O_garbage == O_full);
+  for (size_t i = 0; i < p.size(); ++i) {
+    EXPECT_NEAR(dp_rows[i], dp_full[i], 1e-5f * (1.0f + std::fabs(dp_full[i]))) << i;
+    EXPECT_EQ(dp_garbage[i], dp_rows[i]) << i;
+  }
+  for (int b = 0; b < B; ++b)
+    for (uint32_t k = 0; k < in; ++k) {
+      if (k < chunk_max[size_t(b / chunk)])
+        ASSERT_NEAR(dX_rows(k, b), dX_full(k, b), 1e-6f * (1.0f + std::fabs(dX_full(k, b)))) << k << ", " << b;
+      else
+        ASSERT_EQ(dX_rows(k, b), 0.0f) << k << ", " << b;
+      ASSERT_EQ(dX_garbage(k, b), dX_rows(k, b)) << k << ", " << b;
+    }
+  // The garbage does change a run without input_rows (the checks above are not vacuous).
+  Matrix O_plain;
+  mlp_forward(c, p.data(), garbage, O_plain);
+  EXPECT_FALSE(O_plain == O_full);
+}
+
 TEST(Network, KaimingInitHasExpectedScale) {
   Config c;  // defaults: 108 -> 128 -> 128 -> 9
   std::vector<float> p(c.mlp_parameter_count());

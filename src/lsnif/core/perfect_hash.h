@@ -26,13 +26,30 @@ struct PerfectHash {
   std::vector<uint16_t> displacement;  // one per bucket (B = size)
 };
 
-// A perfect hash as stored in a model (Config::index_slots / index_buckets, Model::grid_index).
+// a % d for any 32-bit a and d >= 1, by two multiplications instead of a division, given magic =
+// perfect_hash_mod_magic(d) (Lemire, Kaser and Kurz, "Faster remainder by direct computation", 2019):
+// the high 64 bits of the 96-bit product (magic * a mod 2^64) * d.
+inline uint64_t perfect_hash_mod_magic(uint32_t d) { return UINT64_MAX / d + 1; }
+inline uint32_t perfect_hash_mod(uint32_t a, uint64_t magic, uint32_t d) {
+  const uint64_t low = magic * a;
+  const uint64_t lo = (low & 0xffffffffu) * d, hi = (low >> 32) * d;
+  return uint32_t((hi + (lo >> 32)) >> 32);
+}
+
+// A perfect hash as stored in a model (Config::index_slots / index_buckets, Model::grid_index),
+// with the magic numbers of its two remainders (perfect_hash_mod) for the encoder's lookups.
 struct PerfectHashView {
+  PerfectHashView() = default;
+  PerfectHashView(uint32_t slots_, uint32_t buckets_, const uint16_t* displacement_)
+      : slots(slots_), buckets(buckets_), displacement(displacement_),
+        slots_magic(slots_ ? perfect_hash_mod_magic(slots_) : 0),
+        buckets_magic(buckets_ ? perfect_hash_mod_magic(buckets_) : 0) {}
   uint32_t slots = 0, buckets = 0;
   const uint16_t* displacement = nullptr;  // `buckets` values; nullptr: no index
+  uint64_t slots_magic = 0, buckets_magic = 0;
 };
 inline PerfectHashView view_of(const PerfectHash& hash) {
-  return {hash.slots, uint32_t(hash.displacement.size()), hash.displacement.data()};
+  return PerfectHashView(hash.slots, uint32_t(hash.displacement.size()), hash.displacement.data());
 }
 
 // The murmur3 32-bit finalizer (a bijection on 32 bits).
@@ -57,8 +74,11 @@ inline uint32_t perfect_hash_place(uint32_t h2, uint32_t d, uint32_t slots) {
 // The slot of any vertex, in [0, hash.slots) (src/lsnif/shaders/lsnif_perfect_hash.glsl: the GPU twin). The
 // hash must have at least one bucket.
 inline uint32_t perfect_hash_slot(const PerfectHashView& hash, uint32_t x, uint32_t y, uint32_t z) {
-  const uint32_t b = perfect_hash_bucket(hash.buckets, x, y, z);
-  return perfect_hash_place(perfect_hash_key(1, x, y, z), hash.displacement[b], hash.slots);
+  // perfect_hash_bucket and perfect_hash_place with their remainders by perfect_hash_mod.
+  const uint32_t b = perfect_hash_mod(perfect_hash_key(0, x, y, z), hash.buckets_magic, hash.buckets);
+  const uint32_t d = hash.displacement[b];
+  return perfect_hash_mod(perfect_hash_mix(perfect_hash_key(1, x, y, z) + d * 0x9e3779b9u), hash.slots_magic,
+                          hash.slots);
 }
 inline uint32_t perfect_hash_slot(const PerfectHash& hash, uint32_t x, uint32_t y, uint32_t z) {
   return perfect_hash_slot(view_of(hash), x, y, z);

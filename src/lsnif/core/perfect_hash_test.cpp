@@ -43,6 +43,31 @@ void expect_collision_free(const std::vector<GridVertex>& keys, const PerfectHas
   }
 }
 
+// The lookups' remainder by multiplication against the % operator: the extremes of both operands,
+// powers of two and their neighbours, and random pairs.
+TEST(PerfectHash, RemainderByMultiplicationIsTheRemainder) {
+  std::vector<uint32_t> values = {0u, 1u, 2u, 3u, 5u, 7u, 1000u, 65535u, 65536u, 65537u, 0x7fffffffu, 0x80000000u,
+                                  0x80000001u, 0xfffffffeu, 0xffffffffu};
+  for (uint32_t k = 2; k < 32; ++k)
+    for (int64_t d : {-1, 0, 1}) values.push_back(uint32_t(int64_t(1) << k) + uint32_t(d));
+  std::mt19937 rng(7);
+  for (int i = 0; i < 64; ++i) values.push_back(uint32_t(rng()));
+  size_t checked = 0;
+  for (uint32_t d : values) {
+    if (d == 0) continue;
+    const uint64_t magic = perfect_hash_mod_magic(d);
+    for (uint32_t a : values) {
+      ASSERT_EQ(perfect_hash_mod(a, magic, d), a % d) << a << " mod " << d;
+      ++checked;
+    }
+    for (int i = 0; i < 2000; ++i) {
+      const uint32_t a = uint32_t(rng());
+      ASSERT_EQ(perfect_hash_mod(a, magic, d), a % d) << a << " mod " << d;
+    }
+  }
+  EXPECT_GT(checked, 10000u);
+}
+
 TEST(PerfectHash, RandomKeySetsGetDistinctSlots) {
   for (const uint32_t n : {1u, 2u, 7u, 100u, 5000u, 40000u}) {
     const std::vector<GridVertex> keys = random_keys(n, 4096, n);

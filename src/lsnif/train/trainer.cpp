@@ -43,57 +43,72 @@ struct BatchCorners {
   std::vector<float> weight;
 };
 
-// Encodes a batch into X (input_dim x B) and remembers the corners for the backward pass.
+// Encodes a batch into X (input_dim x B), column r from walks[order[r]], and remembers the
+// corners for the backward pass. Per ray, all corners first (their table rows prefetched), then
+// the sums: the table lookups are the encoder's cost, and this lets them overlap.
 void encode_batch(const Config& config, const GridLayout& layout, const float* table,
-                  const std::vector<RayWalk>& walks, Matrix& X, BatchCorners& corners) {
+                  const std::vector<RayWalk>& walks, const std::vector<uint32_t>& order, Matrix& X,
+                  BatchCorners& corners) {
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
-  const long B = long(walks.size());
+  const long B = long(order.size());
   const size_t per_ray = size_t(H) * L * 4;
   // Only the slots of recorded points are written (and later read); X is zeroed per column.
   corners.entry.resize(size_t(B) * per_ray);
   corners.weight.resize(size_t(B) * per_ray);
   X.resize(config.input_dim(), B);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static, 64)  // interleaved: the batch is ordered by point count
   for (long r = 0; r < B; ++r) {
-    const RayWalk& w = walks[size_t(r)];
+    const RayWalk& w = walks[order[size_t(r)]];
     float* x = X.data() + size_t(r) * config.input_dim();
     std::fill(x, x + config.input_dim(), 0.0f);
     uint32_t* ce = corners.entry.data() + size_t(r) * per_ray;
     float* cw = corners.weight.data() + size_t(r) * per_ray;
-    const uint32_t n = std::min(w.count, H);
+    const uint32_t slots = std::min(w.count, H) * L;
     FaceCorners fc;
-    for (uint32_t j = 0; j < n; ++j)
-      for (uint32_t l = 0; l < L; ++l) {
-        face_corners(config, l, w.p[j], w.axis[j], fc, layout);
-        const size_t slot = size_t(j) * L + l;
-        for (uint32_t k = 0; k < 4; ++k) {
-          ce[slot * 4 + k] = fc.entry[k];
-          cw[slot * 4 + k] = fc.weight[k];
-          const float* t = table + size_t(fc.entry[k]) * F;
-          for (uint32_t f = 0; f < F; ++f) x[slot * F + f] += fc.weight[k] * t[f];
-        }
+    for (uint32_t s = 0; s < slots; ++s) {
+      face_corners(config, s % L, w.p[s / L], w.axis[s / L], fc, layout);
+      for (uint32_t k = 0; k < 4; ++k) {
+        ce[s * 4 + k] = fc.entry[k];
+        cw[s * 4 + k] = fc.weight[k];
+        __builtin_prefetch(table + size_t(fc.entry[k]) * F);
+      }
+    }
+    for (uint32_t s = 0; s < slots; ++s)
+      for (uint32_t k = 0; k < 4; ++k) {
+        const float* t = table + size_t(ce[s * 4 + k]) * F;
+        for (uint32_t f = 0; f < F; ++f) x[s * F + f] += cw[s * 4 + k] * t[f];
       }
   }
 }
 
-// Scatters dX into d_table. Each thread owns a contiguous range of table entries and scans all
-// lookups in batch order, so sums are race-free and bit-identical for any thread count.
-void encode_batch_backward(const Config& config, const std::vector<RayWalk>& walks,
-                           const BatchCorners& corners, const Matrix& dX, std::vector<float>& d_table) {
+// Scatters dX into d_table; column r has rows[r] / (L * F) points (its encoded_rows). Each thread
+// owns a contiguous range of table entries and scans all lookups in batch order, so sums are
+// race-free and bit-identical for any thread count. With no more threads than levels the ranges are
+// whole levels (every point has one lookup per level, so the work is even: each of the default 2
+// threads owns one of the 2 levels); with more, equal shares of the entries.
+void encode_batch_backward(const Config& config, const std::vector<uint32_t>& rows, const BatchCorners& corners,
+                           const Matrix& dX, std::vector<float>& d_table) {
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
   const size_t per_ray = size_t(H) * L * 4;
   const size_t entries = d_table.size() / F;
   std::fill(d_table.begin(), d_table.end(), 0.0f);
 #pragma omp parallel
   {
-    const size_t nt = size_t(omp_get_num_threads()), t = size_t(omp_get_thread_num());
-    const uint32_t lo = uint32_t(entries * t / nt), hi = uint32_t(entries * (t + 1) / nt);
-    // Levels whose entries overlap [lo, hi): with as many threads as levels of equal table sizes (the
-    // default 2 and 2), each thread owns exactly one level and the range test below never fails.
-    const uint32_t l_first = config.level_of_entry(lo), l_last = std::min(L - 1, config.level_of_entry(hi - 1));
+    const uint32_t nt = uint32_t(omp_get_num_threads()), t = uint32_t(omp_get_thread_num());
+    uint32_t lo, hi;
+    if (nt <= L) {
+      const uint32_t first = t * L / nt, last = (t + 1) * L / nt;  // levels [first, last)
+      lo = uint32_t(config.level_entry_offset(first));
+      hi = last < L ? uint32_t(config.level_entry_offset(last)) : uint32_t(entries);
+    } else {
+      lo = uint32_t(entries * t / nt);
+      hi = uint32_t(entries * (t + 1) / nt);
+    }
     if (lo < hi) {
-      for (size_t r = 0; r < walks.size(); ++r) {
-        const uint32_t n = std::min(walks[r].count, H);
+      // The levels whose entries overlap [lo, hi).
+      const uint32_t l_first = config.level_of_entry(lo), l_last = std::min(L - 1, config.level_of_entry(hi - 1));
+      for (size_t r = 0; r < rows.size(); ++r) {
+        const uint32_t n = rows[r] / (L * F);
         const uint32_t* ce = corners.entry.data() + r * per_ray;
         const float* cw = corners.weight.data() + r * per_ray;
         const float* dx = dX.data() + r * config.input_dim();
@@ -191,6 +206,7 @@ struct StepState {
   Adam grid_adam, mlp_adam;
   std::vector<Sample> samples, fresh_samples;
   std::vector<RayWalk> walks, fresh_walks;
+  std::vector<uint32_t> order, batch_rows;  // order_batch_by_point_count
   Matrix X, O, dO, dX;
   MlpTrace trace;
   BatchCorners corners;
@@ -226,6 +242,25 @@ Status draw_batch(const RaySampler& sampler, const Config& config, const TrainSe
   return Status::ok();
 }
 
+// The order in which the step's batch (st.samples, st.walks) goes through the network: by
+// descending point count (stable), in st.order, with each column's encoded_rows in st.batch_rows.
+// The first layer then skips the zero slots of whole column chunks (mlp_forward's `input_rows`; a
+// walk has about 5 of the 18 points on the bunny). Which rays a step trains on is draw_batch's.
+void order_batch_by_point_count(const Config& config, StepState& st) {
+  const uint32_t H = config.max_points;
+  const size_t B = st.walks.size();
+  std::vector<uint32_t> start(size_t(H) + 2, 0);  // counting sort on H - min(count, H)
+  for (const RayWalk& w : st.walks) ++start[size_t(H - std::min(w.count, H)) + 1];
+  for (size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+  st.order.resize(B);
+  st.batch_rows.resize(B);
+  for (size_t r = 0; r < B; ++r) {
+    const size_t at = start[H - std::min(st.walks[r].count, H)]++;
+    st.order[at] = uint32_t(r);
+    st.batch_rows[at] = encoded_rows(config, st.walks[r]);
+  }
+}
+
 // The batch's mean loss terms from the outputs st.O; their gradient (scaled by 1 / batch size)
 // goes to st.dO.
 LossTerms batch_loss(const Config& config, const TrainSettings& settings, StepState& st) {
@@ -233,13 +268,14 @@ LossTerms batch_loss(const Config& config, const TrainSettings& settings, StepSt
   st.dO.resize(out_dim, B);
   const float scale = 1.0f / float(B);
   double lo = 0, ld = 0, ln = 0, la = 0, lm = 0, ls = 0;
-#pragma omp parallel for schedule(static) reduction(+ : lo, ld, ln, la, lm, ls)
+#pragma omp parallel for schedule(static, 64) reduction(+ : lo, ld, ln, la, lm, ls)  // interleaved, as encode_batch
   for (long r = 0; r < long(B); ++r) {
-    const Sample& smp = st.samples[size_t(r)];
+    const uint32_t i = st.order[size_t(r)];
+    const Sample& smp = st.samples[i];
     LossTarget target;
     target.hit = smp.reference.hit;
     if (target.hit) {
-      target.s = unit_from_distance(config, st.walks[size_t(r)], smp.reference.t);
+      target.s = unit_from_distance(config, st.walks[i], smp.reference.t);
       target.normal = bakes_normal_maps(settings.surface_maps) ? smp.reference.surface.normal : smp.reference.normal;
       target.albedo = smp.reference.albedo;
       target.material = smp.reference.material;
@@ -267,11 +303,12 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
   if (Status s = draw_batch(sampler, config, settings, occupied, step, st, rep); !s) return s;
 
   auto t0 = Clock::now();
-  encode_batch(config, layout, model.grid.data(), st.walks, st.X, st.corners);
+  order_batch_by_point_count(config, st);
+  encode_batch(config, layout, model.grid.data(), st.walks, st.order, st.X, st.corners);
   rep.seconds_encoding += since(t0);
 
   t0 = Clock::now();
-  mlp_forward(config, model.mlp.data(), st.X, st.O, &st.trace);
+  mlp_forward(config, model.mlp.data(), st.X, st.O, &st.trace, st.batch_rows.data());
   rep.seconds_mlp += since(t0);
 
   t0 = Clock::now();
@@ -289,7 +326,7 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
   rep.seconds_mlp += since(t0);
 
   t0 = Clock::now();
-  encode_batch_backward(config, st.walks, st.corners, st.dX, st.d_grid);
+  encode_batch_backward(config, st.batch_rows, st.corners, st.dX, st.d_grid);
   rep.seconds_encoding += since(t0);
 
   t0 = Clock::now();
