@@ -40,6 +40,7 @@ declare -A mesh_file=([bunny]=bunny00.off [armadillo]=armadillo.off [dragon]=Chi
 IFS=, read -r -a mesh_list <<< "$meshes"
 ((${#mesh_list[@]})) || die "--meshes is empty"
 for m in "${mesh_list[@]}"; do
+  [[ -n $m ]] || die "--meshes '$meshes' has an empty name"
   [[ -n ${mesh_file[$m]+x} ]] || die "unknown mesh '$m' (bunny, armadillo, dragon)"
   [[ -f data/meshes/${mesh_file[$m]} ]] || { echo "training-time.sh: data/meshes/${mesh_file[$m]} missing: run scripts/setup.sh first" >&2; exit 1; }
 done
