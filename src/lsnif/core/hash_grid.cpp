@@ -38,6 +38,23 @@ void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint
   }
 }
 
+void order_by_point_count(const Config& config, const std::vector<RayWalk>& walks, std::vector<size_t>& columns,
+                          std::vector<uint32_t>& rows) {
+  const uint32_t H = config.max_points;
+  auto key = [&](size_t column) { return size_t(H - std::min(walks[column].count, H)); };  // 0: the longest
+  std::vector<size_t> start(size_t(H) + 2, 0);  // a stable counting sort on key
+  for (size_t column : columns) ++start[key(column) + 1];
+  for (size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+  std::vector<size_t> sorted(columns.size());
+  rows.resize(columns.size());
+  for (size_t column : columns) {
+    const size_t at = start[key(column)]++;
+    sorted[at] = column;
+    rows[at] = encoded_rows(config, walks[column]);
+  }
+  columns.swap(sorted);
+}
+
 void encode(const Config& config, const float* table, const RayWalk& walk, float* features,
             const GridLayout& layout) {
   const uint32_t L = config.grid_levels, F = config.features;

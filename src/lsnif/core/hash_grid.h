@@ -10,6 +10,7 @@
 //   features: [point][level][feature]  -> in[(j * L + l) * F + f], zero for j >= walk.count
 #pragma once
 #include <cstdint>
+#include <vector>
 
 #include "lsnif/format/config.h"
 #include "lsnif/core/perfect_hash.h"
@@ -56,6 +57,13 @@ inline uint32_t encoded_rows(const Config& config, const RayWalk& walk) {
   const uint32_t n = walk.count < config.max_points ? walk.count : config.max_points;
   return n * config.grid_levels * config.features;
 }
+
+// Reorders `columns` (indices into `walks`) by descending min(count, max_points), equal counts
+// keeping their order, and sets rows[k] to the encoded_rows of walks[columns[k]]: the column order
+// in which a batch goes through mlp_forward with `input_rows`, so that whole column chunks skip the
+// zero slots of short walks.
+void order_by_point_count(const Config& config, const std::vector<RayWalk>& walks, std::vector<size_t>& columns,
+                          std::vector<uint32_t>& rows);
 
 // Encodes a walk into config.input_dim() floats (layout above).
 void encode(const Config& config, const float* table, const RayWalk& walk, float* features,

@@ -1,6 +1,5 @@
 #include "lsnif/core/intersector.h"
 
-#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -80,12 +79,9 @@ Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, si
     if (walks[i].count > 0) active.push_back(i);
   if (active.empty()) return Status::ok();
   // By descending point count, so that the network's first layer skips the empty slots of whole
-  // column chunks (mlp_forward's input_rows); each ray's result does not depend on the order.
-  std::stable_sort(active.begin(), active.end(), [&](size_t a, size_t b) {
-    return std::min(walks[a].count, config.max_points) > std::min(walks[b].count, config.max_points);
-  });
-  std::vector<uint32_t> rows(active.size());
-  for (size_t k = 0; k < active.size(); ++k) rows[k] = encoded_rows(config, walks[active[k]]);
+  // column chunks; each ray's result does not depend on the order.
+  std::vector<uint32_t> rows;
+  order_by_point_count(config, walks, active, rows);
 
   Matrix X(config.input_dim(), long(active.size())), O;
   const GridLayout layout = model.layout();

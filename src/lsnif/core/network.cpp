@@ -23,6 +23,7 @@ namespace {
 // columns, so that there are at most 64 chunks: mlp_backward keeps a gradient per chunk.
 constexpr Eigen::Index kMinChunk = 512, kMaxChunks = 64;
 Eigen::Index chunk_size(Eigen::Index cols) { return std::max(kMinChunk, (cols + kMaxChunks - 1) / kMaxChunks); }
+long chunk_count(Eigen::Index cols) { return long((cols + chunk_size(cols) - 1) / chunk_size(cols)); }
 }  // namespace
 
 void mlp_forward(const Config& config, const float* params, const Matrix& input, Matrix& out,
@@ -30,7 +31,7 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
   const std::vector<LayerView> layers = mlp_layers(config);
   const Eigen::Index B = input.cols();
   const Eigen::Index chunk = chunk_size(B);
-  const long chunks = long((B + chunk - 1) / chunk);
+  const long chunks = chunk_count(B);
   // Per chunk, the leading input rows any of its columns may use.
   std::vector<Eigen::Index> rows(size_t(chunks), input.rows());
   if (input_rows)
@@ -121,7 +122,7 @@ void mlp_backward(const Config& config, const float* params, const MlpTrace& tra
   const Eigen::Index B = d_out.cols();
   const size_t P = config.mlp_parameter_count();
   const Eigen::Index chunk = chunk_size(B);
-  const long chunks = long((B + chunk - 1) / chunk);
+  const long chunks = chunk_count(B);
   std::vector<float> partial(size_t(chunks) * P);
   const float slope = config.leaky_slope;
   Eigen::Index widest = 0;

@@ -27,6 +27,16 @@ Config tiny_config() {
   return c;
 }
 
+// Kaiming weights (seed) plus uniform noise of +-0.1 from `rng` on every parameter, so that the
+// biases are non-zero too.
+std::vector<float> perturbed_params(const Config& c, uint64_t seed, std::mt19937& rng) {
+  std::vector<float> p(c.mlp_parameter_count());
+  mlp_init_kaiming(c, seed, p.data());
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (float& v : p) v += 0.1f * u(rng);
+  return p;
+}
+
 // Independent forward: plain loops over the flat parameter layout documented in model.h.
 std::vector<double> naive_forward(const Config& c, const std::vector<float>& p, const std::vector<double>& x) {
   std::vector<double> cur = x;
@@ -49,11 +59,9 @@ std::vector<double> naive_forward(const Config& c, const std::vector<float>& p, 
 
 TEST(Network, ForwardMatchesNaiveLoops) {
   Config c = tiny_config();
-  std::vector<float> p(c.mlp_parameter_count());
-  mlp_init_kaiming(c, 5, p.data());
   std::mt19937 rng(1);
   std::uniform_real_distribution<float> u(-1, 1);
-  for (float& v : p) v += 0.1f * u(rng);  // non-zero biases too
+  const std::vector<float> p = perturbed_params(c, 5, rng);
   const int B = 7;
   Matrix X(c.input_dim(), B), O;
   for (int i = 0; i < X.size(); ++i) X.data()[i] = u(rng);
@@ -70,11 +78,9 @@ TEST(Network, ForwardMatchesNaiveLoops) {
 
 TEST(Network, BackwardMatchesFiniteDifferences) {
   Config c = tiny_config();
-  std::vector<float> p(c.mlp_parameter_count());
-  mlp_init_kaiming(c, 9, p.data());
   std::mt19937 rng(2);
   std::uniform_real_distribution<float> u(-1, 1);
-  for (float& v : p) v += 0.1f * u(rng);
+  const std::vector<float> p = perturbed_params(c, 9, rng);
   const int B = 4;
   Matrix X(c.input_dim(), B), G(c.output_dim(), B);
   for (int i = 0; i < X.size(); ++i) X.data()[i] = u(rng);
@@ -117,11 +123,9 @@ TEST(Network, BackwardMatchesFiniteDifferences) {
 // the single columns' within float rounding, and the same bits with one thread as with two.
 TEST(Network, ChunkedBatchesMatchSingleColumnsAndAnyThreadCount) {
   Config c = tiny_config();
-  std::vector<float> p(c.mlp_parameter_count());
-  mlp_init_kaiming(c, 11, p.data());
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(-1, 1);
-  for (float& v : p) v += 0.1f * u(rng);
+  const std::vector<float> p = perturbed_params(c, 11, rng);
   const int B = 1300;
   Matrix X(c.input_dim(), B), G(c.output_dim(), B);
   for (int i = 0; i < X.size(); ++i) X.data()[i] = u(rng);
@@ -180,11 +184,9 @@ TEST(Network, InputRowsSkipTheZeroSlotsAndChangeNoResult) {
   Config c = tiny_config();
   c.max_points = 6;  // input 18: rows in steps of 3 per point
   c.hidden_width = 16;
-  std::vector<float> p(c.mlp_parameter_count());
-  mlp_init_kaiming(c, 21, p.data());
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-1, 1);
-  for (float& v : p) v += 0.1f * u(rng);
+  const std::vector<float> p = perturbed_params(c, 21, rng);
   const int B = 1700, chunk = 512;  // 4 chunks, the last partial
   const uint32_t in = c.input_dim();
   std::vector<uint32_t> rows(B);

@@ -68,17 +68,18 @@ inline uint32_t perfect_hash_key(uint32_t seed, uint32_t x, uint32_t y, uint32_t
 inline uint32_t perfect_hash_bucket(uint32_t buckets, uint32_t x, uint32_t y, uint32_t z) {
   return perfect_hash_key(0, x, y, z) % buckets;
 }
+// slot(v, d) before its remainder: the mix of h2 displaced by d.
+inline uint32_t perfect_hash_displaced(uint32_t h2, uint32_t d) { return perfect_hash_mix(h2 + d * 0x9e3779b9u); }
 inline uint32_t perfect_hash_place(uint32_t h2, uint32_t d, uint32_t slots) {
-  return perfect_hash_mix(h2 + d * 0x9e3779b9u) % slots;
+  return perfect_hash_displaced(h2, d) % slots;
 }
 // The slot of any vertex, in [0, hash.slots) (src/lsnif/shaders/lsnif_perfect_hash.glsl: the GPU twin). The
 // hash must have at least one bucket.
 inline uint32_t perfect_hash_slot(const PerfectHashView& hash, uint32_t x, uint32_t y, uint32_t z) {
   // perfect_hash_bucket and perfect_hash_place with their remainders by perfect_hash_mod.
   const uint32_t b = perfect_hash_mod(perfect_hash_key(0, x, y, z), hash.buckets_magic, hash.buckets);
-  const uint32_t d = hash.displacement[b];
-  return perfect_hash_mod(perfect_hash_mix(perfect_hash_key(1, x, y, z) + d * 0x9e3779b9u), hash.slots_magic,
-                          hash.slots);
+  return perfect_hash_mod(perfect_hash_displaced(perfect_hash_key(1, x, y, z), hash.displacement[b]),
+                          hash.slots_magic, hash.slots);
 }
 inline uint32_t perfect_hash_slot(const PerfectHash& hash, uint32_t x, uint32_t y, uint32_t z) {
   return perfect_hash_slot(view_of(hash), x, y, z);

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <numeric>
 #include <random>
 
 #include "lsnif/core/grid_usage.h"
@@ -47,7 +48,7 @@ struct BatchCorners {
 // corners for the backward pass. Per ray, all corners first (their table rows prefetched), then
 // the sums: the table lookups are the encoder's cost, and this lets them overlap.
 void encode_batch(const Config& config, const GridLayout& layout, const float* table,
-                  const std::vector<RayWalk>& walks, const std::vector<uint32_t>& order, Matrix& X,
+                  const std::vector<RayWalk>& walks, const std::vector<size_t>& order, Matrix& X,
                   BatchCorners& corners) {
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
   const long B = long(order.size());
@@ -206,7 +207,8 @@ struct StepState {
   Adam grid_adam, mlp_adam;
   std::vector<Sample> samples, fresh_samples;
   std::vector<RayWalk> walks, fresh_walks;
-  std::vector<uint32_t> order, batch_rows;  // order_batch_by_point_count
+  std::vector<size_t> order;        // order_batch_by_point_count
+  std::vector<uint32_t> batch_rows;
   Matrix X, O, dO, dX;
   MlpTrace trace;
   BatchCorners corners;
@@ -242,23 +244,13 @@ Status draw_batch(const RaySampler& sampler, const Config& config, const TrainSe
   return Status::ok();
 }
 
-// The order in which the step's batch (st.samples, st.walks) goes through the network: by
-// descending point count (stable), in st.order, with each column's encoded_rows in st.batch_rows.
-// The first layer then skips the zero slots of whole column chunks (mlp_forward's `input_rows`; a
-// walk has about 5 of the 18 points on the bunny). Which rays a step trains on is draw_batch's.
+// The order in which the step's batch (st.samples, st.walks) goes through the network, in
+// st.order, with each column's encoded_rows in st.batch_rows: order_by_point_count (a walk has
+// about 5 of the 18 points on the bunny). Which rays a step trains on is draw_batch's.
 void order_batch_by_point_count(const Config& config, StepState& st) {
-  const uint32_t H = config.max_points;
-  const size_t B = st.walks.size();
-  std::vector<uint32_t> start(size_t(H) + 2, 0);  // counting sort on H - min(count, H)
-  for (const RayWalk& w : st.walks) ++start[size_t(H - std::min(w.count, H)) + 1];
-  for (size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
-  st.order.resize(B);
-  st.batch_rows.resize(B);
-  for (size_t r = 0; r < B; ++r) {
-    const size_t at = start[H - std::min(st.walks[r].count, H)]++;
-    st.order[at] = uint32_t(r);
-    st.batch_rows[at] = encoded_rows(config, st.walks[r]);
-  }
+  st.order.resize(st.walks.size());
+  std::iota(st.order.begin(), st.order.end(), size_t(0));
+  order_by_point_count(config, st.walks, st.order, st.batch_rows);
 }
 
 // The batch's mean loss terms from the outputs st.O; their gradient (scaled by 1 / batch size)
@@ -270,7 +262,7 @@ LossTerms batch_loss(const Config& config, const TrainSettings& settings, StepSt
   double lo = 0, ld = 0, ln = 0, la = 0, lm = 0, ls = 0;
 #pragma omp parallel for schedule(static, 64) reduction(+ : lo, ld, ln, la, lm, ls)  // interleaved, as encode_batch
   for (long r = 0; r < long(B); ++r) {
-    const uint32_t i = st.order[size_t(r)];
+    const size_t i = st.order[size_t(r)];
     const Sample& smp = st.samples[i];
     LossTarget target;
     target.hit = smp.reference.hit;
