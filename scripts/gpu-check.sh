@@ -93,6 +93,12 @@ for lib in $libs /lib/x86_64-linux-gnu/libvulkan.so.1; do
   esac
   strip --strip-unneeded -o "$dir/lib/$(basename "$lib")" "$(readlink -f "$lib")"
 done
+# The build tree's RUNPATH would load the build's libraries wherever that path exists: the folder's
+# programs and libraries look in the folder's own lib/ only (after ldd above, which needed the build's).
+for f in "$dir"/bin/*; do patchelf --set-rpath '$ORIGIN/../lib' "$f"; done
+for f in "$dir"/lib/*; do
+  if [ -n "$(patchelf --print-rpath "$f")" ]; then patchelf --set-rpath '$ORIGIN' "$f"; fi
+done
 for m in elephant.off bunny00.off armadillo.off ChineseDragon-10kv.off; do cp "$here/data/meshes/$m" "$dir/data/meshes/"; done
 cp "$here"/data/textures/*.png "$dir/data/textures/"  # the foliage scene's alpha-tested sprites
 # As Radiance HDR at 512x256 (0.5 MiB each instead of 1.9 at full size: the folder must stay within

@@ -62,6 +62,7 @@ fi
 packages=(
   build-essential cmake ninja-build pkg-config git ca-certificates xz-utils
   file binutils  # cpack -G DEB (file, dpkg-shlibdeps) and the package test (nm, readelf, strings)
+  patchelf  # scripts/gpu-check.sh: the folder's programs find its lib/ ($ORIGIN/../lib), not the build's
   universal-ctags  # tests/lint/long_functions.sh measures function lengths
   libgtest-dev libgmock-dev
   libembree-dev libeigen3-dev

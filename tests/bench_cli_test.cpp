@@ -383,7 +383,7 @@ TEST(BenchCli, PreparedModelsAndTheGpuProgram) {
   if (!fs::exists(kBunny)) GTEST_SKIP() << kBunny << " missing: run scripts/setup.sh";
   lsnif::test::ScopedTestDir dir("lsnif_bench_cli_test");
   const fs::path models = dir.path() / "models", out = dir.path() / "out";
-  lsnif::test::CommandResult r = run_cli("bench bunny --quick --quality high --no-render --out " + models.string());
+  lsnif::test::CommandResult r = run_cli("bench bunny --quick --quality high,low --no-render --out " + models.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(has(r.out, "--no-render: nothing rendered")) << r.out;
   EXPECT_TRUE(fs::is_regular_file(models / "bunny" / "bunny.high.lsnif"));
@@ -422,14 +422,30 @@ TEST(BenchCli, PreparedModelsAndTheGpuProgram) {
   EXPECT_TRUE(fs::is_regular_file(out / row["image"].get<std::string>()));
   EXPECT_TRUE(has(read_text(out / "results.md"), "models prepared in " + models.string()));
 
-  // A preset that was not prepared, and a model of another mesh: named, nothing rendered.
+  // A preset that was not prepared, a model of another preset copied over the row's (alone, or with
+  // its key), a key of another mesh: named, nothing rendered.
+  const fs::path bunny = models / "bunny";
+  fs::rename(bunny / "bunny.low.lsnif", dir.path() / "bunny.low.lsnif");
+  fs::rename(bunny / "bunny.low.lsnif.key", dir.path() / "bunny.low.lsnif.key");
   r = lsnif::test::run_command(gpu + " --models " + models.string() + " --data " + data.string() + " --quality low 2>&1");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(has(r.out, "bunny.low.lsnif (or its .key) not found")) << r.out;
-  std::ofstream(models / "bunny" / "bunny.high.lsnif.key", std::ios::trunc) << "mesh 00000000\nsettings x\n";
-  r = lsnif::test::run_command(gpu + " --models " + models.string() + " --data " + data.string() + " 2>&1");
-  EXPECT_EQ(r.code, 1) << r.out;
-  EXPECT_TRUE(has(r.out, "was trained on another mesh")) << r.out;
+  const auto refused = [&](const std::string& words) {
+    const lsnif::test::CommandResult run =
+        lsnif::test::run_command(gpu + " --models " + models.string() + " --data " + data.string() + " 2>&1");
+    EXPECT_EQ(run.code, 1) << run.out;
+    EXPECT_TRUE(has(run.out, "bunny.high.lsnif is not the high-quality model of bunny: " + words)) << run.out;
+    EXPECT_FALSE(fs::exists(out / "bunny.high.wavefront.png.tmp"));
+  };
+  const std::string high = read_text(bunny / "bunny.high.lsnif"), high_key = read_text(bunny / "bunny.high.lsnif.key");
+  fs::copy_file(dir.path() / "bunny.low.lsnif", bunny / "bunny.high.lsnif", fs::copy_options::overwrite_existing);
+  refused("the model is not the one its key describes: it records points=10, the settings give points=");
+  fs::copy_file(dir.path() / "bunny.low.lsnif.key", bunny / "bunny.high.lsnif.key", fs::copy_options::overwrite_existing);
+  refused("its key names another quality than high");
+  std::ofstream(bunny / "bunny.high.lsnif", std::ios::trunc | std::ios::binary) << high;
+  std::ofstream(bunny / "bunny.high.lsnif.key", std::ios::trunc) << "mesh 00000000\nquality high\nsettings {}\n";
+  refused("its key names another mesh than the scene's bunny");
+  std::ofstream(bunny / "bunny.high.lsnif.key", std::ios::trunc) << high_key;
   r = run_cli("bench bunny --quick --no-render --models " + models.string() + " --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;
 

@@ -108,7 +108,9 @@ typedef struct LsnifDeviceFeatures {
 /* Zeroes *pFeatures, sets the sTypes, chains features2 -> vulkan12 -> accelerationStructure ->
  * rayTracingPipeline -> pNext, and sets exactly the features LSNIF needs to VK_TRUE. Pass
  * &pFeatures->features2 as VkDeviceCreateInfo::pNext (with pEnabledFeatures NULL); turn on the
- * application's own features in the same structs before creating the device. */
+ * application's own features in the same structs before creating the device. Like every walk of a
+ * chain here it stops at a loop or after 256 structures (it returns no result: lsnifCreateContext
+ * refuses such a chain). */
 LSNIF_API void lsnifInitDeviceFeatures(LsnifDeviceFeatures* pFeatures, void* pNext);
 
 /* For an application that builds its own feature chain: walks the pNext chain starting at
@@ -116,7 +118,9 @@ LSNIF_API void lsnifInitDeviceFeatures(LsnifDeviceFeatures* pFeatures, void* pNe
  * in the structs it finds (VkPhysicalDeviceFeatures2, VkPhysicalDeviceVulkan12Features or
  * VkPhysicalDeviceBufferDeviceAddressFeatures, VkPhysicalDeviceAccelerationStructureFeaturesKHR,
  * VkPhysicalDeviceRayTracingPipelineFeaturesKHR). Fails (LSNIF_ERROR_INVALID_ARGUMENT) naming
- * each struct the chain lacks; structs found are still updated. */
+ * each struct the chain lacks; structs found are still updated. A chain that loops, has more than
+ * 256 structures or a struct LSNIF reads twice is refused before anything is written (every entry
+ * point that takes a chain refuses these). */
 LSNIF_API LsnifResult lsnifEnableDeviceFeatures(void* pFeatureChain);
 
 /* Storage for the feature structs lsnifEnableDeviceFeaturesInCreateInfo appends to a chain; it must
@@ -141,7 +145,9 @@ typedef struct LsnifDeviceFeatureStorage {
  * with the application's other structs of features promoted to Vulkan 1.2. Calling it again with
  * the same storage appends nothing more. Pass the same pCreateInfo as
  * LsnifContextCreateInfo::pEnabledFeatures. Fails (LSNIF_ERROR_INVALID_ARGUMENT, nothing written)
- * on a null argument or a pCreateInfo whose sType is not VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO. */
+ * on a null argument, a pCreateInfo whose sType is not VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO, a
+ * chain that loops, has more than 256 structures or a struct LSNIF reads twice, or a
+ * VkPhysicalDeviceFeatures2 in the chain together with pEnabledFeatures (Vulkan allows one). */
 LSNIF_API LsnifResult lsnifEnableDeviceFeaturesInCreateInfo(VkDeviceCreateInfo* pCreateInfo,
                                                             LsnifDeviceFeatureStorage* pStorage);
 
@@ -212,13 +218,18 @@ typedef struct LsnifContextCreateInfo {
 
 /* Creates a context on the application's device. Fails with LSNIF_ERROR_DEVICE_UNSUPPORTED naming
  * everything the physical device lacks (or, with pEnabledFeatures, was not enabled), with
- * LSNIF_ERROR_INVALID_ARGUMENT on a null handle or function pointer, or when the device's
- * functions of VK_KHR_acceleration_structure cannot be loaded (the extension was not enabled). */
+ * LSNIF_ERROR_INVALID_ARGUMENT on a null handle or function pointer, a pEnabledFeatures chain that
+ * loops, has more than 256 structures, a struct LSNIF reads twice or a VkPhysicalDeviceFeatures2
+ * beside pEnabledFeatures, or when the device's functions of VK_KHR_acceleration_structure cannot
+ * be loaded (the extension was not enabled). */
 LSNIF_API LsnifResult lsnifCreateContext(const LsnifContextCreateInfo* pCreateInfo, LsnifContext* pContext);
 
 /* Destroys the context and every model still alive in it (like vkDestroyDevice for its children,
  * the application must ensure the GPU no longer uses them). NULL is ignored. Call before the
- * application destroys its VkDevice. */
+ * application destroys its VkDevice. A context is checked like a model: every entry point refuses
+ * (LSNIF_ERROR_INVALID_ARGUMENT, without reading it) a handle that is not a live context, one
+ * destroyed already included; destroying such a handle does nothing but set the last error
+ * message. */
 LSNIF_API void lsnifDestroyContext(LsnifContext context);
 
 /* ---- Models ----------------------------------------------------------------------------------- */
@@ -513,7 +524,7 @@ typedef struct LsnifQueryInfo {
   VkDeviceAddress rays;                       /* LsnifQueryRay[rayCount] in world space, 16-byte aligned */
   VkDeviceAddress results;                    /* LsnifQueryResult[rayCount], written (every field), 16-byte aligned */
   /* The scratch: lsnifGetQueryScratchSize bytes of scratchBuffer from scratchOffset (a multiple of
-   * 16), not shared with commands running at the same time. The buffer's usage must include
+   * 16; scratchOffset + scratchSize must not overflow), not shared with commands running at the same time. The buffer's usage must include
    * VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT and
    * VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT (the per-model dispatches are indirect). */
   VkBuffer scratchBuffer;

@@ -7,6 +7,7 @@
 // (Debian's slurm-wlm and munge, started and stopped by tests/cluster/slurm_local.sh) running the
 // plan as a job array.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -16,6 +17,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -260,6 +262,97 @@ TEST_F(ClusterConvert, ContradictoryOptionsAreRefused) {
   const ProcessResult r = convert(path("out/engine.gltf"), {"--assemble", path("nowhere")});
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("is not a plan folder"), std::string::npos) << r.output;
+}
+
+// A control character in any value that lands in a command line of the plan is refused before any
+// work: a newline in --job-command would make jobs.txt run a second command (and shift every later
+// line off its job); the plan folder is not even created.
+TEST_F(ClusterConvert, ControlCharactersNeverReachACommandLine) {
+  const std::string p = path("p");
+  for (const auto& [extra, what] : {std::pair<std::vector<std::string>, std::string>{
+                                        {"--plan", p, "--job-command", "lsnif\ntouch " + path("PWN")}, "--job-command"},
+                                    {{"--plan", p, "--job-command", "lsnif\tx"}, "--job-command"},
+                                    {{"--plan", p, "--job-command", std::string("lsnif\x7f")}, "--job-command"},
+                                    {{"--plan", p + "\nx"}, "--plan"}}) {
+    const ProcessResult r = convert(path("out/engine.gltf"), extra);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(what + " holds a control character"), std::string::npos) << r.output;
+  }
+  EXPECT_FALSE(fs::exists(p));
+  EXPECT_FALSE(fs::exists(p + "\nx"));
+  EXPECT_FALSE(fs::exists(path("PWN")));
+  // A program path with spaces and quotes is one quoted word: one job a line, run by sh as documented.
+  const ProcessResult r = convert(path("out/engine.gltf"), {"--plan", p, "--job-command", "/no such/it's lsnif"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::vector<std::string> jobs = lines(lsnif::test::read_text(p + "/jobs.txt"));
+  ASSERT_EQ(jobs.size(), kJobs);
+  for (const std::string& job : jobs) EXPECT_EQ(job.rfind("'/no such/it'\\''s lsnif' train ", 0), 0u) << job;
+}
+
+// A new plan in the folder of an earlier one removes the earlier plan's jobs that it does not have,
+// those its manifest listed, and nothing else: a folder named like a job that no plan wrote stays.
+TEST_F(ClusterConvert, ANewPlanRemovesOnlyTheJobsAnEarlierPlanWrote) {
+  const std::string p = path("plan");
+  ProcessResult r = convert(path("out/engine.gltf"), {"--plan", p, "--seed", "99"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json earlier = nlohmann::json::parse(lsnif::test::read_text(p + "/manifest.json"));
+  const fs::path mine = fs::path(p) / "jobs/0123456789abcdef";
+  fs::create_directories(mine);
+  std::ofstream(mine / "mine.txt") << "the user's\n";
+  const std::vector<std::string> jobs = plan();
+  ASSERT_EQ(jobs.size(), kJobs);
+  for (const nlohmann::json& job : earlier["jobs"])
+    EXPECT_FALSE(fs::exists(fs::path(p) / "jobs" / job["hash"].get<std::string>())) << job["hash"];
+  EXPECT_EQ(lsnif::test::read_text(mine / "mine.txt"), "the user's\n");
+}
+
+// A planted model file is judged by its header before its body is read: a 3 GiB sparse file whose
+// header declares its size is refused as more than a model of these settings can have, one whose
+// header declares another size as truncated or trailing, and a FIFO with the reason; each within
+// seconds and without reading the file (the run is capped at 1 GiB of address space).
+TEST_F(ClusterConvert, APlantedModelIsRefusedByItsHeaderBeforeItIsRead) {
+  plan();
+  const nlohmann::json manifest = nlohmann::json::parse(lsnif::test::read_text(path("plan/manifest.json")));
+  const std::string hash = manifest["jobs"][0]["hash"];
+  const fs::path planted = dir_.path() / "plan/models" / (hash + ".lsnif");
+  // A real model's header (the local conversion's first model), its declared size replaced.
+  std::string header;
+  for (const auto& [name, bytes] : *local_files_)
+    if (name.size() > 6 && name.compare(name.size() - 6, 6, ".lsnif") == 0) header = bytes.substr(0, 256);
+  ASSERT_EQ(header.size(), 256u);
+  const auto plant = [&](uint64_t declared, uint64_t size) {
+    std::string h = header;
+    for (int i = 0; i < 8; ++i) h[size_t(16 + i)] = char((declared >> (8 * i)) & 0xff);
+    fs::remove(planted);
+    std::ofstream(planted, std::ios::binary) << h;
+    fs::resize_file(planted, size);
+  };
+  const uint64_t big = uint64_t(3) << 30;
+  const std::string cap = "ulimit -v 1048576; ";
+  const auto assemble = [&]() {
+    std::string cmd = cap + sh_quoted(LSNIF_CLI) + " convert " + sh_quoted(kEngine) + " -o " +
+                      sh_quoted(path("out/engine.gltf"));
+    for (const std::string& o : kOptions) cmd += " " + sh_quoted(o);
+    return shell(cmd + " --assemble " + sh_quoted(path("plan")), 60.0);
+  };
+  for (const auto& [declared, size, message] :
+       {std::tuple<uint64_t, uint64_t, std::string>{big, big, "more than a model of these settings can have"},
+        {1000, big, "trailing data: the header says the file has 1000 bytes"},
+        {big, 4096, "truncated: expected 3221225472 bytes"}}) {
+    plant(declared, size);
+    const ProcessResult r = assemble();
+    EXPECT_FALSE(r.timed_out) << r.output;
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_NE(r.output.find(hash + ".lsnif: cannot read it: loading "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
+  }
+  fs::remove(planted);
+  ASSERT_EQ(::mkfifo(planted.c_str(), 0600), 0);
+  const ProcessResult r = assemble();
+  EXPECT_FALSE(r.timed_out) << r.output;
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("not a regular file"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(path("out/engine.gltf")));
 }
 
 // A real single-node Slurm on this machine runs the plan as a job array (sbatch --array --wait, the

@@ -1194,6 +1194,20 @@ TEST_P(PluginQueryPerBroadPhase, StageTimestamps) {
       EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, current_->get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
       EXPECT_NE(last_error().find(b.error), std::string::npos) << last_error();
     }
+    // Looped chains end as repeated structures, in both entry points: a struct pointing to itself,
+    // two pointing at each other.
+    index.modelIndex = LSNIF_QUERY_MODEL_INDEX_CUSTOM_INDEX;
+    index.customIndexBase = 0;
+    for (int loop = 0; loop < 2; ++loop) {
+      chained.pNext = loop == 0 ? static_cast<const void*>(&chained) : static_cast<const void*>(&index);
+      index.pNext = loop == 0 ? nullptr : &chained;
+      EXPECT_EQ(lsnifCmdQuery(plugin_.context(), cmd, current_->get(), &info), LSNIF_ERROR_INVALID_ARGUMENT);
+      EXPECT_NE(last_error().find("appears twice"), std::string::npos) << last_error();
+      VkDeviceSize size = 0;
+      EXPECT_EQ(lsnifGetQueryScratchSize(plugin_.context(), &info, &size), LSNIF_ERROR_INVALID_ARGUMENT);
+      EXPECT_NE(last_error().find("appears twice"), std::string::npos) << last_error();
+    }
+    index.pNext = nullptr;
   });
   EXPECT_TRUE(st) << st.message();
 }
@@ -1299,10 +1313,13 @@ TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
   EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
   EXPECT_NE(last_error().find("unknown structure type 7"), std::string::npos) << last_error();
   chained.sType = LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO;
-  chained.pNext = &pi;
-  EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
-  EXPECT_NE(last_error().find("LsnifQueryPipelineFlagsCreateInfo::pNext must be NULL"), std::string::npos)
-      << last_error();
+  // A loop back to the create info, and one to itself: the one chained struct must end the chain.
+  for (const void* loop : {static_cast<const void*>(&pi), static_cast<const void*>(&chained)}) {
+    chained.pNext = loop;
+    EXPECT_EQ(lsnifCreateQueryPipeline(ctx, &pi, &p), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(last_error().find("LsnifQueryPipelineFlagsCreateInfo::pNext must be NULL"), std::string::npos)
+        << last_error();
+  }
   chained.pNext = nullptr;
   EXPECT_EQ(p, nullptr);
   LsnifQueryPipeline plain = nullptr;
@@ -1402,6 +1419,8 @@ TEST_F(PluginQuery, DeviceCheckAndArgumentErrors) {
       {"pInfo->status is not 4-byte aligned", [](LsnifQueryInfo& i) { i.status = 0x40002; }},
       {"pInfo->scratchBuffer is VK_NULL_HANDLE", [](LsnifQueryInfo& i) { i.scratchBuffer = VK_NULL_HANDLE; }},
       {"pInfo->scratchOffset is not a multiple of 16", [](LsnifQueryInfo& i) { i.scratchOffset = 8; }},
+      {"pInfo->scratchOffset 18446744073709551600 plus pInfo->scratchSize",
+       [](LsnifQueryInfo& i) { i.scratchOffset = ~VkDeviceSize(15); }},
       {"pInfo->scratchSize", [](LsnifQueryInfo& i) { i.scratchSize -= 4; }},
   };
   for (const Case& c : cases) {

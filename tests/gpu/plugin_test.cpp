@@ -299,6 +299,22 @@ TEST_F(PluginApi, ContextCreationErrorsAndTheErrorCallback) {
   ASSERT_EQ(lsnifCreateContext(&bad, &ctx), LSNIF_SUCCESS) << last_error();
   lsnifDestroyContext(ctx);
   EXPECT_EQ(seen.calls, 5);
+
+  // A destroyed context is checked like a destroyed model: calls are refused, not crashed on (the
+  // destroyed context's callback is not called: its memory is gone), destroying it again does
+  // nothing but say so.
+  LsnifModel model = nullptr;
+  EXPECT_EQ(lsnifCreateModelFromMemory(ctx, "x", 1, &model), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("lsnifCreateModelFromMemory: context"), std::string::npos) << last_error();
+  EXPECT_NE(last_error().find("is not a live context"), std::string::npos) << last_error();
+  EXPECT_EQ(lsnifBuildModels(ctx, 0, nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
+  LsnifQueryInfo query{};
+  VkDeviceSize size = 0;
+  EXPECT_EQ(lsnifGetQueryScratchSize(ctx, &query, &size), LSNIF_ERROR_INVALID_ARGUMENT);
+  lsnifDestroyModel(ctx, model);
+  lsnifDestroyContext(ctx);
+  EXPECT_NE(last_error().find("lsnifDestroyContext: context"), std::string::npos) << last_error();
+  EXPECT_EQ(seen.calls, 5);
 }
 
 // Debug names: with VK_EXT_debug_utils enabled on the instance (the harness enables it with the

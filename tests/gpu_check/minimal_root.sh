@@ -10,6 +10,15 @@ set -euo pipefail
 [ $# -ge 2 ] || { echo "usage: tests/gpu_check/minimal_root.sh DIR OUT [check options]" >&2; exit 2; }
 dir=$(cd "$1" && pwd); out=$2; shift 2
 [ -x "$dir/run" ] || { echo "minimal_root.sh: $dir is not a GPU check folder (no run)" >&2; exit 1; }
+# The folder's programs and libraries look for libraries in the folder only: a RUNPATH of the build
+# tree would load the build's libraries wherever that path exists (on the machine that built it).
+for f in "$dir"/bin/* "$dir"/lib/*; do
+  paths=$(readelf -d "$f" 2>/dev/null | sed -n 's/.*(R\(UN\)\{0,1\}PATH).*\[\(.*\)\]/\2/p')
+  for p in ${paths//:/ }; do
+    case "$p" in '$ORIGIN'|'$ORIGIN/'*) ;; *)
+      echo "minimal_root.sh: $f has the library path $p outside the folder" >&2; exit 1 ;; esac
+  done
+done
 root=$(mktemp -d "${TMPDIR:-/tmp}/lsnif-minimal-root.XXXXXX")
 trap 'rm -rf "$root"' EXIT
 

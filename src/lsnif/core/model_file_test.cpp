@@ -1238,7 +1238,9 @@ TEST(ModelFileErrors, Paths) {
   ASSERT_FALSE(s);
   EXPECT_NE(s.message().find("the folder '/nonexistent/dir' does not exist"), std::string::npos) << s.message();
 
-  // A (sparse) file larger than any valid model is refused before it is read.
+  // A (sparse) file larger than any valid model is refused by its header before it is read: one of
+  // zeros has no model's magic; one with a model's header declaring its 4 GiB declares more than any
+  // valid model; one whose header declares another size is truncated or has trailing data.
   const std::string huge = dir.file("huge.lsnif");
   std::ofstream(huge).close();
   std::error_code ec;
@@ -1246,7 +1248,22 @@ TEST(ModelFileErrors, Paths) {
   if (!ec) {
     s = load_model(huge, m);
     ASSERT_FALSE(s);
-    EXPECT_NE(s.message().find("larger than"), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find("bad magic"), std::string::npos) << s.message();
+    std::vector<uint8_t> header;
+    ASSERT_TRUE(save_model_to_memory(good, header));
+    header.resize(256);
+    for (const auto& [declared, words] :
+         {std::pair<uint64_t, std::string>{uint64_t(1) << 32, "its header declares 4294967296 bytes, more than any valid "
+                                                              ".lsnif file"},
+          {4096, "trailing data: the header says the file has 4096 bytes"}}) {
+      for (int i = 0; i < 8; ++i) header[size_t(16 + i)] = uint8_t(declared >> (8 * i));
+      std::ofstream(huge, std::ios::binary).write(reinterpret_cast<const char*>(header.data()), 256);
+      fs::resize_file(huge, uint64_t(1) << 32, ec);
+      ASSERT_FALSE(ec) << ec.message();
+      s = load_model(huge, m);
+      ASSERT_FALSE(s);
+      EXPECT_NE(s.message().find(words), std::string::npos) << s.message();
+    }
   }
 }
 

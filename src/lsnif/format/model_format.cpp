@@ -25,8 +25,11 @@
 // memory is allocated only once the whole layout has been checked against the validated config.
 #include "lsnif/format/model_format.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <filesystem>
 
 #include "lsnif/format/crc32.h"
 #include "lsnif/format/file_io.h"
@@ -640,11 +643,46 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
   return Status::ok();
 }
 
-Status read_model_file(const std::string& path, std::vector<uint8_t>& out) {
+namespace {
+
+// The preamble of the file at `path` (magic, version, header size, declared size) against its size on
+// disk, read before its body: ok (`declared` set) when it is a model's preamble of that size; an
+// error naming the problem (check_preamble's words) when not; ok with `declared` 0 when the file
+// cannot be looked at this way (missing, not a regular file, unreadable: read_file names it).
+Status peek_model_preamble(const std::string& path, uint64_t& declared) {
+  declared = 0;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return Status::ok();
+  const uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec) return Status::ok();
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return Status::ok();
+  uint8_t head[kOffFileSize + 8] = {};
+  const size_t got = std::fread(head, 1, sizeof head, f);
+  std::fclose(f);
+  uint32_t version = 0;
+  // Fewer bytes than the preamble: the size says so (check_preamble reads no further than it).
+  if (Status s = check_preamble(head, got < sizeof head ? got : size_t(size), version); !s) return s;
+  declared = get_u64(head + kOffFileSize);
+  return Status::ok();
+}
+
+}  // namespace
+
+Status read_model_file(const std::string& path, std::vector<uint8_t>& out, uint64_t max_bytes, ReadFailure* failure) {
   ReadFailure f;
-  if (read_file(path, out, max_file_size(), &f)) return Status::ok();
+  if (failure) *failure = f;
   const std::string shown = printable(path);
   const char* p = shown.c_str();
+  const uint64_t limit = max_bytes ? std::min(max_bytes, max_file_size()) : max_file_size();
+  uint64_t declared = 0;
+  if (Status s = peek_model_preamble(path, declared); !s) return Status::error("loading %s: %s", p, s.message().c_str());
+  if (declared > limit)
+    return Status::error("loading %s: its header declares %llu bytes, more than %s (%llu bytes)", p, ull(declared),
+                         max_bytes ? "a model of these settings can have" : "any valid .lsnif file", ull(limit));
+  const bool read = read_file(path, out, declared ? declared : limit, &f).is_ok();
+  if (failure) *failure = f;
+  if (read) return Status::ok();
   switch (f.problem) {
     case ReadProblem::Missing: return Status::error("loading %s: no such file", p);
     case ReadProblem::CannotAccess: return Status::error("loading %s: cannot access: %s", p, f.reason.c_str());
@@ -652,8 +690,10 @@ Status read_model_file(const std::string& path, std::vector<uint8_t>& out) {
     case ReadProblem::NotRegular: return Status::error("loading %s: not a regular file", p);
     case ReadProblem::SizeUnknown: return Status::error("loading %s: cannot read its size: %s", p, f.reason.c_str());
     case ReadProblem::TooLarge:
-      return Status::error("loading %s: %llu bytes is larger than any valid .lsnif file (at most %llu bytes)", p,
-                           ull(f.size), ull(max_file_size()));
+      return declared ? Status::error("loading %s: it grew beyond the %llu bytes its header declares", p, ull(declared))
+                      : Status::error("loading %s: %llu bytes is larger than %s (at most %llu bytes)", p, ull(f.size),
+                                      max_bytes ? "a model of these settings can have" : "any valid .lsnif file",
+                                      ull(limit));
     case ReadProblem::OutOfMemory: return Status::error("loading %s: out of memory for its %llu bytes", p, ull(f.size));
     case ReadProblem::CannotOpen: return Status::error("loading %s: cannot open: %s", p, f.reason.c_str());
     case ReadProblem::ReadError: return Status::error("loading %s: read error", p);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "lsnif/format/config.h"
+#include "lsnif/format/file_io.h"
 #include "lsnif/format/status.h"
 
 namespace lsnif {
@@ -77,9 +78,13 @@ ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes);
 Status parse_model_file(const uint8_t* data, size_t size, ModelFileView& out);
 
 // Reads a whole .lsnif file into `bytes` (replaced on success) with read_file (file_io.h): a
-// regular file no larger than the largest valid model, read completely (an error if it changes
-// size meanwhile). Errors start with "loading PATH: ". The bytes are not parsed.
-Status read_model_file(const std::string& path, std::vector<uint8_t>& bytes);
+// regular file whose header is read first, so that a file that is not a model, or whose size is not
+// the one its header declares, or is more than `max_bytes` (default: the largest valid model), is
+// refused before its body is read; then read completely (an error if it changes size meanwhile).
+// Memory is bounded by the header's size. Errors start with "loading PATH: "; `failure`, when not
+// null, receives read_file's problem (None for a refused header). The bytes are not otherwise parsed.
+Status read_model_file(const std::string& path, std::vector<uint8_t>& bytes, uint64_t max_bytes = 0,
+                       ReadFailure* failure = nullptr);
 
 // What a .lsnif file holds, for writing: fp16 parameters as bits.
 struct ModelFileContents {

@@ -57,6 +57,19 @@ bool decode_image(tinygltf::Image& image, const unsigned char* bytes, size_t siz
   int w = 0, h = 0, comp = 0;
   const int n = static_cast<int>(size);
   if (!stbi_info_from_memory(bytes, n, &w, &h, &comp)) {
+    // stb reports a PNG too large for it as "unknown image type" (its JPEG reader has the last
+    // word): the size from the PNG's own header says what is wrong.
+    static const unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    if (size >= 24 && std::memcmp(bytes, kPngSignature, 8) == 0 && std::memcmp(bytes + 12, "IHDR", 4) == 0) {
+      const auto be32 = [](const unsigned char* p) {
+        return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | uint32_t(p[3]);
+      };
+      const uint32_t pw = be32(bytes + 16), ph = be32(bytes + 20);
+      if (pw > STBI_MAX_DIMENSIONS || ph > STBI_MAX_DIMENSIONS) {
+        why = format("a PNG of %ux%u pixels, more than the %d a side that can be decoded", pw, ph, STBI_MAX_DIMENSIONS);
+        return false;
+      }
+    }
     why = std::string("not a decodable PNG/JPEG (") + stbi_failure_reason() + ")";
     return false;
   }
@@ -233,6 +246,94 @@ std::string data_uri_problem(std::string_view json_text) {
   return "";
 }
 
+// The first integer of the document that tinygltf would narrow to an int, as "PATH is VALUE, ..."
+// ("" when there is none). tinygltf reads every index and enum that way (an index 4294967296 would
+// read as 0, 2^64-1 as -1: no index), so every integer literal must fit one, checked here as the
+// 64-bit value the JSON gives, before any narrowing. Left alone: sizes (byteLength, byteOffset, count,
+// byteStride: tinygltf reads them as size_t and view_range checks them), accessor bounds (min, max:
+// doubles) and extras (the application's data, never read). `path` is the JSON pointer of `j`.
+std::string narrowed_integer(const nlohmann::json& j, const std::string& path) {
+  if (j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(std::numeric_limits<int>::max()))
+    return format("%s is %llu, beyond any glTF index or enum (at most %d)", path.c_str(),
+                  (unsigned long long)j.get<uint64_t>(), std::numeric_limits<int>::max());
+  if (j.is_number_integer() && !j.is_number_unsigned() && j.get<int64_t>() < std::numeric_limits<int>::min())
+    return format("%s is %lld, beyond any glTF index or enum", path.c_str(), (long long)j.get<int64_t>());
+  if (j.is_array()) {
+    for (size_t i = 0; i < j.size(); ++i)
+      if (std::string p = narrowed_integer(j[i], path + "/" + std::to_string(i)); !p.empty()) return p;
+  } else if (j.is_object()) {
+    for (const auto& [key, value] : j.items()) {
+      if (key == "extras" || key == "byteLength" || key == "byteOffset" || key == "count" || key == "byteStride" ||
+          key == "min" || key == "max")
+        continue;
+      if (std::string p = narrowed_integer(value, path + "/" + printable(key)); !p.empty()) return p;
+    }
+  }
+  return "";
+}
+
+// Values tinygltf drops without a word, keeping its default: a property of the wrong JSON type (an
+// alphaCutoff "0.9" would read as 0.5, an alphaMode 1 as OPAQUE), a texture's sampler that does not
+// exist, a sampler's wrap or filter outside glTF's enums. Samplers are then not read (textures repeat
+// and filter bilinearly: docs/scene-format.md), but a file that names a missing one or an unknown
+// mode is invalid all the same. Returns the first as "PATH ..." ("" when there is none).
+std::string dropped_value(const nlohmann::json& doc) {
+  enum Kind { String, Number, Boolean, Integer };
+  static const struct {
+    const char* array;
+    const char* key;
+    Kind kind;
+    std::initializer_list<int64_t> allowed;  // empty: any value of the kind
+  } rules[] = {{"materials", "name", String, {}},
+               {"materials", "alphaMode", String, {}},
+               {"materials", "alphaCutoff", Number, {}},
+               {"materials", "doubleSided", Boolean, {}},
+               {"samplers", "magFilter", Integer, {9728, 9729}},
+               {"samplers", "minFilter", Integer, {9728, 9729, 9984, 9985, 9986, 9987}},
+               {"samplers", "wrapS", Integer, {33071, 33648, 10497}},
+               {"samplers", "wrapT", Integer, {33071, 33648, 10497}},
+               {"textures", "sampler", Integer, {}},
+               {"textures", "source", Integer, {}},
+               {"nodes", "name", String, {}},
+               {"nodes", "mesh", Integer, {}},
+               {"nodes", "camera", Integer, {}},
+               {"meshes", "name", String, {}}};
+  static const char* const kKindNames[] = {"a string", "a number", "true or false", "an integer"};
+  if (!doc.is_object()) return "";
+  for (const auto& rule : rules) {
+    if (!doc.contains(rule.array) || !doc[rule.array].is_array()) continue;
+    const nlohmann::json& items = doc[rule.array];
+    for (size_t i = 0; i < items.size(); ++i) {
+      if (!items[i].is_object() || !items[i].contains(rule.key)) continue;
+      const nlohmann::json& v = items[i][rule.key];
+      const std::string path = format("/%s/%zu/%s", rule.array, i, rule.key);
+      const bool typed = rule.kind == String    ? v.is_string()
+                         : rule.kind == Number  ? v.is_number()
+                         : rule.kind == Boolean ? v.is_boolean()
+                                                : v.is_number_integer();
+      if (!typed) return format("%s must be %s, not %s", path.c_str(), kKindNames[rule.kind], excerpt(v.dump()).c_str());
+      if (rule.allowed.size() &&
+          std::find(rule.allowed.begin(), rule.allowed.end(), v.get<int64_t>()) == rule.allowed.end()) {
+        std::string list;
+        for (int64_t a : rule.allowed) list += (list.empty() ? "" : ", ") + std::to_string(a);
+        return format("%s is %lld, none of glTF's values for it (%s)", path.c_str(), (long long)v.get<int64_t>(),
+                      list.c_str());
+      }
+    }
+  }
+  // A texture's sampler must exist (tinygltf keeps the index; nothing reads it).
+  const size_t samplers = doc.contains("samplers") && doc["samplers"].is_array() ? doc["samplers"].size() : 0;
+  if (doc.contains("textures") && doc["textures"].is_array())
+    for (size_t i = 0; i < doc["textures"].size(); ++i) {
+      const nlohmann::json& t = doc["textures"][i];
+      if (t.is_object() && t.contains("sampler") && (t["sampler"].get<int64_t>() < 0 ||
+                                                      uint64_t(t["sampler"].get<int64_t>()) >= samplers))
+        return format("/textures/%zu/sampler is %lld, but the file has %zu samplers", i,
+                      (long long)t["sampler"].get<int64_t>(), samplers);
+    }
+  return "";
+}
+
 // tinygltf's ReadWholeFile callback: reads the file file_exists_callback resolved the joined path to
 // (an absolute URI is not under the folder; "out/../in/a.bin" reads in/a.bin even before "out"
 // exists). Nothing else is read.
@@ -280,6 +381,11 @@ Status load_model(std::string_view data, bool binary, const std::string& name,
     json_text = data.substr(20, json_length);
   }
   if (Status d = json::check_depth(json_text, name); !d) return d;
+  // JSON that does not parse is left to tinygltf, whose message says where.
+  if (const nlohmann::json doc = nlohmann::json::parse(json_text.begin(), json_text.end(), nullptr, false);
+      !doc.is_discarded())
+    for (const std::string& problem : {narrowed_integer(doc, ""), dropped_value(doc)})
+      if (!problem.empty()) return Status::error("%s: invalid glTF: %s", file, problem.c_str());
   FsContext context;
   context.base_dir = base_dir.empty() ? std::string(".") : base_dir;
   context.allow_outside = options.allow_outside_refs;

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "lsnif/testing/fuzz_support.h"
 #include "lsnif/import/gltf_access.h"
@@ -18,6 +19,8 @@
 #include "lsnif/import/mesh.h"
 #include "lsnif/format/model_format.h"
 #include "lsnif/import/resolve_path.h"
+
+#include <nlohmann/json.hpp>
 
 namespace lsnif {
 namespace {
@@ -226,6 +229,146 @@ TEST(DataUri, WrongLengthsAreNamedAndLongMessagesShortened) {
   EXPECT_TRUE(contains(trimmed, "\\x1b[2J in Buffer")) << trimmed;
   EXPECT_EQ(trimmed.find('\x1b'), std::string::npos);
   EXPECT_EQ(gltf::trim_message("two\nlines\n"), "two;lines");
+}
+
+// A glTF that uses every kind of index and enum core glTF has (scene, nodes and children, mesh,
+// camera, attributes, indices, material, mode, accessor and buffer views, component types, texture,
+// image, sampler and its enums, texCoord, KHR_texture_transform's texCoord), on one triangle; the
+// image lies in a bufferView, which loading leaves undecoded.
+nlohmann::json indexed_gltf() {
+  const std::string bytes = fuzz::put_floats({0, 0, 0, 1, 0, 0, 0, 1, 0}) + fuzz::put_floats({0, 0, 1, 0, 0, 1, 0, 0, 1}) +
+                            fuzz::put_floats({0, 0, 1, 0, 0, 1}) + std::string("\x00\x00\x01\x00\x02\x00\x00\x00", 8) +
+                            std::string(16, '\x00');
+  nlohmann::json j = nlohmann::json::parse(R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0,1]}],
+"extensionsUsed":["KHR_texture_transform"],
+"nodes":[{"mesh":0,"children":[2]},{"camera":0},{"name":"child"}],
+"cameras":[{"type":"perspective","perspective":{"yfov":0.8,"znear":0.01}}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0,"NORMAL":1,"TEXCOORD_0":2},"indices":3,"material":0,"mode":4}]}],
+"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0,"texCoord":0,
+  "extensions":{"KHR_texture_transform":{"texCoord":0}}}},"normalTexture":{"index":0}}],
+"textures":[{"source":0,"sampler":0}],"images":[{"bufferView":4,"mimeType":"image/png"}],
+"samplers":[{"magFilter":9729,"minFilter":9987,"wrapS":10497,"wrapT":33071}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+ {"bufferView":1,"componentType":5126,"count":3,"type":"VEC3"},
+ {"bufferView":2,"componentType":5126,"count":3,"type":"VEC2"},
+ {"bufferView":3,"componentType":5123,"count":3,"type":"SCALAR"}],
+"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":36},
+ {"buffer":0,"byteOffset":72,"byteLength":24},{"buffer":0,"byteOffset":96,"byteLength":6},
+ {"buffer":0,"byteOffset":104,"byteLength":16}]})");
+  j["buffers"] = nlohmann::json::array({{{"uri", "data:application/octet-stream;base64," + fuzz::base64(bytes)},
+                                         {"byteLength", bytes.size()}}});
+  return j;
+}
+
+// The JSON pointers of every integer of `j` that is an index or an enum (not a size, not a bound).
+void integer_paths(const nlohmann::json& j, const std::string& path, std::vector<std::string>& out) {
+  if (j.is_number_integer()) out.push_back(path);
+  if (j.is_array())
+    for (size_t i = 0; i < j.size(); ++i) integer_paths(j[i], path + "/" + std::to_string(i), out);
+  if (j.is_object())
+    for (const auto& [key, value] : j.items())
+      if (key != "byteLength" && key != "byteOffset" && key != "count" && key != "min" && key != "max")
+        integer_paths(value, path + "/" + key, out);
+}
+
+// Every index and enum a glTF gives is range-checked as the 64-bit value the JSON holds, before
+// tinygltf narrows it to an int (where 2^32 would read as index 0 and 2^64-1 as -1, "none"): each
+// of them, set in turn to 2^32, 2^32 + 2, 2^64 - 1 and -2^31 - 1, is refused naming its JSON path.
+TEST(GltfIndices, EveryIndexIsCheckedBeforeItIsNarrowed) {
+  TempDir dir;
+  const nlohmann::json base = indexed_gltf();
+  tinygltf::Model model;
+  std::vector<std::string> warnings;
+  const Status ok = gltf::load_model(base.dump(), false, "indexed.gltf", dir.path("scene"), gltf::LoadOptions(), model,
+                                     warnings);
+  ASSERT_TRUE(ok) << ok.message();
+  ASSERT_EQ(model.materials.size(), 1u);
+  EXPECT_EQ(model.materials[0].normalTexture.index, 0);
+  std::vector<std::string> paths;
+  integer_paths(base, "", paths);
+  ASSERT_GE(paths.size(), 30u);
+  for (const std::string& path : paths) {
+    for (const nlohmann::json& value : {nlohmann::json(uint64_t(1) << 32), nlohmann::json((uint64_t(1) << 32) + 2),
+                                        nlohmann::json(~uint64_t(0)), nlohmann::json(-int64_t(2147483649))}) {
+      SCOPED_TRACE(path + " = " + value.dump());
+      nlohmann::json j = base;
+      j[nlohmann::json::json_pointer(path)] = value;
+      tinygltf::Model m;
+      const Status s = gltf::load_model(j.dump(), false, "indexed.gltf", dir.path("scene"), gltf::LoadOptions(), m,
+                                        warnings);
+      ASSERT_FALSE(s);
+      EXPECT_TRUE(contains(s.message(), "indexed.gltf: invalid glTF: " + path + " is " + value.dump() + ", beyond any glTF "
+                                        "index or enum"))
+          << s.message();
+    }
+  }
+  // The mesh importer reads through the same check.
+  nlohmann::json j = base;
+  j["materials"][0]["normalTexture"]["index"] = uint64_t(1) << 32;
+  Mesh mesh;
+  const Status s = load_mesh(dir.write("scene/wrapped.gltf", j.dump()), mesh);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "/materials/0/normalTexture/index is 4294967296")) << s.message();
+}
+
+// Values tinygltf would drop for its default without a word are errors naming the path: properties
+// of the wrong JSON type, a sampler that does not exist, wrap and filter modes outside glTF's enums.
+TEST(GltfIndices, ValuesTinygltfWouldDropAreRefused) {
+  TempDir dir;
+  const struct {
+    const char* pointer;
+    nlohmann::json value;
+    const char* words;
+  } cases[] = {
+      {"/materials/0/alphaCutoff", "0.9", "/materials/0/alphaCutoff must be a number, not \"0.9\""},
+      {"/materials/0/alphaMode", 1, "/materials/0/alphaMode must be a string, not 1"},
+      {"/materials/0/doubleSided", "yes", "/materials/0/doubleSided must be true or false"},
+      {"/samplers/0/wrapT", 12345, "/samplers/0/wrapT is 12345, none of glTF's values for it (33071, 33648, 10497)"},
+      {"/samplers/0/wrapS", 0, "/samplers/0/wrapS is 0, none of glTF's values"},
+      {"/samplers/0/magFilter", 9987, "/samplers/0/magFilter is 9987, none of glTF's values for it (9728, 9729)"},
+      {"/samplers/0/minFilter", -1, "/samplers/0/minFilter is -1"},
+      {"/textures/0/sampler", 3, "/textures/0/sampler is 3, but the file has 1 samplers"},
+      {"/textures/0/sampler", -1, "/textures/0/sampler is -1, but the file has 1 samplers"},
+      {"/textures/0/sampler", 0.5, "/textures/0/sampler must be an integer, not 0.5"},
+      {"/nodes/0/mesh", 1.5, "/nodes/0/mesh must be an integer, not 1.5"},
+  };
+  std::vector<std::string> warnings;
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.pointer);
+    nlohmann::json j = indexed_gltf();
+    j[nlohmann::json::json_pointer(c.pointer)] = c.value;
+    tinygltf::Model m;
+    const Status s = gltf::load_model(j.dump(), false, "dropped.gltf", dir.path("scene"), gltf::LoadOptions(), m,
+                                      warnings);
+    ASSERT_FALSE(s);
+    EXPECT_TRUE(contains(s.message(), std::string("dropped.gltf: invalid glTF: ") + c.words)) << s.message();
+  }
+  // Every value glTF allows still loads (samplers are then not read: docs/scene-format.md).
+  for (const int wrap : {33071, 33648, 10497}) {
+    nlohmann::json j = indexed_gltf();
+    j["samplers"][0]["wrapS"] = wrap;
+    tinygltf::Model m;
+    const Status s = gltf::load_model(j.dump(), false, "ok.gltf", dir.path("scene"), gltf::LoadOptions(), m, warnings);
+    EXPECT_TRUE(s) << s.message();
+  }
+}
+
+// A PNG whose header claims more pixels a side than can be decoded is named as such (stb_image
+// calls it an "unknown image type"); a file that is no PNG at all keeps stb's words.
+TEST(Images, AnOversizedPngHeaderIsNamed) {
+  TempDir dir;
+  std::string png("\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR", 16);
+  for (uint32_t v : {40000u, 16u})
+    for (int i = 3; i >= 0; --i) png += char((v >> (8 * i)) & 0xff);
+  png += std::string("\x08\x06\x00\x00\x00", 5) + std::string(4, '\0');
+  tinygltf::Image image;
+  Status s = gltf::decode_image_file(dir.write("big.png", png), uint64_t(1) << 27, image);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "a PNG of 40000x16 pixels, more than the 32768 a side that can be decoded"))
+      << s.message();
+  s = gltf::decode_image_file(dir.write("text.png", "not an image at all"), uint64_t(1) << 27, image);
+  ASSERT_FALSE(s);
+  EXPECT_TRUE(contains(s.message(), "not a decodable PNG/JPEG")) << s.message();
 }
 
 // A buffer that is a link to a device: "not a regular file", not tinygltf's "File not found".

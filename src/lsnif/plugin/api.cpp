@@ -3,7 +3,9 @@
 // device_support.cpp and the packers of src/lsnif/format/.
 #include <cstring>
 #include <memory>
+#include <mutex>
 #include <new>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -35,8 +37,31 @@ LsnifResult report(const Outcome& o, const char* function, PFN_lsnifErrorCallbac
   return o.code;
 }
 
+// The contexts lsnifCreateContext made and lsnifDestroyContext has not destroyed: a handle is
+// looked up here before it is used, as a model handle is looked up in its context. Never destroyed
+// itself, so that a context destroyed from another static destructor is still looked up.
+std::mutex g_contexts_mutex;
+std::set<const LsnifContext_T*>& g_contexts = *new std::set<const LsnifContext_T*>();
+
+bool live(const LsnifContext_T* ctx) {
+  std::lock_guard<std::mutex> lock(g_contexts_mutex);
+  return g_contexts.count(ctx) != 0;
+}
+
+// Every entry point's check of its context handle.
+Outcome check_context(const LsnifContext_T* ctx) {
+  if (!ctx) return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "context is NULL");
+  if (!live(ctx))
+    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                         "context %p is not a live context (destroyed by lsnifDestroyContext, or not made by "
+                         "lsnifCreateContext)", static_cast<const void*>(ctx));
+  return Outcome::ok();
+}
+
+// The callback of a live context only: a stale handle's memory is not read.
 LsnifResult report(const Outcome& o, const char* function, const LsnifContext_T* ctx) {
-  return report(o, function, ctx ? ctx->info.pfnErrorCallback : nullptr, ctx ? ctx->info.pErrorUserData : nullptr);
+  const bool ok = ctx && live(ctx);
+  return report(o, function, ok ? ctx->info.pfnErrorCallback : nullptr, ok ? ctx->info.pErrorUserData : nullptr);
 }
 
 Outcome invalid(const char* fmt, const char* what) {
@@ -200,6 +225,8 @@ LSNIF_API void lsnifInitDeviceFeatures(LsnifDeviceFeatures* f, void* pNext) {
 LSNIF_API LsnifResult lsnifEnableDeviceFeatures(void* pFeatureChain) {
   return report(guarded([&]() -> Outcome {
                   if (!pFeatureChain) return invalid("%s is NULL", "pFeatureChain");
+                  if (std::string why = lsnif::plugin::chain_problem(pFeatureChain, "pFeatureChain"); !why.empty())
+                    return invalid("%s", why.c_str());
                   const std::vector<std::string> absent = lsnif::plugin::enable_device_features(pFeatureChain);
                   if (absent.empty()) return Outcome::ok();
                   std::string list;
@@ -218,6 +245,8 @@ LSNIF_API LsnifResult lsnifEnableDeviceFeaturesInCreateInfo(VkDeviceCreateInfo* 
                     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
                                          "pCreateInfo->sType is %d, not VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO",
                                          int(pCreateInfo->sType));
+                  if (std::string why = lsnif::plugin::chain_problem(pCreateInfo, "pCreateInfo"); !why.empty())
+                    return invalid("%s", why.c_str());
                   lsnif::plugin::enable_device_features_appending(*pCreateInfo, *pStorage);
                   return Outcome::ok();
                 }),
@@ -265,7 +294,11 @@ LSNIF_API LsnifResult lsnifCreateContext(const LsnifContextCreateInfo* pCreateIn
                   if (!pContext) return invalid("%s is NULL", "pContext");
                   std::unique_ptr<LsnifContext_T> ctx;
                   Outcome o = lsnif::plugin::create_context(*pCreateInfo, ctx);
-                  if (o) *pContext = ctx.release();
+                  if (o) {
+                    std::lock_guard<std::mutex> lock(g_contexts_mutex);
+                    g_contexts.insert(ctx.get());
+                    *pContext = ctx.release();
+                  }
                   return o;
                 }),
                 "lsnifCreateContext", callback, user);
@@ -273,6 +306,16 @@ LSNIF_API LsnifResult lsnifCreateContext(const LsnifContextCreateInfo* pCreateIn
 
 LSNIF_API void lsnifDestroyContext(LsnifContext context) {
   if (!context) return;
+  bool erased = false;
+  {
+    std::lock_guard<std::mutex> lock(g_contexts_mutex);
+    erased = g_contexts.erase(context) != 0;
+  }
+  if (!erased) {
+    // Destroyed already (or never made): nothing is touched; the last error message says why.
+    report(check_context(context), "lsnifDestroyContext", nullptr, nullptr);
+    return;
+  }
   lsnif::plugin::destroy_context(*context);
   delete context;
 }
@@ -280,7 +323,7 @@ LSNIF_API void lsnifDestroyContext(LsnifContext context) {
 LSNIF_API LsnifResult lsnifCreateModelFromMemory(LsnifContext context, const void* pData, size_t size,
                                                  LsnifModel* pModel) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!pModel) return invalid("%s is NULL", "pModel");
                   if (!pData && size != 0) return invalid("%s is NULL with a non-zero size", "pData");
                   return lsnif::plugin::create_model(*context, static_cast<const uint8_t*>(pData), size, *pModel);
@@ -290,7 +333,7 @@ LSNIF_API LsnifResult lsnifCreateModelFromMemory(LsnifContext context, const voi
 
 LSNIF_API LsnifResult lsnifCreateModelFromFile(LsnifContext context, const char* path, LsnifModel* pModel) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!path) return invalid("%s is NULL", "path");
                   if (!pModel) return invalid("%s is NULL", "pModel");
                   std::vector<uint8_t> bytes;
@@ -304,7 +347,7 @@ LSNIF_API LsnifResult lsnifCreateModelFromFile(LsnifContext context, const char*
 LSNIF_API LsnifResult lsnifCmdBuildModels(LsnifContext context, VkCommandBuffer commandBuffer, uint32_t modelCount,
                                           const LsnifModel* pModels) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!commandBuffer) return invalid("%s is VK_NULL_HANDLE", "commandBuffer");
                   std::vector<LsnifModel_T*> models;
                   Outcome o = collect(*context, modelCount, pModels, true, models);
@@ -316,7 +359,7 @@ LSNIF_API LsnifResult lsnifCmdBuildModels(LsnifContext context, VkCommandBuffer 
 
 LSNIF_API LsnifResult lsnifBuildModels(LsnifContext context, uint32_t modelCount, const LsnifModel* pModels) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   std::vector<LsnifModel_T*> models;
                   Outcome o = collect(*context, modelCount, pModels, true, models);
                   if (o) o = lsnif::plugin::build_and_wait(*context, models);
@@ -328,7 +371,7 @@ LSNIF_API LsnifResult lsnifBuildModels(LsnifContext context, uint32_t modelCount
 LSNIF_API LsnifResult lsnifFreeModelBuildResources(LsnifContext context, uint32_t modelCount,
                                                    const LsnifModel* pModels) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   std::vector<LsnifModel_T*> models;
                   Outcome o = collect(*context, modelCount, pModels, false, models);
                   if (!o) return o;
@@ -340,14 +383,14 @@ LSNIF_API LsnifResult lsnifFreeModelBuildResources(LsnifContext context, uint32_
 }
 
 LSNIF_API void lsnifDestroyModel(LsnifContext context, LsnifModel model) {
-  if (!context) return;
+  if (!live(context)) return;  // NULL or not a live context
   if (auto m = LsnifContext_T::take(context->models, model)) lsnif::plugin::destroy_model(*context, *m);
 }
 
 LSNIF_API LsnifResult lsnifGetModelProperties(LsnifContext context, LsnifModel model,
                                               LsnifModelProperties* pProperties) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!pProperties) return invalid("%s is NULL", "pProperties");
                   const LsnifModel_T* m = context->find(model);
                   if (!m) return invalid("%s is not a model of this context", "model");
@@ -370,7 +413,7 @@ LSNIF_API LsnifResult lsnifGetModelProperties(LsnifContext context, LsnifModel m
 
 LSNIF_API LsnifResult lsnifGetModelMemory(LsnifContext context, LsnifModel model, LsnifModelMemory* pMemory) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!pMemory) return invalid("%s is NULL", "pMemory");
                   const LsnifModel_T* m = context->find(model);
                   if (!m) return invalid("%s is not a model of this context", "model");
@@ -389,7 +432,7 @@ LSNIF_API LsnifResult lsnifGetModelMemory(LsnifContext context, LsnifModel model
 LSNIF_API LsnifResult lsnifMakeInstance(LsnifContext context, const LsnifInstanceInfo* pInfo,
                                         VkAccelerationStructureInstanceKHR* pInstance) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!pInfo) return invalid("%s is NULL", "pInfo");
                   if (!pInstance) return invalid("%s is NULL", "pInstance");
                   const LsnifModel_T* m = context->find(pInfo->model);
@@ -424,7 +467,7 @@ LSNIF_API LsnifResult lsnifMakeInstance(LsnifContext context, const LsnifInstanc
 LSNIF_API LsnifResult lsnifWriteModelTable(LsnifContext context, uint32_t count, const LsnifModel* pModels,
                                            uint64_t* pTable) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (count > 0 && (!pModels || !pTable)) return invalid("%s", "pModels and pTable are required");
                   std::vector<uint64_t> table(count, 0);
                   for (uint32_t i = 0; i < count; ++i) {
@@ -464,7 +507,7 @@ LSNIF_API LsnifResult lsnifGetIntersectionShaderSpirv(LsnifModelLookup lookup, c
 LSNIF_API LsnifResult lsnifCreateQueryPipeline(LsnifContext context, const LsnifQueryPipelineCreateInfo* pCreateInfo,
                                                LsnifQueryPipeline* pPipeline) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!pPipeline) return invalid("%s is NULL", "pPipeline");
                   LsnifQueryPipelineCreateFlags flags = 0;
                   if (pCreateInfo && pCreateInfo->pNext) {
@@ -490,13 +533,13 @@ LSNIF_API LsnifResult lsnifCreateQueryPipeline(LsnifContext context, const Lsnif
 }
 
 LSNIF_API void lsnifDestroyQueryPipeline(LsnifContext context, LsnifQueryPipeline pipeline) {
-  if (!context) return;
+  if (!live(context)) return;  // NULL or not a live context
   if (auto p = LsnifContext_T::take(context->query_pipelines, pipeline))
     lsnif::plugin::destroy_query_pipeline(*context, *p);
 }
 
 LSNIF_API LsnifQueryBroadPhase lsnifGetQueryBroadPhase(LsnifContext context, LsnifQueryPipeline pipeline) {
-  if (!context) return LSNIF_QUERY_BROAD_PHASE_NONE;
+  if (!live(context)) return LSNIF_QUERY_BROAD_PHASE_NONE;
   const LsnifQueryPipeline_T* p = context->find(pipeline);
   return p ? p->broad_phase : LSNIF_QUERY_BROAD_PHASE_NONE;
 }
@@ -504,7 +547,7 @@ LSNIF_API LsnifQueryBroadPhase lsnifGetQueryBroadPhase(LsnifContext context, Lsn
 LSNIF_API LsnifResult lsnifGetIntersectScratchSize(LsnifContext context, LsnifModel model, uint32_t rayCount,
                                                    VkDeviceSize* pSize) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!pSize) return invalid("%s is NULL", "pSize");
                   const LsnifModel_T* m = context->find(model);
                   if (!m) return invalid("%s is not a model of this context", "model");
@@ -517,7 +560,7 @@ LSNIF_API LsnifResult lsnifGetIntersectScratchSize(LsnifContext context, LsnifMo
 LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommandBuffer commandBuffer,
                                                  LsnifQueryPipeline pipeline, const LsnifIntersectModelRaysInfo* pInfo) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!commandBuffer) return invalid("%s is VK_NULL_HANDLE", "commandBuffer");
                   if (!pInfo) return invalid("%s is NULL", "pInfo");
                   const LsnifIntersectModelRaysInfo& info = *pInfo;
@@ -552,7 +595,7 @@ LSNIF_API LsnifResult lsnifCmdIntersectModelRays(LsnifContext context, VkCommand
 
 LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const LsnifQueryInfo* pInfo, VkDeviceSize* pSize) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!pInfo) return invalid("%s is NULL", "pInfo");
                   if (!pSize) return invalid("%s is NULL", "pSize");
                   std::vector<const LsnifModel_T*> models;
@@ -570,7 +613,7 @@ LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const Lsnif
 LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer commandBuffer, LsnifQueryPipeline pipeline,
                                     const LsnifQueryInfo* pInfo) {
   return report(guarded([&]() -> Outcome {
-                  if (!context) return invalid("%s is NULL", "context");
+                  if (Outcome o = check_context(context); !o) return o;
                   if (!commandBuffer) return invalid("%s is VK_NULL_HANDLE", "commandBuffer");
                   if (!pInfo) return invalid("%s is NULL", "pInfo");
                   const LsnifQueryInfo& info = *pInfo;
@@ -602,6 +645,11 @@ LSNIF_API LsnifResult lsnifCmdQuery(LsnifContext context, VkCommandBuffer comman
                   }
                   if (!info.scratchBuffer) return invalid("%s is VK_NULL_HANDLE", "pInfo->scratchBuffer");
                   if (info.scratchOffset % 16 != 0) return invalid("%s is not a multiple of 16", "pInfo->scratchOffset");
+                  if (info.scratchSize > ~VkDeviceSize(0) - info.scratchOffset)
+                    return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                                         "pInfo->scratchOffset %llu plus pInfo->scratchSize %llu overflows a VkDeviceSize",
+                                         static_cast<unsigned long long>(info.scratchOffset),
+                                         static_cast<unsigned long long>(info.scratchSize));
                   const VkDeviceSize need = lsnif::plugin::query_scratch_bytes(models, info.modelCount, info.rayCount,
                                                                                info.candidatesPerRay);
                   if (info.scratchSize < need)

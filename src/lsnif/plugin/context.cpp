@@ -227,6 +227,9 @@ Outcome create_device_objects(LsnifContext_T& ctx, LsnifModel_T& m, const std::v
 
 Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<LsnifContext_T>& out) {
   if (info.pNext) return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pNext must be NULL");
+  if (info.pEnabledFeatures)
+    if (std::string why = chain_problem(info.pEnabledFeatures, "pEnabledFeatures"); !why.empty())
+      return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "%s", why.c_str());
   if (info.flags & ~LsnifContextCreateFlags(LSNIF_CONTEXT_CREATE_STAGING_UPLOAD_BIT))
     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "unknown flags 0x%x", info.flags);
   if (!info.instance || !info.physicalDevice || !info.device || !info.pfnGetInstanceProcAddr)

@@ -2,6 +2,7 @@
 // walks (device_support.h).
 #include "lsnif/plugin/device_support.h"
 
+#include <algorithm>
 #include <cstring>
 #include <vector>
 
@@ -29,11 +30,48 @@ struct FeatureStructs {
   VkBool32* shader_float16 = nullptr;  // Vulkan12Features or ShaderFloat16Int8Features
 };
 
+// The one walk of an application's chain: calls visit(s) for each struct from `chain` on, in order.
+// It stops at the chain's end, at a struct met before (a loop) or after kMaxChainLength structs,
+// and returns why it stopped early ("" at the end). The chain is walked through VkBaseOutStructure;
+// the library writes only through pointers the application handed over as writable
+// (enable_device_features).
+template <class Visit>
+std::string walk_chain(const void* chain, Visit&& visit) {
+  std::vector<const VkBaseOutStructure*> seen;
+  for (auto* s = static_cast<VkBaseOutStructure*>(const_cast<void*>(chain)); s; s = s->pNext) {
+    const auto before = std::find(seen.begin(), seen.end(), s);
+    if (before != seen.end())
+      return format("loops: structure %zu (sType %d) points back to structure %zu", seen.size() - 1,
+                    int(seen.back()->sType), size_t(before - seen.begin()));
+    if (seen.size() == kMaxChainLength)
+      return format("has more than %zu structures", kMaxChainLength);
+    seen.push_back(s);
+    visit(s);
+  }
+  return "";
+}
+
+// The sTypes LSNIF reads in a feature chain: each may appear once (which one would count?).
+bool read_by_lsnif(VkStructureType type) {
+  switch (type) {
+    case VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO:
+    case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2:
+    case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES:
+    case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_FLOAT16_INT8_FEATURES:
+    case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_COOPERATIVE_MATRIX_FEATURES_NV:
+    case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES:
+    case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR:
+    case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR:
+    case VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR:
+      return true;
+    default:
+      return false;
+  }
+}
+
 FeatureStructs find_feature_structs(const void* chain) {
   FeatureStructs f;
-  // The chain is walked through VkBaseOutStructure; the library writes only through pointers the
-  // application handed over as writable (enable_device_features).
-  for (auto* s = static_cast<VkBaseOutStructure*>(const_cast<void*>(chain)); s; s = s->pNext) {
+  walk_chain(chain, [&f](VkBaseOutStructure* s) {
     switch (s->sType) {
       case VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO: {
         auto* ci = reinterpret_cast<VkDeviceCreateInfo*>(s);
@@ -69,7 +107,7 @@ FeatureStructs find_feature_structs(const void* chain) {
       default:
         break;
     }
-  }
+  });
   return f;
 }
 
@@ -219,6 +257,27 @@ Status describe_device_support(const DeviceSupport& s) {
                        s.name.c_str(), api_version_string(s.api_version).c_str(), list.c_str());
 }
 
+std::string chain_problem(const void* chain, const std::string& name) {
+  std::vector<VkStructureType> types;
+  bool features2 = false, enabled_features = false;
+  const std::string stop = walk_chain(chain, [&](const VkBaseOutStructure* s) {
+    types.push_back(s->sType);
+    features2 = features2 || s->sType == VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+    if (s->sType == VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO)
+      enabled_features = reinterpret_cast<const VkDeviceCreateInfo*>(s)->pEnabledFeatures != nullptr;
+  });
+  if (!stop.empty()) return format("%s: the chain %s", name.c_str(), stop.c_str());
+  for (size_t i = 0; i < types.size(); ++i)
+    for (size_t j = i + 1; j < types.size(); ++j)
+      if (types[i] == types[j] && read_by_lsnif(types[i]))
+        return format("%s: structures %zu and %zu of the chain have the same sType %d (Vulkan allows each once)",
+                      name.c_str(), i, j, int(types[i]));
+  if (features2 && enabled_features)
+    return format("%s: the chain has a VkPhysicalDeviceFeatures2 and the VkDeviceCreateInfo's pEnabledFeatures is "
+                  "not NULL (Vulkan allows one of the two)", name.c_str());
+  return "";
+}
+
 std::vector<std::string> features_not_enabled(const void* chain) {
   const FeatureStructs f = find_feature_structs(chain);
   std::vector<std::string> missing;
@@ -277,8 +336,8 @@ void enable_device_features_appending(VkDeviceCreateInfo& create_info, LsnifDevi
   if (chain) enable_device_features(chain);
   const FeatureStructs f = find_feature_structs(chain);
   // The chain's last struct: appended structs go behind it.
-  VkBaseOutStructure* tail = reinterpret_cast<VkBaseOutStructure*>(&create_info);
-  while (tail->pNext) tail = tail->pNext;
+  VkBaseOutStructure* tail = nullptr;
+  walk_chain(&create_info, [&tail](VkBaseOutStructure* s) { tail = s; });
   auto append = [&](auto& s, VkStructureType type) {
     std::memset(&s, 0, sizeof s);
     s.sType = type;

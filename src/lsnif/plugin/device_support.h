@@ -74,6 +74,17 @@ std::vector<std::string> missing_for_coopmat_mlp(const DeviceSupport& support);
 // separated, in that order.
 Status describe_device_support(const DeviceSupport& support);
 
+// The most structures a pNext chain may have here: every walk stops there.
+constexpr size_t kMaxChainLength = 256;
+
+// Why the chain starting at `chain` (a VkDeviceCreateInfo or a feature struct) cannot be walked or
+// read, prefixed with `name`: it loops (a struct points back to one before it), it is longer than
+// kMaxChainLength, a struct LSNIF reads (the feature structs below, VkDeviceCreateInfo) appears
+// twice, or a VkDeviceCreateInfo with pEnabledFeatures also chains a VkPhysicalDeviceFeatures2.
+// Empty when none of these. Every entry point that takes a chain checks it first; the walks below
+// are bounded all the same (they stop at a loop).
+std::string chain_problem(const void* chain, const std::string& name);
+
 // The features LSNIF needs that the feature chain starting at `chain` (a VkDeviceCreateInfo or a
 // feature struct, as given to vkCreateDevice) does not enable, as "feature NAME" in the order of
 // missing_for_ray_tracing; a feature whose struct is absent from the chain counts as not enabled.

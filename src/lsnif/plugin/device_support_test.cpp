@@ -8,6 +8,7 @@
 
 #include <cstring>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "lsnif/lsnif.h"
@@ -321,6 +322,132 @@ TEST(PluginApi, EmbeddedIntersectionShaders) {
   EXPECT_NE(std::string(lsnifGetLastErrorMessage()).find("unknown LsnifModelLookup 7"), std::string::npos);
   EXPECT_EQ(lsnifGetIntersectionShaderSpirv(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE, nullptr, &bytes),
             LSNIF_ERROR_INVALID_ARGUMENT);
+}
+
+// Hostile chains: each is refused by every entry point that takes a chain, with a message, and no
+// walk hangs. A loop of two feature structs, a struct pointing to itself, a loop among structs
+// LSNIF does not know, a chain longer than any walk goes, and a struct LSNIF reads given twice.
+struct HostileChains {
+  VkPhysicalDeviceFeatures2 f2{}, f2b{};
+  VkPhysicalDeviceVulkan12Features v12{};
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+  VkPhysicalDeviceDescriptorIndexingFeatures u1{}, u2{};
+  std::vector<VkPhysicalDeviceDescriptorIndexingFeatures> longer;
+
+  void reset() {
+    for (VkPhysicalDeviceFeatures2* f : {&f2, &f2b}) f->sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+    v12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+    as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+    rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+    for (auto* u : {&u1, &u2}) u->sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DESCRIPTOR_INDEXING_FEATURES;
+  }
+};
+
+// Builds each hostile chain in `h` in turn (links set just before use, since they overlap) and calls
+// check(first struct, the refusal's words for that chain, the words for the same chain behind a
+// VkDeviceCreateInfo, which counts as its structure 0).
+template <class Check>
+void for_each_hostile_chain(HostileChains& h, Check&& check) {
+  h.reset();
+  // Two feature structs pointing at each other.
+  h.f2.pNext = &h.v12;
+  h.v12.pNext = &h.f2;
+  check(static_cast<void*>(&h.f2), "the chain loops: structure 1 (sType 51) points back to structure 0",
+        "the chain loops: structure 2 (sType 51) points back to structure 1");
+  // A struct pointing to itself, behind a good one.
+  h.f2.pNext = &h.as;
+  h.as.pNext = &h.as;
+  check(static_cast<void*>(&h.f2), "the chain loops: structure 1 (sType 1000150013) points back to structure 1",
+        "the chain loops: structure 2 (sType 1000150013) points back to structure 2");
+  // A loop among structs LSNIF does not read, behind the ones it does.
+  h.f2.pNext = &h.rt;
+  h.rt.pNext = &h.u1;
+  h.u1.pNext = &h.u2;
+  h.u2.pNext = &h.u1;
+  check(static_cast<void*>(&h.f2), "the chain loops: structure 3 (sType 1000161001) points back to structure 2",
+        "the chain loops: structure 4 (sType 1000161001) points back to structure 3");
+  // Longer than any walk goes (no loop).
+  h.longer.assign(kMaxChainLength + 1, h.u1);
+  for (size_t i = 0; i + 1 < h.longer.size(); ++i) h.longer[i].pNext = &h.longer[i + 1];
+  h.longer.back().pNext = nullptr;
+  h.f2.pNext = h.longer.data();
+  check(static_cast<void*>(&h.f2), "the chain has more than 256 structures", "the chain has more than 256 structures");
+  // The same struct type twice (which one would count?).
+  h.f2.pNext = &h.as;
+  h.as.pNext = &h.f2b;
+  h.f2b.pNext = nullptr;
+  check(static_cast<void*>(&h.f2), "structures 0 and 2 of the chain have the same sType 1000059000",
+        "structures 1 and 3 of the chain have the same sType 1000059000");
+}
+
+TEST(DeviceFeatures, LoopedAndRepeatedChainsAreRefusedByEveryEntryPoint) {
+  HostileChains h;
+  const auto last = [] { return std::string(lsnifGetLastErrorMessage()); };
+  for_each_hostile_chain(h, [&](void* chain, const std::string& words, const std::string& behind_create_info) {
+    SCOPED_TRACE(words);
+    EXPECT_EQ(lsnifEnableDeviceFeatures(chain), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(last().find("lsnifEnableDeviceFeatures: pFeatureChain: " + words), std::string::npos) << last();
+    VkDeviceCreateInfo dci{};
+    dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+    dci.pNext = chain;
+    LsnifDeviceFeatureStorage storage{};
+    const void* before = dci.pNext;
+    EXPECT_EQ(lsnifEnableDeviceFeaturesInCreateInfo(&dci, &storage), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(last().find("lsnifEnableDeviceFeaturesInCreateInfo: pCreateInfo: " + behind_create_info),
+              std::string::npos)
+        << last();
+    EXPECT_EQ(dci.pNext, before) << "nothing appended";
+    // lsnifCreateContext reads the chain it is given before anything else.
+    LsnifContextCreateInfo info{};
+    info.pEnabledFeatures = chain;
+    LsnifContext ctx = nullptr;
+    EXPECT_EQ(lsnifCreateContext(&info, &ctx), LSNIF_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(last().find("lsnifCreateContext: pEnabledFeatures: " + words), std::string::npos) << last();
+    EXPECT_EQ(ctx, nullptr);
+    // lsnifInitDeviceFeatures returns no result: its bounded walk ends, the chain is attached as
+    // given (lsnifCreateContext refuses it later, as above).
+    LsnifDeviceFeatures f;
+    lsnifInitDeviceFeatures(&f, chain);
+    EXPECT_EQ(f.rayTracingPipeline.pNext, chain);
+  });
+  // Vulkan allows VkPhysicalDeviceFeatures2 or pEnabledFeatures, not both.
+  static const VkPhysicalDeviceFeatures core{};
+  VkPhysicalDeviceFeatures2 f2{};
+  f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  VkDeviceCreateInfo dci{};
+  dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  dci.pNext = &f2;
+  dci.pEnabledFeatures = &core;
+  LsnifDeviceFeatureStorage storage{};
+  EXPECT_EQ(lsnifEnableDeviceFeaturesInCreateInfo(&dci, &storage), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last().find("VkPhysicalDeviceFeatures2 and the VkDeviceCreateInfo's pEnabledFeatures"), std::string::npos)
+      << last();
+  LsnifContextCreateInfo info{};
+  info.pEnabledFeatures = &dci;
+  LsnifContext ctx = nullptr;
+  EXPECT_EQ(lsnifCreateContext(&info, &ctx), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last().find("pEnabledFeatures: the chain has a VkPhysicalDeviceFeatures2"), std::string::npos) << last();
+}
+
+// A context handle that lsnifCreateContext did not make (or that was destroyed) is refused by
+// every entry point without being read; destroying it is a no-op with a message.
+TEST(PluginApi, AContextThatIsNotLiveIsRefusedUnread) {
+  alignas(16) unsigned char garbage[4096];
+  std::memset(garbage, 0xAB, sizeof garbage);
+  const LsnifContext stale = reinterpret_cast<LsnifContext>(garbage);
+  const auto last = [] { return std::string(lsnifGetLastErrorMessage()); };
+  LsnifModel model = nullptr;
+  EXPECT_EQ(lsnifCreateModelFromMemory(stale, "x", 1, &model), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last().find("is not a live context"), std::string::npos) << last();
+  EXPECT_EQ(lsnifCreateModelFromFile(stale, "x.lsnif", &model), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(lsnifBuildModels(stale, 0, nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(lsnifGetQueryBroadPhase(stale, nullptr), LSNIF_QUERY_BROAD_PHASE_NONE);
+  lsnifDestroyModel(stale, nullptr);
+  lsnifDestroyQueryPipeline(stale, nullptr);
+  lsnifDestroyContext(stale);
+  EXPECT_NE(last().find("lsnifDestroyContext: context"), std::string::npos) << last();
+  for (unsigned char b : garbage) ASSERT_EQ(b, 0xAB) << "the handle's memory was written";
 }
 
 TEST(PluginApi, NullArgumentsAreErrorsNotCrashes) {

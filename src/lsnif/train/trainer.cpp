@@ -33,6 +33,46 @@ Status model_layout(const Mesh& mesh, const TrainSettings& settings, Config& con
   return index_grid_levels(voxels, settings.indexed, config, grid_index);
 }
 
+Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Config& config) {
+  config = settings.config;
+  if (mesh.materials.empty()) return Status::error("mesh has no material table");
+  if (mesh.materials.size() > LSNIF_MAX_MATERIALS)
+    return Status::error("mesh has %zu materials; an LSNIF model supports at most %u",
+                         mesh.materials.size(), LSNIF_MAX_MATERIALS);
+  config.material_count = uint32_t(mesh.materials.size());
+  config.surface_channels = learns_surface_channels(mesh, settings.surface_maps) ? 1u : 0u;
+  config.emission_scale = 0.0f;
+  if (config.surface_channels) {
+    const float emission = mesh.max_emission();
+    if (!(emission <= float(LSNIF_MAX_EMISSION_SCALE)))
+      return Status::error("a material's emission %g exceeds the %g an LSNIF model can learn", double(emission),
+                           LSNIF_MAX_EMISSION_SCALE);
+    config.emission_scale = emission;
+  }
+  if (Status s = config.validate(); !s) return s.context("training config");
+  if (settings.batch_size < 1 || settings.steps < 1)
+    return Status::error("steps (%u) and batch size (%u) must be at least 1", settings.steps,
+                         settings.batch_size);
+  if (settings.ray_reuse < 1 || settings.ray_reuse > settings.batch_size)
+    return Status::error("ray reuse %u must be in [1, batch size %u]", settings.ray_reuse,
+                         settings.batch_size);
+  if (!(settings.adam.learning_rate > 0.0f) || !std::isfinite(settings.adam.learning_rate))
+    return Status::error("learning rate %g must be positive and finite", double(settings.adam.learning_rate));
+  const LrScheduleSettings& ls = settings.lr_schedule;
+  if (uint32_t(ls.schedule) > uint32_t(LrSchedule::Cosine))
+    return Status::error("unknown learning-rate schedule %u", uint32_t(ls.schedule));
+  if (!(ls.final_fraction > 0.0f && ls.final_fraction <= 1.0f) || !(ls.warm_fraction >= 0.0f && ls.warm_fraction < 1.0f))
+    return Status::error("learning-rate schedule: the final fraction %g must be in (0, 1] and the warm share %g in "
+                         "[0, 1)", double(ls.final_fraction), double(ls.warm_fraction));
+  const LossSettings& w = settings.loss_settings;
+  for (float weight : {w.occlusion, w.distance, w.normal, w.albedo, w.material, w.surface})
+    if (!(weight >= 0.0f) || !std::isfinite(weight))
+      return Status::error("loss weights must be finite and >= 0 (%s)", w.describe().c_str());
+  if (!(w.occlusion + w.distance + w.normal + w.albedo + w.material > 0.0f))  // w.surface alone: see settings_io
+    return Status::error("every loss weight is 0: nothing would be trained");
+  return Status::ok();
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -129,47 +169,6 @@ void encode_batch_backward(const Config& config, const std::vector<uint32_t>& ro
   }
 }
 
-// Checks the mesh and the settings before any work; `config` receives settings.config with the
-// mesh's material count.
-Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Config& config) {
-  config = settings.config;
-  if (mesh.materials.empty()) return Status::error("mesh has no material table");
-  if (mesh.materials.size() > LSNIF_MAX_MATERIALS)
-    return Status::error("mesh has %zu materials; an LSNIF model supports at most %u",
-                         mesh.materials.size(), LSNIF_MAX_MATERIALS);
-  config.material_count = uint32_t(mesh.materials.size());
-  config.surface_channels = learns_surface_channels(mesh, settings.surface_maps) ? 1u : 0u;
-  config.emission_scale = 0.0f;
-  if (config.surface_channels) {
-    const float emission = mesh.max_emission();
-    if (!(emission <= float(LSNIF_MAX_EMISSION_SCALE)))
-      return Status::error("a material's emission %g exceeds the %g an LSNIF model can learn", double(emission),
-                           LSNIF_MAX_EMISSION_SCALE);
-    config.emission_scale = emission;
-  }
-  if (Status s = config.validate(); !s) return s.context("training config");
-  if (settings.batch_size < 1 || settings.steps < 1)
-    return Status::error("steps (%u) and batch size (%u) must be at least 1", settings.steps,
-                         settings.batch_size);
-  if (settings.ray_reuse < 1 || settings.ray_reuse > settings.batch_size)
-    return Status::error("ray reuse %u must be in [1, batch size %u]", settings.ray_reuse,
-                         settings.batch_size);
-  if (!(settings.adam.learning_rate > 0.0f) || !std::isfinite(settings.adam.learning_rate))
-    return Status::error("learning rate %g must be positive and finite", double(settings.adam.learning_rate));
-  const LrScheduleSettings& ls = settings.lr_schedule;
-  if (uint32_t(ls.schedule) > uint32_t(LrSchedule::Cosine))
-    return Status::error("unknown learning-rate schedule %u", uint32_t(ls.schedule));
-  if (!(ls.final_fraction > 0.0f && ls.final_fraction <= 1.0f) || !(ls.warm_fraction >= 0.0f && ls.warm_fraction < 1.0f))
-    return Status::error("learning-rate schedule: the final fraction %g must be in (0, 1] and the warm share %g in "
-                         "[0, 1)", double(ls.final_fraction), double(ls.warm_fraction));
-  const LossSettings& w = settings.loss_settings;
-  for (float weight : {w.occlusion, w.distance, w.normal, w.albedo, w.material, w.surface})
-    if (!(weight >= 0.0f) || !std::isfinite(weight))
-      return Status::error("loss weights must be finite and >= 0 (%s)", w.describe().c_str());
-  if (!(w.occlusion + w.distance + w.normal + w.albedo + w.material > 0.0f))  // w.surface alone: see settings_io
-    return Status::error("every loss weight is 0: nothing would be trained");
-  return Status::ok();
-}
 
 // Starts `model` afresh with `config`, the mesh's voxels (in its padded bounds), its materials and
 // the grid index of the indexed levels (which completes `config`); `occupied` receives the number

@@ -12,6 +12,8 @@
 #include "lsnif/core/model.h"
 #include "lsnif/format/atomic_file.h"
 #include "lsnif/format/file_io.h"
+#include "lsnif/format/model_format.h"
+#include "lsnif/format/settings_table.h"
 #include "lsnif/import/json_text.h"
 #include "lsnif/import/training_mesh.h"
 #include "lsnif/train/settings_io.h"
@@ -26,7 +28,8 @@ constexpr int kPlanVersion = 1;
 constexpr uint64_t kMaxManifestBytes = uint64_t(64) << 20;
 
 // `text` as one shell word: unchanged when it holds only characters no shell treats specially,
-// else in single quotes.
+// else in single quotes. Every word has passed command_line_problem (check_settings for the options,
+// write_job_plan for the program's own path; the rest are made of hashes and cleaned names).
 std::string shell_word(const std::string& text) {
   const bool plain = !text.empty() && text.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
                                                              "0123456789_-./+,:=@%") == std::string::npos;
@@ -88,15 +91,31 @@ Status write_job(const ConvertSettings& settings, const Plan& plan, const ModelR
   return write_file_atomic((dir / job.folder / "job.json").string(), j.dump(2) + "\n");
 }
 
-// Removes the job folders of an earlier plan that this one does not have (jobs/HASH only).
-Status remove_other_jobs(const fs::path& dir, const std::set<std::string>& keep, FILE* out) {
+// The job folders (jobs/HASH) the plan folder's manifest lists: what an earlier plan wrote there.
+std::set<std::string> planned_job_folders(const fs::path& dir) {
+  std::set<std::string> listed;
+  std::string text;
+  nlohmann::json manifest;
+  if (!read_file((dir / kPlanManifest).string(), text, kMaxManifestBytes) ||
+      !json::parse(text, kPlanManifest, manifest) || !manifest.is_object() || !manifest.contains("jobs") ||
+      !manifest["jobs"].is_array())
+    return listed;
+  for (const nlohmann::json& job : manifest["jobs"])
+    if (job.is_object() && job.contains("hash") && job["hash"].is_string()) listed.insert(job["hash"].get<std::string>());
+  return listed;
+}
+
+// Removes the job folders of an earlier plan that this one does not have: only jobs/HASH folders
+// the earlier plan's manifest (`earlier`) lists; anything else there is someone else's and stays.
+Status remove_other_jobs(const fs::path& dir, const std::set<std::string>& earlier, const std::set<std::string>& keep,
+                         FILE* out) {
   std::error_code ec;
   const fs::path jobs = dir / kPlanJobFolder;
   if (!fs::is_directory(jobs, ec)) return Status::ok();
   std::vector<fs::path> stale;
   for (fs::directory_iterator it(jobs, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
-    if (is_hash_name(name) && !keep.count(name) && it->is_directory(ec)) stale.push_back(it->path());
+    if (is_hash_name(name) && earlier.count(name) && !keep.count(name) && it->is_directory(ec)) stale.push_back(it->path());
   }
   if (ec) return Status::error("%s: cannot list: %s", jobs.c_str(), ec.message().c_str());
   for (const fs::path& p : stale) {
@@ -126,18 +145,36 @@ Status read_manifest(const std::string& dir, nlohmann::json& manifest) {
 
 // A job's model as read: its file's bytes (what is copied) and the model they hold.
 struct JobModel {
-  std::string bytes;
+  std::vector<uint8_t> bytes;
   Model model;
 };
 
+// The most bytes a model of these settings can have, whatever its mesh: every material slot, the
+// surface channels, each indexed level as large as an index may be (a table of the largest size
+// plus a displacement per entry) and the longest training record.
+uint64_t planned_model_budget(const TrainSettings& settings) {
+  Config c = settings.config;
+  c.material_count = LSNIF_MAX_MATERIALS;
+  c.surface_channels = 1;
+  uint64_t displacements = 0;
+  for (uint32_t l = 0; l < c.grid_levels; ++l)
+    if (settings.indexed[l]) {
+      c.table_log2[l] = max_u32(SettingId::TableLog2);
+      displacements += 2 * (uint64_t(1) << c.table_log2[l]);
+    }
+  // A header of the newest version and its section padding are within the last term.
+  return model_file_sizes(c, kMaxTrainingRecordBytes).file + displacements + 4096;
+}
+
 // Reads and checks the job's model of r, once: returns why it cannot be adopted (empty: `out`
-// holds it).
+// holds it). Its header is checked before its body is read, against the file's size and the most a
+// model of these settings can have (a planted file is refused before it costs memory).
 std::string check_job_model(const ConvertSettings& settings, const std::string& from, const ModelResult& r,
                             JobModel& out) {
   ReadFailure f;
-  if (!read_file(from, out.bytes, uint64_t(1) << 34, &f))
-    return f.problem == ReadProblem::Missing ? "missing (its job has not finished)" : "cannot read it: " + f.reason;
-  if (Status s = load_model_from_memory(reinterpret_cast<const uint8_t*>(out.bytes.data()), out.bytes.size(), out.model);
+  if (Status s = read_model_file(from, out.bytes, planned_model_budget(settings.train), &f); !s)
+    return f.problem == ReadProblem::Missing ? "missing (its job has not finished)" : "cannot read it: " + s.message();
+  if (Status s = load_model_from_memory(out.bytes.data(), out.bytes.size(), out.model);
       !s)
     return "not loadable: " + s.message();
   if (std::string why = training_record_difference(out.model.training, settings.train, r.mesh_hash); !why.empty())
@@ -149,7 +186,7 @@ std::string check_job_model(const ConvertSettings& settings, const std::string& 
 // (empty: adopted).
 std::string adopt(const ConvertSettings& settings, const PlannedModel& m, const JobModel& job, const std::string& to,
                   ModelResult& r) {
-  if (Status s = write_file_atomic(to, job.bytes); !s) return "cannot copy it: " + s.message();
+  if (Status s = write_file_atomic(to, job.bytes.data(), job.bytes.size()); !s) return "cannot copy it: " + s.message();
   if (Status s = record_model(settings, m, job.model, to, r); !s) return s.message();
   r.state = ModelState::Adopted;
   return "";
@@ -158,6 +195,17 @@ std::string adopt(const ConvertSettings& settings, const PlannedModel& m, const 
 }  // namespace
 
 std::string planned_model_path(const std::string& hash) { return std::string(kPlanModelFolder) + "/" + hash + ".lsnif"; }
+
+std::string command_line_problem(const std::string& what, const std::string& text) {
+  for (size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c == 0x7f)
+      return format("%s holds a control character (0x%02x at byte %zu): it would land in a command line of the plan, "
+                    "where a newline starts another command and shifts every later job of jobs.txt",
+                    what.c_str(), c, i);
+  }
+  return "";
+}
 
 std::string job_program(const std::string& job_command) {
   if (!job_command.empty()) return job_command;
@@ -172,7 +220,11 @@ Status write_job_plan(const ConvertSettings& settings, const Plan& plan, const s
   std::error_code ec;
   fs::create_directories(dir / kPlanModelFolder, ec);
   if (ec) return Status::error("%s: cannot create the plan folder: %s", dir.c_str(), ec.message().c_str());
+  const std::set<std::string> earlier = planned_job_folders(dir);  // read before this plan's manifest replaces it
   const std::string program = job_program(settings.job_command);
+  if (std::string why = command_line_problem("the program the jobs run (" + printable(program) + ")", program);
+      !why.empty())
+    return Status::error("%s; give another with --job-command", why.c_str());
   std::vector<Job> jobs;
   std::set<std::string> hashes;
   for (size_t i = 0; i < models.size(); ++i) {
@@ -180,7 +232,7 @@ Status write_job_plan(const ConvertSettings& settings, const Plan& plan, const s
     jobs.push_back(make_job(plan, models, i, program));
     if (Status s = write_job(settings, plan, models[i], jobs.back(), dir); !s) return s;
   }
-  if (Status s = remove_other_jobs(dir, hashes, out); !s) return s;
+  if (Status s = remove_other_jobs(dir, earlier, hashes, out); !s) return s;
   std::string list;
   nlohmann::ordered_json manifest;
   manifest["format"] = kPlanFormat;

@@ -30,6 +30,12 @@ inline constexpr const char* kPlanModelFolder = "models";
 // The model a plan's job writes, relative to the plan folder: models/HASH.lsnif.
 std::string planned_model_path(const std::string& hash);
 
+// The one rule for text that lands in a command line of a plan (jobs.txt, job.json, the next steps
+// printed): no control character. A newline would end the command there and start another (that
+// `sh -c` runs), and every later line of jobs.txt would no longer be its job (a Slurm array index).
+// Returns why `text` breaks it, naming `what`; empty when it holds none.
+std::string command_line_problem(const std::string& what, const std::string& text);
+
 // The program the jobs run: `job_command` when given, else the running program's absolute path
 // (the build that hashed the settings), else "lsnif".
 std::string job_program(const std::string& job_command);

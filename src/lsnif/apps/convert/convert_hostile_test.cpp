@@ -27,6 +27,32 @@ struct SmallScene : TestScene {
   }
 };
 
+// What training would refuse is refused by the dry run, the plan and the real run alike, before any
+// training: an emission the surface channels cannot learn (KHR_materials_emissive_strength 1e6).
+TEST(ConvertHostile, TheDryRunRefusesWhatTrainingWould) {
+  SmallScene s("e1");
+  scene::Material bright{"bright"};
+  bright.emission = glm::vec3(1.0e6f, 0.0f, 0.0f);
+  const int material = scene::add_material(s.g, bright);
+  for (tinygltf::Primitive& p : s.g.meshes[size_t(s.elephant)].primitives) p.material = material;
+  save_or_fail(s.g, s.path);
+  for (const bool dry : {true, false}) {
+    SCOPED_TRACE(dry ? "dry run" : "run");
+    ConvertSettings settings = tiny_settings(s.path, s.dir.path("out/scene.gltf"));
+    settings.train.surface_maps = kSurfaceMapsOn;
+    settings.dry_run = dry;
+    ConvertResult r;
+    std::string log;
+    EXPECT_EQ(run_quiet(settings, r, &log), 1) << log;
+    EXPECT_NE(log.find("a material's emission 1e+06 exceeds the 65504 an LSNIF model can learn"), std::string::npos)
+        << log;
+    EXPECT_EQ(r.trained, 0u);
+    // The real run writes the scene with the object kept as triangles, as for any model that fails.
+    EXPECT_EQ(fs::exists(s.dir.path("out/scene.gltf")), !dry);
+    EXPECT_FALSE(fs::exists(s.dir.path("out/scene.e1.lsnif")));
+  }
+}
+
 // std::regex recursed once per character and overflowed the stack on this name.
 TEST(ConvertHostile, PatternsRunInLinearTimeOnHugeNames) {
   SmallScene s(std::string(30000, 'a'));

@@ -9,6 +9,7 @@
 #include <memory>
 #include <set>
 
+#include "lsnif/apps/convert/convert_cluster.h"
 #include "lsnif/format/atomic_file.h"
 #include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/json_text.h"
@@ -600,6 +601,11 @@ Status check_settings(const ConvertSettings& settings) {
                          "time");
   if (settings.retrain_missing && !assemble) return Status::error("--retrain-missing goes with --assemble DIR");
   if (!settings.job_command.empty() && !plan) return Status::error("--job-command goes with --plan DIR");
+  if (plan)
+    for (const auto& [what, text] : {std::pair<const char*, const std::string&>{"--job-command", settings.job_command},
+                                     {"--plan", settings.plan_dir}, {"the input path", settings.input},
+                                     {"-o", settings.output}})
+      if (std::string why = command_line_problem(what, text); !why.empty()) return Status::error("%s", why.c_str());
   Rules unused;
   return compile_rules(settings, unused);
 }

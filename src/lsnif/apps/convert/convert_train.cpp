@@ -209,6 +209,13 @@ void prepare_models(const ConvertSettings& settings, const Plan& plan, const std
       r.error = object_label(plan, m) + ": " + s.message();
       continue;
     }
+    // What training would refuse is refused now, by a dry run and a plan too.
+    Config checked;
+    if (Status s = check_training_inputs(r.mesh, settings.train, checked); !s) {
+      r.state = ModelState::Failed;
+      r.error = object_label(plan, m) + ": " + s.message();
+      continue;
+    }
     unlearned_channel_warnings(r.mesh, settings.train, r.warnings);
     const uint64_t mesh = mesh_hash(r.mesh);
     r.mesh_hash = mesh;

@@ -27,11 +27,13 @@
 #include "lsnif/apps/lsnif/device_option.h"
 #include "lsnif/apps/lsnif/bench_options.h"
 #include "lsnif/format/file_io.h"
+#include "lsnif/format/model_format.h"
 #include "lsnif/apps/lsnif/pipeline_option.h"
 #include "lsnif/apps/lsnif/render_compare.h"
 #include "lsnif/apps/lsnif/report_text.h"
 #include "lsnif/renderer/scene_gltf.h"
 #include "lsnif/harness/vk_compute.h"
+#include "lsnif/train/settings_io.h"
 
 namespace lsnif::cli {
 
@@ -371,24 +373,57 @@ int prepare_scene(const std::string& name, const BenchCommand& cmd, BenchScene& 
   return 0;
 }
 
+// Why the prepared model `from` (with its key FROM.key) is not the model of object `o` at quality
+// `preset` ("" when it is): the key must name the object's mesh and the preset (model_cache.h), and
+// the model's own training record must hold the key's settings and the mesh's hash, so that neither
+// a model copied over another nor a key copied with it passes.
+std::string prepared_model_problem(const BenchObject& o, const std::string& preset, const fs::path& from) {
+  const std::string key_path = from.string() + ".key";
+  std::string key;
+  if (Status s = read_file(key_path, key, 1 << 16); !s) return s.message();
+  const std::string head = "mesh " + object_fingerprint(o) + "\n";
+  if (key.rfind(head, 0) != 0) return "its key names another mesh than the scene's " + o.name + " (" + o.origin + ")";
+  const std::string claim = "quality " + preset + "\n";
+  if (key.compare(head.size(), claim.size(), claim) != 0)
+    return "its key names another quality than " + preset + " (or none: prepared before keys named it)";
+  const size_t at = head.size() + claim.size();
+  const std::string settings_tag = "settings ";
+  if (key.compare(at, settings_tag.size(), settings_tag) != 0 || key.empty() || key.back() != '\n')
+    return "its key holds no settings line";
+  SettingLayer layer;
+  SettingValues values;
+  const std::string settings = key.substr(at + settings_tag.size(), key.size() - 1 - at - settings_tag.size());
+  if (Status s = parse_settings_json(settings, key_path, layer); !s) return s.message();
+  if (Status s = resolve_settings({&layer}, values); !s) return s.message();
+  TrainSettings claimed;
+  to_train_settings(values, claimed);
+  std::vector<uint8_t> bytes;
+  ModelFileView view;
+  if (Status s = read_model_file(from.string(), bytes); !s) return s.message();
+  if (Status s = parse_model_file(bytes.data(), bytes.size(), view); !s) return s.message();
+  if (std::string why = training_record_difference(view.training, claimed, mesh_hash(o.mesh)); !why.empty())
+    return "the model is not the one its key describes: " + why;
+  return "";
+}
+
 // Copies the scene's models of quality `preset` from the folder of --models (MODELS/SCENE/, as a
-// `lsnif bench --out MODELS` run left them) into `dir`, after checking that each model's key names
-// the object's mesh; lists them in `rows`. Returns the exit code (0 ok).
+// `lsnif bench --out MODELS` run left them) into `dir`, after checking that each is the object's
+// model of that quality (prepared_model_problem); lists them in `rows`. Returns the exit code (0 ok).
 int copy_prepared_models(const BenchCommand& cmd, const BenchScene& bench, const std::string& preset,
                          const fs::path& dir, std::vector<BenchModelRow>& rows) {
   for (const BenchObject& o : bench.objects) {
     const std::string file = bench_model_file(o.name, preset);
     const fs::path from = fs::path(cmd.models_dir) / bench.name / file;
+    const std::string prepare = format("prepare the models with `lsnif bench %s --quality %s --no-render --out %s`",
+                                       bench.name.c_str(), preset.c_str(), cmd.models_dir.c_str());
     if (!fs::is_regular_file(from) || !fs::is_regular_file(from.string() + ".key")) {
-      std::fprintf(stderr, "lsnif bench: --models: %s (or its .key) not found: prepare the models with `lsnif bench "
-                   "%s --quality %s --no-render --out %s`\n", from.string().c_str(), bench.name.c_str(),
-                   preset.c_str(), cmd.models_dir.c_str());
+      std::fprintf(stderr, "lsnif bench: --models: %s (or its .key) not found: %s\n", from.string().c_str(),
+                   prepare.c_str());
       return 1;
     }
-    std::string key;
-    if (!read_file(from.string() + ".key", key, 1 << 16) || key.rfind("mesh " + object_fingerprint(o) + "\n", 0) != 0) {
-      std::fprintf(stderr, "lsnif bench: --models: %s was trained on another mesh than the scene's %s (%s): "
-                   "prepare the models again\n", from.string().c_str(), o.name.c_str(), o.origin.c_str());
+    if (std::string why = prepared_model_problem(o, preset, from); !why.empty()) {
+      std::fprintf(stderr, "lsnif bench: --models: %s is not the %s-quality model of %s: %s; %s\n",
+                   from.string().c_str(), preset.c_str(), o.name.c_str(), why.c_str(), prepare.c_str());
       return 1;
     }
     std::error_code ec;

@@ -40,7 +40,7 @@ int train_preset_models(const TrainOptions& topt, bool retrain, const BenchScene
     mo.output = dir + "/" + bench_model_file(o.name, preset);
     CachedModel cached;
     if (int r = train_or_reuse("bench", o.mesh, object_fingerprint(o),
-                               o.name + " (" + o.origin + ", " + preset + " quality)", mo, retrain, cached))
+                               o.name + " (" + o.origin + ", " + preset + " quality)", mo, retrain, cached, preset))
       return r;
     m.reused = cached.reused;
     m.train_seconds = cached.train_seconds;

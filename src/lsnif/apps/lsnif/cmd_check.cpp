@@ -28,6 +28,7 @@
 #include "lsnif/apps/lsnif/commands.h"
 #include "lsnif/apps/lsnif/device_option.h"
 #include "lsnif/format/atomic_file.h"
+#include "lsnif/format/output_folder.h"
 #include "lsnif/format/status.h"
 #include "lsnif/lsnif_version.h"
 
@@ -210,6 +211,7 @@ std::optional<int> parse(int argc, char** argv, CheckOptions& o) {
 // The state of one check run: where things are, and the report as it grows.
 struct Check {
   CheckOptions o;
+  OutputFolder out;  // OUT: what this run writes there is listed before it is written
   fs::path folder, bin, work;
   Json report;
   bool passed = true;
@@ -348,6 +350,13 @@ void run_bench(Check& c) {
   for (const Json& row : j["rows"]) {
     const std::string image = row.value("image", "");
     if (row.value("quality", "") != "default" || images.size() >= kMaxImages || image.empty()) continue;
+    // A plain file name (the child's results.json is read, not trusted), listed before it is copied.
+    if (Status s = c.out.will_write(image); !s || fs::path(image).extension() != ".png") {
+      std::fprintf(stderr, "lsnif-gpu check: bench image '%s' left out: %s\n", printable(image).c_str(),
+                   s ? "not a PNG" : s.message().c_str());
+      c.passed = false;
+      continue;
+    }
     std::error_code ec;
     fs::copy_file(out / image, fs::path(c.o.out) / image, fs::copy_options::overwrite_existing, ec);
     if (!ec) images.push_back(image);
@@ -360,15 +369,6 @@ void run_bench(Check& c) {
   c.report["images"] = std::move(images);
 }
 
-// Removes what an earlier run left in OUT that this one writes (no stale result is kept).
-void clear_earlier_results(const fs::path& out) {
-  std::error_code ec;
-  fs::remove(out / "report.json", ec);
-  fs::remove_all(out / "work", ec);
-  for (const fs::directory_entry& e : fs::directory_iterator(out, ec))
-    if (e.path().extension() == ".png") fs::remove(e.path(), ec);
-}
-
 }  // namespace
 
 int cmd_check(int argc, char** argv) {
@@ -377,14 +377,23 @@ int cmd_check(int argc, char** argv) {
   c.folder = fs::absolute(c.o.folder);
   c.bin = c.folder / "bin";
   std::error_code ec;
-  fs::create_directories(c.o.out, ec);
-  if (ec || !fs::is_directory(c.o.out)) {
-    std::fprintf(stderr, "lsnif-gpu check: cannot create the output folder %s\n", c.o.out.c_str());
+  // OUT is created, or an earlier check's outputs there are removed; a folder holding anything else
+  // is refused (the check removes and replaces only what it wrote: output_folder.h).
+  if (Status s = OutputFolder::claim(c.o.out, "lsnif-gpu check", c.out); !s) {
+    std::fprintf(stderr, "lsnif-gpu check: %s\n", s.message().c_str());
     return 1;
   }
-  clear_earlier_results(c.o.out);
+  for (const char* name : {"work", "report.json"})
+    if (Status s = c.out.will_write(name); !s) {
+      std::fprintf(stderr, "lsnif-gpu check: %s\n", s.message().c_str());
+      return 1;
+    }
   c.work = fs::absolute(c.o.out) / "work";
   fs::create_directories(c.work / "tmp", ec);
+  if (ec) {
+    std::fprintf(stderr, "lsnif-gpu check: cannot create %s: %s\n", (c.work / "tmp").c_str(), ec.message().c_str());
+    return 1;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   c.report = {{"lsnif_version", LSNIF_VERSION_STRING},
               {"options",

@@ -11,6 +11,7 @@
 
 #include "lsnif/apps/lsnif/args.h"
 #include "lsnif/apps/lsnif/commands.h"
+#include "lsnif/format/atomic_file.h"
 #include "lsnif/apps/lsnif/data_dir.h"
 #include "lsnif/apps/lsnif/device_option.h"
 #include "lsnif/apps/lsnif/pipeline_option.h"
@@ -95,6 +96,16 @@ int cmd_demo(int argc, char** argv) {
   std::error_code ec;
   std::filesystem::path parent = std::filesystem::path(opts.output).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent, ec);
+  // The pictures are checked before the work too (their folder made as the model's is).
+  if (!no_render) {
+    const std::filesystem::path picture_parent = std::filesystem::path(picture).parent_path();
+    if (!picture_parent.empty()) std::filesystem::create_directories(picture_parent, ec);
+    for (const std::string& p : {picture, with_suffix(picture, "_inline")})
+      if (Status s = check_output_path(p); !s) {
+        std::fprintf(stderr, "lsnif demo: --picture: %s\n", s.message().c_str());
+        return 1;
+      }
+  }
   Model model;
   if (reuse && std::filesystem::exists(opts.output)) {
     if (Status s = load_model(opts.output, model); !s) {

@@ -19,8 +19,11 @@ struct CachedModel {
 
 // Trains `mesh` (fingerprint: bench_scenes.h object_fingerprint or the like; label: how the summary
 // names it) into opts.output unless `retrain` is false and a model of the same mesh and settings is
-// there, and prints which happened. Returns the exit code (0 ok, 1 failure, 2 invalid options).
+// there, and prints which happened. The key MODEL.lsnif.key holds the lines "mesh FINGERPRINT",
+// "quality QUALITY" (when `quality` is not empty: the preset the model is for) and "settings JSON"
+// (the resolved settings, settings_io.h's settings_to_json on one line), which a run of prepared
+// models checks (bench_run.h). Returns the exit code (0 ok, 1 failure, 2 invalid options).
 int train_or_reuse(const char* command, const Mesh& mesh, const std::string& fingerprint, const std::string& label,
-                   const TrainOptions& opts, bool retrain, CachedModel& out);
+                   const TrainOptions& opts, bool retrain, CachedModel& out, const std::string& quality = "");
 
 }  // namespace lsnif::cli
