@@ -927,6 +927,37 @@ TEST_F(PluginApi, BatchedQueriesFromTheSurfaceEmptyAndMissingBatchesAndErrors) {
   // An empty batch records nothing and succeeds.
   EXPECT_TRUE(intersect_batched(plugin, pipeline, m, {}).empty());
 
+  // Batches of 1, 2, 3, 63, 64, 65 and 129 rays that each reach the network: the MLP stage runs two
+  // slots per invocation, so an odd count leaves one invocation a single slot. Each ray answers
+  // bit for bit as it does in the batch of all of them (whose rays the CPU checks above and below),
+  // whatever its partner, and as the CPU does.
+  {
+    std::vector<Ray> reaching;
+    std::vector<LsnifHit> reaching_cpu;
+    for (size_t i = 0; i < primary.size(); ++i)
+      if (first[i].hit) {
+        reaching.push_back(primary[i]);
+        reaching_cpu.push_back(first[i]);
+      }
+    ASSERT_GE(reaching.size(), 129u);
+    const std::vector<LsnifQueryHit> all = intersect_batched(plugin, pipeline, m, reaching);
+    for (const size_t n : {size_t(1), size_t(2), size_t(3), size_t(63), size_t(64), size_t(65), size_t(129)}) {
+      const std::vector<Ray> some(reaching.begin(), reaching.begin() + long(n));
+      const std::vector<LsnifQueryHit> got = intersect_batched(plugin, pipeline, m, some);
+      ASSERT_EQ(got.size(), n);
+      size_t cpu_agree = 0;
+      for (size_t i = 0; i < n; ++i) {
+        EXPECT_GT(got[i].points, 0u) << n << " rays, ray " << i << ": it reaches the network";
+        EXPECT_EQ(got[i].kind, all[i].kind) << n << " rays, ray " << i;
+        EXPECT_EQ(got[i].t, all[i].t) << n << " rays, ray " << i;
+        EXPECT_EQ(got[i].normal_x, all[i].normal_x) << n << " rays, ray " << i;
+        EXPECT_EQ(got[i].occlusion_logit, all[i].occlusion_logit) << n << " rays, ray " << i;
+        cpu_agree += agrees(got[i].kind == LSNIF_QUERY_HIT_LSNIF, got[i].t, reaching_cpu[i], some[i]);
+      }
+      EXPECT_GE(double(cpu_agree), 0.98 * double(n)) << n << " rays";
+    }
+  }
+
   // A batch of more than one chunk (LSNIF_BATCH_CHUNK_RAYS): the scratch is sized for one chunk
   // and reused; every ray of both chunks answers as the CPU does.
   {

@@ -6,7 +6,8 @@
 //  LSNIF_BATCH_NARROW  1 invocation per ray: the walk (tmax = inf) and the hash-grid encoding; rays
 //                      without boundary points get their miss written here, the others take a batch
 //                      slot (atomic counter) and leave their walk and network input in the scratch.
-//  LSNIF_BATCH_MLP     1 invocation per batch slot: the MLP (lsnif_mlp.glsl) with the weights read at
+//  LSNIF_BATCH_MLP     1 invocation per two batch slots (half of each workgroup's lanes): the MLP
+//                      (lsnif_mlp.glsl, lsnif_mlp_forward_pair) with the weights read at
 //                      addresses uniform over the dispatch (one load serves every lane: on lavapipe
 //                      a SIMD register of rays, on a GPU a warp), raw outputs to the scratch. With
 //                      LSNIF_MLP_COOPMAT_NV as well: the workgroup's 64 slots together on
@@ -101,11 +102,14 @@ void main() {
   lsnif_rows_mlp_block(rows, m, block * LSNIF_BATCH_GROUP_SIZE, scratch.w[0]);
   return;
 #endif
+#if defined(LSNIF_BATCH_MLP)
+  // The workgroup's slots two per invocation (lsnif_rows_mlp_pair), by its first half of lanes.
+  const uint pair = 2u * (block * LSNIF_BATCH_GROUP_SIZE + gl_LocalInvocationID.x);
+  if (pair >= scratch.w[0]) return;
+  lsnif_rows_mlp_pair(rows, m, pair, pair + 1u, pair + 1u < scratch.w[0]);
+#elif defined(LSNIF_BATCH_DECODE)
   const uint slot = block * LSNIF_BATCH_GROUP_SIZE + gl_LocalInvocationID.x;
   if (slot >= scratch.w[0]) return;
-#if defined(LSNIF_BATCH_MLP)
-  lsnif_rows_mlp(rows, m, slot);
-#elif defined(LSNIF_BATCH_DECODE)
   const uint ray = lsnif_rows_load_item(rows, slot);
   const LsnifQueryRay q = lsnif_batch_ray(ray);
   const vec3 direction = vec3(q.direction_x, q.direction_y, q.direction_z);

@@ -45,14 +45,33 @@ void lsnif_rows_store_narrow(LsnifBatchRows r, LsnifModel m, uint slot, uint ite
   for (uint i = 0u; i < inputs; ++i) r.scratch.w[lsnif_rows_input(r, m, i, slot)] = floatBitsToUint(lsnif_act[i]);
 }
 
-// The MLP of `slot`: input rows in, raw output rows out.
+// The MLP of `slot`: the input rows its walk filled in (lsnif_mlp_used_pairs), raw output rows out.
 void lsnif_rows_mlp(LsnifBatchRows r, LsnifModel m, uint slot) {
-  const uint inputs = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
+  const uint points = r.scratch.w[lsnif_rows_walk(r, 0u, slot)];
+  const uint inputs = 2u * lsnif_mlp_used_pairs(m, points);
   for (uint i = 0u; i < inputs; ++i) lsnif_act[i] = uintBitsToFloat(r.scratch.w[lsnif_rows_input(r, m, i, slot)]);
-  const uint base = lsnif_mlp_forward(m);
+  const uint base = lsnif_mlp_forward(m, points);
   const uint outputs = LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(lsnif_output_dim(m));
   for (uint k = 0u; k < outputs; ++k)
     r.scratch.w[lsnif_rows_output(r, m, k, slot)] = floatBitsToUint(lsnif_act[base + k]);
+}
+
+// The MLP of slots `a` and `b` together (lsnif_mlp_forward_pair); without `has_b`, of `a` alone
+// (B's arrays then hold a copy of A's, and its outputs are not written).
+void lsnif_rows_mlp_pair(LsnifBatchRows r, LsnifModel m, uint a, uint b, bool has_b) {
+  const uint points_a = r.scratch.w[lsnif_rows_walk(r, 0u, a)];
+  const uint points_b = has_b ? r.scratch.w[lsnif_rows_walk(r, 0u, b)] : points_a;
+  const uint inputs = 2u * lsnif_mlp_used_pairs(m, max(points_a, points_b));
+  for (uint i = 0u; i < inputs; ++i) {
+    lsnif_act[i] = uintBitsToFloat(r.scratch.w[lsnif_rows_input(r, m, i, a)]);
+    lsnif_act_b[i] = has_b ? uintBitsToFloat(r.scratch.w[lsnif_rows_input(r, m, i, b)]) : lsnif_act[i];
+  }
+  const uint base = lsnif_mlp_forward_pair(m, points_a, points_b);
+  const uint outputs = LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(lsnif_output_dim(m));
+  for (uint k = 0u; k < outputs; ++k) {
+    r.scratch.w[lsnif_rows_output(r, m, k, a)] = floatBitsToUint(lsnif_act[base + k]);
+    if (has_b) r.scratch.w[lsnif_rows_output(r, m, k, b)] = floatBitsToUint(lsnif_act_b[base + k]);
+  }
 }
 
 // The item of `slot`.

@@ -92,7 +92,7 @@ LsnifHitInfo lsnif_intersect(LsnifModel m, vec3 origin, vec3 direction, float tm
   const uint points = lsnif_intersect_walk(m, origin, direction, tmin, tmax);
   if (points == 0u) return lsnif_intersect_none();
   lsnif_encode(m);
-  return lsnif_intersect_accept(lsnif_decode(m, lsnif_mlp_forward(m)), points, direction, tmin, tmax, ray_flags);
+  return lsnif_intersect_accept(lsnif_decode(m, lsnif_mlp_forward(m, points)), points, direction, tmin, tmax, ray_flags);
 }
 
 #endif

@@ -21,7 +21,7 @@
 //                       the walk and encoding (lsnif_batch_rows.glsl); candidates with boundary
 //                       points take a slot of the model's dense batch (in the columns of its range).
 //  LSNIF_QUERY_BATCH_ARGS  1 invocation per model: the indirect dispatch over its batch.
-//  LSNIF_QUERY_MLP      per model, 1 invocation per batch slot: the MLP.
+//  LSNIF_QUERY_MLP      per model, 1 invocation per two batch slots: the MLP (lsnif_rows_mlp_pair).
 //  LSNIF_QUERY_DECODE   per model, 1 invocation per batch slot: heads and acceptance; an accepted
 //                       candidate lowers its ray's best t (atomicMin on the float bits).
 //  LSNIF_QUERY_TIE      1 invocation per candidate: the accepted candidates at their ray's best t
@@ -246,8 +246,11 @@ void query_mlp(uint id) {
   shifted.base += start;  // slot s of the model's batch is column start + s
   lsnif_rows_mlp_block(shifted, m, first, batch);
 #else
-  if (id >= batch) return;
-  lsnif_rows_mlp(rows, m, start + id);
+  // The workgroup's slots two per invocation (lsnif_rows_mlp_pair), by its first half of lanes: every
+  // workgroup keeps its share of the work (a CPU driver runs contiguous ranges of them per thread).
+  const uint pair = id - gl_LocalInvocationID.x + 2u * gl_LocalInvocationID.x;
+  if (gl_LocalInvocationID.x >= LSNIF_BATCH_GROUP_SIZE / 2u || pair >= batch) return;
+  lsnif_rows_mlp_pair(rows, m, start + pair, start + pair + 1u, pair + 1u < batch);
 #endif
 }
 #endif
