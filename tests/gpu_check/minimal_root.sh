@@ -40,9 +40,11 @@ mkdir -p "$root/bin"
 cp -L /bin/sh "$root/bin/sh"
 for f in $(libs_of /bin/sh); do copy "$f"; done
 # lavapipe: the ICD manifest, the driver and every library it links.
-icd=$(ls /usr/share/vulkan/icd.d/lvp_icd*.json | head -n1)
+# (Filters that read their whole input: an early exit would end the writer with SIGPIPE, which
+# pipefail turns into this script's failure; `ldconfig -p` writes more than a pipe holds.)
+icd=$(ls /usr/share/vulkan/icd.d/lvp_icd*.json | sed -n 1p)
 driver=$(sed -n 's/.*"library_path": *"\([^"]*\)".*/\1/p' "$icd")
-case "$driver" in /*) ;; *) driver=$(ldconfig -p | awk -v n="$(basename "$driver")" '$1 == n {print $NF; exit}') ;; esac
+case "$driver" in /*) ;; *) driver=$(ldconfig -p | awk -v n="$(basename "$driver")" '$1 == n && !found {print $NF; found = 1}') ;; esac
 copy "$icd" "$driver"
 for f in $(libs_of "$driver"); do copy "$f"; done
 for f in libvulkan.so.1 libOpenImageIO.so.2.4 libembree3.so.3 libglfw.so.3 libtbb.so.12; do

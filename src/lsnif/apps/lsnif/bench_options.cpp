@@ -8,6 +8,10 @@
 
 namespace lsnif::cli {
 
+std::string model_key_head(const std::string& fingerprint, const std::string& quality) {
+  return "mesh " + fingerprint + "\n" + (quality.empty() ? "" : "quality " + quality + "\n");
+}
+
 bool file_holds(const std::string& path, const std::string& text) {
   std::string bytes;
   return read_file(path, bytes, text.size()) && bytes == text;

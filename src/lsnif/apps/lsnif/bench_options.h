@@ -16,6 +16,10 @@ bool file_holds(const std::string& path, const std::string& text);
 // Writes `text` atomically; on failure prints "lsnif COMMAND: why" and returns false.
 bool write_text_file(const char* command, const std::string& path, const std::string& text);
 
+// The head of a benchmark model's key (MODEL.lsnif.key, model_cache.h): "mesh FINGERPRINT", then
+// "quality QUALITY" when `quality` is not empty, a line each; the key's "settings JSON" line follows.
+std::string model_key_head(const std::string& fingerprint, const std::string& quality);
+
 // The options of a benchmark run (0: the default, or --quick's).
 struct BenchRunOptions {
   uint32_t width = 0, height = 0, spp = 0, steps = 0, batch = 0, threads = 0;

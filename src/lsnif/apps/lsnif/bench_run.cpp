@@ -381,12 +381,12 @@ std::string prepared_model_problem(const BenchObject& o, const std::string& pres
   const std::string key_path = from.string() + ".key";
   std::string key;
   if (Status s = read_file(key_path, key, 1 << 16); !s) return s.message();
-  const std::string head = "mesh " + object_fingerprint(o) + "\n";
-  if (key.rfind(head, 0) != 0) return "its key names another mesh than the scene's " + o.name + " (" + o.origin + ")";
-  const std::string claim = "quality " + preset + "\n";
-  if (key.compare(head.size(), claim.size(), claim) != 0)
+  if (key.rfind(model_key_head(object_fingerprint(o), ""), 0) != 0)
+    return "its key names another mesh than the scene's " + o.name + " (" + o.origin + ")";
+  const std::string head = model_key_head(object_fingerprint(o), preset);
+  if (key.rfind(head, 0) != 0)
     return "its key names another quality than " + preset + " (or none: prepared before keys named it)";
-  const size_t at = head.size() + claim.size();
+  const size_t at = head.size();
   const std::string settings_tag = "settings ";
   if (key.compare(at, settings_tag.size(), settings_tag) != 0 || key.empty() || key.back() != '\n')
     return "its key holds no settings line";

@@ -15,8 +15,8 @@ int train_or_reuse(const char* command, const Mesh& mesh, const std::string& fin
   const std::string key_path = opts.output + ".key";
   TrainSettings ts;
   if (!opts.to_settings(ts)) return 2;
-  const std::string key = "mesh " + fingerprint + "\n" + (quality.empty() ? "" : "quality " + quality + "\n") +
-                          "settings " + settings_to_json(from_train_settings(ts)).dump() + "\n";
+  const std::string key =
+      model_key_head(fingerprint, quality) + "settings " + settings_to_json(from_train_settings(ts)).dump() + "\n";
   if (!retrain && scene::check_lsnif_file(opts.output) && file_holds(key_path, key)) {
     out.reused = true;
     std::printf("model     reusing %s (same mesh and settings; --retrain trains it again)\n", opts.output.c_str());
