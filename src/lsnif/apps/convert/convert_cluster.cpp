@@ -91,20 +91,6 @@ Status write_job(const ConvertSettings& settings, const Plan& plan, const ModelR
   return write_file_atomic((dir / job.folder / "job.json").string(), j.dump(2) + "\n");
 }
 
-// The job folders (jobs/HASH) the plan folder's manifest lists: what an earlier plan wrote there.
-std::set<std::string> planned_job_folders(const fs::path& dir) {
-  std::set<std::string> listed;
-  std::string text;
-  nlohmann::json manifest;
-  if (!read_file((dir / kPlanManifest).string(), text, kMaxManifestBytes) ||
-      !json::parse(text, kPlanManifest, manifest) || !manifest.is_object() || !manifest.contains("jobs") ||
-      !manifest["jobs"].is_array())
-    return listed;
-  for (const nlohmann::json& job : manifest["jobs"])
-    if (job.is_object() && job.contains("hash") && job["hash"].is_string()) listed.insert(job["hash"].get<std::string>());
-  return listed;
-}
-
 // Removes the job folders of an earlier plan that this one does not have: only jobs/HASH folders
 // the earlier plan's manifest (`earlier`) lists; anything else there is someone else's and stays.
 Status remove_other_jobs(const fs::path& dir, const std::set<std::string>& earlier, const std::set<std::string>& keep,
@@ -141,6 +127,21 @@ Status read_manifest(const std::string& dir, nlohmann::json& manifest) {
     return Status::error("%s: plan version %lld (this build reads version %d)", path.c_str(),
                          (long long)manifest["version"].get<int64_t>(), kPlanVersion);
   return Status::ok();
+}
+
+// The job hashes a read manifest lists (a job's folder is jobs/HASH).
+std::set<std::string> manifest_hashes(const nlohmann::json& manifest) {
+  std::set<std::string> hashes;
+  for (const nlohmann::json& job : manifest["jobs"])
+    if (job.is_object() && job.contains("hash") && job["hash"].is_string()) hashes.insert(job["hash"].get<std::string>());
+  return hashes;
+}
+
+// The job folders an earlier plan in `dir` wrote, as its manifest lists them (none without a
+// readable manifest of this version).
+std::set<std::string> planned_job_folders(const fs::path& dir) {
+  nlohmann::json manifest;
+  return read_manifest(dir.string(), manifest) ? manifest_hashes(manifest) : std::set<std::string>();
 }
 
 // A job's model as read: its file's bytes (what is copied) and the model they hold.
@@ -273,9 +274,7 @@ Status adopt_planned_models(const ConvertSettings& settings, const Plan& plan, c
   missing.clear();
   nlohmann::json manifest;
   if (Status s = read_manifest(settings.assemble_dir, manifest); !s) return s;
-  std::set<std::string> planned;
-  for (const nlohmann::json& job : manifest["jobs"])
-    if (job.is_object() && job.contains("hash") && job["hash"].is_string()) planned.insert(job["hash"].get<std::string>());
+  const std::set<std::string> planned = manifest_hashes(manifest);
   // Every model is checked before any is copied: a run that stops for a missing model writes nothing.
   std::vector<JobModel> checked(models.size());
   std::vector<size_t> ready;
