@@ -171,9 +171,11 @@ TEST(BenchCli, QuickBunnyWritesTheTableAndImages) {
   EXPECT_TRUE(has(r.out, "--pipeline must be auto, inline, wavefront or both, not 'sideways'")) << r.out;
 
   // The default model and --pipeline auto: the bench's bunny keeps its mesh, so the LSNIF mode runs
-  // the wavefront pipeline with rasterized primary visibility (lavapipe runs lsnifCmdQuery),
-  // against the fastest triangle path (inline, traced).
-  r = run_cli("bench bunny --quick --spp 1 --quality default --out " + out);
+  // the wavefront pipeline with rasterized primary visibility (lavapipe runs lsnifCmdQuery; at
+  // 160 x 120 its 75k triangles are ~4 per pixel, under the CPU device's limit of 10, where
+  // --quick's 64 x 48 would be 24.5: tests/gpu/render_choice_test.cpp), against the fastest
+  // triangle path (inline, traced).
+  r = run_cli("bench bunny --quick --spp 1 --width 160 --height 120 --quality default --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(fs::exists(dir.path() / "bunny" / "bunny.lsnif"));
   const std::string chosen = read_text(dir.path() / "results.md");

@@ -308,17 +308,20 @@ struct LsnifQueryResult { /* 80 bytes; every field is written */
   lsnif_uint surface;                   /* LSNIF: packed surface channels (LSNIF_SURFACE_LEARNED); 0 for triangles */
   float emission_r, emission_g, emission_b; /* LSNIF: learned emission (0 without surface channels) */
 };
-/* What lsnifCmdQuery counted, written to LsnifQueryInfo::status when given (20 bytes): candidates
+/* What lsnifCmdQuery counted, written to LsnifQueryInfo::status when given (24 bytes): candidates
  * the broad phase produced over all chunks, the capacity of one chunk, candidates that did not fit
- * (dropped), rays answered LSNIF_QUERY_HIT_INCOMPLETE, and candidates kept but not evaluated
+ * (dropped), rays answered LSNIF_QUERY_HIT_INCOMPLETE, candidates kept but not evaluated
  * because their model-table entry on the device is not the block of the LsnifQueryInfo::pModels
- * entry the command was recorded with (a NULL entry, or another model). */
+ * entry the command was recorded with (a NULL entry, or another model), and candidates the second
+ * round left out because their hit could not be closer than their ray's best after the first
+ * (culled: no walk, no network; they change no answer). */
 struct LsnifQueryStatus {
   lsnif_uint candidates;
   lsnif_uint capacity;
   lsnif_uint dropped;
   lsnif_uint incomplete_rays;
   lsnif_uint unevaluated;
+  lsnif_uint culled;
 };
 #define LSNIF_QUERY_CHUNK_RAYS 65536u            /* rays per run of the stages; larger batches run in chunks */
 #define LSNIF_QUERY_MAX_CANDIDATES_PER_RAY 32u   /* upper bound of LsnifQueryInfo::candidatesPerRay */
@@ -332,19 +335,24 @@ struct LsnifQueryStatus {
  * LsnifQueryCandidate, the candidate indices sorted by model (one word per slot), and the batch rows
  * of the narrow phase, MLP and decode (the layout of lsnifCmdIntersectModelRays' rows, `stride`
  * words per row, each model's batch in the columns of its sorted range). */
-#define LSNIF_QUERY_STATUS_WORD 4u       /* 5 words, in the order of LsnifQueryStatus */
+#define LSNIF_QUERY_STATUS_WORD 4u       /* 6 words, in the order of LsnifQueryStatus */
 /* The words of one scratch record of each per-entry section (the structs below; checked in C++). */
-#define LSNIF_QUERY_MODEL_COUNTERS_WORDS 10u
+#define LSNIF_QUERY_MODEL_COUNTERS_WORDS 14u
 #define LSNIF_QUERY_RAY_STATE_WORDS 8u
 #define LSNIF_QUERY_CANDIDATE_WORDS 40u
 #define LSNIF_QUERY_SCATTER_ARGS_WORD 12u
-struct LsnifQueryModelCounters { /* 40 bytes */
-  lsnif_uint count;    /* candidates of the model (broad phase) */
-  lsnif_uint start;    /* first sorted slot of the model (exclusive prefix sum of count) */
+/* Per table entry; the per-model stages run once per run of consecutive entries of one model
+ * (LsnifQueryInfo::pModels), their fields from `batch` on in the run's first entry. */
+struct LsnifQueryModelCounters { /* 56 bytes */
+  lsnif_uint count;    /* candidates of the entry (broad phase) */
+  lsnif_uint start;    /* first sorted slot of the entry (exclusive prefix sum of count) */
   lsnif_uint cursor;   /* scatter counter */
-  lsnif_uint batch;    /* candidates with boundary points (the model's MLP batch) */
-  lsnif_uint narrow_groups_x, narrow_groups_y, narrow_groups_z; /* VkDispatchIndirectCommand over count */
-  lsnif_uint batch_groups_x, batch_groups_y, batch_groups_z;    /* VkDispatchIndirectCommand over batch */
+  lsnif_uint batch;    /* candidates with boundary points so far (the run's MLP batch, every round) */
+  lsnif_uint narrow_groups_x, narrow_groups_y, narrow_groups_z; /* VkDispatchIndirectCommand of the round's narrow phase */
+  lsnif_uint batch_groups_x, batch_groups_y, batch_groups_z;    /* VkDispatchIndirectCommand over the round's slots */
+  lsnif_uint round_start, round_end; /* the current round's batch slots [round_start, round_end) */
+  lsnif_uint run_count;              /* candidates of the run's entries (sorted slots from `start`) */
+  lsnif_uint rest_count;             /* those the first round left to the second (listed from `start`) */
 };
 struct LsnifQueryRayState { /* 32 bytes; t values as float bits (non-negative: ordered as uint) */
   lsnif_uint best_t;            /* closest accepted t (triangle or LSNIF); +inf bits without one */
@@ -353,7 +361,8 @@ struct LsnifQueryRayState { /* 32 bytes; t values as float bits (non-negative: o
                                    or their table entry is not the model recorded for it); +inf bits */
   lsnif_uint triangle_t;        /* the triangle hit's t; +inf bits without one */
   lsnif_uint triangle_instance; /* its instance index; ~0u without one */
-  lsnif_uint reserved0, reserved1, reserved2;
+  lsnif_uint first_t;           /* smallest t_enter of the ray's candidates kept: the first round's */
+  lsnif_uint reserved1, reserved2;
 };
 struct LsnifQueryCandidate { /* 160 bytes: one (ray, LSNIF instance) pair of the broad phase */
   lsnif_uint ray, instance_index, custom_index, flags;
@@ -370,11 +379,12 @@ struct LsnifQueryCandidate { /* 160 bytes: one (ray, LSNIF instance) pair of the
   float albedo_r, albedo_g, albedo_b;
   lsnif_uint front_face;
   lsnif_uint evaluated;                               /* 1: the narrow phase ran the model recorded for its
-                                                         table entry, which the table holds (0 otherwise) */
+                                                         table entry, which the table holds, or found in the
+                                                         second round that its hit could not win (0 otherwise) */
   lsnif_uint surface;                                 /* packed surface channels */
   float emission_r, emission_g, emission_b;
 };
-/* Push constants of lsnifCmdQuery's stages (one block for all of them, 96 bytes). */
+/* Push constants of lsnifCmdQuery's stages (one block for all of them, 104 bytes). */
 struct LsnifQueryPushConstants {
   lsnif_uint tlas_lo, tlas_hi;         /* the TLAS's device address */
   lsnif_uint table_lo, table_hi;       /* the model table (uint64 block addresses) */
@@ -387,13 +397,21 @@ struct LsnifQueryPushConstants {
   lsnif_uint model_count;              /* entries of the model table */
   lsnif_uint capacity;                 /* candidate slots of a chunk */
   lsnif_uint stride;                   /* capacity rounded up to a multiple of LSNIF_BATCH_GROUP_SIZE */
-  lsnif_uint bucket;                   /* model-table index of the per-model stages */
+  lsnif_uint bucket;                   /* per-model stages: the first model-table entry of the run */
   lsnif_uint cull_mask;
   lsnif_uint first_chunk;              /* 1 for the first chunk: the status accumulators start at 0 */
   lsnif_uint model_index;              /* LSNIF_QUERY_MODEL_INDEX_BY_*: what selects an instance's table entry */
   lsnif_uint model_index_base;         /* subtracted from the custom index (LSNIF_QUERY_MODEL_INDEX_BY_CUSTOM_INDEX) */
+  lsnif_uint query_round;              /* narrow phase: LSNIF_QUERY_ROUND_NEAREST or LSNIF_QUERY_ROUND_REST */
+  lsnif_uint bucket_last;              /* per-model stages: the run's last entry (entries bucket..bucket_last) */
   lsnif_uint reserved;
 };
+/* LsnifQueryPushConstants::query_round: the candidates a round's narrow phase takes. The nearest:
+ * those entering their model's box at their ray's first_t. The rest: the others, except those
+ * whose walk starts beyond their ray's best t after the first round (their hit, never before the
+ * walk's start, could not win). */
+#define LSNIF_QUERY_ROUND_NEAREST 0u
+#define LSNIF_QUERY_ROUND_REST 1u
 /* LsnifQueryPushConstants::model_index (the values of LsnifQueryModelIndex in lsnif.h). */
 #define LSNIF_QUERY_MODEL_INDEX_BY_CUSTOM_INDEX 0u
 #define LSNIF_QUERY_MODEL_INDEX_BY_INSTANCE_INDEX 1u
@@ -402,15 +420,15 @@ struct LsnifQueryPushConstants {
 static_assert(sizeof(LsnifQueryRay) == 48, "LsnifQueryRay layout");
 static_assert(sizeof(LsnifQueryHit) == 64, "LsnifQueryHit layout");
 static_assert(sizeof(LsnifQueryResult) == 80, "LsnifQueryResult layout");
-static_assert(sizeof(LsnifQueryStatus) == 20, "LsnifQueryStatus layout");
-static_assert(sizeof(LsnifQueryModelCounters) == 40, "LsnifQueryModelCounters layout");
+static_assert(sizeof(LsnifQueryStatus) == 24, "LsnifQueryStatus layout");
+static_assert(sizeof(LsnifQueryModelCounters) == 56, "LsnifQueryModelCounters layout");
 static_assert(sizeof(LsnifQueryRayState) == 32, "LsnifQueryRayState layout");
 static_assert(sizeof(LsnifQueryCandidate) == 160, "LsnifQueryCandidate layout");
 static_assert(sizeof(LsnifQueryModelCounters) == 4 * LSNIF_QUERY_MODEL_COUNTERS_WORDS &&
                   sizeof(LsnifQueryRayState) == 4 * LSNIF_QUERY_RAY_STATE_WORDS &&
                   sizeof(LsnifQueryCandidate) == 4 * LSNIF_QUERY_CANDIDATE_WORDS,
               "the scratch record sizes the query shaders use");
-static_assert(sizeof(LsnifQueryPushConstants) == 96, "LsnifQueryPushConstants layout");
+static_assert(sizeof(LsnifQueryPushConstants) == 104, "LsnifQueryPushConstants layout");
 #endif
 
 #if !defined(LSNIF_GLSL) && !defined(__cplusplus)

@@ -502,9 +502,12 @@ static inline LsnifSurfaceChannels lsnifUnpackSurface(uint32_t surface) {
  * e.g. the index of a triangle instance). The paper's section 4 pipeline, recorded as compute
  * passes: a broad phase (ray queries; triangles committed as usual, every crossed LSNIF box up to
  * the closest triangle hit appended as a candidate: ray, instance, model, object-space ray, its
- * interval clipped to the box), a counting sort of the candidates by model on the device, the
- * narrow phase, MLP and decode of lsnifCmdIntersectModelRays over each model's range (indirect
- * dispatches), and a resolve that keeps, per ray, the closest accepted hit of either kind. */
+ * interval clipped to the box), a counting sort of the candidates by table entry on the device, the
+ * narrow phase, MLP and decode of lsnifCmdIntersectModelRays over the range of each run of
+ * consecutive entries holding one model (indirect dispatches: a model instanced many times, one
+ * entry per instance, is one batch), in LSNIF_QUERY_ROUNDS rounds (each ray's nearest candidates,
+ * then those that can still be closer), and a resolve that keeps, per ray, the closest accepted hit
+ * of either kind. */
 
 typedef struct LsnifQueryInfo {
   const void* pNext;                          /* NULL, a LsnifQueryTimestampsInfo and/or a LsnifQueryModelIndexInfo */
@@ -533,20 +536,25 @@ typedef struct LsnifQueryInfo {
   VkDeviceAddress status;                     /* optional (0): LsnifQueryStatus, written at the end, 4-byte aligned */
 } LsnifQueryInfo;
 
+/* The candidates of a chunk are evaluated in LSNIF_QUERY_ROUNDS rounds: first those nearest their
+ * ray (entering their box first), then the others whose hit could still be closer than the best hit
+ * so far; a candidate left out could not have changed its ray's answer. */
+#define LSNIF_QUERY_ROUNDS 2U
 /* Timestamps lsnifCmdQuery writes when a LsnifQueryTimestampsInfo is chained to its info, each
  * after the barrier that ends a stage (pipeline stage bottom of pipe), so that the differences of
  * consecutive ones are the stages' times. The stages run once per chunk of at most
  * LSNIF_QUERY_CHUNK_RAYS rays; [0] is the start, then chunk c (0, 1, ...) writes
- * LSNIF_QUERY_TIMESTAMPS_PER_CHUNK of them:
- *   [1 + 5c] broad phase done (TLAS traversal, candidates collected), [2 + 5c] sort done (counting
- *   sort by model-table entry), [3 + 5c] narrow phase done (DDA walk and sparse-grid encoding),
- *   [4 + 5c] MLP done, [5 + 5c] chunk done (decoding, resolve against the triangle hits; after the
- *   last chunk also the status).
- * A query of rayCount rays writes LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(rayCount) timestamps: 6
- * (LSNIF_QUERY_TIMESTAMP_COUNT) for at most one chunk, 11 for two, and so on. With rayCount 0 all
- * six are still written (equal times), so that waiting on them never blocks. */
-#define LSNIF_QUERY_TIMESTAMP_COUNT 6U
-#define LSNIF_QUERY_TIMESTAMPS_PER_CHUNK 5U
+ * LSNIF_QUERY_TIMESTAMPS_PER_CHUNK (8) of them, with k = 1 + 8c:
+ *   [k] broad phase done (TLAS traversal, candidates collected), [k + 1] sort done (counting sort by
+ *   model-table entry), then per round r (0, 1): [k + 2 + 3r] narrow phase done (DDA walk and
+ *   sparse-grid encoding), [k + 3 + 3r] MLP done, [k + 4 + 3r] decoding done; the last round's
+ *   decoding ends with the chunk: [k + 7] chunk done (decoding, resolve against the triangle hits;
+ *   after the last chunk also the status).
+ * A query of rayCount rays writes LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(rayCount) timestamps: 9
+ * (LSNIF_QUERY_TIMESTAMP_COUNT) for at most one chunk, 17 for two, and so on. With rayCount 0 all
+ * nine are still written (equal times), so that waiting on them never blocks. */
+#define LSNIF_QUERY_TIMESTAMP_COUNT 9U
+#define LSNIF_QUERY_TIMESTAMPS_PER_CHUNK (2U + 3U * LSNIF_QUERY_ROUNDS)
 /* The chunks a query of rayCount rays runs in (1 for rayCount 0) and the timestamps it writes.
  * Macros: rayCount is evaluated more than once. */
 #define LSNIF_QUERY_CHUNK_COUNT(rayCount) ((rayCount) == 0U ? 1U : ((rayCount) - 1U) / LSNIF_QUERY_CHUNK_RAYS + 1U)

@@ -969,6 +969,102 @@ TEST_P(PluginQueryPerBroadPhase, ManyModelsInOneBatch) {
   EXPECT_EQ(q.status.dropped, 0u);
 }
 
+// A row of eight instances of one model, apart, each its own table entry (one run of eight entries:
+// one batch), and rays along the row (closest and any-hit): the first round evaluates each ray's
+// nearest box, the second leaves out the boxes beyond the hit it found. The answers are the
+// intersection shader's and the CPU reference's (the closest hit over every instance); the status's
+// culled count lies between a bound computed on the CPU (candidates whose world box starts clearly
+// beyond their ray's answer; no walk starts before its box) and the candidates that are not their
+// ray's first. Then the device table's entry 3 holds another model: only its candidates are not
+// evaluated (the rays crossing box 3), and every ray that does not cross it answers as before.
+TEST_P(PluginQueryPerBroadPhase, TheSecondRoundLeavesOutOnlyWhatCannotWin) {
+  Scene s;
+  const Cleanup cleanup{[&] { release(s); }};
+  constexpr uint32_t kRow = 8;
+  s.table_models.assign(kRow, a_);
+  const Aabb& ba = model_a_.bounds();
+  const glm::vec3 e = ba.extent();
+  for (uint32_t k = 0; k < kRow; ++k)
+    add_lsnif(s, model_a_, a_, k,
+              transform({0, 1, 0}, 0, glm::vec3(1.0f), glm::vec3(1.25f * e.x * float(k), 0, 0) - ba.center()));
+  ASSERT_NO_FATAL_FAILURE(finish(s));
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> u(-0.45f, 0.45f);
+  std::vector<Ray> rays(kRays);
+  for (Ray& r : rays) {
+    r.origin = glm::vec3(-1.5f * e.x, u(rng) * e.y, u(rng) * e.z);
+    r.direction = glm::vec3(1.0f, 0.05f * u(rng), 0.05f * u(rng));
+  }
+  // The CPU's entry into each world box (slab test), -1 when the ray misses it.
+  auto entry = [&](const Ray& r, const Aabb& b) {
+    const glm::vec3 a = (b.lo - r.origin) / r.direction, c = (b.hi - r.origin) / r.direction;
+    const glm::vec3 lo = glm::min(a, c), hi = glm::max(a, c);
+    const float t0 = std::max(std::max(lo.x, lo.y), std::max(lo.z, r.tmin));
+    const float t1 = std::min(std::min(hi.x, hi.y), hi.z);
+    return t0 <= t1 ? t0 : -1.0f;
+  };
+  std::vector<uint32_t> cpu_instance;
+  const std::vector<LsnifHit> cpu = cpu_lsnif(s, rays, 0, cpu_instance);
+  QueryRun closest;
+  for (const uint32_t flags : {0u, LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT}) {
+    SCOPED_TRACE(flags ? "any-hit rays" : "closest-hit rays");
+    const QueryRun q = query(s, rays, {flags}, kRow);
+    if (flags == 0) {
+      expect_agreement(compare(s, rays, q.results, trace(s, rays, kModeClosest, 0)), "a row of eight");
+      size_t same = 0, hits = 0;
+      for (size_t i = 0; i < rays.size(); ++i) {
+        const bool hit = q.results[i].kind == LSNIF_QUERY_HIT_LSNIF;
+        hits += hit;
+        same += hit == cpu[i].hit && (!hit || q.results[i].instance_index == cpu_instance[i]);
+      }
+      EXPECT_GE(double(same), 0.99 * double(rays.size())) << "closest instance vs the CPU reference over every instance";
+      EXPECT_GT(hits, rays.size() / 2);
+    }
+    // The bound: rays answered by their nearest box (the first round's hit), boxes clearly beyond it.
+    size_t bound = 0, not_first = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const LsnifQueryResult& r = q.results[i];
+      std::vector<float> t(s.boxes.size());
+      size_t crossed = 0, nearest = 0;
+      for (size_t k = 0; k < s.boxes.size(); ++k) {
+        t[k] = entry(rays[i], s.boxes[k]);
+        if (t[k] < 0.0f) continue;
+        if (crossed++ == 0 || t[k] < t[nearest]) nearest = k;
+      }
+      not_first += crossed > 0 ? crossed - 1 : 0;
+      if (r.kind != LSNIF_QUERY_HIT_LSNIF || r.instance_index != s.lsnif[nearest].index) continue;
+      for (size_t k = 0; k < s.boxes.size(); ++k) bound += t[k] > r.t + 1e-3f * e.x;
+    }
+    EXPECT_GT(bound, rays.size()) << "the rays must hit before the end of the row";
+    EXPECT_GE(q.status.culled, bound) << "candidates beyond their ray's answer";
+    EXPECT_LE(q.status.culled, not_first) << "a ray's first candidate is never culled";
+    EXPECT_EQ(q.status.unevaluated, 0u);
+    EXPECT_EQ(q.status.incomplete_rays, 0u);
+    if (flags == 0) closest = q;
+  }
+
+  // Entry 3 of the device's table holds model B while pModels says A.
+  Scene other;
+  const Cleanup cleanup_other{[&] { release(other); }};
+  other.table_models = s.table_models;
+  other.table_models[3] = b_;
+  for (uint32_t k = 0; k < kRow; ++k) add_lsnif(other, model_a_, a_, k, s.lsnif[k].xf);
+  ASSERT_NO_FATAL_FAILURE(finish(other));
+  const QueryRun q = query(other, rays, {0u}, kRow, &s.table_models);
+  size_t crossing = 0, same = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    if (entry(rays[i], s.boxes[3]) >= 0.0f) {
+      ++crossing;
+      continue;
+    }
+    same += std::memcmp(&q.results[i], &closest.results[i], sizeof(LsnifQueryResult)) == 0;
+  }
+  EXPECT_EQ(same, rays.size() - crossing) << "rays not crossing box 3 answer as with the agreeing table";
+  EXPECT_NEAR(double(q.status.unevaluated), double(crossing), 0.005 * double(rays.size()))
+      << "the candidates of entry 3 alone are not evaluated";
+  EXPECT_GT(crossing, rays.size() / 2);
+}
+
 // A capacity of one candidate per ray over rays that cross several LSNIF boxes: candidates are
 // dropped, and every ray is either answered exactly as with room for all of its candidates or marked
 // LSNIF_QUERY_HIT_INCOMPLETE; the status counts both.
@@ -1116,8 +1212,8 @@ TEST_P(PluginQueryPerBroadPhase, BatchesOfMoreThanOneChunk) {
   EXPECT_GT(tail_hits, tail / 10) << "the second chunk must hit too";
 }
 
-// The stage timestamps (LsnifQueryTimestampsInfo): all written, in order, by a one-chunk batch (6),
-// a two-chunk batch (11: five per chunk) and an empty batch (6), without changing any answer; a
+// The stage timestamps (LsnifQueryTimestampsInfo): all written, in order, by a one-chunk batch (9),
+// a two-chunk batch (17: eight per chunk) and an empty batch (9), without changing any answer; a
 // wrong chain is refused.
 TEST_P(PluginQueryPerBroadPhase, StageTimestamps) {
   Scene s;
@@ -1125,8 +1221,8 @@ TEST_P(PluginQueryPerBroadPhase, StageTimestamps) {
   ASSERT_NO_FATAL_FAILURE(mixed_scene(s));
   EXPECT_EQ(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(0u), LSNIF_QUERY_TIMESTAMP_COUNT);
   EXPECT_EQ(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(LSNIF_QUERY_CHUNK_RAYS), LSNIF_QUERY_TIMESTAMP_COUNT);
-  EXPECT_EQ(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(LSNIF_QUERY_CHUNK_RAYS + 1u), 11u);
-  EXPECT_EQ(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(0xffffffffu), 1u + 5u * 65536u);
+  EXPECT_EQ(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(LSNIF_QUERY_CHUNK_RAYS + 1u), 17u);
+  EXPECT_EQ(LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(0xffffffffu), 1u + 8u * 65536u);
   auto expect_ordered = [](const std::vector<std::array<uint64_t, 2>>& stamps, uint32_t count, const char* what) {
     ASSERT_EQ(stamps.size(), count) << what;
     for (uint32_t k = 0; k < count; ++k) {
@@ -1139,8 +1235,8 @@ TEST_P(PluginQueryPerBroadPhase, StageTimestamps) {
   const std::vector<Ray> rays = rays_at(s, 2000, 41);
   std::vector<std::array<uint64_t, 2>> stamps;
   const QueryRun timed = query(s, rays, {0u}, 4, nullptr, &stamps);
-  expect_ordered(stamps, 6, "one chunk");
-  EXPECT_LT(stamps[0][0], stamps[5][0]) << "the stages take time";
+  expect_ordered(stamps, LSNIF_QUERY_TIMESTAMP_COUNT, "one chunk");
+  EXPECT_LT(stamps[0][0], stamps[LSNIF_QUERY_TIMESTAMPS_PER_CHUNK][0]) << "the stages take time";
   const QueryRun plain = query(s, rays, {0u});
   ASSERT_EQ(timed.results.size(), plain.results.size());
   size_t same = 0;
@@ -1150,14 +1246,16 @@ TEST_P(PluginQueryPerBroadPhase, StageTimestamps) {
 
   const std::vector<Ray> many = rays_at(s, LSNIF_QUERY_CHUNK_RAYS + 100, 43);
   query(s, many, {0u}, 2, nullptr, &stamps);
-  expect_ordered(stamps, 11, "two chunks");
-  if (stamps.size() == 11) {
+  constexpr uint32_t kPerChunk = LSNIF_QUERY_TIMESTAMPS_PER_CHUNK;
+  expect_ordered(stamps, 1 + 2 * kPerChunk, "two chunks");
+  if (stamps.size() == 1 + 2 * kPerChunk) {
     // Each chunk's stages are its own: the first chunk's broad phase traverses 65,536 rays, the
     // second's 100 (the same rays' distribution), so the first takes longer.
-    EXPECT_GT(stamps[1][0] - stamps[0][0], stamps[6][0] - stamps[5][0]) << "broad phases of the two chunks";
+    EXPECT_GT(stamps[1][0] - stamps[0][0], stamps[kPerChunk + 1][0] - stamps[kPerChunk][0])
+        << "broad phases of the two chunks";
   }
   query(s, {}, {0u}, 4, nullptr, &stamps);
-  expect_ordered(stamps, 6, "empty batch");
+  expect_ordered(stamps, LSNIF_QUERY_TIMESTAMP_COUNT, "empty batch");
 
   // A wrong chain records nothing and names the problem.
   LsnifQueryInfo info{};

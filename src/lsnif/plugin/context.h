@@ -82,7 +82,7 @@ struct LsnifQueryPipeline_T {
   VkPipeline clear = VK_NULL_HANDLE, narrow = VK_NULL_HANDLE, mlp = VK_NULL_HANDLE, decode = VK_NULL_HANDLE;
   struct Tlas {
     VkPipeline clear = VK_NULL_HANDLE, broad = VK_NULL_HANDLE, scan = VK_NULL_HANDLE, scatter = VK_NULL_HANDLE,
-               narrow = VK_NULL_HANDLE, batch_args = VK_NULL_HANDLE, mlp = VK_NULL_HANDLE, decode = VK_NULL_HANDLE,
+               run_args = VK_NULL_HANDLE, narrow = VK_NULL_HANDLE, batch_args = VK_NULL_HANDLE, mlp = VK_NULL_HANDLE, decode = VK_NULL_HANDLE,
                tie = VK_NULL_HANDLE, resolve_hits = VK_NULL_HANDLE, resolve_rays = VK_NULL_HANDLE,
                status = VK_NULL_HANDLE;
   } tlas;

@@ -21,6 +21,7 @@ namespace {
 #include "lsnif_batch_mlp_spirv.h"
 #include "lsnif_batch_narrow_spirv.h"
 #include "lsnif_query_batch_args_spirv.h"
+#include "lsnif_query_run_args_spirv.h"
 #include "lsnif_query_broad_candidates_rgen_spirv.h"
 #include "lsnif_query_broad_rchit_spirv.h"
 #include "lsnif_query_broad_rint_spirv.h"
@@ -285,7 +286,7 @@ QueryLayout query_layout(const std::vector<const LsnifModel_T*>& models, uint32_
     if (m) rows = std::max(rows, scratch_rows(*m));
   l.rows_word = LSNIF_BATCH_HEADER_WORDS + uint64_t(LSNIF_QUERY_MODEL_COUNTERS_WORDS) * table_entries +
                 uint64_t(LSNIF_QUERY_RAY_STATE_WORDS) * l.chunk_rays +
-                uint64_t(LSNIF_QUERY_CANDIDATE_WORDS) * l.capacity + l.stride;
+                uint64_t(LSNIF_QUERY_CANDIDATE_WORDS) * l.capacity + 2 * uint64_t(l.stride);
   l.total_words = l.rows_word + rows * l.stride;
   return l;
 }
@@ -389,6 +390,7 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
         {lsnif_query_broad_spirv, sizeof lsnif_query_broad_spirv, "query broad phase", &p->tlas.broad},
         {lsnif_query_scan_spirv, sizeof lsnif_query_scan_spirv, "query scan", &p->tlas.scan},
         {lsnif_query_scatter_spirv, sizeof lsnif_query_scatter_spirv, "query scatter", &p->tlas.scatter},
+        {lsnif_query_run_args_spirv, sizeof lsnif_query_run_args_spirv, "query run args", &p->tlas.run_args},
         {lsnif_query_narrow_spirv, sizeof lsnif_query_narrow_spirv, "query narrow", &p->tlas.narrow},
         {lsnif_query_batch_args_spirv, sizeof lsnif_query_batch_args_spirv, "query batch args", &p->tlas.batch_args},
         {coopmat ? lsnif_query_mlp_coopmat_spirv : lsnif_query_mlp_spirv,
@@ -421,7 +423,7 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
 void destroy_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipeline_T& p) {
   const VkAllocationCallbacks* cb = ctx.info.pAllocator;
   LsnifQueryPipeline_T::Tlas& t = p.tlas;
-  for (VkPipeline* stage : {&p.clear, &p.narrow, &p.mlp, &p.decode, &t.clear, &t.broad, &t.scan, &t.scatter, &t.narrow,
+  for (VkPipeline* stage : {&p.clear, &p.narrow, &p.mlp, &p.decode, &t.clear, &t.broad, &t.scan, &t.scatter, &t.run_args, &t.narrow,
                             &t.batch_args, &t.mlp, &t.decode, &t.tie, &t.resolve_hits, &t.resolve_rays, &t.status}) {
     if (*stage) ctx.vk.vkDestroyPipeline(ctx.info.device, *stage, cb);
     *stage = VK_NULL_HANDLE;
@@ -556,13 +558,27 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
   auto counters_word = [&](uint32_t b) { return LSNIF_BATCH_HEADER_WORDS + counters_words * b; };
   const uint64_t narrow_args = offsetof(LsnifQueryModelCounters, narrow_groups_x) / 4;
   const uint64_t batch_args = offsetof(LsnifQueryModelCounters, batch_groups_x) / 4;
-  // The per-model stages of every model of the table (holes have no candidates).
+  // The runs of consecutive table entries of one model (holes have no candidates): the per-model
+  // stages run once per run, over the sorted candidates of its entries (contiguous: the counting sort
+  // orders them by entry), so that many instances of a model cost one batch, not one per instance.
+  std::vector<std::pair<uint32_t, uint32_t>> runs;  // first and last entry
+  for (uint32_t b = 0; b < info.modelCount; ++b) {
+    if (!models[b]) continue;
+    if (!runs.empty() && runs.back().second + 1 == b && models[runs.back().first] == models[b])
+      runs.back().second = b;
+    else
+      runs.emplace_back(b, b);
+  }
   auto per_model = [&](VkPipeline stage, uint64_t args) {
-    for (uint32_t b = 0; b < info.modelCount; ++b) {
-      if (!models[b]) continue;
-      pc.bucket = b;
-      split(models[b]->block.address, pc.model_lo, pc.model_hi);
-      run_indirect(stage, counters_word(b) + args);
+    for (const auto& [first, last] : runs) {
+      pc.bucket = first;
+      pc.bucket_last = last;
+      split(models[first]->block.address, pc.model_lo, pc.model_hi);
+      if (args == ~uint64_t(0)) {
+        run(stage, 1);
+      } else {
+        run_indirect(stage, counters_word(first) + args);
+      }
     }
   };
 
@@ -590,20 +606,27 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
     }
     timestamp(1, base);
     run(st.scan, 1);
+    between_passes(vk, cmd, false);
+    per_model(st.run_args, ~uint64_t(0));
     between_passes(vk, cmd, true);
     run_indirect(st.scatter, LSNIF_QUERY_SCATTER_ARGS_WORD);
     between_passes(vk, cmd, false);
     timestamp(2, base);
-    per_model(st.narrow, narrow_args);
-    between_passes(vk, cmd, false);
-    timestamp(3, base);
-    run(st.batch_args, groups_of(info.modelCount));
-    between_passes(vk, cmd, true);
-    per_model(st.mlp, batch_args);
-    between_passes(vk, cmd, false);
-    timestamp(4, base);
-    per_model(st.decode, batch_args);
-    between_passes(vk, cmd, false);
+    // The rounds (lsnif_query.comp): the candidates nearest their ray, then those that can still win.
+    for (uint32_t round = 0; round < LSNIF_QUERY_ROUNDS; ++round) {
+      pc.query_round = round == 0 ? LSNIF_QUERY_ROUND_NEAREST : LSNIF_QUERY_ROUND_REST;
+      per_model(st.narrow, narrow_args);
+      between_passes(vk, cmd, false);
+      timestamp(3 + 3 * round, base);
+      run(st.batch_args, groups_of(info.modelCount));
+      between_passes(vk, cmd, true);
+      per_model(st.mlp, batch_args);
+      between_passes(vk, cmd, false);
+      timestamp(4 + 3 * round, base);
+      per_model(st.decode, batch_args);
+      between_passes(vk, cmd, false);
+      if (round + 1 < LSNIF_QUERY_ROUNDS) timestamp(5 + 3 * round, base);
+    }
     run_indirect(st.tie, LSNIF_QUERY_SCATTER_ARGS_WORD);
     between_passes(vk, cmd, false);
     run_indirect(st.resolve_hits, LSNIF_QUERY_SCATTER_ARGS_WORD);
@@ -611,12 +634,13 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
     run(st.resolve_rays, groups_of(n));
     if (base + n < info.rayCount) {  // the next chunk reuses the scratch
       between_passes(vk, cmd, true);
-      timestamp(5, base);
+      timestamp(LSNIF_QUERY_TIMESTAMPS_PER_CHUNK, base);
     }
   }
   between_passes(vk, cmd, false);
   run(st.status, 1);
-  timestamp(5, (LSNIF_QUERY_CHUNK_COUNT(info.rayCount) - 1) * LSNIF_QUERY_CHUNK_RAYS);  // the last chunk's base
+  timestamp(LSNIF_QUERY_TIMESTAMPS_PER_CHUNK,
+            (LSNIF_QUERY_CHUNK_COUNT(info.rayCount) - 1) * LSNIF_QUERY_CHUNK_RAYS);  // the last chunk's base
 }
 
 }  // namespace lsnif::plugin

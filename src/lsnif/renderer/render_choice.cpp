@@ -1,6 +1,7 @@
 // render_choice.cpp -- see render_choice.h.
 #include "lsnif/renderer/render_choice.h"
 
+#include <algorithm>
 #include <vector>
 
 #include "lsnif/harness/device_choice.h"
@@ -13,6 +14,9 @@ Status device_paths(const vk::ComputeContext& ctx, DevicePaths& out) {
   if (Status s = vk::query_device_info(ctx.instance(), ctx.physical_device(), info); !s) return s;
   DevicePaths p;
   p.ray_query = info.ray_query;
+  VkPhysicalDeviceProperties props;
+  vkGetPhysicalDeviceProperties(ctx.physical_device(), &props);
+  p.cpu = props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
   p.query = info.ray_query || info.primitive_culling;
   uint32_t count = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(ctx.physical_device(), &count, nullptr);
@@ -34,6 +38,15 @@ std::string raster_obstacle(const scene::Scene& scene) {
   return "";
 }
 
+uint64_t raster_triangles(const scene::Scene& scene) {
+  uint64_t n = 0;
+  for (const scene::Instance& in : scene.instances) {
+    if (in.mesh < 0 || size_t(in.mesh) >= scene.meshes.size()) continue;
+    for (const scene::Primitive& p : scene.meshes[size_t(in.mesh)].primitives) n += p.indices.size() / 3;
+  }
+  return n;
+}
+
 std::string cutout_material(const scene::Scene& scene, bool reference) {
   for (const scene::Instance& in : scene.instances) {
     if ((in.lsnif >= 0 && !reference) || in.mesh < 0 || size_t(in.mesh) >= scene.meshes.size()) continue;
@@ -44,7 +57,7 @@ std::string cutout_material(const scene::Scene& scene, bool reference) {
   return "";
 }
 
-RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const DevicePaths& paths) {
+RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const DevicePaths& paths, uint64_t pixels) {
   RenderChoice c;
   bool lsnif_nodes = false;
   for (const scene::Instance& in : scene.instances) lsnif_nodes |= in.lsnif >= 0;
@@ -66,10 +79,14 @@ RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const
             "rayTraversalPrimitiveCulling)";
   }
   const std::string obstacle = raster_obstacle(scene);
+  const double per_pixel = double(raster_triangles(scene)) / double(std::max<uint64_t>(pixels, 1));
   if (!paths.graphics) {
     c.why += "; traced primary: the queue has no graphics";
   } else if (!obstacle.empty()) {
     c.why += "; traced primary: " + obstacle;
+  } else if (paths.cpu && per_pixel > kCpuRasterTrianglesPerPixel) {
+    c.why += format("; traced primary: %.3g triangles per pixel to rasterize, more than a CPU device rasterizes "
+                    "faster than it traces (%.3g)", per_pixel, kCpuRasterTrianglesPerPixel);
   } else {
     c.primary = PrimaryVisibility::raster;
     c.why += "; rasterized primary: every LSNIF node keeps its mesh";

@@ -7,7 +7,9 @@
 //   runs a broad phase of lsnifCmdQuery (ray queries, or rayTraversalPrimitiveCulling), else inline.
 //   Primary visibility rasterized where every LSNIF node keeps a triangle mesh the visibility pass
 //   can draw and the queue has graphics (the paper's section 4: camera rays never meet a network),
-//   else traced.
+//   except on a CPU device when the pass would draw more than kCpuRasterTrianglesPerPixel triangles
+//   per pixel (there rasterizing costs more than tracing the camera rays: measured below); else
+//   traced.
 // - LSNIF mode where a node traced as triangles (not an LSNIF node) uses an alpha cut-out material:
 //   the inline pipeline (its any-hit shaders alpha-test triangles; lsnifCmdQuery does not), primary
 //   visibility as above (the visibility pass alpha-tests too). An LSNIF node's cut-outs are
@@ -35,13 +37,24 @@ struct DevicePaths {
   bool query = false;     // lsnifCmdQuery can run: ray queries or rayTraversalPrimitiveCulling
   bool ray_query = false;
   bool graphics = false;  // the context's queue family has graphics (the visibility pass)
+  bool cpu = false;       // a CPU device (VK_PHYSICAL_DEVICE_TYPE_CPU: lavapipe)
 };
+
+// Above this many triangles per pixel, a CPU device traces the camera rays rather than rasterize
+// them. Measured on lavapipe (docs/renderer.md, "Choosing the pipeline"): the visibility pass costs
+// ~0.12 us per triangle drawn (388 ms for the heavy bench scene's 3.32M at 320 x 240) and traced
+// camera rays ~1.3 us per pixel, so they break even near 11 triangles per pixel. A GPU's
+// rasterizer is not bound by it (no GPU has measured it yet).
+inline constexpr double kCpuRasterTrianglesPerPixel = 10.0;
+
+// Triangles the visibility pass draws for `scene` (every node's mesh, LSNIF nodes their kept ones).
+uint64_t raster_triangles(const scene::Scene& scene);
 // What `ctx` (initialized with ray tracing) offers. Fails when the plugin's device query does.
 Status device_paths(const vk::ComputeContext& ctx, DevicePaths& out);
 
 // The choice for `scene` in LSNIF mode (`reference` false) or reference mode on a device offering
-// `paths` (rules above).
-RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const DevicePaths& paths);
+// `paths` (rules above), for images of `pixels` pixels.
+RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const DevicePaths& paths, uint64_t pixels);
 
 // Why a node keeps no mesh the visibility pass can draw ("" when every LSNIF node keeps one).
 std::string raster_obstacle(const scene::Scene& scene);

@@ -190,15 +190,19 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
       q.status = wave_status_.address + queries++ * sizeof(LsnifQueryStatus);
       q.pNext = nullptr;
       if (stage_timing_) {
-        // The query's timestamps: [0] follows the previous stamp (no work between), then five per
-        // chunk of rays.
+        // The query's timestamps: [0] follows the previous stamp (no work between), then
+        // LSNIF_QUERY_TIMESTAMPS_PER_CHUNK per chunk of rays (lsnif.h).
         query_stamps.firstQuery = uint32_t(interval.size());
         q.pNext = &query_stamps;
         interval.push_back(&StageTimes::shade);
-        for (uint32_t c = 0; c < LSNIF_QUERY_CHUNK_COUNT(count); ++c)
-          for (double StageTimes::*what :
-               {&StageTimes::broad, &StageTimes::sort, &StageTimes::encode, &StageTimes::mlp, &StageTimes::resolve})
-            interval.push_back(what);
+        for (uint32_t c = 0; c < LSNIF_QUERY_CHUNK_COUNT(count); ++c) {
+          interval.push_back(&StageTimes::broad);
+          interval.push_back(&StageTimes::sort);
+          for (uint32_t r = 0; r < LSNIF_QUERY_ROUNDS; ++r)  // the last round's decoding ends the chunk
+            for (double StageTimes::*what : {&StageTimes::encode, &StageTimes::mlp, &StageTimes::resolve})
+              interval.push_back(what);
+        }
+        static_assert(LSNIF_QUERY_TIMESTAMPS_PER_CHUNK == 2 + 3 * LSNIF_QUERY_ROUNDS, "the chunk's intervals above");
       }
       if (recorded == LSNIF_SUCCESS) recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
       wave_barrier(cmd);

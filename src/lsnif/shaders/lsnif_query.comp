@@ -13,16 +13,25 @@
 //                       instance whose model box the ray crosses there (the object-space ray exactly
 //                       as the intersection shader sees it). Candidates past the capacity are dropped
 //                       and noted in the ray's state (the smallest t_enter dropped).
-//  LSNIF_QUERY_SCAN     1 workgroup: exclusive prefix sum of the per-model counts (counting sort),
-//                       the indirect dispatches of the scatter and of every model's narrow phase.
-//  LSNIF_QUERY_SCATTER  1 invocation per candidate: its index into its model's sorted range.
-//  LSNIF_QUERY_NARROW   per model, 1 invocation per candidate of its range, when the table entry
-//                       holds the model recorded for it (else its candidates stay not evaluated):
-//                       the walk and encoding (lsnif_batch_rows.glsl); candidates with boundary
-//                       points take a slot of the model's dense batch (in the columns of its range).
-//  LSNIF_QUERY_BATCH_ARGS  1 invocation per model: the indirect dispatch over its batch.
-//  LSNIF_QUERY_MLP      per model, 1 invocation per two batch slots: the MLP (lsnif_rows_mlp_pair).
-//  LSNIF_QUERY_DECODE   per model, 1 invocation per batch slot: heads and acceptance; an accepted
+//  LSNIF_QUERY_SCAN     1 workgroup: exclusive prefix sum of the per-entry counts (counting sort by
+//                       model-table entry), the indirect dispatch of the scatter.
+//  The per-model stages run once per run of consecutive table entries of one model (pc.bucket ..
+//  pc.bucket_last; the host finds the runs in pModels): a model instanced a thousand times is one
+//  batch and three dispatches per round, not a thousand.
+//  LSNIF_QUERY_RUN_ARGS per run, 1 invocation: the run's candidates (contiguous in the sorted order)
+//                       and the indirect dispatch of its narrow phase.
+//  LSNIF_QUERY_SCATTER  1 invocation per candidate: its index into its entry's sorted range.
+//  Then two rounds of the three per-model stages below: the first over the candidates nearest their
+//  ray (LSNIF_QUERY_ROUND_NEAREST, host_device.h), the second over the others whose hit could still
+//  win against the first round's (LSNIF_QUERY_ROUND_REST; query_narrow says why nothing else can).
+//  LSNIF_QUERY_NARROW   per run, 1 invocation per candidate of its range, when the candidate's table
+//                       entry holds the model recorded for it (else it stays not evaluated) and the
+//                       round takes it: the walk and encoding (lsnif_batch_rows.glsl); candidates with
+//                       boundary points take a slot of the run's dense batch (in the columns of its
+//                       range, after the slots of the round before).
+//  LSNIF_QUERY_BATCH_ARGS  1 invocation per entry: the round's slots and the indirect dispatch over them.
+//  LSNIF_QUERY_MLP      per run, 1 invocation per two slots of the round: the MLP (lsnif_rows_mlp_pair).
+//  LSNIF_QUERY_DECODE   per run, 1 invocation per slot of the round: heads and acceptance; an accepted
 //                       candidate lowers its ray's best t (atomicMin on the float bits).
 //  LSNIF_QUERY_TIE      1 invocation per candidate: the accepted candidates at their ray's best t
 //                       lower its best instance (atomicMin), so that equal t resolve by instance index;
@@ -56,7 +65,7 @@ shared uint lsnif_query_lane_sums[LSNIF_BATCH_GROUP_SIZE];
 void query_clear(uint id) {
   LsnifScratchRef scratch = lsnif_query_scratch();
   if (id < LSNIF_BATCH_HEADER_WORDS) {
-    const bool status = id >= LSNIF_QUERY_STATUS_WORD && id < LSNIF_QUERY_STATUS_WORD + 5u;
+    const bool status = id >= LSNIF_QUERY_STATUS_WORD && id < LSNIF_QUERY_STATUS_WORD + 6u;
     if (!status || pc.first_chunk != 0u) scratch.w[id] = 0u;
   } else if (id < lsnif_query_states_word()) {  // the model counters
     scratch.w[id] = 0u;
@@ -86,7 +95,8 @@ bool lsnif_query_triangles(uint64_t tlas, uint flags, vec3 origin, vec3 directio
 }
 
 // The traversal of ray `id` (q, world-space origin and direction) visiting the AABBs up to tmax: appends one
-// candidate per LSNIF instance whose model box the ray crosses; those past the capacity lower st.missing_t.
+// candidate per LSNIF instance whose model box the ray crosses (lowering st.first_t); those past the
+// capacity lower st.missing_t.
 void lsnif_query_append_candidates(uint id, LsnifQueryRay q, uint flags, uint64_t tlas, uint64_t table,
                                    vec3 origin, vec3 direction, float tmax, inout LsnifQueryRayState st) {
   rayQueryEXT rq;
@@ -97,12 +107,14 @@ void lsnif_query_append_candidates(uint id, LsnifQueryRay q, uint flags, uint64_
                         direction, tmax);
   while (rayQueryProceedEXT(rq)) {
     if (rayQueryGetIntersectionTypeEXT(rq, false) != gl_RayQueryCandidateIntersectionAABBEXT) continue;
+    uint kept_t;
     const uint dropped = lsnif_query_record_candidate(
         id, q, flags, table, uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false)),
         uint(rayQueryGetIntersectionInstanceIdEXT(rq, false)), rayQueryGetIntersectionObjectRayOriginEXT(rq, false),
         rayQueryGetIntersectionObjectRayDirectionEXT(rq, false), mat3(rayQueryGetIntersectionWorldToObjectEXT(rq, false)),
-        tmax);
+        tmax, kept_t);
     st.missing_t = min(st.missing_t, dropped);
+    st.first_t = min(st.first_t, kept_t);
   }
 }
 
@@ -135,8 +147,8 @@ void query_broad(uint id) {
 #endif
 
 #if defined(LSNIF_QUERY_SCAN)
-// LSNIF_QUERY_SCAN: every model's start (exclusive prefix sum of the counts) and narrow dispatch, the
-// scatter's dispatch, and the chunk's candidates added to the status accumulators.
+// LSNIF_QUERY_SCAN: every entry's start (exclusive prefix sum of the counts), the scatter's dispatch,
+// and the chunk's candidates added to the status accumulators.
 void query_scan() {
   LsnifScratchRef scratch = lsnif_query_scratch();
   LsnifQueryModelsRef models = lsnif_query_models();
@@ -152,12 +164,8 @@ void query_scan() {
   uint start = 0u;
   for (uint l = 0u; l < lane; ++l) start += lsnif_query_lane_sums[l];
   for (uint b = first; b < last; ++b) {
-    const uint count = models.c[b].count;
     models.c[b].start = start;
-    models.c[b].narrow_groups_x = (count + LSNIF_BATCH_GROUP_SIZE - 1u) / LSNIF_BATCH_GROUP_SIZE;
-    models.c[b].narrow_groups_y = 1u;
-    models.c[b].narrow_groups_z = 1u;
-    start += count;
+    start += models.c[b].count;
   }
   if (lane == 0u) {
     const uint produced = scratch.w[0], kept = min(produced, pc.capacity);
@@ -168,6 +176,20 @@ void query_scan() {
     scratch.w[LSNIF_QUERY_STATUS_WORD + 1u] = pc.capacity;
     scratch.w[LSNIF_QUERY_STATUS_WORD + 2u] += produced - kept;
   }
+}
+#endif
+
+#if defined(LSNIF_QUERY_RUN_ARGS)
+// LSNIF_QUERY_RUN_ARGS: the candidates of the run pc.bucket .. pc.bucket_last (sorted slots from the
+// first entry's start) and its narrow phase's indirect dispatch, in the first entry's counters.
+void query_run_args(uint id) {
+  if (id != 0u) return;
+  LsnifQueryModelsRef models = lsnif_query_models();
+  const uint count = models.c[pc.bucket_last].start + models.c[pc.bucket_last].count - models.c[pc.bucket].start;
+  models.c[pc.bucket].run_count = count;
+  models.c[pc.bucket].narrow_groups_x = (count + LSNIF_BATCH_GROUP_SIZE - 1u) / LSNIF_BATCH_GROUP_SIZE;
+  models.c[pc.bucket].narrow_groups_y = 1u;
+  models.c[pc.bucket].narrow_groups_z = 1u;
 }
 #endif
 
@@ -183,11 +205,18 @@ void query_scatter(uint id) {
 #endif
 
 #if defined(LSNIF_QUERY_BATCH_ARGS)
-// LSNIF_QUERY_BATCH_ARGS: model `id`'s indirect dispatch over its batch.
+// LSNIF_QUERY_BATCH_ARGS: entry `id`'s round (used where a run starts): the slots its narrow phase just
+// took, after those of the rounds before, and the indirect dispatches over them and over the
+// candidates left to the next round.
 void query_batch_args(uint id) {
   if (id >= pc.model_count) return;
   LsnifQueryModelsRef models = lsnif_query_models();
-  models.c[id].batch_groups_x = (models.c[id].batch + LSNIF_BATCH_GROUP_SIZE - 1u) / LSNIF_BATCH_GROUP_SIZE;
+  const uint first = models.c[id].round_end, end = models.c[id].batch;
+  models.c[id].round_start = first;
+  models.c[id].round_end = end;
+  // The next round's narrow phase: over the candidates the first one left (after the second, unused).
+  models.c[id].narrow_groups_x = (models.c[id].rest_count + LSNIF_BATCH_GROUP_SIZE - 1u) / LSNIF_BATCH_GROUP_SIZE;
+  models.c[id].batch_groups_x = (end - first + LSNIF_BATCH_GROUP_SIZE - 1u) / LSNIF_BATCH_GROUP_SIZE;
   models.c[id].batch_groups_y = 1u;
   models.c[id].batch_groups_z = 1u;
 }
@@ -203,11 +232,26 @@ void lsnif_query_bucket(out LsnifModel m, out LsnifBatchRows rows, out uint star
   rows.stride = pc.stride;
   start = lsnif_query_models().c[pc.bucket].start;
 }
+
+// The current round's batch slots of pc.bucket (MLP, decode): `count` of them from column `first`.
+void lsnif_query_round(uint start, out uint first, out uint count) {
+  LsnifQueryModelsRef models = lsnif_query_models();
+  first = start + models.c[pc.bucket].round_start;
+  count = models.c[pc.bucket].round_end - models.c[pc.bucket].round_start;
+}
 #endif
 
 #if defined(LSNIF_QUERY_NARROW)
-// LSNIF_QUERY_NARROW: the walk and encoding of candidate `id` of pc.bucket's range; with boundary points,
-// it takes a slot of the model's batch.
+// LSNIF_QUERY_NARROW: the walk and encoding of candidate `id` of the round (pc.query_round) of the run
+// pc.bucket; with boundary points, it takes a slot of the run's batch.
+//  - LSNIF_QUERY_ROUND_NEAREST, over the run's sorted candidates: those entering their box at their
+//    ray's first_t (the nearest box of the ray; usually where its hit is); the others are listed for
+//    the second round (from the run's start in the rest list).
+//  - LSNIF_QUERY_ROUND_REST, over that list: each unless its hit could not win: an accepted hit lies
+//    at or after the start of its walk (lsnif_distance_from_unit interpolates from there), so a
+//    candidate whose walk starts beyond its ray's best t after the first round is marked evaluated
+//    and left (culled). Nothing that could change an answer is skipped: the answers are those of
+//    evaluating every candidate, at a cost that follows the boxes a ray crosses before its hit.
 void query_narrow(uint id) {
   LsnifModel m;
   LsnifBatchRows rows;
@@ -215,16 +259,33 @@ void query_narrow(uint id) {
   lsnif_query_bucket(m, rows, start);
   LsnifQueryModelsRef models = lsnif_query_models();
   LsnifQueryCandidatesRef candidates = lsnif_query_candidates();
-  if (id >= models.c[pc.bucket].count) return;
-  // The table entry the broad phase read must be the model recorded for it; otherwise the
-  // candidate stays not evaluated (and its ray incomplete where it matters).
-  const uint64_t entry = LsnifQueryTableRef(lsnif_batch_address(pc.table_lo, pc.table_hi)).model[pc.bucket];
-  if (entry != lsnif_batch_address(pc.model_lo, pc.model_hi)) return;
-  const uint ci = lsnif_query_scratch().w[lsnif_query_sorted_word() + start + id];
+  LsnifScratchRef scratch = lsnif_query_scratch();
+  const bool nearest = pc.query_round == LSNIF_QUERY_ROUND_NEAREST;
+  if (id >= (nearest ? models.c[pc.bucket].run_count : models.c[pc.bucket].rest_count)) return;
+  const uint ci = scratch.w[(nearest ? lsnif_query_sorted_word() : lsnif_query_rest_word()) + start + id];
   const LsnifQueryCandidate c = candidates.c[ci];
+  const vec3 origin = vec3(c.origin_x, c.origin_y, c.origin_z), direction = vec3(c.direction_x, c.direction_y, c.direction_z);
+  if (nearest) {
+    // The table entry the broad phase read must be the model recorded for it; otherwise the
+    // candidate stays not evaluated (and its ray incomplete where it matters).
+    const uint64_t entry = LsnifQueryTableRef(lsnif_batch_address(pc.table_lo, pc.table_hi))
+                               .model[lsnif_query_entry(c.instance_index, c.custom_index)];
+    if (entry != lsnif_batch_address(pc.model_lo, pc.model_hi)) return;
+    if (lsnif_query_t_key(c.t_enter) != lsnif_query_states().s[c.ray].first_t) {
+      scratch.w[lsnif_query_rest_word() + start + atomicAdd(models.c[pc.bucket].rest_count, 1u)] = ci;
+      return;
+    }
+  } else {
+    LsnifWalkStart walk_start;
+    const bool walks = lsnif_start_walk(m, origin, direction, c.tmin, LSNIF_INF, walk_start);
+    if (walks && lsnif_query_t_key(walk_start.t_enter) > lsnif_query_states().s[c.ray].best_t) {
+      candidates.c[ci].evaluated = 1u;
+      atomicAdd(scratch.w[LSNIF_QUERY_STATUS_WORD + 5u], 1u);  // culled
+      return;
+    }
+  }
   candidates.c[ci].evaluated = 1u;
-  const uint points = lsnif_intersect_walk(m, vec3(c.origin_x, c.origin_y, c.origin_z),
-                                           vec3(c.direction_x, c.direction_y, c.direction_z), c.tmin, c.tmax);
+  const uint points = lsnif_intersect_walk(m, origin, direction, c.tmin, c.tmax);
   if (points == 0u) return;  // a miss before the network (the candidate stays not accepted)
   lsnif_encode(m);
   lsnif_rows_store_narrow(rows, m, start + atomicAdd(models.c[pc.bucket].batch, 1u), ci, points);
@@ -239,18 +300,18 @@ void query_mlp(uint id) {
   LsnifBatchRows rows;
   uint start;
   lsnif_query_bucket(m, rows, start);
-  const uint batch = lsnif_query_models().c[pc.bucket].batch;
+  uint first, batch;
+  lsnif_query_round(start, first, batch);
 #if defined(LSNIF_MLP_COOPMAT_NV)
-  const uint first = id - gl_LocalInvocationID.x;  // the workgroup's first slot
   LsnifBatchRows shifted = rows;
-  shifted.base += start;  // slot s of the model's batch is column start + s
-  lsnif_rows_mlp_block(shifted, m, first, batch);
+  shifted.base += first;  // slot s of the round is column first + s
+  lsnif_rows_mlp_block(shifted, m, id - gl_LocalInvocationID.x, batch);
 #else
   // The workgroup's slots two per invocation (lsnif_rows_mlp_pair), by its first half of lanes: every
   // workgroup keeps its share of the work (a CPU driver runs contiguous ranges of them per thread).
   const uint pair = id - gl_LocalInvocationID.x + 2u * gl_LocalInvocationID.x;
   if (gl_LocalInvocationID.x >= LSNIF_BATCH_GROUP_SIZE / 2u || pair >= batch) return;
-  lsnif_rows_mlp_pair(rows, m, start + pair, start + pair + 1u, pair + 1u < batch);
+  lsnif_rows_mlp_pair(rows, m, first + pair, first + pair + 1u, pair + 1u < batch);
 #endif
 }
 #endif
@@ -264,11 +325,13 @@ void query_decode(uint id) {
   uint start;
   lsnif_query_bucket(m, rows, start);
   LsnifQueryCandidatesRef candidates = lsnif_query_candidates();
-  if (id >= lsnif_query_models().c[pc.bucket].batch) return;
-  const uint ci = lsnif_rows_load_item(rows, start + id);
+  uint first, batch;
+  lsnif_query_round(start, first, batch);
+  if (id >= batch) return;
+  const uint ci = lsnif_rows_load_item(rows, first + id);
   const LsnifQueryCandidate c = candidates.c[ci];
   const vec3 d = vec3(c.direction_x, c.direction_y, c.direction_z);
-  const LsnifHitInfo h = lsnif_rows_decode(rows, m, start + id, d, c.tmin, c.tmax, c.flags);
+  const LsnifHitInfo h = lsnif_rows_decode(rows, m, first + id, d, c.tmin, c.tmax, c.flags);
   mat3 w2o;
   for (int k = 0; k < 9; ++k) w2o[k / 3][k % 3] = c.normal_matrix[k];
   const vec3 n = transpose(w2o) * h.normal;  // A^-T n
@@ -374,6 +437,7 @@ void query_status(uint id) {
   s.dropped = scratch.w[LSNIF_QUERY_STATUS_WORD + 2u];
   s.incomplete_rays = scratch.w[LSNIF_QUERY_STATUS_WORD + 3u];
   s.unevaluated = scratch.w[LSNIF_QUERY_STATUS_WORD + 4u];
+  s.culled = scratch.w[LSNIF_QUERY_STATUS_WORD + 5u];
   LsnifQueryStatusRef(lsnif_batch_address(pc.status_lo, pc.status_hi)).s = s;
 }
 #endif
@@ -387,6 +451,8 @@ void main() {
   query_broad(id);
 #elif defined(LSNIF_QUERY_SCAN)
   query_scan();
+#elif defined(LSNIF_QUERY_RUN_ARGS)
+  query_run_args(id);
 #elif defined(LSNIF_QUERY_SCATTER)
   query_scatter(id);
 #elif defined(LSNIF_QUERY_NARROW)

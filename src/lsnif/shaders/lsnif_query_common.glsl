@@ -42,7 +42,8 @@ uint lsnif_query_models_word() { return LSNIF_BATCH_HEADER_WORDS; }
 uint lsnif_query_states_word() { return lsnif_query_models_word() + LSNIF_QUERY_MODEL_COUNTERS_WORDS * pc.model_count; }
 uint lsnif_query_candidates_word() { return lsnif_query_states_word() + LSNIF_QUERY_RAY_STATE_WORDS * pc.ray_count; }
 uint lsnif_query_sorted_word() { return lsnif_query_candidates_word() + LSNIF_QUERY_CANDIDATE_WORDS * pc.capacity; }
-uint lsnif_query_rows_word() { return lsnif_query_sorted_word() + pc.stride; }
+uint lsnif_query_rest_word() { return lsnif_query_sorted_word() + pc.stride; }
+uint lsnif_query_rows_word() { return lsnif_query_rest_word() + pc.stride; }
 
 uint64_t lsnif_query_scratch_address() { return lsnif_batch_address(pc.scratch_lo, pc.scratch_hi); }
 LsnifScratchRef lsnif_query_scratch() { return LsnifScratchRef(lsnif_query_scratch_address()); }
@@ -146,7 +147,7 @@ LsnifQueryRayState lsnif_query_initial_state() {
   st.missing_t = LSNIF_QUERY_INF_BITS;
   st.triangle_t = LSNIF_QUERY_INF_BITS;
   st.triangle_instance = LSNIF_QUERY_NONE;
-  st.reserved0 = 0u;
+  st.first_t = LSNIF_QUERY_INF_BITS;
   st.reserved1 = 0u;
   st.reserved2 = 0u;
   return st;
@@ -204,9 +205,11 @@ uint lsnif_query_entry(uint instance_index, uint custom) {
 // instance (an index past the table, a hole or a block of another layout is not); when it is and
 // the ray crosses the model box there, its candidate is appended. Returns the ordering key of the
 // candidate's t_enter when it was dropped for lack of capacity (the caller lowers the ray's
-// missing_t), else LSNIF_QUERY_INF_BITS.
+// missing_t), else LSNIF_QUERY_INF_BITS; `kept_t`, the key of the t_enter of a candidate appended
+// (the caller lowers the ray's first_t), else LSNIF_QUERY_INF_BITS.
 uint lsnif_query_record_candidate(uint id, LsnifQueryRay q, uint flags, uint64_t table, uint custom,
-                                  uint instance_index, vec3 o, vec3 d, mat3 w2o, float tmax) {
+                                  uint instance_index, vec3 o, vec3 d, mat3 w2o, float tmax, out uint kept_t) {
+  kept_t = LSNIF_QUERY_INF_BITS;
   const uint entry = lsnif_query_entry(instance_index, custom);
   if (entry >= pc.model_count) return LSNIF_QUERY_INF_BITS;
   const uint64_t address = LsnifQueryTableRef(table).model[entry];
@@ -218,6 +221,7 @@ uint lsnif_query_record_candidate(uint id, LsnifQueryRay q, uint flags, uint64_t
   if (slot >= pc.capacity) return lsnif_query_t_key(span.x);
   atomicAdd(lsnif_query_models().c[entry].count, 1u);
   lsnif_query_candidates().c[slot] = lsnif_query_candidate(id, instance_index, custom, flags, o, d, q.tmin, tmax, span, w2o);
+  kept_t = lsnif_query_t_key(span.x);
   return LSNIF_QUERY_INF_BITS;
 }
 

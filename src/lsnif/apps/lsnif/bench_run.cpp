@@ -476,12 +476,14 @@ bool render_preset(vk::ComputeContext& ctx, const BenchCommand& cmd, const scene
     PathOptions given;
     given.pipeline = entry;
     given.primary = cmd.primary_name;
-    if (!resolve_path_options("bench", given, ctx, sc, /*reference=*/false, row.path)) return false;
+    const uint64_t pixels = uint64_t(rs.width) * rs.height;
+    if (!resolve_path_options("bench", given, ctx, sc, /*reference=*/false, pixels, row.path)) return false;
     // auto: the reference takes the fastest triangle path; a forced pipeline renders it too, unless
     // that is the wavefront pipeline and the reference's triangles have cut-outs (which it does not
     // alpha-test): then the reference is inline, and the report says why.
     row.reference_path = row.path;
-    if (entry == "auto" && !resolve_path_options("bench", PathOptions(), ctx, sc, /*reference=*/true, row.reference_path))
+    if (entry == "auto" &&
+        !resolve_path_options("bench", PathOptions(), ctx, sc, /*reference=*/true, pixels, row.reference_path))
       return false;
     if (const std::string cutout = render::cutout_material(sc, /*reference=*/true);
         row.reference_path.pipeline == render::PathPipeline::wavefront && !cutout.empty()) {

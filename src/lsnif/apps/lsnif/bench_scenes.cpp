@@ -23,6 +23,9 @@ namespace {
 namespace fs = std::filesystem;
 
 // The framing assumes the shape of the default image.
+// The grid scene: kGridSide x kGridSide bunnies, kGridSpacing apart (a bunny is 1 across).
+constexpr uint32_t kGridSide = 32;
+constexpr float kGridSpacing = 1.3f;
 constexpr float kAspect = float(render::kDefaultImageWidth) / float(render::kDefaultImageHeight);
 
 struct Source {
@@ -60,6 +63,7 @@ const char* scene_hdr(const std::string& name) {
   if (name == "dragons") return "sunset.exr";
   if (name == "heavy") return "city.exr";
   if (name == "foliage") return "courtyard.exr";
+  if (name == "grid") return "forest.exr";
   return "sunrise.exr";
 }
 
@@ -68,6 +72,7 @@ std::vector<const Source*> scene_sources(const std::string& name) {
   if (name == "dragons") return {&kDragon};
   if (name == "heavy") return {&kBunny, &kArmadillo, &kDragon};
   if (name == "strands") return {&kElephant};
+  if (name == "grid") return {&kBunny};
   return {};
 }
 
@@ -250,7 +255,7 @@ Mesh card_mesh(const std::vector<Card>& cards, Texture texture, const std::strin
 }
 
 const std::vector<std::string>& bench_scene_names() {
-  static const std::vector<std::string> names = {"bunny", "dragons", "heavy", "strands", "foliage"};
+  static const std::vector<std::string> names = {"bunny", "dragons", "heavy", "strands", "foliage", "grid"};
   return names;
 }
 
@@ -420,6 +425,18 @@ Status make_bench_scene(const std::string& name, const std::string& data_dir, Be
     view = glm::vec3(0.05f, 0.3f, 1.0f);
     fill = 0.7f;
     out.env_intensity = 0.6f;  // the overcast city sky would wash the ground out at 1
+  } else if (name == "grid") {
+    // A field of instances seen at a low angle: a ray crosses many instance boxes before its hit,
+    // the case where the cost per ray must not grow with the instance count.
+    out.summary = format("one bunny model instanced %u times on a %u x %u grid, seen at a low angle",
+                         kGridSide * kGridSide, kGridSide, kGridSide);
+    std::vector<glm::mat4> cells;
+    for (uint32_t i = 0; i < kGridSide * kGridSide; ++i) {
+      const float x = (float(i % kGridSide) - 0.5f * float(kGridSide - 1)) * kGridSpacing;
+      const float z = (float(i / kGridSide) - 0.5f * float(kGridSide - 1)) * kGridSpacing;
+      cells.push_back(placement({x, 0.0f, z}, float((i * 37u) % 360u), 1.0f));
+    }
+    s = add(kBunny, "bunny", 0, 1.0f, std::move(cells));
   } else if (name == "foliage") {
     out.summary = "alpha-tested cards: a bush of leaf cards and five instances of a fern (glTF alphaMode MASK)";
     constexpr uint32_t kLeafCards = 900;
@@ -457,6 +474,11 @@ Status make_bench_scene(const std::string& name, const std::string& data_dir, Be
   glm::vec3 lo, hi;
   world_bounds(out.objects, lo, hi);
   out.camera = framing_camera(lo, hi, view, 0.6f, fill);
+  if (name == "grid") {  // from just outside the field's front edge, looking across it at a low angle
+    const float front = 0.5f * float(kGridSide) * kGridSpacing;
+    out.camera.camera_to_world = glm::inverse(
+        glm::lookAt(glm::vec3(0.0f, 2.2f, front + 2.0f), glm::vec3(0.0f, 0.0f, 0.2f * front), glm::vec3(0, 1, 0)));
+  }
   out.ground_center = glm::vec3(0.5f * (lo.x + hi.x), 0.0f, 0.5f * (lo.z + hi.z));
   out.ground_half_size = 4.0f * glm::length(hi - lo);
   return Status::ok();

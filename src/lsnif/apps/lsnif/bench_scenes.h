@@ -41,7 +41,7 @@ struct BenchScene {
 };
 
 // The scenes, in the order `lsnif bench` runs them by default: bunny, dragons, heavy, strands,
-// foliage.
+// foliage, grid.
 const std::vector<std::string>& bench_scene_names();
 
 // The files under `data_dir` that scene `name` needs (meshes or textures, and the HDR image).

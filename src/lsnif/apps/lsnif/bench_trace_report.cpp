@@ -163,9 +163,9 @@ void print_text(const Report& r) {
               "diagonal over %u rays both hit; %u hits, %u incomplete\n",
               100.0 * r.query_agree / n, 100.0 * r.query_max_t_difference, r.query_both_hit, r.query_hits,
               r.query_incomplete);
-  std::printf("query status                    %u candidates, capacity %u, %u dropped, %u not evaluated\n",
+  std::printf("query status                    %u candidates, capacity %u, %u dropped, %u not evaluated, %u culled\n",
               r.query_status.candidates, r.query_status.capacity, r.query_status.dropped,
-              r.query_status.unevaluated);
+              r.query_status.unevaluated, r.query_status.culled);
   std::string widths;
   for (const uint32_t w : r.gemm.widths) widths += format(widths.empty() ? "%u" : "-%u", w);
   std::printf("\nCPU limit                       Eigen GEMM %s float32 (bias + leaky ReLU included), %u OpenMP "
@@ -232,6 +232,7 @@ void print_json(const Report& r) {
   j["query_candidates"] = r.query_status.candidates;
   j["query_dropped"] = r.query_status.dropped;
   j["query_unevaluated"] = r.query_status.unevaluated;
+  j["query_culled"] = r.query_status.culled;
   j["query_network_evaluations_per_second"] = r.query_evaluations_per_second();
   j["query_over_inline_network_evaluations_per_second"] = json::measured(r.query_over_inline());
   j["query_inline_hit_agreement"] = double(r.query_agree) / double(r.rays);

@@ -145,8 +145,9 @@ int cmd_demo(int argc, char** argv) {
   // The reference always takes the fastest triangle path; the LSNIF mode the choice for the scene
   // and device (or what --pipeline / --primary force), then the inline path for comparison.
   render::RenderChoice lsnif_path, reference_path;
-  if (!resolve_path_options("demo", path, ctx, scene, /*reference=*/false, lsnif_path) ||
-      !resolve_path_options("demo", PathOptions(), ctx, scene, /*reference=*/true, reference_path))
+  const uint64_t pixels = uint64_t(rs.width) * rs.height;
+  if (!resolve_path_options("demo", path, ctx, scene, /*reference=*/false, pixels, lsnif_path) ||
+      !resolve_path_options("demo", PathOptions(), ctx, scene, /*reference=*/true, pixels, reference_path))
     return 1;
   std::printf("\npipeline choice  LSNIF: %s\n                 reference: %s\n", lsnif_path.why.c_str(),
               reference_path.why.c_str());

@@ -69,7 +69,7 @@ int cmd_render(int argc, char** argv) {
     return 1;
   }
   render::RenderChoice choice;
-  if (!resolve_path_options("render", path, ctx, scene, reference, choice)) return 1;
+  if (!resolve_path_options("render", path, ctx, scene, reference, uint64_t(width) * height, choice)) return 1;
   if (stage_times && choice.pipeline != render::PathPipeline::wavefront) {
     std::fprintf(stderr, "lsnif render: --stage-times needs the wavefront pipeline, and the choice is %s (%s)\n",
                  render::pipeline_name(choice.pipeline), choice.why.c_str());

@@ -59,7 +59,7 @@ bool check_path_options(const char* command, const PathOptions& given) {
 }
 
 bool resolve_path_options(const char* command, const PathOptions& given, const vk::ComputeContext& ctx,
-                          const scene::Scene& scene, bool reference, render::RenderChoice& out) {
+                          const scene::Scene& scene, bool reference, uint64_t pixels, render::RenderChoice& out) {
   if (!check_path_options(command, given)) return false;
   render::RenderChoice choice;
   if (given.pipeline == "auto" || given.primary == "auto") {
@@ -68,7 +68,7 @@ bool resolve_path_options(const char* command, const PathOptions& given, const v
       std::fprintf(stderr, "lsnif %s: asking the device what it runs: %s\n", command, s.message().c_str());
       return false;
     }
-    choice = render::choose_render_path(scene, reference, paths);
+    choice = render::choose_render_path(scene, reference, paths, pixels);
   }
   std::string forced;
   if (given.pipeline != "auto") {

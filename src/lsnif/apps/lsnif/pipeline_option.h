@@ -25,10 +25,11 @@ void add_broad_phase_option(Args& args, std::string* name);
 bool check_path_options(const char* command, const PathOptions& given);
 
 // The pipeline and primary visibility for `scene` in LSNIF (`reference` false) or reference mode on
-// `ctx`'s device: what --pipeline and --primary force, the rest chosen (its reason in out.why).
-// False (message printed naming `command`) on a bad value or a failed device query.
+// `ctx`'s device for images of `pixels` pixels: what --pipeline and --primary force, the rest chosen
+// (its reason in out.why). False (message printed naming `command`) on a bad value or a failed
+// device query.
 bool resolve_path_options(const char* command, const PathOptions& given, const vk::ComputeContext& ctx,
-                          const scene::Scene& scene, bool reference, render::RenderChoice& out);
+                          const scene::Scene& scene, bool reference, uint64_t pixels, render::RenderChoice& out);
 
 // Parses the option's value; false (after a usage message naming `command`) on anything else.
 bool parse_broad_phase_option(const char* command, const std::string& name, render::BroadPhase& out);

@@ -376,7 +376,8 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
     render::DevicePaths paths;
     if (Status s = render::device_paths(ctx, paths); !s) return s.context("viewer device");
     // For the LSNIF mode, also in a reference start: the toggle keeps the pipeline.
-    const render::RenderChoice c = render::choose_render_path(scene, /*reference=*/false, paths);
+    const render::RenderChoice c =
+        render::choose_render_path(scene, /*reference=*/false, paths, uint64_t(settings.width) * settings.height);
     if (settings.choose_pipeline) chosen.pipeline = c.pipeline;
     if (settings.choose_primary) chosen.primary = c.primary;
     report.path_choice = settings.choose_pipeline && settings.choose_primary ? c.why : "partly forced; chosen: " + c.why;
