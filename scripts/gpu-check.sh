@@ -75,7 +75,7 @@ if [ $quick -eq 1 ]; then train_preset=(--tiny); else train_preset=(); fi
 
 echo "== the bench scenes' models"
 if [ $quick -eq 1 ]; then scenes=(bunny); bench_opts=(--quick); models="$build/gpu-check-models-quick"
-else scenes=(bunny dragons heavy foliage); bench_opts=(); models="$build/gpu-check-models"; fi
+else scenes=(bunny dragons heavy foliage grid); bench_opts=(); models="$build/gpu-check-models"; fi
 "$build/bin/lsnif" bench "${scenes[@]}" --quality default,low --no-render --out "$models" "${bench_opts[@]}"
 for s in "${scenes[@]}"; do
   mkdir -p "$dir/models/bench/$s"

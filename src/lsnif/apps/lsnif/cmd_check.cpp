@@ -47,7 +47,7 @@ const char* const kTests[] = {"gpu_reference_test", "rt_conformance_test", "plug
 constexpr size_t kMaxImages = 6;
 
 struct CheckOptions {
-  std::string out, folder, device, scenes = "bunny,dragons,heavy,foliage", quality = "default,low";
+  std::string out, folder, device, scenes = "bunny,dragons,heavy,foliage,grid", quality = "default,low";
   uint32_t width = 1920, height = 1080, spp = 4, rays = 1u << 20, step_timeout = 300;
   bool quick = false, validation = false, keep_work = false;
 };
@@ -177,7 +177,7 @@ std::optional<int> parse(int argc, char** argv, CheckOptions& o) {
             "The device: --device, else the environment variable LSNIF_DEVICE, else the automatic choice.");
   args.positional("OUT", "output folder (report.json, images; its work/ subfolder is removed at the end)", &o.out);
   args.option("folder", "the GPU check folder (bin/, lib/, data/, models/)", &o.folder);
-  args.option("scenes", "bench scenes, a list of bunny, dragons, heavy, strands, foliage", &o.scenes);
+  args.option("scenes", "bench scenes, a list of bunny, dragons, heavy, strands, foliage, grid", &o.scenes);
   args.option("quality", "bench models, a list of default, high, low", &o.quality);
   args.option("width", "bench image width", &o.width, 16, 7680);
   args.option("height", "bench image height", &o.height, 16, 4320);
