@@ -7,6 +7,7 @@
 // dispatches and the resolve).
 #include <algorithm>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -569,16 +570,17 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
     else
       runs.emplace_back(b, b);
   }
-  auto per_model = [&](VkPipeline stage, uint64_t args) {
+  // `stage` once per run, its dispatch the VkDispatchIndirectCommand at `args` of the run's first
+  // entry's counters, or one workgroup without `args`.
+  auto per_model = [&](VkPipeline stage, std::optional<uint64_t> args) {
     for (const auto& [first, last] : runs) {
       pc.bucket = first;
       pc.bucket_last = last;
       split(models[first]->block.address, pc.model_lo, pc.model_hi);
-      if (args == ~uint64_t(0)) {
+      if (args)
+        run_indirect(stage, counters_word(first) + *args);
+      else
         run(stage, 1);
-      } else {
-        run_indirect(stage, counters_word(first) + args);
-      }
     }
   };
 
@@ -607,7 +609,7 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
     timestamp(1, base);
     run(st.scan, 1);
     between_passes(vk, cmd, false);
-    per_model(st.run_args, ~uint64_t(0));
+    per_model(st.run_args, std::nullopt);
     between_passes(vk, cmd, true);
     run_indirect(st.scatter, LSNIF_QUERY_SCATTER_ARGS_WORD);
     between_passes(vk, cmd, false);

@@ -58,70 +58,102 @@ uint lsnif_mlp_used_pairs(LsnifModel m, uint points) {
   return LSNIF_GPU_ROW_WORDS(min(points, m.h.max_points) * m.h.grid_levels * m.h.features);
 }
 
+// The layer bookkeeping both forward passes share: the layer's shape, where its weights start (in
+// octs of the block) and the two halves of lsnif_act its input and output take turns in.
+struct LsnifMlpLayer {
+  bool hidden;    // a hidden layer (leaky ReLU), else the output layer
+  uint in_dim, out_dim;
+  uint pairs;     // input pairs of a weight row
+  uint used;      // the input pairs the loops run over (the first layer: those the walk filled)
+  uint blocks;    // blocks of 8 output rows
+  uint oct;       // first oct of the layer's weights
+  uint bias_oct;  // first oct of its biases
+  uint in_base, out_base;
+};
+
+// The state before the first layer: the network input at lsnif_act[0, input_dim).
+LsnifMlpLayer lsnif_mlp_input_layer(LsnifModel m) {
+  LsnifMlpLayer layer;
+  layer.hidden = true;
+  layer.in_dim = lsnif_input_dim(m);
+  layer.out_dim = 0u;
+  layer.pairs = layer.used = layer.blocks = layer.bias_oct = 0u;
+  layer.oct = m.h.mlp_offset >> 3;
+  layer.in_base = 0u;
+  layer.out_base = LSNIF_MAX_INPUT;
+  return layer;
+}
+
+// Layer l's shape, its first layer bounded by a walk of `points` boundary points.
+void lsnif_mlp_shape_layer(LsnifModel m, uint l, uint points, inout LsnifMlpLayer layer) {
+  layer.hidden = l < m.h.hidden_layers;
+  layer.out_dim = layer.hidden ? m.h.hidden_width : lsnif_output_dim(m);
+  layer.pairs = LSNIF_GPU_ROW_WORDS(layer.in_dim);
+  layer.used = l == 0u ? min(layer.pairs, lsnif_mlp_used_pairs(m, points)) : layer.pairs;
+  layer.blocks = LSNIF_GPU_ROW_BLOCKS(layer.out_dim);
+  layer.bias_oct = layer.oct + layer.blocks * layer.pairs;
+}
+
+// After a layer: its output is the next one's input. Padded rows are zero (zero weights and bias),
+// so the slot after an odd out_dim, read as the high half of the last pair by the next layer, is zero.
+void lsnif_mlp_next_layer(inout LsnifMlpLayer layer) {
+  layer.oct = layer.bias_oct + layer.blocks;
+  layer.in_dim = layer.out_dim;
+  const uint previous_input = layer.in_base;
+  layer.in_base = layer.out_base;
+  layer.out_base = previous_input;
+}
+
 // Runs the network on lsnif_act[0, input_dim) (written by lsnif_encode) of a walk of `points`
 // boundary points: the first layer reads only the inputs the walk filled (lsnif_mlp_used_pairs; the
 // others are zero). Returns the index in lsnif_act of the first of the output_dim raw outputs
 // (followed by zeros up to the row block).
 uint lsnif_mlp_forward(LsnifModel m, uint points) {
-  const uint layers = m.h.hidden_layers + 1u;
   const float slope = m.h.leaky_slope;
-  uint in_dim = lsnif_input_dim(m);
-  uint in_base = 0u, out_base = LSNIF_MAX_INPUT;
-  uint oct = m.h.mlp_offset >> 3;  // first oct of the current layer
-  for (uint l = 0u; l < layers; ++l) {
-    const bool hidden = l < m.h.hidden_layers;
-    const uint out_dim = hidden ? m.h.hidden_width : lsnif_output_dim(m);
-    const uint pairs = LSNIF_GPU_ROW_WORDS(in_dim);
-    const uint used = l == 0u ? min(pairs, lsnif_mlp_used_pairs(m, points)) : pairs;  // the loop's bound
-    const uint blocks = LSNIF_GPU_ROW_BLOCKS(out_dim);
-    const uint bias_oct = oct + blocks * pairs;
+  LsnifMlpLayer layer = lsnif_mlp_input_layer(m);
+  for (uint l = 0u; l <= m.h.hidden_layers; ++l) {
+    lsnif_mlp_shape_layer(m, l, points, layer);
     uint b = 0u;
-    for (; b + 4u <= blocks; b += 4u) {  // 32 rows per pass over the input
-      const uint first = oct + b * pairs;
+    for (; b + 4u <= layer.blocks; b += 4u) {  // 32 rows per pass over the input
+      const uint first = layer.oct + b * layer.pairs;
       vec4 a0 = vec4(0.0), a1 = vec4(0.0), a2 = vec4(0.0), a3 = vec4(0.0);
       vec4 a4 = vec4(0.0), a5 = vec4(0.0), a6 = vec4(0.0), a7 = vec4(0.0);
-      for (uint i = 0u; i < used; ++i) {
-        const float x0 = lsnif_act[in_base + 2u * i], x1 = lsnif_act[in_base + 2u * i + 1u];
+      for (uint i = 0u; i < layer.used; ++i) {
+        const float x0 = lsnif_act[layer.in_base + 2u * i], x1 = lsnif_act[layer.in_base + 2u * i + 1u];
         uvec4 lo, hi;
         lsnif_load_oct(m, first + i, lo, hi);
         LSNIF_MLP_ROWS(a0, lo, x0, x1);
         LSNIF_MLP_ROWS(a1, hi, x0, x1);
-        lsnif_load_oct(m, first + pairs + i, lo, hi);
+        lsnif_load_oct(m, first + layer.pairs + i, lo, hi);
         LSNIF_MLP_ROWS(a2, lo, x0, x1);
         LSNIF_MLP_ROWS(a3, hi, x0, x1);
-        lsnif_load_oct(m, first + 2u * pairs + i, lo, hi);
+        lsnif_load_oct(m, first + 2u * layer.pairs + i, lo, hi);
         LSNIF_MLP_ROWS(a4, lo, x0, x1);
         LSNIF_MLP_ROWS(a5, hi, x0, x1);
-        lsnif_load_oct(m, first + 3u * pairs + i, lo, hi);
+        lsnif_load_oct(m, first + 3u * layer.pairs + i, lo, hi);
         LSNIF_MLP_ROWS(a6, lo, x0, x1);
         LSNIF_MLP_ROWS(a7, hi, x0, x1);
       }
-      lsnif_mlp_finish_block(m, bias_oct, b, hidden, slope, out_base, a0, a1);
-      lsnif_mlp_finish_block(m, bias_oct, b + 1u, hidden, slope, out_base, a2, a3);
-      lsnif_mlp_finish_block(m, bias_oct, b + 2u, hidden, slope, out_base, a4, a5);
-      lsnif_mlp_finish_block(m, bias_oct, b + 3u, hidden, slope, out_base, a6, a7);
+      lsnif_mlp_finish_block(m, layer.bias_oct, b, layer.hidden, slope, layer.out_base, a0, a1);
+      lsnif_mlp_finish_block(m, layer.bias_oct, b + 1u, layer.hidden, slope, layer.out_base, a2, a3);
+      lsnif_mlp_finish_block(m, layer.bias_oct, b + 2u, layer.hidden, slope, layer.out_base, a4, a5);
+      lsnif_mlp_finish_block(m, layer.bias_oct, b + 3u, layer.hidden, slope, layer.out_base, a6, a7);
     }
-    for (; b < blocks; ++b) {  // the remaining blocks, 8 rows per pass
-      const uint first = oct + b * pairs;
+    for (; b < layer.blocks; ++b) {  // the remaining blocks, 8 rows per pass
+      const uint first = layer.oct + b * layer.pairs;
       vec4 a0 = vec4(0.0), a1 = vec4(0.0);
-      for (uint i = 0u; i < used; ++i) {
-        const float x0 = lsnif_act[in_base + 2u * i], x1 = lsnif_act[in_base + 2u * i + 1u];
+      for (uint i = 0u; i < layer.used; ++i) {
+        const float x0 = lsnif_act[layer.in_base + 2u * i], x1 = lsnif_act[layer.in_base + 2u * i + 1u];
         uvec4 lo, hi;
         lsnif_load_oct(m, first + i, lo, hi);
         LSNIF_MLP_ROWS(a0, lo, x0, x1);
         LSNIF_MLP_ROWS(a1, hi, x0, x1);
       }
-      lsnif_mlp_finish_block(m, bias_oct, b, hidden, slope, out_base, a0, a1);
+      lsnif_mlp_finish_block(m, layer.bias_oct, b, layer.hidden, slope, layer.out_base, a0, a1);
     }
-    // Padded rows are zero (zero weights and bias), so the slot after an odd out_dim, read as the
-    // high half of the last pair by the next layer, is zero.
-    oct = bias_oct + blocks;
-    in_dim = out_dim;
-    const uint tmp = in_base;
-    in_base = out_base;
-    out_base = tmp;
+    lsnif_mlp_next_layer(layer);
   }
-  return in_base;
+  return layer.in_base;
 }
 
 // The batched paths' kernel: the network on two rays at once, A in lsnif_act and B in lsnif_act_b
@@ -151,30 +183,21 @@ void lsnif_mlp_finish_pair(LsnifModel m, uint bias_oct, uint b, bool hidden, flo
 }
 
 uint lsnif_mlp_forward_pair(LsnifModel m, uint points_a, uint points_b) {
-  const uint layers = m.h.hidden_layers + 1u;
   const float slope = m.h.leaky_slope;
-  uint in_dim = lsnif_input_dim(m);
-  uint in_base = 0u, out_base = LSNIF_MAX_INPUT;
-  uint oct = m.h.mlp_offset >> 3;
-  for (uint l = 0u; l < layers; ++l) {
-    const bool hidden = l < m.h.hidden_layers;
-    const uint out_dim = hidden ? m.h.hidden_width : lsnif_output_dim(m);
-    const uint pairs = LSNIF_GPU_ROW_WORDS(in_dim);
-    const uint used =
-        l == 0u ? min(pairs, lsnif_mlp_used_pairs(m, max(points_a, points_b))) : pairs;  // the loop's bound
-    const uint blocks = LSNIF_GPU_ROW_BLOCKS(out_dim);
-    const uint bias_oct = oct + blocks * pairs;
+  LsnifMlpLayer layer = lsnif_mlp_input_layer(m);
+  for (uint l = 0u; l <= m.h.hidden_layers; ++l) {
+    lsnif_mlp_shape_layer(m, l, max(points_a, points_b), layer);
     uint b = 0u;
-    for (; b + 2u <= blocks; b += 2u) {  // 16 rows of both rays per pass over the input
-      const uint first = oct + b * pairs;
+    for (; b + 2u <= layer.blocks; b += 2u) {  // 16 rows of both rays per pass over the input
+      const uint first = layer.oct + b * layer.pairs;
       vec4 a0 = vec4(0.0), a1 = vec4(0.0), a2 = vec4(0.0), a3 = vec4(0.0);
       vec4 b0 = vec4(0.0), b1 = vec4(0.0), b2 = vec4(0.0), b3 = vec4(0.0);
-      for (uint i = 0u; i < used; ++i) {
-        const float x0 = lsnif_act[in_base + 2u * i], x1 = lsnif_act[in_base + 2u * i + 1u];
-        const float y0 = lsnif_act_b[in_base + 2u * i], y1 = lsnif_act_b[in_base + 2u * i + 1u];
+      for (uint i = 0u; i < layer.used; ++i) {
+        const float x0 = lsnif_act[layer.in_base + 2u * i], x1 = lsnif_act[layer.in_base + 2u * i + 1u];
+        const float y0 = lsnif_act_b[layer.in_base + 2u * i], y1 = lsnif_act_b[layer.in_base + 2u * i + 1u];
         uvec4 q0, q1, q2, q3;
         lsnif_load_oct(m, first + i, q0, q1);
-        lsnif_load_oct(m, first + pairs + i, q2, q3);
+        lsnif_load_oct(m, first + layer.pairs + i, q2, q3);
         const vec4 w0x = LSNIF_MLP_W0(q0), w0y = LSNIF_MLP_W1(q0), w1x = LSNIF_MLP_W0(q1), w1y = LSNIF_MLP_W1(q1);
         const vec4 w2x = LSNIF_MLP_W0(q2), w2y = LSNIF_MLP_W1(q2), w3x = LSNIF_MLP_W0(q3), w3y = LSNIF_MLP_W1(q3);
         a0 += w0x * x0 + w0y * x1;
@@ -186,15 +209,15 @@ uint lsnif_mlp_forward_pair(LsnifModel m, uint points_a, uint points_b) {
         b2 += w2x * y0 + w2y * y1;
         b3 += w3x * y0 + w3y * y1;
       }
-      lsnif_mlp_finish_pair(m, bias_oct, b, hidden, slope, out_base, a0, a1, b0, b1);
-      lsnif_mlp_finish_pair(m, bias_oct, b + 1u, hidden, slope, out_base, a2, a3, b2, b3);
+      lsnif_mlp_finish_pair(m, layer.bias_oct, b, layer.hidden, slope, layer.out_base, a0, a1, b0, b1);
+      lsnif_mlp_finish_pair(m, layer.bias_oct, b + 1u, layer.hidden, slope, layer.out_base, a2, a3, b2, b3);
     }
-    for (; b < blocks; ++b) {  // an odd last block
-      const uint first = oct + b * pairs;
+    for (; b < layer.blocks; ++b) {  // an odd last block
+      const uint first = layer.oct + b * layer.pairs;
       vec4 a0 = vec4(0.0), a1 = vec4(0.0), b0 = vec4(0.0), b1 = vec4(0.0);
-      for (uint i = 0u; i < used; ++i) {
-        const float x0 = lsnif_act[in_base + 2u * i], x1 = lsnif_act[in_base + 2u * i + 1u];
-        const float y0 = lsnif_act_b[in_base + 2u * i], y1 = lsnif_act_b[in_base + 2u * i + 1u];
+      for (uint i = 0u; i < layer.used; ++i) {
+        const float x0 = lsnif_act[layer.in_base + 2u * i], x1 = lsnif_act[layer.in_base + 2u * i + 1u];
+        const float y0 = lsnif_act_b[layer.in_base + 2u * i], y1 = lsnif_act_b[layer.in_base + 2u * i + 1u];
         uvec4 q0, q1;
         lsnif_load_oct(m, first + i, q0, q1);
         const vec4 w0x = LSNIF_MLP_W0(q0), w0y = LSNIF_MLP_W1(q0), w1x = LSNIF_MLP_W0(q1), w1y = LSNIF_MLP_W1(q1);
@@ -203,15 +226,11 @@ uint lsnif_mlp_forward_pair(LsnifModel m, uint points_a, uint points_b) {
         b0 += w0x * y0 + w0y * y1;
         b1 += w1x * y0 + w1y * y1;
       }
-      lsnif_mlp_finish_pair(m, bias_oct, b, hidden, slope, out_base, a0, a1, b0, b1);
+      lsnif_mlp_finish_pair(m, layer.bias_oct, b, layer.hidden, slope, layer.out_base, a0, a1, b0, b1);
     }
-    oct = bias_oct + blocks;
-    in_dim = out_dim;
-    const uint tmp = in_base;
-    in_base = out_base;
-    out_base = tmp;
+    lsnif_mlp_next_layer(layer);
   }
-  return in_base;
+  return layer.in_base;
 }
 
 #endif
