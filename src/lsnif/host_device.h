@@ -268,8 +268,9 @@ struct LsnifQueryHit { /* 64 bytes; every field is written, also for a miss */
  * holds, from its start, in 32-bit words: the count of rays with boundary points (the MLP's batch
  * size) and padding up to LSNIF_BATCH_HEADER_WORDS, then structure-of-arrays sections of `stride`
  * words per row: the ray index of each batch slot (1 row), the walk of each slot (count, t_enter,
- * t_exit, t[0 .. H-1]: 3 + H rows), the network input (2 x LSNIF_GPU_ROW_WORDS(input) rows) and
- * the raw network output (8 x LSNIF_GPU_ROW_BLOCKS(output) rows). */
+ * t_exit, t[0 .. H-1]: 3 + H rows), the network input (2 x LSNIF_GPU_ROW_WORDS(input) rows), the
+ * raw network output (8 x LSNIF_GPU_ROW_BLOCKS(output) rows) and the slots in order of walk length
+ * (1 row: the order the portable MLP kernel takes them in). */
 #define LSNIF_BATCH_HEADER_WORDS 64u
 #define LSNIF_BATCH_GROUP_SIZE 64u /* invocations of a workgroup of every stage; stride is a multiple */
 #define LSNIF_BATCH_CHUNK_RAYS 262144u /* rays per run of the stages: larger batches run in chunks that share the scratch */

@@ -432,7 +432,8 @@ LSNIF_API void lsnifDestroyQueryPipeline(LsnifContext context, LsnifQueryPipelin
 LSNIF_API LsnifQueryBroadPhase lsnifGetQueryBroadPhase(LsnifContext context, LsnifQueryPipeline pipeline);
 
 /* Timestamps lsnifCmdIntersectModelRays writes into LsnifIntersectModelRaysInfo::timestampPool:
- * before the narrow phase, after it, after the MLP, after the decode (stage bottom of pipe). A batch
+ * before the narrow phase, after it, after the MLP (with the pass ordering its slots), after the
+ * decode (stage bottom of pipe). A batch
  * of more than LSNIF_BATCH_CHUNK_RAYS rays runs the stages once per chunk: the first and last
  * timestamps bracket all of them, the middle two belong to the first chunk. */
 #define LSNIF_INTERSECT_TIMESTAMP_COUNT 4U

@@ -79,10 +79,13 @@ struct LsnifQueryPipeline_T {
     VkStridedDeviceAddressRegionKHR raygen{}, miss{}, hit{}, callable{};
   };
   VkPipelineLayout layout = VK_NULL_HANDLE;
-  VkPipeline clear = VK_NULL_HANDLE, narrow = VK_NULL_HANDLE, mlp = VK_NULL_HANDLE, decode = VK_NULL_HANDLE;
+  // `order` (the slots by walk length for the portable MLP kernel) stays null with the cooperative-matrix one.
+  VkPipeline clear = VK_NULL_HANDLE, narrow = VK_NULL_HANDLE, order = VK_NULL_HANDLE, mlp = VK_NULL_HANDLE,
+             decode = VK_NULL_HANDLE;
   struct Tlas {
     VkPipeline clear = VK_NULL_HANDLE, broad = VK_NULL_HANDLE, scan = VK_NULL_HANDLE, scatter = VK_NULL_HANDLE,
-               run_args = VK_NULL_HANDLE, narrow = VK_NULL_HANDLE, batch_args = VK_NULL_HANDLE, mlp = VK_NULL_HANDLE, decode = VK_NULL_HANDLE,
+               run_args = VK_NULL_HANDLE, narrow = VK_NULL_HANDLE, batch_args = VK_NULL_HANDLE, order = VK_NULL_HANDLE,
+               mlp = VK_NULL_HANDLE, decode = VK_NULL_HANDLE,
                tie = VK_NULL_HANDLE, resolve_hits = VK_NULL_HANDLE, resolve_rays = VK_NULL_HANDLE,
                status = VK_NULL_HANDLE;
   } tlas;

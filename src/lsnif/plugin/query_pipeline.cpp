@@ -21,6 +21,7 @@ namespace {
 #include "lsnif_batch_mlp_coopmat_spirv.h"
 #include "lsnif_batch_mlp_spirv.h"
 #include "lsnif_batch_narrow_spirv.h"
+#include "lsnif_batch_order_spirv.h"
 #include "lsnif_query_batch_args_spirv.h"
 #include "lsnif_query_run_args_spirv.h"
 #include "lsnif_query_broad_candidates_rgen_spirv.h"
@@ -34,6 +35,7 @@ namespace {
 #include "lsnif_query_mlp_coopmat_spirv.h"
 #include "lsnif_query_mlp_spirv.h"
 #include "lsnif_query_narrow_spirv.h"
+#include "lsnif_query_order_spirv.h"
 #include "lsnif_query_resolve_hits_spirv.h"
 #include "lsnif_query_resolve_rays_spirv.h"
 #include "lsnif_query_scan_spirv.h"
@@ -79,10 +81,10 @@ Outcome create_stage(LsnifContext_T& ctx, VkPipelineCache cache, VkPipelineLayou
   return Outcome::ok();
 }
 
-// Scratch rows of a model (host_device.h): slots, walk (3 + H), input pairs x 2, output blocks x 8.
+// Scratch rows of a model (host_device.h): slots, walk (3 + H), input pairs x 2, output blocks x 8, order.
 uint64_t scratch_rows(const LsnifModel_T& m) {
   return 1u + 3u + m.max_points + 2u * LSNIF_GPU_ROW_WORDS(m.input_dim) +
-         LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(m.output_dim);
+         LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(m.output_dim) + 1u;
 }
 
 // A stride near 0.618 x `groups`, coprime to it: workgroup w takes block (w x step) mod groups, a
@@ -379,6 +381,8 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
                      "MLP (cooperative matrix)", p->mlp);
   else if (o)
     o = create_stage(ctx, cache, p->layout, lsnif_batch_mlp_spirv, sizeof lsnif_batch_mlp_spirv, "MLP", p->mlp);
+  if (o && !coopmat)
+    o = create_stage(ctx, cache, p->layout, lsnif_batch_order_spirv, sizeof lsnif_batch_order_spirv, "order", p->order);
   if (o) o = create_stage(ctx, cache, p->layout, lsnif_batch_decode_spirv, sizeof lsnif_batch_decode_spirv, "decode", p->decode);
   if (tlas) {
     const struct {
@@ -394,6 +398,7 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
         {lsnif_query_run_args_spirv, sizeof lsnif_query_run_args_spirv, "query run args", &p->tlas.run_args},
         {lsnif_query_narrow_spirv, sizeof lsnif_query_narrow_spirv, "query narrow", &p->tlas.narrow},
         {lsnif_query_batch_args_spirv, sizeof lsnif_query_batch_args_spirv, "query batch args", &p->tlas.batch_args},
+        {lsnif_query_order_spirv, sizeof lsnif_query_order_spirv, "query order", &p->tlas.order},
         {coopmat ? lsnif_query_mlp_coopmat_spirv : lsnif_query_mlp_spirv,
          coopmat ? sizeof lsnif_query_mlp_coopmat_spirv : sizeof lsnif_query_mlp_spirv, "query MLP", &p->tlas.mlp},
         {lsnif_query_decode_spirv, sizeof lsnif_query_decode_spirv, "query decode", &p->tlas.decode},
@@ -407,6 +412,7 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
     for (const auto& st : stages) {
       const bool ray_query_stage = st.out == &p->tlas.broad;
       if (ray_query_stage && broad_phase != LSNIF_QUERY_BROAD_PHASE_RAY_QUERY) continue;
+      if (st.out == &p->tlas.order && coopmat) continue;  // the cooperative-matrix kernel takes slots in place
       if (o) o = create_stage(ctx, cache, p->layout, st.code, st.bytes, st.name, *st.out);
     }
     if (o && broad_phase == LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS) o = create_trace_rays_broad_phase(ctx, cache, *p);
@@ -424,8 +430,9 @@ Outcome create_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipelineCreateFlags
 void destroy_query_pipeline(LsnifContext_T& ctx, LsnifQueryPipeline_T& p) {
   const VkAllocationCallbacks* cb = ctx.info.pAllocator;
   LsnifQueryPipeline_T::Tlas& t = p.tlas;
-  for (VkPipeline* stage : {&p.clear, &p.narrow, &p.mlp, &p.decode, &t.clear, &t.broad, &t.scan, &t.scatter, &t.run_args, &t.narrow,
-                            &t.batch_args, &t.mlp, &t.decode, &t.tie, &t.resolve_hits, &t.resolve_rays, &t.status}) {
+  for (VkPipeline* stage : {&p.clear, &p.narrow, &p.order, &p.mlp, &p.decode, &t.clear, &t.broad, &t.scan, &t.scatter,
+                            &t.run_args, &t.narrow, &t.batch_args, &t.order, &t.mlp, &t.decode, &t.tie, &t.resolve_hits,
+                            &t.resolve_rays, &t.status}) {
     if (*stage) ctx.vk.vkDestroyPipeline(ctx.info.device, *stage, cb);
     *stage = VK_NULL_HANDLE;
   }
@@ -480,6 +487,10 @@ void record_intersect_model_rays(LsnifContext_T& ctx, const LsnifQueryPipeline_T
     run(p.narrow, groups);
     between_stages();
     if (base == 0) timestamp(1);
+    if (p.order) {  // the portable MLP kernel takes the slots by walk length
+      run(p.order, 1);
+      between_stages();
+    }
     run(p.mlp, groups);
     between_stages();
     if (base == 0) timestamp(2);
@@ -622,6 +633,10 @@ void record_query(LsnifContext_T& ctx, const LsnifQueryPipeline_T& p, VkCommandB
       timestamp(3 + 3 * round, base);
       run(st.batch_args, groups_of(info.modelCount));
       between_passes(vk, cmd, true);
+      if (st.order) {  // the portable MLP kernel takes the slots by walk length
+        per_model(st.order, std::nullopt);
+        between_passes(vk, cmd, false);
+      }
       per_model(st.mlp, batch_args);
       between_passes(vk, cmd, false);
       timestamp(4 + 3 * round, base);

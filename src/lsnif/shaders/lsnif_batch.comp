@@ -6,6 +6,8 @@
 //  LSNIF_BATCH_NARROW  1 invocation per ray: the walk (tmax = inf) and the hash-grid encoding; rays
 //                      without boundary points get their miss written here, the others take a batch
 //                      slot (atomic counter) and leave their walk and network input in the scratch.
+//  LSNIF_BATCH_ORDER   1 workgroup: the batch slots by walk length into the order row (a counting
+//                      sort, lsnif_rows_order_by_points), the order the portable MLP takes them in.
 //  LSNIF_BATCH_MLP     1 invocation per two batch slots (half of each workgroup's lanes): the MLP
 //                      (lsnif_mlp.glsl, lsnif_mlp_forward_pair) with the weights read at
 //                      addresses uniform over the dispatch (one load serves every lane: on lavapipe
@@ -19,6 +21,9 @@
 // with the TLAS query, lsnif_query.comp).
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#if defined(LSNIF_BATCH_ORDER)
+#define LSNIF_ROWS_ORDER_STAGE
+#endif
 #include "lsnif/shaders/lsnif_batch_rows.glsl"
 #define LSNIF_HIT_DECODE_ONLY  // a compute shader: the packers of lsnif_hit.glsl only
 #include "lsnif/lsnif_hit.glsl"
@@ -80,7 +85,9 @@ void main() {
 #else
   LsnifModel m = lsnif_load_model(lsnif_batch_address(pc.model_lo, pc.model_hi));
   LsnifBatchRows rows = lsnif_batch_rows();
-#if defined(LSNIF_BATCH_NARROW)
+#if defined(LSNIF_BATCH_ORDER)
+  lsnif_rows_order_by_points(rows, m, 0u, scratch.w[0]);
+#elif defined(LSNIF_BATCH_NARROW)
   const uint ray = gl_GlobalInvocationID.x;
   if (ray >= pc.ray_count) return;
   const LsnifQueryRay q = lsnif_batch_ray(ray);
@@ -100,13 +107,11 @@ void main() {
   const uint block = (gl_WorkGroupID.x * pc.block_step) % gl_NumWorkGroups.x;
 #if defined(LSNIF_BATCH_MLP) && defined(LSNIF_MLP_COOPMAT_NV)
   lsnif_rows_mlp_block(rows, m, block * LSNIF_BATCH_GROUP_SIZE, scratch.w[0]);
-  return;
-#endif
-#if defined(LSNIF_BATCH_MLP)
-  // The workgroup's slots two per invocation (lsnif_rows_mlp_pair), by its first half of lanes.
+#elif defined(LSNIF_BATCH_MLP)
+  // The workgroup's columns of the order row two per invocation, by its first half of lanes.
   const uint pair = 2u * (block * LSNIF_BATCH_GROUP_SIZE + gl_LocalInvocationID.x);
   if (pair >= scratch.w[0]) return;
-  lsnif_rows_mlp_pair(rows, m, pair, pair + 1u, pair + 1u < scratch.w[0]);
+  lsnif_rows_mlp_ordered_pair(rows, m, pair, pair + 1u < scratch.w[0]);
 #elif defined(LSNIF_BATCH_DECODE)
   const uint slot = block * LSNIF_BATCH_GROUP_SIZE + gl_LocalInvocationID.x;
   if (slot >= scratch.w[0]) return;
@@ -115,7 +120,7 @@ void main() {
   const vec3 direction = vec3(q.direction_x, q.direction_y, q.direction_z);
   lsnif_batch_write_hit(ray, lsnif_rows_decode(rows, m, slot, direction, q.tmin, q.tmax, q.flags));
 #else
-#error "compile with one of LSNIF_BATCH_CLEAR, LSNIF_BATCH_NARROW, LSNIF_BATCH_MLP, LSNIF_BATCH_DECODE"
+#error "compile with one of LSNIF_BATCH_CLEAR, LSNIF_BATCH_NARROW, LSNIF_BATCH_ORDER, LSNIF_BATCH_MLP, LSNIF_BATCH_DECODE"
 #endif
 #endif
 #endif

@@ -3,8 +3,9 @@
 // (lsnif_query.comp). A batch is a table of rows of `stride` words (host_device.h): row 0 the item of
 // each slot (a ray or a candidate), the walk (count, t_enter, t_exit, t[0 .. H-1]: 3 + H rows), the
 // network input (2 x LSNIF_GPU_ROW_WORDS(input) rows) and the raw network output
-// (8 x LSNIF_GPU_ROW_BLOCKS(output) rows). Lane i of a dispatch reads word i of a row, so
-// neighbouring lanes read neighbouring words.
+// (8 x LSNIF_GPU_ROW_BLOCKS(output) rows), then the order row (the slots by walk length, in which the
+// portable MLP stage takes them: lsnif_rows_order_by_points). Lane i of a dispatch reads word i of a
+// row, so neighbouring lanes read neighbouring words.
 #ifndef LSNIF_BATCH_ROWS_GLSL
 #define LSNIF_BATCH_ROWS_GLSL
 
@@ -31,6 +32,13 @@ uint lsnif_rows_input(LsnifBatchRows r, LsnifModel m, uint i, uint slot) {
 uint lsnif_rows_output(LsnifBatchRows r, LsnifModel m, uint k, uint slot) {
   const uint input_rows = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
   return r.base + (4u + m.h.max_points + input_rows + k) * r.stride + slot;
+}
+
+// Column k of the order row.
+uint lsnif_rows_order(LsnifBatchRows r, LsnifModel m, uint k) {
+  const uint input_rows = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
+  const uint output_rows = LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(lsnif_output_dim(m));
+  return r.base + (4u + m.h.max_points + input_rows + output_rows) * r.stride + k;
 }
 
 // Narrow phase, after lsnif_intersect_walk found `points` > 0 boundary points and lsnif_encode ran:
@@ -72,6 +80,49 @@ void lsnif_rows_mlp_pair(LsnifBatchRows r, LsnifModel m, uint a, uint b, bool ha
     r.scratch.w[lsnif_rows_output(r, m, k, a)] = floatBitsToUint(lsnif_act[base + k]);
     if (has_b) r.scratch.w[lsnif_rows_output(r, m, k, b)] = floatBitsToUint(lsnif_act_b[base + k]);
   }
+}
+
+#if defined(LSNIF_ROWS_ORDER_STAGE)
+// The order of the MLP stage: the pair kernel's first layer runs over the inputs of the longer walk
+// of its two rays, and a group of invocations (a SIMD group of a CPU driver, a GPU's warp) over those
+// of its longest ray, while a walk has 5 of 18 points on average; taken in order of point count, the
+// rays of a group have walks of like length. The results are the same bits in any order (each ray's
+// sums are its own; the shorter walk's inputs beyond its points are zero).
+shared uint lsnif_rows_bins[LSNIF_MAX_POINTS + 1u];
+
+uint lsnif_rows_points(LsnifBatchRows r, uint slot) {
+  return min(r.scratch.w[lsnif_rows_walk(r, 0u, slot)], LSNIF_MAX_POINTS);
+}
+
+// One workgroup (every invocation calls it, `count` uniform): the slots first .. first + count - 1 by
+// point count (a counting sort) into the order row's columns first .. first + count - 1.
+void lsnif_rows_order_by_points(LsnifBatchRows r, LsnifModel m, uint first, uint count) {
+  const uint lid = gl_LocalInvocationID.x;
+  for (uint p = lid; p <= LSNIF_MAX_POINTS; p += LSNIF_BATCH_GROUP_SIZE) lsnif_rows_bins[p] = 0u;
+  barrier();
+  for (uint s = lid; s < count; s += LSNIF_BATCH_GROUP_SIZE) atomicAdd(lsnif_rows_bins[lsnif_rows_points(r, first + s)], 1u);
+  barrier();
+  if (lid == 0u) {
+    uint sum = 0u;
+    for (uint p = 0u; p <= LSNIF_MAX_POINTS; ++p) {
+      const uint c = lsnif_rows_bins[p];
+      lsnif_rows_bins[p] = sum;
+      sum += c;
+    }
+  }
+  barrier();
+  for (uint s = lid; s < count; s += LSNIF_BATCH_GROUP_SIZE) {
+    const uint k = atomicAdd(lsnif_rows_bins[lsnif_rows_points(r, first + s)], 1u);
+    r.scratch.w[lsnif_rows_order(r, m, first + k)] = first + s;
+  }
+}
+#endif
+
+// The MLP of the slots in columns k and k + 1 of the order row (lsnif_rows_mlp_pair); without
+// `has_b`, of column k's alone.
+void lsnif_rows_mlp_ordered_pair(LsnifBatchRows r, LsnifModel m, uint k, bool has_b) {
+  const uint a = r.scratch.w[lsnif_rows_order(r, m, k)];
+  lsnif_rows_mlp_pair(r, m, a, has_b ? r.scratch.w[lsnif_rows_order(r, m, k + 1u)] : a, has_b);
 }
 
 // The item of `slot`.

@@ -21,7 +21,7 @@
 //  LSNIF_QUERY_RUN_ARGS per run, 1 invocation: the run's candidates (contiguous in the sorted order)
 //                       and the indirect dispatch of its narrow phase.
 //  LSNIF_QUERY_SCATTER  1 invocation per candidate: its index into its entry's sorted range.
-//  Then two rounds of the three per-model stages below: the first over the candidates nearest their
+//  Then two rounds of the per-model stages below: the first over the candidates nearest their
 //  ray (LSNIF_QUERY_ROUND_NEAREST, host_device.h), the second over the others whose hit could still
 //  win against the first round's (LSNIF_QUERY_ROUND_REST; query_narrow says why nothing else can).
 //  LSNIF_QUERY_NARROW   per run, 1 invocation per candidate of its range, when the candidate's table
@@ -30,6 +30,8 @@
 //                       boundary points take a slot of the run's dense batch (in the columns of its
 //                       range, after the slots of the round before).
 //  LSNIF_QUERY_BATCH_ARGS  1 invocation per entry: the round's slots and the indirect dispatch over them.
+//  LSNIF_QUERY_ORDER    per run, 1 workgroup: the round's slots by walk length into the order row
+//                       (lsnif_rows_order_by_points), the order the portable MLP takes them in.
 //  LSNIF_QUERY_MLP      per run, 1 invocation per two slots of the round: the MLP (lsnif_rows_mlp_pair).
 //  LSNIF_QUERY_DECODE   per run, 1 invocation per slot of the round: heads and acceptance; an accepted
 //                       candidate lowers its ray's best t (atomicMin on the float bits).
@@ -46,6 +48,9 @@
 #version 460
 #extension GL_EXT_ray_query : require
 #extension GL_GOOGLE_include_directive : require
+#if defined(LSNIF_QUERY_ORDER)
+#define LSNIF_ROWS_ORDER_STAGE
+#endif
 #include "lsnif/shaders/lsnif_query_common.glsl"
 #define LSNIF_HIT_DECODE_ONLY  // a compute shader: the packers of lsnif_hit.glsl only
 #include "lsnif/lsnif_hit.glsl"
@@ -222,7 +227,7 @@ void query_batch_args(uint id) {
 }
 #endif
 
-#if defined(LSNIF_QUERY_NARROW) || defined(LSNIF_QUERY_MLP) || defined(LSNIF_QUERY_DECODE)
+#if defined(LSNIF_QUERY_NARROW) || defined(LSNIF_QUERY_ORDER) || defined(LSNIF_QUERY_MLP) || defined(LSNIF_QUERY_DECODE)
 // The model of pc.bucket, the batch rows, and the start of the model's sorted range; its batch occupies
 // the columns of its sorted range.
 void lsnif_query_bucket(out LsnifModel m, out LsnifBatchRows rows, out uint start) {
@@ -292,6 +297,19 @@ void query_narrow(uint id) {
 }
 #endif
 
+#if defined(LSNIF_QUERY_ORDER)
+// LSNIF_QUERY_ORDER: the round's slots of pc.bucket's batch by walk length (one workgroup).
+void query_order() {
+  LsnifModel m;
+  LsnifBatchRows rows;
+  uint start;
+  lsnif_query_bucket(m, rows, start);
+  uint first, batch;
+  lsnif_query_round(start, first, batch);
+  lsnif_rows_order_by_points(rows, m, first, batch);
+}
+#endif
+
 #if defined(LSNIF_QUERY_MLP)
 // LSNIF_QUERY_MLP: the MLP on slot `id` of pc.bucket's batch (with LSNIF_MLP_COOPMAT_NV: the
 // workgroup's 64 slots together, lsnif_mlp_coopmat.glsl).
@@ -307,11 +325,11 @@ void query_mlp(uint id) {
   shifted.base += first;  // slot s of the round is column first + s
   lsnif_rows_mlp_block(shifted, m, id - gl_LocalInvocationID.x, batch);
 #else
-  // The workgroup's slots two per invocation (lsnif_rows_mlp_pair), by its first half of lanes: every
+  // The workgroup's columns of the order row two per invocation, by its first half of lanes: every
   // workgroup keeps its share of the work (a CPU driver runs contiguous ranges of them per thread).
   const uint pair = id - gl_LocalInvocationID.x + 2u * gl_LocalInvocationID.x;
   if (gl_LocalInvocationID.x >= LSNIF_BATCH_GROUP_SIZE / 2u || pair >= batch) return;
-  lsnif_rows_mlp_pair(rows, m, first + pair, first + pair + 1u, pair + 1u < batch);
+  lsnif_rows_mlp_ordered_pair(rows, m, first + pair, pair + 1u < batch);
 #endif
 }
 #endif
@@ -459,6 +477,8 @@ void main() {
   query_narrow(id);
 #elif defined(LSNIF_QUERY_BATCH_ARGS)
   query_batch_args(id);
+#elif defined(LSNIF_QUERY_ORDER)
+  query_order();
 #elif defined(LSNIF_QUERY_MLP)
   query_mlp(id);
 #elif defined(LSNIF_QUERY_DECODE)
