@@ -1,11 +1,10 @@
 // mesh_gltf.cpp -- glTF 2.0 (.gltf / .glb) reader on top of tinygltf. The default scene's nodes
 // (walked by read_gltf_scene, gltf_scene.h: the same rules as the renderer's scene loader) are
 // flattened into one object-space triangle soup: world transforms are applied to positions, their
-// inverse transpose to normals, and the winding flips under mirroring transforms. TRIANGLES,
-// TRIANGLE_STRIP and TRIANGLE_FAN primitives are kept (gltf::triangle_list, as the renderer reads
-// them; others are skipped with a warning); a primitive without usable normals gets flat ones, as
-// the renderer shades it (glTF). Loading and every checked read of the file's data go through gltf_access.h
-// (library lsnif_import), shared with the renderer's scene loader.
+// inverse transpose to normals, and the winding flips under mirroring transforms. Primitives are
+// read by gltf::read_primitive (gltf_primitive.h), the renderer's scene loader's reader too: the
+// same triangles of TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives (others are skipped with
+// a warning); a primitive without usable normals gets flat ones, as the renderer shades it (glTF).
 #include <algorithm>
 
 #include <glm/gtc/matrix_inverse.hpp>
@@ -14,6 +13,7 @@
 
 #include "lsnif/import/gltf_access.h"
 #include "lsnif/import/gltf_material.h"
+#include "lsnif/import/gltf_primitive.h"
 #include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/mesh_formats.h"
 #include "lsnif/import/mesh_gltf.h"
@@ -124,76 +124,40 @@ class GltfFlattener {
   Status add_primitive(const tinygltf::Primitive& prim, const glm::dmat4& world,
                        const std::string& where, int mesh_index) {
     const bool first_time = !warned_mesh_[size_t(mesh_index)];
-    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
-    if (!gltf::is_triangle_mode(mode)) {
+    gltf::PrimitiveReadOptions options;
+    options.colors = true;
+    if (prim.material >= 0 && size_t(prim.material) < materials_.size()) options.uv_set = materials_[size_t(prim.material)].uv_set;
+    gltf::PrimitiveRead read;
+    if (Status s = gltf::read_primitive(model_, prim, options, where, read); !s) return s;
+    if (!read.triangle_mode) {
       if (first_time) {
         ++skipped_primitives_;
         report_.warnings.push_back(format("%s: mode %d (%s) is not triangles; skipped", where.c_str(),
-                                          mode, gltf::mode_name(mode)));
+                                          read.mode, gltf::mode_name(read.mode)));
       }
       return Status::ok();
     }
-    if (prim.extensions.count("KHR_draco_mesh_compression"))
-      return Status::error("%s: Draco-compressed primitives are not supported", where.c_str());
-
-    // Attributes.
-    std::vector<double> pos, nrm, uv, col;
-    int nc = 0;
-    const gltf::AccessorReader reader{model_, kGltfMaxAccessorCount};
-    Status s = reader.read_positions(prim, where, pos);
-    if (!s) return s;
+    const std::vector<double>& pos = read.positions;
+    const std::vector<double>& nrm = read.normals;
+    const std::vector<double>& uv = read.uvs;
+    const std::vector<double>& col = read.colors;
+    const int color_components = read.color_components;
     const size_t n = pos.size() / 3;
     if (mesh_.positions.size() + n >= kInvalidIndex)
       return Status::error("%s: too many vertices in the flattened scene", where.c_str());
-
-    if (int acc = gltf::find_attribute(prim, "NORMAL"); acc >= 0) {
-      s = reader.read_attribute(acc, "NORMAL", {TINYGLTF_TYPE_VEC3}, false, n, where, nrm, nc);
-      if (!s) return s;
-    }
-    // The renderer's rule (scene_gltf_meshes.cpp): one NaN, infinite or zero normal and the whole
-    // primitive is shaded with face normals, as one without NORMAL is (the glTF specification).
-    for (size_t i = 0; i < nrm.size(); i += 3) {
-      const double len = glm::length(glm::dvec3(nrm[i], nrm[i + 1], nrm[i + 2]));
-      if (!std::isfinite(len) || !(len > 1e-20)) {
-        if (first_time)
-          report_.warnings.push_back(format("%s: NORMAL %zu is NaN, infinite or zero; the primitive uses face normals",
-                                            where.c_str(), i / 3));
-        nrm.clear();
-      }
-    }
+    if (read.bad_normal >= 0 && first_time)
+      report_.warnings.push_back(format("%s: NORMAL %lld is NaN, infinite or zero; the primitive uses face normals",
+                                        where.c_str(), static_cast<long long>(read.bad_normal)));
     int material = -1;
-    s = material_index(prim.material, where, material);
-    if (!s) return s;
-    const int texcoord = prim.material >= 0 ? materials_[size_t(prim.material)].uv_set : 0;
-    const std::string uv_key = "TEXCOORD_" + std::to_string(texcoord);
-    if (int acc = gltf::find_attribute(prim, uv_key); acc >= 0) {
-      s = reader.read_attribute(acc, uv_key, {TINYGLTF_TYPE_VEC2}, false, n, where, uv, nc);
-      if (!s) return s;
-    } else if (first_time && mesh_.materials[size_t(material)].has_textures()) {
+    if (Status s = material_index(read.material, where, material); !s) return s;
+    if (!read.has_uvs && first_time && mesh_.materials[size_t(material)].has_textures())
       report_.warnings.push_back(format("%s: textured material but no %s; texture unused there",
-                                        where.c_str(), uv_key.c_str()));
-    }
-    int color_components = 0;
-    if (int acc = gltf::find_attribute(prim, "COLOR_0"); acc >= 0) {
-      s = reader.read_attribute(acc, "COLOR_0", {TINYGLTF_TYPE_VEC3, TINYGLTF_TYPE_VEC4}, true, n,
-                                where, col, color_components);
-      if (!s) return s;
-    }
-
-    // Indices, expanded to triangles by mode.
-    std::vector<uint32_t> idx;
-    if (prim.indices >= 0) {
-      s = reader.read_indices(prim.indices, n, false, where, idx);
-      if (!s) return s;
-    } else {
-      idx.resize(n);
-      for (size_t i = 0; i < n; ++i) idx[i] = static_cast<uint32_t>(i);
-    }
-    if (mode == TINYGLTF_MODE_TRIANGLES && idx.size() % 3 != 0 && first_time)
+                                        where.c_str(), read.uv_key.c_str()));
+    if (read.mode == TINYGLTF_MODE_TRIANGLES && read.index_count % 3 != 0 && first_time)
       report_.warnings.push_back(format("%s: %zu indices is not a multiple of 3; ignored the last %zu",
-                                        where.c_str(), idx.size(), idx.size() % 3));
-    const std::vector<uint32_t> list = gltf::triangle_list(mode, idx);
+                                        where.c_str(), read.index_count, read.index_count % 3));
     std::vector<glm::uvec3> tris;
+    const std::vector<uint32_t>& list = read.triangles;
     for (size_t i = 0; i + 2 < list.size(); i += 3) tris.emplace_back(list[i], list[i + 1], list[i + 2]);
 
     // Append in object space.

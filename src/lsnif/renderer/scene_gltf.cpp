@@ -5,8 +5,8 @@
 //
 // tinygltf 2.7 leaves most validation to the user, so every index, accessor and buffer range is
 // checked before a byte is read: loading, accessor reads and image decoding go through
-// src/lsnif/import/gltf_access.h (library lsnif_import, shared with src/lsnif/import/mesh_gltf.cpp);
-// the rest is checked here.
+// src/lsnif/import/gltf_access.h and primitives are read by src/lsnif/import/gltf_primitive.h
+// (library lsnif_import, shared with src/lsnif/import/mesh_gltf.cpp); the rest is checked here.
 //
 // SceneBuilder (scene_gltf_builder.h) does the work; this file holds its run(), warnings and
 // extension checks, and the public functions of scene_gltf.h. Its other stages: materials and

@@ -8,7 +8,8 @@
 //   indices are glTF material indices); one default material (glTF defaults) is appended after
 //   them when a primitive names none or an LSNIF object needs a fallback.
 // - Scene::meshes: one per glTF mesh used by a node of the rendered scene, in first-use order,
-//   object space (untransformed). Only TRIANGLES primitives (the others are skipped and counted in
+//   object space (untransformed). Only triangle primitives, read by the importer's primitive reader
+//   (src/lsnif/import/gltf_primitive.h; strips and fans as triangle lists; the others are skipped and counted in
 //   a warning); every primitive has >= 1 triangle, indices < positions.size(), finite positions,
 //   normals either empty or one unit-length finite normal per vertex, uvs empty or one finite uv per
 //   vertex, a valid material index. Meshes whose primitives were all skipped are not listed.

@@ -1,6 +1,7 @@
 // scene_gltf_meshes.cpp -- SceneBuilder's meshes (scene_gltf_builder.h): a glTF mesh becomes one
-// object-space scene mesh on first use by a node; its TRIANGLES primitives are read through the
-// checked accessor reader of src/lsnif/import/gltf_access.h, the others are skipped and counted.
+// object-space scene mesh on first use by a node; its triangle primitives are read by the importer's
+// primitive reader (src/lsnif/import/gltf_primitive.h, the training mesh's too), the others are
+// skipped and counted.
 #include "lsnif/renderer/scene_gltf_builder.h"
 
 #include <algorithm>
@@ -8,7 +9,7 @@
 #include <utility>
 
 #include "lsnif/import/gltf_access.h"
-#include "lsnif/import/gltf_material.h"
+#include "lsnif/import/gltf_primitive.h"
 
 namespace lsnif::scene::detail {
 
@@ -47,93 +48,69 @@ Status SceneBuilder::load_primitive(const tinygltf::Primitive& gp, const std::st
                                     bool& keep) {
   keep = false;
   const std::string short_where = where.substr(name_.size() + 2);
-  const int mode = gp.mode < 0 ? TINYGLTF_MODE_TRIANGLES : gp.mode;
-  if (!gltf::is_triangle_mode(mode)) {
+  // The material's uv set; read_primitive checks that the material exists.
+  gltf::PrimitiveReadOptions options;
+  if (gp.material >= 0 && gp.material < int(model_.materials.size())) options.uv_set = material_uv_set_[size_t(gp.material)];
+  gltf::PrimitiveRead read;
+  if (Status s = gltf::read_primitive(model_, gp, options, where, read); !s) return s;
+  if (!read.triangle_mode) {
     ++skipped_primitives_;
-    ++skipped_by_mode_[mode];
+    ++skipped_by_mode_[read.mode];
     warn_counted("non-triangle primitives",
-                 format("%s: mode %d (%s) draws no triangles; skipped", short_where.c_str(), mode,
-                        gltf::mode_name(mode)));
+                 format("%s: mode %d (%s) draws no triangles; skipped", short_where.c_str(), read.mode,
+                        gltf::mode_name(read.mode)));
     return Status::ok();
   }
-  if (gp.extensions.count("KHR_draco_mesh_compression"))
-    return Status::error("%s: Draco-compressed primitives are not supported", where.c_str());
-  if (!gp.targets.empty())
-    warn_counted("morph targets", short_where + ": morph targets ignored (base shape used)");
+  if (read.morph_targets) warn_counted("morph targets", short_where + ": morph targets ignored (base shape used)");
+  prim.material = read.material >= 0 ? uint32_t(read.material) : default_material();
 
-  // Material.
-  if (gp.material >= int(model_.materials.size()))
-    return Status::error("%s: material %d does not exist (%zu materials)", where.c_str(),
-                         gp.material, model_.materials.size());
-  prim.material = gp.material >= 0 ? uint32_t(gp.material) : default_material();
-
-  // Positions.
-  std::vector<double> pos, nrm, uv;
-  int nc = 0;
-  const gltf::AccessorReader reader{model_, kGltfMaxAccessorCount};
-  Status s = reader.read_positions(gp, where, pos);
-  if (!s) return s;
-  const size_t n = pos.size() / 3;
-  for (size_t i = 0; i < pos.size(); ++i)
-    if (!std::isfinite(to_float(pos[i])))
+  // Positions: finite in float, or the primitive is an error.
+  const size_t n = read.positions.size() / 3;
+  for (size_t i = 0; i < read.positions.size(); ++i)
+    if (!std::isfinite(to_float(read.positions[i])))
       return Status::error("%s: POSITION (accessor %d) vertex %zu is NaN or infinite", where.c_str(),
                            gltf::find_attribute(gp, "POSITION"), i / 3);
   prim.positions.resize(n);
   for (size_t i = 0; i < n; ++i)
-    prim.positions[i] = glm::vec3(to_float(pos[3 * i]), to_float(pos[3 * i + 1]), to_float(pos[3 * i + 2]));
+    prim.positions[i] = glm::vec3(to_float(read.positions[3 * i]), to_float(read.positions[3 * i + 1]),
+                                  to_float(read.positions[3 * i + 2]));
 
-  // Normals: unit length; a NaN or zero normal drops the primitive's normals (face normals used).
-  if (int acc = gltf::find_attribute(gp, "NORMAL"); acc >= 0) {
-    s = reader.read_attribute(acc, "NORMAL", {TINYGLTF_TYPE_VEC3}, false, n, where, nrm, nc);
-    if (!s) return s;
+  // Normals: unit length (a NaN or zero one and read_primitive dropped them: face normals).
+  if (read.bad_normal >= 0)
+    warn_counted("bad normals", short_where + format(": NORMAL %lld is NaN, infinite or zero; "
+                                                     "the primitive uses face normals",
+                                                     static_cast<long long>(read.bad_normal)));
+  if (!read.normals.empty()) {
     prim.normals.resize(n);
-    for (size_t i = 0; i < n && !prim.normals.empty(); ++i) {
-      glm::dvec3 q(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]);
-      const double len = glm::length(q);
-      if (!std::isfinite(len) || !(len > 1e-20)) {
-        warn_counted("bad normals", short_where + format(": NORMAL %zu is NaN, infinite or zero; "
-                                                         "the primitive uses face normals", i));
-        prim.normals.clear();
-        break;
-      }
-      q /= len;
-      prim.normals[i] = glm::vec3(float(q.x), float(q.y), float(q.z));
+    for (size_t i = 0; i < n; ++i) {
+      const glm::dvec3 q(read.normals[3 * i], read.normals[3 * i + 1], read.normals[3 * i + 2]);
+      const glm::dvec3 u = q / glm::length(q);
+      prim.normals[i] = glm::vec3(float(u.x), float(u.y), float(u.z));
     }
   }
 
   // Texture coordinates of the material's uv set.
-  const int set = material_uv_set_[prim.material];
-  const std::string uv_key = "TEXCOORD_" + std::to_string(set);
-  if (int acc = gltf::find_attribute(gp, uv_key); acc >= 0) {
-    s = reader.read_attribute(acc, uv_key, {TINYGLTF_TYPE_VEC2}, false, n, where, uv, nc);
-    if (!s) return s;
-    if (!std::all_of(uv.begin(), uv.end(), [](double d) { return std::isfinite(to_float(d)); })) {
-      warn_counted("bad uvs", short_where + ": " + uv_key + " has NaN or infinite values; untextured");
+  if (read.has_uvs) {
+    if (!std::all_of(read.uvs.begin(), read.uvs.end(), [](double d) { return std::isfinite(to_float(d)); })) {
+      warn_counted("bad uvs", short_where + ": " + read.uv_key + " has NaN or infinite values; untextured");
     } else {
       prim.uvs.resize(n);
-      for (size_t i = 0; i < n; ++i) prim.uvs[i] = glm::vec2(to_float(uv[2 * i]), to_float(uv[2 * i + 1]));
+      for (size_t i = 0; i < n; ++i) prim.uvs[i] = glm::vec2(to_float(read.uvs[2 * i]), to_float(read.uvs[2 * i + 1]));
     }
   } else {
     const Material& m = scene_.materials[prim.material];
     if (m.base_color_texture >= 0 || m.metallic_roughness_texture >= 0 || m.emission_texture >= 0 ||
         m.occlusion_texture >= 0 || m.normal_texture >= 0)
-      warn_counted("missing uvs", short_where + ": textured material but no " + uv_key +
+      warn_counted("missing uvs", short_where + ": textured material but no " + read.uv_key +
                                       "; textures read at uv (0, 0)");
   }
 
-  // Indices.
-  if (gp.indices >= 0) {
-    s = reader.read_indices(gp.indices, n, true, where, prim.indices);
-    if (!s) return s;
-  } else {
-    prim.indices.resize(n);
-    for (size_t i = 0; i < n; ++i) prim.indices[i] = static_cast<uint32_t>(i);
-  }
-  if (mode == TINYGLTF_MODE_TRIANGLES && prim.indices.size() % 3 != 0)
+  // The triangles (strips and fans as triangle lists).
+  if (read.mode == TINYGLTF_MODE_TRIANGLES && read.index_count % 3 != 0)
     warn_counted("index counts", short_where + format(": %zu indices is not a multiple of 3; the "
-                                                      "last %zu ignored", prim.indices.size(),
-                                                      prim.indices.size() % 3));
-  prim.indices = gltf::triangle_list(mode, prim.indices);  // strips and fans as triangle lists
+                                                      "last %zu ignored", read.index_count,
+                                                      read.index_count % 3));
+  prim.indices = std::move(read.triangles);
   if (prim.indices.empty()) {
     warn_counted("empty primitives", short_where + ": no triangles; skipped");
     return Status::ok();
