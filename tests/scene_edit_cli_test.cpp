@@ -1,4 +1,4 @@
-// Render-time scene edits through `lsnif render` (src/lsnif/renderer/scene_edit.h via --node-transform,
+// Render-time scene edits through `lsnif render` (src/lsnif/scene/scene_edit.h via --node-transform,
 // --add, --at, --look-from, --sun) on lavapipe with a tiny model: added copies of a model share one model on the
 // device, and bad edits give clear errors with the right exit codes (2: malformed option, 1: the
 // scene cannot take it).

@@ -32,7 +32,7 @@
 #include "lsnif/import/mesh_formats.h"
 #include "lsnif/core/model.h"
 #include "lsnif/format/model_format.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 #include "lsnif/testing/test_support.h"                       // tests/: run_process, ScopedTestDir
 #include "lsnif/testing/scene_test_support.h"  // check_scene
 

@@ -11,14 +11,14 @@
 #include <filesystem>
 #include <string>
 
-#include "lsnif/renderer/gltf_build.h"
+#include "lsnif/scene/gltf_build.h"
 #include "lsnif/testing/gpu_test_support.h"
 #include "lsnif/image/image_io.h"
 #include "lsnif/import/mesh.h"
 #include "lsnif/core/model.h"
 #include "lsnif/testing/render_test_scene.h"
 #include "lsnif/renderer/renderer.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 #include "lsnif/train/trainer.h"
 
 namespace lsnif {

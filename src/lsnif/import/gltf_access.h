@@ -1,6 +1,6 @@
 // gltf_access.h -- checked access to glTF 2.0 files through tinygltf, shared by the training mesh
 // importer (src/lsnif/import/mesh_gltf.cpp, which flattens a file into one triangle soup) and the renderer's
-// scene loader (src/lsnif/renderer/scene_gltf.cpp, which keeps the node hierarchy). Library
+// scene loader (src/lsnif/scene/scene_gltf.cpp, which keeps the node hierarchy). Library
 // `lsnif_import`: no Vulkan, no training code; gltf_access.cpp is the only translation unit of the
 // project with TINYGLTF_IMPLEMENTATION and the stb_image implementation tinygltf needs.
 //

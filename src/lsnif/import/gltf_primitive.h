@@ -1,7 +1,7 @@
 // gltf_primitive.h -- the one reader of a glTF mesh primitive: its mode, material, vertex attributes
 // and the triangles it draws, read through the checked accessor reader (gltf_access.h). The
 // training mesh importer (mesh_gltf.cpp: `lsnif train`, `eval`, the converter's flattening) and the
-// renderer's scene loader (src/lsnif/renderer/scene_gltf_meshes.cpp: `render`, `view`, `bench`)
+// renderer's scene loader (src/lsnif/scene/scene_gltf_meshes.cpp: `render`, `view`, `bench`)
 // both read primitives here, so a file gives every tool the same triangles. What each does with
 // what it reads (transforms, where a NaN position is an error or a dropped triangle, how it words
 // a warning) stays the caller's. Part of lsnif_import.

@@ -22,7 +22,7 @@
 #include "lsnif/format/status.h"
 #include "lsnif/harness/vk_compute.h"
 #include "lsnif/renderer/renderer.h"
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/scene.h"
 
 namespace lsnif::render {
 

@@ -15,10 +15,10 @@
 
 #include <glm/glm.hpp>
 
-#include "lsnif/renderer/environment.h"
+#include "lsnif/scene/environment.h"
 #include "lsnif/renderer/render_defaults.h"
 #include "lsnif/image/image_io.h"
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/scene.h"
 #include "lsnif/format/status.h"
 #include "lsnif/renderer/visibility_buffer.h"
 #include "lsnif/harness/vk_raytracing.h"

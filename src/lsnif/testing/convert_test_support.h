@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "lsnif/apps/convert/convert.h"
-#include "lsnif/renderer/gltf_build.h"
+#include "lsnif/scene/gltf_build.h"
 #include "lsnif/testing/test_support.h"  // tests/: ScopedTestDir, tiny_preset_settings
 
 namespace lsnif::convert::test {

@@ -1,5 +1,5 @@
 // fuzz_support.h -- helpers shared by the mutation-fuzz and synthetic-file tests of the glTF
-// readers (src/lsnif/import/mesh_fuzz_test.cpp, src/lsnif/renderer/gltf_fuzz_test.cpp, src/lsnif/renderer/gltf_test.cpp).
+// readers (src/lsnif/import/mesh_fuzz_test.cpp, src/lsnif/scene/gltf_fuzz_test.cpp, src/lsnif/scene/gltf_test.cpp).
 // Header-only and used by tests only: building binary payloads, base64, the GLB container, a
 // 2x2 PNG, reading files, and the deterministic byte mutator.
 #pragma once

@@ -7,7 +7,7 @@
 #include <glm/glm.hpp>
 
 #include "lsnif/import/mesh.h"
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/scene.h"
 
 namespace lsnif::gputest {
 

@@ -12,7 +12,7 @@
 
 #include "lsnif/core/model.h"
 #include "lsnif/format/model_format.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 
 namespace lsnif::scene {
 

@@ -10,8 +10,8 @@
 #include "lsnif/format/atomic_file.h"
 #include "lsnif/format/folder_lock.h"
 
-#include "lsnif/renderer/gltf_build.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/gltf_build.h"
+#include "lsnif/scene/scene_gltf.h"
 
 namespace lsnif::convert {
 namespace fs = std::filesystem;

@@ -16,7 +16,7 @@
 #include "lsnif/import/mesh_gltf.h"
 #include "lsnif/core/model.h"
 #include "lsnif/import/resolve_path.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 
 namespace lsnif::convert {
 namespace fs = std::filesystem;

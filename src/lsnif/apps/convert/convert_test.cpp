@@ -7,7 +7,7 @@
 
 #include "lsnif/format/folder_lock.h"
 #include "lsnif/testing/convert_test_support.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 
 namespace lsnif::convert {
 namespace {

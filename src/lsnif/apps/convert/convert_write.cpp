@@ -6,7 +6,7 @@
 #include <map>
 
 #include "lsnif/format/file_io.h"
-#include "lsnif/renderer/gltf_build.h"
+#include "lsnif/scene/gltf_build.h"
 #include "lsnif/import/mesh_gltf.h"
 
 namespace lsnif::convert {

@@ -31,7 +31,7 @@
 #include "lsnif/apps/lsnif/pipeline_option.h"
 #include "lsnif/apps/lsnif/render_compare.h"
 #include "lsnif/apps/lsnif/report_text.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 #include "lsnif/harness/vk_compute.h"
 #include "lsnif/train/settings_io.h"
 

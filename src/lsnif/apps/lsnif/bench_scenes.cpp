@@ -13,7 +13,7 @@
 #include "lsnif/format/crc32.h"
 #include "lsnif/import/gltf_access.h"
 #include "lsnif/import/gltf_material.h"
-#include "lsnif/renderer/gltf_build.h"
+#include "lsnif/scene/gltf_build.h"
 #include "lsnif/renderer/render_defaults.h"
 #include "lsnif/import/mesh_subdivide.h"
 

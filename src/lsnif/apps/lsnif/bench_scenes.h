@@ -3,7 +3,7 @@
 // unique object becomes one LSNIF model, placed by one or more instances), an HDR environment and a
 // camera. They are generated, not stored: make_bench_scene builds one in memory (the training
 // meshes included) and write_bench_scene saves it as glTF with the LSNIF extensions
-// (src/lsnif/renderer/gltf_build.h).
+// (src/lsnif/scene/gltf_build.h).
 #pragma once
 #include <string>
 #include <vector>
@@ -11,7 +11,7 @@
 #include <glm/glm.hpp>
 
 #include "lsnif/import/mesh.h"
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/scene.h"
 #include "lsnif/format/status.h"
 
 namespace lsnif::cli {

@@ -6,7 +6,7 @@
 #include "lsnif/apps/lsnif/args.h"
 #include "lsnif/apps/lsnif/commands.h"
 #include "lsnif/apps/lsnif/device_option.h"
-#include "lsnif/renderer/environment.h"
+#include "lsnif/scene/environment.h"
 #include "lsnif/image/image_io.h"
 #include "lsnif/apps/lsnif/pipeline_option.h"
 #include "lsnif/apps/common/progress.h"

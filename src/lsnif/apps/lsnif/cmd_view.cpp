@@ -10,7 +10,7 @@
 #include "lsnif/apps/lsnif/device_option.h"
 #include "lsnif/apps/lsnif/pipeline_option.h"
 #include "lsnif/apps/lsnif/scene_args.h"
-#include "lsnif/renderer/scene_edit.h"
+#include "lsnif/scene/scene_edit.h"
 #include "lsnif/renderer/viewer/viewer.h"
 
 namespace lsnif::cli {

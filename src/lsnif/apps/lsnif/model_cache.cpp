@@ -5,7 +5,7 @@
 
 #include "lsnif/format/file_io.h"
 #include "lsnif/train/settings_io.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 
 namespace lsnif::cli {
 

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "lsnif/renderer/environment.h"
+#include "lsnif/scene/environment.h"
 #include "lsnif/apps/flip/flip.h"
 #include "lsnif/image/image_io.h"
 #include "lsnif/apps/common/progress.h"

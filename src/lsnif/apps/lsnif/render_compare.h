@@ -7,7 +7,7 @@
 #include "lsnif/import/mesh.h"
 #include "lsnif/renderer/render_choice.h"
 #include "lsnif/renderer/renderer.h"
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/scene.h"
 #include "lsnif/format/status.h"
 
 namespace lsnif::cli {

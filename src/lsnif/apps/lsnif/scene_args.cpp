@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "lsnif/format/atomic_file.h"
-#include "lsnif/renderer/scene_edit.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_edit.h"
+#include "lsnif/scene/scene_gltf.h"
 
 namespace lsnif::cli {
 

@@ -6,8 +6,8 @@
 #include <string>
 
 #include "lsnif/apps/lsnif/args.h"
-#include "lsnif/renderer/environment.h"
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/environment.h"
+#include "lsnif/scene/scene.h"
 
 namespace lsnif::cli {
 

@@ -1,7 +1,7 @@
 // render_sampling.glsl -- the path tracer's sampling: counter-based random numbers
 // (render_random.glsl), the Lambert + GGX BSDF (glTF metallic-roughness) with its sampling and pdf,
 // and the equirectangular environment: lookup, importance sampling and pdf, exactly as
-// src/lsnif/renderer/environment.h specifies (its CPU twins are tested there).
+// src/lsnif/scene/environment.h specifies (its CPU twins are tested there).
 #ifndef RENDER_SAMPLING_GLSL
 #define RENDER_SAMPLING_GLSL
 
@@ -76,7 +76,7 @@ vec3 render_bsdf_sample(RenderBsdf b, vec3 n, vec3 wo, vec3 u, out float pdf) {
   return wi;
 }
 
-// ---- environment: the mapping and tables of src/lsnif/renderer/environment.h (read it) ----
+// ---- environment: the mapping and tables of src/lsnif/scene/environment.h (read it) ----
 vec3 render_rotate_y(vec3 d, float a) { return vec3(cos(a) * d.x + sin(a) * d.z, d.y, -sin(a) * d.x + cos(a) * d.z); }
 // Pixel of a world direction.
 uvec2 render_env_pixel(RenderFrame f, vec3 d) {

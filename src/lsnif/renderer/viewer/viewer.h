@@ -13,9 +13,9 @@
 
 #include <glm/glm.hpp>
 
-#include "lsnif/renderer/environment.h"
+#include "lsnif/scene/environment.h"
 #include "lsnif/renderer/renderer.h"
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/scene.h"
 #include "lsnif/format/status.h"
 
 namespace lsnif::viewer {

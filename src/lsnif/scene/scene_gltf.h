@@ -1,4 +1,4 @@
-// scene_gltf.h -- loading the renderer's Scene (scene.h) from a glTF 2.0 file (.gltf / .glb) with
+// scene_gltf.h -- loading the Scene (scene.h) from a glTF 2.0 file (.gltf / .glb) with
 // tinygltf, plus the two LSNIF extensions (node `LSNIF_neural_object`, root `LSNIF_environment`,
 // specified in docs/scene-format.md) and the command-line overrides equivalent to
 // `--lsnif NODE=MODEL.lsnif` and `--env ...`.
@@ -38,7 +38,7 @@
 
 #include <glm/glm.hpp>
 
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/scene.h"
 #include "lsnif/format/status.h"
 
 namespace tinygltf {

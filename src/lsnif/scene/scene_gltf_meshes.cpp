@@ -2,7 +2,7 @@
 // object-space scene mesh on first use by a node; its triangle primitives are read by the importer's
 // primitive reader (src/lsnif/import/gltf_primitive.h, the training mesh's too), the others are
 // skipped and counted.
-#include "lsnif/renderer/scene_gltf_builder.h"
+#include "lsnif/scene/scene_gltf_builder.h"
 
 #include <algorithm>
 #include <cmath>

@@ -15,8 +15,8 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
-#include "lsnif/renderer/gltf_build.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/gltf_build.h"
+#include "lsnif/scene/scene_gltf.h"
 #include "lsnif/testing/scene_test_support.h"
 
 namespace lsnif::scene {

@@ -25,8 +25,8 @@
 #include "lsnif/core/model.h"
 #include "lsnif/import/mesh.h"
 #include "lsnif/format/model_format.h"
-#include "lsnif/renderer/scene_edit.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_edit.h"
+#include "lsnif/scene/scene_gltf.h"
 #include "lsnif/testing/scene_test_support.h"
 
 namespace lsnif::scene {

@@ -20,7 +20,7 @@
 #include <glm/glm.hpp>
 
 #include "lsnif/import/gltf_access.h"  // tinygltf with the project's configuration macros
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/scene.h"
 #include "lsnif/format/status.h"
 
 namespace lsnif::scene {

@@ -12,7 +12,7 @@
 // extension checks, and the public functions of scene_gltf.h. Its other stages: materials and
 // textures in scene_gltf_materials.cpp, meshes in scene_gltf_meshes.cpp, nodes and overrides in
 // scene_gltf_nodes.cpp, the environment in scene_gltf_environment.cpp.
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 
 #include <algorithm>
 #include <cctype>
@@ -29,7 +29,7 @@
 #include "lsnif/import/gltf_material.h"
 #include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/json_text.h"
-#include "lsnif/renderer/scene_gltf_builder.h"
+#include "lsnif/scene/scene_gltf_builder.h"
 
 namespace lsnif::scene {
 

@@ -1,5 +1,5 @@
 // gltf_build.cpp -- see gltf_build.h.
-#include "lsnif/renderer/gltf_build.h"
+#include "lsnif/scene/gltf_build.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,7 @@
-// scene.h -- the renderer's scene: triangle meshes, materials, textures, instances with
-// transforms, cameras, LSNIF objects and the environment light, as loaded from a glTF file
-// (scene_gltf.cpp; the LSNIF node extension is documented in docs/scene-format.md). No Vulkan.
+// scene.h -- the scene model the renderer draws and the converter writes: triangle meshes,
+// materials, textures, instances with transforms, cameras, LSNIF objects and the environment light,
+// as loaded from a glTF file (scene_gltf.cpp; the LSNIF node extension is documented in
+// docs/scene-format.md) or written to one (gltf_build.h). No Vulkan.
 // Units and conventions: right-handed, y up (glTF); colors linear RGB; transforms column-major glm.
 #pragma once
 #include <cstdint>

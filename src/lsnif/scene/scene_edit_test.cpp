@@ -1,7 +1,7 @@
 // Render-time scene edits: transforms parsed from the command line against hand-computed points,
 // node transforms replaced on every instance of the node, pre-trained objects added with their own
 // material, and clear errors for bad text, unknown nodes, singular matrices and missing models.
-#include "lsnif/renderer/scene_edit.h"
+#include "lsnif/scene/scene_edit.h"
 
 #include <gtest/gtest.h>
 

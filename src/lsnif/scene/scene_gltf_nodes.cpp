@@ -1,7 +1,7 @@
 // scene_gltf_nodes.cpp -- SceneBuilder's nodes (scene_gltf_builder.h): for each node of the walk
 // (read_gltf_scene, src/lsnif/import/gltf_scene.h) its Instance (mesh and/or LSNIF_neural_object)
 // and its camera, and the command-line overrides `--lsnif NODE=MODEL.lsnif`.
-#include "lsnif/renderer/scene_gltf_builder.h"
+#include "lsnif/scene/scene_gltf_builder.h"
 
 #include <algorithm>
 #include <cmath>

@@ -2,7 +2,7 @@
 // material i becomes scene material i, each glTF image a material uses is decoded once into a
 // scene texture (through src/lsnif/import/gltf_access.h), and the default material is appended on
 // first use.
-#include "lsnif/renderer/scene_gltf_builder.h"
+#include "lsnif/scene/scene_gltf_builder.h"
 
 #include <algorithm>
 #include <cmath>

@@ -43,7 +43,7 @@
 #include <glm/glm.hpp>
 
 #include "lsnif/image/image_io.h"
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/scene.h"
 #include "lsnif/format/status.h"
 
 namespace lsnif::scene {

@@ -23,7 +23,7 @@
 #include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/mesh.h"
 #include "lsnif/import/mesh_gltf.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 #include "lsnif/testing/scene_test_support.h"
 
 namespace lsnif::scene {

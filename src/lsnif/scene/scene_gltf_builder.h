@@ -25,8 +25,8 @@
 #include "lsnif/format/status.h"
 #include "lsnif/import/gltf_access.h"
 #include "lsnif/import/gltf_scene.h"
-#include "lsnif/renderer/scene.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene.h"
+#include "lsnif/scene/scene_gltf.h"
 
 namespace lsnif::scene::detail {
 

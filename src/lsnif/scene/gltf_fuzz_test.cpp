@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "lsnif/testing/fuzz_support.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 #include "lsnif/testing/scene_test_support.h"
 
 namespace lsnif::scene {

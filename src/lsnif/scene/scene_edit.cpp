@@ -1,5 +1,5 @@
 // scene_edit.cpp -- see scene_edit.h.
-#include "lsnif/renderer/scene_edit.h"
+#include "lsnif/scene/scene_edit.h"
 
 #include <cmath>
 #include <algorithm>
@@ -12,7 +12,7 @@
 #include "lsnif/core/geometry.h"
 #include "lsnif/format/model_format.h"
 #include "lsnif/format/number_text.h"
-#include "lsnif/renderer/scene_gltf.h"
+#include "lsnif/scene/scene_gltf.h"
 
 namespace lsnif::scene {
 

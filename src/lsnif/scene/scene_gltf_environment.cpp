@@ -1,6 +1,6 @@
 // scene_gltf_environment.cpp -- SceneBuilder's environment (scene_gltf_builder.h): the root's
 // LSNIF_environment (docs/scene-format.md) with its sun, and the `--env ...` overrides.
-#include "lsnif/renderer/scene_gltf_builder.h"
+#include "lsnif/scene/scene_gltf_builder.h"
 
 #include <cmath>
 #include <filesystem>
@@ -8,7 +8,7 @@
 #include <system_error>
 
 #include "lsnif/import/resolve_path.h"
-#include "lsnif/renderer/scene_edit.h"
+#include "lsnif/scene/scene_edit.h"
 
 namespace lsnif::scene::detail {
 

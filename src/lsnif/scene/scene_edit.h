@@ -6,7 +6,7 @@
 
 #include <glm/glm.hpp>
 
-#include "lsnif/renderer/scene.h"
+#include "lsnif/scene/scene.h"
 #include "lsnif/format/status.h"
 
 namespace lsnif::scene {

@@ -1,6 +1,6 @@
 // environment.cpp -- equirectangular environment map and its importance-sampling tables; the
 // mapping, the distribution and the GPU layout are specified in environment.h.
-#include "lsnif/renderer/environment.h"
+#include "lsnif/scene/environment.h"
 
 #include <algorithm>
 #include <cmath>

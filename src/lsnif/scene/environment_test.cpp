@@ -11,7 +11,7 @@
 #include <random>
 #include <unistd.h>
 
-#include "lsnif/renderer/environment.h"
+#include "lsnif/scene/environment.h"
 
 namespace lsnif::scene {
 namespace {
