@@ -219,4 +219,18 @@ Status read_gltf_material(const tinygltf::Model& model, size_t index, const std:
   return read_alpha(gm, where, label, out, warnings);
 }
 
+bool read_gltf_image(const tinygltf::Model& model, int source, Texture& out, std::string& why) {
+  out = Texture();
+  tinygltf::Image image = model.images[size_t(source)];
+  why = image.uri.empty() ? "no image data" : "image data missing or undecodable";
+  if (!gltf::resolve_image(model, image, kGltfMaxImagePixels, why)) return false;
+  out.name = !image.name.empty() ? image.name
+             : (!image.uri.empty() && image.uri.rfind("data:", 0) != 0) ? image.uri
+                                                                         : format("image_%d", source);
+  out.width = static_cast<uint32_t>(image.width);
+  out.height = static_cast<uint32_t>(image.height);
+  out.rgba = std::move(image.image);
+  return true;
+}
+
 }  // namespace lsnif

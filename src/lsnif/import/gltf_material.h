@@ -61,4 +61,10 @@ struct GltfWarning {
 Status read_gltf_material(const tinygltf::Model& model, size_t index, const std::string& name, GltfMaterial& out,
                           std::vector<GltfWarning>& warnings);
 
+// Image `source` of `model` (a material slot's, GltfMaterial::*_image) as a texture of at most
+// kGltfMaxImagePixels RGBA8 pixels (gltf::resolve_image), named by the image's name, else its file,
+// else "image_<source>". False, with `why` ("no image data", "image data missing or undecodable" or
+// the decoder's reason), when the image holds nothing usable; the caller warns in its own words.
+bool read_gltf_image(const tinygltf::Model& model, int source, Texture& out, std::string& why);
+
 }  // namespace lsnif

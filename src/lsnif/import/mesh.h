@@ -12,9 +12,11 @@
 
 namespace lsnif {
 
+// An 8-bit RGBA texture as stored in the file: the training mesh's and the scene's (scene.h).
 struct Texture {
   uint32_t width = 0, height = 0;
-  std::vector<uint8_t> rgba;  // 8-bit RGBA, row-major, top row first (colour: sRGB-encoded)
+  std::vector<uint8_t> rgba;  // 8-bit RGBA, row-major, top row first (glTF uv (0, 0); colour: sRGB-encoded)
+  std::string name;           // where it came from, for messages (a glTF image's name or file), or empty
   // Bilinear lookup with repeat wrapping at uv; returns linear RGB: sRGB decoded (colour textures:
   // base colour, emission) or, with srgb false, the 8-bit values / 255 (data textures:
   // metallic-roughness, occlusion).

@@ -286,17 +286,13 @@ class GltfFlattener {
     int& mapped = texture_map_[size_t(source)];
     if (mapped != -2) return mapped;
     mapped = -1;
-    tinygltf::Image image = model_.images[size_t(source)];
-    std::string why = "image data missing";
-    if (!gltf::resolve_image(model_, image, kGltfMaxImagePixels, why)) {
+    Texture t;
+    std::string why;
+    if (!read_gltf_image(model_, source, t, why)) {
       report_.warnings.push_back(format("%s: image %d could not be used (%s); material '%s' untextured",
                                         file(), source, why.c_str(), excerpt(material).c_str()));
       return -1;
     }
-    Texture t;
-    t.width = static_cast<uint32_t>(image.width);
-    t.height = static_cast<uint32_t>(image.height);
-    t.rgba = std::move(image.image);
     mapped = int(mesh_.textures.size());
     mesh_.textures.push_back(std::move(t));
     return mapped;

@@ -733,7 +733,7 @@ TEST(MeshQueries, AlbedoMultipliesBaseTextureAndVertexColor) {
   expect_vec3(m.albedo(0, 0.2f, 0.3f), glm::vec3(0.25f, 0.2f, 0.3f));
   // 1x1 texture of sRGB 128: decoded ((128/255 + 0.055) / 1.055)^2.4.
   const float t128 = static_cast<float>(std::pow((128.0 / 255.0 + 0.055) / 1.055, 2.4));
-  m.textures = {Texture{1, 1, {128, 128, 128, 255}}};
+  m.textures = {Texture{1, 1, {128, 128, 128, 255}, "t"}};
   m.materials[0].texture = 0;
   m.uvs = {{0, 0}, {1, 0}, {0, 1}};
   expect_vec3(m.albedo(0, 0.2f, 0.3f), glm::vec3(0.25f, 0.2f, 0.3f) * t128);
@@ -746,9 +746,9 @@ TEST(MeshQueries, SurfaceMultipliesFactorsWithTheirTextures) {
   m.uvs = {{0, 0}, {1, 0}, {0, 1}};
   // Data textures (metallic-roughness, occlusion) are linear; the emission texture is sRGB.
   const float s200 = static_cast<float>(std::pow((200.0 / 255.0 + 0.055) / 1.055, 2.4));
-  m.textures = {Texture{1, 1, {0, 51, 204, 255}},     // roughness G = 0.2, metallic B = 0.8
-                Texture{1, 1, {200, 200, 0, 255}},    // emission (sRGB)
-                Texture{1, 1, {102, 0, 0, 255}}};     // occlusion R = 0.4
+  m.textures = {Texture{1, 1, {0, 51, 204, 255}, "t"},     // roughness G = 0.2, metallic B = 0.8
+                Texture{1, 1, {200, 200, 0, 255}, "t"},    // emission (sRGB)
+                Texture{1, 1, {102, 0, 0, 255}, "t"}};     // occlusion R = 0.4
   Material& mat = m.materials[0];
   mat.metallic = 0.5f;
   mat.roughness = 0.75f;
@@ -798,7 +798,7 @@ TEST(MeshQueries, NormalMapTiltsTheNormalInTheUvTangentFrame) {
   // Through Mesh::surface: the material's normal texture at the hit's uv.
   Mesh m = tiny_triangle();
   m.uvs = {{0, 0}, {1, 0}, {0, 1}};
-  m.textures = {Texture{1, 1, {191, 128, 238, 255}}};
+  m.textures = {Texture{1, 1, {191, 128, 238, 255}, "t"}};
   m.materials[0].normal_texture = 0;
   const glm::vec3 texel(191 / 255.0f, 128 / 255.0f, 238 / 255.0f);
   const glm::vec3 q[3] = {m.positions[0], m.positions[1], m.positions[2]};
@@ -808,14 +808,14 @@ TEST(MeshQueries, NormalMapTiltsTheNormalInTheUvTangentFrame) {
 }
 
 TEST(MeshQueries, TextureSampleIsBilinearRepeatAndSrgbDecoded) {
-  Texture t{2, 1, {0, 0, 0, 255, 255, 255, 255, 255}};  // black, white
+  Texture t{2, 1, {0, 0, 0, 255, 255, 255, 255, 255}, "t"};  // black, white
   expect_vec3(t.sample({0.25f, 0.5f}), glm::vec3(0.0f));    // centre of texel 0
   expect_vec3(t.sample({0.75f, 0.5f}), glm::vec3(1.0f));    // centre of texel 1
   expect_vec3(t.sample({0.5f, 0.5f}), glm::vec3(0.5f));     // halfway in linear space
   expect_vec3(t.sample({0.0f, 0.5f}), glm::vec3(0.5f));     // wraps to texel 1 on the left
   expect_vec3(t.sample({1.25f, -3.5f}), glm::vec3(0.0f));   // repeat in u and v
   expect_vec3(t.sample({0.375f, 0.5f}), glm::vec3(0.25f));  // a quarter of the way
-  Texture g{1, 1, {188, 188, 188, 255}};
+  Texture g{1, 1, {188, 188, 188, 255}, "g"};
   expect_vec3(g.sample({0.3f, 0.9f}), glm::vec3(std::pow((188.0f / 255.0f + 0.055f) / 1.055f, 2.4f)), 1e-6f);
   expect_vec3(g.sample({0.3f, 0.9f}, false), glm::vec3(188.0f / 255.0f), 1e-6f);  // data: not decoded
   Texture empty;

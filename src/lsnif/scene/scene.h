@@ -15,12 +15,9 @@
 
 namespace lsnif::scene {
 
-// An 8-bit RGBA texture as stored in the file (sRGB-encoded for base color, linear otherwise).
-struct Texture {
-  std::string name;
-  uint32_t width = 0, height = 0;
-  std::vector<uint8_t> rgba;  // width * height * 4, row 0 = top of the image (glTF uv (0,0))
-};
+// An 8-bit RGBA texture as stored in the file (sRGB-encoded for base color, linear otherwise): the
+// importer's (src/lsnif/import/mesh.h), read by the same function (read_gltf_image, gltf_material.h).
+using Texture = lsnif::Texture;
 
 // glTF metallic-roughness material (KHR_materials_emissive_strength folded into emission).
 struct Material {

@@ -60,20 +60,13 @@ int32_t SceneBuilder::image_texture(int source, const std::string& where) {
   int32_t& mapped = image_map_[size_t(source)];
   if (mapped != -2) return mapped;
   mapped = -1;
-  tinygltf::Image image = model_.images[size_t(source)];
-  std::string why = image.uri.empty() ? "no image data" : "image data missing or undecodable";
-  if (!gltf::resolve_image(model_, image, kGltfMaxImagePixels, why)) {
+  Texture t;
+  std::string why;
+  if (!read_gltf_image(model_, source, t, why)) {
     warn(where.substr(name_.size() + 2) +
          format(": image %d could not be used (%s); untextured", source, why.c_str()));
     return -1;
   }
-  Texture t;
-  t.name = !image.name.empty() ? image.name
-           : (!image.uri.empty() && image.uri.rfind("data:", 0) != 0) ? image.uri
-                                                                       : format("image_%d", source);
-  t.width = static_cast<uint32_t>(image.width);
-  t.height = static_cast<uint32_t>(image.height);
-  t.rgba = std::move(image.image);
   mapped = int32_t(scene_.textures.size());
   scene_.textures.push_back(std::move(t));
   return mapped;
