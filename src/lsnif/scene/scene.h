@@ -124,4 +124,12 @@ struct Scene {
   std::vector<std::string> warnings;
 };
 
+// The importer's mesh (src/lsnif/import/mesh.h) in the scene: every vertex in order with its
+// normal and uv where the mesh has them, every triangle, all of material `material` (Scene::materials).
+Primitive primitive_from(const lsnif::Mesh& mesh, uint32_t material);
+
+// The same, one primitive per mesh material that has triangles (mesh material k -> scene material
+// materials[k]), each with the vertices its triangles use, in order of first use.
+Mesh mesh_from(const std::string& name, const lsnif::Mesh& mesh, const std::vector<uint32_t>& materials);
+
 }  // namespace lsnif::scene

@@ -26,12 +26,7 @@ inline scene::Scene elephant_on_ground(const Mesh& mesh, const std::string& mode
   scene.materials = {grey, ground};
   scene::Mesh elephant;
   elephant.name = "elephant";
-  scene::Primitive p;
-  p.positions = mesh.positions;
-  p.normals = mesh.normals;
-  for (const glm::uvec3& t : mesh.triangles) p.indices.insert(p.indices.end(), {t.x, t.y, t.z});
-  p.material = 0;
-  elephant.primitives.push_back(p);
+  elephant.primitives.push_back(scene::primitive_from(mesh, 0));
   const Aabb b = mesh.bounds();
   scene::Mesh quad;
   quad.name = "ground";

@@ -3,7 +3,6 @@
 
 #include <cstring>
 #include <filesystem>
-#include <map>
 
 #include "lsnif/format/file_io.h"
 #include "lsnif/scene/gltf_build.h"
@@ -230,33 +229,6 @@ void relocate_files(tinygltf::Model& g, const std::string& input_dir, const std:
   fix(g.extensions, "LSNIF_environment", "hdr");
 }
 
-// The group's training mesh (world space) as a triangle mesh for reference renders: one primitive
-// per model material.
-scene::Mesh reference_mesh(const std::string& name, const Mesh& mesh, const std::vector<uint32_t>& materials) {
-  scene::Mesh out;
-  out.name = name;
-  for (size_t mat = 0; mat < mesh.materials.size(); ++mat) {
-    scene::Primitive p;
-    p.material = materials[mat];
-    std::map<uint32_t, uint32_t> remap;
-    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
-      if (mesh.triangle_material[t] != mat) continue;
-      for (int c = 0; c < 3; ++c) {
-        const uint32_t v = mesh.triangles[t][c];
-        auto [it, added] = remap.emplace(v, uint32_t(p.positions.size()));
-        if (added) {
-          p.positions.push_back(mesh.positions[v]);
-          if (!mesh.normals.empty()) p.normals.push_back(mesh.normals[v]);
-          if (!mesh.uvs.empty()) p.uvs.push_back(mesh.uvs[v]);
-        }
-        p.indices.push_back(it->second);
-      }
-    }
-    if (!p.indices.empty()) out.primitives.push_back(std::move(p));
-  }
-  return out;
-}
-
 bool has_triangle_primitive(const tinygltf::Model& g, int mesh) {
   for (const tinygltf::Primitive& p : g.meshes[size_t(mesh)].primitives)
     if (is_triangle_mode(p.mode)) return true;
@@ -336,7 +308,7 @@ Status build_output(const ConvertSettings& settings, const Plan& plan, const std
     const PlannedModel& m = plan.models[gn.model];
     int mesh = -1;
     if (settings.keep_meshes)
-      if (Status s = scene::add_mesh(out, reference_mesh(m.name + "_reference", results[gn.model].mesh, gn.materials), mesh); !s)
+      if (Status s = scene::add_mesh(out, scene::mesh_from(m.name + "_reference", results[gn.model].mesh, gn.materials), mesh); !s)
         return s.context(format("group '%s'", m.group.c_str()));
     const int node = scene::add_node(out, m.group, mesh, glm::mat4(1.0f));
     scene::set_neural_object(out, node, m.file, gn.materials);

@@ -169,17 +169,6 @@ Status require_files(const std::vector<std::string>& files) {
   return Status::ok();
 }
 
-scene::Primitive scene_primitive(const Mesh& mesh, uint32_t material) {
-  scene::Primitive p;
-  p.positions = mesh.positions;
-  p.normals = mesh.normals;
-  p.uvs = mesh.uvs;
-  p.indices.reserve(3 * mesh.triangles.size());
-  for (const glm::uvec3& t : mesh.triangles) p.indices.insert(p.indices.end(), {t.x, t.y, t.z});
-  p.material = material;
-  return p;
-}
-
 // Reads a sprite with the glTF loader's image decoder: the texels the renderer reads from the copy
 // beside the scene file.
 Status load_sprite(const std::string& path, Texture& out) {
@@ -517,7 +506,7 @@ Status write_bench_scene(const BenchScene& scene, const std::string& dir) {
     const int material = scene::add_material(model, material_spec);
     scene::Mesh m;
     m.name = o.name;
-    m.primitives = {scene_primitive(o.mesh, uint32_t(material))};
+    m.primitives = {scene::primitive_from(o.mesh, uint32_t(material))};
     if (Status s = scene::add_mesh(model, m, mesh); !s) return s;
     for (size_t i = 0; i < o.placements.size(); ++i) {
       const int node = scene::add_node(model, i ? format("%s_%zu", o.name.c_str(), i) : o.name, mesh, o.placements[i]);

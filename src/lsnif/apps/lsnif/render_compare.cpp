@@ -27,11 +27,7 @@ scene::Scene object_on_ground(const Mesh& mesh, const std::string& model_path, c
   s.materials = {object, ground};
   scene::Mesh m;
   m.name = "object";
-  scene::Primitive p;
-  p.positions = mesh.positions;
-  p.normals = mesh.normals;
-  for (const glm::uvec3& t : mesh.triangles) p.indices.insert(p.indices.end(), {t.x, t.y, t.z});
-  m.primitives.push_back(p);
+  m.primitives.push_back(scene::primitive_from(mesh, 0));
   const Aabb b = mesh.bounds();
   const glm::vec3 c = b.center();
   const float r = 3.0f * b.diagonal(), y = b.lo.y;
