@@ -92,15 +92,6 @@ std::string safe_name(const std::string& s) {
   return out.empty() ? std::string("object") : out;
 }
 
-uint64_t primitive_triangles(const tinygltf::Model& g, const tinygltf::Primitive& p) {
-  const int mode = p.mode < 0 ? TINYGLTF_MODE_TRIANGLES : p.mode;
-  if (!is_triangle_mode(mode)) return 0;
-  int acc = p.indices >= 0 ? p.indices : gltf::find_attribute(p, "POSITION");
-  if (acc < 0 || size_t(acc) >= g.accessors.size()) return 0;
-  const uint64_t n = g.accessors[size_t(acc)].count;
-  return mode == TINYGLTF_MODE_TRIANGLES ? n / 3 : (n >= 3 ? n - 2 : 0);
-}
-
 // Why mesh `m` cannot become an LSNIF object ("" when it can, as far as the plan can tell: the
 // training stage reads the data with every range check).
 std::string mesh_problem(const Plan& plan, int m) {
@@ -110,7 +101,7 @@ std::string mesh_problem(const Plan& plan, int m) {
   for (size_t p = 0; p < mesh.primitives.size(); ++p) {
     const tinygltf::Primitive& prim = mesh.primitives[p];
     const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
-    if (!is_triangle_mode(mode))
+    if (!gltf::is_triangle_mode(mode))
       return format("primitive %zu has mode %d (%s); only triangles can become an LSNIF object", p,
                     mode, gltf::mode_name(mode));
     if (prim.extensions.count("KHR_draco_mesh_compression"))
@@ -184,12 +175,6 @@ std::vector<std::string> referenced_files(const Plan& plan, const std::string& i
   return out;
 }
 
-bool is_triangle_mode(int mode) {
-  if (mode < 0) mode = TINYGLTF_MODE_TRIANGLES;  // glTF's default
-  return mode == TINYGLTF_MODE_TRIANGLES || mode == TINYGLTF_MODE_TRIANGLE_STRIP ||
-         mode == TINYGLTF_MODE_TRIANGLE_FAN;
-}
-
 const char* decision_text(Decision d) {
   switch (d) {
     case Decision::Convert: return "convert";
@@ -257,8 +242,8 @@ std::vector<BlasPrimitive> blas_primitives(const tinygltf::Model& g, int mesh) {
   for (const tinygltf::Primitive& p : g.meshes[size_t(mesh)].primitives) {
     const int position = gltf::find_attribute(p, "POSITION");
     if (position < 0 || size_t(position) >= g.accessors.size()) continue;
-    const uint64_t triangles = primitive_triangles(g, p);
-    if (triangles) out.push_back({uint64_t(g.accessors[size_t(position)].count), triangles});
+    const gltf::PrimitiveSize size = gltf::primitive_size(g, p);  // the triangles the readers make of it
+    if (size.triangles) out.push_back({size.vertices, size.triangles});
   }
   return out;
 }
@@ -358,7 +343,7 @@ Status collect_nodes(const std::string& in, Plan& plan) {
     p.name = gltf_node_name(g, item.node);
     p.mesh = n.mesh;
     p.mesh_name = gltf_mesh_name(g, n.mesh);
-    for (const tinygltf::Primitive& prim : g.meshes[size_t(n.mesh)].primitives) p.triangles += primitive_triangles(g, prim);
+    for (const tinygltf::Primitive& prim : g.meshes[size_t(n.mesh)].primitives) p.triangles += gltf::primitive_size(g, prim).triangles;
     p.world = item.world;
     plan.nodes.push_back(std::move(p));
   }

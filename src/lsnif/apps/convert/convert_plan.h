@@ -27,10 +27,6 @@ enum class Decision {
 };
 const char* decision_text(Decision d);
 
-// TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN (-1, glTF's default, is TRIANGLES): the primitive modes
-// the importer turns into triangles.
-bool is_triangle_mode(int mode);
-
 // One node of the default scene that has a mesh.
 struct PlannedNode {
   int node = -1;

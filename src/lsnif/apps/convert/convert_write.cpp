@@ -231,7 +231,7 @@ void relocate_files(tinygltf::Model& g, const std::string& input_dir, const std:
 
 bool has_triangle_primitive(const tinygltf::Model& g, int mesh) {
   for (const tinygltf::Primitive& p : g.meshes[size_t(mesh)].primitives)
-    if (is_triangle_mode(p.mode)) return true;
+    if (gltf::is_triangle_mode(p.mode)) return true;
   return false;
 }
 
