@@ -1,9 +1,12 @@
-// device_scene.h -- what the two halves of the Renderer (renderer.h) share: renderer.cpp (scene
-// upload, inline pipeline, accumulation) and renderer_wavefront.cpp (the wavefront pipeline). The
-// scene set on the device and the helpers both use; internal to lsnif_render, not installed.
+// device_scene.h -- the scene on the device (DeviceScene, built by build_device_scene in
+// device_scene.cpp) and what the Renderer's passes share: renderer.cpp (inline pipeline,
+// accumulation), renderer_wavefront.cpp (the wavefront pipeline). Internal to lsnif_render, not
+// installed.
 #pragma once
+#include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,6 +30,22 @@ inline vk::Spirv spirv(const uint32_t* code, size_t bytes) {
 
 // The plugin's last error as a Status (after a failed call of the C API).
 inline Status plugin_error(const char* what) { return Status::error("%s: %s", what, lsnifGetLastErrorMessage()); }
+
+// True when every element of `m` is finite.
+inline bool finite(const glm::mat4& m) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(m[c][r])) return false;
+  return true;
+}
+
+// Row-major 3x4 of an affine glm matrix (a TLAS record's transform).
+inline VkTransformMatrixKHR to_3x4(const glm::mat4& m) {
+  VkTransformMatrixKHR xf;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) xf.matrix[r][c] = m[c][r];
+  return xf;
+}
 
 // Everything set_scene allocates on the device, and what a pass needs of the scene; released by
 // the destructor.
@@ -96,5 +115,21 @@ struct DeviceScene {
     return upload(v.empty() ? nullptr : v.data(), v.size() * sizeof(T), address);
   }
 };
+
+// The Renderer's counters of device work (renderer.h: models loaded, BLASes and TLASes built).
+struct SceneBuildCounts {
+  uint32_t& models_loaded;
+  uint32_t& blases_built;
+  uint32_t& tlases_built;
+};
+
+// `scene` on the device for mode `reference` (and, with both_modes, the other one where the scene
+// has its geometry; its error is kept for set_mode) into `out`: the scene's checks (every node's
+// transform, indices, meshes and material maps, naming what is wrong), the models, materials,
+// textures, triangle BLASes and each mode's TLAS and tables, the frame's scene part and world
+// bounds. Triangle hit groups start at `triangle_sbt_offset` of the inline pipeline's table.
+Status build_device_scene(vk::ComputeContext& ctx, vk::RayTracer& tracer, const scene::Scene& scene, bool reference,
+                          const scene::EnvironmentMap* environment, bool both_modes, uint32_t triangle_sbt_offset,
+                          SceneBuildCounts counts, std::unique_ptr<DeviceScene>& out);
 
 }  // namespace lsnif::render
