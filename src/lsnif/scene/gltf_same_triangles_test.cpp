@@ -6,7 +6,7 @@
 // triangles. On a file written here that holds what the readers could disagree on (a triangle strip,
 // a fan, a mesh shared by two nodes, one of them mirrored by a negative scale, a primitive without
 // normals, a node under a parent) and on the glTF-Asset-Generator's primitive-mode files (made
-// elsewhere).
+// elsewhere); and what the reader refuses, every tool refuses.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 
 #include <nlohmann/json.hpp>
@@ -228,6 +229,32 @@ TEST(GltfSameTriangles, StripsFansMirrorsSharedMeshesAndFlatNormals) {
   lsnif::Mesh training;
   ASSERT_TRUE(load_mesh(path, training));
   EXPECT_EQ(training.triangles.size(), 2u * (4u + 3u) + 4u);
+}
+
+// A primitive the reader refuses is refused by every tool, with the same words: normalized index
+// accessors (glTF forbids them; the training importer used to read them) and a material that does
+// not exist.
+TEST(GltfSameTriangles, WhatTheReaderRefusesEveryToolRefuses) {
+  const std::vector<std::pair<std::string, std::function<void(json&)>>> cases = {
+      {"indices must not be normalized", [](json& j) { j["accessors"][3]["normalized"] = true; }},
+      {"material 5 does not exist", [](json& j) { j["meshes"][1]["primitives"][0]["material"] = 5; }},
+  };
+  for (const auto& [why, spoil] : cases) {
+    TempDir dir;
+    const std::string path = write_held_out(dir);
+    std::ifstream in(path);
+    json j = json::parse(in);
+    spoil(j);
+    write_file(path, j.dump(1));
+    lsnif::Mesh training;
+    const Status trained = load_mesh(path, training);
+    EXPECT_FALSE(trained) << why;
+    EXPECT_NE(trained.message().find(why), std::string::npos) << trained.message();
+    Scene scene;
+    const Status rendered = load_scene(path, quiet(), scene);
+    EXPECT_FALSE(rendered) << why;
+    EXPECT_NE(rendered.message().find(why), std::string::npos) << rendered.message();
+  }
 }
 
 TEST(GltfSameTriangles, TheAssetGeneratorsPrimitiveModes) {
