@@ -14,12 +14,11 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <functional>
-#include <iterator>
 
 #include <nlohmann/json.hpp>
 
+#include "lsnif/format/file_io.h"
 #include "lsnif/import/gltf_access.h"
 #include "lsnif/import/gltf_scene.h"
 #include "lsnif/import/mesh.h"
@@ -102,12 +101,10 @@ std::vector<Triangle> converter_triangles(const std::string& path) {
   tinygltf::Model model;
   std::vector<std::string> warnings;
   std::string data;
-  {
-    std::ifstream f(path, std::ios::binary);
-    data.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-  }
+  Status s = read_file(path, data, uint64_t(1) << 30);
+  EXPECT_TRUE(s) << s.message();
   const bool binary = data.size() >= 4 && std::memcmp(data.data(), "glTF", 4) == 0;
-  Status s = gltf::load_model(data, binary, path, fs::path(path).parent_path().string(), gltf::LoadOptions(), model,
+  s = gltf::load_model(data, binary, path, fs::path(path).parent_path().string(), gltf::LoadOptions(), model,
                               warnings);
   EXPECT_TRUE(s) << s.message();
   GltfScene walk;
@@ -242,8 +239,9 @@ TEST(GltfSameTriangles, WhatTheReaderRefusesEveryToolRefuses) {
   for (const auto& [why, spoil] : cases) {
     TempDir dir;
     const std::string path = write_held_out(dir);
-    std::ifstream in(path);
-    json j = json::parse(in);
+    std::string text;
+    ASSERT_TRUE(read_file(path, text, uint64_t(1) << 30));
+    json j = json::parse(text);
     spoil(j);
     write_file(path, j.dump(1));
     lsnif::Mesh training;

@@ -34,11 +34,9 @@ uint lsnif_rows_output(LsnifBatchRows r, LsnifModel m, uint k, uint slot) {
   return r.base + (4u + m.h.max_points + input_rows + k) * r.stride + slot;
 }
 
-// Column k of the order row.
+// Column k of the order row, the row after the last output row.
 uint lsnif_rows_order(LsnifBatchRows r, LsnifModel m, uint k) {
-  const uint input_rows = 2u * LSNIF_GPU_ROW_WORDS(lsnif_input_dim(m));
-  const uint output_rows = LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(lsnif_output_dim(m));
-  return r.base + (4u + m.h.max_points + input_rows + output_rows) * r.stride + k;
+  return lsnif_rows_output(r, m, LSNIF_GPU_ROW_BLOCK * LSNIF_GPU_ROW_BLOCKS(lsnif_output_dim(m)), k);
 }
 
 // Narrow phase, after lsnif_intersect_walk found `points` > 0 boundary points and lsnif_encode ran:
