@@ -355,7 +355,7 @@ TEST_F(RenderTest, SunLightsALambertPlaneAsTheRenderingEquationSays) {
   scene::Scene plane;
   plane.path = "(sun test)";
   scene::Material m;
-  m.base_color = glm::vec4(0.5f, 0.5f, 0.5f, 1.0f);
+  m.base_color = glm::vec3(0.5f);
   m.metallic = 0.0f;
   m.roughness = 1.0f;
   plane.materials = {m};
@@ -454,12 +454,13 @@ scene::Scene window_scene(float cutoff) {
   scene.textures = {t};
   scene::Material front, back;
   front.name = "leaf";
-  front.base_color = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
+  front.base_color = glm::vec3(0.0f);
   front.base_color_texture = 0;
   front.emission = glm::vec3(0.0f, 1.0f, 0.0f);
+  front.alpha_mode = cutoff > 0.0f ? AlphaMode::Mask : AlphaMode::Opaque;  // MASK at the BLEND cutoff: the same
   front.alpha_cutoff = cutoff;
   back.name = "backing";
-  back.base_color = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
+  back.base_color = glm::vec3(0.0f);
   back.emission = glm::vec3(1.0f, 0.0f, 0.0f);
   scene.materials = {front, back};
   const auto quad = [](float z, float r, uint32_t material) {
@@ -572,7 +573,7 @@ TEST_F(RenderTest, ACutoutLearnedAsGeometryRendersLikeItsReference) {
   Material leaf;
   leaf.name = "leaf";
   leaf.base_color = glm::vec3(0.0f);
-  leaf.texture = 0;
+  leaf.base_color_texture = 0;
   leaf.alpha_mode = AlphaMode::Mask;
   quad.materials = {leaf};
   Texture t;

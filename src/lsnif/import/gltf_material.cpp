@@ -3,6 +3,7 @@
 
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -32,9 +33,11 @@ Status read_factors(const tinygltf::Material& gm, const std::string& where, Gltf
     clamped |= c != v;
     return static_cast<float>(c);
   };
-  out.base_color = glm::vec4(unit(bc[0]), unit(bc[1]), unit(bc[2]), unit(bc[3]));
-  out.metallic = unit(pbr.metallicFactor);
-  out.roughness = unit(pbr.roughnessFactor);
+  Material& m = out.material;
+  m.base_color = glm::vec3(unit(bc[0]), unit(bc[1]), unit(bc[2]));
+  m.alpha = unit(bc[3]);
+  m.metallic = unit(pbr.metallicFactor);
+  m.roughness = unit(pbr.roughnessFactor);
   glm::dvec3 emission(std::max(ef[0], 0.0), std::max(ef[1], 0.0), std::max(ef[2], 0.0));
   clamped |= emission != glm::dvec3(ef[0], ef[1], ef[2]);
   if (auto it = gm.extensions.find("KHR_materials_emissive_strength"); it != gm.extensions.end()) {
@@ -49,8 +52,8 @@ Status read_factors(const tinygltf::Material& gm, const std::string& where, Gltf
     }
     emission *= strength;
   }
-  out.emission = glm::vec3(to_float(emission.x), to_float(emission.y), to_float(emission.z));
-  if (!std::isfinite(out.emission.x + out.emission.y + out.emission.z))
+  m.emission = glm::vec3(to_float(emission.x), to_float(emission.y), to_float(emission.z));
+  if (!std::isfinite(m.emission.x + m.emission.y + m.emission.z))
     return Status::error("%s: emission overflows a float", where.c_str());
   return Status::ok();
 }
@@ -141,21 +144,21 @@ tinygltf::TextureInfo texture_info(const Slot& slot) {
 Status read_alpha(const tinygltf::Material& gm, const std::string& where, const std::string& label, GltfMaterial& out,
                   std::vector<GltfWarning>& warnings) {
   if (gm.alphaMode.empty() || gm.alphaMode == "OPAQUE")
-    out.alpha_mode = AlphaMode::Opaque;
+    out.material.alpha_mode = AlphaMode::Opaque;
   else if (gm.alphaMode == "MASK")
-    out.alpha_mode = AlphaMode::Mask;
+    out.material.alpha_mode = AlphaMode::Mask;
   else if (gm.alphaMode == "BLEND")
-    out.alpha_mode = AlphaMode::Blend;
+    out.material.alpha_mode = AlphaMode::Blend;
   else
     return Status::error("%s: alphaMode '%s' is none of OPAQUE, MASK and BLEND", where.c_str(),
                          excerpt(gm.alphaMode).c_str());
   if (!std::isfinite(gm.alphaCutoff) || gm.alphaCutoff < 0.0)
     return Status::error("%s: alphaCutoff must be a finite number of at least 0", where.c_str());
-  out.alpha_cutoff = static_cast<float>(std::min(gm.alphaCutoff, 1.0));
+  out.material.alpha_cutoff = static_cast<float>(std::min(gm.alphaCutoff, 1.0));
   if (gm.alphaCutoff > 1.0)
     warnings.push_back({"", label + ": alphaCutoff above 1 was clamped to 1 (only alpha 1 is opaque)"});
   out.double_sided = gm.doubleSided;
-  if (out.alpha_mode == AlphaMode::Blend)
+  if (out.material.alpha_mode == AlphaMode::Blend)
     warnings.push_back({"", label + format(": alphaMode BLEND is read as a cut-out at alpha %.1f (ray tracing does not "
                                            "blend; docs/convert.md, \"Materials\")", double(kBlendCutoff))});
   return Status::ok();
@@ -167,8 +170,9 @@ Status read_gltf_material(const tinygltf::Model& model, size_t index, const std:
                           std::vector<GltfWarning>& warnings) {
   const tinygltf::Material& gm = model.materials[index];
   out = GltfMaterial{};
-  out.name = gm.name.empty() ? format("material_%zu", index) : gm.name;
-  out.label = format("material %zu ('%s')", index, excerpt(out.name).c_str());
+  Material& m = out.material;
+  m.name = gm.name.empty() ? format("material_%zu", index) : gm.name;
+  out.label = format("material %zu ('%s')", index, excerpt(m.name).c_str());
   const std::string& label = out.label;
   const std::string where = name + ": " + label;
   bool clamped = false;
@@ -176,39 +180,35 @@ Status read_gltf_material(const tinygltf::Model& model, size_t index, const std:
   if (!s) return s;
   if (clamped) warnings.push_back({"", label + ": factors outside their range were clamped"});
   const tinygltf::PbrMetallicRoughness& pbr = gm.pbrMetallicRoughness;
-  s = read_slot(model, pbr.baseColorTexture, "baseColorTexture", where, label, out.base_color_image, warnings);
-  if (s)
-    s = read_slot(model, pbr.metallicRoughnessTexture, "metallicRoughnessTexture", where, label,
-                  out.metallic_roughness_image, warnings);
-  if (s) s = read_slot(model, gm.emissiveTexture, "emissiveTexture", where, label, out.emission_image, warnings);
   // tinygltf keeps the occlusion and normal slots in types of their own: their common fields are
   // read through a TextureInfo.
   const tinygltf::TextureInfo occlusion = texture_info(gm.occlusionTexture);
   const tinygltf::TextureInfo normal = texture_info(gm.normalTexture);
-  if (s) s = read_slot(model, occlusion, "occlusionTexture", where, label, out.occlusion_image, warnings);
-  if (s) s = read_slot(model, normal, "normalTexture", where, label, out.normal_image, warnings);
+  const tinygltf::TextureInfo* slots[kTextureSlotCount] = {&pbr.baseColorTexture, &pbr.metallicRoughnessTexture,
+                                                           &gm.emissiveTexture, &occlusion, &normal};
+  const char* slot_names[kTextureSlotCount] = {"baseColorTexture", "metallicRoughnessTexture", "emissiveTexture",
+                                               "occlusionTexture", "normalTexture"};
+  const std::array<int*, kTextureSlotCount> images = m.textures();  // glTF image indices here
+  for (uint32_t k = 0; k < kTextureSlotCount && s; ++k)
+    s = read_slot(model, *slots[k], slot_names[k], where, label, *images[k], warnings);
   if (!s) return s;
   if (!std::isfinite(gm.normalTexture.scale) || std::fabs(gm.normalTexture.scale) > 1e6)
     return Status::error("%s: normalTexture.scale must be a finite number within +-1e6", where.c_str());
-  out.normal_scale = static_cast<float>(gm.normalTexture.scale);
+  m.normal_scale = static_cast<float>(gm.normalTexture.scale);
   if (!std::isfinite(gm.occlusionTexture.strength))
     return Status::error("%s: occlusionTexture.strength must be finite", where.c_str());
   const double strength = std::clamp(gm.occlusionTexture.strength, 0.0, 1.0);
-  out.occlusion_strength = static_cast<float>(strength);
+  m.occlusion_strength = static_cast<float>(strength);
   if (strength != gm.occlusionTexture.strength)
     warnings.push_back({"", label + ": occlusionTexture.strength outside [0, 1] was clamped"});
   // Each slot's KHR_texture_transform, and the one uv set: the base colour's, else the first
   // textured slot's (a transform's texCoord overrides its slot's).
   int set = -1;
-  const tinygltf::TextureInfo* slots[kTextureSlotCount] = {&pbr.baseColorTexture, &pbr.metallicRoughnessTexture,
-                                                           &gm.emissiveTexture, &occlusion, &normal};
-  const char* slot_names[kTextureSlotCount] = {"baseColorTexture", "metallicRoughnessTexture", "emissiveTexture",
-                                               "occlusionTexture", "normalTexture"};
   for (uint32_t k = 0; k < kTextureSlotCount; ++k) {
     const tinygltf::TextureInfo* info = slots[k];
     if (info->index < 0) continue;
     int tex_coord = -1;
-    if (Status st = read_uv_transform(*info, slot_names[k], where, out.uv_transform[k], tex_coord); !st) return st;
+    if (Status st = read_uv_transform(*info, slot_names[k], where, m.uv_transform[k], tex_coord); !st) return st;
     const int slot_set = tex_coord >= 0 ? tex_coord : info->texCoord;
     if (set < 0) set = slot_set;
     else if (slot_set != set)

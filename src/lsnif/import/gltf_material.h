@@ -19,26 +19,17 @@ namespace lsnif {
 inline constexpr uint64_t kGltfMaxImagePixels = uint64_t(1) << 26;  // per decoded image (8192 x 8192)
 inline constexpr size_t kGltfMaxAccessorCount = size_t(1) << 30;    // elements per accessor
 
+// A glTF material as read: the one Material (mesh.h), its texture indices glTF image indices (-1:
+// none, or a texture without a PNG / JPEG source: warned), which each reader turns into indices of
+// the images it decodes; and what glTF says besides.
 struct GltfMaterial {
-  std::string name;                 // the material's name, or "material_<index>"
-  std::string label;                // "material INDEX ('NAME')" for messages (the name excerpted)
-  glm::vec4 base_color{1.0f};       // baseColorFactor, clamped to [0, 1]
-  float metallic = 1.0f;            // metallicFactor, clamped to [0, 1]
-  float roughness = 1.0f;           // roughnessFactor, clamped to [0, 1]
-  glm::vec3 emission{0.0f};         // emissiveFactor (negative parts 0) times emissiveStrength; finite
-  int base_color_image = -1;        // glTF image of each texture slot; -1: none, or a texture without
-  int metallic_roughness_image = -1;  // a PNG / JPEG source (warned)
-  int emission_image = -1;
-  int occlusion_image = -1;         // occlusionTexture (occlusion in R)
-  float occlusion_strength = 1.0f;  // its strength, clamped to [0, 1]
-  int normal_image = -1;            // normalTexture (tangent space, +Y up)
-  float normal_scale = 1.0f;        // its scale (finite)
-  int uv_set = 0;                   // TEXCOORD set: the base colour texture's, else the first textured slot's
-  AlphaMode alpha_mode = AlphaMode::Opaque;  // alphaMode
-  float alpha_cutoff = 0.5f;        // alphaCutoff: finite, clamped to [0, 1]
-  bool double_sided = false;        // doubleSided
-  UvTransform uv_transform[kTextureSlotCount] = {kIdentityUvTransform, kIdentityUvTransform, kIdentityUvTransform,
-                                                 kIdentityUvTransform, kIdentityUvTransform};  // KHR_texture_transform
+  // name: the material's, or "material_<index>"; factors clamped to [0, 1] (emission: negative
+  // parts 0, times emissiveStrength, finite); occlusion_strength clamped to [0, 1]; normal_scale
+  // finite; alpha_cutoff finite, clamped to [0, 1]; uv_transform: each slot's KHR_texture_transform.
+  Material material;
+  std::string label;          // "material INDEX ('NAME')" for messages (the name excerpted)
+  int uv_set = 0;             // TEXCOORD set: the base colour texture's, else the first textured slot's
+  bool double_sided = false;  // doubleSided
 };
 
 // A warning of read_gltf_material: `text` names the material; `kind` is empty, or a kind the
@@ -60,6 +51,16 @@ struct GltfWarning {
 // clamped, with a warning: no alpha reaches it).
 Status read_gltf_material(const tinygltf::Model& model, size_t index, const std::string& name, GltfMaterial& out,
                           std::vector<GltfWarning>& warnings);
+
+// `gm`'s material with each texture slot's glTF image replaced by `texture_of(image)`: the owner's
+// texture index for it, or -1. Called once per textured slot, in TextureSlot order.
+template <class TextureOf>
+Material with_textures(const GltfMaterial& gm, TextureOf&& texture_of) {
+  Material m = gm.material;
+  for (int* t : m.textures())
+    if (*t >= 0) *t = texture_of(*t);
+  return m;
+}
 
 // Image `source` of `model` (a material slot's, GltfMaterial::*_image) as a texture of at most
 // kGltfMaxImagePixels RGBA8 pixels (gltf::resolve_image), named by the image's name, else its file,

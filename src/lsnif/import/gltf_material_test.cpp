@@ -47,13 +47,13 @@ TEST(GltfMaterial, FactorsAreClampedAndEmissionScaled) {
   GltfMaterial out;
   std::vector<GltfWarning> w;
   ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
-  EXPECT_EQ(out.name, "paint");
-  EXPECT_EQ(out.base_color, glm::vec4(0.25f, 1.0f, 0.0f, 1.0f));
-  EXPECT_EQ(out.metallic, 0.75f);
-  EXPECT_EQ(out.roughness, 1.0f);
-  EXPECT_EQ(out.emission, glm::vec3(4.0f, 0.0f, 2.0f));
+  EXPECT_EQ(out.material.name, "paint");
+  EXPECT_EQ(glm::vec4(out.material.base_color, out.material.alpha), glm::vec4(0.25f, 1.0f, 0.0f, 1.0f));
+  EXPECT_EQ(out.material.metallic, 0.75f);
+  EXPECT_EQ(out.material.roughness, 1.0f);
+  EXPECT_EQ(out.material.emission, glm::vec3(4.0f, 0.0f, 2.0f));
   EXPECT_TRUE(any_warning(w, "material 0 ('paint'): factors outside their range were clamped"));
-  EXPECT_EQ(out.base_color_image, -1);
+  EXPECT_EQ(out.material.base_color_texture, -1);
   EXPECT_EQ(out.uv_set, 0);
 }
 
@@ -63,11 +63,11 @@ TEST(GltfMaterial, DefaultsOfAnEmptyMaterial) {
   GltfMaterial out;
   std::vector<GltfWarning> w;
   ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
-  EXPECT_EQ(out.name, "material_0");
-  EXPECT_EQ(out.base_color, glm::vec4(1.0f));  // glTF's defaults
-  EXPECT_EQ(out.metallic, 1.0f);
-  EXPECT_EQ(out.roughness, 1.0f);
-  EXPECT_EQ(out.emission, glm::vec3(0.0f));
+  EXPECT_EQ(out.material.name, "material_0");
+  EXPECT_EQ(glm::vec4(out.material.base_color, out.material.alpha), glm::vec4(1.0f));  // glTF's defaults
+  EXPECT_EQ(out.material.metallic, 1.0f);
+  EXPECT_EQ(out.material.roughness, 1.0f);
+  EXPECT_EQ(out.material.emission, glm::vec3(0.0f));
   EXPECT_TRUE(w.empty());
 }
 
@@ -86,14 +86,14 @@ TEST(GltfMaterial, SlotsResolveToImagesAndTheUvSet) {
   GltfMaterial out;
   std::vector<GltfWarning> w;
   ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
-  EXPECT_EQ(out.base_color_image, -1);
-  EXPECT_EQ(out.metallic_roughness_image, 1);
-  EXPECT_EQ(out.emission_image, 0);
+  EXPECT_EQ(out.material.base_color_texture, -1);
+  EXPECT_EQ(out.material.metallic_roughness_texture, 1);
+  EXPECT_EQ(out.material.emission_texture, 0);
   EXPECT_EQ(out.uv_set, 0);  // the base colour texture's (set 0), though it has no image
   EXPECT_TRUE(any_warning(w, "baseColorTexture: texture 2 has no PNG/JPEG source"));
-  EXPECT_EQ(out.occlusion_image, 1);
-  EXPECT_EQ(out.occlusion_strength, 0.25f);
-  EXPECT_EQ(out.normal_image, 1);
+  EXPECT_EQ(out.material.occlusion_texture, 1);
+  EXPECT_EQ(out.material.occlusion_strength, 0.25f);
+  EXPECT_EQ(out.material.normal_texture, 1);
   EXPECT_FALSE(any_warning(w, "occlusion"));
   EXPECT_FALSE(any_warning(w, "normal"));
   EXPECT_TRUE(any_warning(w, "different TEXCOORD sets; TEXCOORD_0 used for all"));
@@ -128,10 +128,10 @@ TEST(GltfMaterial, TextureTransformsAreTheExtensionsAffineMaps) {
   const glm::vec2 uv(0.3f, 0.7f), s(2.0f * uv.x, 3.0f * uv.y);
   const float c = std::cos(0.5f), sn = std::sin(0.5f);
   const glm::vec2 expected(c * s.x + sn * s.y + 0.5f, -sn * s.x + c * s.y - 0.25f);
-  const glm::vec2 got = apply_uv_transform(out.uv_transform[kSlotEmission], uv);
+  const glm::vec2 got = apply_uv_transform(out.material.uv_transform[kSlotEmission], uv);
   EXPECT_NEAR(got.x, expected.x, 1e-6f);
   EXPECT_NEAR(got.y, expected.y, 1e-6f);
-  const glm::vec2 same = apply_uv_transform(out.uv_transform[kSlotMetallicRoughness], uv);  // no extension
+  const glm::vec2 same = apply_uv_transform(out.material.uv_transform[kSlotMetallicRoughness], uv);  // no extension
   EXPECT_EQ(same, uv);
   // texCoord in the extension: the slot's set.
   ext["texCoord"] = tinygltf::Value(1);
@@ -161,8 +161,8 @@ TEST(GltfMaterial, AlphaModeCutoffAndDoubleSided) {
   GltfMaterial out;
   std::vector<GltfWarning> w;
   ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
-  EXPECT_EQ(out.alpha_mode, AlphaMode::Opaque);
-  EXPECT_EQ(out.alpha_cutoff, 0.5f);
+  EXPECT_EQ(out.material.alpha_mode, AlphaMode::Opaque);
+  EXPECT_EQ(out.material.alpha_cutoff, 0.5f);
   EXPECT_FALSE(out.double_sided);
   for (const auto& [mode, expected] : {std::pair{"OPAQUE", AlphaMode::Opaque}, std::pair{"MASK", AlphaMode::Mask},
                                        std::pair{"BLEND", AlphaMode::Blend}}) {
@@ -171,8 +171,8 @@ TEST(GltfMaterial, AlphaModeCutoffAndDoubleSided) {
     g.materials[0].doubleSided = true;
     w.clear();
     ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
-    EXPECT_EQ(out.alpha_mode, expected) << mode;
-    EXPECT_EQ(out.alpha_cutoff, 0.25f);
+    EXPECT_EQ(out.material.alpha_mode, expected) << mode;
+    EXPECT_EQ(out.material.alpha_cutoff, 0.25f);
     EXPECT_TRUE(out.double_sided);
     // BLEND has no blending here, and says so.
     EXPECT_EQ(any_warning(w, "alphaMode BLEND is read as a cut-out at alpha 0.5"), expected == AlphaMode::Blend) << mode;
@@ -180,7 +180,7 @@ TEST(GltfMaterial, AlphaModeCutoffAndDoubleSided) {
   g.materials[0].alphaCutoff = 3.0;
   w.clear();
   ASSERT_TRUE(read_gltf_material(g, 0, "f.gltf", out, w));
-  EXPECT_EQ(out.alpha_cutoff, 1.0f);
+  EXPECT_EQ(out.material.alpha_cutoff, 1.0f);
   EXPECT_TRUE(any_warning(w, "alphaCutoff above 1 was clamped"));
   for (double bad : {-0.1, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
     g.materials[0].alphaCutoff = bad;

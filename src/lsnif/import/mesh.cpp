@@ -225,8 +225,8 @@ glm::vec3 Mesh::albedo(uint32_t triangle, float u, float v) const {
     const Material& mat = materials[m];
     color = mat.base_color;
     glm::vec2 uv;
-    if (mat.texture >= 0 && size_t(mat.texture) < textures.size() && interpolated_uv(*this, t, u, v, uv))
-      color *= textures[size_t(mat.texture)].sample(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
+    if (mat.base_color_texture >= 0 && size_t(mat.base_color_texture) < textures.size() && interpolated_uv(*this, t, u, v, uv))
+      color *= textures[size_t(mat.base_color_texture)].sample(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
   }
   if (colors.size() == positions.size() && t.x < colors.size() && t.y < colors.size() &&
       t.z < colors.size()) {
@@ -242,8 +242,8 @@ float Mesh::alpha(uint32_t triangle, float u, float v) const {
   const Material& mat = materials[triangle_material[triangle]];
   float a = mat.alpha;
   glm::vec2 uv;
-  if (mat.texture >= 0 && size_t(mat.texture) < textures.size() && interpolated_uv(*this, triangles[triangle], u, v, uv))
-    a *= textures[size_t(mat.texture)].sample_alpha(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
+  if (mat.base_color_texture >= 0 && size_t(mat.base_color_texture) < textures.size() && interpolated_uv(*this, triangles[triangle], u, v, uv))
+    a *= textures[size_t(mat.base_color_texture)].sample_alpha(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
   return a;
 }
 
@@ -346,10 +346,10 @@ void clean_materials(Mesh& mesh, const std::string& name, MeshImportReport& rep,
       m.name = std::move(clean);
       ++renamed;
     }
-    if (m.texture >= 0 && size_t(m.texture) >= mesh.textures.size()) {
+    if (m.base_color_texture >= 0 && size_t(m.base_color_texture) >= mesh.textures.size()) {
       rep.warnings.push_back(format("%s: material '%s' references missing texture %d; ignored",
-                                    name.c_str(), m.name.c_str(), m.texture));
-      m.texture = -1;
+                                    name.c_str(), m.name.c_str(), m.base_color_texture));
+      m.base_color_texture = -1;
     }
   }
   if (renamed)

@@ -1,6 +1,7 @@
 // mesh.h -- an object's triangle soup in object space, as the importers produce it and the
 // voxelizer, the ground-truth ray caster and the model's material table consume it.
 #pragma once
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -44,15 +45,20 @@ using UvTransform = glm::mat3x2;
 inline constexpr UvTransform kIdentityUvTransform(1, 0, 0, 1, 0, 0);
 inline glm::vec2 apply_uv_transform(const UvTransform& m, glm::vec2 uv) { return m * glm::vec3(uv, 1.0f); }
 
+// The one material of every tool: glTF's metallic-roughness material as the importer (training,
+// `eval`, `convert`), the scene loader and the renderer hold it. Read from glTF by read_gltf_material
+// (gltf_material.h); texture indices index the owner's texture list (Mesh::textures,
+// scene::Scene::textures), -1 for none. The renderer packs it into its GPU layout (RenderMaterial,
+// renderer/shaders/render_host_device.h).
 struct Material {
   std::string name;
   glm::vec3 base_color{1.0f};  // linear RGB factor (glTF baseColorFactor.rgb)
-  int texture = -1;            // index into Mesh::textures or -1 (glTF baseColorTexture)
-  // The rest of glTF's metallic-roughness material (gltf_material.h), learned as surface channels
-  // (src/lsnif/core/head.h): factors, and textures as indices into Mesh::textures or -1.
+  int base_color_texture = -1; // glTF baseColorTexture (sRGB; its alpha multiplies `alpha`)
+  // The rest of glTF's metallic-roughness material, learned as surface channels
+  // (src/lsnif/core/head.h): factors, and textures.
   float metallic = 1.0f, roughness = 1.0f;     // metallicFactor, roughnessFactor
   glm::vec3 emission{0.0f};                    // emissiveFactor x emissive strength, linear RGB
-  float occlusion_strength = 1.0f;             // occlusionTexture.strength
+  float occlusion_strength = 1.0f;             // occlusionTexture.strength: occlusion = 1 + strength x (R - 1)
   float normal_scale = 1.0f;                   // normalTexture.scale
   int metallic_roughness_texture = -1;         // metallic in B, roughness in G (linear)
   int emission_texture = -1;                   // sRGB
@@ -70,11 +76,18 @@ struct Material {
   bool has_surface_textures() const {
     return metallic_roughness_texture >= 0 || emission_texture >= 0 || occlusion_texture >= 0;
   }
-  bool has_textures() const { return texture >= 0 || has_surface_textures() || normal_texture >= 0; }
+  bool has_textures() const { return base_color_texture >= 0 || has_surface_textures() || normal_texture >= 0; }
   // The alpha below which the surface is a hole: alpha_cutoff (MASK), kBlendCutoff (BLEND); none (0)
   // for OPAQUE.
   float cutoff() const {
     return alpha_mode == AlphaMode::Mask ? alpha_cutoff : alpha_mode == AlphaMode::Blend ? kBlendCutoff : 0.0f;
+  }
+  // The texture index of each slot, in TextureSlot order.
+  std::array<int*, kTextureSlotCount> textures() {
+    return {&base_color_texture, &metallic_roughness_texture, &emission_texture, &occlusion_texture, &normal_texture};
+  }
+  std::array<const int*, kTextureSlotCount> textures() const {
+    return {&base_color_texture, &metallic_roughness_texture, &emission_texture, &occlusion_texture, &normal_texture};
   }
 };
 

@@ -172,7 +172,7 @@ std::string check_mesh(const Mesh& m) {
     if (m.triangle_material[t] >= m.materials.size()) return "material out of range";
   }
   for (const Material& mat : m.materials)
-    if (mat.texture >= int(m.textures.size())) return "texture out of range";
+    if (mat.base_color_texture >= int(m.textures.size())) return "texture out of range";
   for (const Texture& tex : m.textures)
     if (tex.width == 0 || tex.height == 0 || tex.rgba.size() != size_t(tex.width) * tex.height * 4)
       return "texture size";

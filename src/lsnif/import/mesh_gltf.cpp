@@ -247,7 +247,9 @@ class GltfFlattener {
     if (gltf_material < 0) {
       if (default_material_ < 0) {
         default_material_ = int(mesh_.materials.size());
-        mesh_.materials.push_back(Material{"default", glm::vec3(1.0f), -1});
+        Material m;
+        m.name = "default";
+        mesh_.materials.push_back(std::move(m));
       }
       out = default_material_;
       return Status::ok();
@@ -255,24 +257,7 @@ class GltfFlattener {
     int& mapped = material_map_[size_t(gltf_material)];
     if (mapped < 0) {
       const GltfMaterial& gm = materials_[size_t(gltf_material)];
-      Material mat;
-      mat.name = gm.name;
-      mat.base_color = glm::vec3(gm.base_color);
-      if (gm.base_color_image >= 0) mat.texture = image_texture(gm.base_color_image, mat.name);
-      mat.metallic = gm.metallic;
-      mat.roughness = gm.roughness;
-      mat.emission = gm.emission;
-      mat.occlusion_strength = gm.occlusion_strength;
-      if (gm.metallic_roughness_image >= 0)
-        mat.metallic_roughness_texture = image_texture(gm.metallic_roughness_image, mat.name);
-      if (gm.emission_image >= 0) mat.emission_texture = image_texture(gm.emission_image, mat.name);
-      if (gm.occlusion_image >= 0) mat.occlusion_texture = image_texture(gm.occlusion_image, mat.name);
-      mat.normal_scale = gm.normal_scale;
-      for (uint32_t k = 0; k < kTextureSlotCount; ++k) mat.uv_transform[k] = gm.uv_transform[k];
-      if (gm.normal_image >= 0) mat.normal_texture = image_texture(gm.normal_image, mat.name);
-      mat.alpha_mode = gm.alpha_mode;
-      mat.alpha = gm.base_color.a;
-      mat.alpha_cutoff = gm.alpha_cutoff;
+      Material mat = with_textures(gm, [&](int image) { return image_texture(image, gm.material.name); });
       mapped = int(mesh_.materials.size());
       mesh_.materials.push_back(std::move(mat));
     }

@@ -647,7 +647,7 @@ TEST(MeshGltf, EmbeddedTextureDecodesAndDrivesAlbedo) {
   ASSERT_EQ(t.height, 2u);
   EXPECT_EQ(t.rgba, (std::vector<uint8_t>{255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 128, 128, 128, 255}));
   ASSERT_EQ(l.mesh.materials.size(), 1u);
-  EXPECT_EQ(l.mesh.materials[0].texture, 0);
+  EXPECT_EQ(l.mesh.materials[0].base_color_texture, 0);
   expect_vec3(l.mesh.materials[0].base_color, glm::vec3(0.5f, 1.0f, 1.0f));
   // Corner 0 sits on the red texel's centre, corner 1 on green's (top row first).
   expect_vec3(l.mesh.albedo(0, 0, 0), glm::vec3(0.5f, 0, 0), 1e-6f);
@@ -734,7 +734,7 @@ TEST(MeshQueries, AlbedoMultipliesBaseTextureAndVertexColor) {
   // 1x1 texture of sRGB 128: decoded ((128/255 + 0.055) / 1.055)^2.4.
   const float t128 = static_cast<float>(std::pow((128.0 / 255.0 + 0.055) / 1.055, 2.4));
   m.textures = {Texture{1, 1, {128, 128, 128, 255}, "t"}};
-  m.materials[0].texture = 0;
+  m.materials[0].base_color_texture = 0;
   m.uvs = {{0, 0}, {1, 0}, {0, 1}};
   expect_vec3(m.albedo(0, 0.2f, 0.3f), glm::vec3(0.25f, 0.2f, 0.3f) * t128);
   m.uvs.clear();  // a texture without uvs is not applied
@@ -957,7 +957,7 @@ TEST(MeshReal, BoxTexturedGltfAndGlb) {
     EXPECT_EQ(m.textures[0].rgba.size(), size_t(m.textures[0].width) * m.textures[0].height * 4);
     EXPECT_EQ(m.uvs.size(), m.positions.size());
     ASSERT_EQ(m.materials.size(), 1u);
-    EXPECT_EQ(m.materials[0].texture, 0);
+    EXPECT_EQ(m.materials[0].base_color_texture, 0);
     Aabb box = m.bounds();
     expect_vec3(box.lo, glm::vec3(-0.5f), 1e-6f);
     expect_vec3(box.hi, glm::vec3(0.5f), 1e-6f);

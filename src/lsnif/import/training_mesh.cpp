@@ -79,14 +79,6 @@ class ByteReader {
   const std::string& name_;
 };
 
-// Every texture index of a material, in file order.
-std::array<int*, 5> texture_refs(Material& m) {
-  return {&m.texture, &m.metallic_roughness_texture, &m.emission_texture, &m.occlusion_texture, &m.normal_texture};
-}
-std::array<const int*, 5> texture_refs(const Material& m) {
-  return {&m.texture, &m.metallic_roughness_texture, &m.emission_texture, &m.occlusion_texture, &m.normal_texture};
-}
-
 void write_material(ByteWriter& w, const Material& m) {
   w.pod(uint32_t(m.name.size()));
   for (char c : m.name) w.pod(c);
@@ -96,7 +88,7 @@ void write_material(ByteWriter& w, const Material& m) {
   w.pod(m.emission);
   w.pod(m.occlusion_strength);
   w.pod(m.normal_scale);
-  for (const int* t : texture_refs(m)) w.pod(int32_t(*t));
+  for (const int* t : m.textures()) w.pod(int32_t(*t));  // TextureSlot order: the file's
   for (const UvTransform& u : m.uv_transform) w.pod(u);
   w.pod(uint32_t(m.alpha_mode));
   w.pod(m.alpha);
@@ -115,7 +107,7 @@ Status read_material(ByteReader& r, const std::string& name, size_t textures, Ma
   if (s) s = r.pod(m.emission, "material");
   if (s) s = r.pod(m.occlusion_strength, "material");
   if (s) s = r.pod(m.normal_scale, "material");
-  for (int* t : texture_refs(m)) {
+  for (int* t : m.textures()) {
     int32_t v = 0;
     if (s) s = r.pod(v, "material");
     if (s && (v < -1 || int64_t(v) >= int64_t(textures)))

@@ -42,7 +42,7 @@ void expect_identical(const Mesh& a, const Mesh& b) {
     const auto tail = [](const Material& m) {
       std::vector<float> v = {m.base_color.x, m.base_color.y, m.base_color.z, m.metallic, m.roughness,
                               m.emission.x, m.emission.y, m.emission.z, m.occlusion_strength, m.normal_scale,
-                              float(m.texture), float(m.metallic_roughness_texture), float(m.emission_texture),
+                              float(m.base_color_texture), float(m.metallic_roughness_texture), float(m.emission_texture),
                               float(m.occlusion_texture), float(m.normal_texture), float(m.alpha_mode), m.alpha,
                               m.alpha_cutoff};
       for (const UvTransform& u : m.uv_transform)
@@ -100,7 +100,7 @@ Mesh synthetic_mesh() {
   Material mat;
   mat.name = "m\xc3\xa4t";
   mat.base_color = {0.5f, 0.25f, 1.0f / 3.0f};
-  mat.texture = 0;
+  mat.base_color_texture = 0;
   mat.metallic_roughness_texture = 1;
   mat.emission = {2.5f, 0, 0};
   mat.uv_transform[kSlotEmission] = UvTransform(0.7f, 0.1f, -0.1f, 0.7f, 0.25f, 1.0f / 3.0f);

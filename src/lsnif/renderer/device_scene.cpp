@@ -183,10 +183,10 @@ Status upload_materials(const scene::Scene& scene, DeviceScene& dev, std::vector
     return t >= 0 && size_t(t) < scene.textures.size() ? uint32_t(t) : RENDER_NO_TEXTURE;
   };
   auto add = [&](const scene::Material& m) {
-    RenderMaterial r{m.base_color.r, m.base_color.g, m.base_color.b, m.base_color.a, m.metallic, m.roughness,
+    RenderMaterial r{m.base_color.r, m.base_color.g, m.base_color.b, m.alpha, m.metallic, m.roughness,
                      m.emission.r, m.emission.g, m.emission.b, tex(m.base_color_texture),
                      tex(m.metallic_roughness_texture), tex(m.emission_texture), tex(m.occlusion_texture),
-                     m.occlusion_strength, tex(m.normal_texture), m.normal_scale, m.alpha_cutoff, {}};
+                     m.occlusion_strength, tex(m.normal_texture), m.normal_scale, m.cutoff(), {}};
     static_assert(sizeof(r.uv_transform) == sizeof(float) * 6 * kTextureSlotCount, "one 2x3 transform per slot");
     for (uint32_t k = 0; k < kTextureSlotCount; ++k)
       for (int c = 0; c < 3; ++c)
@@ -196,7 +196,7 @@ Status upload_materials(const scene::Scene& scene, DeviceScene& dev, std::vector
   for (const scene::Material& m : scene.materials) add(m);
   if (materials.empty()) {
     scene::Material fallback;
-    fallback.base_color = glm::vec4(0.8f, 0.8f, 0.8f, 1.0f);
+    fallback.base_color = glm::vec3(0.8f);
     fallback.metallic = 0.0f;
     add(fallback);
   }
@@ -250,7 +250,7 @@ Status build_primitives(const scene::Scene& scene, const ScenePlan& plan, size_t
       std::vector<float> flat(p.positions.size() * 3);
       std::memcpy(flat.data(), p.positions.data(), flat.size() * sizeof(float));
       // A cut-out material's geometry is not opaque: its hits run the alpha test (render_triangle.rahit).
-      const bool opaque = p.material >= scene.materials.size() || !(scene.materials[p.material].alpha_cutoff > 0.0f);
+      const bool opaque = p.material >= scene.materials.size() || !(scene.materials[p.material].cutoff() > 0.0f);
       vk::AccelerationStructure blas;
       if (Status s = dev.tracer.build_triangle_blas(flat, indices, blas, opaque); !s)
         return s.context(("mesh '" + scene.meshes[m].name + "'").c_str());

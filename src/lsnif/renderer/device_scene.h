@@ -76,7 +76,7 @@ struct DeviceScene {
     // mesh), or why the mode cannot be rasterized (an LSNIF node without a mesh).
     std::vector<VisibilityDraw> raster_draws;
     std::string raster_why_not;
-    // The first alpha cut-out material (scene::Material::alpha_cutoff > 0) among the mode's triangle
+    // The first alpha cut-out material (scene::Material::cutoff() > 0) among the mode's triangle
     // records, "" when none: the inline pipeline's rays alpha-test them (render_triangle.rahit) and
     // the visibility pass does, but lsnifCmdQuery, which the wavefront pipeline casts its rays
     // through, treats every triangle as opaque. (An LSNIF record's cut-outs are in its model.)

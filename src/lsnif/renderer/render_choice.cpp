@@ -51,7 +51,7 @@ std::string cutout_material(const scene::Scene& scene, bool reference) {
   for (const scene::Instance& in : scene.instances) {
     if ((in.lsnif >= 0 && !reference) || in.mesh < 0 || size_t(in.mesh) >= scene.meshes.size()) continue;
     for (const scene::Primitive& p : scene.meshes[size_t(in.mesh)].primitives)
-      if (p.material < scene.materials.size() && scene.materials[p.material].alpha_cutoff > 0.0f)
+      if (p.material < scene.materials.size() && scene.materials[p.material].cutoff() > 0.0f)
         return scene.materials[p.material].name;
   }
   return "";

@@ -59,7 +59,7 @@ RenderChoice choose_render_path(const scene::Scene& scene, bool reference, const
 // Why a node keeps no mesh the visibility pass can draw ("" when every LSNIF node keeps one).
 std::string raster_obstacle(const scene::Scene& scene);
 
-// The name of the first alpha cut-out material (scene::Material::alpha_cutoff > 0) a primitive of the
+// The name of the first alpha cut-out material (scene::Material::cutoff() > 0) a primitive of the
 // mesh of a node traced as triangles uses, "" when none: in reference mode (`reference`) every node
 // with a mesh, in LSNIF mode the nodes without an LSNIF object. The wavefront pipeline's
 // lsnifCmdQuery does not alpha-test triangles: the renderer refuses it for such a mode.

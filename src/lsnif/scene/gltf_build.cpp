@@ -101,7 +101,7 @@ int add_material(tinygltf::Model& model, const Material& material) {
   tinygltf::Material m;
   m.name = material.name;
   m.pbrMetallicRoughness.baseColorFactor = {material.base_color.r, material.base_color.g, material.base_color.b,
-                                            material.base_color.a};
+                                            material.alpha};
   m.pbrMetallicRoughness.metallicFactor = material.metallic;
   m.pbrMetallicRoughness.roughnessFactor = material.roughness;
   const double peak = std::max({double(material.emission.r), double(material.emission.g), double(material.emission.b)});
@@ -115,9 +115,9 @@ int add_material(tinygltf::Model& model, const Material& material) {
     m.emissiveFactor = {material.emission.r, material.emission.g, material.emission.b};
   }
   if (material.base_color_texture >= 0) m.pbrMetallicRoughness.baseColorTexture.index = material.base_color_texture;
-  if (material.alpha_cutoff > 0.0f) {
+  if (material.cutoff() > 0.0f) {  // BLEND is read as a cut-out (AlphaMode): written as one
     m.alphaMode = "MASK";
-    m.alphaCutoff = material.alpha_cutoff;
+    m.alphaCutoff = material.cutoff();
   }
   model.materials.push_back(std::move(m));
   return int(model.materials.size() - 1);

@@ -33,8 +33,8 @@ tinygltf::Model new_gltf_model(const std::string& generator);
 // baseColorFactor (RGBA), metallicFactor, roughnessFactor, emission (emissiveFactor, scaled into
 // [0, 1] with KHR_materials_emissive_strength carrying the rest when a component exceeds 1).
 // baseColorTexture when base_color_texture >= 0, which is then a glTF texture index (from
-// add_image_texture), not a Scene::textures one; alphaMode MASK with alphaCutoff when
-// alpha_cutoff > 0. The other textures and the uv transforms are not written. Factors are written
+// add_image_texture), not a Scene::textures one; alphaMode MASK with alphaCutoff cutoff() when
+// cutoff() > 0. The other textures and the uv transforms are not written. Factors are written
 // as given: the caller keeps them finite (the loader clamps base color, metallic and roughness to
 // [0, 1]).
 int add_material(tinygltf::Model& model, const Material& material);

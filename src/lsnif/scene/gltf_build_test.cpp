@@ -30,7 +30,14 @@ bool contains(const std::string& haystack, const std::string& needle) {
 }
 
 Material material(const std::string& name, glm::vec4 color, float metallic, float roughness, glm::vec3 emission) {
-  return Material{.name = name, .base_color = color, .metallic = metallic, .roughness = roughness, .emission = emission};
+  Material m;
+  m.name = name;
+  m.base_color = glm::vec3(color);
+  m.alpha = color.a;
+  m.metallic = metallic;
+  m.roughness = roughness;
+  m.emission = emission;
+  return m;
 }
 
 // A tetrahedron (normals, uvs, material 0) and a quad (no normals, no uvs, material 1).
@@ -151,7 +158,8 @@ TEST(GltfBuild, RoundTripThroughLoadScene) {
   EXPECT_EQ(s.materials.back().name, "default");
   for (size_t i = 0; i < w.materials.size(); ++i) {
     EXPECT_EQ(s.materials[i].name, w.materials[i].name);
-    for (int k = 0; k < 4; ++k) EXPECT_FLOAT_EQ(s.materials[i].base_color[k], w.materials[i].base_color[k]) << i;
+    const glm::vec4 got(s.materials[i].base_color, s.materials[i].alpha), want(w.materials[i].base_color, w.materials[i].alpha);
+    for (int k = 0; k < 4; ++k) EXPECT_FLOAT_EQ(got[k], want[k]) << i;
     EXPECT_FLOAT_EQ(s.materials[i].metallic, w.materials[i].metallic) << i;
     EXPECT_FLOAT_EQ(s.materials[i].roughness, w.materials[i].roughness) << i;
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.materials[i].emission[k], w.materials[i].emission[k], 1e-5f) << i;

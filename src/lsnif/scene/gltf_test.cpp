@@ -482,7 +482,7 @@ TEST(GltfSynthetic, AccessorsIndicesTransformsMaterialsCamera) {
   const Primitive& pd = s.meshes[size_t(s.instances[size_t(instance_of(s, "d"))].mesh)].primitives[0];
   EXPECT_EQ(pd.material, 2u);
   EXPECT_EQ(s.materials[2].name, "default");
-  EXPECT_EQ(s.materials[0].base_color, glm::vec4(1, 0, 0, 1));
+  EXPECT_EQ(glm::vec4(s.materials[0].base_color, s.materials[0].alpha), glm::vec4(1, 0, 0, 1));
   EXPECT_EQ(s.materials[0].metallic, 0.0f);
   EXPECT_EQ(s.materials[0].roughness, 0.25f);
   EXPECT_EQ(s.materials[0].emission, glm::vec3(4, 2, 0));  // emissive strength folded in

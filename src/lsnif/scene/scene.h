@@ -19,26 +19,9 @@ namespace lsnif::scene {
 // importer's (src/lsnif/import/mesh.h), read by the same function (read_gltf_image, gltf_material.h).
 using Texture = lsnif::Texture;
 
-// glTF metallic-roughness material (KHR_materials_emissive_strength folded into emission).
-struct Material {
-  std::string name;
-  glm::vec4 base_color{1.0f};         // linear RGBA factor
-  int32_t base_color_texture = -1;    // index into Scene::textures (sRGB), multiplied with the factor
-  float metallic = 1.0f, roughness = 1.0f;
-  int32_t metallic_roughness_texture = -1;  // B = metallic, G = roughness (linear), times the factors
-  glm::vec3 emission{0.0f};           // linear RGB radiance factor
-  int32_t emission_texture = -1;      // sRGB
-  int32_t occlusion_texture = -1;     // R = ambient occlusion (linear)
-  float occlusion_strength = 1.0f;    // occlusion = 1 + strength x (R - 1)
-  int32_t normal_texture = -1;        // tangent-space normal map (normal_mapped_shading_normal, mesh.h)
-  float normal_scale = 1.0f;
-  // Alpha cut-out (glTF alphaMode, src/lsnif/import/mesh.h AlphaMode): a triangle point whose alpha
-  // (base_color.a x the base colour texture's alpha) is below this is a hole; 0: opaque (OPAQUE).
-  float alpha_cutoff = 0.0f;
-  // Per TextureSlot (src/lsnif/import/mesh.h): KHR_texture_transform's uv transform.
-  UvTransform uv_transform[kTextureSlotCount] = {kIdentityUvTransform, kIdentityUvTransform, kIdentityUvTransform,
-                                                 kIdentityUvTransform, kIdentityUvTransform};
-};
+// The one material (src/lsnif/import/mesh.h): texture indices index Scene::textures. A triangle
+// point whose alpha (alpha x the base colour texture's alpha) is below cutoff() is a hole.
+using Material = lsnif::Material;
 
 // One triangle list with one material (a glTF primitive of mode TRIANGLES, indexed or not).
 struct Primitive {

@@ -101,7 +101,7 @@ Status add_lsnif_instance(Scene& scene, const std::string& model_path, const glm
   if (Status s = check_lsnif_file(model_path); !s) return s;
   Material material;
   material.name = name;
-  material.base_color = glm::vec4(1.0f);
+  material.base_color = glm::vec3(1.0f);
   material.metallic = 0.0f;
   material.roughness = 0.5f;
   scene.materials.push_back(material);

@@ -24,6 +24,7 @@
 #include "lsnif/format/numbers.h"
 #include "lsnif/format/status.h"
 #include "lsnif/import/gltf_access.h"
+#include "lsnif/import/gltf_material.h"
 #include "lsnif/import/gltf_scene.h"
 #include "lsnif/scene/scene.h"
 #include "lsnif/scene/scene_gltf.h"
@@ -119,7 +120,7 @@ class SceneBuilder {
   std::vector<int32_t> mesh_map_;   // glTF mesh -> scene mesh (-2: not yet, -1: no triangles)
   std::vector<int32_t> image_map_;  // glTF image -> scene texture (-2: not yet, -1: unusable)
   std::vector<const LsnifOverride*> node_overrides_;
-  std::vector<int> material_uv_set_;  // per scene material
+  std::vector<GltfMaterial> gltf_materials_;  // per glTF material, as read (its uv set, its images)
   std::vector<uint8_t> visited_;
   std::map<std::string, size_t> warn_counts_;
   std::map<int, size_t> skipped_by_mode_;

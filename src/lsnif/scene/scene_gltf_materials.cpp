@@ -15,6 +15,7 @@ namespace lsnif::scene::detail {
 
 Status SceneBuilder::load_materials() {
   scene_.materials.reserve(model_.materials.size() + 1);
+  gltf_materials_.reserve(model_.materials.size());
   for (size_t i = 0; i < model_.materials.size(); ++i) {
     Status s = load_material(i);
     if (!s) return s;
@@ -32,26 +33,8 @@ Status SceneBuilder::load_material(size_t index) {
   }
   if (!s) return s;
   const std::string where = format("%s: %s", file(), gm.label.c_str());
-  Material m;
-  m.name = gm.name;
-  m.base_color = gm.base_color;
-  m.metallic = gm.metallic;
-  m.roughness = gm.roughness;
-  m.emission = gm.emission;
-  m.base_color_texture = gm.base_color_image < 0 ? -1 : image_texture(gm.base_color_image, where);
-  m.metallic_roughness_texture =
-      gm.metallic_roughness_image < 0 ? -1 : image_texture(gm.metallic_roughness_image, where);
-  m.emission_texture = gm.emission_image < 0 ? -1 : image_texture(gm.emission_image, where);
-  m.occlusion_texture = gm.occlusion_image < 0 ? -1 : image_texture(gm.occlusion_image, where);
-  m.occlusion_strength = gm.occlusion_strength;
-  m.normal_texture = gm.normal_image < 0 ? -1 : image_texture(gm.normal_image, where);
-  m.normal_scale = gm.normal_scale;
-  m.alpha_cutoff = gm.alpha_mode == AlphaMode::Mask ? gm.alpha_cutoff
-                   : gm.alpha_mode == AlphaMode::Blend ? kBlendCutoff
-                                                       : 0.0f;
-  for (uint32_t k = 0; k < kTextureSlotCount; ++k) m.uv_transform[k] = gm.uv_transform[k];
-  material_uv_set_.push_back(gm.uv_set);
-  scene_.materials.push_back(std::move(m));
+  scene_.materials.push_back(with_textures(gm, [&](int image) { return image_texture(image, where); }));
+  gltf_materials_.push_back(std::move(gm));
   return Status::ok();
 }
 
@@ -78,7 +61,6 @@ uint32_t SceneBuilder::default_material() {
     Material m;
     m.name = "default";
     scene_.materials.push_back(std::move(m));
-    material_uv_set_.push_back(0);
   }
   return uint32_t(default_material_);
 }

@@ -50,7 +50,7 @@ Status SceneBuilder::load_primitive(const tinygltf::Primitive& gp, const std::st
   const std::string short_where = where.substr(name_.size() + 2);
   // The material's uv set; read_primitive checks that the material exists.
   gltf::PrimitiveReadOptions options;
-  if (gp.material >= 0 && gp.material < int(model_.materials.size())) options.uv_set = material_uv_set_[size_t(gp.material)];
+  if (gp.material >= 0 && gp.material < int(model_.materials.size())) options.uv_set = gltf_materials_[size_t(gp.material)].uv_set;
   gltf::PrimitiveRead read;
   if (Status s = gltf::read_primitive(model_, gp, options, where, read); !s) return s;
   if (!read.triangle_mode) {
@@ -99,8 +99,7 @@ Status SceneBuilder::load_primitive(const tinygltf::Primitive& gp, const std::st
     }
   } else {
     const Material& m = scene_.materials[prim.material];
-    if (m.base_color_texture >= 0 || m.metallic_roughness_texture >= 0 || m.emission_texture >= 0 ||
-        m.occlusion_texture >= 0 || m.normal_texture >= 0)
+    if (m.has_textures())
       warn_counted("missing uvs", short_where + ": textured material but no " + read.uv_key +
                                       "; textures read at uv (0, 0)");
   }

@@ -18,10 +18,10 @@ inline scene::Scene elephant_on_ground(const Mesh& mesh, const std::string& mode
   // Scene: the elephant (mesh 0, LSNIF object 0) standing on a quad (mesh 1) under a sky color.
   scene.path = "(render_test)";
   scene::Material grey, ground;
-  grey.base_color = glm::vec4(color, 1.0f);
+  grey.base_color = color;
   grey.metallic = 0.0f;
   grey.roughness = 0.6f;
-  ground.base_color = glm::vec4(0.5f, 0.5f, 0.5f, 1.0f);
+  ground.base_color = glm::vec3(0.5f);
   ground.metallic = 0.0f;
   scene.materials = {grey, ground};
   scene::Mesh elephant;

@@ -78,7 +78,7 @@ inline std::string check_scene(const Scene& s) {
   for (const Material& m : s.materials) {
     for (int32_t t : {m.base_color_texture, m.metallic_roughness_texture, m.emission_texture})
       if (t < -1 || t >= int32_t(s.textures.size())) return "material texture index";
-    if (!finite(glm::vec3(m.base_color)) || !finite(m.emission)) return "material factors";
+    if (!finite(m.base_color) || !finite(m.emission)) return "material factors";
   }
   for (const Mesh& m : s.meshes) {
     if (m.primitives.empty()) return "mesh without primitives";

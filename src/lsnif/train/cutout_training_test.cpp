@@ -24,7 +24,7 @@ Mesh checkerboard_quad(AlphaMode mode) {
   m.triangle_material = {0, 0};
   Material leaf;
   leaf.name = "leaf";
-  leaf.texture = 0;
+  leaf.base_color_texture = 0;
   leaf.alpha_mode = mode;
   m.materials = {leaf};
   Texture t;

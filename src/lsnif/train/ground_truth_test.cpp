@@ -389,7 +389,7 @@ Mesh checkerboard_over_backing(AlphaMode mode, float cutoff, uint8_t hole_alpha,
   m.triangle_material = {0, 0, 1, 1};
   Material cut;
   cut.name = "cut";
-  cut.texture = 0;
+  cut.base_color_texture = 0;
   cut.alpha_mode = mode;
   cut.alpha_cutoff = cutoff;
   cut.alpha = factor_alpha;

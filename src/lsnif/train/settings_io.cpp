@@ -408,7 +408,7 @@ uint64_t mesh_hash(const Mesh& mesh) {
   for (const Material& m : mesh.materials) {
     h.str(m.name);
     h.pod(m.base_color);
-    h.pod(m.texture);
+    h.pod(m.base_color_texture);
     h.pod(m.metallic);
     h.pod(m.roughness);
     h.pod(m.emission);

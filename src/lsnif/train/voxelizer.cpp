@@ -191,8 +191,8 @@ VoxelGrid voxelize(const Mesh& mesh, uint32_t resolution, const Aabb& bounds, bo
     }
     // A cut-out: only the sub-triangles where the surface may exist mark voxels. Without a usable
     // texture or uvs its alpha is the factor's (Mesh::alpha).
-    const Texture* texture = m->texture >= 0 && size_t(m->texture) < mesh.textures.size()
-                                 ? &mesh.textures[size_t(m->texture)]
+    const Texture* texture = m->base_color_texture >= 0 && size_t(m->base_color_texture) < mesh.textures.size()
+                                 ? &mesh.textures[size_t(m->base_color_texture)]
                                  : nullptr;
     const bool textured = texture && mesh.uvs.size() == vertex_count && texture->width > 0 && texture->height > 0 &&
                           texture->rgba.size() >= size_t(texture->width) * texture->height * 4;

@@ -425,7 +425,7 @@ TEST(Voxelize, CutoutsMarkOnlyTheVoxelsOfTheirOpaqueParts) {
     }
   mesh.textures = {t};
   Material mask, blend, faint, opaque;
-  mask.texture = blend.texture = 0;
+  mask.base_color_texture = blend.base_color_texture = 0;
   mask.alpha_mode = AlphaMode::Mask;
   mask.alpha_cutoff = 0.3f;
   mask.uv_transform[kSlotBaseColor] = UvTransform(1.5f, 0.2f, -0.1f, 1.25f, 0.3f, -0.6f);

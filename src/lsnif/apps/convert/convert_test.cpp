@@ -134,7 +134,7 @@ TEST_F(Convert, PrimitiveWithoutMaterialMapsToAnAppendedDefault) {
   EXPECT_EQ(sc.lsnif_objects[0].material_map, (std::vector<uint32_t>{1, 2}));  // red, then the new one
   ASSERT_GE(sc.materials.size(), 3u);
   EXPECT_EQ(sc.materials[2].name, "lsnif_default");
-  EXPECT_EQ(sc.materials[2].base_color, glm::vec4(1.0f));
+  EXPECT_EQ(glm::vec4(sc.materials[2].base_color, sc.materials[2].alpha), glm::vec4(1.0f));
   EXPECT_EQ(sc.materials[2].metallic, 1.0f);
   EXPECT_EQ(sc.materials[2].roughness, 1.0f);
 }

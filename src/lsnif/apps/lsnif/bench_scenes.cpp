@@ -105,7 +105,7 @@ Status load_source(const std::string& data_dir, const Source& src, float size, M
 scene::Material scene_material(const Source& src) {
   scene::Material m;
   m.name = fs::path(src.file).stem().string();
-  m.base_color = glm::vec4(src.color, 1.0f);
+  m.base_color = src.color;
   m.metallic = 0.0f;
   m.roughness = src.roughness;
   return m;
@@ -234,7 +234,7 @@ Mesh card_mesh(const std::vector<Card>& cards, Texture texture, const std::strin
   Material m;
   m.name = name;
   m.base_color = glm::vec3(1.0f);
-  m.texture = 0;
+  m.base_color_texture = 0;
   m.alpha_mode = AlphaMode::Mask;
   m.alpha_cutoff = cutoff;
   out.materials = {m};
@@ -387,9 +387,10 @@ Status make_bench_scene(const std::string& name, const std::string& data_dir, Be
     o.mesh = card_mesh(cards, std::move(sprite), object_name, kCardCutoff);
     o.origin = origin;
     o.material.name = object_name;
-    o.material.base_color = glm::vec4(1.0f);
+    o.material.base_color = glm::vec3(1.0f);
     o.material.metallic = 0.0f;
     o.material.roughness = 0.6f;
+    o.material.alpha_mode = AlphaMode::Mask;
     o.material.alpha_cutoff = kCardCutoff;
     o.placements = std::move(placements);
     out.objects.push_back(std::move(o));
@@ -477,7 +478,7 @@ Status write_bench_scene(const BenchScene& scene, const std::string& dir) {
   tinygltf::Model model = scene::new_gltf_model("lsnif bench (src/lsnif/apps/lsnif/bench_scenes.cpp)");
   scene::Material ground;
   ground.name = "ground";
-  ground.base_color = glm::vec4(0.45f, 0.45f, 0.45f, 1.0f);
+  ground.base_color = glm::vec3(0.45f);
   ground.metallic = 0.0f;
   ground.roughness = 0.8f;
   const int ground_material = scene::add_material(model, ground);
@@ -534,7 +535,7 @@ std::string mesh_fingerprint(const Mesh& mesh) {
     crc = crc_of_value(m.base_color, crc);
     if (m.alpha_mode == AlphaMode::Opaque) continue;
     crc = crc_of_value(m.cutoff(), crc);
-    if (m.texture >= 0 && size_t(m.texture) < mesh.textures.size()) crc = crc_of(mesh.textures[size_t(m.texture)].rgba, crc);
+    if (m.base_color_texture >= 0 && size_t(m.base_color_texture) < mesh.textures.size()) crc = crc_of(mesh.textures[size_t(m.base_color_texture)].rgba, crc);
   }
   return hex(crc);
 }
@@ -548,7 +549,7 @@ std::string scene_fingerprint(const BenchScene& scene) {
     const std::string f = object_fingerprint(o);
     crc = crc32(reinterpret_cast<const uint8_t*>(f.data()), f.size(), crc);
     crc = crc_of(o.placements, crc);
-    crc = crc_of_value(o.material.base_color, crc);
+    crc = crc_of_value(glm::vec4(o.material.base_color, o.material.alpha), crc);  // the RGBA factor
     crc = crc_of_value(o.material.roughness, crc);
     if (!o.texture.empty()) crc = crc_of_value(o.material.alpha_cutoff, crc);
   }

@@ -24,7 +24,7 @@ struct BenchObject {
                        // object's color (the albedo the model learns)
   scene::Material material;            // the scene material (base color = mesh.materials[0]'s)
   // The base colour image (PNG with alpha) of an alpha-tested object: mesh.textures[0], which
-  // mesh.materials[0] uses with mesh.uvs and a MASK cutoff equal to material.alpha_cutoff; the
+  // mesh.materials[0] uses with mesh.uvs and a MASK cutoff equal to material's; the
   // scene file refers to a copy beside it. Empty for the untextured objects.
   std::string texture;
   std::vector<glm::mat4> placements;   // object-to-world per instance (node NAME, NAME_1, ...)

@@ -17,11 +17,11 @@ scene::Scene object_on_ground(const Mesh& mesh, const std::string& model_path, c
   s.path = "(" + model_path + " on a ground quad)";
   scene::Material object, ground;
   object.name = "object";
-  object.base_color = glm::vec4(mesh.materials.empty() ? glm::vec3(1.0f) : mesh.materials[0].base_color, 1.0f);
+  object.base_color = mesh.materials.empty() ? glm::vec3(1.0f) : mesh.materials[0].base_color;
   object.metallic = 0.0f;
   object.roughness = 0.5f;
   ground.name = "ground";
-  ground.base_color = glm::vec4(0.45f, 0.45f, 0.45f, 1.0f);
+  ground.base_color = glm::vec3(0.45f);
   ground.metallic = 0.0f;
   ground.roughness = 0.8f;
   s.materials = {object, ground};
