@@ -1,8 +1,8 @@
 // renderer.cpp -- the path tracer of renderer.h: sets a scene on the device (build_device_scene,
-// device_scene.cpp), moves instances and switches modes on it, and traces passes of
-// src/lsnif/renderer/shaders/render.rgen into an accumulation buffer; the wavefront pipeline (the
-// stages of src/lsnif/renderer/shaders/render_wave.comp with lsnifCmdQuery between them) is
-// renderer_wavefront.cpp's.
+// device_scene.cpp), moves instances and switches modes on it, writes each pass's frame (view,
+// image, rasterized visibility) and has the chosen pipeline (path_integrator.h: InlinePaths in
+// renderer_inline.cpp, WavefrontPaths in renderer_wavefront.cpp) add its samples to the
+// accumulation buffer.
 #include "lsnif/renderer/renderer.h"
 
 #include <algorithm>
@@ -18,34 +18,23 @@
 #include "lsnif/lsnif.hpp"
 #include "lsnif/harness/plugin_device.h"
 #include "lsnif/renderer/device_scene.h"
+#include "lsnif/renderer/path_integrator.h"
 #include "lsnif/renderer/shaders/render_host_device.h"
 #include "lsnif/harness/triangle_order.h"
 
 namespace lsnif::render {
 
-namespace {
-// The path tracer's shaders, compiled at build time (cmake/LsnifShaders.cmake); the wavefront's
-// render_wave.comp is renderer_wavefront.cpp's.
-#include "render_lsnif_rchit_spirv.h"
-#include "render_rgen_spirv.h"
-#include "render_rmiss_spirv.h"
-#include "render_triangle_rahit_spirv.h"
-#include "render_triangle_rchit_spirv.h"
 
-static_assert(offsetof(RenderPush, model_table) == LSNIF_RT_PUSH_MODEL_TABLE_OFFSET, "binding convention");
-static_assert(offsetof(RenderPush, model_count) == LSNIF_RT_PUSH_MODEL_COUNT_OFFSET, "binding convention");
-static_assert(offsetof(RenderPush, frame) >= LSNIF_RT_PUSH_APP_OFFSET, "binding convention");
-
-}  // namespace
-
-Renderer::Renderer(vk::ComputeContext& ctx) : ctx_(ctx), tracer_(ctx) {}
+Renderer::Renderer(vk::ComputeContext& ctx)
+    : ctx_(ctx), tracer_(ctx), inline_(std::make_unique<InlinePaths>(ctx, tracer_)),
+      wavefront_(std::make_unique<WavefrontPaths>(ctx)) {}
 
 Renderer::~Renderer() {
   scene_.reset();
   visibility_.reset();
   release_accumulation();
-  if (pipeline_ready_) tracer_.destroy(pipeline_);
-  ctx_.destroy_pipeline(wave_pipeline_);
+  wavefront_.reset();
+  inline_.reset();
 }
 
 std::string describe(const StageTimes& t) {
@@ -116,30 +105,6 @@ bool parse_primary(const std::string& name, PrimaryVisibility& out) {
   return true;
 }
 
-Status Renderer::create_pipeline() {
-  if (pipeline_ready_) return Status::ok();
-  if (!ctx_.scalar_block_layout())
-    return Status::error("device %s lacks the feature scalarBlockLayout (the path tracer's shaders use scalar "
-                         "block layout)", ctx_.device_name().c_str());
-  if (Status s = tracer_.init(); !s) return s;
-  if (tracer_.max_hit_attribute_size() < sizeof(LsnifHitAttributes))
-    return Status::error("device maxRayHitAttributeSize %u < %zu bytes of LSNIF hit attributes",
-                         tracer_.max_hit_attribute_size(), sizeof(LsnifHitAttributes));
-  vk::RtShaders shaders;
-  shaders.raygen = spirv(render_rgen_spirv, sizeof render_rgen_spirv);
-  shaders.miss = spirv(render_rmiss_spirv, sizeof render_rmiss_spirv);
-  shaders.closest_hit = spirv(render_lsnif_rchit_spirv, sizeof render_lsnif_rchit_spirv);
-  shaders.triangle_closest_hit = spirv(render_triangle_rchit_spirv, sizeof render_triangle_rchit_spirv);
-  shaders.triangle_any_hit = spirv(render_triangle_rahit_spirv, sizeof render_triangle_rahit_spirv);
-  if (lsnifGetIntersectionShaderSpirv(LSNIF_MODEL_LOOKUP_INSTANCE_TABLE, &shaders.intersection.code,
-                                      &shaders.intersection.bytes) != LSNIF_SUCCESS)
-    return plugin_error("render pipeline");
-  Status s = tracer_.create_pipeline(shaders, sizeof(RenderPush), pipeline_);
-  if (!s) return s.context("render pipeline");
-  pipeline_ready_ = true;
-  return Status::ok();
-}
-
 Status Renderer::render(const scene::Scene& scene, const RenderSettings& settings, image::Image& out,
                         RenderStats& stats, const std::function<void(uint32_t)>& progress) {
   stats = RenderStats();
@@ -157,10 +122,10 @@ Status Renderer::set_scene(const scene::Scene& scene, bool reference, const scen
   scene_.reset();
   scene_stats_ = RenderStats();
   if (scene.instances.empty()) return Status::error("render: the scene %s has no objects", scene.path.c_str());
-  if (Status s = create_pipeline(); !s) return s;
+  if (Status s = inline_->create(); !s) return s;
   SceneBuildCounts counts{models_loaded_, blases_built_, tlases_built_};
   if (Status s = build_device_scene(ctx_, tracer_, scene, reference, environment, both_modes,
-                                    pipeline_.triangle_sbt_offset, counts, scene_);
+                                    inline_->triangle_sbt_offset(), counts, scene_);
       !s)
     return s;
   scene_stats_ = scene_->mode().stats;
@@ -241,6 +206,13 @@ Status Renderer::set_mode(bool reference) {
   return Status::ok();
 }
 
+void Renderer::set_broad_phase(BroadPhase b) { wavefront_->set_broad_phase(b, scene_.get()); }
+
+LsnifQueryBroadPhase Renderer::broad_phase_used() const {
+  if (!scene_ || !scene_->query) return LSNIF_QUERY_BROAD_PHASE_NONE;
+  return lsnifGetQueryBroadPhase(scene_->plugin.get(), scene_->query);
+}
+
 bool Renderer::reference_mode() const { return scene_ && scene_->active == 1; }
 
 bool Renderer::world_bounds(glm::vec3& lo, glm::vec3& hi) const {
@@ -254,7 +226,8 @@ void Renderer::release_accumulation() {
   if (accumulation_.buffer) ctx_.destroy_buffer(accumulation_);
   accumulation_ = vk::Buffer();
   width_ = height_ = accumulated_ = 0;
-  release_wavefront();
+  inline_->release_image_buffers();
+  wavefront_->release_image_buffers();
 }
 
 Status Renderer::reset_accumulation(uint32_t width, uint32_t height) {
@@ -329,23 +302,12 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   if (!accumulation_.buffer) return Status::error("render: reset_accumulation before accumulate");
   if (samples == 0) return Status::ok();
   if (Status s = prepare_frame(view, first_sample, samples, max_bounces, rr_depth, primary); !s) return s;
-  const DeviceScene::Mode& md = scene_->mode();
-  RenderPush push{};
-  push.model_table = md.table_address;
-  push.model_count = md.table_count;
-  push.frame = scene_->frame_address;
-  push.sample_index = first_sample;
-  push.samples = samples;
-  if (pipeline == PathPipeline::wavefront) {
-    if (!md.cutout_material.empty())
-      return Status::error("render: the wavefront pipeline's lsnifCmdQuery treats every triangle as opaque, and "
-                           "material '%s' is an alpha cut-out: use --pipeline inline (or auto)",
-                           printable(md.cutout_material).c_str());
-    if (Status s = accumulate_wavefront(first_sample, samples, max_bounces, primary == PrimaryVisibility::raster); !s)
-      return s;
-  } else if (Status s = tracer_.trace(pipeline_, md.tlas, &push, width_ * height_); !s) {
-    return s.context("render pass");
-  }
+  PathIntegrator& paths = pipeline == PathPipeline::wavefront ? static_cast<PathIntegrator&>(*wavefront_) : *inline_;
+  const bool timed = stage_timing_ && pipeline == PathPipeline::wavefront;  // the inline pipeline has no stages
+  const PassInputs in{*scene_, width_, height_, timed ? &stage_times_ : nullptr};
+  if (Status s = paths.trace(in, first_sample, samples, max_bounces, primary == PrimaryVisibility::raster); !s)
+    return s;
+  if (timed) stage_timed_samples_ += samples;
   accumulated_ += samples;
   return Status::ok();
 }
@@ -375,7 +337,7 @@ Status Renderer::primary_hits(const View& view, uint32_t sample_index, PrimaryVi
     return Status::ok();
   }
   // Traced: the wavefront's CAMERA stage and one query of the camera rays (renderer_wavefront.cpp).
-  return trace_primary_hits(sample_index, out);
+  return wavefront_->primary_hits(PassInputs{*scene_, width_, height_, nullptr}, sample_index, out);
 }
 
 void Renderer::resolve(image::Image& out) const {

@@ -136,6 +136,8 @@ struct View {
 };
 
 struct DeviceScene;  // device_scene.h: everything set_scene allocated on the device
+class InlinePaths;   // path_integrator.h: the two pipelines
+class WavefrontPaths;
 
 class Renderer {
  public:
@@ -227,38 +229,19 @@ class Renderer {
   uint32_t stage_timed_samples() const { return stage_timed_samples_; }
 
  private:
-  Status create_pipeline();
   void release_accumulation();
   // Writes the frame of `view` (and, for raster, the visibility buffer of the samples) to the device.
   Status prepare_frame(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces,
                        uint32_t rr_depth, PrimaryVisibility primary);
-  // The wavefront pipeline, in renderer_wavefront.cpp. Its passes for `samples` samples from
-  // `first_sample` (frame set up).
-  Status accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces, bool raster);
-  // Makes the wavefront pipeline, the query pipeline and the buffers for the accumulation image where
-  // missing, and the scratch and zeroed statuses for passes of `samples` samples of `max_bounces`.
-  Status prepare_wavefront(uint32_t samples, uint32_t max_bounces);
-  // primary_hits of the traced camera rays of sample `sample_index` (frame set up, `out` sized).
-  Status trace_primary_hits(uint32_t sample_index, std::vector<PrimaryHit>& out);
-  // Releases the wavefront buffers, scratch, statuses and timestamps.
-  void release_wavefront();
   vk::ComputeContext& ctx_;
   vk::RayTracer tracer_;
-  vk::RtPipeline pipeline_{};
-  bool pipeline_ready_ = false;
+  std::unique_ptr<InlinePaths> inline_;        // PathPipeline::inline_rt (path_integrator.h)
+  std::unique_ptr<WavefrontPaths> wavefront_;  // PathPipeline::wavefront
   std::unique_ptr<DeviceScene> scene_;
   RenderStats scene_stats_;
   vk::Buffer accumulation_{};
   std::unique_ptr<VisibilityBuffer> visibility_;  // rasterized primary visibility, made on first use
-  vk::Pipeline wave_pipeline_{};                 // render_wave.comp
-  // The wavefront buffers (RenderWave), sized for the accumulation image; scratch and statuses of
-  // the queries (one LsnifQueryStatus per query of a pass).
-  std::vector<vk::Buffer> wave_buffers_;
-  vk::Buffer wave_scratch_{}, wave_status_{};
-  uint64_t wave_address_ = 0;
   bool stage_timing_ = false;
-  BroadPhase broad_phase_ = BroadPhase::automatic;
-  vk::Timestamps wave_timestamps_;               // grown to what a pass needs
   StageTimes stage_times_;
   uint32_t stage_timed_samples_ = 0;
   uint32_t width_ = 0, height_ = 0, accumulated_ = 0;

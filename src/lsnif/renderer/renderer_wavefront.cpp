@@ -1,9 +1,8 @@
-// renderer_wavefront.cpp -- the wavefront pipeline of the Renderer (renderer.h, PathPipeline::wavefront):
-// the stages of src/lsnif/renderer/shaders/render_wave.comp recorded with lsnifCmdQuery between them
-// into one command buffer per pass, their buffers and scratch, and the traced primary hits
-// (Renderer::primary_hits) through the same CAMERA stage and query. The scene comes from
-// renderer.cpp's set_scene (device_scene.h).
-#include "lsnif/renderer/renderer.h"
+// renderer_wavefront.cpp -- WavefrontPaths (path_integrator.h), the Renderer's wavefront pipeline
+// (PathPipeline::wavefront): the stages of src/lsnif/renderer/shaders/render_wave.comp recorded with
+// lsnifCmdQuery between them into one command buffer per pass, their buffers and scratch, and the
+// traced primary hits (Renderer::primary_hits) through the same CAMERA stage and query.
+#include "lsnif/renderer/path_integrator.h"
 
 #include <algorithm>
 #include <cstddef>
@@ -11,7 +10,6 @@
 #include <utility>
 #include <vector>
 
-#include "lsnif/renderer/device_scene.h"
 #include "lsnif/renderer/shaders/render_host_device.h"
 
 namespace lsnif::render {
@@ -23,9 +21,9 @@ namespace {
 // The queries of the wavefront pipeline over the scene's TLAS (rays, results, status and the
 // scratch fields are set per query). Candidates: one per LSNIF instance a ray can cross, so that
 // no ray runs out of capacity up to LSNIF_QUERY_MAX_CANDIDATES_PER_RAY instances.
-LsnifQueryInfo wave_query_info(const DeviceScene::Mode& md, uint32_t lsnif_instances) {
+LsnifQueryInfo wave_query_info(const DeviceScene::Mode& md) {
   LsnifQueryInfo q{};
-  q.candidatesPerRay = std::clamp(lsnif_instances, 1u, LSNIF_QUERY_MAX_CANDIDATES_PER_RAY);
+  q.candidatesPerRay = std::clamp(md.stats.lsnif_instances, 1u, LSNIF_QUERY_MAX_CANDIDATES_PER_RAY);
   q.tlas = md.tlas.address;
   q.cullMask = 0xFF;
   q.modelCount = md.table_count;
@@ -59,35 +57,35 @@ void wave_barrier(VkCommandBuffer cmd) {
 
 }  // namespace
 
-void Renderer::set_broad_phase(BroadPhase b) {
+WavefrontPaths::~WavefrontPaths() {
+  release_image_buffers();
+  ctx_.destroy_pipeline(pipeline_);
+}
+
+void WavefrontPaths::set_broad_phase(BroadPhase b, DeviceScene* scene) {
   if (b == broad_phase_) return;
   broad_phase_ = b;
   // Every submission of the renderer waits for its fence, so the GPU no longer uses the pipeline.
-  if (scene_ && scene_->query) {
-    lsnifDestroyQueryPipeline(scene_->plugin.get(), scene_->query);
-    scene_->query = nullptr;
+  if (scene && scene->query) {
+    lsnifDestroyQueryPipeline(scene->plugin.get(), scene->query);
+    scene->query = nullptr;
   }
 }
 
-LsnifQueryBroadPhase Renderer::broad_phase_used() const {
-  if (!scene_ || !scene_->query) return LSNIF_QUERY_BROAD_PHASE_NONE;
-  return lsnifGetQueryBroadPhase(scene_->plugin.get(), scene_->query);
-}
-
-void Renderer::release_wavefront() {
-  for (vk::Buffer& b : wave_buffers_) ctx_.destroy_buffer(b);
-  wave_buffers_.clear();
-  ctx_.destroy_buffer(wave_scratch_);
-  ctx_.destroy_buffer(wave_status_);
-  ctx_.destroy_timestamps(wave_timestamps_);
+void WavefrontPaths::release_image_buffers() {
+  for (vk::Buffer& b : buffers_) ctx_.destroy_buffer(b);
+  buffers_.clear();
+  ctx_.destroy_buffer(scratch_);
+  ctx_.destroy_buffer(status_);
+  ctx_.destroy_timestamps(timestamps_);
   wave_address_ = 0;
 }
 
-Status Renderer::prepare_wavefront(uint32_t samples, uint32_t max_bounces) {
-  DeviceScene& dev = *scene_;
-  if (!wave_pipeline_.pipeline) {
+Status WavefrontPaths::prepare(const PassInputs& in, uint32_t samples, uint32_t max_bounces) {
+  DeviceScene& dev = in.scene;
+  if (!pipeline_.pipeline) {
     Status s = ctx_.create_pipeline(spirv(render_wave_comp_spirv, sizeof render_wave_comp_spirv), sizeof(RenderPush),
-                                    wave_pipeline_);
+                                    pipeline_);
     if (!s) return s.context("wavefront pipeline");
   }
   if (!dev.query) {
@@ -99,8 +97,8 @@ Status Renderer::prepare_wavefront(uint32_t samples, uint32_t max_bounces) {
     if (lsnifCreateQueryPipeline(dev.plugin.get(), &info, &dev.query) != LSNIF_SUCCESS)
       return plugin_error("wavefront pipeline");
   }
-  const size_t pixels = size_t(width_) * height_;
-  if (wave_buffers_.empty()) {
+  const size_t pixels = size_t(in.width) * in.height;
+  if (buffers_.empty()) {
     RenderWave w{};
     const std::pair<uint64_t*, size_t> parts[] = {
         {&w.paths, pixels * sizeof(RenderWavePath)},
@@ -112,43 +110,49 @@ Status Renderer::prepare_wavefront(uint32_t samples, uint32_t max_bounces) {
     for (const auto& [address, bytes] : parts) {
       vk::Buffer b;
       if (Status s = ctx_.create_buffer(bytes, b); !s)
-        return s.context(format("render: the wavefront buffers of a %ux%u image", width_, height_));
-      wave_buffers_.push_back(b);
+        return s.context(format("render: the wavefront buffers of a %ux%u image", in.width, in.height));
+      buffers_.push_back(b);
       *address = b.address;
     }
     vk::Buffer b;
     if (Status s = ctx_.create_buffer(sizeof w, b); !s) return s;
     std::memcpy(b.mapped, &w, sizeof w);
-    wave_buffers_.push_back(b);
+    buffers_.push_back(b);
     wave_address_ = b.address;
   }
   // The scratch of the larger batch (the shadow rays), for this scene's models and capacity.
-  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
+  LsnifQueryInfo q = wave_query_info(dev.mode());
   q.rayCount = uint32_t(RENDER_WAVE_SHADOWS * pixels);
   VkDeviceSize bytes = 0;
   if (lsnifGetQueryScratchSize(dev.plugin.get(), &q, &bytes) != LSNIF_SUCCESS) return plugin_error("wavefront scratch");
-  if (wave_scratch_.size < bytes) {
-    ctx_.destroy_buffer(wave_scratch_);
-    if (Status s = ctx_.create_buffer(size_t(bytes), wave_scratch_, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT); !s) return s;
+  if (scratch_.size < bytes) {
+    ctx_.destroy_buffer(scratch_);
+    if (Status s = ctx_.create_buffer(size_t(bytes), scratch_, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT); !s) return s;
   }
   const size_t status_bytes = size_t(samples) * (2 * max_bounces + 1) * sizeof(LsnifQueryStatus);
-  if (wave_status_.size < status_bytes) {
-    ctx_.destroy_buffer(wave_status_);
-    if (Status s = ctx_.create_buffer(status_bytes, wave_status_); !s) return s;
+  if (status_.size < status_bytes) {
+    ctx_.destroy_buffer(status_);
+    if (Status s = ctx_.create_buffer(status_bytes, status_); !s) return s;
   }
-  std::memset(wave_status_.mapped, 0, status_bytes);
+  std::memset(status_.mapped, 0, status_bytes);
   return Status::ok();
 }
 
-Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, uint32_t max_bounces, bool raster) {
-  if (Status s = prepare_wavefront(samples, max_bounces); !s) return s;
-  DeviceScene& dev = *scene_;
-  const uint32_t pixels = width_ * height_, groups = (pixels + 63) / 64;
+Status WavefrontPaths::trace(const PassInputs& in, uint32_t first_sample, uint32_t samples, uint32_t max_bounces,
+                             bool raster) {
+  DeviceScene& dev = in.scene;
+  if (!dev.mode().cutout_material.empty())
+    return Status::error("render: the wavefront pipeline's lsnifCmdQuery treats every triangle as opaque, and "
+                         "material '%s' is an alpha cut-out: use --pipeline inline (or auto)",
+                         printable(dev.mode().cutout_material).c_str());
+  if (Status s = prepare(in, samples, max_bounces); !s) return s;
+  const bool timing = in.stage_times != nullptr;
+  const uint32_t pixels = in.width * in.height, groups = (pixels + 63) / 64;
   RenderWave w;
-  std::memcpy(&w, wave_buffers_.back().mapped, sizeof w);
-  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
-  q.scratchBuffer = wave_scratch_.buffer;
-  q.scratchSize = wave_scratch_.size;
+  std::memcpy(&w, buffers_.back().mapped, sizeof w);
+  LsnifQueryInfo q = wave_query_info(dev.mode());
+  q.scratchBuffer = scratch_.buffer;
+  q.scratchSize = scratch_.size;
   RenderPush push = wave_push(dev, wave_address_);
   LsnifResult recorded = LSNIF_SUCCESS;
   uint32_t queries = 0;
@@ -160,25 +164,25 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
   const uint32_t path_stamps = LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(pixels) + 1;
   const uint32_t shadow_stamps = LSNIF_QUERY_TIMESTAMP_COUNT_FOR_RAYS(RENDER_WAVE_SHADOWS * pixels) + 1;
   const uint32_t stamps_per_sample = 2 + (max_bounces + 1) * path_stamps + max_bounces * shadow_stamps;
-  const uint32_t stamp_count = stage_timing_ ? 1 + samples * stamps_per_sample : 0;
-  if (stamp_count > wave_timestamps_.count) {
-    ctx_.destroy_timestamps(wave_timestamps_);
-    if (Status s = ctx_.create_timestamps(stamp_count, wave_timestamps_); !s) return s.context("stage timing");
+  const uint32_t stamp_count = timing ? 1 + samples * stamps_per_sample : 0;
+  if (stamp_count > timestamps_.count) {
+    ctx_.destroy_timestamps(timestamps_);
+    if (Status s = ctx_.create_timestamps(stamp_count, timestamps_); !s) return s.context("stage timing");
   }
   LsnifQueryTimestampsInfo query_stamps{};
   query_stamps.sType = LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO;
-  query_stamps.timestampPool = wave_timestamps_.pool;
+  query_stamps.timestampPool = timestamps_.pool;
   Status st = ctx_.submit("wavefront pass", [&](VkCommandBuffer cmd) {
     auto stamp = [&](double StageTimes::*what) {
-      if (!stage_timing_) return;
-      vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, wave_timestamps_.pool, uint32_t(interval.size()));
+      if (!timing) return;
+      vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps_.pool, uint32_t(interval.size()));
       interval.push_back(what);
     };
     auto stage = [&](uint32_t which, uint32_t bounce, double StageTimes::*what) {
       push.stage = which;
       push.bounce = bounce;
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, wave_pipeline_.pipeline);  // a query binds its own
-      vkCmdPushConstants(cmd, wave_pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_.pipeline);  // a query binds its own
+      vkCmdPushConstants(cmd, pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
       vkCmdDispatch(cmd, groups, 1, 1);
       wave_barrier(cmd);
       stamp(what);
@@ -187,9 +191,9 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
       q.rayCount = count;
       q.rays = rays;
       q.results = results;
-      q.status = wave_status_.address + queries++ * sizeof(LsnifQueryStatus);
+      q.status = status_.address + queries++ * sizeof(LsnifQueryStatus);
       q.pNext = nullptr;
-      if (stage_timing_) {
+      if (timing) {
         // The query's timestamps: [0] follows the previous stamp (no work between), then
         // LSNIF_QUERY_TIMESTAMPS_PER_CHUNK per chunk of rays (lsnif.h).
         query_stamps.firstQuery = uint32_t(interval.size());
@@ -207,7 +211,7 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
       if (recorded == LSNIF_SUCCESS) recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
       wave_barrier(cmd);
     };
-    if (stage_timing_) vkCmdResetQueryPool(cmd, wave_timestamps_.pool, 0, stamp_count);
+    if (timing) vkCmdResetQueryPool(cmd, timestamps_.pool, 0, stamp_count);
     // The TLAS (built or refitted before) and the frame for the first pass.
     VkMemoryBarrier b{};
     b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
@@ -235,15 +239,14 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
   });
   if (recorded != LSNIF_SUCCESS) return plugin_error("wavefront pass");
   if (!st) return st.context("wavefront pass");
-  if (stage_timing_) {
+  if (timing) {
     std::vector<double> ms;
-    if (Status s = ctx_.read_timestamps_ms(wave_timestamps_, 0, uint32_t(interval.size()), ms); !s)
+    if (Status s = ctx_.read_timestamps_ms(timestamps_, 0, uint32_t(interval.size()), ms); !s)
       return s.context("stage timing");
-    for (size_t k = 1; k < ms.size(); ++k) stage_times_.*interval[k] += ms[k] - ms[k - 1];
-    stage_timed_samples_ += samples;
+    for (size_t k = 1; k < ms.size(); ++k) in.stage_times->*interval[k] += ms[k] - ms[k - 1];
   }
   // INCOMPLETE answers are not misses: a render with any fails.
-  const auto* status = static_cast<const LsnifQueryStatus*>(wave_status_.mapped);
+  const auto* status = static_cast<const LsnifQueryStatus*>(status_.mapped);
   uint64_t incomplete = 0, dropped = 0;
   for (uint32_t i = 0; i < queries; ++i) {
     incomplete += status[i].incomplete_rays;
@@ -256,28 +259,26 @@ Status Renderer::accumulate_wavefront(uint32_t first_sample, uint32_t samples, u
   return Status::ok();
 }
 
-// primary_hits of the traced camera rays: the wavefront's CAMERA stage and one query of the camera
-// rays of sample `sample_index` (the frame set up by prepare_frame, `out` sized to the pixels).
-Status Renderer::trace_primary_hits(uint32_t sample_index, std::vector<PrimaryHit>& out) {
-  const size_t pixels = size_t(width_) * height_;
-  if (Status s = prepare_wavefront(1, 0); !s) return s;
-  DeviceScene& dev = *scene_;
+Status WavefrontPaths::primary_hits(const PassInputs& in, uint32_t sample_index, std::vector<PrimaryHit>& out) {
+  const size_t pixels = size_t(in.width) * in.height;
+  if (Status s = prepare(in, 1, 0); !s) return s;
+  DeviceScene& dev = in.scene;
   RenderWave w;
-  std::memcpy(&w, wave_buffers_.back().mapped, sizeof w);
-  LsnifQueryInfo q = wave_query_info(dev.mode(), scene_stats_.lsnif_instances);
-  q.scratchBuffer = wave_scratch_.buffer;
-  q.scratchSize = wave_scratch_.size;
+  std::memcpy(&w, buffers_.back().mapped, sizeof w);
+  LsnifQueryInfo q = wave_query_info(dev.mode());
+  q.scratchBuffer = scratch_.buffer;
+  q.scratchSize = scratch_.size;
   q.rayCount = uint32_t(pixels);
   q.rays = w.rays;
   q.results = w.results;
-  q.status = wave_status_.address;
+  q.status = status_.address;
   RenderPush push = wave_push(dev, wave_address_);
   push.sample_index = sample_index;
   push.stage = RENDER_WAVE_CAMERA;
   LsnifResult recorded = LSNIF_SUCCESS;
   Status st = ctx_.submit("primary hits", [&](VkCommandBuffer cmd) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, wave_pipeline_.pipeline);
-    vkCmdPushConstants(cmd, wave_pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_.pipeline);
+    vkCmdPushConstants(cmd, pipeline_.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
     vkCmdDispatch(cmd, uint32_t((pixels + 63) / 64), 1, 1);
     wave_barrier(cmd);
     recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
@@ -285,7 +286,7 @@ Status Renderer::trace_primary_hits(uint32_t sample_index, std::vector<PrimaryHi
   });
   if (recorded != LSNIF_SUCCESS) return plugin_error("primary hits");
   if (!st) return st;
-  const auto* results = static_cast<const LsnifQueryResult*>(wave_buffers_[2].mapped);
+  const auto* results = static_cast<const LsnifQueryResult*>(buffers_[2].mapped);
   for (size_t i = 0; i < pixels; ++i) {
     const LsnifQueryResult& r = results[i];
     PrimaryHit& h = out[i];
