@@ -28,6 +28,7 @@
 #include "lsnif/train/trainer.h"
 #include "lsnif_reference_comp_spirv.h"
 #include "lsnif/harness/vk_compute.h"
+#include "lsnif/testing/vk_dispatch.h"
 #include "lsnif/testing/gpu_test_support.h"
 
 namespace lsnif {
@@ -213,7 +214,7 @@ class GpuReference : public ::testing::Test {
       // has it): an empty dispatch (ray_count 0, no memory touched) measures that alone.
       const auto t1 = std::chrono::steady_clock::now();
       Push empty;
-      if (vk_status_) vk_status_ = vk_.dispatch(pipeline_, &empty, 1);
+      if (vk_status_) vk_status_ = gputest::dispatch(vk_, pipeline_, &empty, 1);
       std::printf("lsnif_reference.comp: vkCreateComputePipelines %.3f s, first (empty) dispatch %.3f s\n",
                   pipeline_.create_seconds, seconds_since(t1));
     }
@@ -271,7 +272,7 @@ class GpuReference : public ::testing::Test {
       for (int c = 0; c < 3; ++c) push.world_to_object[r][c] = in.A_inv[c][r];
     }
     t0 = std::chrono::steady_clock::now();
-    s = vk_.dispatch(pipeline_, &push, uint32_t((count + 63) / 64));
+    s = gputest::dispatch(vk_, pipeline_, &push, uint32_t((count + 63) / 64));
     EXPECT_TRUE(s) << s.message();
     const double gpu_seconds = seconds_since(t0);
     const auto* hits = static_cast<const LsnifReferenceHit*>(hit_buf.mapped);

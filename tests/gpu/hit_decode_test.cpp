@@ -26,6 +26,7 @@
 #include "lsnif/harness/vk_compute.h"
 #include "lsnif/host_device.h"
 #include "lsnif/testing/test_support.h"
+#include "lsnif/testing/vk_dispatch.h"
 
 namespace lsnif {
 namespace {
@@ -180,7 +181,7 @@ Status run_decoder(vk::ComputeContext& ctx, const vk::Spirv& code, const std::ve
       in[5 * i + 4] = records[i].pack;
     }
     const uint32_t count = uint32_t(records.size());
-    s = ctx.dispatch(pipeline, &count, (count + 63) / 64, {&attributes, &inputs, &results});
+    s = gputest::dispatch(ctx, pipeline, &count, (count + 63) / 64, {&attributes, &inputs, &results});
   }
   if (s) {
     const auto* r = static_cast<const DecodeResult*>(results.mapped);

@@ -417,13 +417,6 @@ Status read_spirv_file(const std::string& path, std::vector<uint32_t>& code) {
   return Status::ok();
 }
 
-Status ComputeContext::load_shader_module(const std::string& spirv_path, VkShaderModule& out) {
-  if (!device_) return Status::error("load_shader_module: context not initialized");
-  std::vector<uint32_t> code;
-  if (Status s = read_spirv_file(spirv_path, code); !s) return s;
-  return create_shader_module(Spirv{code.data(), code.size() * sizeof(uint32_t)}, out).context(spirv_path);
-}
-
 Status ComputeContext::create_shader_module(const Spirv& code, VkShaderModule& out) {
   if (!device_) return Status::error("create_shader_module: context not initialized");
   if (!code.code || code.bytes == 0 || code.bytes % 4 != 0 || code.code[0] != 0x07230203u)
@@ -435,14 +428,6 @@ Status ComputeContext::create_shader_module(const Spirv& code, VkShaderModule& o
   smi.pCode = code.code;
   LSNIF_VK_CHECK(vkCreateShaderModule(device_, &smi, nullptr, &out));
   return Status::ok();
-}
-
-Status ComputeContext::create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out) {
-  out = Pipeline();
-  if (!device_) return Status::error("create_pipeline: context not initialized");
-  std::vector<uint32_t> code;
-  if (Status s = read_spirv_file(spirv_path, code); !s) return s;
-  return create_pipeline(Spirv{code.data(), code.size() * sizeof(uint32_t)}, push_size, out).context(spirv_path);
 }
 
 Status ComputeContext::create_pipeline(const Spirv& code, uint32_t push_size, Pipeline& out,
@@ -506,63 +491,6 @@ void ComputeContext::destroy_pipeline(Pipeline& pipeline) {
     if (pipeline.set_layout) vkDestroyDescriptorSetLayout(device_, pipeline.set_layout, nullptr);
   }
   pipeline = Pipeline();
-}
-
-Status ComputeContext::dispatch(const Pipeline& pipeline, const void* push, uint32_t groups_x,
-                                const std::vector<const Buffer*>& buffers) {
-  if (!device_ || !pipeline.pipeline) return Status::error("dispatch: no device or pipeline");
-  if (buffers.size() != pipeline.storage_buffers)
-    return Status::error("dispatch: %zu buffers for a pipeline with %u storage-buffer bindings", buffers.size(),
-                         pipeline.storage_buffers);
-  for (size_t i = 0; i < buffers.size(); ++i)
-    if (Status s = check_buffer_size(format("buffer of binding %zu", i), buffers[i]->size, true); !s)
-      return s.context("dispatch");
-  // A descriptor set for this dispatch only (pool destroyed after the wait).
-  VkDescriptorPool pool = VK_NULL_HANDLE;
-  VkDescriptorSet set = VK_NULL_HANDLE;
-  if (pipeline.storage_buffers > 0) {
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, pipeline.storage_buffers};
-    VkDescriptorPoolCreateInfo pci{};
-    pci.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-    pci.maxSets = 1;
-    pci.poolSizeCount = 1;
-    pci.pPoolSizes = &size;
-    LSNIF_VK_CHECK(vkCreateDescriptorPool(device_, &pci, nullptr, &pool));
-    VkDescriptorSetAllocateInfo ai{};
-    ai.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-    ai.descriptorPool = pool;
-    ai.descriptorSetCount = 1;
-    ai.pSetLayouts = &pipeline.set_layout;
-    const VkResult r = vkAllocateDescriptorSets(device_, &ai, &set);
-    if (r != VK_SUCCESS) {
-      vkDestroyDescriptorPool(device_, pool, nullptr);
-      return Status::error("vkAllocateDescriptorSets failed (VkResult %d)", static_cast<int>(r));
-    }
-    std::vector<VkDescriptorBufferInfo> infos(buffers.size());
-    std::vector<VkWriteDescriptorSet> writes(buffers.size());
-    for (size_t i = 0; i < buffers.size(); ++i) {
-      infos[i] = VkDescriptorBufferInfo{buffers[i]->buffer, 0, VK_WHOLE_SIZE};
-      writes[i] = VkWriteDescriptorSet{};
-      writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-      writes[i].dstSet = set;
-      writes[i].dstBinding = uint32_t(i);
-      writes[i].descriptorCount = 1;
-      writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      writes[i].pBufferInfo = &infos[i];
-    }
-    vkUpdateDescriptorSets(device_, uint32_t(writes.size()), writes.data(), 0, nullptr);
-  }
-  const Status st = submit("compute dispatch", [&](VkCommandBuffer cmd) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
-    if (set)
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout, 0, 1, &set, 0, nullptr);
-    if (pipeline.push_size > 0)
-      vkCmdPushConstants(cmd, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pipeline.push_size, push);
-    vkCmdDispatch(cmd, groups_x, 1, 1);
-    barrier_compute_to_host(cmd);
-  });
-  if (pool) vkDestroyDescriptorPool(device_, pool, nullptr);
-  return st;
 }
 
 Status ComputeContext::submit(const char* what, const std::function<void(VkCommandBuffer)>& record) {

@@ -148,21 +148,13 @@ class ComputeContext {
   // ("ray buffer (--rays 16777216)").
   Status check_buffer_size(const std::string& what, uint64_t bytes, bool descriptor = false) const;
   void destroy_buffer(Buffer& buffer);
-  // A compute pipeline (entry "main", no descriptor sets) from a SPIR-V file.
-  // Reads a SPIR-V file and creates a shader module on this context's device (caller destroys it).
-  Status load_shader_module(const std::string& spirv_path, VkShaderModule& out);
   // A shader module of `code` on this context's device (caller destroys it).
   Status create_shader_module(const Spirv& code, VkShaderModule& out);
-  Status create_pipeline(const std::string& spirv_path, uint32_t push_size, Pipeline& out);
-  // The same from SPIR-V in memory (a shader embedded at build time), with `storage_buffers`
-  // storage-buffer bindings in set 0 (Pipeline::storage_buffers).
+  // A compute pipeline (entry "main") from SPIR-V in memory (a shader embedded at build time), with
+  // a push-constant range of `push_size` bytes and `storage_buffers` storage-buffer bindings in set
+  // 0 (Pipeline::storage_buffers; the GPU tests' dispatch binds them, src/lsnif/testing/vk_dispatch.h).
   Status create_pipeline(const Spirv& code, uint32_t push_size, Pipeline& out, uint32_t storage_buffers = 0);
   void destroy_pipeline(Pipeline& pipeline);
-  // Records push constants + vkCmdDispatch(groups_x, 1, 1), submits, waits; shader writes are
-  // made visible to the host before it returns.
-  // `buffers` (whole buffers) are bound to the pipeline's storage-buffer bindings, one each, in order.
-  Status dispatch(const Pipeline& pipeline, const void* push, uint32_t groups_x,
-                  const std::vector<const Buffer*>& buffers = {});
   // Records `record` into a one-time command buffer, submits it and waits for it (`what` names the
   // work in an error message).
   Status submit(const char* what, const std::function<void(VkCommandBuffer)>& record);

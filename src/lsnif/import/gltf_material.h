@@ -62,7 +62,7 @@ Material with_textures(const GltfMaterial& gm, TextureOf&& texture_of) {
   return m;
 }
 
-// Image `source` of `model` (a material slot's, GltfMaterial::*_image) as a texture of at most
+// Image `source` of `model` (a texture slot of GltfMaterial::material) as a texture of at most
 // kGltfMaxImagePixels RGBA8 pixels (gltf::resolve_image), named by the image's name, else its file,
 // else "image_<source>". False, with `why` ("no image data", "image data missing or undecodable" or
 // the decoder's reason), when the image holds nothing usable; the caller warns in its own words.

@@ -34,7 +34,7 @@ enum class AlphaMode : uint32_t { Opaque = 0, Mask = 1, Blend = 2 };
 inline constexpr float kBlendCutoff = 0.5f;
 
 // The texture slots of a metallic-roughness material, the index of the per-slot arrays
-// (Material::uv_transform, GltfMaterial::uv_transform, RenderMaterial's).
+// (Material::uv_transform, Material::textures(), RenderMaterial's).
 enum TextureSlot : uint32_t {
   kSlotBaseColor = 0, kSlotMetallicRoughness, kSlotEmission, kSlotOcclusion, kSlotNormal, kTextureSlotCount
 };
