@@ -27,7 +27,7 @@
 #include "lsnif/testing/test_models.h"
 #include "lsnif/train/trainer.h"
 #include "lsnif_reference_comp_spirv.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 #include "lsnif/testing/vk_dispatch.h"
 #include "lsnif/testing/gpu_test_support.h"
 
@@ -333,7 +333,7 @@ class GpuReference : public ::testing::Test {
     EXPECT_EQ(vk_.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
   }
 
-  static vk::ComputeContext vk_;
+  static vk::Context vk_;
   static vk::Pipeline pipeline_;
   static Status vk_status_, train_status_;
   static Model aabb_model_, segment_model_, unequal_model_, indexed_model_;
@@ -352,7 +352,7 @@ class GpuReference : public ::testing::Test {
     return s;
   }
 };
-vk::ComputeContext GpuReference::vk_;
+vk::Context GpuReference::vk_;
 vk::Pipeline GpuReference::pipeline_;
 Status GpuReference::vk_status_, GpuReference::train_status_;
 Model GpuReference::aabb_model_, GpuReference::segment_model_, GpuReference::unequal_model_,

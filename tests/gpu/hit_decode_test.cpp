@@ -23,7 +23,7 @@
 #include "hit_decode_comp_spirv.h"
 #include "hit_decode_hlsl_spirv.h"
 #include "lsnif/core/head.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 #include "lsnif/host_device.h"
 #include "lsnif/testing/test_support.h"
 #include "lsnif/testing/vk_dispatch.h"
@@ -160,7 +160,7 @@ DecodeResult cpu_decode(const Record& r) {
 }
 
 // Runs one decoder (SPIR-V `code`) over `records`.
-Status run_decoder(vk::ComputeContext& ctx, const vk::Spirv& code, const std::vector<Record>& records,
+Status run_decoder(vk::Context& ctx, const vk::Spirv& code, const std::vector<Record>& records,
                    std::vector<DecodeResult>& out) {
   vk::Pipeline pipeline;
   if (Status s = ctx.create_pipeline(code, sizeof(uint32_t), pipeline, 3); !s) return s;
@@ -224,7 +224,7 @@ void expect_same(const DecodeResult& got, const DecodeResult& want, float tolera
 }
 
 TEST(HitDecode, HlslAndGlslDecodeTheSameHitsAsTheCpu) {
-  vk::ComputeContext ctx;
+  vk::Context ctx;
   const Status init = ctx.init(/*ray_tracing=*/false, test::test_validation(), test::test_device());
   ASSERT_TRUE(init) << init.message();
   const std::vector<Record> records = make_records(4000);

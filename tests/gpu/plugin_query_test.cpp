@@ -1,5 +1,5 @@
 // lsnifCmdQuery (src/lsnif/lsnif.h): world-space rays against a TLAS of triangle and LSNIF
-// instances, on the harness's device (LSNIF_TEST_DEVICE, default lavapipe; validation on), against two
+// instances, on the Vulkan context's device (LSNIF_TEST_DEVICE, default lavapipe; validation on), against two
 // independent truths: a ray-tracing pipeline over the same TLAS (the plugin's intersection shader
 // with the instance-table lookup, a triangle hit group) and the CPU reference (src/lsnif/core/intersector.h).
 //  - a mixed TLAS (a triangle instance, three LSNIF instances of two models, one with hash tables of
@@ -34,12 +34,12 @@
 #include "lsnif/lsnif.hpp"
 
 #include "lsnif/import/mesh.h"
-#include "lsnif/harness/plugin_device.h"
+#include "lsnif/vulkan/plugin_device.h"
 #include "lsnif/testing/test_plugin.h"
 #include "lsnif/testing/test_support.h"
 #include "lsnif/testing/test_models.h"
 #include "lsnif/train/trainer.h"
-#include "lsnif/harness/vk_raytracing.h"
+#include "lsnif/vulkan/raytracing.h"
 
 namespace lsnif {
 namespace {
@@ -387,7 +387,7 @@ class PluginQuery : public ::testing::Test {
       if (st) st = vk_.submit("lsnifCmdQuery", [&](VkCommandBuffer cmd) {
         if (stamps) vkCmdResetQueryPool(cmd, pool.pool, 0, pool.count);
         EXPECT_EQ(pipeline->cmd_query(cmd, info), LSNIF_SUCCESS) << last_error();
-        vk::ComputeContext::barrier_compute_to_host(cmd);
+        vk::Context::barrier_compute_to_host(cmd);
       });
     }
     EXPECT_TRUE(st) << st.message();
@@ -563,7 +563,7 @@ class PluginQuery : public ::testing::Test {
     return best;
   }
 
-  static vk::ComputeContext vk_;
+  static vk::Context vk_;
   static vk::RayTracer tracer_;
   static vk::RtPipeline rt_pipeline_;
   static Status status_;
@@ -580,7 +580,7 @@ class PluginQuery : public ::testing::Test {
   static std::string ray_query_missing_, trace_rays_missing_;  // why a broad phase cannot run ("" when it can)
   static vk::AccelerationStructure triangle_blas_;
 };
-vk::ComputeContext PluginQuery::vk_;
+vk::Context PluginQuery::vk_;
 vk::RayTracer PluginQuery::tracer_(PluginQuery::vk_);
 vk::RtPipeline PluginQuery::rt_pipeline_;
 Status PluginQuery::status_;

@@ -1,4 +1,4 @@
-// The plugin's C API (src/lsnif/lsnif.h) on the harness's device (lavapipe, validation on):
+// The plugin's C API (src/lsnif/lsnif.h) on the Vulkan context's device (lavapipe, validation on):
 //  - device support, context creation and its errors (null handles, reserved fields, a queue family
 //    without compute, an enabled-feature chain that lacks a feature, a real device created without
 //    VK_KHR_acceleration_structure), the error callback and the thread's last message;
@@ -31,12 +31,12 @@
 
 #include "lsnif/lsnif.hpp"
 #include "lsnif/import/mesh.h"
-#include "lsnif/harness/plugin_device.h"
+#include "lsnif/vulkan/plugin_device.h"
 #include "lsnif/testing/test_plugin.h"
 #include "lsnif/testing/test_support.h"
 #include "lsnif/testing/test_models.h"
 #include "lsnif/train/trainer.h"
-#include "lsnif/harness/vk_raytracing.h"
+#include "lsnif/vulkan/raytracing.h"
 
 namespace lsnif {
 namespace {
@@ -107,7 +107,7 @@ class PluginApi : public ::testing::Test {
     EXPECT_EQ(vk_.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
   }
 
-  // A context on the harness's device.
+  // A context on the Vulkan context's device.
   static LsnifContextCreateInfo create_info() { return vk::plugin_create_info(vk_); }
 
   // One instance of model m at `xf` (custom index 0) in `rec`, and a host-visible one-entry model
@@ -221,14 +221,14 @@ class PluginApi : public ::testing::Test {
     return n;
   }
 
-  static vk::ComputeContext vk_;
+  static vk::Context vk_;
   static vk::RayTracer tracer_;
   static vk::RtPipeline table_pipeline_;
   static Status vk_status_, model_status_;
   static Model model_;
   static std::vector<uint8_t> bytes_;
 };
-vk::ComputeContext PluginApi::vk_;
+vk::Context PluginApi::vk_;
 vk::RayTracer PluginApi::tracer_(PluginApi::vk_);
 vk::RtPipeline PluginApi::table_pipeline_;
 Status PluginApi::vk_status_, PluginApi::model_status_;
@@ -317,7 +317,7 @@ TEST_F(PluginApi, ContextCreationErrorsAndTheErrorCallback) {
   EXPECT_EQ(seen.calls, 5);
 }
 
-// Debug names: with VK_EXT_debug_utils enabled on the instance (the harness enables it with the
+// Debug names: with VK_EXT_debug_utils enabled on the instance (the Vulkan context enables it with the
 // validation layer), every object the library creates is named through
 // vkSetDebugUtilsObjectNameEXT. A vkGetInstanceProcAddr wrapper hands the context a recorder of
 // the names, which forwards them to the layer.
@@ -1039,7 +1039,7 @@ TEST_F(PluginApi, BatchedQueriesFromTheSurfaceEmptyAndMissingBatchesAndErrors) {
 // Allocation callbacks of the application see every allocation freed, and validation reports no
 // leaked object at vkDestroyDevice (own device: the suite's must stay alive for the other tests).
 TEST(PluginLeaks, AllocatorBalancedAndNothingLeaked) {
-  vk::ComputeContext vk;
+  vk::Context vk;
   Status s = vk.init(/*ray_tracing=*/true, test::test_validation(), test::test_device());
   ASSERT_TRUE(s) << s.message();
   struct Counts {
@@ -1092,7 +1092,7 @@ TEST(PluginLeaks, AllocatorBalancedAndNothingLeaked) {
 // Negative control for the leak check above: an object left alive is reported at vkDestroyDevice.
 TEST(PluginLeaks, ValidationReportsALeakAtDeviceDestruction) {
   if (!test::test_validation()) GTEST_SKIP() << "needs the validation layer (LSNIF_TEST_VALIDATION=0)";
-  vk::ComputeContext vk;
+  vk::Context vk;
   Status s = vk.init(/*ray_tracing=*/true, test::test_validation(), test::test_device());
   ASSERT_TRUE(s) << s.message();
   VkBufferCreateInfo bci{};

@@ -105,12 +105,12 @@ class RenderTest : public ::testing::Test {
     return s;
   }
 
-  static vk::ComputeContext vk_;
+  static vk::Context vk_;
   static Status vk_status_, train_status_;
   static scene::Scene scene_;
   static std::string model_path_;
 };
-vk::ComputeContext RenderTest::vk_;
+vk::Context RenderTest::vk_;
 Status RenderTest::vk_status_, RenderTest::train_status_;
 scene::Scene RenderTest::scene_;
 std::string RenderTest::model_path_;

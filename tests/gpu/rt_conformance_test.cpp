@@ -27,8 +27,8 @@
 #include "lsnif/testing/test_support.h"
 #include "lsnif/testing/test_models.h"
 #include "lsnif/train/trainer.h"
-#include "lsnif/harness/plugin_device.h"
-#include "lsnif/harness/vk_raytracing.h"
+#include "lsnif/vulkan/plugin_device.h"
+#include "lsnif/vulkan/raytracing.h"
 #include "lsnif/testing/gpu_test_support.h"
 #include "lsnif/testing/test_plugin.h"
 
@@ -283,7 +283,7 @@ class RtConformance : public ::testing::Test {
     models_[kSurfaceIndex] = with_surface_channels(models_[kSegmentIndex], 40.0f, 21);
     if (!train_status_ || !vk_status_) return;
 
-    // Through the plugin, on the harness's device: model blocks and one AABB BLAS per model, and
+    // Through the plugin, on the Vulkan context's device: model blocks and one AABB BLAS per model, and
     // the model table (custom index -> model address).
     train_status_ = plugin_.init(vk_);
     for (uint32_t m = 0; m < kModels && train_status_; ++m) train_status_ = plugin_.upload(models_[m], handles_[m]);
@@ -406,7 +406,7 @@ class RtConformance : public ::testing::Test {
     EXPECT_EQ(vk_.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
   }
 
-  static vk::ComputeContext vk_;
+  static vk::Context vk_;
   static vk::RayTracer tracer_;
   static vk::RtPipeline pipeline_, mixed_pipeline_;
   static Mesh mesh_;
@@ -416,7 +416,7 @@ class RtConformance : public ::testing::Test {
   static LsnifModel handles_[kModels];
   static vk::Buffer table_;
 };
-vk::ComputeContext RtConformance::vk_;
+vk::Context RtConformance::vk_;
 vk::RayTracer RtConformance::tracer_(RtConformance::vk_);
 vk::RtPipeline RtConformance::pipeline_, RtConformance::mixed_pipeline_;
 Mesh RtConformance::mesh_;

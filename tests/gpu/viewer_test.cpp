@@ -130,7 +130,7 @@ TEST(Viewer, UnderXvfbShowsTheRenderersImageAndTogglesModes) {
   scene::SceneLoadOptions options;
   options.quiet = true;
   ASSERT_TRUE(scene::load_scene(gltf, options, scene));
-  vk::ComputeContext ctx;
+  vk::Context ctx;
   const Status vk_status = ctx.init(/*ray_tracing=*/true, /*validation=*/true, test::test_device());
   ASSERT_TRUE(vk_status) << vk_status.message();
   {

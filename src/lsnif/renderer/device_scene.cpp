@@ -13,7 +13,7 @@
 #include <limits>
 
 #include "lsnif/format/instance_transform.h"
-#include "lsnif/harness/triangle_order.h"
+#include "lsnif/vulkan/triangle_order.h"
 
 namespace lsnif::render {
 
@@ -452,7 +452,7 @@ Status upload_frame(const scene::Scene& scene, const scene::EnvironmentMap* envi
 
 }  // namespace
 
-Status build_device_scene(vk::ComputeContext& ctx, vk::RayTracer& tracer, const scene::Scene& scene, bool reference,
+Status build_device_scene(vk::Context& ctx, vk::RayTracer& tracer, const scene::Scene& scene, bool reference,
                           const scene::EnvironmentMap* environment, bool both_modes, uint32_t triangle_sbt_offset,
                           SceneBuildCounts counts, std::unique_ptr<DeviceScene>& out) {
   ScenePlan plan;

@@ -13,7 +13,7 @@
 
 #include <glm/glm.hpp>
 
-#include "lsnif/harness/plugin_device.h"  // volk first: lsnif.h then uses its Vulkan declarations
+#include "lsnif/vulkan/plugin_device.h"  // volk first: lsnif.h then uses its Vulkan declarations
 #include "lsnif/lsnif.hpp"
 #include "lsnif/renderer/renderer.h"
 #include "lsnif/renderer/shaders/render_host_device.h"
@@ -50,7 +50,7 @@ inline VkTransformMatrixKHR to_3x4(const glm::mat4& m) {
 // Everything set_scene allocates on the device, and what a pass needs of the scene; released by
 // the destructor.
 struct DeviceScene {
-  vk::ComputeContext& ctx;
+  vk::Context& ctx;
   vk::RayTracer& tracer;
   plugin::Context plugin;
   std::vector<plugin::Model> models;     // per LSNIF object of the scene: its device model (or empty)
@@ -92,7 +92,7 @@ struct DeviceScene {
   std::vector<scene::Camera> cameras;
   float env_rotation = 0.0f;
   Mode& mode() { return modes[active]; }
-  DeviceScene(vk::ComputeContext& c, vk::RayTracer& t) : ctx(c), tracer(t) {}
+  DeviceScene(vk::Context& c, vk::RayTracer& t) : ctx(c), tracer(t) {}
   ~DeviceScene() {
     if (query) lsnifDestroyQueryPipeline(plugin.get(), query);
     for (Mode& m : modes) tracer.destroy(m.tlas);
@@ -128,7 +128,7 @@ struct SceneBuildCounts {
 // transform, indices, meshes and material maps, naming what is wrong), the models, materials,
 // textures, triangle BLASes and each mode's TLAS and tables, the frame's scene part and world
 // bounds. Triangle hit groups start at `triangle_sbt_offset` of the inline pipeline's table.
-Status build_device_scene(vk::ComputeContext& ctx, vk::RayTracer& tracer, const scene::Scene& scene, bool reference,
+Status build_device_scene(vk::Context& ctx, vk::RayTracer& tracer, const scene::Scene& scene, bool reference,
                           const scene::EnvironmentMap* environment, bool both_modes, uint32_t triangle_sbt_offset,
                           SceneBuildCounts counts, std::unique_ptr<DeviceScene>& out);
 

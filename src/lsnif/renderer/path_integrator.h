@@ -36,7 +36,7 @@ class PathIntegrator {
 // render.rgen in one vkCmdTraceRaysKHR per pass; LSNIF rays run the plugin's intersection shader.
 class InlinePaths final : public PathIntegrator {
  public:
-  InlinePaths(vk::ComputeContext& ctx, vk::RayTracer& tracer) : ctx_(ctx), tracer_(tracer) {}
+  InlinePaths(vk::Context& ctx, vk::RayTracer& tracer) : ctx_(ctx), tracer_(tracer) {}
   ~InlinePaths() override;
   InlinePaths(const InlinePaths&) = delete;
   InlinePaths& operator=(const InlinePaths&) = delete;
@@ -50,7 +50,7 @@ class InlinePaths final : public PathIntegrator {
   void release_image_buffers() override {}
 
  private:
-  vk::ComputeContext& ctx_;
+  vk::Context& ctx_;
   vk::RayTracer& tracer_;
   vk::RtPipeline pipeline_{};
   bool ready_ = false;
@@ -59,7 +59,7 @@ class InlinePaths final : public PathIntegrator {
 // render_wave.comp's stages recorded with lsnifCmdQuery between them, one command buffer per pass.
 class WavefrontPaths final : public PathIntegrator {
  public:
-  explicit WavefrontPaths(vk::ComputeContext& ctx) : ctx_(ctx) {}
+  explicit WavefrontPaths(vk::Context& ctx) : ctx_(ctx) {}
   ~WavefrontPaths() override;
   WavefrontPaths(const WavefrontPaths&) = delete;
   WavefrontPaths& operator=(const WavefrontPaths&) = delete;
@@ -79,7 +79,7 @@ class WavefrontPaths final : public PathIntegrator {
   // Makes the pipeline, the query pipeline and the buffers for the image where missing, and the
   // scratch and zeroed statuses for passes of `samples` samples of `max_bounces`.
   Status prepare(const PassInputs& in, uint32_t samples, uint32_t max_bounces);
-  vk::ComputeContext& ctx_;
+  vk::Context& ctx_;
   vk::Pipeline pipeline_{};  // render_wave.comp
   // The buffers (RenderWave), sized for the accumulation image; scratch and statuses of the
   // queries (one LsnifQueryStatus per query of a pass).

@@ -4,12 +4,12 @@
 #include <algorithm>
 #include <vector>
 
-#include "lsnif/harness/device_choice.h"
+#include "lsnif/vulkan/device_choice.h"
 #include "lsnif/renderer/shaders/render_host_device.h"
 
 namespace lsnif::render {
 
-Status device_paths(const vk::ComputeContext& ctx, DevicePaths& out) {
+Status device_paths(const vk::Context& ctx, DevicePaths& out) {
   vk::DeviceInfo info;
   if (Status s = vk::query_device_info(ctx.instance(), ctx.physical_device(), info); !s) return s;
   DevicePaths p;

@@ -20,7 +20,7 @@
 #include <string>
 
 #include "lsnif/format/status.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 #include "lsnif/renderer/renderer.h"
 #include "lsnif/scene/scene.h"
 
@@ -50,7 +50,7 @@ inline constexpr double kCpuRasterTrianglesPerPixel = 10.0;
 // Triangles the visibility pass draws for `scene` (every node's mesh, LSNIF nodes their kept ones).
 uint64_t raster_triangles(const scene::Scene& scene);
 // What `ctx` (initialized with ray tracing) offers. Fails when the plugin's device query does.
-Status device_paths(const vk::ComputeContext& ctx, DevicePaths& out);
+Status device_paths(const vk::Context& ctx, DevicePaths& out);
 
 // The choice for `scene` in LSNIF mode (`reference` false) or reference mode on a device offering
 // `paths` (rules above), for images of `pixels` pixels.

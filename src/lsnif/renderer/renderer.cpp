@@ -16,16 +16,16 @@
 #include <volk.h>  // before lsnif.h, which then uses volk's Vulkan declarations
 
 #include "lsnif/lsnif.hpp"
-#include "lsnif/harness/plugin_device.h"
+#include "lsnif/vulkan/plugin_device.h"
 #include "lsnif/renderer/device_scene.h"
 #include "lsnif/renderer/path_integrator.h"
 #include "lsnif/renderer/shaders/render_host_device.h"
-#include "lsnif/harness/triangle_order.h"
+#include "lsnif/vulkan/triangle_order.h"
 
 namespace lsnif::render {
 
 
-Renderer::Renderer(vk::ComputeContext& ctx)
+Renderer::Renderer(vk::Context& ctx)
     : ctx_(ctx), tracer_(ctx), inline_(std::make_unique<InlinePaths>(ctx, tracer_)),
       wavefront_(std::make_unique<WavefrontPaths>(ctx)) {}
 

@@ -21,7 +21,7 @@
 #include "lsnif/scene/scene.h"
 #include "lsnif/format/status.h"
 #include "lsnif/renderer/visibility_buffer.h"
-#include "lsnif/harness/vk_raytracing.h"
+#include "lsnif/vulkan/raytracing.h"
 #include "lsnif/lsnif.h"
 
 namespace lsnif::render {
@@ -35,7 +35,7 @@ enum class PathPipeline {
 const char* pipeline_name(PathPipeline p);
 // Parses "inline" / "wavefront"; false on anything else.
 bool parse_pipeline(const std::string& name, PathPipeline& out);
-// What ComputeContext::init needs for a Renderer (either pipeline, either broad phase: the harness
+// What Context::init needs for a Renderer (either pipeline, either broad phase: the context
 // enables ray queries and rayTraversalPrimitiveCulling where offered) on `device`
 // (ContextOptions::device).
 vk::ContextOptions context_options(bool validation, const std::string& device);
@@ -141,8 +141,8 @@ class WavefrontPaths;
 
 class Renderer {
  public:
-  // `ctx` must be initialized with ray tracing (ComputeContext::init(true, ...)) and outlive this.
-  explicit Renderer(vk::ComputeContext& ctx);
+  // `ctx` must be initialized with ray tracing (Context::init(true, ...)) and outlive this.
+  explicit Renderer(vk::Context& ctx);
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
@@ -233,7 +233,7 @@ class Renderer {
   // Writes the frame of `view` (and, for raster, the visibility buffer of the samples) to the device.
   Status prepare_frame(const View& view, uint32_t first_sample, uint32_t samples, uint32_t max_bounces,
                        uint32_t rr_depth, PrimaryVisibility primary);
-  vk::ComputeContext& ctx_;
+  vk::Context& ctx_;
   vk::RayTracer tracer_;
   std::unique_ptr<InlinePaths> inline_;        // PathPipeline::inline_rt (path_integrator.h)
   std::unique_ptr<WavefrontPaths> wavefront_;  // PathPipeline::wavefront

@@ -235,7 +235,7 @@ Status WavefrontPaths::trace(const PassInputs& in, uint32_t first_sample, uint32
       }
       stage(RENDER_WAVE_ACCUMULATE, 0, &StageTimes::shade);
     }
-    vk::ComputeContext::barrier_compute_to_host(cmd);
+    vk::Context::barrier_compute_to_host(cmd);
   });
   if (recorded != LSNIF_SUCCESS) return plugin_error("wavefront pass");
   if (!st) return st.context("wavefront pass");
@@ -282,7 +282,7 @@ Status WavefrontPaths::primary_hits(const PassInputs& in, uint32_t sample_index,
     vkCmdDispatch(cmd, uint32_t((pixels + 63) / 64), 1, 1);
     wave_barrier(cmd);
     recorded = lsnifCmdQuery(dev.plugin.get(), cmd, dev.query, &q);
-    vk::ComputeContext::barrier_compute_to_host(cmd);
+    vk::Context::barrier_compute_to_host(cmd);
   });
   if (recorded != LSNIF_SUCCESS) return plugin_error("primary hits");
   if (!st) return st;

@@ -13,7 +13,7 @@
 
 #include "lsnif/renderer/shaders/render_host_device.h"
 #include "lsnif/format/status.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 
 namespace lsnif::render {
 
@@ -37,7 +37,7 @@ struct VisibilityCamera {
 
 class VisibilityBuffer {
  public:
-  explicit VisibilityBuffer(vk::ComputeContext& ctx) : ctx_(ctx) {}
+  explicit VisibilityBuffer(vk::Context& ctx) : ctx_(ctx) {}
   ~VisibilityBuffer();
   VisibilityBuffer(const VisibilityBuffer&) = delete;
   VisibilityBuffer& operator=(const VisibilityBuffer&) = delete;
@@ -59,7 +59,7 @@ class VisibilityBuffer {
   Status create_pipeline();
   Status resize(uint32_t width, uint32_t height, uint32_t layers);
   void release_targets();
-  vk::ComputeContext& ctx_;
+  vk::Context& ctx_;
   VkRenderPass render_pass_ = VK_NULL_HANDLE;
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkPipeline pipeline_ = VK_NULL_HANDLE;

@@ -1,4 +1,4 @@
-// test_plugin.h -- the plugin's C API (src/lsnif/lsnif.h) on the harness's device, with the
+// test_plugin.h -- the plugin's C API (src/lsnif/lsnif.h) on the Vulkan context's device, with the
 // shape the GPU tests need: in-process models (trained in the test) uploaded through their .lsnif
 // bytes and built at once, instance records from the CPU side's Transform3x4, errors as Status
 // carrying the plugin's message. Header-only; include inside no namespace.
@@ -9,8 +9,8 @@
 
 #include "lsnif/core/intersector.h"
 #include "lsnif/core/model.h"
-#include "lsnif/harness/plugin_device.h"  // volk before lsnif.h
-#include "lsnif/harness/vk_raytracing.h"
+#include "lsnif/vulkan/plugin_device.h"  // volk before lsnif.h
+#include "lsnif/vulkan/raytracing.h"
 
 namespace lsnif::gputest {
 
@@ -34,7 +34,7 @@ class TestPlugin {
   TestPlugin& operator=(const TestPlugin&) = delete;
   ~TestPlugin() { destroy(); }
 
-  Status init(const vk::ComputeContext& vk, LsnifContextCreateFlags flags = 0) {
+  Status init(const vk::Context& vk, LsnifContextCreateFlags flags = 0) {
     destroy();
     LsnifContextCreateInfo info = vk::plugin_create_info(vk);
     info.flags = flags;
@@ -98,7 +98,7 @@ class TestPlugin {
 // `rays` (world space) through `pipeline`, a pipeline of the rt_conformance shaders, over `tlas`:
 // one LsnifReferenceHit per ray in `out`. `push` holds the model table, mode and ray flags; the ray
 // and hit buffers and the count are filled in here.
-inline Status trace_reference(vk::ComputeContext& vk, vk::RayTracer& tracer, vk::RtPipeline& pipeline,
+inline Status trace_reference(vk::Context& vk, vk::RayTracer& tracer, vk::RtPipeline& pipeline,
                               const vk::AccelerationStructure& tlas, RtConformancePush push,
                               const std::vector<Ray>& rays, std::vector<LsnifReferenceHit>& out) {
   out.clear();

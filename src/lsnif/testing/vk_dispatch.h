@@ -7,13 +7,13 @@
 #include <vector>
 
 #include "lsnif/format/status.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 
 namespace lsnif::gputest {
 
 // `buffers` (whole buffers) are bound to the pipeline's storage-buffer bindings
 // (vk::Pipeline::storage_buffers), one each, in order.
-inline Status dispatch(vk::ComputeContext& ctx, const vk::Pipeline& pipeline, const void* push, uint32_t groups_x,
+inline Status dispatch(vk::Context& ctx, const vk::Pipeline& pipeline, const void* push, uint32_t groups_x,
                        const std::vector<const vk::Buffer*>& buffers = {}) {
   const VkDevice device = ctx.device();
   if (!device || !pipeline.pipeline) return Status::error("dispatch: no device or pipeline");
@@ -64,7 +64,7 @@ inline Status dispatch(vk::ComputeContext& ctx, const vk::Pipeline& pipeline, co
     if (pipeline.push_size > 0)
       vkCmdPushConstants(cmd, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pipeline.push_size, push);
     vkCmdDispatch(cmd, groups_x, 1, 1);
-    vk::ComputeContext::barrier_compute_to_host(cmd);
+    vk::Context::barrier_compute_to_host(cmd);
   });
   if (pool) vkDestroyDescriptorPool(device, pool, nullptr);
   return st;

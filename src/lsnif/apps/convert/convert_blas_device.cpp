@@ -3,7 +3,7 @@
 
 #include <cstdint>
 
-#include "lsnif/harness/vk_raytracing.h"
+#include "lsnif/vulkan/raytracing.h"
 
 namespace lsnif::convert {
 
@@ -16,7 +16,7 @@ DeviceBlasSizer::~DeviceBlasSizer() {
 
 Status DeviceBlasSizer::open(const std::string& device) {
   rt_.reset();
-  ctx_ = std::make_unique<vk::ComputeContext>();
+  ctx_ = std::make_unique<vk::Context>();
   if (Status s = ctx_->init(/*ray_tracing=*/true, /*validation=*/false, device); !s) {
     ctx_.reset();
     return Status::error("no usable Vulkan ray-tracing device for --blas-size device (`lsnif devices` tells what is "

@@ -9,7 +9,7 @@
 #include "lsnif/apps/convert/convert_blas.h"
 
 namespace lsnif::vk {
-class ComputeContext;
+class Context;
 class RayTracer;
 }  // namespace lsnif::vk
 
@@ -23,14 +23,14 @@ class DeviceBlasSizer {
   DeviceBlasSizer& operator=(const DeviceBlasSizer&) = delete;
 
   // Opens `device` (vk::ContextOptions::device: an index in `lsnif devices` or part of a name;
-  // empty: the harness's default choice) with ray tracing, without validation. Fails when no such
+  // empty: the Vulkan context's default choice) with ray tracing, without validation. Fails when no such
   // device can ray trace.
   Status open(const std::string& device);
   // A sizer querying the open device (it must outlive the sizer's use), named after the device.
   BlasSizer sizer();
 
  private:
-  std::unique_ptr<vk::ComputeContext> ctx_;
+  std::unique_ptr<vk::Context> ctx_;
   std::unique_ptr<vk::RayTracer> rt_;
 };
 

@@ -32,7 +32,7 @@
 #include "lsnif/apps/lsnif/render_compare.h"
 #include "lsnif/apps/lsnif/report_text.h"
 #include "lsnif/scene/scene_gltf.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 #include "lsnif/train/settings_io.h"
 
 namespace lsnif::cli {
@@ -164,7 +164,7 @@ nlohmann::ordered_json stages_json(const render::StageTimes& s) {
 
 // results.json: what results.md tables, as numbers (times in ms per sample, memory in bytes).
 nlohmann::ordered_json results_json(const std::vector<SceneRow>& rows, const render::RenderSettings& rs,
-                                    const vk::ComputeContext& ctx, const std::string& training) {
+                                    const vk::Context& ctx, const std::string& training) {
   nlohmann::ordered_json j = {{"device", ctx.device_name()},
                               {"width", rs.width},
                               {"height", rs.height},
@@ -329,7 +329,7 @@ bool create_output_folder(const BenchCommand& cmd) {
 }
 
 // Initializes `ctx` for the pipelines; false (message printed) when no device can run them.
-bool init_device(const BenchCommand& cmd, vk::ComputeContext& ctx) {
+bool init_device(const BenchCommand& cmd, vk::Context& ctx) {
   if (Status s = ctx.init(render::context_options(/*validation=*/false, cmd.device));
       !s) {
     std::fprintf(stderr, "lsnif bench: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
@@ -464,7 +464,7 @@ bool load_preset_scene(const fs::path& gltf, const BenchScene& bench, const std:
 // Renders `sc` with each pipeline in reference and LSNIF mode (the reference render of a pipeline
 // taken from or kept in `references`) and appends a row per pipeline to `rows`, from `models` (the
 // scene's and preset's fields); false (message printed) on failure.
-bool render_preset(vk::ComputeContext& ctx, const BenchCommand& cmd, const scene::Scene& sc, const SceneRow& models,
+bool render_preset(vk::Context& ctx, const BenchCommand& cmd, const scene::Scene& sc, const SceneRow& models,
                    const render::RenderSettings& rs, std::map<std::string, ReferenceRender>& references,
                    std::vector<SceneRow>& rows) {
   const std::string& name = models.name;
@@ -515,7 +515,7 @@ bool render_preset(vk::ComputeContext& ctx, const BenchCommand& cmd, const scene
 
 // One scene: built (or reused), then per preset its models trained, reused or copied (--models) and,
 // unless --no-render, its renders appended to `rows`. Returns the exit code (0 ok).
-int run_scene(vk::ComputeContext& ctx, const BenchCommand& cmd, const BenchTrainer* trainer, const std::string& name,
+int run_scene(vk::Context& ctx, const BenchCommand& cmd, const BenchTrainer* trainer, const std::string& name,
               const TrainOptions& topt, const render::RenderSettings& rs, std::vector<SceneRow>& rows) {
   std::printf("\n== scene %s\n", name.c_str());
   std::fflush(stdout);
@@ -543,7 +543,7 @@ int run_scene(vk::ComputeContext& ctx, const BenchCommand& cmd, const BenchTrain
 
 // Writes OUT/results.md and prints the tables; false (message printed) when it cannot be written.
 bool write_report(const BenchCommand& cmd, const std::vector<SceneRow>& rows, const render::RenderSettings& rs,
-                  const vk::ComputeContext& ctx, const std::string& training) {
+                  const vk::Context& ctx, const std::string& training) {
   const fs::path results = fs::path(cmd.out_dir) / "results.md";
   const fs::path json = fs::path(cmd.out_dir) / "results.json";
   if (!write_text_file("bench", results.string(), results_markdown(rows, rs, ctx.device_name(), training)) ||
@@ -583,7 +583,7 @@ int run_bench(int argc, char** argv, const BenchTrainer* trainer) {
   if (cmd.models_dir.empty() && !trainer->describe(topt, cmd.out_dir, cmd.run.quick, training)) return 2;
 
   if (!create_output_folder(cmd)) return 1;
-  vk::ComputeContext ctx;
+  vk::Context ctx;
   if (!cmd.no_render && !init_device(cmd, ctx)) return 1;
 
   std::vector<SceneRow> rows;

@@ -4,7 +4,7 @@
 // compiles it) in a real ray-tracing pipeline on the device, against the same rays traced through a
 // triangle BLAS of the same mesh in the same run and the same pipeline.
 //
-// Setup: the harness's device (src/lsnif/harness/vk_compute.h, ray tracing on, validation only with
+// Setup: the Vulkan context's device (src/lsnif/vulkan/context.h, ray tracing on, validation only with
 // --validation); the model uploaded by the plugin (model block + AABB BLAS, model table, instance
 // record); a triangle BLAS of the mesh; two TLASes of one identity instance each (LSNIF: hit group
 // 0 = lsnif.rint + bench_trace.rchit; triangles: hit group 1 = bench_trace_triangle.rchit); one
@@ -43,7 +43,7 @@
 #include "lsnif/core/model.h"
 #include "lsnif/format/status.h"
 #include "lsnif/import/mesh.h"
-#include "lsnif/harness/vk_raytracing.h"  // volk first: lsnif.h then uses its Vulkan declarations
+#include "lsnif/vulkan/raytracing.h"  // volk first: lsnif.h then uses its Vulkan declarations
 #include "lsnif/lsnif.hpp"
 
 namespace lsnif::cli::bench_trace {
@@ -179,7 +179,7 @@ struct Report {
 // Everything the benchmark creates on the device; release() frees it in dependency order (models
 // and buffers before the device) and is safe to call twice.
 struct DeviceState {
-  vk::ComputeContext ctx;
+  vk::Context ctx;
   vk::RayTracer tracer{ctx};
   plugin::Context plugin;
   plugin::Model model;

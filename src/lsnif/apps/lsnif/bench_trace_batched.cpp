@@ -138,7 +138,7 @@ Status timed_batched(DeviceState& st, uint32_t count, bool first, Report& report
       info.firstTimestamp = LSNIF_INTERSECT_TIMESTAMP_COUNT * c;
       result = st.query.cmd_intersect_model_rays(cmd, info);
     }
-    vk::ComputeContext::barrier_compute_to_host(cmd);
+    vk::Context::barrier_compute_to_host(cmd);
   });
   const double host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu_seconds = process_cpu_seconds() - cpu0;
@@ -184,7 +184,7 @@ Status timed_query(DeviceState& st, uint32_t count, bool first, Report& report) 
     }
     result = st.query.cmd_query(cmd, info);
     if (st.query_timestamps) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, st.query_timestamps, 1);
-    vk::ComputeContext::barrier_compute_to_host(cmd);
+    vk::Context::barrier_compute_to_host(cmd);
   });
   const double host_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu_seconds = process_cpu_seconds() - cpu0;

@@ -12,8 +12,8 @@
 
 #include "lsnif/apps/common/progress.h"
 #include "lsnif/apps/lsnif/bench_trace.h"
-#include "lsnif/harness/plugin_device.h"
-#include "lsnif/harness/triangle_order.h"
+#include "lsnif/vulkan/plugin_device.h"
+#include "lsnif/vulkan/triangle_order.h"
 
 namespace lsnif::cli::bench_trace {
 
@@ -96,7 +96,7 @@ Status timed_trace(DeviceState& st, const vk::AccelerationStructure& tlas, const
 // The buffers of one element per ray, against the device's limits before any is made: each one's
 // size, then all of them together against the memory heap they share. Errors name the buffer, its
 // bytes, the limit and --rays.
-Status check_ray_buffers(const vk::ComputeContext& ctx, uint64_t rays) {
+Status check_ray_buffers(const vk::Context& ctx, uint64_t rays) {
   const std::pair<const char*, uint64_t> buffers[] = {
       {"ray buffer", sizeof(LsnifReferenceRay)},       {"LSNIF result buffer", sizeof(BenchTraceResult)},
       {"triangle result buffer", sizeof(BenchTraceResult)}, {"batched ray buffer", sizeof(LsnifQueryRay)},

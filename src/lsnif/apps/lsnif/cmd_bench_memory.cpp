@@ -19,9 +19,9 @@
 #include "lsnif/import/mesh.h"
 #include "lsnif/import/mesh_subdivide.h"
 #include "lsnif/core/model.h"
-#include "lsnif/harness/plugin_device.h"
+#include "lsnif/vulkan/plugin_device.h"
 #include "lsnif/apps/lsnif/report_text.h"
-#include "lsnif/harness/vk_raytracing.h"
+#include "lsnif/vulkan/raytracing.h"
 
 namespace lsnif::cli {
 
@@ -78,7 +78,7 @@ double ratio(uint64_t a, uint64_t b) { return b ? double(a) / double(b) : 0.0; }
 
 
 // Uploads `model` with the plugin on `vk`'s device, builds it, reads what it occupies, releases it.
-Status measure_lsnif(vk::ComputeContext& vk, const Model& model, LsnifMemory& out) {
+Status measure_lsnif(vk::Context& vk, const Model& model, LsnifMemory& out) {
   out.model_bytes = memory_breakdown(model).total();
   std::vector<uint8_t> bytes;
   if (Status s = save_model_to_memory(model, bytes); !s) return s;
@@ -274,7 +274,7 @@ int cmd_bench_memory(int argc, char** argv) {
     versions[at].targets.push_back(t);
   }
 
-  vk::ComputeContext vk;
+  vk::Context vk;
   if (Status s = vk.init(/*ray_tracing=*/true, /*validation=*/false, device); !s) {
     std::fprintf(stderr, "lsnif bench-memory: no usable Vulkan ray-tracing device (`lsnif devices` tells what is "
                          "missing): %s\n", s.message().c_str());

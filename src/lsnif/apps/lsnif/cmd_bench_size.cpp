@@ -25,7 +25,7 @@
 #include "lsnif/apps/lsnif/render_compare.h"
 #include "lsnif/apps/lsnif/report_text.h"
 #include "lsnif/apps/lsnif/train_options.h"
-#include "lsnif/harness/vk_raytracing.h"
+#include "lsnif/vulkan/raytracing.h"
 
 namespace lsnif::cli {
 
@@ -373,7 +373,7 @@ bool create_output_folder(const SizeCommand& cmd) {
 }
 
 // Initializes `ctx` for the pipeline; false (message printed) when no device can run it.
-bool init_device(const SizeCommand& cmd, vk::ComputeContext& ctx) {
+bool init_device(const SizeCommand& cmd, vk::Context& ctx) {
   if (Status s = ctx.init(render::context_options(/*validation=*/false, cmd.device)); !s) {
     std::fprintf(stderr, "lsnif bench-size: no usable Vulkan ray-tracing device (`lsnif devices` tells what is "
                          "missing): %s\n", s.message().c_str());
@@ -384,7 +384,7 @@ bool init_device(const SizeCommand& cmd, vk::ComputeContext& ctx) {
 
 // Builds the heavy scene into `heavy` and sums its triangle BLAS sizes into `heavy_blas`; false
 // (message printed) on failure.
-bool measure_heavy_blas(vk::ComputeContext& ctx, const SizeCommand& cmd, BenchScene& heavy, uint64_t& heavy_blas) {
+bool measure_heavy_blas(vk::Context& ctx, const SizeCommand& cmd, BenchScene& heavy, uint64_t& heavy_blas) {
   // The heavy scene's meshes (subdivided as `lsnif bench` builds them): their triangle BLAS sizes.
   std::printf("\n== the heavy scene's triangle BLASes\n");
   std::fflush(stdout);
@@ -408,7 +408,7 @@ bool measure_heavy_blas(vk::ComputeContext& ctx, const SizeCommand& cmd, BenchSc
 
 // What the measurements share.
 struct SizeBench {
-  vk::ComputeContext& ctx;
+  vk::Context& ctx;
   const SizeCommand& cmd;
   const std::vector<TrainOptions>& options;  // per setting
   const render::RenderSettings& rs;
@@ -515,7 +515,7 @@ int cmd_bench_size(int argc, char** argv) {
   if (!options.front().to_settings(base_settings)) return 2;
 
   if (!create_output_folder(cmd)) return 1;
-  vk::ComputeContext ctx;
+  vk::Context ctx;
   if (!init_device(cmd, ctx)) return 1;
   BenchScene heavy;
   uint64_t heavy_blas = 0;

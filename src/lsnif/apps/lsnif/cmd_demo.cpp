@@ -19,7 +19,7 @@
 #include "lsnif/import/mesh.h"
 #include "lsnif/core/model.h"
 #include "lsnif/apps/lsnif/render_compare.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 #include "lsnif/apps/lsnif/train_options.h"
 #include "lsnif/image/image_io.h"
 
@@ -135,7 +135,7 @@ int cmd_demo(int argc, char** argv) {
                  hdr.c_str());
     return 1;
   }
-  vk::ComputeContext ctx;
+  vk::Context ctx;
   if (Status s = ctx.init(/*ray_tracing=*/true, /*validation=*/false, device); !s) {
     std::fprintf(stderr, "lsnif demo: no usable Vulkan ray-tracing device for the render (`lsnif devices` tells "
                          "what is missing): %s\n", s.message().c_str());

@@ -1,8 +1,8 @@
 // lsnif devices: the Vulkan devices of this machine, which LSNIF paths each one supports, and which
-// one the other commands use (the harness's choice for ray tracing, src/lsnif/harness/device_choice.h,
+// one the other commands use (the Vulkan context's choice for ray tracing, src/lsnif/vulkan/device_choice.h,
 // automatic or by --device). The CLI creates its own instance here (an application's instance is
 // not involved); the per-device check is the plugin's (lsnifQueryDeviceSupport of lsnif.h), asked
-// once per device through the harness (query_device_info), whose choice rests on the same answer.
+// once per device through the Vulkan context (query_device_info), whose choice rests on the same answer.
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -13,7 +13,7 @@
 #include "lsnif/apps/lsnif/commands.h"
 #include "lsnif/apps/lsnif/device_option.h"
 #include "lsnif/lsnif.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 #include "lsnif/import/json_text.h"
 
 namespace lsnif::cli {
@@ -22,7 +22,7 @@ namespace {
 
 struct DeviceReport {
   LsnifDeviceSupport support{};  // the plugin's answer
-  vk::DeviceInfo info;           // what the harness's choice looks at; lsnif_missing: the plugin's items
+  vk::DeviceInfo info;           // what the Vulkan context's choice looks at; lsnif_missing: the plugin's items
   std::string type, driver, driver_info;
   // VK_NV_cooperative_matrix's shapes and types (vkGetPhysicalDeviceCooperativeMatrixPropertiesNV),
   // "MxNxK A B C D scope" each, where the device offers the extension.

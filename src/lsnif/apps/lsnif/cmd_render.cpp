@@ -12,7 +12,7 @@
 #include "lsnif/apps/common/progress.h"
 #include "lsnif/renderer/renderer.h"
 #include "lsnif/apps/lsnif/scene_args.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 
 namespace lsnif::cli {
 
@@ -62,7 +62,7 @@ int cmd_render(int argc, char** argv) {
   scene::EnvironmentMap environment;
   if (int r = sa.load("render", scene, environment)) return r;
 
-  vk::ComputeContext ctx;
+  vk::Context ctx;
   if (Status s = ctx.init(render::context_options(validation, device)); !s) {
     std::fprintf(stderr, "lsnif render: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
                  s.message().c_str());

@@ -1,5 +1,5 @@
 // device_option.h -- the --device option of every subcommand that runs on a Vulkan device
-// (vk::ContextOptions::device; the choice itself is src/lsnif/harness/device_choice.h).
+// (vk::ContextOptions::device; the choice itself is src/lsnif/vulkan/device_choice.h).
 #pragma once
 #include <string>
 

@@ -58,7 +58,7 @@ bool check_path_options(const char* command, const PathOptions& given) {
   return true;
 }
 
-bool resolve_path_options(const char* command, const PathOptions& given, const vk::ComputeContext& ctx,
+bool resolve_path_options(const char* command, const PathOptions& given, const vk::Context& ctx,
                           const scene::Scene& scene, bool reference, uint64_t pixels, render::RenderChoice& out) {
   if (!check_path_options(command, given)) return false;
   render::RenderChoice choice;

@@ -28,7 +28,7 @@ bool check_path_options(const char* command, const PathOptions& given);
 // `ctx`'s device for images of `pixels` pixels: what --pipeline and --primary force, the rest chosen
 // (its reason in out.why). False (message printed naming `command`) on a bad value or a failed
 // device query.
-bool resolve_path_options(const char* command, const PathOptions& given, const vk::ComputeContext& ctx,
+bool resolve_path_options(const char* command, const PathOptions& given, const vk::Context& ctx,
                           const scene::Scene& scene, bool reference, uint64_t pixels, render::RenderChoice& out);
 
 // Parses the option's value; false (after a usage message naming `command`) on anything else.

@@ -73,7 +73,7 @@ image::Image clamped(const image::Image& img) {
 
 }  // namespace
 
-Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render::RenderSettings settings,
+Status render_compare(vk::Context& ctx, const scene::Scene& scene, render::RenderSettings settings,
                       const std::string& side_by_side, CompareReport& report, ReferenceRender* shared_reference,
                       const render::RenderChoice* reference_path) {
   report = CompareReport();

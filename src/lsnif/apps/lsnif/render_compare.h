@@ -35,7 +35,7 @@ struct ReferenceRender {
 // and kept there for the next comparison. With `reference_path`, the reference is rendered with
 // its pipeline and primary visibility instead of those of `settings` (the same estimator and random
 // sequences: e.g. the fastest triangle path against the LSNIF mode's choice).
-Status render_compare(vk::ComputeContext& ctx, const scene::Scene& scene, render::RenderSettings settings,
+Status render_compare(vk::Context& ctx, const scene::Scene& scene, render::RenderSettings settings,
                       const std::string& side_by_side, CompareReport& report,
                       ReferenceRender* shared_reference = nullptr,
                       const render::RenderChoice* reference_path = nullptr);

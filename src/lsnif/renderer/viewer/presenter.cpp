@@ -76,7 +76,7 @@ Status Presenter::open_window(uint32_t width, uint32_t height, const std::string
   return Status::ok();
 }
 
-Status Presenter::attach(vk::ComputeContext& ctx) {
+Status Presenter::attach(vk::Context& ctx) {
   ctx_ = &ctx;
   if (!window_) return Status::error("presenter: open_window first");
   LSNIF_VK_CHECK(glfwCreateWindowSurface(ctx.instance(), window_, nullptr, &surface_));

@@ -10,7 +10,7 @@
 #include <volk.h>
 
 #include "lsnif/format/status.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 
 struct GLFWwindow;
 
@@ -33,7 +33,7 @@ class Presenter {
   // Creates the surface and swapchain on `ctx` (initialized with window_instance_extensions and
   // ContextOptions::swapchain; must outlive this). Fails if the device's queue cannot present to
   // the surface or the surface cannot be a transfer destination.
-  Status attach(vk::ComputeContext& ctx);
+  Status attach(vk::Context& ctx);
 
   // The swapchain's size: the image present() expects.
   uint32_t width() const { return extent_.width; }
@@ -51,7 +51,7 @@ class Presenter {
  private:
   Status create_swapchain();
   void destroy_swapchain();
-  vk::ComputeContext* ctx_ = nullptr;
+  vk::Context* ctx_ = nullptr;
   GLFWwindow* window_ = nullptr;
   VkSurfaceKHR surface_ = VK_NULL_HANDLE;
   VkSwapchainKHR swapchain_ = VK_NULL_HANDLE;

@@ -14,7 +14,7 @@
 #include "lsnif/renderer/viewer/orbit_camera.h"
 #include "lsnif/renderer/viewer/presenter.h"
 #include "lsnif/renderer/renderer.h"
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -81,7 +81,7 @@ Status save_screenshot(const std::string& path, const std::vector<uint8_t>& rgb,
 
 // Opens the window of `presenter` (settings' size) with the callbacks collecting `input`, and
 // attaches it to `ctx` (surface and swapchain). Fails without a display or on a device error.
-Status open_window(Presenter& presenter, vk::ComputeContext& ctx, Input& input, const ViewerSettings& settings) {
+Status open_window(Presenter& presenter, vk::Context& ctx, Input& input, const ViewerSettings& settings) {
   if (Status s = presenter.open_window(settings.width, settings.height, "lsnif view"); !s) return s;
   glfwSetWindowUserPointer(presenter.window(), &input);
   glfwSetKeyCallback(presenter.window(), on_key);
@@ -367,7 +367,7 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
   if (Status s = window_instance_extensions(options.instance_extensions); !s) return s;
 
   Input input;
-  vk::ComputeContext ctx;
+  vk::Context ctx;
   if (Status s = ctx.init(options); !s) return s.context("viewer device");
   report.device = ctx.device_name();
   ViewerSettings chosen = settings;

@@ -1,5 +1,5 @@
-// vk_raytracing.cpp -- the harness of vk_raytracing.h.
-#include "lsnif/harness/vk_raytracing.h"
+// raytracing.cpp -- the acceleration structures and ray-tracing pipelines of raytracing.h.
+#include "lsnif/vulkan/raytracing.h"
 
 #include <algorithm>
 #include <chrono>
@@ -43,7 +43,7 @@ Status create_acceleration_structure(VkDevice device, VkBuffer buffer, VkDeviceS
 
 }  // namespace
 
-RayTracer::RayTracer(ComputeContext& context) : ctx_(context) {}
+RayTracer::RayTracer(Context& context) : ctx_(context) {}
 
 Status RayTracer::init() {
   if (!ctx_.device()) return Status::error("RayTracer::init: context not initialized");
@@ -412,7 +412,7 @@ void destroy_shader_modules(VkDevice device, const VkShaderModule (&modules)[kMa
 
 // The modules of the first `stage_count` shaders of raygen, miss, closest hit, intersection, triangle
 // closest hit and triangle any hit, into `modules`; on failure none is left.
-Status create_shader_modules(ComputeContext& ctx, const RtShaders& shaders, uint32_t stage_count,
+Status create_shader_modules(Context& ctx, const RtShaders& shaders, uint32_t stage_count,
                              VkShaderModule (&modules)[kMaxStages]) {
   const Spirv* code[kMaxStages] = {&shaders.raygen, &shaders.miss, &shaders.closest_hit, &shaders.intersection,
                                    &shaders.triangle_closest_hit, &shaders.triangle_any_hit};
@@ -514,7 +514,7 @@ VkResult create_rt_pipeline(VkDevice device, const VkShaderModule (&modules)[kMa
 
 // The shader binding table of out.pipeline's `group_count` groups (with the triangle hit group when
 // `triangles`), into out.sbt and out's regions.
-Status create_sbt(ComputeContext& ctx, const VkPhysicalDeviceRayTracingPipelinePropertiesKHR& props,
+Status create_sbt(Context& ctx, const VkPhysicalDeviceRayTracingPipelinePropertiesKHR& props,
                   const RtShaders& shaders, bool triangles, uint32_t group_count, RtPipeline& out) {
   // Shader binding table: one record per group; each region starts at shaderGroupBaseAlignment,
   // records are handle-aligned; the raygen region's size equals its stride (a spec requirement).

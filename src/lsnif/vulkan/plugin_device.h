@@ -1,15 +1,16 @@
 // plugin_device.h -- the plugin's view (LsnifContextCreateInfo of src/lsnif/lsnif.h) of the
-// harness's device (vk_compute.h), for the tests, benchmarks and samples that run the plugin on it.
+// Vulkan context's device (context.h), for the renderer, tools, tests and benchmarks that run the
+// plugin on it.
 // Header-only: users link lsnif_vk_app (which links lsnif_vk).
 #pragma once
-#include "lsnif/harness/vk_compute.h"  // volk first: lsnif.h then uses its Vulkan declarations
+#include "lsnif/vulkan/context.h"  // volk first: lsnif.h then uses its Vulkan declarations
 #include "lsnif/lsnif.h"
 
 namespace lsnif::vk {
 
 // Instance, physical device, device, queue family and queue of `vk` (initialized), loaded through
 // volk's vkGetInstanceProcAddr; no error callback, no allocator.
-inline LsnifContextCreateInfo plugin_create_info(const ComputeContext& vk) {
+inline LsnifContextCreateInfo plugin_create_info(const Context& vk) {
   LsnifContextCreateInfo info{};
   info.instance = vk.instance();
   info.physicalDevice = vk.physical_device();

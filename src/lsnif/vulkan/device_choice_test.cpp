@@ -1,7 +1,7 @@
-// The device choice of the harness (device_choice.h) on hand-built device lists: the automatic
+// The device choice of the Vulkan context (device_choice.h) on hand-built device lists: the automatic
 // ranking, qualification on the plugin's missing items, selection by index and by name, and the
 // errors.
-#include "lsnif/harness/device_choice.h"
+#include "lsnif/vulkan/device_choice.h"
 
 #include <gtest/gtest.h>
 
@@ -19,7 +19,7 @@ const std::vector<std::string> kLsnifItems = {
     "extension VK_KHR_deferred_host_operations", "feature accelerationStructure", "feature rayTracingPipeline",
     "feature bufferDeviceAddress", "feature shaderInt64"};
 
-// A device that offers everything the harness can ask for (ray tracing and a swapchain): the plugin
+// A device that offers everything the context can ask for (ray tracing and a swapchain): the plugin
 // reports nothing missing.
 DeviceInfo full(const std::string& name, DeviceType type) {
   DeviceInfo d;
@@ -125,7 +125,7 @@ TEST(DeviceChoice, MissingListsEveryPieceInOrder) {
   d.lsnif_missing = kLsnifItems;
   DeviceNeeds needs = ray_tracing();
   needs.swapchain = true;
-  // The plugin's items every harness device needs first, then the others in the plugin's order.
+  // The plugin's items every context's device needs first, then the others in the plugin's order.
   const std::vector<std::string> want = {
       "a compute queue", "Vulkan 1.2", "feature bufferDeviceAddress", "feature shaderInt64",
       "extension VK_KHR_acceleration_structure", "extension VK_KHR_ray_tracing_pipeline",

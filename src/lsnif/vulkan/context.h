@@ -1,11 +1,12 @@
-// vk_compute.h -- a minimal headless Vulkan compute harness for the GPU tests, the benchmarks and
-// the samples (volk): an instance, with the Khronos validation layer and a debug-utils messenger
-// that counts (and prints) every warning and error unless validation is turned off, a device with
-// bufferDeviceAddress, shaderInt64 (and scalarBlockLayout where offered), host-visible buffers
-// addressed by device address, one compute pipeline from a SPIR-V file with a push-constant range,
-// dispatch and wait. Optionally (init(true)) the device also has the ray-tracing extensions and
+// context.h -- the Vulkan context of the renderer, the viewer, the tools, the benchmarks and the
+// GPU tests (volk; applications of the SDK bring their own): an instance, with the Khronos
+// validation layer and a debug-utils messenger that counts (and prints) every warning and error
+// unless validation is turned off, a device with bufferDeviceAddress, shaderInt64 (and
+// scalarBlockLayout where offered), host-visible buffers addressed by device address, compute
+// pipelines from SPIR-V in memory with a push-constant range, one-time submissions and waits,
+// timestamps. Optionally (init(true)) the device also has the ray-tracing extensions and
 // features that LSNIF needs (the plugin says which device has them: lsnifQueryDeviceSupport) and
-// src/lsnif/harness/vk_raytracing.h uses.
+// src/lsnif/vulkan/raytracing.h uses.
 // The device: ContextOptions::device selects one (an index in `lsnif devices` order or a part of
 // its name; the GPU tests name lavapipe, "llvmpipe", their reference platform); left empty, the
 // first discrete GPU that offers what is needed, else an integrated, virtual GPU, else a CPU device
@@ -20,7 +21,7 @@
 
 #include <volk.h>
 
-#include "lsnif/harness/device_choice.h"
+#include "lsnif/vulkan/device_choice.h"
 #include "lsnif/format/status.h"
 
 // In a function returning Status: returns an error naming the call and its VkResult unless it
@@ -65,9 +66,9 @@ struct Pipeline {
   double create_seconds = 0;      // vkCreateComputePipelines wall time (lavapipe compiles here)
 };
 
-// What ComputeContext::init creates besides compute.
+// What Context::init creates besides compute.
 struct ContextOptions {
-  bool ray_tracing = false;  // the ray-tracing extensions and features (vk_raytracing.h)
+  bool ray_tracing = false;  // the ray-tracing extensions and features (raytracing.h)
   bool validation = true;    // the Khronos validation layer and a counting messenger
   // Instance extensions to enable (e.g. what glfwGetRequiredInstanceExtensions names for a window
   // surface); an error names one the loader lacks.
@@ -86,7 +87,7 @@ struct ContextOptions {
 
 // What `physical` of `instance` offers, for choose_device (device_choice.h): what LSNIF needs as
 // the plugin answers it (lsnifQueryDeviceSupport, its full answer also into *support when given),
-// and the harness's own (queues, scalarBlockLayout, VK_KHR_swapchain, VK_KHR_spirv_1_4). The
+// and the context's own (queues, scalarBlockLayout, VK_KHR_swapchain, VK_KHR_spirv_1_4). The
 // instance-level functions of `instance` must be loaded into volk (volkLoadInstance or
 // volkLoadInstanceOnly), and the instance must be created for Vulkan 1.2 or later (the 1.2 features
 // are queried on 1.2+ devices). Fails only when the plugin's query does (lsnifGetLastErrorMessage).
@@ -94,7 +95,7 @@ Status query_device_info(VkInstance instance, VkPhysicalDevice physical, DeviceI
                          LsnifDeviceSupport* support = nullptr);
 
 
-// The device's limits on one buffer of ComputeContext::create_buffer (0: not known).
+// The device's limits on one buffer of Context::create_buffer (0: not known).
 struct BufferLimits {
   uint64_t max_allocation = 0;     // VkPhysicalDeviceMaintenance3Properties::maxMemoryAllocationSize
   uint64_t max_storage_range = 0;  // VkPhysicalDeviceLimits::maxStorageBufferRange (a buffer bound to a descriptor)
@@ -107,7 +108,7 @@ struct BufferLimits {
 // so create_buffer checks the room first (twice the size: a driver on the CPU maps memory twice).
 bool address_space_for(uint64_t bytes);
 
-// A pool of timestamp queries on a ComputeContext's queue (create_timestamps).
+// A pool of timestamp queries on a Context's queue (create_timestamps).
 struct Timestamps {
   VkQueryPool pool = VK_NULL_HANDLE;
   uint32_t count = 0;
@@ -115,12 +116,12 @@ struct Timestamps {
   uint64_t valid_mask = 0; // the queue family's timestampValidBits as a mask
 };
 
-class ComputeContext {
+class Context {
  public:
-  ComputeContext() = default;
-  ComputeContext(const ComputeContext&) = delete;
-  ComputeContext& operator=(const ComputeContext&) = delete;
-  ~ComputeContext();
+  Context() = default;
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
+  ~Context();
 
   // Creates instance (validation layer required with `validation`: an error when it is missing),
   // messenger and the device `device` selects (ContextOptions::device; "" chooses automatically).

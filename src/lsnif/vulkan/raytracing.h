@@ -1,5 +1,5 @@
-// vk_raytracing.h -- a minimal Vulkan ray-tracing harness for the GPU tests and benchmarks, on top of
-// ComputeContext (initialized with init(true)): a TLAS of instance records built on the device
+// raytracing.h -- ray tracing on the Vulkan context (context.h, initialized with init(true)) for
+// the renderer, the tools, the benchmarks and the GPU tests: a TLAS of instance records built on the device
 // (the LSNIF BLASes and instance records come from the plugin, src/lsnif/lsnif.h), a triangle BLAS
 // (for mixed scenes), a ray-tracing pipeline of raygen, miss and one
 // procedural hit group (closest hit + intersection) and optionally a triangle hit group with the TLAS at set 0 binding 0 (raygen) and
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "lsnif/harness/vk_compute.h"
+#include "lsnif/vulkan/context.h"
 
 namespace lsnif::vk {
 
@@ -64,7 +64,7 @@ struct CompactionReport {
 class RayTracer {
  public:
   // `context` must have been initialized with init(true) and outlive the tracer.
-  explicit RayTracer(ComputeContext& context);
+  explicit RayTracer(Context& context);
   // Reads the device's ray-tracing properties; fails if the context has no device.
   Status init();
 
@@ -126,7 +126,7 @@ class RayTracer {
   // around vkCmdTraceRaysKHR (the pool is reset in the same command buffer).
   Status trace_with_timestamps(RtPipeline& pipeline, const AccelerationStructure& tlas, const void* push,
                                uint32_t width, VkQueryPool timestamps);
-  ComputeContext& ctx_;
+  Context& ctx_;
   VkPhysicalDeviceRayTracingPipelinePropertiesKHR props_{};
   VkPhysicalDeviceAccelerationStructurePropertiesKHR as_props_{};
 };

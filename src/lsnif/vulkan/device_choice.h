@@ -1,8 +1,8 @@
-// device_choice.h -- which Vulkan physical device the harness (vk_compute.h), and so every lsnif
+// device_choice.h -- which Vulkan physical device the Vulkan context (context.h), and so every lsnif
 // command and GPU test, runs on. Plain data in, an index out, no Vulkan calls, so that the ranking
 // and the selector are testable without a device:
-//   - a device qualifies when it offers what the harness needs (DeviceNeeds): a compute queue and
-//     the parts of LSNIF's own requirements that every harness device is created with (Vulkan 1.2,
+//   - a device qualifies when it offers what the context needs (DeviceNeeds): a compute queue and
+//     the parts of LSNIF's own requirements that every context's device is created with (Vulkan 1.2,
 //     bufferDeviceAddress, shaderInt64); for ray tracing everything LSNIF needs, as the plugin
 //     answers it (lsnifQueryDeviceSupport of lsnif.h: Vulkan 1.2, its extensions and features), so
 //     that the tools and the plugin have one definition of "LSNIF can run on this device"; for a
@@ -29,8 +29,8 @@ enum class DeviceType { other, integrated_gpu, discrete_gpu, virtual_gpu, cpu };
 // "discrete GPU", "integrated GPU", "virtual GPU", "CPU" or "other".
 const char* device_type_name(DeviceType type);
 
-// What a physical device offers (not what is enabled); vk_compute.h query_device_info fills it: the
-// plugin's answer for what LSNIF needs, the harness's own probe for the rest.
+// What a physical device offers (not what is enabled); context.h query_device_info fills it: the
+// plugin's answer for what LSNIF needs, the context's own probe for the rest.
 struct DeviceInfo {
   std::string name;  // VkPhysicalDeviceProperties::deviceName
   DeviceType type = DeviceType::other;
@@ -43,9 +43,9 @@ struct DeviceInfo {
   // LsnifDeviceSupport::rayTraversalPrimitiveCulling (lsnifCmdQuery's ray-tracing broad phase)
   bool primitive_culling = false;
   // LsnifDeviceSupport::cooperativeMatrixMlpNV: the cooperative-matrix MLP kernel could run (the
-  // harness then enables VK_NV_cooperative_matrix, cooperativeMatrix and shaderFloat16)
+  // context then enables VK_NV_cooperative_matrix, cooperativeMatrix and shaderFloat16)
   bool coopmat_mlp = false;
-  // The harness's own, beyond what LSNIF needs.
+  // The context's own, beyond what LSNIF needs.
   bool compute_queue = false;         // some queue family has VK_QUEUE_COMPUTE_BIT
   uint32_t compute_queue_family = 0;  // the first such family (when compute_queue)
   bool scalar_block_layout = false;   // enabled when offered, not required
@@ -63,7 +63,7 @@ struct DeviceNeeds {
 };
 
 // What `device` lacks for `needs`, empty when it qualifies: "a compute queue"; then of the plugin's
-// items (DeviceInfo::lsnif_missing) first those every harness device needs ("Vulkan 1.2",
+// items (DeviceInfo::lsnif_missing) first those every context's device needs ("Vulkan 1.2",
 // "feature bufferDeviceAddress", "feature shaderInt64"), then, for ray tracing, the others in the
 // plugin's order ("extension VK_KHR_...", "feature ..."); then "extension VK_KHR_swapchain".
 std::vector<std::string> missing_for(const DeviceInfo& device, const DeviceNeeds& needs);

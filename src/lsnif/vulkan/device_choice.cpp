@@ -1,5 +1,5 @@
 // device_choice.cpp -- qualification, ranking and the device selector (device_choice.h).
-#include "lsnif/harness/device_choice.h"
+#include "lsnif/vulkan/device_choice.h"
 
 #include <cctype>
 
@@ -66,7 +66,7 @@ std::string all_devices(const std::vector<DeviceInfo>& devices) {
   return described(devices, indices);
 }
 
-// Whether an item of the plugin's list is one that every harness device needs: the harness creates
+// Whether an item of the plugin's list is one that every context's device needs: the context creates
 // each device, ray tracing or not, with Vulkan 1.2, bufferDeviceAddress and shaderInt64.
 bool needed_for_compute(const std::string& item) {
   return item == "Vulkan 1.2" || item == "feature bufferDeviceAddress" || item == "feature shaderInt64";

@@ -1,5 +1,5 @@
 // triangle_order.cpp -- the Morton ordering of triangle_order.h.
-#include "lsnif/harness/triangle_order.h"
+#include "lsnif/vulkan/triangle_order.h"
 
 #include <algorithm>
 #include <limits>

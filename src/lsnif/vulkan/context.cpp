@@ -1,5 +1,5 @@
-// vk_compute.cpp -- the harness of vk_compute.h.
-#include "lsnif/harness/vk_compute.h"  // volk first: lsnif.h then uses its Vulkan declarations
+// context.cpp -- the Vulkan context of context.h.
+#include "lsnif/vulkan/context.h"  // volk first: lsnif.h then uses its Vulkan declarations
 
 #include <sys/mman.h>
 
@@ -52,7 +52,7 @@ Status query_device_info(VkInstance instance, VkPhysicalDevice physical, DeviceI
   info.primitive_culling = lsnif.rayTraversalPrimitiveCulling == VK_TRUE;
   info.coopmat_mlp = lsnif.cooperativeMatrixMlpNV == VK_TRUE;
 
-  // The harness's own: VK_KHR_swapchain (a viewer's window), VK_KHR_spirv_1_4 and scalarBlockLayout
+  // The context's own: VK_KHR_swapchain (a viewer's window), VK_KHR_spirv_1_4 and scalarBlockLayout
   // (enabled when offered) and a compute queue.
   uint32_t count = 0;
   vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
@@ -88,10 +88,10 @@ Status query_device_info(VkInstance instance, VkPhysicalDevice physical, DeviceI
   return Status::ok();
 }
 
-VKAPI_ATTR VkBool32 VKAPI_CALL ComputeContext::on_message(
+VKAPI_ATTR VkBool32 VKAPI_CALL Context::on_message(
     VkDebugUtilsMessageSeverityFlagBitsEXT severity, VkDebugUtilsMessageTypeFlagsEXT,
     const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
-  auto* self = static_cast<ComputeContext*>(user);
+  auto* self = static_cast<Context*>(user);
   const bool error = severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
   if (error) ++self->errors_;
   else ++self->warnings_;
@@ -100,7 +100,7 @@ VKAPI_ATTR VkBool32 VKAPI_CALL ComputeContext::on_message(
   return VK_FALSE;
 }
 
-void ComputeContext::destroy_device() {
+void Context::destroy_device() {
   if (device_) {
     vkDeviceWaitIdle(device_);
     if (fence_) vkDestroyFence(device_, fence_, nullptr);
@@ -113,13 +113,13 @@ void ComputeContext::destroy_device() {
   device_ = VK_NULL_HANDLE;
 }
 
-ComputeContext::~ComputeContext() {
+Context::~Context() {
   destroy_device();
   if (messenger_) vkDestroyDebugUtilsMessengerEXT(instance_, messenger_, nullptr);
   if (instance_) vkDestroyInstance(instance_, nullptr);
 }
 
-Status ComputeContext::init(bool ray_tracing, bool validation, const std::string& device) {
+Status Context::init(bool ray_tracing, bool validation, const std::string& device) {
   ContextOptions options;
   options.ray_tracing = ray_tracing;
   options.validation = validation;
@@ -144,7 +144,7 @@ bool chain_coopmat_mlp(bool wanted, std::vector<const char*>& extensions, VkPhys
 
 }  // namespace
 
-Status ComputeContext::init(const ContextOptions& options) {
+Status Context::init(const ContextOptions& options) {
   const bool ray_tracing = options.ray_tracing, validation = options.validation;
   if (volkInitialize() != VK_SUCCESS) return Status::error("no Vulkan loader (libvulkan.so.1) found");
 
@@ -166,7 +166,7 @@ Status ComputeContext::init(const ContextOptions& options) {
   messenger_info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
                                VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
                                VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
-  messenger_info.pfnUserCallback = &ComputeContext::on_message;
+  messenger_info.pfnUserCallback = &Context::on_message;
   messenger_info.pUserData = this;
 
   VkApplicationInfo app{};
@@ -294,7 +294,7 @@ Status ComputeContext::init(const ContextOptions& options) {
   return Status::ok();
 }
 
-BufferLimits ComputeContext::buffer_limits() const {
+BufferLimits Context::buffer_limits() const {
   BufferLimits out;
   if (!physical_) return out;
   VkPhysicalDeviceMaintenance3Properties m3{};
@@ -314,7 +314,7 @@ BufferLimits ComputeContext::buffer_limits() const {
   return out;
 }
 
-Status ComputeContext::check_buffer_size(const std::string& what, uint64_t bytes, bool descriptor) const {
+Status Context::check_buffer_size(const std::string& what, uint64_t bytes, bool descriptor) const {
   const BufferLimits limits = buffer_limits();
   const auto past = [&](uint64_t limit, const char* name) {
     return Status::error("the %s needs %llu bytes, more than the device's %s (%llu bytes)", what.c_str(),
@@ -334,7 +334,7 @@ bool address_space_for(uint64_t bytes) {
   return true;
 }
 
-Status ComputeContext::create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage) {
+Status Context::create_buffer(size_t bytes, Buffer& out, VkBufferUsageFlags extra_usage) {
   out = Buffer();
   if (!device_) return Status::error("create_buffer: context not initialized");
   if (Status s = check_buffer_size("buffer", bytes); !s) return s;
@@ -386,7 +386,7 @@ Status ComputeContext::create_buffer(size_t bytes, Buffer& out, VkBufferUsageFla
   return Status::ok();
 }
 
-void ComputeContext::destroy_buffer(Buffer& buffer) {
+void Context::destroy_buffer(Buffer& buffer) {
   if (device_) {
     if (buffer.buffer) vkDestroyBuffer(device_, buffer.buffer, nullptr);
     if (buffer.memory) vkFreeMemory(device_, buffer.memory, nullptr);  // also unmaps
@@ -417,7 +417,7 @@ Status read_spirv_file(const std::string& path, std::vector<uint32_t>& code) {
   return Status::ok();
 }
 
-Status ComputeContext::create_shader_module(const Spirv& code, VkShaderModule& out) {
+Status Context::create_shader_module(const Spirv& code, VkShaderModule& out) {
   if (!device_) return Status::error("create_shader_module: context not initialized");
   if (!code.code || code.bytes == 0 || code.bytes % 4 != 0 || code.code[0] != 0x07230203u)
     return Status::error("not SPIR-V (%zu bytes, a positive multiple of 4 starting with the magic 0x07230203 expected)",
@@ -430,7 +430,7 @@ Status ComputeContext::create_shader_module(const Spirv& code, VkShaderModule& o
   return Status::ok();
 }
 
-Status ComputeContext::create_pipeline(const Spirv& code, uint32_t push_size, Pipeline& out,
+Status Context::create_pipeline(const Spirv& code, uint32_t push_size, Pipeline& out,
                                        uint32_t storage_buffers) {
   out = Pipeline();
   if (!device_) return Status::error("create_pipeline: context not initialized");
@@ -484,7 +484,7 @@ Status ComputeContext::create_pipeline(const Spirv& code, uint32_t push_size, Pi
   return Status::ok();
 }
 
-void ComputeContext::destroy_pipeline(Pipeline& pipeline) {
+void Context::destroy_pipeline(Pipeline& pipeline) {
   if (device_) {
     if (pipeline.pipeline) vkDestroyPipeline(device_, pipeline.pipeline, nullptr);
     if (pipeline.layout) vkDestroyPipelineLayout(device_, pipeline.layout, nullptr);
@@ -493,7 +493,7 @@ void ComputeContext::destroy_pipeline(Pipeline& pipeline) {
   pipeline = Pipeline();
 }
 
-Status ComputeContext::submit(const char* what, const std::function<void(VkCommandBuffer)>& record) {
+Status Context::submit(const char* what, const std::function<void(VkCommandBuffer)>& record) {
   if (!device_) return Status::error("%s: context not initialized", what);
   VkCommandBufferAllocateInfo cai{};
   cai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
@@ -520,7 +520,7 @@ Status ComputeContext::submit(const char* what, const std::function<void(VkComma
   return Status::ok();
 }
 
-void ComputeContext::barrier_compute_to_host(VkCommandBuffer cmd) {
+void Context::barrier_compute_to_host(VkCommandBuffer cmd) {
   VkMemoryBarrier b{};
   b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
   b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
@@ -529,7 +529,7 @@ void ComputeContext::barrier_compute_to_host(VkCommandBuffer cmd) {
                        nullptr);
 }
 
-Status ComputeContext::create_timestamps(uint32_t count, Timestamps& out) {
+Status Context::create_timestamps(uint32_t count, Timestamps& out) {
   out = Timestamps();
   if (!device_) return Status::error("create_timestamps: context not initialized");
   if (count == 0) return Status::error("create_timestamps: no queries asked for");
@@ -552,12 +552,12 @@ Status ComputeContext::create_timestamps(uint32_t count, Timestamps& out) {
   return Status::ok();
 }
 
-void ComputeContext::destroy_timestamps(Timestamps& timestamps) {
+void Context::destroy_timestamps(Timestamps& timestamps) {
   if (timestamps.pool && device_) vkDestroyQueryPool(device_, timestamps.pool, nullptr);
   timestamps = Timestamps();
 }
 
-Status ComputeContext::read_timestamps_ms(const Timestamps& timestamps, uint32_t first, uint32_t count,
+Status Context::read_timestamps_ms(const Timestamps& timestamps, uint32_t first, uint32_t count,
                                           std::vector<double>& ms) {
   ms.clear();
   if (!timestamps.pool || uint64_t(first) + count > timestamps.count)
