@@ -6,6 +6,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -52,20 +53,48 @@ struct GltfWarning {
 Status read_gltf_material(const tinygltf::Model& model, size_t index, const std::string& name, GltfMaterial& out,
                           std::vector<GltfWarning>& warnings);
 
-// `gm`'s material with each texture slot's glTF image replaced by `texture_of(image)`: the owner's
-// texture index for it, or -1. Called once per textured slot, in TextureSlot order.
-template <class TextureOf>
-Material with_textures(const GltfMaterial& gm, TextureOf&& texture_of) {
-  Material m = gm.material;
-  for (int* t : m.textures())
-    if (*t >= 0) *t = texture_of(*t);
-  return m;
-}
-
 // Image `source` of `model` (a texture slot of GltfMaterial::material) as a texture of at most
 // kGltfMaxImagePixels RGBA8 pixels (gltf::resolve_image), named by the image's name, else its file,
 // else "image_<source>". False, with `why` ("no image data", "image data missing or undecodable" or
 // the decoder's reason), when the image holds nothing usable; the caller warns in its own words.
 bool read_gltf_image(const tinygltf::Model& model, int source, Texture& out, std::string& why);
+
+// The textures a reader makes of a glTF's images: each image a material uses, decoded once
+// (read_gltf_image) and appended to the reader's list (Mesh::textures, scene::Scene::textures).
+class GltfTextures {
+ public:
+  GltfTextures(const tinygltf::Model& model, std::vector<Texture>& list)
+      : model_(model), list_(list), index_(model.images.size(), -2) {}
+  // `gm`'s material with each texture slot's glTF image replaced by the image's index in the list,
+  // slots in TextureSlot order; -1 for an image that holds nothing usable, for which
+  // `unusable(source, why)` is called once, by the first material that uses it.
+  template <class Unusable>
+  Material material(const GltfMaterial& gm, Unusable&& unusable) {
+    Material m = gm.material;
+    for (int* t : m.textures())
+      if (*t >= 0) *t = texture(*t, unusable);
+    return m;
+  }
+
+ private:
+  template <class Unusable>
+  int texture(int source, Unusable& unusable) {
+    int& index = index_[size_t(source)];
+    if (index != -2) return index;
+    index = -1;
+    Texture t;
+    std::string why;
+    if (!read_gltf_image(model_, source, t, why)) {
+      unusable(source, why);
+      return -1;
+    }
+    index = int(list_.size());
+    list_.push_back(std::move(t));
+    return index;
+  }
+  const tinygltf::Model& model_;
+  std::vector<Texture>& list_;
+  std::vector<int> index_;  // per glTF image: its index in the list (-2: not yet read, -1: unusable)
+};
 
 }  // namespace lsnif

@@ -27,7 +27,7 @@ class GltfFlattener {
   GltfFlattener(const tinygltf::Model& model, const std::string& name, Mesh& mesh,
                 MeshImportReport& report)
       : model_(model), name_(name), mesh_(mesh), report_(report),
-        material_map_(model.materials.size(), -1), texture_map_(model.images.size(), -2),
+        material_map_(model.materials.size(), -1), textures_(model, mesh.textures),
         warned_mesh_(model.meshes.size(), 0) {}
 
   // Flattens the given parts only (flatten_gltf_meshes).
@@ -257,30 +257,15 @@ class GltfFlattener {
     int& mapped = material_map_[size_t(gltf_material)];
     if (mapped < 0) {
       const GltfMaterial& gm = materials_[size_t(gltf_material)];
-      Material mat = with_textures(gm, [&](int image) { return image_texture(image, gm.material.name); });
+      Material mat = textures_.material(gm, [&](int source, const std::string& why) {
+        report_.warnings.push_back(format("%s: image %d could not be used (%s); material '%s' untextured", file(),
+                                          source, why.c_str(), excerpt(gm.material.name).c_str()));
+      });
       mapped = int(mesh_.materials.size());
       mesh_.materials.push_back(std::move(mat));
     }
     out = mapped;
     return Status::ok();
-  }
-
-  // Mesh texture index for glTF image `source`, decoded once, or -1 (with a warning) when it
-  // cannot be decoded within kGltfMaxImagePixels.
-  int image_texture(int source, const std::string& material) {
-    int& mapped = texture_map_[size_t(source)];
-    if (mapped != -2) return mapped;
-    mapped = -1;
-    Texture t;
-    std::string why;
-    if (!read_gltf_image(model_, source, t, why)) {
-      report_.warnings.push_back(format("%s: image %d could not be used (%s); material '%s' untextured",
-                                        file(), source, why.c_str(), excerpt(material).c_str()));
-      return -1;
-    }
-    mapped = int(mesh_.textures.size());
-    mesh_.textures.push_back(std::move(t));
-    return mapped;
   }
 
   const tinygltf::Model& model_;
@@ -289,7 +274,7 @@ class GltfFlattener {
   MeshImportReport& report_;
   std::vector<GltfMaterial> materials_;  // per glTF material (read_materials)
   std::vector<int> material_map_;  // glTF material -> mesh material (-1: not yet)
-  std::vector<int> texture_map_;   // glTF image -> mesh texture (-2: not yet, -1: unusable)
+  GltfTextures textures_;          // glTF images -> Mesh::textures
   std::vector<uint8_t> warned_mesh_;
   int default_material_ = -1;
   uint32_t skipped_primitives_ = 0;

@@ -47,7 +47,7 @@ class SceneBuilder {
   SceneBuilder(const tinygltf::Model& model, const std::string& name, const std::string& base_dir,
                const SceneLoadOptions& options, Scene& scene)
       : model_(model), name_(name), base_dir_(base_dir), options_(options), scene_(scene),
-        mesh_map_(model.meshes.size(), -2), image_map_(model.images.size(), -2),
+        mesh_map_(model.meshes.size(), -2), textures_(model, scene.textures),
         node_overrides_(model.nodes.size()) {}
 
   // All stages in order: extensions, materials, overrides, environment, the node walk, final checks.
@@ -78,8 +78,6 @@ class SceneBuilder {
   Status load_materials();
   // One glTF material through read_gltf_material (lsnif/import/gltf_material.h), its images decoded.
   Status load_material(size_t index);
-  // Scene texture for glTF image `source` (decoded once), or -1 with a warning.
-  int32_t image_texture(int source, const std::string& where);
   // The material with glTF defaults, appended after the file's on first use.
   uint32_t default_material();
 
@@ -118,7 +116,7 @@ class SceneBuilder {
   const SceneLoadOptions& options_;
   Scene& scene_;
   std::vector<int32_t> mesh_map_;   // glTF mesh -> scene mesh (-2: not yet, -1: no triangles)
-  std::vector<int32_t> image_map_;  // glTF image -> scene texture (-2: not yet, -1: unusable)
+  GltfTextures textures_;           // glTF images -> Scene::textures
   std::vector<const LsnifOverride*> node_overrides_;
   std::vector<GltfMaterial> gltf_materials_;  // per glTF material, as read (its uv set, its images)
   std::vector<uint8_t> visited_;

@@ -33,26 +33,11 @@ Status SceneBuilder::load_material(size_t index) {
   }
   if (!s) return s;
   const std::string where = format("%s: %s", file(), gm.label.c_str());
-  scene_.materials.push_back(with_textures(gm, [&](int image) { return image_texture(image, where); }));
+  scene_.materials.push_back(textures_.material(gm, [&](int source, const std::string& why) {
+    warn(where.substr(name_.size() + 2) + format(": image %d could not be used (%s); untextured", source, why.c_str()));
+  }));
   gltf_materials_.push_back(std::move(gm));
   return Status::ok();
-}
-
-// Scene texture for glTF image `source` (decoded once), or -1 with a warning.
-int32_t SceneBuilder::image_texture(int source, const std::string& where) {
-  int32_t& mapped = image_map_[size_t(source)];
-  if (mapped != -2) return mapped;
-  mapped = -1;
-  Texture t;
-  std::string why;
-  if (!read_gltf_image(model_, source, t, why)) {
-    warn(where.substr(name_.size() + 2) +
-         format(": image %d could not be used (%s); untextured", source, why.c_str()));
-    return -1;
-  }
-  mapped = int32_t(scene_.textures.size());
-  scene_.textures.push_back(std::move(t));
-  return mapped;
 }
 
 uint32_t SceneBuilder::default_material() {
