@@ -44,6 +44,10 @@ install(FILES ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif.rint
   ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_perfect_hash.glsl ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_model.glsl
   DESTINATION ${LSNIF_INSTALL_INCLUDEDIR}/shaders COMPONENT dev)
 install(EXPORT lsnifTargets NAMESPACE lsnif:: DESTINATION ${LSNIF_INSTALL_CMAKEDIR} COMPONENT dev)
+# The examples, buildable from the installed package alone (docs/integration.md): hello_lsnif, the
+# whole integration in one C11 file, and with -DHELLO_LSNIF_BUILD_ENGINE=ON its own-layout engine.
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/samples/hello_lsnif/ DESTINATION ${CMAKE_INSTALL_DATADIR}/lsnif/examples/hello_lsnif
+  COMPONENT dev)
 
 # ---- the CPU libraries: COMPONENTS train. lsnif_format is exported here only: lsnif::vk links it
 # privately into the shared library.

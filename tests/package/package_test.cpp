@@ -1,8 +1,9 @@
 // package_test.cpp -- LSNIF as a renderer adopts it (label `package`). A tiny bunny model is trained
 // in process; this build is installed (`cmake --install`) into a temporary prefix and packaged
-// (`cpack -G DEB`); samples/hello_lsnif, a separate C11 project, is configured and built against the
-// installed package three ways (find_package, pkg-config, the .deb files extracted into a temporary
-// root) and once inside a parent project that add_subdirectory()s this source tree (with find_package
+// (`cpack -G DEB`); the hello_lsnif example, a separate C11 project, is configured and built from the
+// copy the package installs (share/lsnif/examples/hello_lsnif) against the installed package only,
+// three ways (find_package, pkg-config, the .deb files extracted into a temporary root), and from
+// samples/hello_lsnif inside a parent project that add_subdirectory()s this source tree (with find_package
 // also hello_lsnif_engine, the same scene as an engine with its own push-constant layout, custom
 // indices and feature chain adopts LSNIF, its intersection shader built from the installed source,
 // and its Vulkan 1.1 instance refused with a message naming the version); every build runs
@@ -47,6 +48,8 @@ const std::string kBuildDir = LSNIF_BINARY_DIR;
 const std::string kCmake = LSNIF_CMAKE_COMMAND;
 const std::string kCpack = LSNIF_CPACK_COMMAND;
 const std::string kGenerator = LSNIF_CMAKE_GENERATOR;
+// Where a package installs the hello_lsnif example, under its prefix.
+const fs::path kExamples = "share/lsnif/examples/hello_lsnif";
 const std::string kLibDir = LSNIF_INSTALL_LIBDIR;  // CMAKE_INSTALL_LIBDIR of this build
 const std::string kVersion = LSNIF_VERSION;
 const std::string kBunny = std::string(LSNIF_DATA_DIR) + "/meshes/bunny00.off";
@@ -321,9 +324,11 @@ class Package : public ::testing::Test {
   }
   void SetUp() override { ASSERT_TRUE(setup_) << setup_.message(); }
 
-  // Configures (with `options`) and builds samples/hello_lsnif in `dir`; the executable's path.
-  static std::string build_hello(const fs::path& dir, const std::string& options) {
-    test::CommandResult r = sh(quote(kCmake) + " -S " + quote(kSourceDir + "/samples/hello_lsnif") + " -B " +
+  // Configures (with `options`) and builds the hello_lsnif example at `source` (the copy a package
+  // installed: <prefix>/share/lsnif/examples/hello_lsnif) in `dir`; the executable's path.
+  static std::string build_hello(const fs::path& source, const fs::path& dir, const std::string& options) {
+    EXPECT_TRUE(fs::exists(source / "hello_lsnif.c")) << source << " holds no hello_lsnif example";
+    test::CommandResult r = sh(quote(kCmake) + " -S " + quote(source) + " -B " +
                                quote(dir) + " -G " + quote(kGenerator) + " -DCMAKE_BUILD_TYPE=Release -DHELLO_LSNIF_WERROR=ON " +
                                "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON " + options);
     EXPECT_EQ(r.code, 0) << "configuring hello_lsnif failed:\n" << r.out;
@@ -394,7 +399,7 @@ std::string real_path(const fs::path& p) {
 }
 
 TEST_F(Package, HelloThroughFindPackage) {
-  const std::string exe = build_hello(root_ / "hello_find_package",
+  const std::string exe = build_hello(prefix_ / kExamples, root_ / "hello_find_package",
                                       "-DHELLO_LSNIF_BUILD_ENGINE=ON -DCMAKE_PREFIX_PATH=" + quote(prefix_));
   ASSERT_FALSE(exe.empty());
   EXPECT_EQ(real_path(resolved_lsnif_library(exe)), real_path(prefix_ / kLibDir / ("liblsnif_vk.so." + kVersion)));
@@ -418,7 +423,7 @@ TEST_F(Package, HelloThroughFindPackage) {
 }
 
 TEST_F(Package, HelloThroughPkgConfig) {
-  const std::string exe = build_hello(root_ / "hello_pkg_config",
+  const std::string exe = build_hello(prefix_ / kExamples, root_ / "hello_pkg_config",
                                       "-DHELLO_LSNIF_USE_PKG_CONFIG=ON -DCMAKE_PREFIX_PATH=" + quote(prefix_));
   ASSERT_FALSE(exe.empty());
   EXPECT_EQ(real_path(resolved_lsnif_library(exe)), real_path(prefix_ / kLibDir / ("liblsnif_vk.so." + kVersion)));
@@ -484,7 +489,7 @@ TEST_F(Package, HelloFromTheDebPackages) {
   EXPECT_TRUE(fs::exists(usr / "include/lsnif/lsnif_hit.glsl"));
   EXPECT_TRUE(fs::exists(usr / "include/lsnif/lsnif_hit.hlsl"));
   EXPECT_TRUE(fs::exists(usr / "include/lsnif/shaders/lsnif_intersection.glsl"));
-  const std::string exe = build_hello(root_ / "hello_deb", "-DCMAKE_PREFIX_PATH=" + quote(usr));
+  const std::string exe = build_hello(usr / kExamples, root_ / "hello_deb", "-DCMAKE_PREFIX_PATH=" + quote(usr));
   ASSERT_FALSE(exe.empty());
   EXPECT_EQ(real_path(resolved_lsnif_library(exe)), real_path(usr / kLibDir / ("liblsnif_vk.so." + kVersion)));
   run_and_compare(exe, "deb");
