@@ -151,6 +151,40 @@ typedef struct LsnifDeviceFeatureStorage {
 LSNIF_API LsnifResult lsnifEnableDeviceFeaturesInCreateInfo(VkDeviceCreateInfo* pCreateInfo,
                                                             LsnifDeviceFeatureStorage* pStorage);
 
+/* One feature LSNIF needs, as data (lsnifGetRequiredDeviceFeatures), for a framework that enables
+ * features its own way: the VkBool32 at byte `offset` of the struct `structName` of type `sType`
+ * is set to VK_TRUE. A member of VkPhysicalDeviceFeatures (shaderInt64) has sType
+ * VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2 and its offset within VkPhysicalDeviceFeatures: it
+ * is enabled in VkPhysicalDeviceFeatures2::features or in VkDeviceCreateInfo::pEnabledFeatures.
+ * `alternativeSType` / `alternativeStructName` / `alternativeOffset` name another struct that holds
+ * the same feature (VkPhysicalDeviceBufferDeviceAddressFeatures beside
+ * VkPhysicalDeviceVulkan12Features), or VK_STRUCTURE_TYPE_MAX_ENUM / NULL / 0 when there is none. */
+typedef struct LsnifFeatureRequirement {
+  VkStructureType sType;
+  const char* structName;
+  const char* memberName;
+  uint32_t offset;
+  VkStructureType alternativeSType;
+  const char* alternativeStructName;
+  uint32_t alternativeOffset;
+} LsnifFeatureRequirement;
+
+/* The features LSNIF needs (static data, *pCount entries): shaderInt64, bufferDeviceAddress,
+ * accelerationStructure, rayTracingPipeline, each with the struct and member that hold it. The
+ * optional paths' features (rayQuery, rayTraversalPrimitiveCulling, cooperativeMatrix,
+ * shaderFloat16) are not listed: LsnifDeviceSupport says which a device offers. */
+LSNIF_API const LsnifFeatureRequirement* lsnifGetRequiredDeviceFeatures(uint32_t* pCount);
+
+/* For a framework that keeps the core features in a VkPhysicalDeviceFeatures
+ * (VkDeviceCreateInfo::pEnabledFeatures) and the other feature structs in a chain without a
+ * VkPhysicalDeviceFeatures2: sets shaderInt64 in *pCoreFeatures and the rest of what LSNIF needs in
+ * the structs of pFeatureChain, as lsnifEnableDeviceFeatures does. Fails
+ * (LSNIF_ERROR_INVALID_ARGUMENT) naming each struct the chain lacks (what was found is still set),
+ * on a null argument, on a chain that holds a VkPhysicalDeviceFeatures2 (Vulkan allows the core
+ * features in one place: use lsnifEnableDeviceFeatures) and on a chain that loops, has more than 256
+ * structures or a struct LSNIF reads twice (nothing written). */
+LSNIF_API LsnifResult lsnifEnableDeviceFeaturesWithCore(VkPhysicalDeviceFeatures* pCoreFeatures, void* pFeatureChain);
+
 /* What a physical device offers, for LSNIF. */
 typedef struct LsnifDeviceSupport {
   VkBool32 supported;                           /* everything LSNIF needs is offered */
@@ -184,6 +218,26 @@ LSNIF_API LsnifResult lsnifQueryDeviceSupport(VkInstance instance, VkPhysicalDev
 
 /* ---- Context ---------------------------------------------------------------------------------- */
 
+/* Types of the structures that extend another through its pNext chain (each starts with sType and
+ * pNext, as in Vulkan). */
+typedef enum LsnifStructureType {
+  LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO = 1,
+  LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO = 2,
+  LSNIF_STRUCTURE_TYPE_QUERY_MODEL_INDEX_INFO = 3,
+  LSNIF_STRUCTURE_TYPE_CONTEXT_CORE_FEATURES_INFO = 4,
+  LSNIF_STRUCTURE_TYPE_MAX_ENUM = 0x7FFFFFFF
+} LsnifStructureType;
+
+/* Chained into LsnifContextCreateInfo::pNext by an application whose device was created with the
+ * core features in VkDeviceCreateInfo::pEnabledFeatures and the other feature structs in a chain
+ * without a VkPhysicalDeviceFeatures2 (LsnifContextCreateInfo::pEnabledFeatures, then required): the
+ * context checks shaderInt64 here and the rest in that chain. */
+typedef struct LsnifContextCoreFeaturesInfo {
+  LsnifStructureType sType;                   /* LSNIF_STRUCTURE_TYPE_CONTEXT_CORE_FEATURES_INFO */
+  const void* pNext;                          /* NULL */
+  const VkPhysicalDeviceFeatures* pEnabledFeatures;  /* the VkDeviceCreateInfo's */
+} LsnifContextCoreFeaturesInfo;
+
 typedef struct LsnifContext_T* LsnifContext;
 typedef struct LsnifModel_T* LsnifModel;
 typedef struct LsnifQueryPipeline_T* LsnifQueryPipeline;
@@ -198,7 +252,7 @@ typedef enum LsnifContextCreateFlagBits {
 typedef VkFlags LsnifContextCreateFlags;
 
 typedef struct LsnifContextCreateInfo {
-  const void* pNext;                          /* reserved: NULL */
+  const void* pNext;                          /* NULL or a LsnifContextCoreFeaturesInfo */
   LsnifContextCreateFlags flags;
   VkInstance instance;                        /* created with apiVersion >= 1.2 */
   VkPhysicalDevice physicalDevice;
@@ -208,9 +262,11 @@ typedef struct LsnifContextCreateInfo {
   VkQueue queue;                              /* used by the blocking calls only; VK_NULL_HANDLE if never called */
   PFN_vkGetInstanceProcAddr pfnGetInstanceProcAddr;  /* required: every Vulkan function is loaded through it */
   const VkAllocationCallbacks* pAllocator;    /* optional: passed to every Vulkan object the library creates */
-  /* Optional: the feature chain the device was created with (VkDeviceCreateInfo::pNext or the
-   * VkPhysicalDeviceFeatures2 in it). When given, creation fails naming each feature LSNIF needs
-   * that was not enabled; without it only what the physical device offers can be checked. */
+  /* Optional: the feature chain the device was created with (the VkDeviceCreateInfo itself, its
+   * pNext or the VkPhysicalDeviceFeatures2 in it; with the core features in pEnabledFeatures, the
+   * VkDeviceCreateInfo or a LsnifContextCoreFeaturesInfo in pNext). When given, creation fails
+   * naming each feature LSNIF needs that was not enabled; without it only what the physical device
+   * offers can be checked. */
   const void* pEnabledFeatures;
   PFN_lsnifErrorCallback pfnErrorCallback;    /* optional */
   void* pErrorUserData;
@@ -220,7 +276,8 @@ typedef struct LsnifContextCreateInfo {
  * everything the physical device lacks (or, with pEnabledFeatures, was not enabled), with
  * LSNIF_ERROR_INVALID_ARGUMENT on a null handle or function pointer, a pEnabledFeatures chain that
  * loops, has more than 256 structures, a struct LSNIF reads twice or a VkPhysicalDeviceFeatures2
- * beside pEnabledFeatures, or when the device's functions of VK_KHR_acceleration_structure cannot
+ * beside pEnabledFeatures, a pNext that is not one LsnifContextCoreFeaturesInfo (with a
+ * pEnabledFeatures chain holding no VkPhysicalDeviceFeatures2), or when the device's functions of VK_KHR_acceleration_structure cannot
  * be loaded (the extension was not enabled). */
 LSNIF_API LsnifResult lsnifCreateContext(const LsnifContextCreateInfo* pCreateInfo, LsnifContext* pContext);
 
@@ -387,15 +444,6 @@ typedef enum LsnifQueryBroadPhase {
   LSNIF_QUERY_BROAD_PHASE_TRACE_RAYS = 2,  /* a ray-tracing pipeline (rayTraversalPrimitiveCulling) */
   LSNIF_QUERY_BROAD_PHASE_MAX_ENUM = 0x7FFFFFFF
 } LsnifQueryBroadPhase;
-
-/* Types of the structures that extend another through its pNext chain (each starts with sType and
- * pNext, as in Vulkan). */
-typedef enum LsnifStructureType {
-  LSNIF_STRUCTURE_TYPE_QUERY_PIPELINE_FLAGS_CREATE_INFO = 1,
-  LSNIF_STRUCTURE_TYPE_QUERY_TIMESTAMPS_INFO = 2,
-  LSNIF_STRUCTURE_TYPE_QUERY_MODEL_INDEX_INFO = 3,
-  LSNIF_STRUCTURE_TYPE_MAX_ENUM = 0x7FFFFFFF
-} LsnifStructureType;
 
 typedef struct LsnifQueryPipelineCreateInfo {
   const void* pNext;                          /* NULL or a LsnifQueryPipelineFlagsCreateInfo */

@@ -273,9 +273,9 @@ TEST_F(PluginApi, ContextCreationErrorsAndTheErrorCallback) {
   EXPECT_NE(seen.message.find("lsnifCreateContext: null handle"), std::string::npos) << seen.message;
 
   bad = info;
-  bad.pNext = &info;
+  bad.pNext = &info;  // not a LsnifContextCoreFeaturesInfo
   EXPECT_EQ(lsnifCreateContext(&bad, &ctx), LSNIF_ERROR_INVALID_ARGUMENT);
-  EXPECT_NE(last_error().find("pNext must be NULL"), std::string::npos) << last_error();
+  EXPECT_NE(last_error().find("pNext: unknown structure type"), std::string::npos) << last_error();
   bad = info;
   bad.flags = 0x80;
   EXPECT_EQ(lsnifCreateContext(&bad, &ctx), LSNIF_ERROR_INVALID_ARGUMENT);
@@ -391,6 +391,65 @@ TEST_F(PluginApi, EveryObjectTheLibraryCreatesHasADebugName) {
   std::printf("debug names: %zu objects (%zu buffers, %zu pipelines), TLAS pipeline %s\n",
               debug_names::names.size(), count(VK_OBJECT_TYPE_BUFFER), count(VK_OBJECT_TYPE_PIPELINE),
               with_tlas ? "created" : "not available here");
+}
+
+// A framework that creates its device with the core features in VkDeviceCreateInfo::pEnabledFeatures
+// and the other feature structs in a chain without VkPhysicalDeviceFeatures2: its features are set
+// by lsnifEnableDeviceFeaturesWithCore and checked by the context through a
+// LsnifContextCoreFeaturesInfo; each way to get it wrong is named. (The chain is what the application
+// says it enabled; the test's device has every feature, so only the claim decides.)
+TEST_F(PluginApi, CoreFeaturesApartFromTheChain) {
+  VkPhysicalDeviceFeatures core{};
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+  rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
+  as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+  as.pNext = &rt;
+  VkPhysicalDeviceBufferDeviceAddressFeatures bda{};
+  bda.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES;
+  bda.pNext = &as;
+  ASSERT_EQ(lsnifEnableDeviceFeaturesWithCore(&core, &bda), LSNIF_SUCCESS) << last_error();
+  EXPECT_EQ(core.shaderInt64, VK_TRUE);
+
+  LsnifContextCreateInfo info = create_info();
+  info.pEnabledFeatures = &bda;
+  LsnifContext ctx = nullptr;
+  // The chain alone: shaderInt64 is not in it, and the message says where it can be given.
+  EXPECT_EQ(lsnifCreateContext(&info, &ctx), LSNIF_ERROR_DEVICE_UNSUPPORTED);
+  EXPECT_NE(last_error().find("without what LSNIF needs enabled: feature shaderInt64"), std::string::npos)
+      << last_error();
+  EXPECT_NE(last_error().find("LsnifContextCoreFeaturesInfo"), std::string::npos) << last_error();
+  LsnifContextCoreFeaturesInfo core_info{};
+  core_info.sType = LSNIF_STRUCTURE_TYPE_CONTEXT_CORE_FEATURES_INFO;
+  core_info.pEnabledFeatures = &core;
+  info.pNext = &core_info;
+  ASSERT_EQ(lsnifCreateContext(&info, &ctx), LSNIF_SUCCESS) << last_error();
+  lsnifDestroyContext(ctx);
+  ctx = nullptr;
+  // Each feature missing is named, wherever it was to be enabled.
+  core.shaderInt64 = VK_FALSE;
+  EXPECT_EQ(lsnifCreateContext(&info, &ctx), LSNIF_ERROR_DEVICE_UNSUPPORTED);
+  EXPECT_NE(last_error().find("enabled: feature shaderInt64 (lsnif"), std::string::npos) << last_error();
+  core.shaderInt64 = VK_TRUE;
+  bda.bufferDeviceAddress = VK_FALSE;
+  EXPECT_EQ(lsnifCreateContext(&info, &ctx), LSNIF_ERROR_DEVICE_UNSUPPORTED);
+  EXPECT_NE(last_error().find("enabled: feature bufferDeviceAddress (lsnif"), std::string::npos) << last_error();
+  bda.bufferDeviceAddress = VK_TRUE;
+  // Core features in two places, or the core features without the chain, are refused.
+  LsnifDeviceFeatures features;
+  lsnifInitDeviceFeatures(&features, nullptr);
+  info.pEnabledFeatures = &features.features2;
+  EXPECT_EQ(lsnifCreateContext(&info, &ctx), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("Vulkan allows them in one place"), std::string::npos) << last_error();
+  info.pEnabledFeatures = nullptr;
+  EXPECT_EQ(lsnifCreateContext(&info, &ctx), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("needs pEnabledFeatures"), std::string::npos) << last_error();
+  info.pEnabledFeatures = &bda;
+  core_info.pEnabledFeatures = nullptr;
+  EXPECT_EQ(lsnifCreateContext(&info, &ctx), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(last_error().find("LsnifContextCoreFeaturesInfo::pEnabledFeatures is NULL"), std::string::npos)
+      << last_error();
+  EXPECT_EQ(ctx, nullptr);
 }
 
 // A real device of the same physical device created without any extension: the plugin cannot load

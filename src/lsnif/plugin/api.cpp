@@ -236,6 +236,30 @@ LSNIF_API LsnifResult lsnifEnableDeviceFeatures(void* pFeatureChain) {
                 "lsnifEnableDeviceFeatures", nullptr);
 }
 
+LSNIF_API const LsnifFeatureRequirement* lsnifGetRequiredDeviceFeatures(uint32_t* pCount) {
+  if (pCount) *pCount = lsnif::plugin::kRequiredFeatureCount;
+  return lsnif::plugin::required_device_features();
+}
+
+LSNIF_API LsnifResult lsnifEnableDeviceFeaturesWithCore(VkPhysicalDeviceFeatures* pCoreFeatures, void* pFeatureChain) {
+  return report(guarded([&]() -> Outcome {
+                  if (!pCoreFeatures) return invalid("%s is NULL", "pCoreFeatures");
+                  if (!pFeatureChain) return invalid("%s is NULL", "pFeatureChain");
+                  if (std::string why = lsnif::plugin::chain_problem(pFeatureChain, "pFeatureChain"); !why.empty())
+                    return invalid("%s", why.c_str());
+                  if (lsnif::plugin::has_features2(pFeatureChain))
+                    return invalid("%s", "pFeatureChain holds a VkPhysicalDeviceFeatures2: the core features go in one "
+                                         "place (Vulkan allows one), so enable them there with lsnifEnableDeviceFeatures");
+                  const std::vector<std::string> absent =
+                      lsnif::plugin::enable_device_features(pFeatureChain, pCoreFeatures);
+                  if (absent.empty()) return Outcome::ok();
+                  std::string list;
+                  for (const std::string& a : absent) list += (list.empty() ? "" : ", ") + a;
+                  return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "the feature chain lacks %s", list.c_str());
+                }),
+                "lsnifEnableDeviceFeaturesWithCore", nullptr);
+}
+
 LSNIF_API LsnifResult lsnifEnableDeviceFeaturesInCreateInfo(VkDeviceCreateInfo* pCreateInfo,
                                                             LsnifDeviceFeatureStorage* pStorage) {
   return report(guarded([&]() -> Outcome {

@@ -226,10 +226,30 @@ Outcome create_device_objects(LsnifContext_T& ctx, LsnifModel_T& m, const std::v
 }  // namespace
 
 Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<LsnifContext_T>& out) {
-  if (info.pNext) return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "pNext must be NULL");
   if (info.pEnabledFeatures)
     if (std::string why = chain_problem(info.pEnabledFeatures, "pEnabledFeatures"); !why.empty())
       return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "%s", why.c_str());
+  // The core features kept apart from the chain (LsnifContextCoreFeaturesInfo), or null.
+  const VkPhysicalDeviceFeatures* core = nullptr;
+  if (info.pNext) {
+    const auto* c = static_cast<const LsnifContextCoreFeaturesInfo*>(info.pNext);
+    if (c->sType != LSNIF_STRUCTURE_TYPE_CONTEXT_CORE_FEATURES_INFO)
+      return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                           "pNext: unknown structure type %d (expected LSNIF_STRUCTURE_TYPE_CONTEXT_CORE_FEATURES_INFO)",
+                           int(c->sType));
+    if (c->pNext) return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "LsnifContextCoreFeaturesInfo::pNext must be NULL");
+    if (!c->pEnabledFeatures)
+      return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "LsnifContextCoreFeaturesInfo::pEnabledFeatures is NULL");
+    if (!info.pEnabledFeatures)
+      return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                           "a LsnifContextCoreFeaturesInfo needs pEnabledFeatures: the chain of the device's other "
+                           "feature structs");
+    if (has_core_features(info.pEnabledFeatures))
+      return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT,
+                           "pEnabledFeatures holds core features (a VkPhysicalDeviceFeatures2 or a VkDeviceCreateInfo's "
+                           "pEnabledFeatures) and pNext a LsnifContextCoreFeaturesInfo: Vulkan allows them in one place");
+    core = c->pEnabledFeatures;
+  }
   if (info.flags & ~LsnifContextCreateFlags(LSNIF_CONTEXT_CREATE_STAGING_UPLOAD_BIT))
     return Outcome::fail(LSNIF_ERROR_INVALID_ARGUMENT, "unknown flags 0x%x", info.flags);
   if (!info.instance || !info.physicalDevice || !info.device || !info.pfnGetInstanceProcAddr)
@@ -264,11 +284,11 @@ Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<Lsnif
   const DeviceSupport support = query_device_support(ctx->vki, info.physicalDevice);
   if (Status s = describe_device_support(support); !s) return Outcome::from(s, LSNIF_ERROR_DEVICE_UNSUPPORTED);
   if (info.pEnabledFeatures) {
-    const std::vector<std::string> off = features_not_enabled(info.pEnabledFeatures);
+    const std::vector<std::string> off = features_not_enabled(info.pEnabledFeatures, core);
     if (!off.empty()) {
       std::string list;
       for (const std::string& f : off) list += (list.empty() ? "" : ", ") + f;
-      const std::string hint = core_features_hint(info.pEnabledFeatures);
+      const std::string hint = core ? std::string() : core_features_hint(info.pEnabledFeatures);
       return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
                            "the device '%s' was created without what LSNIF needs enabled: %s (lsnifInitDeviceFeatures, "
                            "lsnifEnableDeviceFeaturesInCreateInfo)%s%s",

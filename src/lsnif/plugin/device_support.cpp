@@ -3,6 +3,7 @@
 #include "lsnif/plugin/device_support.h"
 
 #include <algorithm>
+#include <cstddef>
 #include <cstring>
 #include <vector>
 
@@ -278,8 +279,9 @@ std::string chain_problem(const void* chain, const std::string& name) {
   return "";
 }
 
-std::vector<std::string> features_not_enabled(const void* chain) {
-  const FeatureStructs f = find_feature_structs(chain);
+std::vector<std::string> features_not_enabled(const void* chain, const VkPhysicalDeviceFeatures* core) {
+  FeatureStructs f = find_feature_structs(chain);
+  if (core) f.core = const_cast<VkPhysicalDeviceFeatures*>(core);
   std::vector<std::string> missing;
   if (!f.acceleration_structure || !f.acceleration_structure->accelerationStructure)
     missing.emplace_back("feature accelerationStructure");
@@ -308,8 +310,9 @@ std::vector<std::string> coopmat_mlp_features_not_enabled(const void* chain) {
   return missing;
 }
 
-std::vector<std::string> enable_device_features(void* chain) {
-  const FeatureStructs f = find_feature_structs(chain);
+std::vector<std::string> enable_device_features(void* chain, VkPhysicalDeviceFeatures* core) {
+  FeatureStructs f = find_feature_structs(chain);
+  if (core) f.core = core;
   std::vector<std::string> absent;
   if (f.acceleration_structure)
     f.acceleration_structure->accelerationStructure = VK_TRUE;
@@ -326,8 +329,38 @@ std::vector<std::string> enable_device_features(void* chain) {
   if (f.core)
     f.core->shaderInt64 = VK_TRUE;
   else
-    absent.emplace_back("VkPhysicalDeviceFeatures2");
+    absent.emplace_back("VkPhysicalDeviceFeatures2 (for VkPhysicalDeviceFeatures::shaderInt64; with the core features "
+                        "in VkDeviceCreateInfo::pEnabledFeatures use lsnifEnableDeviceFeaturesWithCore)");
   return absent;
+}
+
+bool has_features2(const void* chain) {
+  bool found = false;
+  walk_chain(chain, [&found](const VkBaseOutStructure* s) {
+    found = found || s->sType == VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  });
+  return found;
+}
+
+bool has_core_features(const void* chain) { return find_feature_structs(chain).core != nullptr; }
+
+const LsnifFeatureRequirement* required_device_features() {
+  constexpr VkStructureType kNone = VK_STRUCTURE_TYPE_MAX_ENUM;
+  static const LsnifFeatureRequirement table[kRequiredFeatureCount] = {
+      {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, "VkPhysicalDeviceFeatures", "shaderInt64",
+       uint32_t(offsetof(VkPhysicalDeviceFeatures, shaderInt64)), kNone, nullptr, 0},
+      {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES, "VkPhysicalDeviceVulkan12Features", "bufferDeviceAddress",
+       uint32_t(offsetof(VkPhysicalDeviceVulkan12Features, bufferDeviceAddress)),
+       VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES, "VkPhysicalDeviceBufferDeviceAddressFeatures",
+       uint32_t(offsetof(VkPhysicalDeviceBufferDeviceAddressFeatures, bufferDeviceAddress))},
+      {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR,
+       "VkPhysicalDeviceAccelerationStructureFeaturesKHR", "accelerationStructure",
+       uint32_t(offsetof(VkPhysicalDeviceAccelerationStructureFeaturesKHR, accelerationStructure)), kNone, nullptr, 0},
+      {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR,
+       "VkPhysicalDeviceRayTracingPipelineFeaturesKHR", "rayTracingPipeline",
+       uint32_t(offsetof(VkPhysicalDeviceRayTracingPipelineFeaturesKHR, rayTracingPipeline)), kNone, nullptr, 0},
+  };
+  return table;
 }
 
 void enable_device_features_appending(VkDeviceCreateInfo& create_info, LsnifDeviceFeatureStorage& storage) {
@@ -373,7 +406,8 @@ void enable_device_features_appending(VkDeviceCreateInfo& create_info, LsnifDevi
 std::string core_features_hint(const void* chain) {
   if (find_feature_structs(chain).core) return {};
   return "the chain given has no VkPhysicalDeviceFeatures2: when the device's core features were in "
-         "VkDeviceCreateInfo::pEnabledFeatures, pass the VkDeviceCreateInfo itself";
+         "VkDeviceCreateInfo::pEnabledFeatures, pass the VkDeviceCreateInfo itself, or those features in a "
+         "LsnifContextCoreFeaturesInfo chained to LsnifContextCreateInfo::pNext";
 }
 
 std::string api_version_string(uint32_t v) {

@@ -88,7 +88,8 @@ std::string chain_problem(const void* chain, const std::string& name);
 // The features LSNIF needs that the feature chain starting at `chain` (a VkDeviceCreateInfo or a
 // feature struct, as given to vkCreateDevice) does not enable, as "feature NAME" in the order of
 // missing_for_ray_tracing; a feature whose struct is absent from the chain counts as not enabled.
-std::vector<std::string> features_not_enabled(const void* chain);
+// `core`, when not null, holds the core features instead of the chain (LsnifContextCoreFeaturesInfo).
+std::vector<std::string> features_not_enabled(const void* chain, const VkPhysicalDeviceFeatures* core = nullptr);
 
 // True when the feature chain starting at `chain` enables VkPhysicalDeviceRayQueryFeaturesKHR::rayQuery.
 bool ray_query_enabled(const void* chain);
@@ -101,7 +102,17 @@ std::vector<std::string> coopmat_mlp_features_not_enabled(const void* chain);
 
 // lsnifEnableDeviceFeatures: sets LSNIF's features in the structs of the chain; returns the names
 // of the structs it needed but did not find (empty: all set).
-std::vector<std::string> enable_device_features(void* chain);
+// With `core` (lsnifEnableDeviceFeaturesWithCore) shaderInt64 is set there, not looked for in the
+// chain.
+std::vector<std::string> enable_device_features(void* chain, VkPhysicalDeviceFeatures* core = nullptr);
+// Whether the chain holds a VkPhysicalDeviceFeatures2.
+bool has_features2(const void* chain);
+// Whether the chain reaches core features: a VkPhysicalDeviceFeatures2, or a VkDeviceCreateInfo
+// whose pEnabledFeatures is set.
+bool has_core_features(const void* chain);
+// The table of lsnifGetRequiredDeviceFeatures, kRequiredFeatureCount entries.
+inline constexpr uint32_t kRequiredFeatureCount = 4;
+const LsnifFeatureRequirement* required_device_features();
 
 // lsnifEnableDeviceFeaturesInCreateInfo: sets LSNIF's features in the structs of create_info's
 // chain and appends, at the chain's end, the structs of `storage` it needed but did not find

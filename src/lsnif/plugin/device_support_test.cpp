@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <string>
 #include <utility>
@@ -214,6 +216,112 @@ TEST(DeviceFeatures, EnableSetsWhatItFindsAndNamesWhatIsAbsent) {
   EXPECT_EQ(as.accelerationStructure, VK_TRUE);
   EXPECT_TRUE(features_not_enabled(&f2).empty());
   EXPECT_EQ(lsnifEnableDeviceFeatures(nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
+}
+
+// The features as data: each entry's struct, member and offset are Vulkan's (offsetof here), and a
+// chain built from the table alone -- each listed struct zeroed, each listed member set through its
+// offset -- enables exactly what the context check needs; leaving any one out is named.
+TEST(DeviceFeatures, RequiredFeaturesAsDataAreWhatTheCheckNeeds) {
+  uint32_t count = 0;
+  const LsnifFeatureRequirement* req = lsnifGetRequiredDeviceFeatures(&count);
+  ASSERT_EQ(count, 4u);
+  ASSERT_NE(req, nullptr);
+  EXPECT_EQ(std::string(req[0].memberName), "shaderInt64");
+  EXPECT_EQ(req[0].offset, offsetof(VkPhysicalDeviceFeatures, shaderInt64));
+  EXPECT_EQ(std::string(req[1].memberName), "bufferDeviceAddress");
+  EXPECT_EQ(req[1].offset, offsetof(VkPhysicalDeviceVulkan12Features, bufferDeviceAddress));
+  EXPECT_EQ(req[1].alternativeSType, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES);
+  EXPECT_EQ(req[1].alternativeOffset, offsetof(VkPhysicalDeviceBufferDeviceAddressFeatures, bufferDeviceAddress));
+  EXPECT_EQ(std::string(req[2].memberName), "accelerationStructure");
+  EXPECT_EQ(req[2].offset, offsetof(VkPhysicalDeviceAccelerationStructureFeaturesKHR, accelerationStructure));
+  EXPECT_EQ(std::string(req[3].memberName), "rayTracingPipeline");
+  EXPECT_EQ(req[3].offset, offsetof(VkPhysicalDeviceRayTracingPipelineFeaturesKHR, rayTracingPipeline));
+  // A framework's generic code: one zeroed struct per listed sType (or its alternative), chained.
+  for (bool alternative : {false, true})
+    for (uint32_t skip = 0; skip <= count; ++skip) {  // skip == count: nothing left out
+      VkPhysicalDeviceFeatures2 f2{};
+      VkPhysicalDeviceVulkan12Features v12{};
+      VkPhysicalDeviceBufferDeviceAddressFeatures bda{};
+      VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
+      VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+      const std::pair<VkStructureType, VkBaseOutStructure*> storage[] = {
+          {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, reinterpret_cast<VkBaseOutStructure*>(&f2)},
+          {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES, reinterpret_cast<VkBaseOutStructure*>(&v12)},
+          {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES, reinterpret_cast<VkBaseOutStructure*>(&bda)},
+          {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR,
+           reinterpret_cast<VkBaseOutStructure*>(&as)},
+          {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR, reinterpret_cast<VkBaseOutStructure*>(&rt)}};
+      VkBaseOutStructure* head = nullptr;
+      for (uint32_t i = 0; i < count; ++i) {
+        const bool alt = alternative && req[i].alternativeSType != VK_STRUCTURE_TYPE_MAX_ENUM;
+        const VkStructureType type = alt ? req[i].alternativeSType : req[i].sType;
+        VkBaseOutStructure* s = nullptr;
+        for (const auto& [t, p] : storage)
+          if (t == type) s = p;
+        ASSERT_NE(s, nullptr) << type;
+        s->sType = type;
+        s->pNext = head;
+        head = s;
+        if (i == skip) continue;
+        // A VkPhysicalDeviceFeatures member sits in VkPhysicalDeviceFeatures2::features.
+        auto* base = reinterpret_cast<uint8_t*>(s) +
+                     (type == VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2 ? offsetof(VkPhysicalDeviceFeatures2, features) : 0);
+        const VkBool32 on = VK_TRUE;
+        std::memcpy(base + (alt ? req[i].alternativeOffset : req[i].offset), &on, sizeof on);
+      }
+      const std::vector<std::string> off = features_not_enabled(head);
+      if (skip == count)
+        EXPECT_TRUE(off.empty()) << off.front();
+      else
+        EXPECT_EQ(off, std::vector<std::string>{std::string("feature ") + req[skip].memberName}) << skip;
+    }
+  EXPECT_EQ(lsnifGetRequiredDeviceFeatures(nullptr), req);
+}
+
+// Core features kept apart from the chain (VkDeviceCreateInfo::pEnabledFeatures beside a chain
+// without VkPhysicalDeviceFeatures2): set in both; a chain lacking a struct, or holding a
+// VkPhysicalDeviceFeatures2, is named; lsnifEnableDeviceFeatures on such a chain points here.
+TEST(DeviceFeatures, EnableWithCoreSetsTheCoreFeaturesApart) {
+  VkPhysicalDeviceFeatures core{};
+  VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+  rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+  VkPhysicalDeviceBufferDeviceAddressFeatures bda{};
+  bda.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES;
+  bda.pNext = &rt;
+  EXPECT_EQ(lsnifEnableDeviceFeatures(&bda), LSNIF_ERROR_INVALID_ARGUMENT);
+  std::string message = lsnifGetLastErrorMessage();
+  EXPECT_NE(message.find("VkPhysicalDeviceFeatures::shaderInt64"), std::string::npos) << message;
+  EXPECT_NE(message.find("lsnifEnableDeviceFeaturesWithCore"), std::string::npos) << message;
+
+  bda.bufferDeviceAddress = rt.rayTracingPipeline = VK_FALSE;
+  EXPECT_EQ(lsnifEnableDeviceFeaturesWithCore(&core, &bda), LSNIF_ERROR_INVALID_ARGUMENT);
+  message = lsnifGetLastErrorMessage();
+  EXPECT_NE(message.find("lacks VkPhysicalDeviceAccelerationStructureFeaturesKHR"), std::string::npos) << message;
+  EXPECT_EQ(message.find("VkPhysicalDeviceFeatures2"), std::string::npos) << message;
+  EXPECT_EQ(core.shaderInt64, VK_TRUE);  // what was found is set
+  EXPECT_EQ(bda.bufferDeviceAddress, VK_TRUE);
+  EXPECT_EQ(rt.rayTracingPipeline, VK_TRUE);
+
+  VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
+  as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+  rt.pNext = &as;
+  core = VkPhysicalDeviceFeatures{};
+  core.samplerAnisotropy = VK_TRUE;  // the framework's own, kept
+  EXPECT_EQ(lsnifEnableDeviceFeaturesWithCore(&core, &bda), LSNIF_SUCCESS) << lsnifGetLastErrorMessage();
+  EXPECT_EQ(core.shaderInt64, VK_TRUE);
+  EXPECT_EQ(core.samplerAnisotropy, VK_TRUE);
+  EXPECT_TRUE(features_not_enabled(&bda, &core).empty());
+  EXPECT_EQ(features_not_enabled(&bda), std::vector<std::string>{"feature shaderInt64"});
+
+  VkPhysicalDeviceFeatures2 f2{};
+  f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+  as.pNext = &f2;
+  EXPECT_EQ(lsnifEnableDeviceFeaturesWithCore(&core, &bda), LSNIF_ERROR_INVALID_ARGUMENT);
+  message = lsnifGetLastErrorMessage();
+  EXPECT_NE(message.find("holds a VkPhysicalDeviceFeatures2"), std::string::npos) << message;
+  EXPECT_EQ(f2.features.shaderInt64, VK_FALSE);  // refused before anything is written
+  EXPECT_EQ(lsnifEnableDeviceFeaturesWithCore(nullptr, &bda), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(lsnifEnableDeviceFeaturesWithCore(&core, nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
 }
 
 // A framework's own VkDeviceCreateInfo: its structs in its order, the core features in
