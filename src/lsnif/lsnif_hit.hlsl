@@ -5,13 +5,15 @@
 // either language, so only the decoding is needed here. Usage in a closest-hit shader:
 //   #include "lsnif/lsnif_hit.hlsl"
 //   [shader("closesthit")] void main(inout Payload p, in LsnifHitAttributes a) {
-//     LsnifSurface s = lsnif_decode_hit(a, (float3x3)WorldToObject3x4());  // world normal, albedo, ...
+//     LsnifSurface s = lsnif_surface(a);  // world normal, albedo, ...: lsnif_decode_hit(a, (float3x3)WorldToObject3x4())
 //     if (s.surface_learned) ...  // s.metallic, s.roughness, s.ambient_occlusion, s.emission
 //     bool front = HitKind() == LSNIF_HIT_KIND_FRONT_FACING;                 // hit distance: RayTCurrent()
 //   }
-// Every function takes the instance's world-to-object matrix as a parameter, so the file compiles
-// in any stage (tests/gpu/hit_decode_test.cpp compiles it with glslang as a compute shader and
-// checks it decodes what lsnif_hit.glsl decodes). Slang reads the same file (`#include`).
+// Every function but the current hit's forms at the end takes the instance's world-to-object matrix
+// as a parameter, so the file compiles in any stage (tests/gpu/hit_decode_test.cpp compiles it with
+// glslang as a compute shader, the end's forms on a stand-in WorldToObject3x4, and checks it decodes
+// what lsnif_hit.glsl decodes). Slang reads the same file (`#include`; define LSNIF_HIT_RAY_TRACING
+// for lsnif_surface). glslang's HLSL front end cannot build ray-tracing stages (docs/integration.md).
 #ifndef LSNIF_HIT_HLSL
 #define LSNIF_HIT_HLSL
 
@@ -99,5 +101,27 @@ float lsnif_leaving_tmin(LsnifSurface s, float3 world_direction, float3x3 world_
   const float len = length(mul(world_to_object, world_direction));
   return len > 0.0 ? s.leaving_distance / len : 0.0;
 }
+
+// The current hit's forms (lsnif_hit.glsl's lsnif_surface, lsnif_world_normal and 2-argument
+// lsnif_leaving_tmin), on the intrinsic WorldToObject3x4() of the ray-tracing stages: declared in a
+// DXC library target (-T lib_6_x, where closest-hit shaders are compiled) or wherever
+// LSNIF_HIT_RAY_TRACING is defined before the include (Slang, or a stand-in WorldToObject3x4 for a
+// test); never with LSNIF_HIT_DECODE_ONLY.
+#if !defined(LSNIF_HIT_DECODE_ONLY) && \
+    (defined(LSNIF_HIT_RAY_TRACING) || (defined(__SHADER_TARGET_STAGE) && __SHADER_TARGET_STAGE == __SHADER_STAGE_LIBRARY))
+float3 lsnif_world_normal(float3 object_normal) {
+  return lsnif_world_normal_of(object_normal, (float3x3)WorldToObject3x4());
+}
+
+// Decodes the attributes of the current hit (closest-hit shader).
+LsnifSurface lsnif_surface(LsnifHitAttributes a) {
+  return lsnif_decode_hit(a, (float3x3)WorldToObject3x4());
+}
+
+// tmin of a ray leaving the current hit's surface in world direction `world_direction`.
+float lsnif_leaving_tmin(LsnifSurface s, float3 world_direction) {
+  return lsnif_leaving_tmin(s, world_direction, (float3x3)WorldToObject3x4());
+}
+#endif
 
 #endif

@@ -1,5 +1,13 @@
 // hit_decode.hlsl -- the HLSL twin of hit_decode.comp: decodes LsnifHitAttributes with
 // lsnif/lsnif_hit.hlsl, compiled by glslang (-D) as a compute shader; the same buffers and results.
+// Through the current hit's forms (lsnif_surface, 2-argument lsnif_leaving_tmin), which read the
+// ray-tracing intrinsic WorldToObject3x4(): here a stand-in returning this invocation's matrix.
+static float3x3 g_world_to_object;
+float3x4 WorldToObject3x4() {
+  return float3x4(float4(g_world_to_object[0], 0.0), float4(g_world_to_object[1], 0.0),
+                  float4(g_world_to_object[2], 0.0));
+}
+#define LSNIF_HIT_RAY_TRACING
 #include "lsnif/lsnif_hit.hlsl"
 
 struct HitDecodeResult {
@@ -23,10 +31,10 @@ struct Push {
 [numthreads(64, 1, 1)] void main(uint3 id : SV_DispatchThreadID) {
   const uint i = id.x;
   if (i >= pc.count) return;
-  const float3x3 world_to_object = float3x3(inputs[5 * i].xyz, inputs[5 * i + 1].xyz, inputs[5 * i + 2].xyz);
-  const LsnifSurface s = lsnif_decode_hit(attributes[i], world_to_object);
+  g_world_to_object = float3x3(inputs[5 * i].xyz, inputs[5 * i + 1].xyz, inputs[5 * i + 2].xyz);
+  const LsnifSurface s = lsnif_surface(attributes[i]);
   HitDecodeResult r;
-  r.normal = float4(s.normal, lsnif_leaving_tmin(s, inputs[5 * i + 3].xyz, world_to_object));
+  r.normal = float4(s.normal, lsnif_leaving_tmin(s, inputs[5 * i + 3].xyz));
   r.albedo = float4(s.albedo, s.occlusion_logit);
   r.fields = uint4(s.material, s.points, asuint(s.leaving_distance), asuint(s.object_normal.x));
   r.surface = float4(s.metallic, s.roughness, s.ambient_occlusion, s.surface_learned ? 1.0 : 0.0);
