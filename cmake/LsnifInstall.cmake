@@ -44,6 +44,12 @@ install(FILES ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif.rint
   ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_perfect_hash.glsl ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_model.glsl
   DESTINATION ${LSNIF_INSTALL_INCLUDEDIR}/shaders COMPONENT dev)
 install(EXPORT lsnifTargets NAMESPACE lsnif:: DESTINATION ${LSNIF_INSTALL_CMAKEDIR} COMPONENT dev)
+# The guides a renderer engineer reads beside the package (their repository paths are marked as
+# such; the package test checks that every other path they name is installed).
+install(FILES ${PROJECT_SOURCE_DIR}/docs/integration.md ${PROJECT_SOURCE_DIR}/docs/model-format.md
+  DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/lsnif COMPONENT dev)
+install(FILES ${PROJECT_SOURCE_DIR}/docs/images/hello_lsnif.png DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/lsnif/images
+  COMPONENT dev)
 # The examples, buildable from the installed package alone (docs/integration.md): hello_lsnif, the
 # whole integration in one C11 file, and with -DHELLO_LSNIF_BUILD_ENGINE=ON its own-layout engine.
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/samples/hello_lsnif/ DESTINATION ${CMAKE_INSTALL_DATADIR}/lsnif/examples/hello_lsnif

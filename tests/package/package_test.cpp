@@ -546,6 +546,52 @@ TEST_F(Package, PluginInterfaceIsThePluginOnly) {
   EXPECT_EQ(exported, declared);
 }
 
+// The guides the package installs (share/doc/lsnif/) name only what a reader of the package can
+// open: every path in backquotes that points into the package (`lsnif/...` under include/,
+// `include/...`, `share/...`, `<prefix>/...`, a guide beside it) exists in the installed prefix, and a
+// path of the repository (src/, tests/, samples/, docs/, scripts/, bench/, cmake/) appears only in a
+// guide that says such paths are the repository's. Fails on a guide that names a file the package
+// does not ship.
+TEST_F(Package, InstalledGuidesNameWhatThePackageHolds) {
+  const fs::path doc = prefix_ / "share/doc/lsnif";
+  ASSERT_TRUE(fs::exists(doc / "integration.md")) << doc << " holds no integration guide";
+  const char* const repository_roots[] = {"src/", "tests/", "samples/", "docs/", "scripts/", "bench/", "cmake/"};
+  size_t guides = 0, checked = 0;
+  for (const auto& entry : fs::directory_iterator(doc)) {
+    if (entry.path().extension() != ".md") continue;
+    ++guides;
+    const std::string text = read_text(entry.path());
+    const bool marks_repository = contains(text, "are the LSNIF repository's");
+    for (size_t open = text.find('`'); open != std::string::npos; open = text.find('`', open + 1)) {
+      const size_t close = text.find('`', open + 1);
+      if (close == std::string::npos) break;
+      const std::string token = text.substr(open + 1, close - open - 1);
+      open = close;
+      // A path: no blanks, a slash, and a last part with an extension or a trailing slash.
+      if (token.find_first_of(" \t\n\"'(),;") != std::string::npos || token.find('/') == std::string::npos) continue;
+      const std::string last = token.substr(token.rfind('/') + 1);
+      if (!(token.back() == '/' || last.find('.') != std::string::npos)) continue;
+      if (token[0] == '<' && token.rfind("<prefix>/", 0) != 0) continue;  // <vulkan/vulkan.h>
+      bool repository = false;
+      for (const char* root : repository_roots) repository = repository || token.rfind(root, 0) == 0;
+      const std::string where = entry.path().filename().string() + ": `" + token + "`";
+      if (repository) {
+        EXPECT_TRUE(marks_repository) << where << " is a repository path in a guide that does not say so";
+        continue;
+      }
+      fs::path in_package;
+      if (token.rfind("<prefix>/", 0) == 0) in_package = prefix_ / token.substr(9);
+      else if (token.rfind("lsnif/", 0) == 0) in_package = prefix_ / "include" / token;
+      else if (token.rfind("include/", 0) == 0 || token.rfind("share/", 0) == 0) in_package = prefix_ / token;
+      else in_package = doc / token;  // beside the guide (images/...)
+      ++checked;
+      EXPECT_TRUE(fs::exists(in_package)) << where << " is not in the package (" << in_package << ")";
+    }
+  }
+  EXPECT_GE(guides, 2u);
+  EXPECT_GE(checked, 10u);  // the guides were read
+}
+
 // A parent project that vendors the source tree (tests/package/parent): with the defaults it gets
 // the plugin only. Built with -march=native and -Werror for LSNIF's own code, neither may reach the
 // consumer's compile line.
