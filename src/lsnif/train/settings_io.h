@@ -1,7 +1,7 @@
 // settings_io.h -- the settings of src/lsnif/format/settings_table.h as values: given on the command line or
 // in a `--config` JSON file (one SettingLayer per source), resolved in order (defaults, then each
 // layer: its presets, then its values) with every range and cross check, converted to and from
-// TrainSettings, and written as JSON: the object a `--config` file holds, and the training record a
+// TrainSettings (settings_io.cpp binds each setting to its field), and written as JSON: the object a `--config` file holds, and the training record a
 // model stores (the settings, the input mesh's name and hash, the thread count).
 #pragma once
 #include <array>
@@ -75,8 +75,11 @@ Status preset_train_settings(const Preset& p, TrainSettings& out);
 SettingValues from_train_settings(const TrainSettings& settings);
 
 // The settings as a JSON object in table order, the form a `--config` file takes; floats written as
-// the shortest decimal that reads back as the same float.
+// the shortest decimal that reads back as the same float. Of a TrainSettings: the values
+// from_train_settings gives (what a model's training record, a converted model's sidecar and the
+// caches' keys hold).
 nlohmann::ordered_json settings_to_json(const SettingValues& values);
+nlohmann::ordered_json settings_to_json(const TrainSettings& settings);
 
 // 64-bit FNV-1a of `bytes`.
 uint64_t fnv1a64(std::string_view bytes);
