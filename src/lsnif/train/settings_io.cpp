@@ -17,26 +17,162 @@ namespace {
 
 constexpr uint64_t kMaxConfigFileBytes = 1u << 20;
 
+// How each setting reads and writes its TrainSettings field: `get` puts the field's value into
+// the setting's place of a SettingValues, `set` writes it back from there (reading other settings
+// where the field depends on them). to_train_settings and from_train_settings are one loop over
+// these, in table order (a field set after those it depends on: the levels before the grid's
+// per-level fields). `words` name the field in the messages of check_train_settings.
+struct SettingField {
+  SettingId id;
+  const char* words;
+  void (*get)(const TrainSettings& s, SettingValues& v);
+  void (*set)(const SettingValues& v, TrainSettings& s);
+};
+
+// The field `s .* path...` (settings.config.voxel_resolution: &TrainSettings::config,
+// &Config::voxel_resolution).
+template <auto... path, class Settings>
+auto& member(Settings& s) {
+  return (s .* ... .* path);
+}
+
+// A plain field: a float in SettingValue::f, an unsigned integer or an enum (a Choice's value) in ::u.
+template <SettingId id, auto... path>
+constexpr SettingField field(const char* words) {
+  return {id, words,
+          [](const TrainSettings& s, SettingValues& v) {
+            const auto& f = member<path...>(s);
+            if constexpr (std::is_same_v<std::remove_cvref_t<decltype(f)>, float>) v[id].f = f;
+            else v[id].u = static_cast<uint64_t>(f);
+          },
+          [](const SettingValues& v, TrainSettings& s) {
+            auto& f = member<path...>(s);
+            using T = std::remove_cvref_t<decltype(f)>;
+            if constexpr (std::is_same_v<T, float>) f = v[id].f;
+            else f = static_cast<T>(v[id].u);
+          }};
+}
+
+bool valid_levels(const Config& c) { return c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS; }
+
+constexpr std::array<SettingField, kSettingCount> setting_fields() {
+  using enum SettingId;
+  using T = TrainSettings;
+  return {{
+      field<Voxels, &T::config, &Config::voxel_resolution>("voxel resolution"),
+      field<Points, &T::config, &Config::max_points>("boundary points"),
+      field<Levels, &T::config, &Config::grid_levels>("grid levels"),
+      // The grid's resolutions: the coarsest and the finest level's, every level set from both
+      // (set_grid_resolutions) with the finest.
+      {ResMin, "coarsest grid resolution",
+       [](const T& s, SettingValues& v) { v[ResMin].u = s.config.grid_resolution[0]; },
+       [](const SettingValues&, T&) {}},
+      {ResMax, "finest grid resolution",
+       [](const T& s, SettingValues& v) {
+         const Config& c = s.config;
+         v[ResMax].u = valid_levels(c) ? c.grid_resolution[c.grid_levels - 1] : 0;
+       },
+       [](const SettingValues& v, T& s) {
+         set_grid_resolutions(s.config, static_cast<uint32_t>(v[ResMin].u), static_cast<uint32_t>(v[ResMax].u));
+       }},
+      // One value when every level has the same size.
+      {TableLog2, "table size (log2)",
+       [](const T& s, SettingValues& v) {
+         const Config& c = s.config;
+         if (valid_levels(c)) per_level_value(c.table_log2, c.uniform_table_log2() ? 1 : c.grid_levels, v[TableLog2]);
+       },
+       [](const SettingValues& v, T& s) {
+         const SettingValue& m = v[TableLog2];
+         if (m.level_count) set_table_log2(s.config, m.per_level.data(), m.level_count);
+         else set_table_log2(s.config, static_cast<uint32_t>(m.u));
+       }},
+      field<Features, &T::config, &Config::features>("features per entry"),
+      field<Width, &T::config, &Config::hidden_width>("hidden width"),
+      field<Layers, &T::config, &Config::hidden_layers>("hidden layers"),
+      field<Hit, &T::config, &Config::hit_param>("hit parametrization"),
+      field<LeakySlope, &T::config, &Config::leaky_slope>("leaky slope"),
+      field<GridBits, &T::config, &Config::grid_bits>("grid bits"),
+      // One value when every level is alike; the levels past the config's not indexed.
+      {Indexed, "indexed levels",
+       [](const T& s, SettingValues& v) {
+         const Config& c = s.config;
+         if (!valid_levels(c)) return;
+         uint32_t indexed[LSNIF_MAX_LEVELS] = {};
+         bool uniform = true;
+         for (uint32_t l = 0; l < c.grid_levels; ++l) {
+           indexed[l] = s.indexed[l] ? 1 : 0;
+           uniform = uniform && indexed[l] == indexed[0];
+         }
+         per_level_value(indexed, uniform ? 1 : c.grid_levels, v[Indexed]);
+       },
+       [](const SettingValues& v, T& s) {
+         const SettingValue& ix = v[Indexed];
+         for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l)
+           s.indexed[l] =
+               l < s.config.grid_levels && (ix.level_count ? l < ix.level_count && ix.per_level[l] : ix.u) != 0;
+       }},
+      field<SurfaceMaps, &T::surface_maps>("surface maps"),
+      field<Steps, &T::steps>("steps"),
+      field<Batch, &T::batch_size>("batch size"),
+      field<Seed, &T::seed>("seed"),
+      field<RayReuse, &T::ray_reuse>("ray reuse"),
+      field<Lr, &T::adam, &AdamSettings::learning_rate>("learning rate"),
+      field<LrSchedule, &T::lr_schedule, &LrScheduleSettings::schedule>("learning-rate schedule"),
+      field<LrFinal, &T::lr_schedule, &LrScheduleSettings::final_fraction>(
+          "learning-rate schedule: the final fraction"),
+      field<LrWarm, &T::lr_schedule, &LrScheduleSettings::warm_fraction>("learning-rate schedule: the warm share"),
+      field<AdamBeta1, &T::adam, &AdamSettings::beta1>("Adam beta1"),
+      field<AdamBeta2, &T::adam, &AdamSettings::beta2>("Adam beta2"),
+      field<AdamEpsilon, &T::adam, &AdamSettings::epsilon>("Adam epsilon"),
+      field<NormalLoss, &T::loss_settings, &LossSettings::normal_loss>("normal loss"),
+      field<WOcclusion, &T::loss_settings, &LossSettings::occlusion>("loss weights: occlusion"),
+      field<WDistance, &T::loss_settings, &LossSettings::distance>("loss weights: distance"),
+      field<WNormal, &T::loss_settings, &LossSettings::normal>("loss weights: normal"),
+      field<WAlbedo, &T::loss_settings, &LossSettings::albedo>("loss weights: albedo"),
+      field<WMaterial, &T::loss_settings, &LossSettings::material>("loss weights: material"),
+      field<WSurface, &T::loss_settings, &LossSettings::surface>("loss weights: surface"),
+      field<SurfaceFraction, &T::sampler, &SamplerSettings::surface_fraction>("surface fraction"),
+      field<SphereScale, &T::sampler, &SamplerSettings::sphere_scale>("sphere scale"),
+      field<SurfaceOffset, &T::sampler, &SamplerSettings::surface_offset>("surface offset"),
+      field<GridInitRange, &T::grid_init_range>("grid init range"),
+  }};
+}
+constexpr std::array<SettingField, kSettingCount> kSettingFields = setting_fields();
+
+constexpr bool fields_in_id_order() {
+  for (size_t i = 0; i < kSettingCount; ++i)
+    if (static_cast<size_t>(kSettingFields[i].id) != i) return false;
+  return true;
+}
+static_assert(fields_in_id_order(), "kSettingFields must bind every setting, in SettingId order");
+
 // Where each resolved value came from, for messages: the layer (nullptr: a default or a preset of
 // no layer).
 using Origins = std::array<const SettingLayer*, kSettingCount>;
 
-// "FILE: " when any of `ids` came from a file.
-std::string file_prefix(const Origins& origin, std::initializer_list<SettingId> ids) {
-  for (SettingId id : ids) {
-    const SettingLayer* l = origin[static_cast<size_t>(id)];
-    if (l && !l->file.empty()) return l->file + ": ";
-  }
-  return "";
-}
+// How the checks name the settings in their messages: as given, by the option or the file's key
+// and the file (`origin`: a resolve), or, for a TrainSettings made in code (`origin` nullptr), by
+// their fields' words.
+struct Names {
+  const Origins* origin;
 
-std::string label_of(const Origins& origin, SettingId id) {
-  const SettingLayer* l = origin[static_cast<size_t>(id)];
-  const char* name = setting_def(id).name;
-  if (l) return l->label(name);
-  std::string s = "--";
-  return s += name;
-}
+  std::string label(SettingId id) const {
+    if (!origin) return kSettingFields[static_cast<size_t>(id)].words;
+    const SettingLayer* l = (*origin)[static_cast<size_t>(id)];
+    const char* name = setting_def(id).name;
+    if (l) return l->label(name);
+    std::string s = "--";
+    return s += name;
+  }
+  // "FILE: " when any of `ids` came from a file.
+  std::string file_prefix(std::initializer_list<SettingId> ids) const {
+    for (SettingId id : ids) {
+      const SettingLayer* l = origin ? (*origin)[static_cast<size_t>(id)] : nullptr;
+      if (l && !l->file.empty()) return l->file + ": ";
+    }
+    return "";
+  }
+};
 
 Status apply_layer(const SettingLayer& layer, SettingValues& values, Origins& origin) {
   const std::string prefix = layer.file.empty() ? "" : layer.file + ": ";
@@ -81,164 +217,37 @@ Status apply_layer(const SettingLayer& layer, SettingValues& values, Origins& or
   return Status::ok();
 }
 
-// The checks that involve several settings.
-Status check_together(const SettingValues& v, const Origins& origin) {
+// The checks that involve several settings; `config` is the model config the values give.
+Status check_together(const SettingValues& v, const Config& config, const Names& names) {
   using enum SettingId;
   const auto u32 = [&](SettingId id) { return static_cast<uint32_t>(v[id].u); };
-  const auto label = [&](SettingId id) { return label_of(origin, id); };
+  const auto label = [&](SettingId id) { return names.label(id); };
   if (u32(ResMin) > u32(ResMax))
-    return Status::error("%sneed %s <= %s (got %u, %u)", file_prefix(origin, {ResMin, ResMax}).c_str(),
+    return Status::error("%sneed %s <= %s (got %u, %u)", names.file_prefix({ResMin, ResMax}).c_str(),
                          label(ResMin).c_str(), label(ResMax).c_str(), u32(ResMin), u32(ResMax));
   if (u32(ResMin) % u32(Voxels) || u32(ResMax) % u32(Voxels))
     return Status::error("%s%s %u and %s %u must each be a multiple of the voxel resolution %u (%s; voxel faces "
                          "must lie on grid planes)",
-                         file_prefix(origin, {ResMin, ResMax, Voxels}).c_str(), label(ResMin).c_str(), u32(ResMin),
+                         names.file_prefix({ResMin, ResMax, Voxels}).c_str(), label(ResMin).c_str(), u32(ResMin),
                          label(ResMax).c_str(), u32(ResMax), u32(Voxels), label(Voxels).c_str());
   for (const SettingId id : {TableLog2, Indexed})  // the per-level settings
     if (v[id].level_count != 0 && v[id].level_count != u32(Levels))
       return Status::error("%s%s %s gives %u values for %u levels (%s): give one value for every level or one per "
-                           "level", file_prefix(origin, {id, Levels}).c_str(), label(id).c_str(),
+                           "level", names.file_prefix({id, Levels}).c_str(), label(id).c_str(),
                            setting_text(setting_def(id), v[id]).c_str(), v[id].level_count, u32(Levels),
                            label(Levels).c_str());
   if (u32(RayReuse) > u32(Batch))
-    return Status::error("%s%s %u must be in [1, %s %u]", file_prefix(origin, {RayReuse, Batch}).c_str(),
+    return Status::error("%s%s %u must be in [1, %s %u]", names.file_prefix({RayReuse, Batch}).c_str(),
                          label(RayReuse).c_str(), u32(RayReuse), label(Batch).c_str(), u32(Batch));
   // The surface channels' weight alone trains nothing of the geometry (and nothing at all for a
   // model without them): it does not count here.
   if (!(v[WOcclusion].f + v[WDistance].f + v[WNormal].f + v[WAlbedo].f + v[WMaterial].f > 0.0f))
-    return Status::error("%severy loss weight (w-*) is 0: nothing would be trained",
-                         file_prefix(origin, {WOcclusion, WDistance, WNormal, WAlbedo, WMaterial}).c_str());
-  TrainSettings s;
-  to_train_settings(v, s);
-  if (Status st = s.config.validate(); !st) return st.context("invalid model settings");
+    return Status::error("%severy loss weight%s is 0: nothing would be trained",
+                         names.file_prefix({WOcclusion, WDistance, WNormal, WAlbedo, WMaterial}).c_str(),
+                         names.origin ? " (w-*)" : "");
+  if (Status st = config.validate(); !st) return st.context("invalid model settings");
   return Status::ok();
 }
-
-// How each setting reads and writes its TrainSettings field: `get` puts the field's value into
-// the setting's place of a SettingValues, `set` writes it back from there (reading other settings
-// where the field depends on them). to_train_settings and from_train_settings are one loop over
-// these, in table order (a field set after those it depends on: the levels before the grid's
-// per-level fields).
-struct SettingField {
-  SettingId id;
-  void (*get)(const TrainSettings& s, SettingValues& v);
-  void (*set)(const SettingValues& v, TrainSettings& s);
-};
-
-// The field `s .* path...` (settings.config.voxel_resolution: &TrainSettings::config,
-// &Config::voxel_resolution).
-template <auto... path, class Settings>
-auto& member(Settings& s) {
-  return (s .* ... .* path);
-}
-
-// A plain field: a float in SettingValue::f, an unsigned integer or an enum (a Choice's value) in ::u.
-template <SettingId id, auto... path>
-constexpr SettingField field() {
-  return {id,
-          [](const TrainSettings& s, SettingValues& v) {
-            const auto& f = member<path...>(s);
-            if constexpr (std::is_same_v<std::remove_cvref_t<decltype(f)>, float>) v[id].f = f;
-            else v[id].u = static_cast<uint64_t>(f);
-          },
-          [](const SettingValues& v, TrainSettings& s) {
-            auto& f = member<path...>(s);
-            using T = std::remove_cvref_t<decltype(f)>;
-            if constexpr (std::is_same_v<T, float>) f = v[id].f;
-            else f = static_cast<T>(v[id].u);
-          }};
-}
-
-bool valid_levels(const Config& c) { return c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS; }
-
-constexpr std::array<SettingField, kSettingCount> setting_fields() {
-  using enum SettingId;
-  using T = TrainSettings;
-  return {{
-      field<Voxels, &T::config, &Config::voxel_resolution>(),
-      field<Points, &T::config, &Config::max_points>(),
-      field<Levels, &T::config, &Config::grid_levels>(),
-      // The grid's resolutions: the coarsest and the finest level's, every level set from both
-      // (set_grid_resolutions) with the finest.
-      {ResMin, [](const T& s, SettingValues& v) { v[ResMin].u = s.config.grid_resolution[0]; },
-       [](const SettingValues&, T&) {}},
-      {ResMax,
-       [](const T& s, SettingValues& v) {
-         const Config& c = s.config;
-         v[ResMax].u = valid_levels(c) ? c.grid_resolution[c.grid_levels - 1] : 0;
-       },
-       [](const SettingValues& v, T& s) {
-         set_grid_resolutions(s.config, static_cast<uint32_t>(v[ResMin].u), static_cast<uint32_t>(v[ResMax].u));
-       }},
-      // One value when every level has the same size.
-      {TableLog2,
-       [](const T& s, SettingValues& v) {
-         const Config& c = s.config;
-         if (valid_levels(c)) per_level_value(c.table_log2, c.uniform_table_log2() ? 1 : c.grid_levels, v[TableLog2]);
-       },
-       [](const SettingValues& v, T& s) {
-         const SettingValue& m = v[TableLog2];
-         if (m.level_count) set_table_log2(s.config, m.per_level.data(), m.level_count);
-         else set_table_log2(s.config, static_cast<uint32_t>(m.u));
-       }},
-      field<Features, &T::config, &Config::features>(),
-      field<Width, &T::config, &Config::hidden_width>(),
-      field<Layers, &T::config, &Config::hidden_layers>(),
-      field<Hit, &T::config, &Config::hit_param>(),
-      field<LeakySlope, &T::config, &Config::leaky_slope>(),
-      field<GridBits, &T::config, &Config::grid_bits>(),
-      // One value when every level is alike; the levels past the config's not indexed.
-      {Indexed,
-       [](const T& s, SettingValues& v) {
-         const Config& c = s.config;
-         if (!valid_levels(c)) return;
-         uint32_t indexed[LSNIF_MAX_LEVELS] = {};
-         bool uniform = true;
-         for (uint32_t l = 0; l < c.grid_levels; ++l) {
-           indexed[l] = s.indexed[l] ? 1 : 0;
-           uniform = uniform && indexed[l] == indexed[0];
-         }
-         per_level_value(indexed, uniform ? 1 : c.grid_levels, v[Indexed]);
-       },
-       [](const SettingValues& v, T& s) {
-         const SettingValue& ix = v[Indexed];
-         for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l)
-           s.indexed[l] =
-               l < s.config.grid_levels && (ix.level_count ? l < ix.level_count && ix.per_level[l] : ix.u) != 0;
-       }},
-      field<SurfaceMaps, &T::surface_maps>(),
-      field<Steps, &T::steps>(),
-      field<Batch, &T::batch_size>(),
-      field<Seed, &T::seed>(),
-      field<RayReuse, &T::ray_reuse>(),
-      field<Lr, &T::adam, &AdamSettings::learning_rate>(),
-      field<LrSchedule, &T::lr_schedule, &LrScheduleSettings::schedule>(),
-      field<LrFinal, &T::lr_schedule, &LrScheduleSettings::final_fraction>(),
-      field<LrWarm, &T::lr_schedule, &LrScheduleSettings::warm_fraction>(),
-      field<AdamBeta1, &T::adam, &AdamSettings::beta1>(),
-      field<AdamBeta2, &T::adam, &AdamSettings::beta2>(),
-      field<AdamEpsilon, &T::adam, &AdamSettings::epsilon>(),
-      field<NormalLoss, &T::loss_settings, &LossSettings::normal_loss>(),
-      field<WOcclusion, &T::loss_settings, &LossSettings::occlusion>(),
-      field<WDistance, &T::loss_settings, &LossSettings::distance>(),
-      field<WNormal, &T::loss_settings, &LossSettings::normal>(),
-      field<WAlbedo, &T::loss_settings, &LossSettings::albedo>(),
-      field<WMaterial, &T::loss_settings, &LossSettings::material>(),
-      field<WSurface, &T::loss_settings, &LossSettings::surface>(),
-      field<SurfaceFraction, &T::sampler, &SamplerSettings::surface_fraction>(),
-      field<SphereScale, &T::sampler, &SamplerSettings::sphere_scale>(),
-      field<SurfaceOffset, &T::sampler, &SamplerSettings::surface_offset>(),
-      field<GridInitRange, &T::grid_init_range>(),
-  }};
-}
-constexpr std::array<SettingField, kSettingCount> kSettingFields = setting_fields();
-
-constexpr bool fields_in_id_order() {
-  for (size_t i = 0; i < kSettingCount; ++i)
-    if (static_cast<size_t>(kSettingFields[i].id) != i) return false;
-  return true;
-}
-static_assert(fields_in_id_order(), "kSettingFields must bind every setting, in SettingId order");
 
 // 64-bit FNV-1a, continued from `h`.
 struct Fnv {
@@ -385,7 +394,9 @@ Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingV
   // The default of the per-level --indexed follows the level count.
   if (!origin[static_cast<size_t>(SettingId::Indexed)])
     v[SettingId::Indexed] = default_indexed_value(static_cast<uint32_t>(v[SettingId::Levels].u));
-  if (Status s = check_together(v, origin); !s) return s;
+  TrainSettings s;
+  to_train_settings(v, s);
+  if (Status st = check_together(v, s.config, Names{&origin}); !st) return st;
   out = v;
   return Status::ok();
 }
@@ -428,6 +439,28 @@ nlohmann::ordered_json settings_to_json(const SettingValues& values) {
     }
   }
   return j;
+}
+
+Status check_train_settings(const TrainSettings& settings) {
+  const SettingValues v = from_train_settings(settings);
+  const Names names{nullptr};
+  for (const SettingDef& d : kSettingDefs) {
+    const SettingValue& x = v[d.id];
+    const std::string words = names.label(d.id);
+    if (d.kind == SettingKind::Choice) {
+      bool known = false;
+      for (uint32_t c = 0; c < d.choice_count; ++c) known |= d.choices[c].value == x.u;
+      if (!known) return Status::error("unknown %s %llu", words.c_str(), (unsigned long long)x.u);
+    } else if (d.kind == SettingKind::U32) {
+      // The count in parentheses after the field's words: "batch size (0) out of range [1, 262144]".
+      if (double(x.u) < d.min || double(x.u) > d.max)
+        return Status::error("%s (%llu) out of range [%u, %u]", words.c_str(), (unsigned long long)x.u,
+                             uint32_t(d.min), uint32_t(d.max));
+    } else if (Status s = check_setting_range(d, x, words); !s) {
+      return s;
+    }
+  }
+  return check_together(v, settings.config, names);
 }
 
 nlohmann::ordered_json settings_to_json(const TrainSettings& settings) {

@@ -66,6 +66,12 @@ Status parse_settings_json(std::string_view text, const std::string& file, Setti
 // model config). Errors name the option or key as given, and the file.
 Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingValues& out);
 
+// The checks of a TrainSettings, made in code or read (train_model's first, check_training_inputs):
+// every setting in its range, a choice one of its choices, then the checks resolve_settings makes of
+// the settings together; the messages name the fields in words ("learning rate 0 must be a
+// positive, finite learning rate", "batch size (0) out of range [1, 262144]").
+Status check_train_settings(const TrainSettings& settings);
+
 void to_train_settings(const SettingValues& values, TrainSettings& out);
 // The settings preset `p` alone gives (`lsnif train --tiny` less the command's loss curve): the
 // table's defaults with the preset's values, over TrainSettings(). Fails only for a preset with a
