@@ -401,6 +401,13 @@ Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingV
   return Status::ok();
 }
 
+Status resolve_settings(const std::vector<const SettingLayer*>& layers, TrainSettings& out) {
+  SettingValues values;
+  if (Status s = resolve_settings(layers, values); !s) return s;
+  to_train_settings(values, out);
+  return Status::ok();
+}
+
 void to_train_settings(const SettingValues& v, TrainSettings& s) {
   for (const SettingField& f : kSettingFields) f.set(v, s);
 }
@@ -408,10 +415,8 @@ void to_train_settings(const SettingValues& v, TrainSettings& s) {
 Status preset_train_settings(const Preset& p, TrainSettings& out) {
   SettingLayer layer;
   layer.presets.push_back(&p);
-  SettingValues values;
-  if (Status s = resolve_settings({&layer}, values); !s) return s;
   TrainSettings settings;
-  to_train_settings(values, settings);
+  if (Status s = resolve_settings({&layer}, settings); !s) return s;
   out = settings;
   return Status::ok();
 }

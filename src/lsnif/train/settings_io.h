@@ -65,6 +65,9 @@ Status parse_settings_json(std::string_view text, const std::string& file, Setti
 // resolutions multiples of the voxel resolution, ray reuse up to the batch, a weight above 0, the
 // model config). Errors name the option or key as given, and the file.
 Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingValues& out);
+// The same, as the TrainSettings the values give: every field of the table set in `out`, the
+// others (loss_curve) left as they are.
+Status resolve_settings(const std::vector<const SettingLayer*>& layers, TrainSettings& out);
 
 // The checks of a TrainSettings, made in code or read (train_model's first, check_training_inputs):
 // every setting in its range, a choice one of its choices, then the checks resolve_settings makes of
