@@ -1,8 +1,9 @@
 // settings_io.h -- the settings of src/lsnif/format/settings_table.h as values: given on the command line or
 // in a `--config` JSON file (one SettingLayer per source), resolved in order (defaults, then each
 // layer: its presets, then its values) with every range and cross check, converted to and from
-// TrainSettings (settings_io.cpp binds each setting to its field), and written as JSON: the object a `--config` file holds, and the training record a
-// model stores (the settings, the input mesh's name and hash, the thread count).
+// TrainSettings (settings_io.cpp binds each setting to its field), and written as JSON: the object
+// a `--config` file holds, and the training record a model stores (the settings, the input mesh's
+// name and hash, the thread count).
 #pragma once
 #include <array>
 #include <cstdint>
@@ -69,10 +70,10 @@ Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingV
 // others (loss_curve) left as they are.
 Status resolve_settings(const std::vector<const SettingLayer*>& layers, TrainSettings& out);
 
-// The checks of a TrainSettings, made in code or read (train_model's first, check_training_inputs):
-// every setting in its range, a choice one of its choices, then the checks resolve_settings makes of
-// the settings together; the messages name the fields in words ("learning rate 0 must be a
-// positive, finite learning rate", "batch size (0) out of range [1, 262144]").
+// The checks of a TrainSettings, made in code or resolved, that train_model makes first
+// (check_training_inputs): every setting in its range, a choice one of its choices, then the checks
+// resolve_settings makes of the settings together; the messages name the fields in words
+// ("learning rate 0 must be a positive, finite learning rate", "batch size (0) out of range [1, 262144]").
 Status check_train_settings(const TrainSettings& settings);
 
 void to_train_settings(const SettingValues& values, TrainSettings& out);
