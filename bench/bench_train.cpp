@@ -97,10 +97,8 @@ int main(int argc, char** argv) {
   }
   for (Recipe& r : recipes) {
     SettingLayer layer;
-    SettingValues values;
     if (Status s = parse_settings_json(r.json, "recipe " + r.name, layer); !s) fail(s.message());
-    if (Status s = resolve_settings({&layer}, values); !s) fail(s.message());
-    to_train_settings(values, r.settings);
+    if (Status s = resolve_settings({&layer}, r.settings); !s) fail(s.message());
   }
   Mesh mesh;
   if (Status s = load_mesh(mesh_path, mesh); !s) fail(s.message());

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iterator>
+#include <type_traits>
 
 #include "lsnif/format/file_io.h"
 #include "lsnif/import/json_text.h"
@@ -16,26 +17,162 @@ namespace {
 
 constexpr uint64_t kMaxConfigFileBytes = 1u << 20;
 
+// How each setting reads and writes its TrainSettings field: `get` puts the field's value into
+// the setting's place of a SettingValues, `set` writes it back from there (reading other settings
+// where the field depends on them). to_train_settings and from_train_settings are one loop over
+// these, in table order (a field set after those it depends on: the levels before the grid's
+// per-level fields). `words` name the field in the messages of check_train_settings.
+struct SettingField {
+  SettingId id;
+  const char* words;
+  void (*get)(const TrainSettings& s, SettingValues& v);
+  void (*set)(const SettingValues& v, TrainSettings& s);
+};
+
+// The field `s .* path...` (settings.config.voxel_resolution: &TrainSettings::config,
+// &Config::voxel_resolution).
+template <auto... path, class Settings>
+auto& member(Settings& s) {
+  return (s .* ... .* path);
+}
+
+// A plain field: a float in SettingValue::f, an unsigned integer or an enum (a Choice's value) in ::u.
+template <SettingId id, auto... path>
+constexpr SettingField field(const char* words) {
+  return {id, words,
+          [](const TrainSettings& s, SettingValues& v) {
+            const auto& f = member<path...>(s);
+            if constexpr (std::is_same_v<std::remove_cvref_t<decltype(f)>, float>) v[id].f = f;
+            else v[id].u = static_cast<uint64_t>(f);
+          },
+          [](const SettingValues& v, TrainSettings& s) {
+            auto& f = member<path...>(s);
+            using T = std::remove_cvref_t<decltype(f)>;
+            if constexpr (std::is_same_v<T, float>) f = v[id].f;
+            else f = static_cast<T>(v[id].u);
+          }};
+}
+
+bool valid_levels(const Config& c) { return c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS; }
+
+constexpr std::array<SettingField, kSettingCount> setting_fields() {
+  using enum SettingId;
+  using T = TrainSettings;
+  return {{
+      field<Voxels, &T::config, &Config::voxel_resolution>("voxel resolution"),
+      field<Points, &T::config, &Config::max_points>("boundary points"),
+      field<Levels, &T::config, &Config::grid_levels>("grid levels"),
+      // The grid's resolutions: the coarsest and the finest level's, every level set from both
+      // (set_grid_resolutions) with the finest.
+      {ResMin, "coarsest grid resolution",
+       [](const T& s, SettingValues& v) { v[ResMin].u = s.config.grid_resolution[0]; },
+       [](const SettingValues&, T&) {}},
+      {ResMax, "finest grid resolution",
+       [](const T& s, SettingValues& v) {
+         const Config& c = s.config;
+         v[ResMax].u = valid_levels(c) ? c.grid_resolution[c.grid_levels - 1] : 0;
+       },
+       [](const SettingValues& v, T& s) {
+         set_grid_resolutions(s.config, static_cast<uint32_t>(v[ResMin].u), static_cast<uint32_t>(v[ResMax].u));
+       }},
+      // One value when every level has the same size.
+      {TableLog2, "table size (log2)",
+       [](const T& s, SettingValues& v) {
+         const Config& c = s.config;
+         if (valid_levels(c)) per_level_value(c.table_log2, c.uniform_table_log2() ? 1 : c.grid_levels, v[TableLog2]);
+       },
+       [](const SettingValues& v, T& s) {
+         const SettingValue& m = v[TableLog2];
+         if (m.level_count) set_table_log2(s.config, m.per_level.data(), m.level_count);
+         else set_table_log2(s.config, static_cast<uint32_t>(m.u));
+       }},
+      field<Features, &T::config, &Config::features>("features per entry"),
+      field<Width, &T::config, &Config::hidden_width>("hidden width"),
+      field<Layers, &T::config, &Config::hidden_layers>("hidden layers"),
+      field<Hit, &T::config, &Config::hit_param>("hit parametrization"),
+      field<LeakySlope, &T::config, &Config::leaky_slope>("leaky slope"),
+      field<GridBits, &T::config, &Config::grid_bits>("grid bits"),
+      // One value when every level is alike; the levels past the config's not indexed.
+      {Indexed, "indexed levels",
+       [](const T& s, SettingValues& v) {
+         const Config& c = s.config;
+         if (!valid_levels(c)) return;
+         uint32_t indexed[LSNIF_MAX_LEVELS] = {};
+         bool uniform = true;
+         for (uint32_t l = 0; l < c.grid_levels; ++l) {
+           indexed[l] = s.indexed[l] ? 1 : 0;
+           uniform = uniform && indexed[l] == indexed[0];
+         }
+         per_level_value(indexed, uniform ? 1 : c.grid_levels, v[Indexed]);
+       },
+       [](const SettingValues& v, T& s) {
+         const SettingValue& ix = v[Indexed];
+         for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l)
+           s.indexed[l] =
+               l < s.config.grid_levels && (ix.level_count ? l < ix.level_count && ix.per_level[l] : ix.u) != 0;
+       }},
+      field<SurfaceMaps, &T::surface_maps>("surface maps"),
+      field<Steps, &T::steps>("steps"),
+      field<Batch, &T::batch_size>("batch size"),
+      field<Seed, &T::seed>("seed"),
+      field<RayReuse, &T::ray_reuse>("ray reuse"),
+      field<Lr, &T::adam, &AdamSettings::learning_rate>("learning rate"),
+      field<LrSchedule, &T::lr_schedule, &LrScheduleSettings::schedule>("learning-rate schedule"),
+      field<LrFinal, &T::lr_schedule, &LrScheduleSettings::final_fraction>(
+          "learning-rate schedule: the final fraction"),
+      field<LrWarm, &T::lr_schedule, &LrScheduleSettings::warm_fraction>("learning-rate schedule: the warm share"),
+      field<AdamBeta1, &T::adam, &AdamSettings::beta1>("Adam beta1"),
+      field<AdamBeta2, &T::adam, &AdamSettings::beta2>("Adam beta2"),
+      field<AdamEpsilon, &T::adam, &AdamSettings::epsilon>("Adam epsilon"),
+      field<NormalLoss, &T::loss_settings, &LossSettings::normal_loss>("normal loss"),
+      field<WOcclusion, &T::loss_settings, &LossSettings::occlusion>("loss weights: occlusion"),
+      field<WDistance, &T::loss_settings, &LossSettings::distance>("loss weights: distance"),
+      field<WNormal, &T::loss_settings, &LossSettings::normal>("loss weights: normal"),
+      field<WAlbedo, &T::loss_settings, &LossSettings::albedo>("loss weights: albedo"),
+      field<WMaterial, &T::loss_settings, &LossSettings::material>("loss weights: material"),
+      field<WSurface, &T::loss_settings, &LossSettings::surface>("loss weights: surface"),
+      field<SurfaceFraction, &T::sampler, &SamplerSettings::surface_fraction>("surface fraction"),
+      field<SphereScale, &T::sampler, &SamplerSettings::sphere_scale>("sphere scale"),
+      field<SurfaceOffset, &T::sampler, &SamplerSettings::surface_offset>("surface offset"),
+      field<GridInitRange, &T::grid_init_range>("grid init range"),
+  }};
+}
+constexpr std::array<SettingField, kSettingCount> kSettingFields = setting_fields();
+
+constexpr bool fields_in_id_order() {
+  for (size_t i = 0; i < kSettingCount; ++i)
+    if (static_cast<size_t>(kSettingFields[i].id) != i) return false;
+  return true;
+}
+static_assert(fields_in_id_order(), "kSettingFields must bind every setting, in SettingId order");
+
 // Where each resolved value came from, for messages: the layer (nullptr: a default or a preset of
 // no layer).
 using Origins = std::array<const SettingLayer*, kSettingCount>;
 
-// "FILE: " when any of `ids` came from a file.
-std::string file_prefix(const Origins& origin, std::initializer_list<SettingId> ids) {
-  for (SettingId id : ids) {
-    const SettingLayer* l = origin[static_cast<size_t>(id)];
-    if (l && !l->file.empty()) return l->file + ": ";
-  }
-  return "";
-}
+// How the checks name the settings in their messages: as given, by the option or the file's key
+// and the file (`origin`: a resolve), or, for a TrainSettings made in code (`origin` nullptr), by
+// their fields' words.
+struct Names {
+  const Origins* origin;
 
-std::string label_of(const Origins& origin, SettingId id) {
-  const SettingLayer* l = origin[static_cast<size_t>(id)];
-  const char* name = setting_def(id).name;
-  if (l) return l->label(name);
-  std::string s = "--";
-  return s += name;
-}
+  std::string label(SettingId id) const {
+    if (!origin) return kSettingFields[static_cast<size_t>(id)].words;
+    const SettingLayer* l = (*origin)[static_cast<size_t>(id)];
+    const char* name = setting_def(id).name;
+    if (l) return l->label(name);
+    std::string s = "--";
+    return s += name;
+  }
+  // "FILE: " when any of `ids` came from a file.
+  std::string file_prefix(std::initializer_list<SettingId> ids) const {
+    for (SettingId id : ids) {
+      const SettingLayer* l = origin ? (*origin)[static_cast<size_t>(id)] : nullptr;
+      if (l && !l->file.empty()) return l->file + ": ";
+    }
+    return "";
+  }
+};
 
 Status apply_layer(const SettingLayer& layer, SettingValues& values, Origins& origin) {
   const std::string prefix = layer.file.empty() ? "" : layer.file + ": ";
@@ -80,36 +217,35 @@ Status apply_layer(const SettingLayer& layer, SettingValues& values, Origins& or
   return Status::ok();
 }
 
-// The checks that involve several settings.
-Status check_together(const SettingValues& v, const Origins& origin) {
+// The checks that involve several settings; `config` is the model config the values give.
+Status check_together(const SettingValues& v, const Config& config, const Names& names) {
   using enum SettingId;
   const auto u32 = [&](SettingId id) { return static_cast<uint32_t>(v[id].u); };
-  const auto label = [&](SettingId id) { return label_of(origin, id); };
+  const auto label = [&](SettingId id) { return names.label(id); };
   if (u32(ResMin) > u32(ResMax))
-    return Status::error("%sneed %s <= %s (got %u, %u)", file_prefix(origin, {ResMin, ResMax}).c_str(),
+    return Status::error("%sneed %s <= %s (got %u, %u)", names.file_prefix({ResMin, ResMax}).c_str(),
                          label(ResMin).c_str(), label(ResMax).c_str(), u32(ResMin), u32(ResMax));
   if (u32(ResMin) % u32(Voxels) || u32(ResMax) % u32(Voxels))
     return Status::error("%s%s %u and %s %u must each be a multiple of the voxel resolution %u (%s; voxel faces "
                          "must lie on grid planes)",
-                         file_prefix(origin, {ResMin, ResMax, Voxels}).c_str(), label(ResMin).c_str(), u32(ResMin),
+                         names.file_prefix({ResMin, ResMax, Voxels}).c_str(), label(ResMin).c_str(), u32(ResMin),
                          label(ResMax).c_str(), u32(ResMax), u32(Voxels), label(Voxels).c_str());
   for (const SettingId id : {TableLog2, Indexed})  // the per-level settings
     if (v[id].level_count != 0 && v[id].level_count != u32(Levels))
       return Status::error("%s%s %s gives %u values for %u levels (%s): give one value for every level or one per "
-                           "level", file_prefix(origin, {id, Levels}).c_str(), label(id).c_str(),
+                           "level", names.file_prefix({id, Levels}).c_str(), label(id).c_str(),
                            setting_text(setting_def(id), v[id]).c_str(), v[id].level_count, u32(Levels),
                            label(Levels).c_str());
   if (u32(RayReuse) > u32(Batch))
-    return Status::error("%s%s %u must be in [1, %s %u]", file_prefix(origin, {RayReuse, Batch}).c_str(),
+    return Status::error("%s%s %u must be in [1, %s %u]", names.file_prefix({RayReuse, Batch}).c_str(),
                          label(RayReuse).c_str(), u32(RayReuse), label(Batch).c_str(), u32(Batch));
   // The surface channels' weight alone trains nothing of the geometry (and nothing at all for a
   // model without them): it does not count here.
   if (!(v[WOcclusion].f + v[WDistance].f + v[WNormal].f + v[WAlbedo].f + v[WMaterial].f > 0.0f))
-    return Status::error("%severy loss weight (w-*) is 0: nothing would be trained",
-                         file_prefix(origin, {WOcclusion, WDistance, WNormal, WAlbedo, WMaterial}).c_str());
-  TrainSettings s;
-  to_train_settings(v, s);
-  if (Status st = s.config.validate(); !st) return st.context("invalid model settings");
+    return Status::error("%severy loss weight%s is 0: nothing would be trained",
+                         names.file_prefix({WOcclusion, WDistance, WNormal, WAlbedo, WMaterial}).c_str(),
+                         names.origin ? " (w-*)" : "");
+  if (Status st = config.validate(); !st) return st.context("invalid model settings");
   return Status::ok();
 }
 
@@ -258,117 +394,36 @@ Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingV
   // The default of the per-level --indexed follows the level count.
   if (!origin[static_cast<size_t>(SettingId::Indexed)])
     v[SettingId::Indexed] = default_indexed_value(static_cast<uint32_t>(v[SettingId::Levels].u));
-  if (Status s = check_together(v, origin); !s) return s;
+  TrainSettings s;
+  to_train_settings(v, s);
+  if (Status st = check_together(v, s.config, Names{&origin}); !st) return st;
   out = v;
   return Status::ok();
 }
 
+Status resolve_settings(const std::vector<const SettingLayer*>& layers, TrainSettings& out) {
+  SettingValues values;
+  if (Status s = resolve_settings(layers, values); !s) return s;
+  to_train_settings(values, out);
+  return Status::ok();
+}
+
 void to_train_settings(const SettingValues& v, TrainSettings& s) {
-  using enum SettingId;
-  const auto u32 = [&](SettingId id) { return static_cast<uint32_t>(v[id].u); };
-  Config& c = s.config;
-  c.voxel_resolution = u32(Voxels);
-  c.max_points = u32(Points);
-  c.grid_levels = u32(Levels);
-  set_grid_resolutions(c, u32(ResMin), u32(ResMax));
-  const SettingValue& m = v[TableLog2];
-  const uint32_t every_level = static_cast<uint32_t>(m.u);
-  if (m.level_count) set_table_log2(c, m.per_level.data(), m.level_count);
-  else set_table_log2(c, every_level);
-  c.features = u32(Features);
-  c.hidden_width = u32(Width);
-  c.hidden_layers = u32(Layers);
-  c.hit_param = static_cast<HitParam>(u32(Hit));
-  c.leaky_slope = v[LeakySlope].f;
-  c.grid_bits = u32(GridBits);
-  const SettingValue& ix = v[Indexed];
-  for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l)
-    s.indexed[l] = l < c.grid_levels && (ix.level_count ? l < ix.level_count && ix.per_level[l] : ix.u) != 0;
-  s.surface_maps = u32(SurfaceMaps);
-  s.steps = u32(Steps);
-  s.batch_size = u32(Batch);
-  s.seed = v[Seed].u;
-  s.ray_reuse = u32(RayReuse);
-  s.adam.learning_rate = v[Lr].f;
-  s.lr_schedule.schedule = static_cast<lsnif::LrSchedule>(u32(LrSchedule));
-  s.lr_schedule.final_fraction = v[LrFinal].f;
-  s.lr_schedule.warm_fraction = v[LrWarm].f;
-  s.adam.beta1 = v[AdamBeta1].f;
-  s.adam.beta2 = v[AdamBeta2].f;
-  s.adam.epsilon = v[AdamEpsilon].f;
-  s.loss_settings.normal_loss = static_cast<lsnif::NormalLoss>(u32(NormalLoss));
-  s.loss_settings.occlusion = v[WOcclusion].f;
-  s.loss_settings.distance = v[WDistance].f;
-  s.loss_settings.normal = v[WNormal].f;
-  s.loss_settings.albedo = v[WAlbedo].f;
-  s.loss_settings.material = v[WMaterial].f;
-  s.loss_settings.surface = v[WSurface].f;
-  s.sampler.surface_fraction = v[SurfaceFraction].f;
-  s.sampler.sphere_scale = v[SphereScale].f;
-  s.sampler.surface_offset = v[SurfaceOffset].f;
-  s.grid_init_range = v[GridInitRange].f;
+  for (const SettingField& f : kSettingFields) f.set(v, s);
 }
 
 Status preset_train_settings(const Preset& p, TrainSettings& out) {
   SettingLayer layer;
   layer.presets.push_back(&p);
-  SettingValues values;
-  if (Status s = resolve_settings({&layer}, values); !s) return s;
   TrainSettings settings;
-  to_train_settings(values, settings);
+  if (Status s = resolve_settings({&layer}, settings); !s) return s;
   out = settings;
   return Status::ok();
 }
 
 SettingValues from_train_settings(const TrainSettings& s) {
-  using enum SettingId;
   SettingValues v;
-  const Config& c = s.config;
-  v[Voxels].u = c.voxel_resolution;
-  v[Points].u = c.max_points;
-  v[Levels].u = c.grid_levels;
-  v[ResMin].u = c.grid_resolution[0];
-  v[ResMax].u = c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS ? c.grid_resolution[c.grid_levels - 1] : 0;
-  if (c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS)
-    per_level_value(c.table_log2, c.uniform_table_log2() ? 1 : c.grid_levels, v[TableLog2]);
-  v[Features].u = c.features;
-  v[Width].u = c.hidden_width;
-  v[Layers].u = c.hidden_layers;
-  v[Hit].u = static_cast<uint32_t>(c.hit_param);
-  v[LeakySlope].f = c.leaky_slope;
-  v[GridBits].u = c.grid_bits;
-  if (c.grid_levels >= 1 && c.grid_levels <= LSNIF_MAX_LEVELS) {
-    uint32_t indexed[LSNIF_MAX_LEVELS] = {};
-    bool uniform = true;
-    for (uint32_t l = 0; l < c.grid_levels; ++l) {
-      indexed[l] = s.indexed[l] ? 1 : 0;
-      uniform = uniform && indexed[l] == indexed[0];
-    }
-    per_level_value(indexed, uniform ? 1 : c.grid_levels, v[Indexed]);
-  }
-  v[SurfaceMaps].u = s.surface_maps;
-  v[Steps].u = s.steps;
-  v[Batch].u = s.batch_size;
-  v[Seed].u = s.seed;
-  v[RayReuse].u = s.ray_reuse;
-  v[Lr].f = s.adam.learning_rate;
-  v[LrSchedule].u = static_cast<uint32_t>(s.lr_schedule.schedule);
-  v[LrFinal].f = s.lr_schedule.final_fraction;
-  v[LrWarm].f = s.lr_schedule.warm_fraction;
-  v[AdamBeta1].f = s.adam.beta1;
-  v[AdamBeta2].f = s.adam.beta2;
-  v[AdamEpsilon].f = s.adam.epsilon;
-  v[NormalLoss].u = static_cast<uint32_t>(s.loss_settings.normal_loss);
-  v[WOcclusion].f = s.loss_settings.occlusion;
-  v[WDistance].f = s.loss_settings.distance;
-  v[WNormal].f = s.loss_settings.normal;
-  v[WAlbedo].f = s.loss_settings.albedo;
-  v[WMaterial].f = s.loss_settings.material;
-  v[WSurface].f = s.loss_settings.surface;
-  v[SurfaceFraction].f = s.sampler.surface_fraction;
-  v[SphereScale].f = s.sampler.sphere_scale;
-  v[SurfaceOffset].f = s.sampler.surface_offset;
-  v[GridInitRange].f = s.grid_init_range;
+  for (const SettingField& f : kSettingFields) f.get(s, v);
   return v;
 }
 
@@ -389,6 +444,32 @@ nlohmann::ordered_json settings_to_json(const SettingValues& values) {
     }
   }
   return j;
+}
+
+Status check_train_settings(const TrainSettings& settings) {
+  const SettingValues v = from_train_settings(settings);
+  const Names names{nullptr};
+  for (const SettingDef& d : kSettingDefs) {
+    const SettingValue& x = v[d.id];
+    const std::string words = names.label(d.id);
+    if (d.kind == SettingKind::Choice) {
+      bool known = false;
+      for (uint32_t c = 0; c < d.choice_count; ++c) known |= d.choices[c].value == x.u;
+      if (!known) return Status::error("unknown %s %llu", words.c_str(), (unsigned long long)x.u);
+    } else if (d.kind == SettingKind::U32) {
+      // The count in parentheses after the field's words: "batch size (0) out of range [1, 262144]".
+      if (double(x.u) < d.min || double(x.u) > d.max)
+        return Status::error("%s (%llu) out of range [%u, %u]", words.c_str(), (unsigned long long)x.u,
+                             uint32_t(d.min), uint32_t(d.max));
+    } else if (Status s = check_setting_range(d, x, words); !s) {
+      return s;
+    }
+  }
+  return check_together(v, settings.config, names);
+}
+
+nlohmann::ordered_json settings_to_json(const TrainSettings& settings) {
+  return settings_to_json(from_train_settings(settings));
 }
 
 uint64_t fnv1a64(std::string_view bytes) {
@@ -450,7 +531,7 @@ bool recorded_normal_maps(const std::string& record) {
 std::string training_record(const TrainSettings& settings, const Mesh& mesh, const std::string& mesh_name,
                             int threads) {
   nlohmann::ordered_json j;
-  j["settings"] = settings_to_json(from_train_settings(settings));
+  j["settings"] = settings_to_json(settings);
   j["mesh"] = {{"name", clean_utf8(mesh_name, 1024)},
                {"triangles", mesh.triangles.size()},
                {"hash", recorded_mesh_hash(mesh_hash(mesh))}};
@@ -468,7 +549,7 @@ std::string training_record_difference(const std::string& record, const TrainSet
     return "its training record holds no settings";
   const nlohmann::json& recorded = j["settings"];
   // Compared as parsed JSON values: the record's text and this dump read back the same way.
-  const nlohmann::json wanted = nlohmann::json::parse(settings_to_json(from_train_settings(settings)).dump());
+  const nlohmann::json wanted = nlohmann::json::parse(settings_to_json(settings).dump());
   for (const auto& [key, value] : wanted.items()) {
     if (!recorded.contains(key)) return format("it records no %s (the settings give %s)", key.c_str(), value.dump().c_str());
     if (recorded[key] != value)

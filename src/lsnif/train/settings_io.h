@@ -1,8 +1,9 @@
 // settings_io.h -- the settings of src/lsnif/format/settings_table.h as values: given on the command line or
 // in a `--config` JSON file (one SettingLayer per source), resolved in order (defaults, then each
 // layer: its presets, then its values) with every range and cross check, converted to and from
-// TrainSettings, and written as JSON: the object a `--config` file holds, and the training record a
-// model stores (the settings, the input mesh's name and hash, the thread count).
+// TrainSettings (settings_io.cpp binds each setting to its field), and written as JSON: the object
+// a `--config` file holds, and the training record a model stores (the settings, the input mesh's
+// name and hash, the thread count).
 #pragma once
 #include <array>
 #include <cstdint>
@@ -65,6 +66,15 @@ Status parse_settings_json(std::string_view text, const std::string& file, Setti
 // resolutions multiples of the voxel resolution, ray reuse up to the batch, a weight above 0, the
 // model config). Errors name the option or key as given, and the file.
 Status resolve_settings(const std::vector<const SettingLayer*>& layers, SettingValues& out);
+// The same, as the TrainSettings the values give: every field of the table set in `out`, the
+// others (loss_curve) left as they are.
+Status resolve_settings(const std::vector<const SettingLayer*>& layers, TrainSettings& out);
+
+// The checks of a TrainSettings, made in code or resolved, that train_model makes first
+// (check_training_inputs): every setting in its range, a choice one of its choices, then the checks
+// resolve_settings makes of the settings together; the messages name the fields in words
+// ("learning rate 0 must be a positive, finite learning rate", "batch size (0) out of range [1, 262144]").
+Status check_train_settings(const TrainSettings& settings);
 
 void to_train_settings(const SettingValues& values, TrainSettings& out);
 // The settings preset `p` alone gives (`lsnif train --tiny` less the command's loss curve): the
@@ -75,8 +85,11 @@ Status preset_train_settings(const Preset& p, TrainSettings& out);
 SettingValues from_train_settings(const TrainSettings& settings);
 
 // The settings as a JSON object in table order, the form a `--config` file takes; floats written as
-// the shortest decimal that reads back as the same float.
+// the shortest decimal that reads back as the same float. Of a TrainSettings: the values
+// from_train_settings gives (what a model's training record, a converted model's sidecar and the
+// caches' keys hold).
 nlohmann::ordered_json settings_to_json(const SettingValues& values);
+nlohmann::ordered_json settings_to_json(const TrainSettings& settings);
 
 // 64-bit FNV-1a of `bytes`.
 uint64_t fnv1a64(std::string_view bytes);

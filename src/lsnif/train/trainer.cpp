@@ -12,6 +12,7 @@
 
 #include "lsnif/core/grid_usage.h"
 #include "lsnif/train/ground_truth.h"
+#include "lsnif/train/settings_io.h"
 #include "lsnif/core/hash_grid.h"
 #include "lsnif/core/head.h"
 #include "lsnif/core/network.h"
@@ -49,27 +50,9 @@ Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Co
                            LSNIF_MAX_EMISSION_SCALE);
     config.emission_scale = emission;
   }
+  if (Status s = check_train_settings(settings); !s) return s;
+  // The config with the mesh's materials and surface channels.
   if (Status s = config.validate(); !s) return s.context("training config");
-  if (settings.batch_size < 1 || settings.steps < 1)
-    return Status::error("steps (%u) and batch size (%u) must be at least 1", settings.steps,
-                         settings.batch_size);
-  if (settings.ray_reuse < 1 || settings.ray_reuse > settings.batch_size)
-    return Status::error("ray reuse %u must be in [1, batch size %u]", settings.ray_reuse,
-                         settings.batch_size);
-  if (!(settings.adam.learning_rate > 0.0f) || !std::isfinite(settings.adam.learning_rate))
-    return Status::error("learning rate %g must be positive and finite", double(settings.adam.learning_rate));
-  const LrScheduleSettings& ls = settings.lr_schedule;
-  if (uint32_t(ls.schedule) > uint32_t(LrSchedule::Cosine))
-    return Status::error("unknown learning-rate schedule %u", uint32_t(ls.schedule));
-  if (!(ls.final_fraction > 0.0f && ls.final_fraction <= 1.0f) || !(ls.warm_fraction >= 0.0f && ls.warm_fraction < 1.0f))
-    return Status::error("learning-rate schedule: the final fraction %g must be in (0, 1] and the warm share %g in "
-                         "[0, 1)", double(ls.final_fraction), double(ls.warm_fraction));
-  const LossSettings& w = settings.loss_settings;
-  for (float weight : {w.occlusion, w.distance, w.normal, w.albedo, w.material, w.surface})
-    if (!(weight >= 0.0f) || !std::isfinite(weight))
-      return Status::error("loss weights must be finite and >= 0 (%s)", w.describe().c_str());
-  if (!(w.occlusion + w.distance + w.normal + w.albedo + w.material > 0.0f))  // w.surface alone: see settings_io
-    return Status::error("every loss weight is 0: nothing would be trained");
   return Status::ok();
 }
 

@@ -60,9 +60,9 @@ bool learns_surface_channels(const Mesh& mesh, uint32_t surface_maps);
 inline bool bakes_normal_maps(uint32_t surface_maps) { return surface_maps != kSurfaceMapsOff; }
 
 // Checks the mesh and the settings before any work, as train_model does first (a dry run or a plan
-// refuses what training would): materials, the emission the surface channels can learn, the config,
-// steps, batch, reuse, learning rate and schedule. `config` receives settings.config with the mesh's
-// material count and surface channels.
+// refuses what training would): materials, the emission the surface channels can learn, the settings
+// (check_train_settings, settings_io.h), and the config with the mesh's material count and surface
+// channels, which `config` receives.
 Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Config& config);
 
 // The layout training `mesh` with `settings` starts from: the mesh's voxels (in its padded bounds)

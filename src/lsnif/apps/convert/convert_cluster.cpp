@@ -78,7 +78,7 @@ Status write_job(const ConvertSettings& settings, const Plan& plan, const ModelR
   if (Status s = load_mesh(mesh_file, back); !s) return s;
   if (mesh_hash(back) != r.mesh_hash)
     return Status::error("%s does not read back as the planned mesh (another program changed it?)", mesh_file.c_str());
-  const std::string config = settings_to_json(from_train_settings(settings.train)).dump(2) + "\n";
+  const std::string config = settings_to_json(settings.train).dump(2) + "\n";
   if (Status s = write_file_atomic((dir / job.settings).string(), config); !s) return s;
   nlohmann::ordered_json j;
   j["hash"] = r.hash;
@@ -240,7 +240,7 @@ Status write_job_plan(const ConvertSettings& settings, const Plan& plan, const s
   manifest["version"] = kPlanVersion;
   manifest["input"] = fs::absolute(settings.input, ec).lexically_normal().string();
   manifest["output"] = fs::absolute(settings.output, ec).lexically_normal().string();
-  manifest["settings"] = settings_to_json(from_train_settings(settings.train));
+  manifest["settings"] = settings_to_json(settings.train);
   manifest["program"] = program;
   manifest["jobs"] = nlohmann::ordered_json::array();
   for (const Job& job : jobs) {

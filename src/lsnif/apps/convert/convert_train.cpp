@@ -63,7 +63,7 @@ Status write_sidecar(const std::string& path, const PlannedModel& m, const Model
   j["name"] = m.name;
   j["triangles"] = r.mesh.triangles.size();
   j["materials"] = r.mesh.materials.size();
-  j["settings"] = settings_to_json(from_train_settings(train));
+  j["settings"] = settings_to_json(train);
   if (r.evaluated)
     j["eval"] = {{"rays", r.metrics.rays},
                  {"accuracy", r.metrics.accuracy},
@@ -186,7 +186,7 @@ std::string object_label(const Plan& plan, const PlannedModel& m) {
 std::string content_hash(uint64_t mesh_hash, const TrainSettings& train) {
   // The mesh's hash and every training setting (settings_io.h), hashed together.
   const std::string key = format("lsnif-convert-2 %016llx ", (unsigned long long)mesh_hash) +
-                          settings_to_json(from_train_settings(train)).dump();
+                          settings_to_json(train).dump();
   return format("%016llx", (unsigned long long)fnv1a64(key));
 }
 

@@ -391,12 +391,10 @@ std::string prepared_model_problem(const BenchObject& o, const std::string& pres
   if (key.compare(at, settings_tag.size(), settings_tag) != 0 || key.empty() || key.back() != '\n')
     return "its key holds no settings line";
   SettingLayer layer;
-  SettingValues values;
+  TrainSettings claimed;
   const std::string settings = key.substr(at + settings_tag.size(), key.size() - 1 - at - settings_tag.size());
   if (Status s = parse_settings_json(settings, key_path, layer); !s) return s.message();
-  if (Status s = resolve_settings({&layer}, values); !s) return s.message();
-  TrainSettings claimed;
-  to_train_settings(values, claimed);
+  if (Status s = resolve_settings({&layer}, claimed); !s) return s.message();
   std::vector<uint8_t> bytes;
   ModelFileView view;
   if (Status s = read_model_file(from.string(), bytes); !s) return s.message();

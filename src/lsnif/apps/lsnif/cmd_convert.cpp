@@ -54,8 +54,7 @@ int cmd_convert(int argc, char** argv) {
   convert::ConvertSettings cs;
   TrainOptions opts;
   std::string group_help;  // shown in --help only; the values are taken by take_groups
-  uint64_t min_triangles = cs.min_triangles;
-  uint32_t jobs = cs.jobs, eval_rays = cs.eval_rays;
+  // Args reads floats: the margin as given, widened to the settings' double after parsing.
   float margin = float(cs.memory_margin);
   bool blas_on_device = false;
   std::string device;
@@ -90,13 +89,13 @@ int cmd_convert(int argc, char** argv) {
   args.option("min-triangles",
               "meshes with fewer triangles stay triangle meshes (the rule of --convert-when triangles, a lower bound "
               "under memory)",
-              &min_triangles, 0, UINT64_MAX);
+              &cs.min_triangles, 0, UINT64_MAX);
   args.option("select", "convert only nodes whose node or mesh name matches this regex (RE2 syntax)", &cs.select);
   args.option("exclude", "never convert nodes whose node or mesh name matches this regex", &cs.exclude);
   args.option("group", "NAME=REGEX: one model for all selected nodes whose name matches (repeatable)", &group_help);
-  args.option("jobs", "models trained at the same time", &jobs, 1, kMaxConvertJobs);
-  args.option("eval-rays", "held-out rays to measure each trained model for the report (0 = none)", &eval_rays, 0,
-              kMaxEvalRays);
+  args.option("jobs", "models trained at the same time", &cs.jobs, 1, kMaxConvertJobs);
+  args.option("eval-rays", "held-out rays to measure each trained model for the report (0 = none)", &cs.eval_rays,
+              0, kMaxEvalRays);
   args.flag("keep-meshes", "keep the converted nodes' triangles (needed by `lsnif render --reference`)",
             &cs.keep_meshes);
   args.flag("dry-run", "print the plan (models, instances, memory) without training or writing", &cs.dry_run);
@@ -118,7 +117,6 @@ int cmd_convert(int argc, char** argv) {
   if (!opts.to_settings(cs.train)) return 2;
   if (opts.threads) omp_set_num_threads(int(opts.threads));
   cs.output = opts.output;
-  cs.min_triangles = min_triangles;
   cs.memory_margin = double(margin);
   if (!device.empty() && !blas_on_device) {
     std::fprintf(stderr, "lsnif convert: --device is the device of --blas-size device; add that option\n");
@@ -136,8 +134,6 @@ int cmd_convert(int argc, char** argv) {
     }
     cs.blas = blas_device.sizer();
   }
-  cs.jobs = jobs;
-  cs.eval_rays = eval_rays;
   cs.progress = !opts.quiet;
   cs.import_options = opts.import_options;
   convert::ConvertResult result;

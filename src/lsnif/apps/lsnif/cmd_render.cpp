@@ -19,8 +19,13 @@ namespace lsnif::cli {
 int cmd_render(int argc, char** argv) {
   std::string output = "render.png", device, broad_phase_name = "auto";
   PathOptions path;
-  uint32_t width = 640, height = 480, spp = 64, bounces = 4;
-  bool reference = false, validation = false, stage_times = false;
+  bool validation = false;
+  // The options bind to the render's settings; `lsnif render` makes a larger, cleaner image than
+  // the renderer's default (render_defaults.h: the image of `lsnif demo` and the benchmarks).
+  render::RenderSettings settings;
+  settings.width = 640;
+  settings.height = 480;
+  settings.spp = 64;
   SceneArgs sa;
   Args args("render",
             "Path traces a glTF scene on the Vulkan device: nodes with an LSNIF object (the scene's "
@@ -31,26 +36,25 @@ int cmd_render(int argc, char** argv) {
   sa.add_to(args);
   args.option("output", "output image (.exr, .hdr, .png)", &output);
   args.alias("-o", "output");
-  args.flag("reference", "trace LSNIF nodes as their triangle meshes", &reference);
-  args.option("width", "image width", &width, 1, kMaxImageSide);
-  args.option("height", "image height", &height, 1, kMaxImageSide);
-  args.option("spp", "samples per pixel", &spp, 1, kMaxSpp);
-  args.option("bounces", "bounces after the camera ray (the paper's 4)", &bounces, 0, kMaxBounces);
+  args.flag("reference", "trace LSNIF nodes as their triangle meshes", &settings.reference);
+  args.option("width", "image width", &settings.width, 1, kMaxImageSide);
+  args.option("height", "image height", &settings.height, 1, kMaxImageSide);
+  args.option("spp", "samples per pixel", &settings.spp, 1, kMaxSpp);
+  args.option("bounces", "bounces after the camera ray (the paper's 4)", &settings.max_bounces, 0, kMaxBounces);
   add_pipeline_option(args, &path.pipeline);
   add_broad_phase_option(args, &broad_phase_name);
   args.flag("stage-times", "with --pipeline wavefront: time its stages on the device (timestamps) and report them",
-            &stage_times);
+            &settings.stage_times);
   add_primary_option(args, &path.primary);
   args.flag("validation", "enable the Khronos validation layer (slow; exit 1 on any message)", &validation);
   add_device_option(args, &device);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
   if (!check_path_options("render", path)) return 2;
-  if (stage_times && path.pipeline == "inline") {
+  if (settings.stage_times && path.pipeline == "inline") {
     std::fprintf(stderr, "lsnif render: --stage-times needs the wavefront pipeline (the inline pipeline is one launch)\n");
     return 2;
   }
-  render::BroadPhase broad_phase;
-  if (!parse_broad_phase_option("render", broad_phase_name, broad_phase)) return 2;
+  if (!parse_broad_phase_option("render", broad_phase_name, settings.broad_phase)) return 2;
 
   // The image's place and format are checked before the render, not after it.
   if (int r = sa.check_output("render", "-o", output)) return r;
@@ -69,30 +73,22 @@ int cmd_render(int argc, char** argv) {
     return 1;
   }
   render::RenderChoice choice;
-  if (!resolve_path_options("render", path, ctx, scene, reference, uint64_t(width) * height, choice)) return 1;
-  if (stage_times && choice.pipeline != render::PathPipeline::wavefront) {
+  if (!resolve_path_options("render", path, ctx, scene, settings.reference,
+                            uint64_t(settings.width) * settings.height, choice))
+    return 1;
+  if (settings.stage_times && choice.pipeline != render::PathPipeline::wavefront) {
     std::fprintf(stderr, "lsnif render: --stage-times needs the wavefront pipeline, and the choice is %s (%s)\n",
                  render::pipeline_name(choice.pipeline), choice.why.c_str());
     return 2;
   }
-  const render::PathPipeline pipeline = choice.pipeline;
-  const render::PrimaryVisibility primary = choice.primary;
-  render::RenderSettings settings;
-  settings.width = width;
-  settings.height = height;
-  settings.spp = spp;
-  settings.max_bounces = bounces;
-  settings.reference = reference;
-  settings.pipeline = pipeline;
-  settings.broad_phase = broad_phase;
-  settings.stage_times = stage_times;
-  settings.primary = primary;
+  settings.pipeline = choice.pipeline;
+  settings.primary = choice.primary;
   settings.camera = sa.camera_index();
   settings.environment = environment.width ? &environment : nullptr;
   render::Renderer renderer(ctx);
   image::Image out;
   render::RenderStats stats;
-  ProgressBar bar(reference ? "render (reference)" : "render (LSNIF)", spp);
+  ProgressBar bar(settings.reference ? "render (reference)" : "render (LSNIF)", settings.spp);
   const Status s = renderer.render(scene, settings, out, stats, [&](uint32_t done) { bar.update(done); });
   if (!s) {
     std::fprintf(stderr, "\nlsnif render: %s\n", s.message().c_str());
@@ -104,12 +100,14 @@ int cmd_render(int argc, char** argv) {
     return 1;
   }
   std::printf("scene            %s (%s mode, %s pipeline, %s primary)\n", sa.scene_path.c_str(),
-              reference ? "reference" : "LSNIF", render::pipeline_name(pipeline), render::primary_name(primary));
+              settings.reference ? "reference" : "LSNIF", render::pipeline_name(settings.pipeline),
+              render::primary_name(settings.primary));
   std::printf("pipeline choice  %s\n", choice.why.c_str());
   std::printf("device           %s\n", ctx.device_name().c_str());
-  if (pipeline == render::PathPipeline::wavefront)
+  if (settings.pipeline == render::PathPipeline::wavefront)
     std::printf("broad phase      %s (lsnifCmdQuery)\n", render::broad_phase_name(stats.broad_phase));
-  std::printf("image            %s, %ux%u, %u spp, %u bounces\n", output.c_str(), width, height, spp, bounces);
+  std::printf("image            %s, %ux%u, %u spp, %u bounces\n", output.c_str(), settings.width, settings.height,
+              settings.spp, settings.max_bounces);
   std::printf("time             %.2f s, %.2f ms per sample (%.3g s per frame of 1 spp)\n", stats.seconds,
               stats.ms_per_sample, stats.ms_per_sample / 1000.0);
   if (stats.has_stages)

@@ -16,7 +16,7 @@ int train_or_reuse(const char* command, const Mesh& mesh, const std::string& fin
   TrainSettings ts;
   if (!opts.to_settings(ts)) return 2;
   const std::string key =
-      model_key_head(fingerprint, quality) + "settings " + settings_to_json(from_train_settings(ts)).dump() + "\n";
+      model_key_head(fingerprint, quality) + "settings " + settings_to_json(ts).dump() + "\n";
   if (!retrain && scene::check_lsnif_file(opts.output) && file_holds(key_path, key)) {
     out.reused = true;
     std::printf("model     reusing %s (same mesh and settings; --retrain trains it again)\n", opts.output.c_str());

@@ -166,12 +166,10 @@ bool TrainOptions::to_settings(TrainSettings& s) const {
     layers.push_back(&file);
   }
   layers.push_back(&command_line);
-  SettingValues values;
-  if (Status st = resolve_settings(layers, values); !st) {
+  if (Status st = resolve_settings(layers, s); !st) {
     std::fprintf(stderr, "lsnif: %s\n", st.message().c_str());
     return false;
   }
-  to_train_settings(values, s);
   s.loss_curve = true;
   return true;
 }
