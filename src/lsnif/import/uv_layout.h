@@ -1,0 +1,35 @@
+// uv_layout.h -- what a material's texture-coordinate layout looks like, measured on the mesh:
+// its charts and seams, mirrored pieces, texels covered more than once, coordinates outside
+// [0, 1] (tiling). A model that learns where to sample a texture (instead of the texture's colours)
+// must land on the right side of every seam and cannot tell overlapping pieces apart; this is what
+// decides whether a material's layout allows that, and names what does not. Part of lsnif_import.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include <glm/glm.hpp>
+
+#include "lsnif/import/mesh.h"
+
+namespace lsnif {
+
+struct UvLayout {
+  uint32_t triangles = 0;       // of the material, with uvs
+  uint32_t charts = 0;          // pieces connected across edges whose two sides have the same uvs
+  uint32_t seam_edges = 0;      // edges of the surface (welded by position) whose sides' uvs differ
+  uint32_t mirrored_triangles = 0;  // uv winding opposite to the material's majority
+  double overlap_fraction = 0;  // of the covered uv area, the share covered more than once
+  bool tiling = false;          // a coordinate outside [0, 1]
+  glm::vec2 uv_min{0.0f}, uv_max{0.0f};
+  // "3 charts, 12 seam edges, 0 mirrored, 0.0% overlap, in [0, 1]"
+  std::string describe() const;
+};
+
+// The layout of the triangles of `material` (Mesh::triangle_material) that have uvs; an empty
+// layout (triangles 0) when the mesh has none. Positions are welded within `weld` times the mesh's
+// bounding-box diagonal, uvs compared within `uv_tolerance`; overlap is measured on a
+// `grid` x `grid` raster of the uv bounding box (cell centres covered by two or more triangles).
+UvLayout analyze_uv_layout(const Mesh& mesh, uint32_t material, float weld = 1e-6f, float uv_tolerance = 1e-5f,
+                           uint32_t grid = 256);
+
+}  // namespace lsnif
