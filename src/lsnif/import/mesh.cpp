@@ -117,6 +117,10 @@ bool interpolated_uv(const Mesh& mesh, const glm::uvec3& t, float u, float v, gl
 
 }  // namespace
 
+bool Mesh::uv_at(uint32_t triangle, float u, float v, glm::vec2& uv) const {
+  return triangle < triangles.size() && interpolated_uv(*this, triangles[triangle], u, v, uv);
+}
+
 glm::vec3 Texture::sample(glm::vec2 uv, bool srgb) const {
   if (width == 0 || height == 0 || rgba.size() < size_t(width) * height * 4) return glm::vec3(1.0f);
   const Footprint f = footprint(uv, width, height);

@@ -139,6 +139,9 @@ struct Mesh {
   SurfaceSample surface(uint32_t triangle, float u, float v) const;
   // The largest emission component any point of the surface can have (factor x texture <= factor).
   float max_emission() const;
+  // The texture coordinate at barycentrics (u, v) of `triangle` (where its textures are read, before
+  // a material's uv transform); false, `uv` untouched, when the mesh has no uvs.
+  bool uv_at(uint32_t triangle, float u, float v, glm::vec2& uv) const;
   // Interpolated shading normal (normalized) at a hit; falls back to the face normal if the
   // interpolated one degenerates.
   glm::vec3 shading_normal(uint32_t triangle, float u, float v) const;

@@ -183,6 +183,7 @@ ReferenceHit GroundTruth::trace(const Ray& ray) const {
   result.material = mesh.triangle_material[prim];
   result.normal = mesh.shading_normal(prim, rh.hit.u, rh.hit.v);
   result.surface = mesh.surface(prim, rh.hit.u, rh.hit.v);
+  mesh.uv_at(prim, rh.hit.u, rh.hit.v, result.uv);
   result.albedo = result.surface.albedo;
   // Face normal as wound (counter-clockwise p0, p1, p2 seen from its front), independent of
   // Embree's Ng convention. A sliver too thin for float falls back to the shading normal.

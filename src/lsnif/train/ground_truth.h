@@ -17,6 +17,7 @@ struct ReferenceHit {
   glm::vec3 geometric_normal{0.0f};  // face normal, normalized, as wound
   glm::vec3 albedo{0.0f};            // Mesh::albedo at the hit
   SurfaceSample surface;             // Mesh::surface at the hit (its albedo == albedo)
+  glm::vec2 uv{0.0f};                // Mesh::uv_at the hit: where its textures are read (0 without uvs)
   uint32_t material = 0;
   uint32_t triangle = 0;
 };

@@ -92,6 +92,8 @@ Mesh make_icosphere(int levels) {
   for (const glm::vec3& p : m.positions) {
     m.normals.push_back(p);
     m.colors.push_back(0.5f * (p + 1.0f));
+    // Longitude and latitude: a layout with one seam meridian (a soup: each corner its own uv).
+    m.uvs.push_back({std::atan2(p.z, p.x) / 6.2831853f + 0.5f, std::asin(std::clamp(p.y, -1.0f, 1.0f)) / 3.1415927f + 0.5f});
   }
   m.materials = {{"red", {1.0f, 0.2f, 0.2f}, -1}, {"green", {0.2f, 1.0f, 0.2f}, -1},
                  {"blue", {0.2f, 0.2f, 1.0f}, -1}};
@@ -174,6 +176,15 @@ void compare_with_brute_force(const Mesh& mesh, const GroundTruth& truth, const 
     EXPECT_NEAR(glm::distance(e.albedo, al), 0.0f, 2e-3f);
     EXPECT_NEAR(glm::distance(e.geometric_normal, face_normal(mesh, e.triangle)), 0.0f, 1e-5f);
     EXPECT_EQ(e.material, mesh.triangle_material[e.triangle]);
+    // The uv: the corners' uvs at the brute-force barycentrics, in double.
+    if (!mesh.uvs.empty()) {
+      const glm::uvec3 c = mesh.triangles[e.triangle];
+      const glm::dvec2 uv = (1.0 - bf.u - bf.v) * glm::dvec2(mesh.uvs[c.x]) + bf.u * glm::dvec2(mesh.uvs[c.y]) +
+                            bf.v * glm::dvec2(mesh.uvs[c.z]);
+      EXPECT_NEAR(glm::distance(glm::dvec2(e.uv), uv), 0.0, 1e-4);
+    } else {
+      EXPECT_EQ(e.uv, glm::vec2(0.0f));
+    }
   }
 }
 
