@@ -152,13 +152,13 @@ LSNIF_API LsnifResult lsnifEnableDeviceFeaturesInCreateInfo(VkDeviceCreateInfo* 
                                                             LsnifDeviceFeatureStorage* pStorage);
 
 /* One feature LSNIF needs, as data (lsnifGetRequiredDeviceFeatures), for a framework that enables
- * features its own way: the VkBool32 at byte `offset` of the struct `structName` of type `sType`
- * is set to VK_TRUE. A member of VkPhysicalDeviceFeatures (shaderInt64) has sType
- * VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2 and its offset within VkPhysicalDeviceFeatures: it
- * is enabled in VkPhysicalDeviceFeatures2::features or in VkDeviceCreateInfo::pEnabledFeatures.
- * `alternativeSType` / `alternativeStructName` / `alternativeOffset` name another struct that holds
- * the same feature (VkPhysicalDeviceBufferDeviceAddressFeatures beside
- * VkPhysicalDeviceVulkan12Features), or VK_STRUCTURE_TYPE_MAX_ENUM / NULL / 0 when there is none. */
+ * features its own way: the VkBool32 at byte `offset` of the struct `structName`, of type `sType`,
+ * is set to VK_TRUE. `alternativeStructName` (NULL: none) names another struct that holds the same
+ * feature, the VkBool32 at byte `alternativeOffset` of it: one of type `alternativeSType`
+ * (VkPhysicalDeviceBufferDeviceAddressFeatures beside VkPhysicalDeviceVulkan12Features), or, with
+ * alternativeSType VK_STRUCTURE_TYPE_MAX_ENUM, a struct without sType (shaderInt64: in
+ * VkPhysicalDeviceFeatures2, or in the VkPhysicalDeviceFeatures of
+ * VkDeviceCreateInfo::pEnabledFeatures). */
 typedef struct LsnifFeatureRequirement {
   VkStructureType sType;
   const char* structName;
@@ -173,16 +173,17 @@ typedef struct LsnifFeatureRequirement {
  * accelerationStructure, rayTracingPipeline, each with the struct and member that hold it. The
  * optional paths' features (rayQuery, rayTraversalPrimitiveCulling, cooperativeMatrix,
  * shaderFloat16) are not listed: LsnifDeviceSupport says which a device offers. */
-LSNIF_API const LsnifFeatureRequirement* lsnifGetRequiredDeviceFeatures(uint32_t* pCount);
+LSNIF_API const LsnifFeatureRequirement* lsnifGetRequiredDeviceFeatures(uint32_t* pCount);  /* pCount may be NULL */
 
 /* For a framework that keeps the core features in a VkPhysicalDeviceFeatures
  * (VkDeviceCreateInfo::pEnabledFeatures) and the other feature structs in a chain without a
  * VkPhysicalDeviceFeatures2: sets shaderInt64 in *pCoreFeatures and the rest of what LSNIF needs in
  * the structs of pFeatureChain, as lsnifEnableDeviceFeatures does. Fails
  * (LSNIF_ERROR_INVALID_ARGUMENT) naming each struct the chain lacks (what was found is still set),
- * on a null argument, on a chain that holds a VkPhysicalDeviceFeatures2 (Vulkan allows the core
- * features in one place: use lsnifEnableDeviceFeatures) and on a chain that loops, has more than 256
- * structures or a struct LSNIF reads twice (nothing written). */
+ * on a null argument, on a chain that reaches core features itself (a VkPhysicalDeviceFeatures2, or
+ * a VkDeviceCreateInfo whose pEnabledFeatures is set: Vulkan allows the core features in one place,
+ * use lsnifEnableDeviceFeatures) and on a chain that loops, has more than 256 structures or a struct
+ * LSNIF reads twice (nothing written). */
 LSNIF_API LsnifResult lsnifEnableDeviceFeaturesWithCore(VkPhysicalDeviceFeatures* pCoreFeatures, void* pFeatureChain);
 
 /* What a physical device offers, for LSNIF. */
@@ -277,7 +278,7 @@ typedef struct LsnifContextCreateInfo {
  * LSNIF_ERROR_INVALID_ARGUMENT on a null handle or function pointer, a pEnabledFeatures chain that
  * loops, has more than 256 structures, a struct LSNIF reads twice or a VkPhysicalDeviceFeatures2
  * beside pEnabledFeatures, a pNext that is not one LsnifContextCoreFeaturesInfo (with a
- * pEnabledFeatures chain holding no VkPhysicalDeviceFeatures2), or when the device's functions of VK_KHR_acceleration_structure cannot
+ * pEnabledFeatures chain that reaches no core features itself), or when the device's functions of VK_KHR_acceleration_structure cannot
  * be loaded (the extension was not enabled). */
 LSNIF_API LsnifResult lsnifCreateContext(const LsnifContextCreateInfo* pCreateInfo, LsnifContext* pContext);
 

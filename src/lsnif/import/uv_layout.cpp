@@ -49,10 +49,15 @@ UvLayout analyze_uv_layout(const Mesh& mesh, uint32_t material, float weld, floa
 
   // Welded position ids: positions on one cell of a grid `weld` x the diagonal apart are one point.
   const Aabb box = mesh.bounds();
-  const float cell = std::max(weld * glm::length(box.hi - box.lo), 1e-30f);
+  const float diagonal = glm::length(box.hi - box.lo);
+  const float cell = std::isfinite(diagonal) && diagonal > 0.0f ? std::max(weld * diagonal, 1e-30f) : 1.0f;
   std::map<std::array<int64_t, 3>, uint32_t> ids;
+  uint32_t unwelded = 0;  // ids of non-finite positions (and those too far to cell), each its own
   auto weld_id = [&](uint32_t v) {
     const glm::vec3 q = glm::floor(mesh.positions[v] / cell);
+    const float limit = 4e18f;  // within int64_t
+    if (!(std::fabs(q.x) < limit && std::fabs(q.y) < limit && std::fabs(q.z) < limit))
+      return uint32_t(0x80000000u) + unwelded++;
     const std::array<int64_t, 3> key = {int64_t(q.x), int64_t(q.y), int64_t(q.z)};
     return ids.emplace(key, uint32_t(ids.size())).first->second;
   };

@@ -21,13 +21,14 @@ struct UvLayout {
   double overlap_fraction = 0;  // of the covered uv area, the share covered more than once
   bool tiling = false;          // a coordinate outside [0, 1]
   glm::vec2 uv_min{0.0f}, uv_max{0.0f};
-  // "3 charts, 12 seam edges, 0 mirrored, 0.0% overlap, in [0, 1]"
+  // "3 charts, 12 seam edges, 0 mirrored, 0.0% overlap, uv in [0, 1] x [0, 1]", and " (tiling)"
   std::string describe() const;
 };
 
 // The layout of the triangles of `material` (Mesh::triangle_material) that have uvs; an empty
-// layout (triangles 0) when the mesh has none. Positions are welded within `weld` times the mesh's
-// bounding-box diagonal, uvs compared within `uv_tolerance`; overlap is measured on a
+// layout (triangles 0) when the mesh has none. Positions are welded on a grid of cells `weld` times
+// the mesh's bounding-box diagonal wide (two positions in one cell are one point; a non-finite one
+// is a point of its own), uvs compared within `uv_tolerance`; overlap is measured on a
 // `grid` x `grid` raster of the uv bounding box (cell centres covered by two or more triangles).
 UvLayout analyze_uv_layout(const Mesh& mesh, uint32_t material, float weld = 1e-6f, float uv_tolerance = 1e-5f,
                            uint32_t grid = 256);

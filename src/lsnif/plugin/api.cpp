@@ -247,8 +247,9 @@ LSNIF_API LsnifResult lsnifEnableDeviceFeaturesWithCore(VkPhysicalDeviceFeatures
                   if (!pFeatureChain) return invalid("%s is NULL", "pFeatureChain");
                   if (std::string why = lsnif::plugin::chain_problem(pFeatureChain, "pFeatureChain"); !why.empty())
                     return invalid("%s", why.c_str());
-                  if (lsnif::plugin::has_features2(pFeatureChain))
-                    return invalid("%s", "pFeatureChain holds a VkPhysicalDeviceFeatures2: the core features go in one "
+                  if (lsnif::plugin::has_core_features(pFeatureChain))
+                    return invalid("%s", "pFeatureChain reaches core features (a VkPhysicalDeviceFeatures2, or a "
+                                         "VkDeviceCreateInfo whose pEnabledFeatures is set): the core features go in one "
                                          "place (Vulkan allows one), so enable them there with lsnifEnableDeviceFeatures");
                   const std::vector<std::string> absent =
                       lsnif::plugin::enable_device_features(pFeatureChain, pCoreFeatures);

@@ -289,10 +289,11 @@ Outcome create_context(const LsnifContextCreateInfo& info, std::unique_ptr<Lsnif
       std::string list;
       for (const std::string& f : off) list += (list.empty() ? "" : ", ") + f;
       const std::string hint = core ? std::string() : core_features_hint(info.pEnabledFeatures);
-      return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED,
-                           "the device '%s' was created without what LSNIF needs enabled: %s (lsnifInitDeviceFeatures, "
-                           "lsnifEnableDeviceFeaturesInCreateInfo)%s%s",
-                           support.name.c_str(), list.c_str(), hint.empty() ? "" : "; ", hint.c_str());
+      return Outcome::fail(LSNIF_ERROR_DEVICE_UNSUPPORTED, "the device '%s' was created without what LSNIF needs enabled: %s (%s)%s%s",
+                           support.name.c_str(), list.c_str(),
+                           core ? "lsnifEnableDeviceFeaturesWithCore"
+                                : "lsnifInitDeviceFeatures, lsnifEnableDeviceFeaturesInCreateInfo",
+                           hint.empty() ? "" : "; ", hint.c_str());
     }
   }
   ctx->ray_query_offered = support.ray_query;

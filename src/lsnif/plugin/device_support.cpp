@@ -334,21 +334,14 @@ std::vector<std::string> enable_device_features(void* chain, VkPhysicalDeviceFea
   return absent;
 }
 
-bool has_features2(const void* chain) {
-  bool found = false;
-  walk_chain(chain, [&found](const VkBaseOutStructure* s) {
-    found = found || s->sType == VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
-  });
-  return found;
-}
-
 bool has_core_features(const void* chain) { return find_feature_structs(chain).core != nullptr; }
 
 const LsnifFeatureRequirement* required_device_features() {
   constexpr VkStructureType kNone = VK_STRUCTURE_TYPE_MAX_ENUM;
   static const LsnifFeatureRequirement table[kRequiredFeatureCount] = {
-      {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, "VkPhysicalDeviceFeatures", "shaderInt64",
-       uint32_t(offsetof(VkPhysicalDeviceFeatures, shaderInt64)), kNone, nullptr, 0},
+      {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, "VkPhysicalDeviceFeatures2", "shaderInt64",
+       uint32_t(offsetof(VkPhysicalDeviceFeatures2, features) + offsetof(VkPhysicalDeviceFeatures, shaderInt64)), kNone,
+       "VkPhysicalDeviceFeatures", uint32_t(offsetof(VkPhysicalDeviceFeatures, shaderInt64))},
       {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES, "VkPhysicalDeviceVulkan12Features", "bufferDeviceAddress",
        uint32_t(offsetof(VkPhysicalDeviceVulkan12Features, bufferDeviceAddress)),
        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES, "VkPhysicalDeviceBufferDeviceAddressFeatures",

@@ -105,8 +105,6 @@ std::vector<std::string> coopmat_mlp_features_not_enabled(const void* chain);
 // With `core` (lsnifEnableDeviceFeaturesWithCore) shaderInt64 is set there, not looked for in the
 // chain.
 std::vector<std::string> enable_device_features(void* chain, VkPhysicalDeviceFeatures* core = nullptr);
-// Whether the chain holds a VkPhysicalDeviceFeatures2.
-bool has_features2(const void* chain);
 // Whether the chain reaches core features: a VkPhysicalDeviceFeatures2, or a VkDeviceCreateInfo
 // whose pEnabledFeatures is set.
 bool has_core_features(const void* chain);

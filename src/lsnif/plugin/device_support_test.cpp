@@ -227,16 +227,23 @@ TEST(DeviceFeatures, RequiredFeaturesAsDataAreWhatTheCheckNeeds) {
   ASSERT_EQ(count, 4u);
   ASSERT_NE(req, nullptr);
   EXPECT_EQ(std::string(req[0].memberName), "shaderInt64");
-  EXPECT_EQ(req[0].offset, offsetof(VkPhysicalDeviceFeatures, shaderInt64));
+  EXPECT_EQ(req[0].sType, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2);
+  EXPECT_EQ(req[0].offset, offsetof(VkPhysicalDeviceFeatures2, features) + offsetof(VkPhysicalDeviceFeatures, shaderInt64));
+  EXPECT_EQ(req[0].alternativeSType, VK_STRUCTURE_TYPE_MAX_ENUM);  // VkPhysicalDeviceFeatures: no sType
+  EXPECT_EQ(std::string(req[0].alternativeStructName), "VkPhysicalDeviceFeatures");
+  EXPECT_EQ(req[0].alternativeOffset, offsetof(VkPhysicalDeviceFeatures, shaderInt64));
   EXPECT_EQ(std::string(req[1].memberName), "bufferDeviceAddress");
   EXPECT_EQ(req[1].offset, offsetof(VkPhysicalDeviceVulkan12Features, bufferDeviceAddress));
   EXPECT_EQ(req[1].alternativeSType, VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES);
   EXPECT_EQ(req[1].alternativeOffset, offsetof(VkPhysicalDeviceBufferDeviceAddressFeatures, bufferDeviceAddress));
   EXPECT_EQ(std::string(req[2].memberName), "accelerationStructure");
   EXPECT_EQ(req[2].offset, offsetof(VkPhysicalDeviceAccelerationStructureFeaturesKHR, accelerationStructure));
+  EXPECT_EQ(req[2].alternativeStructName, nullptr);
   EXPECT_EQ(std::string(req[3].memberName), "rayTracingPipeline");
   EXPECT_EQ(req[3].offset, offsetof(VkPhysicalDeviceRayTracingPipelineFeaturesKHR, rayTracingPipeline));
-  // A framework's generic code: one zeroed struct per listed sType (or its alternative), chained.
+  // A framework's generic code: one zeroed struct per listed sType, chained, each listed member set
+  // at its offset; or each alternative: the other struct type, or for a struct without sType the
+  // VkPhysicalDeviceFeatures a VkDeviceCreateInfo's pEnabledFeatures points to.
   for (bool alternative : {false, true})
     for (uint32_t skip = 0; skip <= count; ++skip) {  // skip == count: nothing left out
       VkPhysicalDeviceFeatures2 f2{};
@@ -244,6 +251,8 @@ TEST(DeviceFeatures, RequiredFeaturesAsDataAreWhatTheCheckNeeds) {
       VkPhysicalDeviceBufferDeviceAddressFeatures bda{};
       VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
       VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+      VkPhysicalDeviceFeatures core{};
+      VkDeviceCreateInfo dci{};
       const std::pair<VkStructureType, VkBaseOutStructure*> storage[] = {
           {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, reinterpret_cast<VkBaseOutStructure*>(&f2)},
           {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES, reinterpret_cast<VkBaseOutStructure*>(&v12)},
@@ -252,8 +261,15 @@ TEST(DeviceFeatures, RequiredFeaturesAsDataAreWhatTheCheckNeeds) {
            reinterpret_cast<VkBaseOutStructure*>(&as)},
           {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR, reinterpret_cast<VkBaseOutStructure*>(&rt)}};
       VkBaseOutStructure* head = nullptr;
+      bool core_apart = false;
       for (uint32_t i = 0; i < count; ++i) {
-        const bool alt = alternative && req[i].alternativeSType != VK_STRUCTURE_TYPE_MAX_ENUM;
+        const bool alt = alternative && req[i].alternativeStructName;
+        const VkBool32 on = VK_TRUE;
+        if (alt && req[i].alternativeSType == VK_STRUCTURE_TYPE_MAX_ENUM) {  // the struct without sType
+          core_apart = true;
+          if (i != skip) std::memcpy(reinterpret_cast<uint8_t*>(&core) + req[i].alternativeOffset, &on, sizeof on);
+          continue;
+        }
         const VkStructureType type = alt ? req[i].alternativeSType : req[i].sType;
         VkBaseOutStructure* s = nullptr;
         for (const auto& [t, p] : storage)
@@ -262,13 +278,16 @@ TEST(DeviceFeatures, RequiredFeaturesAsDataAreWhatTheCheckNeeds) {
         s->sType = type;
         s->pNext = head;
         head = s;
-        if (i == skip) continue;
-        // A VkPhysicalDeviceFeatures member sits in VkPhysicalDeviceFeatures2::features.
-        auto* base = reinterpret_cast<uint8_t*>(s) +
-                     (type == VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2 ? offsetof(VkPhysicalDeviceFeatures2, features) : 0);
-        const VkBool32 on = VK_TRUE;
-        std::memcpy(base + (alt ? req[i].alternativeOffset : req[i].offset), &on, sizeof on);
+        if (i != skip) std::memcpy(reinterpret_cast<uint8_t*>(s) + (alt ? req[i].alternativeOffset : req[i].offset), &on,
+                                   sizeof on);
       }
+      if (core_apart) {
+        dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+        dci.pNext = head;
+        dci.pEnabledFeatures = &core;
+        head = reinterpret_cast<VkBaseOutStructure*>(&dci);
+      }
+      EXPECT_EQ(core_apart, alternative);
       const std::vector<std::string> off = features_not_enabled(head);
       if (skip == count)
         EXPECT_TRUE(off.empty()) << off.front();
@@ -318,8 +337,19 @@ TEST(DeviceFeatures, EnableWithCoreSetsTheCoreFeaturesApart) {
   as.pNext = &f2;
   EXPECT_EQ(lsnifEnableDeviceFeaturesWithCore(&core, &bda), LSNIF_ERROR_INVALID_ARGUMENT);
   message = lsnifGetLastErrorMessage();
-  EXPECT_NE(message.find("holds a VkPhysicalDeviceFeatures2"), std::string::npos) << message;
+  EXPECT_NE(message.find("reaches core features"), std::string::npos) << message;
   EXPECT_EQ(f2.features.shaderInt64, VK_FALSE);  // refused before anything is written
+  // So is a create info whose own pEnabledFeatures the device would read instead.
+  as.pNext = nullptr;
+  VkPhysicalDeviceFeatures other{};
+  VkDeviceCreateInfo dci{};
+  dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  dci.pNext = &bda;
+  dci.pEnabledFeatures = &other;
+  EXPECT_EQ(lsnifEnableDeviceFeaturesWithCore(&core, &dci), LSNIF_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(other.shaderInt64, VK_FALSE);
+  dci.pEnabledFeatures = nullptr;
+  EXPECT_EQ(lsnifEnableDeviceFeaturesWithCore(&core, &dci), LSNIF_SUCCESS) << lsnifGetLastErrorMessage();
   EXPECT_EQ(lsnifEnableDeviceFeaturesWithCore(nullptr, &bda), LSNIF_ERROR_INVALID_ARGUMENT);
   EXPECT_EQ(lsnifEnableDeviceFeaturesWithCore(&core, nullptr), LSNIF_ERROR_INVALID_ARGUMENT);
 }

@@ -19,6 +19,7 @@ struct PassInputs {
   DeviceScene& scene;
   uint32_t width, height;   // the accumulation image
   StageTimes* stage_times;  // per-stage device time is added here (wavefront); null: untimed
+  uint32_t* stage_timed_samples;  // with stage_times: the samples those times are of, added with them
 };
 
 class PathIntegrator {

@@ -304,10 +304,9 @@ Status Renderer::accumulate(const View& view, uint32_t first_sample, uint32_t sa
   if (Status s = prepare_frame(view, first_sample, samples, max_bounces, rr_depth, primary); !s) return s;
   PathIntegrator& paths = pipeline == PathPipeline::wavefront ? static_cast<PathIntegrator&>(*wavefront_) : *inline_;
   const bool timed = stage_timing_ && pipeline == PathPipeline::wavefront;  // the inline pipeline has no stages
-  const PassInputs in{*scene_, width_, height_, timed ? &stage_times_ : nullptr};
+  const PassInputs in{*scene_, width_, height_, timed ? &stage_times_ : nullptr, &stage_timed_samples_};
   if (Status s = paths.trace(in, first_sample, samples, max_bounces, primary == PrimaryVisibility::raster); !s)
     return s;
-  if (timed) stage_timed_samples_ += samples;
   accumulated_ += samples;
   return Status::ok();
 }
@@ -337,7 +336,7 @@ Status Renderer::primary_hits(const View& view, uint32_t sample_index, PrimaryVi
     return Status::ok();
   }
   // Traced: the wavefront's CAMERA stage and one query of the camera rays (renderer_wavefront.cpp).
-  return wavefront_->primary_hits(PassInputs{*scene_, width_, height_, nullptr}, sample_index, out);
+  return wavefront_->primary_hits(PassInputs{*scene_, width_, height_, nullptr, nullptr}, sample_index, out);
 }
 
 void Renderer::resolve(image::Image& out) const {

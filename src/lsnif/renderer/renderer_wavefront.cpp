@@ -244,6 +244,7 @@ Status WavefrontPaths::trace(const PassInputs& in, uint32_t first_sample, uint32
     if (Status s = ctx_.read_timestamps_ms(timestamps_, 0, uint32_t(interval.size()), ms); !s)
       return s.context("stage timing");
     for (size_t k = 1; k < ms.size(); ++k) in.stage_times->*interval[k] += ms[k] - ms[k - 1];
+    *in.stage_timed_samples += samples;
   }
   // INCOMPLETE answers are not misses: a render with any fails.
   const auto* status = static_cast<const LsnifQueryStatus*>(status_.mapped);

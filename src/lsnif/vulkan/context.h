@@ -144,7 +144,7 @@ class Context {
   BufferLimits buffer_limits() const;
   // An error unless a buffer of `bytes` fits the device's maxMemoryAllocationSize and its
   // host-visible heap (and maxStorageBufferRange, with `descriptor`: a buffer bound to a descriptor
-  // of a pipeline, as dispatch binds them): "the WHAT buffer needs N bytes, more than the device's
+  // of a pipeline's descriptor, as the GPU tests' dispatch binds them, src/lsnif/testing/vk_dispatch.h): "the WHAT buffer needs N bytes, more than the device's
   // LIMIT (M bytes)". Callers that know what sets the size check first, naming it in `what`
   // ("ray buffer (--rays 16777216)").
   Status check_buffer_size(const std::string& what, uint64_t bytes, bool descriptor = false) const;
