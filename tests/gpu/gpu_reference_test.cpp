@@ -329,8 +329,8 @@ class GpuReference : public ::testing::Test {
     ASSERT_TRUE(vk_status_) << "no usable Vulkan device: " << vk_status_.message();
   }
   void TearDown() override {
-    EXPECT_EQ(vk_.validation_errors(), 0u) << "Vulkan validation errors (printed above)";
-    EXPECT_EQ(vk_.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
+    EXPECT_EQ(vk_.validation_errors(), 0u) << vk_.validation_log();
+    EXPECT_EQ(vk_.validation_warnings(), 0u) << vk_.validation_log();
   }
 
   static vk::Context vk_;

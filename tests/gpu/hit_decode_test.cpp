@@ -260,8 +260,8 @@ TEST(HitDecode, HlslAndGlslDecodeTheSameHitsAsTheCpu) {
   EXPECT_GT(coloured, records.size() * 9 / 10);
   EXPECT_GT(learned, records.size() / 2);
   EXPECT_LT(learned, records.size());
-  EXPECT_EQ(ctx.validation_errors(), 0u) << "Vulkan validation errors (printed above)";
-  EXPECT_EQ(ctx.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
+  EXPECT_EQ(ctx.validation_errors(), 0u) << ctx.validation_log();
+  EXPECT_EQ(ctx.validation_warnings(), 0u) << ctx.validation_log();
 }
 
 }  // namespace

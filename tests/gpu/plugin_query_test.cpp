@@ -215,8 +215,8 @@ class PluginQuery : public ::testing::Test {
     current_ = &pipeline_;
   }
   void TearDown() override {
-    EXPECT_EQ(vk_.validation_errors(), 0u) << "Vulkan validation errors (printed above)";
-    EXPECT_EQ(vk_.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
+    EXPECT_EQ(vk_.validation_errors(), 0u) << vk_.validation_log();
+    EXPECT_EQ(vk_.validation_warnings(), 0u) << vk_.validation_log();
   }
 
   // Adds an LSNIF instance of `model` (handle `handle`, table entry `entry`).

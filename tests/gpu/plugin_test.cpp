@@ -103,8 +103,8 @@ class PluginApi : public ::testing::Test {
     vk_.reset_validation_counts();
   }
   void TearDown() override {
-    EXPECT_EQ(vk_.validation_errors(), 0u) << "Vulkan validation errors (printed above)";
-    EXPECT_EQ(vk_.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
+    EXPECT_EQ(vk_.validation_errors(), 0u) << vk_.validation_log();
+    EXPECT_EQ(vk_.validation_warnings(), 0u) << vk_.validation_log();
   }
 
   // A context on the Vulkan context's device.
@@ -1144,8 +1144,8 @@ TEST(PluginLeaks, AllocatorBalancedAndNothingLeaked) {
   EXPECT_GT(counts.total.load(), 0) << "the plugin did not use the application's allocator";
   EXPECT_EQ(counts.live.load(), 0) << "allocations not freed through the application's allocator";
   vk.destroy_device();
-  EXPECT_EQ(vk.validation_errors(), 0u) << "Vulkan validation errors (printed above): a leak or misuse";
-  EXPECT_EQ(vk.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
+  EXPECT_EQ(vk.validation_errors(), 0u) << vk.validation_log();
+  EXPECT_EQ(vk.validation_warnings(), 0u) << vk.validation_log();
 }
 
 // Negative control for the leak check above: an object left alive is reported at vkDestroyDevice.

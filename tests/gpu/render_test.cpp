@@ -92,8 +92,8 @@ class RenderTest : public ::testing::Test {
     ASSERT_TRUE(train_status_) << train_status_.message();
   }
   void TearDown() override {
-    EXPECT_EQ(vk_.validation_errors(), 0u) << "Vulkan validation errors (printed above)";
-    EXPECT_EQ(vk_.validation_warnings(), 0u) << "Vulkan validation warnings (printed above)";
+    EXPECT_EQ(vk_.validation_errors(), 0u) << vk_.validation_log();
+    EXPECT_EQ(vk_.validation_warnings(), 0u) << vk_.validation_log();
   }
   static render::RenderSettings small(bool reference) {
     render::RenderSettings s;

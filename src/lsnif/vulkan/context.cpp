@@ -95,9 +95,20 @@ VKAPI_ATTR VkBool32 VKAPI_CALL Context::on_message(
   const bool error = severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
   if (error) ++self->errors_;
   else ++self->warnings_;
-  std::fprintf(stderr, "[vulkan validation %s] %s\n", error ? "error" : "warning",
-               data && data->pMessage ? data->pMessage : "(no message)");
+  const char* text = data && data->pMessage ? data->pMessage : "(no message)";
+  if (self->messages_.size() < kMaxKeptValidationMessages)
+    self->messages_.push_back(std::string(error ? "[error] " : "[warning] ") + text);
+  if (self->on_validation_message_) self->on_validation_message_(error, text);
   return VK_FALSE;
+}
+
+std::string Context::validation_log() const {
+  if (messages_.empty()) return "no validation messages";
+  std::string log;
+  for (const std::string& m : messages_) log += m + "\n";
+  const size_t total = size_t(warnings_) + errors_;
+  if (total > messages_.size()) log += format("(and %zu more)\n", total - messages_.size());
+  return log;
 }
 
 void Context::destroy_device() {
@@ -146,6 +157,7 @@ bool chain_coopmat_mlp(bool wanted, std::vector<const char*>& extensions, VkPhys
 
 Status Context::init(const ContextOptions& options) {
   const bool ray_tracing = options.ray_tracing, validation = options.validation;
+  on_validation_message_ = options.on_validation_message;
   if (volkInitialize() != VK_SUCCESS) return Status::error("no Vulkan loader (libvulkan.so.1) found");
 
   if (validation) {

@@ -1,6 +1,7 @@
 // context.h -- the Vulkan context of the renderer, the viewer, the tools, the benchmarks and the
 // GPU tests (volk; applications of the SDK bring their own): an instance, with the Khronos
-// validation layer and a debug-utils messenger that counts (and prints) every warning and error
+// validation layer and a debug-utils messenger that counts and keeps every warning and error (the
+// caller decides whether to print them: ContextOptions::on_validation_message)
 // unless validation is turned off, a device with bufferDeviceAddress, shaderInt64 (and
 // scalarBlockLayout where offered), host-visible buffers addressed by device address, compute
 // pipelines from SPIR-V in memory with a push-constant range, one-time submissions and waits,
@@ -83,6 +84,9 @@ struct ContextOptions {
   // else an index in vkEnumeratePhysicalDevices order or a case-insensitive part of the name
   // (device_choice.h).
   std::string device;
+  // Called with each message of the validation layer (`error`: severity error, else a warning) as
+  // it arrives, after it is counted and kept; empty: counted and kept only (validation_log()).
+  std::function<void(bool error, const char* message)> on_validation_message;
 };
 
 // What `physical` of `instance` offers, for choose_device (device_choice.h): what LSNIF needs as
@@ -176,7 +180,14 @@ class Context {
   // Validation messages of severity warning / error seen so far.
   uint32_t validation_warnings() const { return warnings_; }
   uint32_t validation_errors() const { return errors_; }
-  void reset_validation_counts() { warnings_ = errors_ = 0; }
+  void reset_validation_counts() {
+    warnings_ = errors_ = 0;
+    messages_.clear();
+  }
+  // The messages seen so far, one a line ("[error] ...", "[warning] ..."; the first
+  // kMaxKeptValidationMessages, then how many more), or "no validation messages".
+  std::string validation_log() const;
+  static constexpr size_t kMaxKeptValidationMessages = 64;
   VkDevice device() const { return device_; }
   VkInstance instance() const { return instance_; }
   VkQueue queue() const { return queue_; }
@@ -206,6 +217,8 @@ class Context {
   VkFence fence_ = VK_NULL_HANDLE;
   std::string device_name_;
   uint32_t warnings_ = 0, errors_ = 0;
+  std::vector<std::string> messages_;  // the first kMaxKeptValidationMessages
+  std::function<void(bool, const char*)> on_validation_message_;
   bool scalar_block_layout_ = false;
   bool coopmat_mlp_ = false;
 };

@@ -54,4 +54,8 @@ void ProgressBar::draw(uint64_t done, const std::string& status, bool final) {
   std::fflush(stderr);
 }
 
+void print_validation_message(bool error, const char* message) {
+  std::fprintf(stderr, "[vulkan validation %s] %s\n", error ? "error" : "warning", message);
+}
+
 }  // namespace lsnif

@@ -29,4 +29,8 @@ class ProgressBar {
   int last_decile_ = -1;
 };
 
+// A validation-layer message of the tools' Vulkan context (vk::ContextOptions::on_validation_message)
+// on stderr: "[vulkan validation error] ..." or "[vulkan validation warning] ...".
+void print_validation_message(bool error, const char* message);
+
 }  // namespace lsnif

@@ -129,6 +129,7 @@ Status set_up(DeviceState& st, const Options& options, const Mesh& mesh, const s
   context_options.ray_tracing = true;
   context_options.validation = options.validation;
   context_options.device = options.device;
+  context_options.on_validation_message = print_validation_message;
   Status s = st.ctx.init(context_options);
   if (!s) return s.context("Vulkan device with ray tracing");
   report.device = st.ctx.device_name();

@@ -67,7 +67,9 @@ int cmd_render(int argc, char** argv) {
   if (int r = sa.load("render", scene, environment)) return r;
 
   vk::Context ctx;
-  if (Status s = ctx.init(render::context_options(validation, device)); !s) {
+  vk::ContextOptions context_options = render::context_options(validation, device);
+  context_options.on_validation_message = print_validation_message;
+  if (Status s = ctx.init(context_options); !s) {
     std::fprintf(stderr, "lsnif render: no usable Vulkan ray-tracing device (`lsnif devices` tells what is missing): %s\n",
                  s.message().c_str());
     return 1;

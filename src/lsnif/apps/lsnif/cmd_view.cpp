@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <string>
 
+#include "lsnif/apps/common/progress.h"
 #include "lsnif/apps/lsnif/args.h"
 #include "lsnif/apps/lsnif/commands.h"
 #include "lsnif/apps/lsnif/device_option.h"
@@ -41,6 +42,7 @@ int cmd_view(int argc, char** argv) {
   args.option("screenshot", "write the last frame, read back from the window, to this .png", &vs.screenshot);
   args.flag("quiet", "no line per frame", &vs.quiet);
   args.flag("validation", "enable the Khronos validation layer (exit 1 on any message)", &vs.validation);
+  vs.on_validation_message = print_validation_message;
   add_device_option(args, &vs.device);
   PathOptions path;
   add_pipeline_option(args, &path.pipeline);

@@ -364,6 +364,7 @@ Status run_viewer(const scene::Scene& scene, const scene::EnvironmentMap* enviro
   if (Status s = init_glfw(); !s) return s;
   vk::ContextOptions options = render::context_options(settings.validation, settings.device);
   options.swapchain = true;
+  options.on_validation_message = settings.on_validation_message;
   if (Status s = window_instance_extensions(options.instance_extensions); !s) return s;
 
   Input input;

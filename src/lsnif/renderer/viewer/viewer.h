@@ -9,6 +9,7 @@
 // the accumulation.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include <glm/glm.hpp>
@@ -34,6 +35,8 @@ struct ViewerSettings {
   float exposure = 0.0f;               // stops
   float env_rotation = 0.0f;           // radians added to the environment's
   bool validation = false;             // Khronos validation layer (messages fail the run at exit)
+  // Each validation message as it arrives (vk::ContextOptions::on_validation_message); may be empty.
+  std::function<void(bool error, const char* message)> on_validation_message;
   std::string device;                  // vk::ContextOptions::device ("": automatic choice)
   // Scripted runs (tests, screenshots): stop after `frames` frames (0: when the window closes),
   // toggle the mode before frame `toggle_at` (0: never), and write `screenshot` (.png) of the
