@@ -32,6 +32,15 @@
 #define LSNIF_OUT_SURFACE_AMBIENT_OCCLUSION 2u
 #define LSNIF_OUT_SURFACE_EMISSION 3u
 #define LSNIF_OUT_SURFACE_COUNT 6u
+/* Texture coordinates (a model whose Config::uv_materials is not 0): hits of those materials report
+ * the texture coordinate of the predicted hit point, read from the model's uv cells
+ * (src/lsnif/core/uv_cells.h), and the application samples the material's own textures there.
+ * Largest |coordinate| a uv cell holds: what the hit attributes' 28-bit fixed point
+ * (LSNIF_UV_FRACTION_BITS fractional bits, two's complement) carries. */
+#define LSNIF_MAX_UV 2047.0
+#define LSNIF_UV_FRACTION_BITS 16u
+/* Most uv cell maps a model may have (Config::uv_cell_maps): 384 MiB of them. */
+#define LSNIF_MAX_UV_CELL_MAPS 16777216u
 /* Largest emission scale a model may have (the emission head's range). */
 #define LSNIF_MAX_EMISSION_SCALE 65504.0
 
@@ -105,7 +114,7 @@
  *          Every layer has a multiple of 8 words.
  * All fields are 32-bit uint or float, so the struct has identical std430 layout in C++ and GLSL. */
 #define LSNIF_GPU_MAGIC 0x4647534Cu /* "LSGF" little-endian */
-#define LSNIF_GPU_VERSION 6u
+#define LSNIF_GPU_VERSION 7u
 #define LSNIF_GPU_ROW_WORDS(n) (((n) + 1u) >> 1)
 /* M_l of level l from LsnifGpuModelHeader::table_log2. */
 #define LSNIF_GPU_TABLE_LOG2(packed, level) (((packed) >> (8u * (level))) & 0xffu)
@@ -151,7 +160,14 @@ struct LsnifGpuModelHeader {
   lsnif_uint index_buckets0, index_buckets1, index_buckets2, index_buckets3;
   lsnif_uint surface_channels; /* 1: the output has LSNIF_OUT_SURFACE_COUNT surface channels, else 0 */
   float emission_scale;        /* the emission head's scale (0 without surface channels) */
-  lsnif_uint reserved0, reserved1, reserved2, reserved3, reserved4, reserved5; /* zero; 48 words */
+  /* Bit m of (uv_materials_hi << 32 | uv_materials_lo): hits of material m report the texture
+   * coordinate (Config::uv_materials); 0 for a model without uv cells. */
+  lsnif_uint uv_materials_lo, uv_materials_hi;
+  /* The uv cells (src/lsnif/format/uv_cell_layout.h), 0 without: cells per voxel edge S, then in
+   * words from the block's start the occupied voxels before each voxel word (ceil(V^3 / 32) words:
+   * a voxel's record is number rank[i >> 5] + the occupied voxels below it in its word), the voxel
+   * records and the maps. */
+  lsnif_uint uv_cells, uv_rank_offset, uv_record_offset, uv_map_offset; /* 48 words */
 };
 #define LSNIF_GPU_HEADER_WORDS 48u
 

@@ -536,7 +536,8 @@ TEST(GpuModelPacking, EveryValueAtItsDocumentedPlace) {
   EXPECT_EQ(h.index_slots0 | h.index_buckets0, 0u);
   EXPECT_EQ(h.surface_channels, 0u);
   EXPECT_EQ(h.emission_scale, 0.0f);
-  EXPECT_EQ(h.reserved0 | h.reserved1 | h.reserved2 | h.reserved3 | h.reserved4 | h.reserved5, 0u);
+  EXPECT_EQ(h.uv_materials_lo | h.uv_materials_hi, 0u);
+  EXPECT_EQ(h.uv_cells | h.uv_rank_offset | h.uv_record_offset | h.uv_map_offset, 0u);
   auto half_at = [&](uint32_t base, uint64_t e) {
     return half_to_float(uint16_t(words[base + (e >> 1)] >> ((e & 1u) * 16u)));
   };
@@ -597,7 +598,8 @@ TEST(GpuModelPacking, SurfaceChannelsInTheHeaderAndTheOutputLayer) {
   const LsnifGpuModelHeader h = gpu_block_header(words);
   EXPECT_EQ(h.surface_channels, 1u);
   EXPECT_EQ(h.emission_scale, 3.5f);
-  EXPECT_EQ(h.reserved0 | h.reserved1 | h.reserved2 | h.reserved3 | h.reserved4 | h.reserved5, 0u);
+  EXPECT_EQ(h.uv_materials_lo | h.uv_materials_hi, 0u);
+  EXPECT_EQ(h.uv_cells | h.uv_rank_offset | h.uv_record_offset | h.uv_map_offset, 0u);
   const std::vector<GpuLayerLayout> layers = gpu_layer_layout(model.config);
   ASSERT_EQ(layers.size(), 4u);
   EXPECT_EQ(layers[3].out, 10u + LSNIF_OUT_SURFACE_COUNT);

@@ -65,6 +65,31 @@ Prediction decode(const Config& config, const float* raw, const RayWalk& walk) {
 }
 
 namespace {
+constexpr uint32_t kUvBits = 28;
+constexpr uint64_t kUvMask = (uint64_t(1) << kUvBits) - 1;
+}  // namespace
+
+uint64_t pack_uv(glm::vec2 uv) {
+  uint64_t packed = 0;
+  for (int a = 0; a < 2; ++a) {
+    const float x = std::isnan(uv[a]) ? 0.0f : std::clamp(uv[a], -float(LSNIF_MAX_UV), float(LSNIF_MAX_UV));
+    const int64_t fixed = std::llround(double(x) * double(1u << LSNIF_UV_FRACTION_BITS));
+    packed |= (uint64_t(fixed) & kUvMask) << (kUvBits * a);
+  }
+  return packed;
+}
+
+glm::vec2 unpack_uv(uint64_t packed) {
+  glm::vec2 uv;
+  for (int a = 0; a < 2; ++a) {
+    int64_t fixed = int64_t((packed >> (kUvBits * a)) & kUvMask);
+    if (fixed & (int64_t(1) << (kUvBits - 1))) fixed -= int64_t(1) << kUvBits;  // sign
+    uv[a] = float(double(fixed) / double(1u << LSNIF_UV_FRACTION_BITS));
+  }
+  return uv;
+}
+
+namespace {
 uint32_t unorm8(float x) { return uint32_t(std::lround(std::clamp(x, 0.0f, 1.0f) * 255.0f)); }
 }  // namespace
 

@@ -42,6 +42,12 @@ struct Prediction {
   glm::vec3 emission{0.0f};
 };
 
+// The texture coordinate of a hit as the hit attributes carry it (LsnifHitAttributes): each
+// coordinate as 28-bit two's complement fixed point with LSNIF_UV_FRACTION_BITS fractional bits
+// (round to nearest, clamped to +-LSNIF_MAX_UV; NaN as 0), u in bits 0-27, v in bits 28-55.
+uint64_t pack_uv(glm::vec2 uv);
+glm::vec2 unpack_uv(uint64_t packed);
+
 // Packed surface channels of a hit (host_device.h, LSNIF_SURFACE_LEARNED): metallic, roughness and
 // ambient occlusion as unorm8 (round to nearest, as packUnorm4x8) and the learned flag; 0 when
 // !p.surface_learned.

@@ -8,6 +8,7 @@
 #include "lsnif/host_device.h"
 #include "lsnif/core/network.h"
 #include "lsnif/core/ray_walk.h"
+#include "lsnif/core/uv_cells.h"
 
 namespace lsnif {
 
@@ -90,6 +91,7 @@ Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, si
     encode(config, model.grid.data(), walks[active[size_t(k)]], X.data() + size_t(k) * config.input_dim(), layout);
   mlp_forward(config, model.mlp.data(), X, O, nullptr, rows.data());
 
+  const UvCells cells(model);
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < long(active.size()); ++k) {
     const size_t i = active[size_t(k)];
@@ -110,6 +112,10 @@ Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, si
     h.roughness = p.roughness;
     h.ambient_occlusion = p.ambient_occlusion;
     h.emission = p.emission;
+    if (config.reports_uv(p.material)) {
+      const glm::vec3 origin = A_inv * (rays[i].origin - T), direction = A_inv * rays[i].direction;
+      h.reports_uv = cells.lookup(origin + p.t * direction, p.normal, direction, h.uv);
+    }
   }
   return Status::ok();
 }

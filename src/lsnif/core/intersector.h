@@ -25,6 +25,12 @@ struct LsnifHit {
   bool surface_learned = false;
   float metallic = 0.0f, roughness = 0.0f, ambient_occlusion = 0.0f;
   glm::vec3 emission{0.0f};   // linear RGB, emission_scale x sigmoid
+  // Hits of a texture-coordinate material (Config::uv_materials): the texture coordinate of the
+  // predicted hit point (uv_cells.h) with reports_uv true; else zero and false (no uv cell piece near
+  // the point facing its way: the hit keeps the learned colours). pack_uv (head.h) gives what the
+  // device packs of it.
+  glm::vec2 uv{0.0f};
+  bool reports_uv = false;
 };
 
 // Row-major 3x4 object-to-world matrix (the layout of VkTransformMatrixKHR).

@@ -5,6 +5,7 @@
 
 #include "lsnif/core/half.h"
 #include "lsnif/format/model_format.h"
+#include "lsnif/format/uv_cell_layout.h"
 
 namespace lsnif {
 
@@ -46,6 +47,15 @@ Status Model::validate() const {
     if (!grid_scale_usable(grid_scales[l]))
       return Status::error("grid scale of level %zu is %g, not a finite number >= +0 (with 127 times it finite)", l,
                            double(grid_scales[l]));
+  if (uv_cells.size() != uv_cell_words(config))
+    return Status::error("model has %zu uv cell words, the config needs %llu", uv_cells.size(),
+                         static_cast<unsigned long long>(uv_cell_words(config)));
+  if (config.texture_coordinates()) {
+    if (config.uv_cell_voxels != voxels.count_occupied())
+      return Status::error("model has %u uv cell voxel records for %u occupied voxels", config.uv_cell_voxels,
+                           voxels.count_occupied());
+    if (Status cells = check_uv_cells(config, uv_cells.data()); !cells) return cells;
+  }
   if (mlp.size() != config.mlp_parameter_count())
     return Status::error("MLP has %zu parameters, the config needs %llu", mlp.size(),
                          static_cast<unsigned long long>(config.mlp_parameter_count()));
@@ -91,7 +101,8 @@ MemoryBreakdown memory_breakdown(const Model& model) {
   out.voxel_bytes = sizes.voxels;
   out.grid_bytes = sizes.grid;
   out.mlp_bytes = sizes.mlp;
-  out.header_bytes = sizes.file - sizes.voxels - sizes.grid - sizes.mlp;
+  out.uv_cell_bytes = sizes.uv_cells;
+  out.header_bytes = sizes.file - sizes.voxels - sizes.grid - sizes.mlp - sizes.uv_cells;
   return out;
 }
 

@@ -35,6 +35,10 @@ struct Model {
   // MLP parameters, config.mlp_parameter_count() values. For each layer in order (hidden layers,
   // then the output layer): the weight matrix row-major [out][in], then the bias [out].
   std::vector<float> mlp;
+  // Where hits of the texture-coordinate materials (Config::uv_materials) read their texture
+  // coordinate: uv_cell_words(config) words as src/lsnif/format/uv_cell_layout.h lays them out
+  // (src/lsnif/core/uv_cells.h reads them); empty without such materials.
+  std::vector<uint32_t> uv_cells;
   // How it was trained: compact JSON {"settings", "mesh", "threads"} (src/lsnif/train/settings_io.h), stored
   // in the file's training section (format version 2); empty when not recorded (version 1 files).
   std::string training;
@@ -56,7 +60,8 @@ struct Model {
 
 struct MemoryBreakdown {
   uint64_t voxel_bytes = 0, grid_bytes = 0, mlp_bytes = 0, header_bytes = 0;
-  uint64_t total() const { return voxel_bytes + grid_bytes + mlp_bytes + header_bytes; }
+  uint64_t uv_cell_bytes = 0;  // where texture-coordinate hits read their uv (0 without)
+  uint64_t total() const { return voxel_bytes + grid_bytes + mlp_bytes + header_bytes + uv_cell_bytes; }
 };
 // Bytes the model's parts take in the .lsnif file (= on the GPU, fp16 parameters, 1 bit/voxel). The
 // training record is not counted: it never reaches the GPU.

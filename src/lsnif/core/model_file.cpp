@@ -73,6 +73,7 @@ Status save_model_to_memory(const Model& model, std::vector<uint8_t>& bytes) {
   c.grid_codes = codes.data();
   c.mlp = mlp.data();
   c.grid_index = model.grid_index.data();
+  c.uv_cells = model.uv_cells.data();
   c.training = model.training;
   return write_model_file(c, bytes);
 }
@@ -117,6 +118,7 @@ Status load_model_from_memory(const uint8_t* data, size_t size, Model& model) {
   m.grid_index.resize(size_t(v.config.grid_index_count()));
   for (size_t i = 0; i < m.grid_index.size(); ++i)
     m.grid_index[i] = static_cast<uint16_t>(v.grid_index[2 * i] | (v.grid_index[2 * i + 1] << 8));
+  m.uv_cells = std::move(v.uv_cells);
   m.training = std::move(v.training);
   if (Status s = m.validate(); !s) return s.context("internal error: loaded model is inconsistent");
   model = std::move(m);

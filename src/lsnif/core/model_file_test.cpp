@@ -20,6 +20,8 @@
 #include "lsnif/core/half.h"
 #include "lsnif/core/model.h"
 #include "lsnif/core/rng.h"
+#include "lsnif/core/uv_cells.h"
+#include "lsnif/format/uv_cell_layout.h"
 
 namespace lsnif {
 namespace {
@@ -150,6 +152,7 @@ void expect_equal(const Model& a, const Model& b) {
   }
   expect_same_bits(a.grid, b.grid, "grid");
   expect_same_bits(a.mlp, b.mlp, "mlp");
+  EXPECT_EQ(a.uv_cells, b.uv_cells);
 }
 
 Bytes saved(const Model& m) {
@@ -549,10 +552,10 @@ TEST(ModelFileErrors, WrongMagic) {
 
 TEST(ModelFileErrors, FutureVersion) {
   Bytes b = saved(small_model());
-  wr32(b, kVersionAt, 7);
-  expect_load_error(b, {"version 7", "versions 1 to 6"});  // reported before the checksum
+  wr32(b, kVersionAt, 8);
+  expect_load_error(b, {"version 8", "versions 1 to 7"});  // reported before the checksum
   fix_crc(b);
-  expect_load_error(b, {"version 7", "versions 1 to 6"});
+  expect_load_error(b, {"version 8", "versions 1 to 7"});
   wr32(b, kVersionAt, 0);
   fix_crc(b);
   expect_load_error(b, {"version 0"});
@@ -1309,6 +1312,167 @@ TEST(ModelFileErrors, SaveRefusesWhatTheLoaderWouldReject) {
   EXPECT_TRUE(save_model_to_memory(m, b));
   m.mlp[4] = 65504.0f;
   EXPECT_TRUE(save_model_to_memory(m, b));
+}
+
+
+// ---- format version 7: uv cells ----------------------------------------------------------------------
+
+constexpr size_t kUvMaterialsAt = 288, kUvCellsAt = 296, kUvCellVoxelsAt = 300, kUvCellMapsAt = 304,
+                 kV7ReservedAt = 308, kUvCellsEntryAt = 312, kV7Reserved2At = 328;
+
+// `m` with material 0 reporting texture coordinates: in each occupied voxel, cell 0 has a map and
+// every third voxel's cell 7 two (random values, any of which is a valid file).
+Model with_uv_cells(Model m, uint64_t seed = 7) {
+  Rng rng(seed, 3, 0);
+  Config& c = m.config;
+  c.uv_materials = 1;
+  c.uv_cells = 2;
+  c.uv_cell_voxels = m.voxels.count_occupied();
+  std::vector<uint32_t> records, maps;
+  for (uint32_t v = 0; v < c.uv_cell_voxels; ++v) {
+    const bool two = v % 3 == 0;
+    records.insert(records.end(), {uint32_t(maps.size() / kUvMapWords), two ? 0x81u : 1u, 0u, two ? 0x80u : 0u, 0u});
+    for (int k = 0; k < (two ? 3 : 1); ++k) {
+      UvMap map;
+      map.uv0 = {rng.next_float() * 8 - 4, rng.next_float() * 8 - 4};
+      map.du = {rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f};
+      map.dv = {rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f};
+      map.normal = {rng.next_float() - 0.5f, rng.next_float() - 0.5f, 1.0f};
+      map.offset = rng.next_float() - 0.5f;
+      uint32_t w[kUvMapWords];
+      pack_uv_map(map, w);
+      maps.insert(maps.end(), w, w + kUvMapWords);
+    }
+  }
+  c.uv_cell_maps = uint32_t(maps.size() / kUvMapWords);
+  m.uv_cells = records;
+  m.uv_cells.insert(m.uv_cells.end(), maps.begin(), maps.end());
+  m.quantize();
+  return m;
+}
+
+TEST(ModelFile, UvCellsAreAVersion7File) {
+  for (const Model& plain : {small_model(5), with_surface_channels(indexed_model(8), 2.0f)}) {
+    SCOPED_TRACE(plain.config.describe());
+    const Model m = with_uv_cells(plain);
+    ASSERT_TRUE(m.validate()) << m.validate().message();
+    ASSERT_GT(m.config.uv_cell_voxels, 0u);
+    const Bytes b = saved(m);
+    EXPECT_EQ(rd32(b, kVersionAt), 7u);
+    EXPECT_EQ(rd32(b, kHeaderSizeAt), 336u);
+    EXPECT_EQ(rd64(b, kUvMaterialsAt), 1u);
+    EXPECT_EQ(rd32(b, kUvCellsAt), 2u);
+    EXPECT_EQ(rd32(b, kUvCellVoxelsAt), m.config.uv_cell_voxels);
+    EXPECT_EQ(rd32(b, kUvCellMapsAt), m.config.uv_cell_maps);
+    EXPECT_EQ(rd64(b, kUvCellsEntryAt + 8), 4 * uv_cell_words(m.config));
+    const uint64_t end = rd64(b, kUvCellsEntryAt) + rd64(b, kUvCellsEntryAt + 8);
+    EXPECT_EQ((end + 15) / 16 * 16, b.size() - 4) << "the uv cells section is the last before the checksum";
+    EXPECT_EQ(section_offset(b, kMaterials), 336u);
+    EXPECT_EQ(memory_breakdown(m).uv_cell_bytes, 4 * uv_cell_words(m.config));
+    EXPECT_EQ(memory_breakdown(m).total(), b.size());
+    const Model back = expect_round_trip(m, b);
+    EXPECT_EQ(back.config.uv_cell_maps, m.config.uv_cell_maps);
+  }
+}
+
+TEST(ModelFileErrors, UvCells) {
+  const Model m = with_uv_cells(small_model(5));
+  const Bytes good = saved(m);
+  const auto with = [&](const std::function<void(Bytes&)>& change) { return changed(good, change); };
+  const size_t at = size_t(rd64(good, kUvCellsEntryAt)), maps_at = at + 4 * kUvVoxelWords * m.config.uv_cell_voxels;
+  expect_load_error(with([&](Bytes& b) { wr32(b, kUvMaterialsAt, 0); }), {"no texture-coordinate material", "version 7"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kUvMaterialsAt, 1u << m.config.material_count); }),
+                    {"texture-coordinate materials 0x", "beyond the"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kUvCellsAt, 5); }), {"uv cells per voxel 5"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kV7ReservedAt, 1); }), {"reserved header word", "offset 308"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, kV7Reserved2At + 4, 1); }), {"reserved header word", "offset 332"});
+  // The voxel records: one per occupied voxel, first maps in order, masks within the voxel's cells.
+  expect_load_error(with([&](Bytes& b) { wr32(b, kUvCellVoxelsAt, m.config.uv_cell_voxels - 1); }), {"section uv cells"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, at + 4 * kUvVoxelWords, 7); }), {"voxel record 1's first map is 7"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, at + 4, 1u << 8); }), {"voxel record 0's masks"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, at + 12, 2u); }), {"voxel record 0's masks", "second maps"});
+  // The maps: finite coordinates within reach, finite fp16 gradients.
+  expect_load_error(with([&](Bytes& b) { wrf32(b, maps_at, std::numeric_limits<float>::quiet_NaN()); }),
+                    {"map 0's texture coordinate"});
+  expect_load_error(with([&](Bytes& b) { wrf32(b, maps_at + 4, 4096.0f); }), {"map 0's texture coordinate 4096"});
+  expect_load_error(with([&](Bytes& b) { wr32(b, maps_at + 8, 0x7c00u); }), {"map 0 has a gradient"});
+  // The writer refuses what the loader would.
+  Model bad = m;
+  bad.uv_cells[1] = 1u << 8;
+  Bytes out;
+  const Status s = save_model_to_memory(bad, out);
+  EXPECT_FALSE(s);
+  EXPECT_NE(s.message().find("voxel record 0's masks"), std::string::npos) << s.message();
+}
+
+// The packed map is what every reader sees: exact coordinates, fp16 gradients, a unit normal within
+// snorm8's steps and the offset within one step.
+TEST(UvCells, PackedMapsKeepTheirValuesToTheirPrecision) {
+  for (uint32_t i = 0; i < 200; ++i) {
+    Rng rng(9, 4, i);
+    UvMap m;
+    m.uv0 = {rng.next_float() * 100 - 50, rng.next_float() * 2};
+    m.du = {rng.next_float() - 0.5f, rng.next_float() * 4, -rng.next_float()};
+    m.dv = {rng.next_float(), rng.next_float() - 0.5f, rng.next_float() * 0.01f};
+    m.normal = glm::normalize(glm::vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f));
+    m.offset = (rng.next_float() - 0.5f) * 1.7f;
+    uint32_t w[kUvMapWords];
+    pack_uv_map(m, w);
+    const UvMap back = unpack_uv_map(w);
+    EXPECT_EQ(back.uv0, m.uv0);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(back.du[k], round_to_half(m.du[k]));
+      EXPECT_EQ(back.dv[k], round_to_half(m.dv[k]));
+    }
+    EXPECT_NEAR(glm::length(back.normal), 1.0f, 1e-6f);
+    EXPECT_GT(glm::dot(back.normal, m.normal), std::cos(0.02f)) << i;  // within ~1 degree
+    EXPECT_NEAR(back.offset, m.offset, 0.8660254f / 127.0f * 0.51f);
+  }
+}
+
+// A hand-made model: V = 2 over [0, 2]^3, 2 cells per voxel edge (cells of 0.5), voxel (1, 0, 0)
+// occupied, one map in its cell (0, 1, 1) (the grid's cell (2, 1, 1), centre (1.25, 0.75, 0.75)):
+// the plane z = centre, uv = (0.3, 0.7) + (0.1 x, 0.2 y) in cell units from the centre.
+TEST(UvCells, ALookupFindsTheCellsPieceFacingTheNormalWhereTheRayMeetsIt) {
+  Model m;
+  Config& c = m.config;
+  c.voxel_resolution = 2;
+  c.uv_materials = 1;
+  c.uv_cells = 2;
+  c.uv_cell_voxels = 1;
+  c.uv_cell_maps = 1;
+  m.voxels.resolution = 2;
+  m.voxels.bounds = {glm::vec3(0.0f), glm::vec3(2.0f)};
+  m.voxels.bits = {1u << 1};
+  UvMap map;
+  map.uv0 = {0.3f, 0.7f};
+  map.du = {0.1f, 0.0f, 0.0f};
+  map.dv = {0.0f, 0.2f, 0.0f};
+  map.normal = {0.0f, 0.0f, 1.0f};
+  m.uv_cells = {0u, 1u << (0 + 2 * (1 + 2 * 1)), 0u, 0u, 0u};
+  m.uv_cells.resize(kUvVoxelWords + kUvMapWords);
+  pack_uv_map(map, m.uv_cells.data() + kUvVoxelWords);
+  const UvCells cells(m);
+  const glm::vec3 centre(1.25f, 0.75f, 0.75f), up(0.0f, 0.0f, 1.0f), down(0.0f, 0.0f, -1.0f);
+  glm::vec2 uv;
+  // On the plane: the affine coordinate (0.1 cell units right, 0.2 down).
+  ASSERT_TRUE(cells.lookup(centre + glm::vec3(0.05f, -0.1f, 0.0f), up, down, uv));
+  EXPECT_NEAR(uv.x, 0.3f + round_to_half(0.1f) * 0.1f, 1e-6f);  // the gradients are fp16
+  EXPECT_NEAR(uv.y, 0.7f - round_to_half(0.2f) * 0.2f, 1e-6f);
+  // A slanted ray's point past the plane reads where the ray meets it.
+  const glm::vec3 slant = glm::normalize(glm::vec3(1.0f, 0.0f, -1.0f));
+  ASSERT_TRUE(cells.lookup(centre + 0.1f * slant, up, slant, uv));
+  EXPECT_NEAR(uv.x, 0.3f, 1e-6f);
+  EXPECT_NEAR(uv.y, 0.7f, 1e-6f);
+  // From a neighbouring cell (the point's own holds nothing); not from two cells away.
+  ASSERT_TRUE(cells.lookup(centre + glm::vec3(0.0f, 0.0f, 0.4f), up, down, uv));
+  EXPECT_NEAR(uv.x, 0.3f, 1e-6f);
+  EXPECT_FALSE(cells.lookup(centre + glm::vec3(-1.1f, 0.0f, 0.0f), up, down, uv));
+  // A normal facing away from the piece finds nothing; so does a model without uv cells.
+  EXPECT_FALSE(cells.lookup(centre, down, up, uv));
+  Model plain = m;
+  plain.config.uv_materials = 0;
+  EXPECT_FALSE(UvCells(plain).lookup(centre, up, down, uv));
 }
 
 }  // namespace

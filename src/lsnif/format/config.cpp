@@ -88,6 +88,21 @@ Status Config::validate() const {
     return Status::error("emission scale %g out of range [0, %g]", double(emission_scale), LSNIF_MAX_EMISSION_SCALE);
   if (!surface_channels && emission_scale != 0.0f)
     return Status::error("emission scale %g without surface channels (must be 0)", double(emission_scale));
+  if (material_count < 64 && (uv_materials >> material_count) != 0)
+    return Status::error("texture-coordinate materials 0x%llx name a material beyond the %u of the model",
+                         (unsigned long long)uv_materials, material_count);
+  if (texture_coordinates() ? uv_cells < min_u32(SettingId::UvCells) || uv_cells > max_u32(SettingId::UvCells)
+                            : uv_cells != 0)
+    return Status::error("uv cells per voxel %u out of range [%u, %u] (0 without texture-coordinate materials)", uv_cells,
+                         min_u32(SettingId::UvCells), max_u32(SettingId::UvCells));
+  if (!texture_coordinates() && (uv_cell_voxels || uv_cell_maps))
+    return Status::error("%u uv cell voxels and %u maps without texture-coordinate materials (must be 0)",
+                         uv_cell_voxels, uv_cell_maps);
+  if (uint64_t(uv_cell_voxels) > voxel_count() ||
+      uint64_t(uv_cell_maps) > 2ull * uv_cell_voxels * uv_cells * uv_cells * uv_cells ||
+      uv_cell_maps > LSNIF_MAX_UV_CELL_MAPS)
+    return Status::error("%u uv cell voxels and %u maps exceed the %llu voxels, 2 maps per cell or %u maps",
+                         uv_cell_voxels, uv_cell_maps, (unsigned long long)voxel_count(), LSNIF_MAX_UV_CELL_MAPS);
   const uint32_t max_slots = 1u << max_u32(SettingId::TableLog2);
   for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) {
     const uint32_t slots = index_slots[l], buckets = index_buckets[l];
@@ -142,11 +157,14 @@ std::string Config::describe() const {
     if (l == 0 || !uniform_table_log2())
       m.append(l ? "," : "").append(indexed(l) ? format("indexed:%u", index_slots[l]) : std::to_string(table_log2[l]));
   }
-  return format("V=%u H=%u L=%u res=%s M=%s F=%u W=%ux%u Nmat=%u hit=%s leaky=%g%s%s", voxel_resolution,
+  return format("V=%u H=%u L=%u res=%s M=%s F=%u W=%ux%u Nmat=%u hit=%s leaky=%g%s%s%s", voxel_resolution,
                 max_points, grid_levels, res.c_str(), m.c_str(), features, hidden_width,
                 hidden_layers, material_count, to_string(hit_param), double(leaky_slope),
                 grid_bits == 16 ? "" : format(" grid-bits=%u", grid_bits).c_str(),
-                surface_channels ? format(" surface emission-scale=%g", double(emission_scale)).c_str() : "");
+                surface_channels ? format(" surface emission-scale=%g", double(emission_scale)).c_str() : "",
+                texture_coordinates()
+                    ? format(" uv-materials=0x%llx uv-cells=%u", (unsigned long long)uv_materials, uv_cells).c_str()
+                    : "");
 }
 
 void set_grid_resolutions(Config& config, uint32_t coarsest, uint32_t finest) {

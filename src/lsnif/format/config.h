@@ -57,7 +57,21 @@ struct Config {
   // The emission head's scale: emission = sigmoid(raw) * emission_scale, the largest emission of the
   // object's materials (linear RGB), in [0, LSNIF_MAX_EMISSION_SCALE]; 0 without surface channels.
   float emission_scale = 0.0f;
+  // Texture coordinates (.lsnif format version 7): bit m set when hits of material m report the
+  // texture coordinate of the predicted hit point, read from the model's uv cells (Model::uv_cells,
+  // src/lsnif/core/uv_cells.h), instead of the learned colours, so that a renderer samples the
+  // material's own textures at full detail; 0 for a model without uv cells. Only bits below
+  // material_count.
+  uint64_t uv_materials = 0;
+  // Uv cells per voxel edge (S, settings_table.h's uv-cells): the cells are a grid of V x S per axis;
+  // 0 when uv_materials is 0.
+  uint32_t uv_cells = 0;
+  // The uv cells' size (src/lsnif/format/uv_cell_layout.h): voxel records (the occupied voxels) and
+  // maps; 0 without texture-coordinate materials.
+  uint32_t uv_cell_voxels = 0, uv_cell_maps = 0;
 
+  bool texture_coordinates() const { return uv_materials != 0; }
+  bool reports_uv(uint32_t material) const { return material < 64 && ((uv_materials >> material) & 1u) != 0; }
   bool indexed(uint32_t level) const { return index_slots[level] != 0; }
   bool any_indexed() const;
   // Displacements of all indexed levels together (Model::grid_index).

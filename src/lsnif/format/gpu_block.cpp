@@ -2,7 +2,11 @@
 // src/lsnif/host_device.h; this file and src/lsnif/shaders/lsnif_model.glsl / lsnif_mlp.glsl follow it.
 #include "lsnif/format/gpu_block.h"
 
+#include <algorithm>
+#include <bit>
 #include <cstring>
+
+#include "lsnif/format/uv_cell_layout.h"
 
 namespace lsnif {
 
@@ -69,7 +73,13 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   const uint64_t grid_offset = voxel_offset + (voxel_words + 7) / 8 * 8;
   const uint64_t index_offset = grid_offset + grid_words;
   const uint64_t mlp_offset = index_offset + index_words;
-  const uint64_t total = mlp_offset + mlp_words;
+  // The uv cells: the rank table (a word per voxel word), the voxel records and the maps, each
+  // starting at a multiple of 8 words.
+  const bool uv = c.texture_coordinates();
+  const uint64_t rank_offset = (mlp_offset + mlp_words + 7) / 8 * 8;
+  const uint64_t record_offset = (rank_offset + voxel_words + 7) / 8 * 8;
+  const uint64_t map_offset = (record_offset + uint64_t(kUvVoxelWords) * c.uv_cell_voxels + 7) / 8 * 8;
+  const uint64_t total = uv ? map_offset + uint64_t(kUvMapWords) * c.uv_cell_maps : mlp_offset + mlp_words;
   if (total > 0xffffffffull)
     return Status::error("packing GPU block: %llu words exceed the 32-bit word addressing",
                          static_cast<unsigned long long>(total));
@@ -105,6 +115,14 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   set_levels(h.index_buckets0, h.index_buckets1, h.index_buckets2, h.index_buckets3, c.index_buckets);
   h.surface_channels = c.surface_channels;
   h.emission_scale = c.emission_scale;
+  h.uv_materials_lo = uint32_t(c.uv_materials);
+  h.uv_materials_hi = uint32_t(c.uv_materials >> 32);
+  if (uv) {
+    h.uv_cells = c.uv_cells;
+    h.uv_rank_offset = uint32_t(rank_offset);
+    h.uv_record_offset = uint32_t(record_offset);
+    h.uv_map_offset = uint32_t(map_offset);
+  }
   if (c.grid_bits == 8)
     set_levels(h.grid_scale0, h.grid_scale1, h.grid_scale2, h.grid_scale3, view.grid_scales);
   std::memcpy(words.data(), &h, sizeof h);
@@ -119,6 +137,17 @@ Status pack_gpu_block(const ModelFileView& view, std::vector<uint32_t>& words) {
   }
 
   for (uint64_t i = 0; i < c.grid_index_count(); ++i) put_half(words, index_offset, i, get_u16(view.grid_index + 2 * i));
+
+  if (uv) {
+    uint32_t rank = 0;
+    for (uint64_t w = 0; w < voxel_words; ++w) {
+      words[size_t(rank_offset + w)] = rank;
+      rank += uint32_t(std::popcount(get_u32(view.voxels + 4 * w)));
+    }
+    const size_t records = size_t(kUvVoxelWords) * c.uv_cell_voxels;
+    std::copy(view.uv_cells.begin(), view.uv_cells.begin() + long(records), words.begin() + long(record_offset));
+    std::copy(view.uv_cells.begin() + long(records), view.uv_cells.end(), words.begin() + long(map_offset));
+  }
 
   const std::vector<LayerView> views = mlp_layers(c);
   for (size_t l = 0; l < layers.size(); ++l) {

@@ -1,8 +1,8 @@
 // model_format.cpp -- reading and writing .lsnif files at the byte level (model_format.h). The byte layout is specified in
 // docs/model-format.md; in short (all little-endian, packed byte by byte, no struct copies):
 //
-//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1 to 6)
-//   12   u32 header size (168, 184, 208, 224, 272, 288) 16 u64 total file size
+//   0    magic "LSNIF\0\r\n" (8 bytes)      8   u32 format version (1 to 7)
+//   12   u32 header size (168, 184, 208, 224, 272, 288, 336) 16 u64 total file size
 //   24   Config (13 x u32, leaky slope f32) 80  AABB lo.xyz, hi.xyz (6 x f32)
 //   104  section table: {u64 offset, u64 size} for materials, voxels, grid, mlp (and, in version 2,
 //        training at 168; in versions 3 and 4 training, possibly empty, at 168 and grid scales at 184)
@@ -16,6 +16,11 @@
 //   version 6: the layout of version 5 (the grid index section possibly empty, index sizes 0 when no
 //        level is indexed) plus 272 u32 surface channels (1), 276 f32 emission scale, 280 two u32
 //        zero: the network has surface channels (Config::surface_channels).
+//   version 7: the layout of version 6 (surface channels 0 or 1, the emission scale 0 without them)
+//        plus 288 u64 texture-coordinate materials (Config::uv_materials, not 0), 296 u32 uv cells
+//        per voxel, 300 u32 uv cell voxels, 304 u32 uv cell maps, 308 u32 zero, 312 {u64 offset, u64
+//        size} of the uv cells section (after the grid index; uv_cell_layout.h's words), 328 two u32
+//        zero: the model has uv cells.
 //   then zero padding to a multiple of 16, then the sections in that order, each at a 16-byte
 //        aligned offset with zero padding between them, then (16-byte aligned) u32 CRC-32 of all
 //        bytes before. Grid values are fp16 (versions 1, 2) or int8 codes in [-127, 127] (version 3,
@@ -26,6 +31,7 @@
 #include "lsnif/format/model_format.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -34,6 +40,7 @@
 #include "lsnif/format/crc32.h"
 #include "lsnif/format/file_io.h"
 #include "lsnif/format/training_record.h"
+#include "lsnif/format/uv_cell_layout.h"
 
 namespace lsnif {
 
@@ -48,6 +55,8 @@ constexpr uint32_t kHeaderSizeV4 = kHeaderSizeV3 + 4 * LSNIF_MAX_LEVELS;  // + t
 constexpr uint32_t kHeaderSizeV5 = kHeaderSizeV4 + 16 + 8 * LSNIF_MAX_LEVELS;
 // + surface channels, emission scale, two reserved words
 constexpr uint32_t kHeaderSizeV6 = kHeaderSizeV5 + 16;
+// + texture-coordinate materials, uv cells per voxel, voxels and maps, the uv cells {offset, size}
+constexpr uint32_t kHeaderSizeV7 = kHeaderSizeV6 + 48;
 constexpr uint64_t kNameBytes = kModelMaterialNameBytes;
 constexpr uint64_t kMaterialRecordSize = kNameBytes + 3 * 4;  // name + base_color[3]
 constexpr uint64_t kAlignment = 16;
@@ -57,15 +66,19 @@ constexpr uint64_t kCrcSize = 4;
 constexpr size_t kOffVersion = 8, kOffHeaderSize = 12, kOffFileSize = 16, kOffConfig = 24,
                  kOffAabb = 80, kOffSections = 104, kOffGridBits = 200, kOffReserved = 204, kOffTableLog2 = 208,
                  kOffGridIndexEntry = 224, kOffIndexSlots = 240, kOffIndexBuckets = 256,
-                 kOffSurfaceChannels = 272, kOffEmissionScale = 276, kOffReservedV6 = 280;
+                 kOffSurfaceChannels = 272, kOffEmissionScale = 276, kOffReservedV6 = 280,
+                 kOffUvMaterials = 288, kOffUvCells = 296, kOffUvCellVoxels = 300, kOffUvCellMaps = 304,
+                 kOffReservedV7 = 308, kOffUvCellsEntry = 312, kOffReservedV7b = 328;
 // The Config's M field (offset 52 of the file): the size of every level's table in versions 1 to 3.
 constexpr size_t kConfigTableLog2 = 28;
 
-enum Section { kMaterials = 0, kVoxels, kGrid, kMlp, kTraining, kGridScales, kGridIndex, kSectionCount };
+enum Section { kMaterials = 0, kVoxels, kGrid, kMlp, kTraining, kGridScales, kGridIndex, kUvCells, kSectionCount };
 constexpr const char* kSectionName[kSectionCount] = {"materials", "voxels",      "grid",      "mlp",
-                                                     "training",  "grid scales", "grid index"};
+                                                     "training",  "grid scales", "grid index", "uv cells"};
 // Where section s's {offset, size} entry lies in the header.
-size_t section_entry(int s) { return s == kGridIndex ? kOffGridIndexEntry : kOffSections + 16 * size_t(s); }
+size_t section_entry(int s) {
+  return s == kGridIndex ? kOffGridIndexEntry : s == kUvCells ? kOffUvCellsEntry : kOffSections + 16 * size_t(s);
+}
 
 uint64_t align16(uint64_t n) { return (n + kAlignment - 1) & ~(kAlignment - 1); }
 
@@ -75,16 +88,18 @@ uint32_t header_size_of(uint32_t version) {
        : version == 3 ? kHeaderSizeV3
        : version == 4 ? kHeaderSizeV4
        : version == 5 ? kHeaderSizeV5
-                      : kHeaderSizeV6;
+       : version == 6 ? kHeaderSizeV6
+                      : kHeaderSizeV7;
 }
 
 // Where everything lives in the file of a model with this (valid) config and a training record of
-// `training_bytes`: version 6 with surface channels, else version 5 when a level is indexed, else
+// `training_bytes`: version 7 with texture coordinates, else version 6 with surface channels, else version 5 when a level is indexed, else
 // version 4 when the levels' tables differ
 // in size, else version 3 for 8-bit grid features, else version 1 (no record) or 2.
 struct Layout {
   uint32_t version = 1, header_size = kHeaderSizeV1;
-  int sections = kTraining;  // kTraining in version 1, kGridScales in 2, kGridIndex in 3 and 4, all in 5
+  int sections = kTraining;  // kTraining in version 1, kGridScales in 2, kGridIndex in 3 and 4, kUvCells in 5 and
+                             // 6, all in 7
   uint64_t offset[kSectionCount] = {};
   uint64_t size[kSectionCount] = {};
   uint64_t crc_offset = 0, file_size = 0;
@@ -92,12 +107,15 @@ struct Layout {
 
 Layout layout_of(const Config& c, uint64_t training_bytes) {
   Layout l;
-  if (c.surface_channels) {
-    l.version = 6;
+  if (c.texture_coordinates()) {
+    l.version = 7;
     l.sections = kSectionCount;
+  } else if (c.surface_channels) {
+    l.version = 6;
+    l.sections = kUvCells;
   } else if (c.any_indexed()) {
     l.version = 5;
-    l.sections = kSectionCount;
+    l.sections = kUvCells;
   } else if (!c.uniform_table_log2()) {
     l.version = 4;
     l.sections = kGridIndex;
@@ -116,6 +134,7 @@ Layout layout_of(const Config& c, uint64_t training_bytes) {
   l.size[kTraining] = training_bytes;
   l.size[kGridScales] = c.grid_bits == 8 ? 4u * c.grid_levels : 0u;
   l.size[kGridIndex] = 2u * c.grid_index_count();
+  l.size[kUvCells] = 4u * uv_cell_words(c);
   uint64_t end = l.header_size;
   for (int s = 0; s < l.sections; ++s) {
     l.offset[s] = align16(end);
@@ -139,9 +158,13 @@ uint64_t max_file_size() {
   c.hidden_layers = max_u32(SettingId::Layers);
   c.material_count = LSNIF_MAX_MATERIALS;
   c.surface_channels = 1;
+  c.uv_materials = ~uint64_t(0);
+  c.uv_cells = max_u32(SettingId::UvCells);
+  c.uv_cell_voxels = uint32_t(c.voxel_count());
+  c.uv_cell_maps = LSNIF_MAX_UV_CELL_MAPS;
   const uint64_t largest = layout_of(c, kMaxTrainingRecordBytes).file_size;
   // Indexed levels: tables of at most 2^M entries (as hashed ones), plus a displacement per slot.
-  return largest + 2u * c.grid_levels * (uint64_t(1) << max_u32(SettingId::TableLog2)) + kHeaderSizeV6;
+  return largest + 2u * c.grid_levels * (uint64_t(1) << max_u32(SettingId::TableLog2)) + kHeaderSizeV7;
 }
 
 // ---- little-endian packing ----------------------------------------------------------------------
@@ -195,7 +218,7 @@ bool aabb_usable(const float lo[3], const float hi[3]) {
 }
 
 // Config fields in file order (docs/model-format.md, offsets 24..79) of a file of `version`; M is 0
-// in versions 4 to 6 (they store the tables' sizes per level, also when all levels' are equal, as a
+// in versions 4 to 7 (they store the tables' sizes per level, also when all levels' are equal, as a
 // version 6 file of a model with surface channels may have).
 void write_config(uint8_t* p, const Config& c, uint32_t version) {
   const uint32_t M = version <= 3 ? c.table_log2[0] : 0;
@@ -279,7 +302,7 @@ Status read_header_config(const uint8_t* data, uint32_t version, Config& config)
     if (config.grid_levels <= LSNIF_MAX_LEVELS) set_table_log2(config, stored_m);
   } else {
     if (stored_m != 0)
-      return Status::error("config field M (offset %zu) is %u in a version %u file: versions 4 to 6 store the "
+      return Status::error("config field M (offset %zu) is %u in a version %u file: versions 4 to 7 store the "
                            "table sizes per level at offset %zu, M must be 0", kOffConfig + kConfigTableLog2,
                            stored_m, version, kOffTableLog2);
     for (uint32_t l = 0; l < LSNIF_MAX_LEVELS; ++l) config.table_log2[l] = get_u32(data + kOffTableLog2 + 4 * l);
@@ -301,10 +324,22 @@ Status read_header_config(const uint8_t* data, uint32_t version, Config& config)
   if (version >= 6) {
     config.surface_channels = get_u32(data + kOffSurfaceChannels);
     config.emission_scale = get_f32(data + kOffEmissionScale);
-    if (config.surface_channels != 1)
+    if (version == 6 && config.surface_channels != 1)
       return Status::error("surface channels %u in a version 6 file: version 6 stores a model with surface channels "
                            "(1)", config.surface_channels);
     for (size_t off = kOffReservedV6; off < kHeaderSizeV6; off += 4)
+      if (get_u32(data + off) != 0)
+        return Status::error("reserved header word at offset %zu is 0x%08x, not zero", off, get_u32(data + off));
+  }
+  if (version >= 7) {
+    config.uv_materials = get_u64(data + kOffUvMaterials);
+    config.uv_cells = get_u32(data + kOffUvCells);
+    config.uv_cell_voxels = get_u32(data + kOffUvCellVoxels);
+    config.uv_cell_maps = get_u32(data + kOffUvCellMaps);
+    if (config.uv_materials == 0)
+      return Status::error("no texture-coordinate material in a version 7 file: version 7 stores a model with "
+                           "uv cells");
+    for (size_t off : {kOffReservedV7, kOffReservedV7b, kOffReservedV7b + 4})
       if (get_u32(data + off) != 0)
         return Status::error("reserved header word at offset %zu is 0x%08x, not zero", off, get_u32(data + off));
   }
@@ -481,6 +516,22 @@ Status read_training(const uint8_t* data, const Layout& expected, ModelFileView&
   return Status::ok();
 }
 
+// The uv cells (version 7) into v.uv_cells: one voxel record per occupied voxel, the words checked
+// (check_uv_cells).
+Status read_uv_cells(const uint8_t* data, const Layout& expected, ModelFileView& v) {
+  const Config& c = v.config;
+  if (!c.texture_coordinates()) return Status::ok();
+  uint64_t occupied = 0;
+  for (uint64_t w = 0; w < model_voxel_words(c); ++w) occupied += uint64_t(std::popcount(get_u32(v.voxels + 4 * w)));
+  if (occupied != c.uv_cell_voxels)
+    return Status::error("uv cells: the header says %u voxel records, the voxels section has %llu occupied voxels",
+                         c.uv_cell_voxels, ull(occupied));
+  const uint8_t* p = data + expected.offset[kUvCells];
+  v.uv_cells.resize(size_t(uv_cell_words(c)));
+  for (size_t i = 0; i < v.uv_cells.size(); ++i) v.uv_cells[i] = get_u32(p + 4 * i);
+  return check_uv_cells(c, v.uv_cells.data());
+}
+
 Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   uint32_t version = 0;
   if (Status s = check_preamble(data, size, version); !s) return s;
@@ -499,6 +550,7 @@ Status parse(const uint8_t* data, size_t size, ModelFileView& view) {
   if (Status s = read_materials(data, expected, v); !s) return s;
   if (Status s = read_voxels(data, expected, v); !s) return s;
   if (Status s = read_parameters(data, version, expected, v); !s) return s;
+  if (Status s = read_uv_cells(data, expected, v); !s) return s;
   v.version = version;
   if (Status s = read_training(data, expected, v); !s) return s;
   if (Status s = check_training_record(v.training, v.config); !s) return s;
@@ -518,6 +570,7 @@ ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes) {
   out.voxels = l.size[kVoxels];
   out.grid = l.size[kGrid] + l.size[kGridScales] + l.size[kGridIndex];
   out.mlp = l.size[kMlp];
+  out.uv_cells = l.size[kUvCells];
   out.file = l.file_size;
   out.version = l.version;
   return out;
@@ -538,8 +591,16 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
     return Status::error("cannot save model: %zu materials, the config has %u", contents.materials.size(),
                          c.material_count);
   if (!contents.voxels || !contents.mlp || (c.grid_bits == 8 ? !contents.grid_codes : !contents.grid) ||
-      (c.any_indexed() && !contents.grid_index))
+      (c.any_indexed() && !contents.grid_index) || (c.texture_coordinates() && !contents.uv_cells))
     return Status::error("cannot save model: a section has no data");
+  if (c.texture_coordinates()) {
+    uint64_t occupied = 0;
+    for (uint64_t w = 0; w < model_voxel_words(c); ++w) occupied += uint64_t(std::popcount(contents.voxels[w]));
+    if (occupied != c.uv_cell_voxels)
+      return Status::error("cannot save model: %u uv cell voxel records for %llu occupied voxels", c.uv_cell_voxels,
+                           ull(occupied));
+    if (Status s = check_uv_cells(c, contents.uv_cells); !s) return s.context("cannot save model");
+  }
   if (contents.training.size() > kMaxTrainingRecordBytes)
     return Status::error("cannot save model: the training record is %zu bytes, at most %llu allowed",
                          contents.training.size(), ull(kMaxTrainingRecordBytes));
@@ -608,6 +669,12 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
     put_u32(d + kOffSurfaceChannels, c.surface_channels);
     put_f32(d + kOffEmissionScale, c.emission_scale);
   }
+  if (l.version >= 7) {
+    put_u64(d + kOffUvMaterials, c.uv_materials);
+    put_u32(d + kOffUvCells, c.uv_cells);
+    put_u32(d + kOffUvCellVoxels, c.uv_cell_voxels);
+    put_u32(d + kOffUvCellMaps, c.uv_cell_maps);
+  }
   for (int a = 0; a < 3; ++a) {
     put_f32(d + kOffAabb + 4 * a, contents.bounds_lo[a]);
     put_f32(d + kOffAabb + 12 + 4 * a, contents.bounds_hi[a]);
@@ -638,6 +705,8 @@ Status write_model_file(const ModelFileContents& contents, std::vector<uint8_t>&
     std::memcpy(d + l.offset[kTraining], contents.training.data(), contents.training.size());
   p = d + l.offset[kGridIndex];
   for (uint64_t i = 0; i < c.grid_index_count(); ++i) put_u16(p + 2 * i, contents.grid_index[i]);
+  p = d + l.offset[kUvCells];
+  for (uint64_t i = 0; c.texture_coordinates() && i < uv_cell_words(c); ++i) put_u32(p + 4 * i, contents.uv_cells[i]);
   put_u32(d + l.crc_offset, crc32(d, l.crc_offset));
   bytes = std::move(out);
   return Status::ok();

@@ -21,9 +21,9 @@ namespace lsnif {
 // level's table; 16- or 8-bit features); models with an indexed grid level (Config::index_slots) as
 // version 5 (the layout of version 4 plus every level's index sizes and the grid index section);
 // models with surface channels as version 6 (the layout of version 5 plus the surface channels and
-// the emission scale). All
-// six are read.
-constexpr uint32_t kModelFormatVersion = 6;
+// the emission scale); models with texture-coordinate outputs (Config::uv_materials) as version 7
+// (the layout of version 6 plus those materials and the uv box). All seven are read.
+constexpr uint32_t kModelFormatVersion = 7;
 // The training section (version 2): compact JSON text, at most this many bytes.
 constexpr size_t kMaxTrainingRecordBytes = 65536;
 constexpr size_t kModelMaterialNameBytes = 64;  // NUL-terminated: at most 63 bytes of name
@@ -48,7 +48,8 @@ struct ModelFileView {
   const uint8_t* mlp = nullptr;                // config.mlp_parameter_count() fp16 values
   float grid_scales[LSNIF_MAX_LEVELS] = {};    // grid_bits 8: per level, finite, >= 0 (else 0)
   const uint8_t* grid_index = nullptr;         // version 5: config.grid_index_count() u16 displacements
-  uint32_t version = 0;                        // 1 to 6
+  std::vector<uint32_t> uv_cells;              // version 7: uv_cell_words(config) words (uv_cell_layout.h), checked
+  uint32_t version = 0;                        // 1 to 7
   std::string training;                        // the training record (version 2), else empty
 };
 
@@ -62,7 +63,7 @@ bool grid_scale_usable(float scale);
 // of `training_bytes`: voxel section, grid (values and, for 8-bit features, the scales;
 // for indexed levels also the displacements), MLP, the whole file, and its format version.
 struct ModelFileSizes {
-  uint64_t voxels = 0, grid = 0, mlp = 0, file = 0;
+  uint64_t voxels = 0, grid = 0, mlp = 0, uv_cells = 0, file = 0;
   uint32_t version = 0;
 };
 ModelFileSizes model_file_sizes(const Config& config, uint64_t training_bytes);
@@ -96,6 +97,7 @@ struct ModelFileContents {
   const int8_t* grid_codes = nullptr;   // grid_bits 8: config.grid_parameter_count() codes in [-127, 127]
   float grid_scales[LSNIF_MAX_LEVELS] = {};  // grid_bits 8: per level, finite, >= 0
   const uint16_t* grid_index = nullptr;  // config.grid_index_count() displacements (an indexed level)
+  const uint32_t* uv_cells = nullptr;    // uv_cell_words(config) words (texture-coordinate materials)
   const uint16_t* mlp = nullptr;        // config.mlp_parameter_count() values
   // The training record (src/lsnif/train/settings_io.h): empty writes a version 1 file, else version 2 with
   // a training section (valid UTF-8 without control characters, at most kMaxTrainingRecordBytes).

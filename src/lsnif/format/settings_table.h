@@ -31,7 +31,7 @@ struct SettingChoice {
 // In table order (kSettingDefs[i].id == i).
 enum class SettingId : uint32_t {
   Voxels, Points, Levels, ResMin, ResMax, TableLog2, Features, Width, Layers, Hit, LeakySlope, GridBits, Indexed,
-  SurfaceMaps,
+  SurfaceMaps, TextureCoordinates, UvCells,
   Steps, Batch, Seed, RayReuse, Lr, LrSchedule, LrFinal, LrWarm, AdamBeta1, AdamBeta2, AdamEpsilon, NormalLoss,
   WOcclusion, WDistance, WNormal, WAlbedo, WMaterial, WSurface,
   SurfaceFraction, SphereScale, SurfaceOffset, GridInitRange,
@@ -64,6 +64,12 @@ inline constexpr SettingChoice kNormalLossChoices[] = {{"angle", 1}, {"cosine", 
 inline constexpr uint32_t kSurfaceMapsOff = 0, kSurfaceMapsOn = 1, kSurfaceMapsAuto = 2;
 inline constexpr SettingChoice kSurfaceMapsChoices[] = {
     {"auto", kSurfaceMapsAuto}, {"on", kSurfaceMapsOn}, {"off", kSurfaceMapsOff}};
+// Which materials' hits report a learned texture coordinate instead of learned colours
+// (TextureCoordinates, src/lsnif/train/uv_materials.h): auto: every textured material whose uv layout
+// allows it (the renderer samples the material's own textures there); off: none.
+inline constexpr uint32_t kTextureCoordinatesOff = 0, kTextureCoordinatesAuto = 1;
+inline constexpr SettingChoice kTextureCoordinatesChoices[] = {{"auto", kTextureCoordinatesAuto},
+                                                               {"off", kTextureCoordinatesOff}};
 // LrSchedule (src/lsnif/train/lr_schedule.h) values.
 inline constexpr SettingChoice kLrScheduleChoices[] = {{"constant", 0}, {"exponential", 1}, {"cosine", 2}};
 
@@ -129,6 +135,18 @@ inline constexpr SettingDef kSettingDefs[] = {
                            "what the model learns of the material textures: auto (metallic, roughness, occlusion "
                            "and emission as extra network outputs when a material has such a texture, normal maps "
                            "baked into the normal), on (those outputs always), off (base colour only)"),
+    setting_detail::choice(SettingId::TextureCoordinates, "texture-coordinates", kTextureCoordinatesOff,
+                           kTextureCoordinatesChoices,
+                           "auto: hits of every textured material whose uv layout allows it report the texture "
+                           "coordinate of the predicted hit point, read from uv cells stored with the model (a "
+                           "renderer samples the material's own textures there, at full detail); off: learned "
+                           "colours only"),
+    // 2: on the spider's close-up the albedo image's FLIP was 0.052 (4: 0.044 at ~4x the cells' bytes,
+    // 1: 0.064; learned colours 0.096) (docs/convert.md, "Textures at full detail").
+    setting_detail::u32(SettingId::UvCells, "uv-cells", 2, 1, 4,
+                        "uv cells per voxel edge: where the texture coordinate of a hit is read (with "
+                        "--texture-coordinates auto); more cells follow the uv layout more closely at S^3 "
+                        "times the cells' bytes"),
     // The training run (TrainSettings).
     setting_detail::u32(SettingId::Steps, "steps", 2400, 1, 10000000, "training steps"),
     // Paper: 2^18 on a GPU. On 2 CPU cores the quality per step hardly depends on the batch, so a

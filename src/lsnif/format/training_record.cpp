@@ -80,6 +80,12 @@ Status check_against_header(const SettingDef& d, const SettingValue& v, const Co
                            header.surface_channels ? "surface channels" : "no surface channels");
     return Status::ok();
   }
+  if (d.id == SettingId::TextureCoordinates) {
+    if (v.u == kTextureCoordinatesOff && header.texture_coordinates())
+      return Status::error("training record: %s is %s, the header's model has texture coordinates", d.name,
+                           setting_text(d, v).c_str());
+    return Status::ok();
+  }
   SettingValue h;
   const char* what = "";
   if (!header_value(d.id, header, h, what)) return Status::ok();

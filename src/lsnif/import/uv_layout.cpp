@@ -107,7 +107,13 @@ UvLayout analyze_uv_layout(const Mesh& mesh, uint32_t material, float weld, floa
     }
     if (seam) ++out.seam_edges;
   }
-  for (uint32_t i = 0; i < tris.size(); ++i) out.charts += charts.find(i) == i ? 1u : 0u;
+  out.triangle_chart.assign(mesh.triangles.size(), UvLayout::kNoChart);
+  std::vector<uint32_t> chart_of_root(tris.size(), UvLayout::kNoChart);
+  for (uint32_t i = 0; i < tris.size(); ++i) {
+    uint32_t& chart = chart_of_root[charts.find(i)];
+    if (chart == UvLayout::kNoChart) chart = out.charts++;
+    out.triangle_chart[tris[i]] = chart;
+  }
 
   // Overlap: cell centres of a grid over the uv box inside two or more triangles.
   const glm::vec2 lo = out.uv_min, extent = glm::max(out.uv_max - out.uv_min, glm::vec2(1e-12f));
@@ -142,6 +148,72 @@ UvLayout analyze_uv_layout(const Mesh& mesh, uint32_t material, float weld, floa
   }
   out.overlap_fraction = covered ? double(twice) / double(covered) : 0.0;
   return out;
+}
+
+namespace {
+
+// Distance (max norm, per axis) from p to triangle abc, 0 inside: the point's nearest point on the
+// triangle by barycentric clamping against each edge.
+float uv_distance(glm::vec2 p, glm::vec2 a, glm::vec2 b, glm::vec2 c) {
+  const float area = signed_uv_area(a, b, c);
+  if (area != 0.0f) {
+    const float u = signed_uv_area(b, c, p) / area, v = signed_uv_area(c, a, p) / area;
+    if (u >= 0.0f && v >= 0.0f && u + v <= 1.0f) return 0.0f;
+  }
+  auto segment = [](glm::vec2 q, glm::vec2 s0, glm::vec2 s1) {
+    const glm::vec2 d = s1 - s0;
+    const float len2 = glm::dot(d, d);
+    const float t = len2 > 0.0f ? std::clamp(glm::dot(q - s0, d) / len2, 0.0f, 1.0f) : 0.0f;
+    const glm::vec2 e = glm::abs(q - (s0 + t * d));
+    return std::max(e.x, e.y);
+  };
+  return std::min(segment(p, a, b), std::min(segment(p, b, c), segment(p, c, a)));
+}
+
+}  // namespace
+
+UvChartMap::UvChartMap(const Mesh& mesh, const UvLayout& layout, uint32_t grid)
+    : mesh_(mesh), layout_(layout), grid_(std::max(grid, 1u)), lo_(layout.uv_min),
+      cell_(glm::max(layout.uv_max - layout.uv_min, glm::vec2(1e-12f)) / float(std::max(grid, 1u))) {
+  const size_t cells = size_t(grid_) * grid_;
+  std::vector<std::vector<uint32_t>> buckets(cells);
+  for (uint32_t t = 0; t < layout.triangle_chart.size(); ++t) {
+    if (layout.triangle_chart[t] == UvLayout::kNoChart) continue;
+    const glm::uvec3 tri = mesh.triangles[t];
+    const glm::vec2 p[3] = {mesh.uvs[tri.x], mesh.uvs[tri.y], mesh.uvs[tri.z]};
+    const glm::vec2 tmin = (glm::min(p[0], glm::min(p[1], p[2])) - lo_) / cell_;
+    const glm::vec2 tmax = (glm::max(p[0], glm::max(p[1], p[2])) - lo_) / cell_;
+    const float top = float(grid_ - 1);
+    const uint32_t x0 = uint32_t(std::clamp(std::floor(tmin.x), 0.0f, top)), x1 = uint32_t(std::clamp(std::floor(tmax.x), 0.0f, top));
+    const uint32_t y0 = uint32_t(std::clamp(std::floor(tmin.y), 0.0f, top)), y1 = uint32_t(std::clamp(std::floor(tmax.y), 0.0f, top));
+    for (uint32_t y = y0; y <= y1; ++y)
+      for (uint32_t x = x0; x <= x1; ++x) buckets[size_t(y) * grid_ + x].push_back(t);
+  }
+  first_.assign(cells + 1, 0);
+  for (size_t c = 0; c < cells; ++c) first_[c + 1] = first_[c] + uint32_t(buckets[c].size());
+  triangles_.reserve(first_[cells]);
+  for (const std::vector<uint32_t>& b : buckets) triangles_.insert(triangles_.end(), b.begin(), b.end());
+}
+
+bool UvChartMap::on_chart(glm::vec2 uv, uint32_t chart, float tolerance) const {
+  if (!std::isfinite(uv.x) || !std::isfinite(uv.y) || triangles_.empty()) return false;
+  // The cells the tolerance square around uv touches.
+  const glm::vec2 a = (uv - tolerance - lo_) / cell_, b = (uv + tolerance - lo_) / cell_;
+  const float top = float(grid_ - 1);
+  if (b.x < 0.0f || b.y < 0.0f || a.x > float(grid_) || a.y > float(grid_)) return false;
+  const uint32_t x0 = uint32_t(std::clamp(std::floor(a.x), 0.0f, top)), x1 = uint32_t(std::clamp(std::floor(b.x), 0.0f, top));
+  const uint32_t y0 = uint32_t(std::clamp(std::floor(a.y), 0.0f, top)), y1 = uint32_t(std::clamp(std::floor(b.y), 0.0f, top));
+  for (uint32_t y = y0; y <= y1; ++y)
+    for (uint32_t x = x0; x <= x1; ++x) {
+      const size_t c = size_t(y) * grid_ + x;
+      for (uint32_t k = first_[c]; k < first_[c + 1]; ++k) {
+        const uint32_t t = triangles_[k];
+        if (layout_.triangle_chart[t] != chart) continue;
+        const glm::uvec3 tri = mesh_.triangles[t];
+        if (uv_distance(uv, mesh_.uvs[tri.x], mesh_.uvs[tri.y], mesh_.uvs[tri.z]) <= tolerance) return true;
+      }
+    }
+  return false;
 }
 
 }  // namespace lsnif

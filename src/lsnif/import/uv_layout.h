@@ -6,6 +6,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <glm/glm.hpp>
 
@@ -21,6 +22,10 @@ struct UvLayout {
   double overlap_fraction = 0;  // of the covered uv area, the share covered more than once
   bool tiling = false;          // a coordinate outside [0, 1]
   glm::vec2 uv_min{0.0f}, uv_max{0.0f};
+  // Per triangle of the mesh: its chart in [0, charts), or kNoChart for another material's (or one
+  // without uvs); empty when the material has no triangle with uvs.
+  std::vector<uint32_t> triangle_chart;
+  static constexpr uint32_t kNoChart = ~0u;
   // "3 charts, 12 seam edges, 0 mirrored, 0.0% overlap, uv in [0, 1] x [0, 1]", and " (tiling)"
   std::string describe() const;
 };
@@ -32,5 +37,21 @@ struct UvLayout {
 // `grid` x `grid` raster of the uv bounding box (cell centres covered by two or more triangles).
 UvLayout analyze_uv_layout(const Mesh& mesh, uint32_t material, float weld = 1e-6f, float uv_tolerance = 1e-5f,
                            uint32_t grid = 256);
+
+// Where a material's charts lie in uv space, to tell whether a uv point lands on a given chart: the
+// material's triangles (of a layout from analyze_uv_layout) bucketed in a grid over its uv box.
+class UvChartMap {
+ public:
+  UvChartMap(const Mesh& mesh, const UvLayout& layout, uint32_t grid = 256);
+  // Whether `uv` lies within `tolerance` (uv units, per axis) of a triangle of chart `chart`.
+  bool on_chart(glm::vec2 uv, uint32_t chart, float tolerance) const;
+
+ private:
+  const Mesh& mesh_;
+  const UvLayout& layout_;
+  uint32_t grid_;
+  glm::vec2 lo_, cell_;
+  std::vector<uint32_t> first_, triangles_;  // triangles_[first_[c] .. first_[c + 1]) overlap cell c
+};
 
 }  // namespace lsnif

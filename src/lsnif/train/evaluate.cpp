@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include "lsnif/train/ground_truth.h"
 #include "lsnif/core/intersector.h"
 #include "lsnif/import/json_text.h"
+#include "lsnif/import/uv_layout.h"
 
 namespace lsnif {
 
@@ -32,6 +34,12 @@ struct Accumulator {
   std::vector<double> t_err, n_err;
   double albedo_sum = 0, surface_sum = 0, emission_sum = 0;
   uint64_t material_ok = 0;
+  std::vector<double> uv_err;
+  uint64_t uv_wrong = 0;
+  void add_uv(double texel_error, bool wrong_chart) {
+    uv_err.push_back(texel_error);
+    uv_wrong += wrong_chart;
+  }
   // The surface channels of an agreed hit: `predicted` (metallic, roughness, ambient occlusion,
   // emission) against the reference's.
   void add_surface(const SurfaceSample& ref, const SurfaceSample& predicted) {
@@ -74,6 +82,10 @@ struct Accumulator {
       m.surface_mae = surface_sum / double(m.agreed_hits);
       m.emission_mae = emission_sum / double(m.agreed_hits);
     }
+    m.uv_hits = uv_err.size();
+    if (m.uv_hits) m.uv_wrong_chart = double(uv_wrong) / double(m.uv_hits);
+    m.uv_texel_error_median = percentile(uv_err, 0.5);
+    m.uv_texel_error_p90 = percentile(uv_err, 0.9);
     return m;
   }
 };
@@ -95,7 +107,11 @@ nlohmann::ordered_json metrics_json(const EvalMetrics& m) {
           {"albedo_mae", m.albedo_mae},
           {"material_accuracy", m.material_accuracy},
           {"surface_mae", m.surface_mae},
-          {"emission_mae", m.emission_mae}};
+          {"emission_mae", m.emission_mae},
+          {"uv_hits", m.uv_hits},
+          {"uv_texel_error_median", m.uv_texel_error_median},
+          {"uv_texel_error_p90", m.uv_texel_error_p90},
+          {"uv_wrong_chart", m.uv_wrong_chart}};
 }
 
 std::string metrics_text(const char* name, const EvalMetrics& m, bool albedo) {
@@ -107,8 +123,28 @@ std::string metrics_text(const char* name, const EvalMetrics& m, bool albedo) {
   if (albedo)
     s += format(" | albedo MAE %.4f  material acc %.2f%% | metallic/roughness/occlusion MAE %.4f  emission MAE %.4f",
                 m.albedo_mae, 100 * m.material_accuracy, m.surface_mae, m.emission_mae);
+  if (albedo && m.uv_hits)
+    s += format(" | uv texel err median %.2f p90 %.2f, wrong chart %.2f%% of %llu hits", m.uv_texel_error_median,
+                m.uv_texel_error_p90, 100 * m.uv_wrong_chart, (unsigned long long)m.uv_hits);
   return s;
 }
+
+// The largest side of material m's textures (1 when it has none the mesh holds).
+uint32_t texture_size(const Mesh& mesh, const Material& m) {
+  uint32_t size = 1;
+  for (const int* slot : m.textures())
+    if (*slot >= 0 && size_t(*slot) < mesh.textures.size())
+      size = std::max({size, mesh.textures[size_t(*slot)].width, mesh.textures[size_t(*slot)].height});
+  return size;
+}
+
+// A material's chart map and texel size, for the texture-coordinate metrics.
+struct UvTruth {
+  UvLayout layout;
+  std::unique_ptr<UvChartMap> map;
+  uint32_t texels = 1;
+  Accumulator acc;
+};
 
 // The surface channels a renderer shades an LSNIF hit with: the learned ones, or those of the
 // material its material index names (the mesh's factors) for a model without surface channels.
@@ -138,7 +174,17 @@ std::string EvalReport::to_text() const {
                 100 * truncated_fraction, 100 * hit_beyond_walk_fraction) +
          format("by origin: %llu rays from outside, %llu from the surface\n", (unsigned long long)model_outer.rays,
                 (unsigned long long)model_surface.rays) +
-         metrics_text(" outside", model_outer, false) + "\n" + metrics_text(" surface", model_surface, false) + "\n";
+         metrics_text(" outside", model_outer, false) + "\n" + metrics_text(" surface", model_surface, false) + "\n" +
+         uv_text();
+}
+
+std::string EvalReport::uv_text() const {
+  std::string s;
+  for (const UvMaterialEval& u : uv_materials)
+    s += format("uv material %u '%s' (%u charts, %u-texel texture): %llu hits, texel err median %.2f p90 %.2f, "
+                "wrong chart %.2f%%\n", u.material, printable(u.name).c_str(), u.charts, u.texture_size,
+                (unsigned long long)u.hits, u.texel_error_median, u.texel_error_p90, 100 * u.wrong_chart);
+  return s;
 }
 
 std::string EvalReport::to_json() const {
@@ -150,7 +196,19 @@ std::string EvalReport::to_json() const {
                                     {"voxel_baseline", metrics_json(baseline)},
                                     {"model_from_outside", metrics_json(model_outer)},
                                     {"model_from_surface", metrics_json(model_surface)}};
-  return json::dump(j);
+  nlohmann::ordered_json uv = nlohmann::ordered_json::array();
+  for (const UvMaterialEval& u : uv_materials)
+    uv.push_back({{"material", u.material},
+                  {"name", u.name},
+                  {"texture_size", u.texture_size},
+                  {"charts", u.charts},
+                  {"hits", u.hits},
+                  {"texel_error_median", u.texel_error_median},
+                  {"texel_error_p90", u.texel_error_p90},
+                  {"wrong_chart", u.wrong_chart}});
+  nlohmann::ordered_json out = j;
+  out["uv_materials"] = uv;
+  return json::dump(out);
 }
 
 Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& settings,
@@ -174,6 +232,17 @@ Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& 
   if (Status s = intersect(model, Transform3x4(), rays.data(), rays.size(), hits.data()); !s) return s;
 
   const float diag = model.bounds().diagonal();
+  const Config& config = model.config;
+  std::vector<std::unique_ptr<UvTruth>> uv_truth(config.material_count);
+  for (uint32_t m = 0; m < config.material_count && m < mesh.materials.size(); ++m) {
+    if (!config.reports_uv(m)) continue;
+    auto truth_m = std::make_unique<UvTruth>();
+    truth_m->layout = analyze_uv_layout(mesh, m);
+    if (truth_m->layout.triangles == 0) continue;
+    truth_m->map = std::make_unique<UvChartMap>(mesh, truth_m->layout);
+    truth_m->texels = texture_size(mesh, mesh.materials[m]);
+    uv_truth[m] = std::move(truth_m);
+  }
   Accumulator acc_model, acc_base, acc_outer, acc_surface;
   uint64_t ref_hits = 0, truncated = 0, beyond = 0;
   for (size_t i = 0; i < samples.size(); ++i) {
@@ -189,6 +258,13 @@ Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& 
                diag, true);
       if (ref.hit && h.hit) acc->add_surface(ref.surface, predicted_surface(h, mesh));
     }
+    if (ref.hit && h.hit && ref.material < uv_truth.size() && uv_truth[ref.material]) {
+      UvTruth& u = *uv_truth[ref.material];
+      const float texel = 1.0f / float(u.texels);
+      const double error = double(glm::length(h.uv - ref.uv)) * u.texels;
+      const bool wrong = !u.map->on_chart(h.uv, u.layout.triangle_chart[ref.triangle], texel);
+      for (Accumulator* acc : {&acc_model, &by_origin, &u.acc}) acc->add_uv(error, wrong);
+    }
     const BaselineHit b = voxel_baseline(model.voxels, rays[i], walks[i]);
     acc_base.add(ref.hit, b.hit, ref.t, b.t, ref.normal, b.normal, ref.albedo, glm::vec3(0.0f), 0, 0,
                  diag, false);
@@ -197,6 +273,13 @@ Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& 
   report.baseline = acc_base.finish(false);
   report.model_outer = acc_outer.finish(true);
   report.model_surface = acc_surface.finish(true);
+  report.uv_materials.clear();
+  for (uint32_t m = 0; m < uv_truth.size(); ++m) {
+    if (!uv_truth[m]) continue;
+    const EvalMetrics u = uv_truth[m]->acc.finish(false);
+    report.uv_materials.push_back({m, mesh.materials[m].name, uv_truth[m]->texels, uv_truth[m]->layout.charts, u.uv_hits,
+                                   u.uv_texel_error_median, u.uv_texel_error_p90, u.uv_wrong_chart});
+  }
   report.reference_hit_fraction = double(ref_hits) / double(samples.size());
   report.truncated_fraction = double(truncated) / double(samples.size());
   report.hit_beyond_walk_fraction = double(beyond) / double(samples.size());

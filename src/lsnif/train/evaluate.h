@@ -5,6 +5,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "lsnif/import/mesh.h"
 #include "lsnif/core/model.h"
@@ -33,6 +34,23 @@ struct EvalMetrics {
   // without them) its material's factors, as the renderer shades them, against Mesh::surface.
   double surface_mae = 0;            // mean |error| of metallic, roughness and ambient occlusion
   double emission_mae = 0;           // mean |emission error| over channels (linear radiance)
+  // Texture coordinates, on agreed hits whose reference material reports them
+  // (Config::reports_uv): the distance between predicted and reference uv in texels of the
+  // material's largest texture, and the share of those hits whose predicted uv is not within a texel
+  // of the reference triangle's chart (uv_layout.h: it samples another piece of the texture).
+  uint64_t uv_hits = 0;
+  double uv_texel_error_median = 0, uv_texel_error_p90 = 0;
+  double uv_wrong_chart = 0;
+};
+
+// The texture-coordinate metrics of one material that reports them.
+struct UvMaterialEval {
+  uint32_t material = 0;
+  std::string name;
+  uint32_t texture_size = 0;   // the largest side of its textures: what a texel is
+  uint32_t charts = 0;
+  uint64_t hits = 0;
+  double texel_error_median = 0, texel_error_p90 = 0, wrong_chart = 0;
 };
 
 struct EvalReport {
@@ -42,10 +60,12 @@ struct EvalReport {
   double truncated_fraction = 0;      // walks with more than H boundary points
   double hit_beyond_walk_fraction = 0;  // reference hits past the last recorded point (unreachable)
   double seconds = 0;
+  std::vector<UvMaterialEval> uv_materials;  // per material reporting texture coordinates
   std::string to_text() const;
+  std::string uv_text() const;  // a line per material of uv_materials (to_text's last lines)
   // One JSON object (json::dump of json_text.h, no trailing newline): the fractions and seconds,
   // then "model", "voxel_baseline", "model_from_outside", "model_from_surface" with every metric
-  // (numbers at full double precision).
+  // and "uv_materials" (numbers at full double precision).
   std::string to_json() const;
 };
 

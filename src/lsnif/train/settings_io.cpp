@@ -112,6 +112,8 @@ constexpr std::array<SettingField, kSettingCount> setting_fields() {
                l < s.config.grid_levels && (ix.level_count ? l < ix.level_count && ix.per_level[l] : ix.u) != 0;
        }},
       field<SurfaceMaps, &T::surface_maps>("surface maps"),
+      field<TextureCoordinates, &T::texture_coordinates>("texture coordinates"),
+      field<UvCells, &T::uv_cells>("uv cells per voxel"),
       field<Steps, &T::steps>("steps"),
       field<Batch, &T::batch_size>("batch size"),
       field<Seed, &T::seed>("seed"),

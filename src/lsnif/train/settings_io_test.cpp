@@ -189,7 +189,8 @@ TEST(SettingsConfig, JsonAndTrainSettingsRoundTrip) {
           "lr-final": 0.05, "lr-warm": 0.3, "adam-beta1": 0.8, "adam-beta2": 0.95,
           "adam-epsilon": 1e-12, "normal-loss": "cosine", "w-occlusion": 0.5, "w-distance": 2, "w-normal": 0.1,
           "w-albedo": 0, "w-material": 3, "surface-fraction": 0.25, "sphere-scale": 2, "surface-offset": 0.001,
-          "grid-init-range": 0.01, "surface-maps": "on", "w-surface": 0.5})",
+          "grid-init-range": 0.01, "surface-maps": "on", "w-surface": 0.5,
+          "texture-coordinates": "auto", "uv-cells": 3})",
       "cfg.json", layer));
   for (bool g : layer.given) EXPECT_TRUE(g);
   SettingValues v;

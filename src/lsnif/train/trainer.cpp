@@ -16,6 +16,7 @@
 #include "lsnif/core/hash_grid.h"
 #include "lsnif/core/head.h"
 #include "lsnif/core/network.h"
+#include "lsnif/train/uv_materials.h"
 #include "lsnif/train/voxelizer.h"
 
 namespace lsnif {
@@ -34,7 +35,8 @@ Status model_layout(const Mesh& mesh, const TrainSettings& settings, Config& con
   return index_grid_levels(voxels, settings.indexed, config, grid_index);
 }
 
-Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Config& config) {
+Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Config& config,
+                             std::vector<std::string>* warnings) {
   config = settings.config;
   if (mesh.materials.empty()) return Status::error("mesh has no material table");
   if (mesh.materials.size() > LSNIF_MAX_MATERIALS)
@@ -50,6 +52,10 @@ Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Co
                            LSNIF_MAX_EMISSION_SCALE);
     config.emission_scale = emission;
   }
+  const UvMaterialChoice uv = choose_uv_materials(mesh, settings.texture_coordinates);
+  config.uv_materials = uv.materials;
+  config.uv_cells = uv.materials ? settings.uv_cells : 0u;
+  if (warnings) warnings->insert(warnings->end(), uv.warnings.begin(), uv.warnings.end());
   if (Status s = check_train_settings(settings); !s) return s;
   // The config with the mesh's materials and surface channels.
   if (Status s = config.validate(); !s) return s.context("training config");
@@ -367,7 +373,8 @@ bool learns_surface_channels(const Mesh& mesh, uint32_t surface_maps) {
 Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model, TrainReport* report,
                    const TrainCallback& callback) {
   Config config;
-  if (Status s = check_training_inputs(mesh, settings, config); !s) return s;
+  std::vector<std::string> warnings;
+  if (Status s = check_training_inputs(mesh, settings, config, &warnings); !s) return s;
   uint32_t occupied = 0;
   if (Status s = build_model_frame(mesh, settings, config, model, occupied); !s) return s;
   const GridLayout layout = model.layout();
@@ -381,6 +388,7 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   StepState st(model, settings.adam);
 
   TrainReport rep;
+  rep.warnings = std::move(warnings);
   if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material,surface\n";
   rep.occupied_voxels = occupied;
   TailLoss tail;
@@ -397,6 +405,7 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   set_final_loss(tail, rep);
   if (Status s = check_fp16_range(model, rep.rays, settings.adam.learning_rate); !s) return s;
   model.quantize();
+  if (Status s = build_uv_cells(mesh, model); !s) return s;
   if (report) *report = rep;
   return model.validate();
 }

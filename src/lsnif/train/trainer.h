@@ -34,6 +34,10 @@ struct TrainSettings {
   // kSurfaceMapsAuto / On / Off (settings_table.h): whether config.surface_channels is set and
   // normal maps are baked, decided from the mesh's materials by surface_channels_for.
   uint32_t surface_maps = default_u32(SettingId::SurfaceMaps);
+  // kTextureCoordinatesAuto / Off: which materials report a learned texture coordinate
+  // (config.uv_materials, decided from the mesh by choose_uv_materials, uv_materials.h).
+  uint32_t texture_coordinates = default_u32(SettingId::TextureCoordinates);
+  uint32_t uv_cells = default_u32(SettingId::UvCells);  // Config::uv_cells when a material reports uvs
   uint32_t steps = default_u32(SettingId::Steps);
   uint32_t batch_size = default_u32(SettingId::Batch);  // paper: 2^18 on a GPU; see settings_table.h
   uint64_t seed = default_u64(SettingId::Seed);
@@ -61,9 +65,11 @@ inline bool bakes_normal_maps(uint32_t surface_maps) { return surface_maps != kS
 
 // Checks the mesh and the settings before any work, as train_model does first (a dry run or a plan
 // refuses what training would): materials, the emission the surface channels can learn, the settings
-// (check_train_settings, settings_io.h), and the config with the mesh's material count and surface
-// channels, which `config` receives.
-Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Config& config);
+// (check_train_settings, settings_io.h), and the config with the mesh's material count, surface
+// channels and texture-coordinate materials, which `config` receives. `warnings` (when given)
+// receives what the model will not learn as asked (a textured material left on learned colours).
+Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Config& config,
+                             std::vector<std::string>* warnings = nullptr);
 
 // The layout training `mesh` with `settings` starts from: the mesh's voxels (in its padded bounds)
 // into `voxels`, and for the levels settings.indexed names the index built from them: `config` (in:
@@ -79,6 +85,7 @@ struct TrainReport {
   uint64_t rays = 0;              // training rays used
   uint32_t occupied_voxels = 0;
   LossTerms final_loss;           // mean over the last 10% of steps
+  std::vector<std::string> warnings;  // check_training_inputs'
   // With TrainSettings::loss_curve: "step,seconds,total,occlusion,...\n" and one row per step. The
   // trainer writes no file; the caller saves it next to the model.
   std::string loss_curve;

@@ -276,6 +276,18 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
               mesh.materials.size());
   std::printf("settings  %s (%d threads)\n", settings.describe().c_str(), omp_get_max_threads());
   std::fflush(stdout);
+  {
+    Config config;
+    std::vector<std::string> warnings;
+    if (Status s = check_training_inputs(mesh, settings, config, &warnings); !s) {
+      std::fprintf(stderr, "lsnif: training failed: %s\n", s.message().c_str());
+      return 1;
+    }
+    for (const std::string& w : warnings) std::fprintf(stderr, "lsnif: warning: %s\n", w.c_str());
+    if (config.texture_coordinates())
+      std::printf("uv        materials 0x%llx report texture coordinates (uv cells: %u per voxel edge)\n",
+                  (unsigned long long)config.uv_materials, config.uv_cells);
+  }
   Model model;
   TrainReport rep;
   ProgressBar bar("train", settings.steps, !opts.quiet);
@@ -309,8 +321,11 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
   std::printf("loss      final %.4f (occlusion %.4f distance %.4f normal %.4f albedo %.4f material %.4f)\n",
               rep.final_loss.total(), rep.final_loss.occlusion, rep.final_loss.distance, rep.final_loss.normal,
               rep.final_loss.albedo, rep.final_loss.material);
-  std::printf("wrote     %s (%.3f MiB, %u occupied voxels) and %s\n", opts.output.c_str(), double(mem.total()) / 1048576.0,
-              rep.occupied_voxels, opts.csv_path().c_str());
+  std::printf("wrote     %s (%.3f MiB, %u occupied voxels%s) and %s\n", opts.output.c_str(),
+              double(mem.total()) / 1048576.0, rep.occupied_voxels,
+              mem.uv_cell_bytes ? format("; uv cells %.3f MiB, %u maps", double(mem.uv_cell_bytes) / 1048576.0,
+                                         model.config.uv_cell_maps).c_str() : "",
+              opts.csv_path().c_str());
   std::fflush(stdout);
   if (trained) *trained = std::move(model);
   if (report) *report = rep;
