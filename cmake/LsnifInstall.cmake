@@ -42,6 +42,7 @@ install(FILES ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif.rint
   ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_head.glsl ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_mlp.glsl
   ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_encoding.glsl ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_walk.glsl
   ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_perfect_hash.glsl ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_model.glsl
+  ${LSNIF_SOURCE_ROOT}/lsnif/shaders/lsnif_uv_cells.glsl
   DESTINATION ${LSNIF_INSTALL_INCLUDEDIR}/shaders COMPONENT dev)
 install(EXPORT lsnifTargets NAMESPACE lsnif:: DESTINATION ${LSNIF_INSTALL_CMAKEDIR} COMPONENT dev)
 # The guides a renderer engineer reads beside the package (their repository paths are marked as

@@ -189,6 +189,8 @@ struct LsnifReferenceHit {
   float emission_r, emission_g, emission_b;
   lsnif_uint instance;  /* the ray-tracing tests' closest-hit shaders: gl_InstanceID | hit kind << 15 |
                            gl_InstanceCustomIndexEXT << 16 (~0u when none ran); 0 from lsnif_reference.comp */
+  lsnif_uint reports_uv; /* 1: a hit reporting its texture coordinate (uv_u, uv_v), else 0 and zero */
+  float uv_u, uv_v;
 };
 
 /* ---- Ray tracing binding convention (src/lsnif/shaders/lsnif.rint, src/lsnif/lsnif_hit.glsl) ----
@@ -234,8 +236,10 @@ struct LsnifRtPushConstants {
  *  albedo_material: packUnorm4x8(albedo.r, albedo.g, albedo.b, 0) with the material index
  *                 (< LSNIF_MAX_MATERIALS <= 64) in byte 3
  *  surface_points: bytes 0-2 metallic, roughness, ambient occlusion as unorm8 (0 without surface
- *                 channels), byte 3 the boundary points of the walk (<= 32) in bits 0-6 and
- *                 LSNIF_HIT_SURFACE_LEARNED_BIT when the model learned the surface channels
+ *                 channels), byte 3 the boundary points of the walk (<= 32) in bits 0-5,
+ *                 LSNIF_HIT_UV_BIT for a hit reporting its texture coordinate (then emission_rgbe and
+ *                 albedo_material's bytes 0-2 hold the coordinate) and LSNIF_HIT_SURFACE_LEARNED_BIT
+ *                 when the model learned the surface channels
  *  emission_rgbe: emission (linear RGB, >= 0) as shared-exponent RGBE: bytes 0-2 mantissas m, byte 3
  *                 exponent e, each channel m x 2^(e - 136); 0 is black (lsnif_pack_rgbe)
  *  occlusion_logit: raw occlusion output (>= 0 for every reported hit)
@@ -250,6 +254,13 @@ struct LsnifHitAttributes {
   float leaving_distance;
 };
 #define LSNIF_HIT_SURFACE_LEARNED_BIT 0x80000000u
+/* A hit of a texture-coordinate material (Config::uv_materials) whose uv cells gave its coordinate:
+ * surface_points carries this bit, bytes 0-2 of surface_points are zero, and the 56 bits of
+ * emission_rgbe (bits 0-31) and albedo_material's bytes 0-2 (bits 32-55) hold the coordinate as
+ * src/lsnif/core/head.h pack_uv writes it (u in bits 0-27, v in bits 28-55, each 28-bit two's
+ * complement with LSNIF_UV_FRACTION_BITS fractional bits); the material's own textures give the
+ * albedo and the other channels there (lsnif_hit.glsl: LsnifSurface::reports_uv, uv). */
+#define LSNIF_HIT_UV_BIT 0x40000000u
 #define LSNIF_RGBE_BIAS 136
 
 /* ---- Batched queries (the wavefront path: lsnifCmdIntersectModelRays, src/lsnif/shaders/lsnif_batch.comp) ----

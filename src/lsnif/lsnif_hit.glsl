@@ -39,6 +39,11 @@ struct LsnifSurface {
   bool surface_learned;
   float metallic, roughness, ambient_occlusion;
   vec3 emission;       // linear RGB, >= 0, RGBE-rounded (relative error <= 2^-8 of the largest channel)
+  // A hit of a texture-coordinate material (LSNIF_HIT_UV_BIT): its texture coordinate, where the
+  // application samples the material `material`'s own textures for the albedo and the other
+  // channels (albedo, the surface channels and emission are then zero). Else false and zero.
+  bool reports_uv;
+  vec2 uv;
 };
 
 // round(clamp(x, 0, 1) x 255) with halves rounded away from zero, as head.cpp (std::lround); x not
@@ -99,6 +104,17 @@ vec3 lsnif_unpack_rgbe(uint rgbe) {
   return ldexp(m, ivec3(e - LSNIF_RGBE_BIAS));
 }
 
+// One coordinate as head.cpp pack_uv writes it: round(clamp(x, +-LSNIF_MAX_UV) 2^16) (halves away
+// from zero; NaN as 0), 28-bit two's complement.
+uint lsnif_uv_fixed(float x) {
+  if (isnan(x)) return 0u;
+  precise float y = abs(clamp(x, -float(LSNIF_MAX_UV), float(LSNIF_MAX_UV))) * 65536.0;  // exact
+  const float whole = floor(y);
+  precise float fraction = y - whole;  // exact
+  const int magnitude = int(whole) + (fraction >= 0.5 ? 1 : 0);
+  return uint(x < 0.0 ? -magnitude : magnitude) & 0x0fffffffu;
+}
+
 // Packs one accepted prediction: object-space normal, albedo, material, walk points, the packed
 // surface channels (lsnif_pack_surface), emission, occlusion logit and leaving distance.
 LsnifHitAttributes lsnif_pack_hit(vec3 object_normal, vec3 albedo, uint material, uint points, uint surface,
@@ -109,9 +125,26 @@ LsnifHitAttributes lsnif_pack_hit(vec3 object_normal, vec3 albedo, uint material
   a.normal_z = object_normal.z;
   a.albedo_material = lsnif_unorm8(albedo.r) | (lsnif_unorm8(albedo.g) << 8) | (lsnif_unorm8(albedo.b) << 16) |
                       ((material & 0xffu) << 24);
-  a.surface_points = (surface & 0xffffffu) | ((points & 0x7fu) << 24) |
+  a.surface_points = (surface & 0xffffffu) | ((points & 0x3fu) << 24) |
                      ((surface >> 24) == LSNIF_SURFACE_LEARNED ? LSNIF_HIT_SURFACE_LEARNED_BIT : 0u);
   a.emission_rgbe = lsnif_pack_rgbe(emission);
+  a.occlusion_logit = occlusion_logit;
+  a.leaving_distance = leaving_distance;
+  return a;
+}
+
+// Packs an accepted prediction of a hit that reports texture coordinate `uv` (LSNIF_HIT_UV_BIT):
+// object-space normal, material, walk points, the coordinate, occlusion logit and leaving distance.
+LsnifHitAttributes lsnif_pack_uv_hit(vec3 object_normal, uint material, uint points, vec2 uv, float occlusion_logit,
+                                     float leaving_distance) {
+  LsnifHitAttributes a;
+  a.normal_x = object_normal.x;
+  a.normal_y = object_normal.y;
+  a.normal_z = object_normal.z;
+  const uint fu = lsnif_uv_fixed(uv.x), fv = lsnif_uv_fixed(uv.y);
+  a.emission_rgbe = fu | (fv << 28);
+  a.albedo_material = (fv >> 4) | ((material & 0xffu) << 24);
+  a.surface_points = ((points & 0x3fu) << 24) | LSNIF_HIT_UV_BIT;
   a.occlusion_logit = occlusion_logit;
   a.leaving_distance = leaving_distance;
   return a;
@@ -132,7 +165,7 @@ LsnifSurface lsnif_decode_hit(LsnifHitAttributes a, mat3 world_to_object) {
   s.normal = lsnif_world_normal_of(s.object_normal, world_to_object);
   s.albedo = unpackUnorm4x8(a.albedo_material).rgb;
   s.material = a.albedo_material >> 24;
-  s.points = (a.surface_points >> 24) & 0x7fu;
+  s.points = (a.surface_points >> 24) & 0x3fu;
   s.occlusion_logit = a.occlusion_logit;
   s.leaving_distance = a.leaving_distance;
   s.surface_learned = (a.surface_points & LSNIF_HIT_SURFACE_LEARNED_BIT) != 0u;
@@ -141,6 +174,15 @@ LsnifSurface lsnif_decode_hit(LsnifHitAttributes a, mat3 world_to_object) {
   s.roughness = channels.y;
   s.ambient_occlusion = channels.z;
   s.emission = lsnif_unpack_rgbe(a.emission_rgbe);
+  s.reports_uv = (a.surface_points & LSNIF_HIT_UV_BIT) != 0u;
+  s.uv = vec2(0.0);
+  if (s.reports_uv) {
+    const int fu = bitfieldExtract(int(a.emission_rgbe), 0, 28);
+    const int fv = bitfieldExtract(int((a.emission_rgbe >> 28) | ((a.albedo_material & 0xffffffu) << 4)), 0, 28);
+    s.uv = vec2(float(fu), float(fv)) / 65536.0;
+    s.albedo = vec3(0.0);
+    s.emission = vec3(0.0);
+  }
   return s;
 }
 

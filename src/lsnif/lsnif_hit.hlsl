@@ -21,14 +21,17 @@
 #define LSNIF_HIT_KIND_FRONT_FACING 0u
 #define LSNIF_HIT_KIND_BACK_FACING 1u
 #define LSNIF_HIT_SURFACE_LEARNED_BIT 0x80000000u
+#define LSNIF_HIT_UV_BIT 0x40000000u
 #define LSNIF_RGBE_BIAS 136
 
 struct LsnifHitAttributes {
   float normal_x, normal_y, normal_z;  // object-space unit normal as predicted
   uint albedo_material;                // albedo r, g, b as unorm8 in bytes 0-2, material in byte 3
   uint surface_points;                 // metallic, roughness, ambient occlusion as unorm8 in bytes 0-2;
-                                       // byte 3: walk points in bits 0-6, LSNIF_HIT_SURFACE_LEARNED_BIT
-  uint emission_rgbe;                  // emission as shared-exponent RGBE (lsnif_unpack_rgbe)
+                                       // byte 3: walk points in bits 0-5, LSNIF_HIT_UV_BIT,
+                                       // LSNIF_HIT_SURFACE_LEARNED_BIT
+  uint emission_rgbe;                  // emission as shared-exponent RGBE (lsnif_unpack_rgbe); with
+                                       // LSNIF_HIT_UV_BIT the texture coordinate with albedo's bytes
   float occlusion_logit;
   float leaving_distance;              // object units
 };
@@ -46,7 +49,14 @@ struct LsnifSurface {
   bool surface_learned;
   float metallic, roughness, ambient_occlusion;
   float3 emission;       // linear RGB, >= 0 (RGBE-rounded)
+  // A hit of a texture-coordinate material (LSNIF_HIT_UV_BIT): its texture coordinate, where the
+  // application samples the material's own textures (albedo, surface channels and emission zero).
+  bool reports_uv;
+  float2 uv;
 };
+
+// A 28-bit two's complement field in bits 0-27 of `bits` as an int (the sign bit 27 extended).
+int lsnif_uv_field(uint bits) { return int(bits << 4) >> 4; }
 
 // Bytes 0, 1, 2 of `bits` as unorm8 (GLSL's unpackUnorm4x8 components x, y, z).
 float3 lsnif_unorm8x3(uint bits) {
@@ -83,7 +93,7 @@ LsnifSurface lsnif_decode_hit(LsnifHitAttributes a, float3x3 world_to_object) {
   s.normal = lsnif_world_normal_of(s.object_normal, world_to_object);
   s.albedo = lsnif_unorm8x3(a.albedo_material);
   s.material = a.albedo_material >> 24;
-  s.points = (a.surface_points >> 24) & 0x7fu;
+  s.points = (a.surface_points >> 24) & 0x3fu;
   s.occlusion_logit = a.occlusion_logit;
   s.leaving_distance = a.leaving_distance;
   s.surface_learned = (a.surface_points & LSNIF_HIT_SURFACE_LEARNED_BIT) != 0u;
@@ -92,6 +102,15 @@ LsnifSurface lsnif_decode_hit(LsnifHitAttributes a, float3x3 world_to_object) {
   s.roughness = channels.y;
   s.ambient_occlusion = channels.z;
   s.emission = lsnif_unpack_rgbe(a.emission_rgbe);
+  s.reports_uv = (a.surface_points & LSNIF_HIT_UV_BIT) != 0u;
+  s.uv = float2(0.0, 0.0);
+  if (s.reports_uv) {
+    const int fu = lsnif_uv_field(a.emission_rgbe & 0x0fffffffu);
+    const int fv = lsnif_uv_field((a.emission_rgbe >> 28) | ((a.albedo_material & 0xffffffu) << 4));
+    s.uv = float2(float(fu), float(fv)) / 65536.0;
+    s.albedo = float3(0.0, 0.0, 0.0);
+    s.emission = float3(0.0, 0.0, 0.0);
+  }
   return s;
 }
 

@@ -109,6 +109,10 @@ struct Comparison {
   double occlusion_max = 0;  // |sigmoid(gpu logit) - cpu occlusion| where both walks match
   bool surface_channels = false;  // the model's: every hit's surface word is learned, else 0
   SurfaceAgreement surface;       // where both hit
+  // Texture coordinates where both hit: hits reporting one on both sides, on one side only, and
+  // those whose coordinates differ by more than 1e-4.
+  size_t uv_both = 0, uv_one_side = 0, uv_apart = 0;
+  double uv_err_max = 0;
 };
 
 // A flip (hit on one side only) is "threshold" when the occlusion logit is within kLogitEps of 0,
@@ -180,6 +184,14 @@ Comparison compare(const Model& model, const Instance& in, const std::vector<Ray
     c.material_mismatch += g.material != h.material;
     add_surface(c.surface, g.surface, glm::vec3(g.emission_r, g.emission_g, g.emission_b), h, scale,
                 emission_tolerance);
+    if (h.reports_uv != (g.reports_uv != 0)) {
+      ++c.uv_one_side;
+    } else if (h.reports_uv) {
+      ++c.uv_both;
+      const double err = glm::length(glm::dvec2(g.uv_u, g.uv_v) - glm::dvec2(h.uv));
+      c.uv_err_max = std::max(c.uv_err_max, err);
+      c.uv_apart += err > 1e-4;
+    }
   }
   return c;
 }
@@ -191,14 +203,15 @@ void print(const char* name, const Comparison& c) {
       "  both hit %zu (per kind %zu/%zu/%zu/%zu): t error / diagonal max %.3g mean %.3g, normal angle max "
       "%.3g deg mean %.3g deg, albedo max %.3g, material mismatches %zu, occlusion max diff %.3g\n"
       "  surface channels: %zu of %zu hits learned, %zu words bit-identical, %zu beyond one unorm8 step, "
-      "emission max error / scale %.3g\n",
+      "emission max error / scale %.3g\n"
+      "  texture coordinates: %zu hits on both sides, %zu on one side, %zu apart by > 1e-4, max difference %.3g\n",
       name, c.rays, c.cpu_hits, c.gpu_hits, 100.0 * double(c.hit_agree) / double(c.rays), c.flips_threshold,
       c.flips_interval, c.flips_walk, c.flips_other, c.walk_mismatch, c.both_hit, c.hits_per_kind[0],
       c.hits_per_kind[1], c.hits_per_kind[2], c.hits_per_kind[3], c.t_err_max,
       c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, c.normal_deg_max,
       c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, c.albedo_max, c.material_mismatch,
       c.occlusion_max, c.surface.learned, c.surface.hits, c.surface.exact, c.surface.step_mismatch,
-      c.surface.emission_max);
+      c.surface.emission_max, c.uv_both, c.uv_one_side, c.uv_apart, c.uv_err_max);
 }
 
 constexpr size_t kRaysPerInstance = 5000;  // x 2 instances x 2 models = 20k trained-model rays
@@ -404,6 +417,29 @@ TEST_F(GpuReference, SurfaceChannelsModelMatchesCpu) {
   EXPECT_LT(lo, 0.2f);
   EXPECT_GT(hi, 0.8f);
   EXPECT_GT(emission_hi, 20.0f);
+}
+
+// Uv cells: a model of test::layout_sphere (a textured sphere whose layout has seams and a mirrored
+// half) reports texture coordinates on its hits; the device's lookup (lsnif_uv_cells.glsl) gives the
+// CPU's (UvCells::lookup) on both instances. A hit point differing in its last bits can tip the
+// choice between two pieces whose scores tie, or the cut between a ray meeting a plane and a
+// projection onto it: rare, and bounded.
+TEST_F(GpuReference, UvCellsModelMatchesCpu) {
+  TrainSettings s = tiny_settings(HitParam::VoxelSegments);
+  s.steps = 120;
+  s.texture_coordinates = kTextureCoordinatesAuto;
+  Model model;
+  const Status trained = train_model(test::layout_sphere(24, 48), s, model);
+  ASSERT_TRUE(trained) << trained.message();
+  ASSERT_EQ(model.config.uv_materials, 1u);
+  const Comparison a = run(model, Transform3x4(), kRaysPerInstance, 31, "uv cells, identity");
+  const Comparison b = run(model, skewed_instance(), kRaysPerInstance, 32, "uv cells, skewed instance");
+  for (const Comparison* c : {&a, &b}) {
+    EXPECT_GE(double(c->hit_agree), 0.999 * double(c->rays));
+    EXPECT_GT(c->uv_both, c->both_hit / 2) << "not vacuous: most hits report a texture coordinate";
+    EXPECT_LE(double(c->uv_one_side), 2e-3 * double(c->both_hit));
+    EXPECT_LE(double(c->uv_apart), 5e-3 * double(c->both_hit));
+  }
 }
 
 // 8-bit grid features: the trained models' grids as int8 codes times a per-level scale. The

@@ -19,6 +19,9 @@ struct HitDecodeResult {
   vec4 emission;      // xyz: emission, w: 0
   uvec4 packed;       // lsnif_pack_rgbe(colour), lsnif_pack_surface(true, v, 1 - v, v / 2), and
                       // lsnif_pack_hit's albedo_material and surface_points (below)
+  uvec4 uv;           // 1 when the hit reports a texture coordinate, its u and v (float bits), 0
+  uvec4 uv_packed;    // lsnif_pack_uv_hit of the colour's x and y as a coordinate: emission_rgbe,
+                      // albedo_material, surface_points, 0
 };
 
 layout(set = 0, binding = 0, std430) readonly buffer Attributes { LsnifHitAttributes attributes[]; };
@@ -44,5 +47,8 @@ void main() {
   const uint surface = lsnif_pack_surface(true, c.w, 1.0 - c.w, 0.5 * c.w);
   const LsnifHitAttributes a = lsnif_pack_hit(vec3(0.0), c.xyz, s.material, s.points, surface, c.xyz, 0.0, 0.0);
   r.packed = uvec4(lsnif_pack_rgbe(c.xyz), surface, a.albedo_material, a.surface_points);
+  r.uv = uvec4(s.reports_uv ? 1u : 0u, floatBitsToUint(s.uv.x), floatBitsToUint(s.uv.y), 0u);
+  const LsnifHitAttributes b = lsnif_pack_uv_hit(vec3(0.0), s.material, s.points, c.xy, 0.0, 0.0);
+  r.uv_packed = uvec4(b.emission_rgbe, b.albedo_material, b.surface_points, 0u);
   results[i] = r;
 }

@@ -17,6 +17,8 @@ struct HitDecodeResult {
   float4 surface;   // metallic, roughness, ambient occlusion, 1 when learned (else 0)
   float4 emission;  // xyz: emission, w: 0
   uint4 packed;     // 0: the packers are GLSL's only (hit_decode.comp)
+  uint4 uv;         // 1 when the hit reports a texture coordinate, its u and v (float bits), 0
+  uint4 uv_packed;  // 0 (GLSL's packer only)
 };
 
 struct Push {
@@ -40,5 +42,7 @@ struct Push {
   r.surface = float4(s.metallic, s.roughness, s.ambient_occlusion, s.surface_learned ? 1.0 : 0.0);
   r.emission = float4(s.emission, 0.0);
   r.packed = uint4(0, 0, 0, 0);
+  r.uv = uint4(s.reports_uv ? 1u : 0u, asuint(s.uv.x), asuint(s.uv.y), 0u);
+  r.uv_packed = uint4(0, 0, 0, 0);
   results[i] = r;
 }

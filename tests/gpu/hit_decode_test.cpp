@@ -39,8 +39,10 @@ struct DecodeResult {
   float surface[4];   // metallic, roughness, ambient occlusion, learned (1 or 0)
   float emission[4];  // rgb, 0
   uint32_t packed[4];  // GLSL only: pack_rgbe(colour), pack_surface(v, 1 - v, v / 2), pack_hit's two words
+  uint32_t uv[4];      // reports_uv (1 or 0), u and v (float bits), 0
+  uint32_t uv_packed[4];  // GLSL only: lsnif_pack_uv_hit of the colour's x and y: three words, 0
 };
-static_assert(sizeof(DecodeResult) == 96);
+static_assert(sizeof(DecodeResult) == 128);
 static_assert(sizeof(LsnifHitAttributes) == 32);
 
 struct Record {
@@ -100,6 +102,14 @@ std::vector<Record> make_records(size_t count) {
     const uint32_t channels = learned ? uint32_t(rng()) & 0xffffffu : 0u;
     r.attributes.surface_points = channels | (points << 24) | (learned ? LSNIF_HIT_SURFACE_LEARNED_BIT : 0u);
     r.attributes.emission_rgbe = pack_rgbe(colours[i]);
+    // Every fifth record a hit reporting a texture coordinate (head.cpp pack_uv): u up to +-2100
+    // (tiling, and clamped to +-LSNIF_MAX_UV), v in [-4, 4].
+    if (i % 5 == 4) {
+      const uint64_t uv = pack_uv(glm::vec2(2100.0f * u(rng), 4.0f * u(rng)));
+      r.attributes.emission_rgbe = uint32_t(uv);
+      r.attributes.albedo_material = uint32_t(uv >> 32) | (material << 24);
+      r.attributes.surface_points = (points << 24) | LSNIF_HIT_UV_BIT;
+    }
     r.pack = glm::vec4(colours[i], i == 4 ? 0.5f / 255.0f : i == 5 ? 1.0f : i == 6 ? -0.25f : unit(rng));
     r.attributes.occlusion_logit = 4.0f * unit(rng);
     r.attributes.leaving_distance = 0.001f + 0.05f * unit(rng);
@@ -138,10 +148,18 @@ DecodeResult cpu_decode(const Record& r) {
   }
   d.occlusion_logit = a.occlusion_logit;
   d.material = a.albedo_material >> 24;
-  d.points = (a.surface_points >> 24) & 0x7fu;
+  d.points = (a.surface_points >> 24) & 0x3fu;
   d.surface[3] = (a.surface_points & LSNIF_HIT_SURFACE_LEARNED_BIT) != 0 ? 1.0f : 0.0f;
   const glm::vec3 emission = unpack_rgbe(a.emission_rgbe);
   for (int k = 0; k < 3; ++k) d.emission[k] = emission[k];
+  if (a.surface_points & LSNIF_HIT_UV_BIT) {
+    // The coordinate in the emission word and albedo's bytes; no albedo, no emission.
+    const glm::vec2 uv = unpack_uv(uint64_t(a.emission_rgbe) | uint64_t(a.albedo_material & 0xffffffu) << 32);
+    d.uv[0] = 1;
+    std::memcpy(&d.uv[1], &uv.x, 4);
+    std::memcpy(&d.uv[2], &uv.y, 4);
+    for (int k = 0; k < 3; ++k) d.albedo[k] = d.emission[k] = 0.0f;
+  }
   // The packers, from head.cpp and the layout of host_device.h.
   const glm::vec3 colour(r.pack);
   const float v = r.pack.w;
@@ -154,6 +172,10 @@ DecodeResult cpu_decode(const Record& r) {
   d.packed[1] = pack_surface(p);
   d.packed[2] = unorm8(colour.r) | (unorm8(colour.g) << 8) | (unorm8(colour.b) << 16) | (d.material << 24);
   d.packed[3] = (d.packed[1] & 0xffffffu) | (d.points << 24) | LSNIF_HIT_SURFACE_LEARNED_BIT;
+  const uint64_t uv = pack_uv(glm::vec2(colour));
+  d.uv_packed[0] = uint32_t(uv);
+  d.uv_packed[1] = uint32_t(uv >> 32) | (d.material << 24);
+  d.uv_packed[2] = (d.points << 24) | LSNIF_HIT_UV_BIT;
   std::memcpy(&d.leaving_bits, &a.leaving_distance, 4);
   std::memcpy(&d.object_normal_x_bits, &a.normal_x, 4);
   return d;
@@ -211,9 +233,11 @@ void expect_same(const DecodeResult& got, const DecodeResult& want, float tolera
     EXPECT_PRED2(same_rgbe_channel, got.emission[k], want.emission[k]) << what << " record " << i << " emission " << k;
   }
   EXPECT_EQ(got.surface[3], want.surface[3]) << what << " record " << i << " learned";
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(got.uv[k], want.uv[k]) << what << " record " << i << " uv " << k;
   if (packers) {
     EXPECT_EQ(got.packed[0], want.packed[0]) << what << " record " << i << " pack_rgbe";
     for (int k = 1; k < 4; ++k) EXPECT_EQ(got.packed[k], want.packed[k]) << what << " record " << i << " packed " << k;
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(got.uv_packed[k], want.uv_packed[k]) << what << " record " << i << " pack_uv " << k;
   }
   EXPECT_NEAR(got.leaving_tmin, want.leaving_tmin, tolerance * want.leaving_tmin) << what << " record " << i;
   EXPECT_EQ(got.occlusion_logit, want.occlusion_logit) << what << " record " << i;
@@ -258,6 +282,14 @@ TEST(HitDecode, HlslAndGlslDecodeTheSameHitsAsTheCpu) {
     learned += glsl[i].surface[3] == 1.0f;
   }
   EXPECT_GT(coloured, records.size() * 9 / 10);
+  // Not vacuous: every fifth record reports a texture coordinate, most of them not zero.
+  size_t uv_hits = 0, uv_nonzero = 0;
+  for (size_t i = 0; i < records.size(); ++i) {
+    uv_hits += glsl[i].uv[0];
+    uv_nonzero += glsl[i].uv[0] && (glsl[i].uv[1] | glsl[i].uv[2]) != 0;
+  }
+  EXPECT_EQ(uv_hits, records.size() / 5);
+  EXPECT_GT(uv_nonzero, uv_hits * 8 / 10);
   EXPECT_GT(learned, records.size() / 2);
   EXPECT_LT(learned, records.size());
   EXPECT_EQ(ctx.validation_errors(), 0u) << ctx.validation_log();

@@ -63,5 +63,9 @@ void main() {
   out_hit.emission_b = h.emission.b;
   const float dir_len = length(A_inv * direction);
   out_hit.leaving_tmin = h.hit && dir_len > 0.0 ? lsnif_leaving_distance(m) / dir_len : 0.0;
+  out_hit.instance = 0u;
+  out_hit.reports_uv = h.reports_uv ? 1u : 0u;
+  out_hit.uv_u = h.uv.x;
+  out_hit.uv_v = h.uv.y;
   HitRef(pc.hits).hits[i] = out_hit;
 }

@@ -30,4 +30,7 @@ void main() {
   payload.emission_g = s.emission.g;
   payload.emission_b = s.emission.b;
   payload.instance = uint(gl_InstanceID) | (gl_HitKindEXT << 15) | (uint(gl_InstanceCustomIndexEXT) << 16);
+  payload.reports_uv = s.reports_uv ? 1u : 0u;
+  payload.uv_u = s.uv.x;
+  payload.uv_v = s.uv.y;
 }

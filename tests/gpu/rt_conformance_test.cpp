@@ -99,6 +99,10 @@ struct Comparison {
   double t_err_max = 0, t_err_sum = 0, normal_deg_max = 0, normal_deg_sum = 0, albedo_max = 0;
   bool surface_channels = false;  // the model's: every hit's surface word is learned, else 0
   SurfaceAgreement surface;       // the closest-hit shader's decode of the attributes, where both hit
+  // Texture coordinates where both hit (the attributes carry 16 fractional bits): hits reporting one
+  // on both sides, on one side only, and those further apart than the packing's half step.
+  size_t uv_both = 0, uv_one_side = 0, uv_apart = 0;
+  double uv_err_max = 0;
 };
 
 // Flip explanations, as in gpu_reference_test: a logit within kLogitEps of 0 (on either side), a t
@@ -212,9 +216,19 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
     c.back_facing += hit_kind == LSNIF_HIT_KIND_BACK_FACING;
     if (std::fabs(facing) > kFacingEps)
       c.facing_mismatch += hit_kind != (facing < 0.0 ? LSNIF_HIT_KIND_FRONT_FACING : LSNIF_HIT_KIND_BACK_FACING);
+    c.material_mismatch += g.material != h.material;
+    if (h.reports_uv != (g.reports_uv != 0)) {
+      ++c.uv_one_side;
+    } else if (h.reports_uv) {
+      // The attributes hold the coordinate, not the albedo and channels (the application's textures do).
+      ++c.uv_both;
+      const glm::dvec2 d = glm::abs(glm::dvec2(g.uv_u, g.uv_v) - glm::dvec2(h.uv));
+      c.uv_err_max = std::max(c.uv_err_max, std::max(d.x, d.y));
+      c.uv_apart += std::max(d.x, d.y) > 0.5 / 65536.0 + 1e-6;
+      continue;
+    }
     const glm::vec3 ga(g.albedo_x, g.albedo_y, g.albedo_z);
     for (int k = 0; k < 3; ++k) c.albedo_max = std::max(c.albedo_max, double(std::fabs(ga[k] - h.albedo[k])));
-    c.material_mismatch += g.material != h.material;
     add_surface(c.surface, g.surface, glm::vec3(g.emission_r, g.emission_g, g.emission_b), h, scale,
                 emission_tolerance);
   }
@@ -230,21 +244,24 @@ void print(const char* name, const Comparison& c) {
       "leaving tmin relative error max %.3g, back-facing hits %zu, hit kinds against the normal's facing "
       "%zu wrong\n"
       "  surface channels: %zu of %zu hits learned, %zu words bit-identical, %zu beyond one unorm8 step, "
-      "emission max error / scale %.3g\n",
+      "emission max error / scale %.3g\n"
+      "  texture coordinates: %zu hits on both sides, %zu on one side, %zu apart beyond the packing, max %.3g\n",
       name, c.rays, c.cpu_hits, c.gpu_hits, 100.0 * double(c.hit_agree) / double(c.rays), c.flips_threshold,
       c.flips_interval, c.flips_walk, c.flips_other, c.walk_mismatch, c.gpu_hits_per_instance[0],
       c.gpu_hits_per_instance[1], c.both_hit, c.hits_per_kind[0], c.hits_per_kind[1], c.hits_per_kind[2],
       c.hits_per_kind[3], c.t_err_max, c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, c.normal_deg_max,
       c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, c.albedo_max, c.material_mismatch,
       c.instance_mismatch, c.instance_ties, c.leaving_tmin_rel_err_max, c.back_facing, c.facing_mismatch,
-      c.surface.learned, c.surface.hits, c.surface.exact, c.surface.step_mismatch, c.surface.emission_max);
+      c.surface.learned, c.surface.hits, c.surface.exact, c.surface.step_mismatch, c.surface.emission_max,
+      c.uv_both, c.uv_one_side, c.uv_apart, c.uv_err_max);
 }
 
 class RtConformance : public ::testing::Test {
  protected:
   // Model table entries; the third is the voxel-segments model with 8-bit grid features, the fourth
   // the voxel-segments model with surface channels (random surface rows: with_surface_channels).
-  static constexpr uint32_t kAabbIndex = 0, kSegmentIndex = 1, kEightBitIndex = 2, kSurfaceIndex = 3, kModels = 4;
+  static constexpr uint32_t kAabbIndex = 0, kSegmentIndex = 1, kEightBitIndex = 2, kSurfaceIndex = 3, kUvIndex = 4,
+                            kModels = 5;
 
   static void SetUpTestSuite() {
     vk_status_ = vk_.init(/*ray_tracing=*/true, test::test_validation(), test::test_device());
@@ -281,6 +298,12 @@ class RtConformance : public ::testing::Test {
     models_[kEightBitIndex].config.grid_bits = 8;
     models_[kEightBitIndex].quantize();
     models_[kSurfaceIndex] = with_surface_channels(models_[kSegmentIndex], 40.0f, 21);
+    if (train_status_) {
+      TrainSettings uv = tiny_settings(HitParam::VoxelSegments);
+      uv.steps = 120;
+      uv.texture_coordinates = kTextureCoordinatesAuto;
+      train_status_ = train_model(test::layout_sphere(24, 48), uv, models_[kUvIndex]);
+    }
     if (!train_status_ || !vk_status_) return;
 
     // Through the plugin, on the Vulkan context's device: model blocks and one AABB BLAS per model, and
@@ -288,7 +311,7 @@ class RtConformance : public ::testing::Test {
     train_status_ = plugin_.init(vk_);
     for (uint32_t m = 0; m < kModels && train_status_; ++m) train_status_ = plugin_.upload(models_[m], handles_[m]);
     std::vector<uint64_t> addresses;
-    if (train_status_) train_status_ = plugin_.model_table({handles_[0], handles_[1], handles_[2], handles_[3]}, addresses);
+    if (train_status_) train_status_ = plugin_.model_table({handles_[0], handles_[1], handles_[2], handles_[3], handles_[4]}, addresses);
     if (train_status_) train_status_ = vk_.create_buffer(addresses.size() * sizeof(uint64_t), table_);
     if (train_status_) std::memcpy(table_.mapped, addresses.data(), addresses.size() * sizeof(uint64_t));
   }
@@ -478,6 +501,21 @@ TEST_F(RtConformance, SurfaceChannelsReachTheClosestHitShader) {
     EXPECT_GT(c->cpu_hits, kRays / 5);
     EXPECT_EQ(c->surface.learned, c->both_hit);
     EXPECT_GT(c->surface.emission_max, 0.0) << "not vacuous: the closest-hit shader decodes emission";
+  }
+}
+
+// Texture coordinates: the intersection shader reads a hit's coordinate from the uv cells and packs
+// it into the attributes (LSNIF_HIT_UV_BIT), the closest-hit shader decodes it with lsnif_hit.glsl:
+// the CPU reference's per ray, to the packing's 16 fractional bits, on both instances, of a model of a
+// sphere whose layout has seams and a mirrored half (test::layout_sphere).
+TEST_F(RtConformance, TextureCoordinatesReachTheClosestHitShader) {
+  const Comparison a = run_single(kUvIndex, Transform3x4(), kRays, 16, kModeClosest, "uv cells, identity");
+  const Comparison b = run_single(kUvIndex, test::skewed_instance(), kRays, 17, kModeClosest, "uv cells, skewed instance");
+  for (const Comparison* c : {&a, &b}) {
+    expect_agreement(*c, kModeClosest);
+    EXPECT_GT(c->uv_both, c->both_hit / 2) << "not vacuous: most hits report a texture coordinate";
+    EXPECT_LE(double(c->uv_one_side), 2e-3 * double(c->both_hit));
+    EXPECT_LE(double(c->uv_apart), 5e-3 * double(c->both_hit));
   }
 }
 

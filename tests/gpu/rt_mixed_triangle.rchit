@@ -27,4 +27,7 @@ void main() {
   payload.emission_g = 0.0;
   payload.emission_b = 0.0;
   payload.instance = uint(gl_InstanceID) | (uint(gl_InstanceCustomIndexEXT) << 16);
+  payload.reports_uv = 0u;
+  payload.uv_u = 0.0;
+  payload.uv_v = 0.0;
 }

@@ -201,5 +201,34 @@ TEST(Head, RgbeRoundTripOfRandomColours) {
   }
 }
 
+// The texture coordinate of a hit's attributes (host_device.h LSNIF_HIT_UV_BIT): 16 fractional
+// bits, rounded to nearest with halves away from zero, clamped to +-LSNIF_MAX_UV, NaN as 0, the
+// 28-bit fields' signs kept.
+TEST(Head, PackedTextureCoordinatesKeepSixteenFractionalBits) {
+  const float step = 1.0f / 65536.0f;
+  struct Case {
+    glm::vec2 in, out;
+  } cases[] = {
+      {{0.0f, 1.0f}, {0.0f, 1.0f}},
+      {{0.25f, -0.75f}, {0.25f, -0.75f}},
+      {{0.5f * step, -0.5f * step}, {step, -step}},          // halves away from zero
+      {{0.49f * step, 1.49f * step}, {0.0f, step}},
+      {{2047.0f, -2047.0f}, {2047.0f, -2047.0f}},
+      {{5000.0f, -1e30f}, {2047.0f, -2047.0f}},              // clamped
+      {{std::nanf(""), 3.1f}, {0.0f, std::round(3.1f * 65536.0f) / 65536.0f}},
+  };
+  for (const Case& c : cases) {
+    const uint64_t packed = pack_uv(c.in);
+    EXPECT_EQ(packed >> 56, 0u);
+    EXPECT_EQ(unpack_uv(packed), c.out) << c.in.x << ", " << c.in.y;
+  }
+  for (int i = 0; i < 1000; ++i) {
+    const glm::vec2 uv(float(i) * 0.37f - 180.0f, float(i * i % 977) / 977.0f * 8.0f - 4.0f);
+    const glm::vec2 back = unpack_uv(pack_uv(uv));
+    EXPECT_LE(std::fabs(back.x - uv.x), 0.5f * step + std::fabs(uv.x) * 1e-7f);
+    EXPECT_LE(std::fabs(back.y - uv.y), 0.5f * step);
+  }
+}
+
 }  // namespace
 }  // namespace lsnif

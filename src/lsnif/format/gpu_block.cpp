@@ -11,7 +11,7 @@
 namespace lsnif {
 
 static_assert(sizeof(LsnifGpuModelHeader) == LSNIF_GPU_HEADER_WORDS * 4, "header must be LSNIF_GPU_HEADER_WORDS words");
-static_assert(sizeof(LsnifReferenceRay) == 32 && sizeof(LsnifReferenceHit) == 68, "test structs");
+static_assert(sizeof(LsnifReferenceRay) == 32 && sizeof(LsnifReferenceHit) == 80, "test structs");
 
 std::vector<GpuLayerLayout> gpu_layer_layout(const Config& config) {
   std::vector<GpuLayerLayout> layers;

@@ -10,6 +10,7 @@
 #define LSNIF_INTERSECT_GLSL
 
 #include "lsnif/shaders/lsnif_head.glsl"
+#include "lsnif/shaders/lsnif_uv_cells.glsl"
 
 struct LsnifHitInfo {
   bool hit;               // accepted
@@ -23,6 +24,10 @@ struct LsnifHitInfo {
   bool surface_learned;
   float metallic, roughness, ambient_occlusion;
   vec3 emission;
+  // A hit of a texture-coordinate material (lsnif_reports_uv): the texture coordinate from the uv
+  // cells (lsnif_hit_uv) and true; else zero and false.
+  bool reports_uv;
+  vec2 uv;
 };
 
 // Facing of a prediction (host_device.h): true when a culling flag in `ray_flags` rejects it.
@@ -64,7 +69,16 @@ LsnifHitInfo lsnif_intersect_accept(LsnifPrediction p, uint points, vec3 directi
   r.roughness = p.roughness;
   r.ambient_occlusion = p.ambient_occlusion;
   r.emission = p.emission;
+  r.reports_uv = false;
+  r.uv = vec2(0.0);
   return r;
+}
+
+// The texture coordinate of an accepted hit `h` of a ray (object-space origin, direction) whose
+// material reports it (intersector.cpp: UvCells::lookup at the predicted point).
+void lsnif_hit_uv(LsnifModel m, inout LsnifHitInfo h, vec3 origin, vec3 direction) {
+  if (h.hit && lsnif_reports_uv(m, h.material))
+    h.reports_uv = lsnif_uv_lookup(m, origin + h.t * direction, h.normal, direction, h.uv);
 }
 
 // A miss before any network evaluation (points == 0).
@@ -82,17 +96,23 @@ LsnifHitInfo lsnif_intersect_none() {
   r.roughness = 0.0;
   r.ambient_occlusion = 0.0;
   r.emission = vec3(0.0);
+  r.reports_uv = false;
+  r.uv = vec2(0.0);
   return r;
 }
 
-// One ray, the whole way: walk -> encode -> MLP -> decode -> accept. The batched path
-// (lsnif_batch.comp) runs the same steps in separate passes over many rays.
+// One ray, the whole way: walk -> encode -> MLP -> decode -> accept, and the texture coordinate of
+// an accepted hit that reports one. The batched path (lsnif_batch.comp) runs the same steps in
+// separate passes over many rays (without the texture coordinate so far).
 LsnifHitInfo lsnif_intersect(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax,
                              uint ray_flags) {
   const uint points = lsnif_intersect_walk(m, origin, direction, tmin, tmax);
   if (points == 0u) return lsnif_intersect_none();
   lsnif_encode(m);
-  return lsnif_intersect_accept(lsnif_decode(m, lsnif_mlp_forward(m, points)), points, direction, tmin, tmax, ray_flags);
+  LsnifHitInfo h =
+      lsnif_intersect_accept(lsnif_decode(m, lsnif_mlp_forward(m, points)), points, direction, tmin, tmax, ray_flags);
+  lsnif_hit_uv(m, h, origin, direction);
+  return h;
 }
 
 #endif

@@ -113,9 +113,13 @@ void main() {
   const LsnifHitInfo h = lsnif_intersect(m, gl_ObjectRayOriginEXT, gl_ObjectRayDirectionEXT, gl_RayTminEXT,
                                          gl_RayTmaxEXT, gl_IncomingRayFlagsEXT);
   if (!h.hit) return;
-  lsnif_attributes = lsnif_pack_hit(h.normal, h.albedo, h.material, h.points,
-                                    lsnif_pack_surface(h.surface_learned, h.metallic, h.roughness, h.ambient_occlusion),
-                                    h.emission, h.occlusion_logit, lsnif_leaving_distance(m));
+  if (h.reports_uv)
+    lsnif_attributes = lsnif_pack_uv_hit(h.normal, h.material, h.points, h.uv, h.occlusion_logit,
+                                         lsnif_leaving_distance(m));
+  else
+    lsnif_attributes = lsnif_pack_hit(h.normal, h.albedo, h.material, h.points,
+                                      lsnif_pack_surface(h.surface_learned, h.metallic, h.roughness, h.ambient_occlusion),
+                                      h.emission, h.occlusion_logit, lsnif_leaving_distance(m));
   reportIntersectionEXT(h.t, lsnif_hit_kind(h.normal, gl_ObjectRayDirectionEXT));
 }
 

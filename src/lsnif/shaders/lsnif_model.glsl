@@ -107,6 +107,12 @@ uint lsnif_output_dim(LsnifModel m) {
 // Config::surface_output: where the surface channels start (LSNIF_OUT_SURFACE_* are offsets from here).
 uint lsnif_surface_output(LsnifModel m) { return LSNIF_OUT_MATERIAL + m.h.material_count; }
 
+// Config::reports_uv: hits of `material` report the texture coordinate (the model's uv cells).
+bool lsnif_reports_uv(LsnifModel m, uint material) {
+  const uint word = material < 32u ? m.h.uv_materials_lo : m.h.uv_materials_hi;
+  return material < 64u && ((word >> (material & 31u)) & 1u) != 0u;
+}
+
 vec3 lsnif_bounds_lo(LsnifModel m) { return vec3(m.h.bounds_lo_x, m.h.bounds_lo_y, m.h.bounds_lo_z); }
 vec3 lsnif_bounds_hi(LsnifModel m) { return vec3(m.h.bounds_hi_x, m.h.bounds_hi_y, m.h.bounds_hi_z); }
 

@@ -269,4 +269,55 @@ inline uint64_t off_faces(const std::string& path) {
   return magic == "OFF" ? faces : 0;
 }
 
+// ---- a textured mesh whose uv layout has seams and a mirrored half ----
+
+constexpr float kLayoutPi = 3.14159265f;
+
+// The uv of a unit-sphere point: the band |latitude| <= 60 degrees maps to u = |longitude| / pi
+// (the half z < 0 mirrors the half z > 0 onto the same texels), v = 0.05 + 0.5 (latitude / (2 pi / 3)
+// + 0.5); each cap beyond 60 degrees is its own chart, projected from above into v in [0.6, 1]:
+// three charts, seams at +-60 degrees.
+inline glm::vec2 sphere_uv(glm::vec3 p, bool cap) {
+  const float lat = std::asin(std::clamp(p.y, -1.0f, 1.0f));
+  if (!cap) return {std::fabs(std::atan2(p.z, p.x)) / kLayoutPi, 0.05f + 0.5f * (lat / (2.0f * kLayoutPi / 3.0f) + 0.5f)};
+  const float side = p.y > 0.0f ? 0.25f : 0.75f;
+  return {side + 0.2f * p.x, 0.8f + 0.2f * p.z};
+}
+
+// A latitude-longitude sphere with the layout above: quads of `rows` x `columns`, each with its own
+// four vertices (a soup, as importers write it), one material with a 256 x 256 texture.
+inline Mesh layout_sphere(uint32_t rows, uint32_t columns) {
+  Mesh m;
+  for (uint32_t r = 0; r < rows; ++r)
+    for (uint32_t c = 0; c < columns; ++c) {
+      const float mid = (float(r) + 0.5f) / float(rows) * 180.0f - 90.0f;
+      const bool cap = std::fabs(mid) > 60.0f;
+      const uint32_t b = uint32_t(m.positions.size());
+      for (const glm::uvec2 corner : {glm::uvec2(r, c), glm::uvec2(r + 1, c), glm::uvec2(r + 1, c + 1), glm::uvec2(r, c + 1)}) {
+        const float lat = -kLayoutPi / 2 + kLayoutPi * float(corner.x) / float(rows);
+        const float lon = -kLayoutPi + 2 * kLayoutPi * float(corner.y) / float(columns);
+        // The poles exactly: their quads' two pole corners coincide, a triangle the importer drops.
+        const float ring = corner.x == 0 || corner.x == rows ? 0.0f : std::cos(lat);
+        const glm::vec3 p(ring * std::cos(lon), std::sin(lat), ring * std::sin(lon));
+        m.positions.push_back(p);
+        m.uvs.push_back(cap ? sphere_uv(p, true)
+                            : glm::vec2(std::fabs(lon) / kLayoutPi, 0.05f + 0.5f * (lat / (2.0f * kLayoutPi / 3.0f) + 0.5f)));
+      }
+      m.triangles.push_back({b, b + 1, b + 2});  // counter-clockwise seen from outside
+      m.triangles.push_back({b, b + 2, b + 3});
+      m.triangle_material.insert(m.triangle_material.end(), {0u, 0u});
+    }
+  Texture t;
+  t.width = t.height = 256;
+  for (uint32_t y = 0; y < 256; ++y)
+    for (uint32_t x = 0; x < 256; ++x) t.rgba.insert(t.rgba.end(), {uint8_t(x), uint8_t(y), 128, 255});
+  m.textures.push_back(t);
+  Material mat;
+  mat.name = "painted";
+  mat.base_color_texture = 0;
+  m.materials = {mat};
+  EXPECT_TRUE(finalize_mesh(m, nullptr, "layout sphere"));
+  return m;
+}
+
 }  // namespace lsnif::test

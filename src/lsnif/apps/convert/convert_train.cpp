@@ -211,7 +211,7 @@ void prepare_models(const ConvertSettings& settings, const Plan& plan, const std
     }
     // What training would refuse is refused now, by a dry run and a plan too.
     Config checked;
-    if (Status s = check_training_inputs(r.mesh, settings.train, checked); !s) {
+    if (Status s = check_training_inputs(r.mesh, settings.train, checked, &r.warnings); !s) {
       r.state = ModelState::Failed;
       r.error = object_label(plan, m) + ": " + s.message();
       continue;

@@ -13,6 +13,6 @@ hitAttributeEXT LsnifHitAttributes lsnif_attributes;
 void main() {
   const LsnifSurface s = lsnif_surface(lsnif_attributes);
   hit = render_lsnif_hit(render_frame(), gl_InstanceCustomIndexEXT, s.normal, s.albedo, s.material, s.surface_learned,
-                         vec3(s.metallic, s.roughness, s.ambient_occlusion), s.emission,
+                         vec3(s.metallic, s.roughness, s.ambient_occlusion), s.emission, s.reports_uv, s.uv,
                          mat3(gl_WorldToObjectEXT), s.leaving_distance, gl_HitTEXT);
 }

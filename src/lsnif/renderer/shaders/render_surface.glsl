@@ -59,6 +59,33 @@ bool render_triangle_opaque(RenderFrame f, uint custom_index, uint geometry, uin
   return alpha >= m.alpha_cutoff;
 }
 
+// Material `m`'s channels at texture coordinate `uv` (its textures read through each slot's uv
+// transform) into `hit`: albedo, metallic, roughness, ambient occlusion and emission. Triangle hits,
+// and LSNIF hits that report their texture coordinate.
+void render_material_at(RenderFrame f, RenderMaterial m, vec2 uv, inout RenderHit hit) {
+  vec3 albedo = vec3(m.base_r, m.base_g, m.base_b);
+  if (m.base_texture != RENDER_NO_TEXTURE)
+    albedo *= render_texture(f, m.base_texture, render_slot_uv(m, RENDER_SLOT_BASE, uv), true).rgb;
+  float metallic = m.metallic, roughness = m.roughness;
+  if (m.metallic_roughness_texture != RENDER_NO_TEXTURE) {
+    const vec4 mr = render_texture(f, m.metallic_roughness_texture, render_slot_uv(m, RENDER_SLOT_METALLIC_ROUGHNESS, uv), false);
+    metallic *= mr.b;
+    roughness *= mr.g;
+  }
+  vec3 emission = vec3(m.emission_r, m.emission_g, m.emission_b);
+  if (m.emission_texture != RENDER_NO_TEXTURE)
+    emission *= render_texture(f, m.emission_texture, render_slot_uv(m, RENDER_SLOT_EMISSION, uv), true).rgb;
+  float occlusion = 1.0;
+  if (m.occlusion_texture != RENDER_NO_TEXTURE)
+    occlusion = 1.0 + m.occlusion_strength *
+                          (render_texture(f, m.occlusion_texture, render_slot_uv(m, RENDER_SLOT_OCCLUSION, uv), false).r - 1.0);
+  hit.albedo = albedo;
+  hit.metallic = metallic;
+  hit.roughness = roughness;
+  hit.ambient_occlusion = occlusion;
+  hit.emission = emission;
+}
+
 // Triangle `primitive` of geometry `geometry` of TLAS instance `custom_index` at barycentrics
 // (weights of vertices 1 and 2), hit at ray parameter t; world_to_object: the instance's linear part.
 RenderHit render_triangle_hit(RenderFrame f, uint custom_index, uint geometry, uint primitive, vec2 barycentrics,
@@ -93,34 +120,12 @@ RenderHit render_triangle_hit(RenderFrame f, uint custom_index, uint geometry, u
                                       m.normal_scale);
     }
   }
-  const vec3 ns = normalize(normal_to_world * n_object);
-  vec3 albedo = vec3(m.base_r, m.base_g, m.base_b);
-  if (m.base_texture != RENDER_NO_TEXTURE)
-    albedo *= render_texture(f, m.base_texture, render_slot_uv(m, RENDER_SLOT_BASE, uv), true).rgb;
-  float metallic = m.metallic, roughness = m.roughness;
-  if (m.metallic_roughness_texture != RENDER_NO_TEXTURE) {
-    const vec4 mr = render_texture(f, m.metallic_roughness_texture, render_slot_uv(m, RENDER_SLOT_METALLIC_ROUGHNESS, uv), false);
-    metallic *= mr.b;
-    roughness *= mr.g;
-  }
-  vec3 emission = vec3(m.emission_r, m.emission_g, m.emission_b);
-  if (m.emission_texture != RENDER_NO_TEXTURE)
-    emission *= render_texture(f, m.emission_texture, render_slot_uv(m, RENDER_SLOT_EMISSION, uv), true).rgb;
-  float occlusion = 1.0;
-  if (m.occlusion_texture != RENDER_NO_TEXTURE)
-    occlusion = 1.0 + m.occlusion_strength *
-                          (render_texture(f, m.occlusion_texture, render_slot_uv(m, RENDER_SLOT_OCCLUSION, uv), false).r - 1.0);
-
   RenderHit hit;
   hit.t = t;
   hit.flags = 0u;
-  hit.normal = ns;
+  hit.normal = normalize(normal_to_world * n_object);
   hit.geometric_normal = ng;
-  hit.albedo = albedo;
-  hit.metallic = metallic;
-  hit.roughness = roughness;
-  hit.ambient_occlusion = occlusion;
-  hit.emission = emission;
+  render_material_at(f, m, uv, hit);
   hit.world_to_object = world_to_object;
   hit.leaving_distance = 0.0;
   return hit;
@@ -129,9 +134,11 @@ RenderHit render_triangle_hit(RenderFrame f, uint custom_index, uint geometry, u
 // An LSNIF hit of TLAS instance `custom_index`: the predicted world normal, albedo and material
 // (the model's index), with `learned` the surface channels (metallic, roughness, ambient occlusion)
 // and emission the model learned, at ray parameter t; leaving_distance:
-// LsnifSurface::leaving_distance.
+// LsnifSurface::leaving_distance. A hit that reports its texture coordinate (`reports_uv`, `uv`)
+// takes every channel from the material's own textures there, as a triangle hit does.
 RenderHit render_lsnif_hit(RenderFrame f, uint custom_index, vec3 normal, vec3 albedo, uint material, bool learned,
-                           vec3 channels, vec3 emission, mat3 world_to_object, float leaving_distance, float t) {
+                           vec3 channels, vec3 emission, bool reports_uv, vec2 uv, mat3 world_to_object,
+                           float leaving_distance, float t) {
   const RenderInstance inst = RenderInstanceRef(f.instances).v[custom_index];
   const uint slot = min(material, max(inst.material_count, 1u) - 1u);
   const RenderMaterial m = RenderMaterialRef(f.materials).v[RenderUintRef(f.material_maps).v[inst.material_map + slot]];
@@ -152,6 +159,7 @@ RenderHit render_lsnif_hit(RenderFrame f, uint custom_index, vec3 normal, vec3 a
     hit.ambient_occlusion = 1.0;
     hit.emission = vec3(m.emission_r, m.emission_g, m.emission_b);
   }
+  if (reports_uv) render_material_at(f, m, uv, hit);
   hit.world_to_object = world_to_object;
   hit.leaving_distance = leaving_distance;
   return hit;
