@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <map>
 #include <set>
+#include <tuple>
 
 #include "lsnif/apps/convert/convert_cluster.h"
 #include "lsnif/format/atomic_file.h"
@@ -12,6 +13,7 @@
 
 #include "lsnif/scene/gltf_build.h"
 #include "lsnif/scene/scene_gltf.h"
+#include "lsnif/train/uv_materials.h"
 
 namespace lsnif::convert {
 namespace fs = std::filesystem;
@@ -157,8 +159,29 @@ std::string row_decision(const Plan& plan, const MemoryRow& row) {
   return text;
 }
 
+// Bytes of the distinct textures (by name and size, decoded RGBA8) that the materials reporting
+// texture coordinates (choose_uv_materials) of the models not failed sample.
+uint64_t uv_texture_bytes(const ConvertSettings& s, const ConvertResult& res) {
+  std::set<std::tuple<std::string, uint32_t, uint32_t>> seen;
+  uint64_t bytes = 0;
+  for (const ModelResult& r : res.models) {
+    if (r.state == ModelState::Failed) continue;
+    const uint64_t materials = choose_uv_materials(r.mesh, s.train.texture_coordinates).materials;
+    for (uint32_t m = 0; m < r.mesh.materials.size() && m < 64; ++m) {
+      if (!((materials >> m) & 1u)) continue;
+      for (const int* slot : r.mesh.materials[m].textures()) {
+        if (*slot < 0 || size_t(*slot) >= r.mesh.textures.size()) continue;
+        const Texture& t = r.mesh.textures[size_t(*slot)];
+        if (seen.insert({t.name, t.width, t.height}).second) bytes += uint64_t(t.width) * t.height * 4u;
+      }
+    }
+  }
+  return bytes;
+}
+
 // The memory table: per mesh and group, the triangle BLAS converting it frees against its model,
-// the ratio and the decision; then the scene's memory before and after (the renderer's LSNIF mode).
+// the ratio and the decision; then the scene's memory before and after (the renderer's LSNIF mode), and
+// with the textures texture-coordinate hits sample.
 void print_memory(const ConvertSettings& s, const ConvertResult& res, FILE* out) {
   const Plan& plan = res.plan;
   std::vector<uint64_t> model_bytes(plan.models.size(), 0);
@@ -198,6 +221,13 @@ void print_memory(const ConvertSettings& s, const ConvertResult& res, FILE* out)
                mib(m.blas_before), mib(m.blas_after), mib(m.models), mib(m.after()),
                m.blas_before ? double(m.after()) / double(m.blas_before) : 0.0,
                s.dry_run ? ", models estimated from the settings" : "");
+  // Textures the converted objects' texture-coordinate materials sample: kept in both cases.
+  if (const uint64_t textures = uv_texture_bytes(s, res); textures)
+    std::fprintf(out, "textures  %.3f MiB of textures the converted objects' hits sample at their texture coordinates "
+                      "(--texture-coordinates; decoded RGBA8, needed with triangles too): before %.3f MiB of triangle "
+                      "BLASes + textures, after %.3f MiB of triangle BLASes + LSNIF models + textures (%.2fx)\n",
+                 mib(textures), mib(m.blas_before + textures), mib(m.after() + textures),
+                 m.blas_before + textures ? double(m.after() + textures) / double(m.blas_before + textures) : 0.0);
 }
 
 // The output files are none of the files the input uses, and can be written (the folder is made):

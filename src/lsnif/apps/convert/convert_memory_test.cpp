@@ -232,6 +232,32 @@ TEST(ConvertMemory, TheMemoryTableHasARowPerMeshAndGroup) {
     EXPECT_NE(log.find(text), std::string::npos) << text << "\n" << log;
 }
 
+// With --texture-coordinates auto the textures the converted objects' hits sample are reported
+// beside the memory trade, counted on both sides (decoded RGBA8): BoxTextured's one 211 x 211
+// texture is 178,084 bytes; without texture coordinates, no such line.
+TEST(ConvertMemory, TexturesTheHitsSampleAreReportedOnBothSides) {
+  const std::string box = lsnif::test::data_dir() + "/gltf/BoxTextured-glTF/BoxTextured.gltf";
+  ASSERT_TRUE(std::filesystem::exists(box)) << box << " missing: run scripts/setup.sh";
+  lsnif::test::ScopedTestDir dir("lsnif_convert_textures");
+  for (const uint32_t coordinates : {kTextureCoordinatesAuto, kTextureCoordinatesOff}) {
+    ConvertSettings settings = tiny_settings(box, dir.path("out.gltf"));
+    settings.dry_run = true;
+    settings.min_triangles = 1;  // the box's 12
+    settings.train.texture_coordinates = coordinates;
+    ConvertResult r;
+    std::string log;
+    ASSERT_EQ(run_quiet(settings, r, &log), 0) << log;
+    const size_t at = log.find("textures  ");
+    if (coordinates == kTextureCoordinatesOff) {
+      EXPECT_EQ(at, std::string::npos) << log;
+      continue;
+    }
+    ASSERT_NE(at, std::string::npos) << log;
+    EXPECT_EQ(log.compare(at, 20, "textures  0.170 MiB "), 0) << log.substr(at);
+    EXPECT_NE(log.find("needed with triangles too", at), std::string::npos) << log.substr(at);
+  }
+}
+
 TEST(ConvertMemory, TheMarginHasARange) {
   SizesScene s;
   for (double bad : {0.0, 0.5, 0.999, 1e6 * 1.001, std::nan(""), -2.0}) {
