@@ -354,6 +354,39 @@ TEST(Cli, TrainInfoEvalRoundTrip) {
   fs::remove_all(d);
 }
 
+// Texture coordinates from the command line: `train --texture-coordinates auto` of a textured glTF
+// says which materials report them and writes a version 7 model, `info` lists its uv cells (their
+// bytes counted in the total), `eval` reports the texel error and wrong-chart share of the material.
+TEST(Cli, TextureCoordinatesTrainInfoEval) {
+  const std::string box = std::string(LSNIF_DATA_DIR) + "/gltf/BoxTextured-glTF/BoxTextured.gltf";
+  if (!fs::exists(box)) GTEST_SKIP() << box << " missing: run scripts/setup.sh";
+  fs::path d = temp_dir();
+  const std::string model = (d / "box.lsnif").string();
+  CliResult r = run_cli("train " + box + " -o " + model + " --tiny --quiet --texture-coordinates auto --uv-cells 1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("materials 0x1 report texture coordinates (uv cells: 1 per voxel edge)"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("; uv cells "), std::string::npos) << r.out;
+  r = run_cli("info " + model);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("uv-materials=0x1 uv-cells=1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(uv cells: 1 per voxel edge, "), std::string::npos) << r.out;
+  r = run_cli("info --json " + model);
+  EXPECT_EQ(r.code, 0) << r.out;
+  const nlohmann::ordered_json j = nlohmann::ordered_json::parse(r.out, nullptr, false);
+  ASSERT_TRUE(j.is_object()) << r.out;
+  const auto& bytes = j["bytes"];
+  EXPECT_GT(bytes["uv_cells"].get<uint64_t>(), 0u) << r.out;
+  EXPECT_EQ(bytes["total"].get<uint64_t>(), bytes["voxels"].get<uint64_t>() + bytes["grid"].get<uint64_t>() +
+                                                bytes["mlp"].get<uint64_t>() + bytes["header"].get<uint64_t>() +
+                                                bytes["uv_cells"].get<uint64_t>());
+  r = run_cli("eval " + model + " " + box + " --rays 2000");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("uv material 0 "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("wrong chart"), std::string::npos) << r.out;
+  fs::remove_all(d);
+}
+
 // `lsnif render` and the render part of `lsnif demo` on lavapipe with a tiny model: an image is
 // written in LSNIF mode; reference mode or rasterized primary visibility of a node without a mesh,
 // a bad --primary, a missing scene, a malformed or unknown --lsnif override give clear errors with

@@ -124,6 +124,7 @@ int cmd_info(int argc, char** argv) {
                   {"grid", m.grid_bytes},
                   {"mlp", m.mlp_bytes},
                   {"header", m.header_bytes},
+                  {"uv_cells", m.uv_cell_bytes},
                   {"total", m.total()}};
     if (usage) {
       nlohmann::ordered_json& grid_usage = j["grid_usage"] = nlohmann::ordered_json::array();
@@ -179,6 +180,10 @@ int cmd_info(int argc, char** argv) {
                               : "");
   std::printf("           mlp    %8.1f KB (%llu parameters, fp16)\n", double(m.mlp_bytes) / 1024.0,
               (unsigned long long)c.mlp_parameter_count());
+  if (c.texture_coordinates())
+    std::printf("           uv     %8.1f KB (uv cells: %u per voxel edge, %u pieces; materials 0x%llx report texture "
+                "coordinates)\n", double(m.uv_cell_bytes) / 1024.0, c.uv_cells, c.uv_cell_maps,
+                (unsigned long long)c.uv_materials);
   std::printf("           header %8.1f KB\n", double(m.header_bytes) / 1024.0);
   std::printf("           total  %8.1f KB (%.3f MiB)\n", double(m.total()) / 1024.0, double(m.total()) / 1048576.0);
   for (size_t l = 0; l < levels.size(); ++l) {
