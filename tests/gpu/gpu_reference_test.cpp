@@ -429,7 +429,7 @@ TEST_F(GpuReference, UvCellsModelMatchesCpu) {
   s.steps = 120;
   s.texture_coordinates = kTextureCoordinatesAuto;
   Model model;
-  const Status trained = train_model(test::layout_sphere(24, 48), s, model);
+  const Status trained = test::tiny_model("gpu_reference.uv_sphere", test::layout_sphere(24, 48), s, model);
   ASSERT_TRUE(trained) << trained.message();
   ASSERT_EQ(model.config.uv_materials, 1u);
   const Comparison a = run(model, Transform3x4(), kRaysPerInstance, 31, "uv cells, identity");

@@ -302,7 +302,7 @@ class RtConformance : public ::testing::Test {
       TrainSettings uv = tiny_settings(HitParam::VoxelSegments);
       uv.steps = 120;
       uv.texture_coordinates = kTextureCoordinatesAuto;
-      train_status_ = train_model(test::layout_sphere(24, 48), uv, models_[kUvIndex]);
+      train_status_ = test::tiny_model("rt_conformance.uv_sphere", test::layout_sphere(24, 48), uv, models_[kUvIndex]);
     }
     if (!train_status_ || !vk_status_) return;
 

@@ -29,8 +29,8 @@ inline std::string test_models_dir() {
 }
 
 // What a model of `mesh` trained with `settings` depends on, as one line of text: the model
-// configuration, steps, batch, seed, indexed levels and an FNV-1a hash of the mesh's positions and
-// triangles. (From the settings' fields, not TrainSettings::describe, which lives with the trainer.)
+// configuration, steps, batch, seed, indexed levels, texture coordinates and an FNV-1a hash of the
+// mesh's positions and triangles. (From the settings' fields, not TrainSettings::describe, which lives with the trainer.)
 inline std::string test_model_fingerprint(const Mesh& mesh, const TrainSettings& settings) {
   uint64_t h = 1469598103934665603ull;
   auto mix = [&h](const void* data, size_t bytes) {
@@ -41,10 +41,11 @@ inline std::string test_model_fingerprint(const Mesh& mesh, const TrainSettings&
   mix(mesh.triangles.data(), mesh.triangles.size() * sizeof(mesh.triangles[0]));
   std::string indexed;
   for (bool b : settings.indexed) indexed += b ? '1' : '0';
-  char line[160];
-  std::snprintf(line, sizeof line, " | steps=%u batch=%u seed=%llu indexed=%s | mesh %zu/%zu fnv1a=%016llx",
+  char line[192];
+  std::snprintf(line, sizeof line, " | steps=%u batch=%u seed=%llu indexed=%s uv=%u/%u | mesh %zu/%zu fnv1a=%016llx",
                 settings.steps, settings.batch_size, (unsigned long long)settings.seed, indexed.c_str(),
-                mesh.positions.size(), mesh.triangles.size(), (unsigned long long)h);
+                settings.texture_coordinates, settings.uv_cells, mesh.positions.size(), mesh.triangles.size(),
+                (unsigned long long)h);
   return settings.config.describe() + line;
 }
 
