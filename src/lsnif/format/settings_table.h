@@ -64,7 +64,7 @@ inline constexpr SettingChoice kNormalLossChoices[] = {{"angle", 1}, {"cosine", 
 inline constexpr uint32_t kSurfaceMapsOff = 0, kSurfaceMapsOn = 1, kSurfaceMapsAuto = 2;
 inline constexpr SettingChoice kSurfaceMapsChoices[] = {
     {"auto", kSurfaceMapsAuto}, {"on", kSurfaceMapsOn}, {"off", kSurfaceMapsOff}};
-// Which materials' hits report a learned texture coordinate instead of learned colours
+// Which materials' hits report their texture coordinate (read from uv cells) instead of learned colours
 // (TextureCoordinates, src/lsnif/train/uv_materials.h): auto: every textured material whose uv layout
 // allows it (the renderer samples the material's own textures there); off: none.
 inline constexpr uint32_t kTextureCoordinatesOff = 0, kTextureCoordinatesAuto = 1;

@@ -34,8 +34,9 @@ struct TrainSettings {
   // kSurfaceMapsAuto / On / Off (settings_table.h): whether config.surface_channels is set and
   // normal maps are baked, decided from the mesh's materials by surface_channels_for.
   uint32_t surface_maps = default_u32(SettingId::SurfaceMaps);
-  // kTextureCoordinatesAuto / Off: which materials report a learned texture coordinate
-  // (config.uv_materials, decided from the mesh by choose_uv_materials, uv_materials.h).
+  // kTextureCoordinatesAuto / Off: which materials' hits report their texture coordinate, read from
+  // uv cells built after training (config.uv_materials, decided from the mesh by choose_uv_materials,
+  // uv_materials.h).
   uint32_t texture_coordinates = default_u32(SettingId::TextureCoordinates);
   uint32_t uv_cells = default_u32(SettingId::UvCells);  // Config::uv_cells when a material reports uvs
   uint32_t steps = default_u32(SettingId::Steps);
