@@ -373,8 +373,7 @@ bool learns_surface_channels(const Mesh& mesh, uint32_t surface_maps) {
 Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model, TrainReport* report,
                    const TrainCallback& callback) {
   Config config;
-  std::vector<std::string> warnings;
-  if (Status s = check_training_inputs(mesh, settings, config, &warnings); !s) return s;
+  if (Status s = check_training_inputs(mesh, settings, config); !s) return s;
   uint32_t occupied = 0;
   if (Status s = build_model_frame(mesh, settings, config, model, occupied); !s) return s;
   const GridLayout layout = model.layout();
@@ -388,7 +387,6 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   StepState st(model, settings.adam);
 
   TrainReport rep;
-  rep.warnings = std::move(warnings);
   if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material,surface\n";
   rep.occupied_voxels = occupied;
   TailLoss tail;

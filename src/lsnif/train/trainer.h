@@ -86,7 +86,6 @@ struct TrainReport {
   uint64_t rays = 0;              // training rays used
   uint32_t occupied_voxels = 0;
   LossTerms final_loss;           // mean over the last 10% of steps
-  std::vector<std::string> warnings;  // check_training_inputs'
   // With TrainSettings::loss_curve: "step,seconds,total,occlusion,...\n" and one row per step. The
   // trainer writes no file; the caller saves it next to the model.
   std::string loss_curve;
