@@ -278,7 +278,7 @@ struct LsnifQueryRay { /* 48 bytes */
 #define LSNIF_QUERY_HIT_TRIANGLE 2u   /* LsnifQueryResult: a triangle of the application's TLAS */
 #define LSNIF_QUERY_HIT_INCOMPLETE 3u /* LsnifQueryResult: a candidate of the ray did not fit the scratch
                                          and could have changed the answer (lsnifCmdQuery) */
-struct LsnifQueryHit { /* 64 bytes; every field is written, also for a miss */
+struct LsnifQueryHit { /* 80 bytes; every field is written, also for a miss */
   float t;                              /* ray parameter (also when not accepted, if points > 0) */
   float normal_x, normal_y, normal_z;   /* object space, normalized (zero when points == 0) */
   float albedo_r, albedo_g, albedo_b;
@@ -288,7 +288,10 @@ struct LsnifQueryHit { /* 64 bytes; every field is written, also for a miss */
   float occlusion_logit;                /* raw occlusion output (0 when points == 0) */
   lsnif_uint surface;                   /* packed surface channels (LSNIF_SURFACE_LEARNED); 0 when points == 0 */
   float emission_r, emission_g, emission_b; /* learned emission (0 without surface channels) */
-  lsnif_uint reserved;                  /* zero */
+  lsnif_uint reports_uv;                /* 1: an accepted hit of a material whose texture coordinate the
+                                           model's uv cells give (Config::reports_uv); 0 otherwise */
+  float uv_u, uv_v;                     /* that texture coordinate (fp32; 0 when reports_uv is 0) */
+  lsnif_uint reserved0, reserved1;      /* zero */
 };
 
 /* Push constants of the batched stages (one block for all of them, 48 bytes). The scratch buffer
@@ -319,7 +322,7 @@ struct LsnifBatchPushConstants {
  * a triangle hit is the closest (or, with LSNIF_RAY_FLAG_TERMINATE_ON_FIRST_HIT, any) triangle
  * the TLAS traversal commits, every triangle taken as opaque. The answer is the closest of both;
  * at equal t the lower instance index wins. */
-struct LsnifQueryResult { /* 80 bytes; every field is written */
+struct LsnifQueryResult { /* 96 bytes; every field is written */
   float t;                              /* ray parameter of the hit (0 when kind is NONE or INCOMPLETE) */
   float normal_x, normal_y, normal_z;   /* LSNIF: world-space unit normal, normalize(A^-T n) of the
                                            instance's object-to-world A; zero for triangles */
@@ -335,6 +338,10 @@ struct LsnifQueryResult { /* 80 bytes; every field is written */
                                            LSNIF by the predicted normal (dot(n, d) < 0 in object space) */
   lsnif_uint surface;                   /* LSNIF: packed surface channels (LSNIF_SURFACE_LEARNED); 0 for triangles */
   float emission_r, emission_g, emission_b; /* LSNIF: learned emission (0 without surface channels) */
+  lsnif_uint reports_uv;                /* LSNIF: 1 when the hit's material reports its texture coordinate
+                                           (the model's uv cells); 0 otherwise and for triangles */
+  float uv_u, uv_v;                     /* LSNIF: that texture coordinate (fp32); 0 when reports_uv is 0 */
+  lsnif_uint reserved;                  /* zero */
 };
 /* What lsnifCmdQuery counted, written to LsnifQueryInfo::status when given (24 bytes): candidates
  * the broad phase produced over all chunks, the capacity of one chunk, candidates that did not fit
@@ -367,7 +374,7 @@ struct LsnifQueryStatus {
 /* The words of one scratch record of each per-entry section (the structs below; checked in C++). */
 #define LSNIF_QUERY_MODEL_COUNTERS_WORDS 14u
 #define LSNIF_QUERY_RAY_STATE_WORDS 8u
-#define LSNIF_QUERY_CANDIDATE_WORDS 40u
+#define LSNIF_QUERY_CANDIDATE_WORDS 44u
 #define LSNIF_QUERY_SCATTER_ARGS_WORD 12u
 /* Per table entry; the per-model stages run once per run of consecutive entries of one model
  * (LsnifQueryInfo::pModels), their fields from `batch` on in the run's first entry. */
@@ -392,7 +399,7 @@ struct LsnifQueryRayState { /* 32 bytes; t values as float bits (non-negative: o
   lsnif_uint first_t;           /* smallest t_enter of the ray's candidates kept: the first round's */
   lsnif_uint reserved1, reserved2;
 };
-struct LsnifQueryCandidate { /* 160 bytes: one (ray, LSNIF instance) pair of the broad phase */
+struct LsnifQueryCandidate { /* 176 bytes: one (ray, LSNIF instance) pair of the broad phase */
   lsnif_uint ray, instance_index, custom_index, flags;
   float origin_x, origin_y, origin_z, tmin;           /* object space (as the intersection shader sees it) */
   float direction_x, direction_y, direction_z, tmax;  /* tmax: the ray's, cut at the closest triangle hit */
@@ -411,6 +418,9 @@ struct LsnifQueryCandidate { /* 160 bytes: one (ray, LSNIF instance) pair of the
                                                          second round that its hit could not win (0 otherwise) */
   lsnif_uint surface;                                 /* packed surface channels */
   float emission_r, emission_g, emission_b;
+  lsnif_uint reports_uv;                              /* the hit's texture coordinate (lsnif_hit_uv) */
+  float uv_u, uv_v;
+  lsnif_uint reserved;
 };
 /* Push constants of lsnifCmdQuery's stages (one block for all of them, 104 bytes). */
 struct LsnifQueryPushConstants {
@@ -446,12 +456,12 @@ struct LsnifQueryPushConstants {
 
 #if defined(__cplusplus)
 static_assert(sizeof(LsnifQueryRay) == 48, "LsnifQueryRay layout");
-static_assert(sizeof(LsnifQueryHit) == 64, "LsnifQueryHit layout");
-static_assert(sizeof(LsnifQueryResult) == 80, "LsnifQueryResult layout");
+static_assert(sizeof(LsnifQueryHit) == 80, "LsnifQueryHit layout");
+static_assert(sizeof(LsnifQueryResult) == 96, "LsnifQueryResult layout");
 static_assert(sizeof(LsnifQueryStatus) == 24, "LsnifQueryStatus layout");
 static_assert(sizeof(LsnifQueryModelCounters) == 56, "LsnifQueryModelCounters layout");
 static_assert(sizeof(LsnifQueryRayState) == 32, "LsnifQueryRayState layout");
-static_assert(sizeof(LsnifQueryCandidate) == 160, "LsnifQueryCandidate layout");
+static_assert(sizeof(LsnifQueryCandidate) == 176, "LsnifQueryCandidate layout");
 static_assert(sizeof(LsnifQueryModelCounters) == 4 * LSNIF_QUERY_MODEL_COUNTERS_WORDS &&
                   sizeof(LsnifQueryRayState) == 4 * LSNIF_QUERY_RAY_STATE_WORDS &&
                   sizeof(LsnifQueryCandidate) == 4 * LSNIF_QUERY_CANDIDATE_WORDS,

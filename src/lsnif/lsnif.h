@@ -647,7 +647,7 @@ typedef struct LsnifQueryModelIndexInfo {
 
 /* The scratch bytes lsnifCmdQuery needs for pInfo's rayCount, candidatesPerRay, modelCount and
  * pModels (the addresses and the scratch fields are not read): per ray of a chunk 32 bytes, per
- * candidate slot 164 bytes plus the batch rows of the largest model (about 4 x (4 + H + input +
+ * candidate slot 180 bytes plus the batch rows of the largest model (about 4 x (4 + H + input +
  * output) bytes), per table entry 40 bytes. Fails on the errors of lsnifCmdQuery's counts and models. */
 LSNIF_API LsnifResult lsnifGetQueryScratchSize(LsnifContext context, const LsnifQueryInfo* pInfo, VkDeviceSize* pSize);
 

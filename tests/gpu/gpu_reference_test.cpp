@@ -425,11 +425,8 @@ TEST_F(GpuReference, SurfaceChannelsModelMatchesCpu) {
 // choice between two pieces whose scores tie, or the cut between a ray meeting a plane and a
 // projection onto it: rare, and bounded.
 TEST_F(GpuReference, UvCellsModelMatchesCpu) {
-  TrainSettings s = tiny_settings(HitParam::VoxelSegments);
-  s.steps = 120;
-  s.texture_coordinates = kTextureCoordinatesAuto;
   Model model;
-  const Status trained = test::tiny_model("gpu_reference.uv_sphere", test::layout_sphere(24, 48), s, model);
+  const Status trained = uv_sphere_model(model);
   ASSERT_TRUE(trained) << trained.message();
   ASSERT_EQ(model.config.uv_materials, 1u);
   const Comparison a = run(model, Transform3x4(), kRaysPerInstance, 31, "uv cells, identity");

@@ -462,6 +462,10 @@ class PluginQuery : public ::testing::Test {
     // shader's attributes (<= 0: within).
     size_t surface_learned = 0, surface_mismatch = 0;
     double emission_excess = -1.0;
+    // Texture coordinates of the LSNIF hits (models with uv cells): both report one, one side only,
+    // apart by more than half a step of the shader's packing (pack_uv), the largest difference.
+    size_t uv_both = 0, uv_one_side = 0, uv_apart = 0;
+    double uv_max = 0;
   };
   static Agreement compare(const Scene& s, const std::vector<Ray>& rays, const std::vector<LsnifQueryResult>& q,
                            const std::vector<LsnifReferenceHit>& ref) {
@@ -478,6 +482,13 @@ class PluginQuery : public ::testing::Test {
           << "ray " << i << " kind " << r.kind;
       a.lsnif += r.kind == LSNIF_QUERY_HIT_LSNIF;
       a.triangles += r.kind == LSNIF_QUERY_HIT_TRIANGLE;
+      EXPECT_EQ(r.reserved, 0u) << "ray " << i;
+      if (r.kind != LSNIF_QUERY_HIT_LSNIF) {
+        EXPECT_EQ(r.reports_uv, 0u) << "ray " << i;
+      }
+      if (r.reports_uv == 0u) {
+        EXPECT_TRUE(r.uv_u == 0.0f && r.uv_v == 0.0f) << "ray " << i;
+      }
       const bool hit = r.kind == LSNIF_QUERY_HIT_LSNIF || r.kind == LSNIF_QUERY_HIT_TRIANGLE;
       if (!hit) {
         EXPECT_EQ(r.instance_index, ~0u) << "ray " << i;
@@ -506,10 +517,24 @@ class PluginQuery : public ::testing::Test {
       EXPECT_GT(ref[i].points, 0u) << "ray " << i << ": the shader hit a triangle";
       const glm::vec3 nq(r.normal_x, r.normal_y, r.normal_z), nr(ref[i].normal_x, ref[i].normal_y, ref[i].normal_z);
       a.max_angle = std::max(a.max_angle, double(std::acos(std::clamp(glm::dot(nq, nr), -1.0f, 1.0f))) * 180.0 / M_PI);
+      EXPECT_EQ(r.material, ref[i].material) << "ray " << i;
+      if ((r.reports_uv != 0u) != (ref[i].reports_uv != 0u)) {
+        ++a.uv_one_side;
+        continue;
+      }
+      if (r.reports_uv != 0u) {
+        // The shader's attributes hold the coordinate instead of the albedo and surface channels
+        // (the application's textures give them); the query reports both.
+        ++a.uv_both;
+        const double du = std::max(std::fabs(double(r.uv_u) - double(ref[i].uv_u)),
+                                   std::fabs(double(r.uv_v) - double(ref[i].uv_v)));
+        a.uv_max = std::max(a.uv_max, du);
+        a.uv_apart += du > 0.5 / 65536.0 + 1e-6;
+        continue;
+      }
       a.max_albedo = std::max({a.max_albedo, std::fabs(double(r.albedo_r - ref[i].albedo_x)),
                                std::fabs(double(r.albedo_g - ref[i].albedo_y)),
                                std::fabs(double(r.albedo_b - ref[i].albedo_z))});
-      EXPECT_EQ(r.material, ref[i].material) << "ray " << i;
       EXPECT_EQ(r.primitive_index, 0u);
       // The same network on both sides: the same packed channels (one step where the two paths'
       // sums straddle a rounding boundary), the shader's emission RGBE-rounded (half a step of the
@@ -536,9 +561,11 @@ class PluginQuery : public ::testing::Test {
     SCOPED_TRACE(what);
     std::printf("[%s] %zu rays: LSNIF hits %zu, triangle hits %zu; hit/miss agreement %zu, same instance %zu of %zu; "
                 "max |dt| / diagonal %.3g, max normal %.3g deg, max albedo %.3g; surface channels learned %zu, "
-                "mismatched %zu, emission beyond the RGBE step %.3g\n",
+                "mismatched %zu, emission beyond the RGBE step %.3g; texture coordinates %zu, one side %zu, "
+                "apart %zu, max %.3g\n",
                 what, a.rays, a.lsnif, a.triangles, a.same_hit, a.same_instance, a.both_hit, a.max_dt, a.max_angle,
-                a.max_albedo, a.surface_learned, a.surface_mismatch, a.emission_excess);
+                a.max_albedo, a.surface_learned, a.surface_mismatch, a.emission_excess, a.uv_both, a.uv_one_side,
+                a.uv_apart, a.uv_max);
     EXPECT_GE(double(a.same_hit), 0.999 * double(a.rays)) << "hit/miss vs the intersection shader";
     EXPECT_GE(double(a.same_instance), 0.999 * double(a.both_hit)) << "closest instance vs the intersection shader";
     EXPECT_LE(a.max_dt, 1e-5) << "largest |t difference| / scene diagonal";
@@ -546,6 +573,10 @@ class PluginQuery : public ::testing::Test {
     EXPECT_LE(a.max_albedo, 0.5 / 255.0 + 1e-6) << "largest albedo difference";
     EXPECT_EQ(a.surface_mismatch, 0u) << "surface channels vs the intersection shader's attributes";
     EXPECT_LE(a.emission_excess, 0.0) << "emission vs the intersection shader's attributes";
+    // The same lookup on both sides; a hit point differing in its last bits can tip a choice
+    // between two pieces whose scores tie: rare, and bounded.
+    EXPECT_LE(double(a.uv_one_side), 2e-3 * double(a.both_hit)) << "texture coordinate reported on one side only";
+    EXPECT_LE(double(a.uv_apart), 5e-3 * double(a.both_hit)) << "texture coordinates vs the intersection shader's";
   }
 
   // CPU reference of a scene's LSNIF instances alone: the closest accepted hit over them.
@@ -967,6 +998,59 @@ TEST_P(PluginQueryPerBroadPhase, ManyModelsInOneBatch) {
     if (r.kind == LSNIF_QUERY_HIT_LSNIF) ++per_instance[r.instance_index];
   for (const LsnifInstance& li : s.lsnif) EXPECT_GT(per_instance[li.index], 10u) << "instance " << li.index;
   EXPECT_EQ(q.status.dropped, 0u);
+}
+
+// Texture coordinates: two instances of a model with uv cells (gputest::uv_sphere_model; one
+// rotated with non-uniform scale) beside a triangle instance. Each LSNIF answer reports the
+// coordinate the intersection shader packs into its hit attributes (compare(): within half a step
+// of the packing) and the CPU reference's lookup for the same instance (fp32 on both sides).
+TEST_P(PluginQueryPerBroadPhase, TexturedInstancesReportTheirTextureCoordinates) {
+  Model model;
+  const Status trained = uv_sphere_model(model);
+  ASSERT_TRUE(trained) << trained.message();
+  ASSERT_EQ(model.config.uv_materials, 1u);
+  LsnifModel m = nullptr;
+  Scene s;
+  const Cleanup cleanup{[&] {
+    release(s);
+    plugin_.release(m);
+  }};
+  ASSERT_TRUE(plugin_.upload(model, m));
+  const glm::vec3 e = model.bounds().extent();
+  s.table_models = {m, nullptr};
+  add_lsnif(s, model, m, 0, transform({0, 1, 0}, 40, glm::vec3(1.0f), -model.bounds().center()));
+  add_lsnif(s, model, m, 0,
+            transform({1, 1, 0}, 30, glm::vec3(0.7f, 1.2f, 0.9f), glm::vec3(0.9f * e.x, 0.2f * e.y, 0) - model.bounds().center()));
+  const float tri_scale = 0.6f * e.x / mesh_.bounds().extent().x;
+  add_triangles(s, 1, transform({0, 0, 1}, 15, glm::vec3(tri_scale), glm::vec3(-0.8f * e.x, 0, 0.3f * e.z) - tri_scale * mesh_.bounds().center()));
+  ASSERT_NO_FATAL_FAILURE(finish(s));
+  const std::vector<Ray> rays = rays_at(s, kRays, 13);
+  const QueryRun q = query(s, rays, {0u});
+  const Agreement a = compare(s, rays, q.results, trace(s, rays, kModeClosest, 0));
+  expect_agreement(a, "textured instances");
+  EXPECT_GT(a.uv_both, a.lsnif / 2) << "not vacuous: most LSNIF hits report a texture coordinate";
+  EXPECT_GT(a.triangles, kRays / 50) << "too few triangle hits to tell anything";
+  EXPECT_EQ(q.status.incomplete_rays, 0u);
+  // Against the CPU reference of the LSNIF instances where no triangle is closer.
+  std::vector<uint32_t> cpu_instance;
+  const std::vector<LsnifHit> cpu = cpu_lsnif(s, rays, 0, cpu_instance);
+  size_t both = 0, one_side = 0, apart = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const LsnifQueryResult& r = q.results[i];
+    if (r.kind != LSNIF_QUERY_HIT_LSNIF || !cpu[i].hit || r.instance_index != cpu_instance[i]) continue;
+    if (std::fabs(double(r.t - cpu[i].t)) * double(glm::length(rays[i].direction)) > 2e-4 * double(s.bounds.diagonal()))
+      continue;
+    if ((r.reports_uv != 0u) != cpu[i].reports_uv) {
+      ++one_side;
+    } else if (cpu[i].reports_uv) {
+      ++both;
+      apart += glm::length(glm::dvec2(r.uv_u, r.uv_v) - glm::dvec2(cpu[i].uv)) > 1e-4;
+    }
+  }
+  std::printf("vs the CPU reference: texture coordinates %zu, one side %zu, apart %zu\n", both, one_side, apart);
+  EXPECT_GT(both, a.lsnif / 2);
+  EXPECT_LE(double(one_side), 2e-3 * double(both));
+  EXPECT_LE(double(apart), 5e-3 * double(both));
 }
 
 // A row of eight instances of one model, apart, each its own table entry (one run of eight entries:

@@ -834,7 +834,8 @@ TEST_F(PluginApi, BatchedQueriesMatchTheIntersectionShaderAndTheCpu) {
       for (size_t i = 0; i < rays.size(); ++i) {
         const LsnifQueryHit& b = batched[i];
         ASSERT_TRUE(b.kind == LSNIF_QUERY_HIT_NONE || b.kind == LSNIF_QUERY_HIT_LSNIF) << "ray " << i;
-        EXPECT_EQ(b.reserved, 0u) << "ray " << i;
+        EXPECT_EQ(b.reserved0 | b.reserved1, 0u) << "ray " << i;
+        EXPECT_EQ(b.reports_uv, 0u) << "ray " << i << ": a model without uv cells reports no coordinate";
         const bool hit = b.kind == LSNIF_QUERY_HIT_LSNIF;
         hits += hit;
         evaluated += b.points > 0;
@@ -881,6 +882,92 @@ TEST_F(PluginApi, BatchedQueriesMatchTheIntersectionShaderAndTheCpu) {
     vk_.destroy_buffer(table_buf);
     lsnifDestroyQueryPipeline(plugin.context(), pipeline);
   }
+}
+
+// Texture coordinates through the batched path: a model with uv cells (gputest::uv_sphere_model)
+// reports on LsnifQueryHit the coordinate its uv cells give at the predicted point, as the CPU
+// reference does (fp32 on both sides: the same lookup, a hit point differing in its last bits can
+// tip a choice between two pieces whose scores tie, rare and bounded) and as the intersection shader
+// packs it into the hit attributes (within half a step of its 16 fractional bits). Misses and hits
+// without a piece report none, and their coordinate is zero.
+TEST_F(PluginApi, BatchedQueriesReportTextureCoordinates) {
+  TestPlugin plugin;
+  ASSERT_TRUE(plugin.init(vk_));
+  Model model;
+  const Status trained = uv_sphere_model(model);
+  ASSERT_TRUE(trained) << trained.message();
+  ASSERT_EQ(model.config.uv_materials, 1u);
+  LsnifModel m = nullptr;
+  ASSERT_TRUE(plugin.upload(model, m));
+  LsnifQueryPipeline pipeline = nullptr;
+  ASSERT_EQ(lsnifCreateQueryPipeline(plugin.context(), nullptr, &pipeline), LSNIF_SUCCESS) << last_error();
+  const Transform3x4 xf;  // identity: the batched rays are in object space
+  VkAccelerationStructureInstanceKHR rec;
+  vk::Buffer table_buf;
+  ASSERT_TRUE(one_model_table(plugin, m, xf, rec, table_buf));
+  std::vector<Ray> rays;
+  std::vector<int> kinds;
+  make_world_rays(model, instance_of(xf), kRays, 23, rays, kinds);
+  const std::vector<LsnifQueryHit> batched = intersect_batched(plugin, pipeline, m, rays);
+  const std::vector<LsnifReferenceHit> shader = trace(table_pipeline_, {rec}, table_buf.address, 1, rays);
+  std::vector<LsnifHit> cpu(rays.size());
+  ASSERT_TRUE(intersect(model, xf, rays.data(), rays.size(), cpu.data()));
+  ASSERT_EQ(batched.size(), rays.size());
+  ASSERT_EQ(shader.size(), rays.size());
+  const double step = 0.5 / 65536.0 + 1e-6;  // half a step of pack_uv's fixed point
+  const double diag = double(model.bounds().diagonal());
+  size_t hits = 0, reported = 0;
+  size_t cpu_both = 0, cpu_one_side = 0, cpu_apart = 0, shader_both = 0, shader_one_side = 0, shader_apart = 0;
+  double cpu_max = 0.0, shader_max = 0.0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const LsnifQueryHit& b = batched[i];
+    EXPECT_EQ(b.reserved0 | b.reserved1, 0u) << "ray " << i;
+    const bool hit = b.kind == LSNIF_QUERY_HIT_LSNIF;
+    ASSERT_TRUE(b.reports_uv == 0u || b.reports_uv == 1u) << "ray " << i;
+    if (!hit) {
+      EXPECT_EQ(b.reports_uv, 0u) << "ray " << i << ": a miss reports no coordinate";
+    }
+    if (b.reports_uv == 0u) {
+      EXPECT_TRUE(b.uv_u == 0.0f && b.uv_v == 0.0f) << "ray " << i;
+    }
+    hits += hit;
+    reported += b.reports_uv;
+    const glm::dvec2 uv(b.uv_u, b.uv_v);
+    const bool same_t = std::fabs(double(b.t - cpu[i].t)) * double(glm::length(rays[i].direction)) <= 2e-4 * diag;
+    if (hit && cpu[i].hit && same_t) {
+      if ((b.reports_uv != 0u) != cpu[i].reports_uv) {
+        ++cpu_one_side;
+      } else if (cpu[i].reports_uv) {
+        ++cpu_both;
+        const double err = glm::length(uv - glm::dvec2(cpu[i].uv));
+        cpu_max = std::max(cpu_max, err);
+        cpu_apart += err > 1e-4;
+      }
+    }
+    if (hit && shader[i].hit) {
+      if ((b.reports_uv != 0u) != (shader[i].reports_uv != 0u)) {
+        ++shader_one_side;
+      } else if (b.reports_uv != 0u) {
+        ++shader_both;
+        const glm::dvec2 d = glm::abs(uv - glm::dvec2(shader[i].uv_u, shader[i].uv_v));
+        shader_max = std::max(shader_max, std::max(d.x, d.y));
+        shader_apart += std::max(d.x, d.y) > step;
+      }
+    }
+  }
+  std::printf("%zu rays, %zu hits, %zu report a coordinate; vs CPU: %zu both, %zu one side, %zu apart, max %.3g; "
+              "vs the intersection shader: %zu both, %zu one side, %zu apart, max %.3g\n",
+              rays.size(), hits, reported, cpu_both, cpu_one_side, cpu_apart, cpu_max, shader_both, shader_one_side,
+              shader_apart, shader_max);
+  EXPECT_GT(reported, hits / 2) << "not vacuous: most hits report a texture coordinate";
+  EXPECT_GT(cpu_both, hits / 2);
+  EXPECT_LE(double(cpu_one_side), 2e-3 * double(cpu_both));
+  EXPECT_LE(double(cpu_apart), 5e-3 * double(cpu_both));
+  EXPECT_GT(shader_both, hits / 2);
+  EXPECT_LE(double(shader_one_side), 2e-3 * double(shader_both));
+  EXPECT_LE(double(shader_apart), 5e-3 * double(shader_both));
+  vk_.destroy_buffer(table_buf);
+  lsnifDestroyQueryPipeline(plugin.context(), pipeline);
 }
 
 // The cooperative-matrix MLP kernel (LSNIF_QUERY_PIPELINE_CREATE_COOPERATIVE_MATRIX_MLP_BIT_NV,
@@ -1053,7 +1140,8 @@ TEST_F(PluginApi, BatchedQueriesFromTheSurfaceEmptyAndMissingBatchesAndErrors) {
     EXPECT_EQ(h.t, 0.0f);
     EXPECT_EQ(h.material, 0u);
     EXPECT_EQ(h.occlusion_logit, 0.0f);
-    EXPECT_EQ(h.reserved, 0u);
+    EXPECT_EQ(h.reserved0 | h.reserved1, 0u);
+    EXPECT_EQ(h.reports_uv, 0u);
   }
 
   // Argument errors: nothing recorded, a message naming the problem.

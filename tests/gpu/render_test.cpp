@@ -998,5 +998,136 @@ TEST_F(RenderTest, RasterPrimaryNeedsTheLsnifNodesMeshes) {
   EXPECT_NE(s.message().find("both_modes"), std::string::npos) << s.message();
 }
 
+// A textured LSNIF object samples its material's own texture at the coordinate its uv cells give:
+// the layout sphere (seams, a mirrored half; gputest::uv_sphere_model) under a white sky, its
+// material's base colour a checkerboard of 8 x 8 cells in the scene (the model was trained on
+// another texture, a gradient: its learned colours know nothing of the checkerboard). Against the
+// triangle reference, the render with texture coordinates shows the checkerboard's cells where the
+// reference does, the same model with them switched off (learned colours) does not; through the
+// wavefront pipeline
+// (lsnifCmdQuery's fp32 coordinate) it renders as the inline pipeline (the hit attributes' 16
+// fractional bits) up to the noise of paths that took another branch (as
+// WavefrontMatchesInlineWithTheLsnifObject bounds it).
+TEST_F(RenderTest, TexturedLsnifObjectSamplesItsOwnTexture) {
+  Model model;
+  const Status trained = uv_sphere_model(model);
+  ASSERT_TRUE(trained) << trained.message();
+  ASSERT_EQ(model.config.uv_materials, 1u);
+  const Mesh sphere = test::layout_sphere(24, 48);
+  scene::Scene triangles;
+  triangles.path = "(textured sphere test)";
+  scene::Texture checker;
+  checker.width = checker.height = 64;
+  for (uint32_t y = 0; y < 64; ++y)
+    for (uint32_t x = 0; x < 64; ++x) {
+      const bool dark = ((x / 8) + (y / 8)) % 2 == 1;
+      checker.rgba.insert(checker.rgba.end(), {uint8_t(dark ? 20 : 240), uint8_t(dark ? 40 : 200), uint8_t(dark ? 160 : 60), 255});
+    }
+  triangles.textures = {checker};
+  scene::Material painted;
+  painted.name = "painted";
+  painted.base_color = glm::vec3(1.0f);
+  painted.base_color_texture = 0;
+  triangles.materials = {painted};
+  scene::Primitive prim;
+  prim.positions = sphere.positions;
+  for (const glm::vec3& q : sphere.positions) prim.normals.push_back(glm::length(q) > 0.0f ? glm::normalize(q) : glm::vec3(0, 1, 0));
+  prim.uvs = sphere.uvs;
+  for (const glm::uvec3& t : sphere.triangles) prim.indices.insert(prim.indices.end(), {t.x, t.y, t.z});
+  scene::Mesh mesh;
+  mesh.name = "sphere";
+  mesh.primitives = {prim};
+  triangles.meshes = {mesh};
+  scene::Instance inst;
+  inst.node_name = "sphere";
+  inst.mesh = 0;
+  triangles.instances = {inst};
+  triangles.environment.color = glm::vec3(1.0f);
+  scene::Camera cam;
+  cam.name = "front";
+  cam.yfov = 2.0f * std::atan(1.2f / 3.0f);
+  cam.camera_to_world = glm::rotate(glm::mat4(1.0f), 0.6f, glm::vec3(0, 1, 0)) *
+                        glm::rotate(glm::mat4(1.0f), -0.3f, glm::vec3(1, 0, 0)) *
+                        glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, 0.0f, 3.0f));
+  triangles.cameras = {cam};
+
+  render::RenderSettings settings = small(true);
+  settings.width = settings.height = 96;
+  settings.spp = 16;
+  render::Renderer renderer(vk_);
+  render::RenderStats stats;
+  image::Image ref;
+  ASSERT_TRUE(renderer.render(triangles, settings, ref, stats));
+  settings.reference = false;
+  // The model as trained, and the same with texture coordinates switched off.
+  Model colours = model;
+  colours.config.uv_materials = 0;
+  colours.config.uv_cells = colours.config.uv_cell_voxels = colours.config.uv_cell_maps = 0;
+  colours.uv_cells.clear();
+  image::Image with_uv, without_uv, wave, independent;
+  for (int k = 0; k < 2; ++k) {
+    const std::string path = (std::filesystem::temp_directory_path() /
+                              ("lsnif_render_test_uv_" + std::to_string(k) + ".lsnif")).string();
+    ASSERT_TRUE(save_model(k == 0 ? model : colours, path));
+    scene::Scene with_model = triangles;
+    scene::LsnifObject obj;
+    obj.model_path = path;
+    obj.material_map = {0};
+    with_model.lsnif_objects = {obj};
+    with_model.instances[0].lsnif = 0;
+    Status st = renderer.render(with_model, settings, k == 0 ? with_uv : without_uv, stats);
+    if (st && k == 0) {
+      render::RenderSettings w = settings;
+      w.pipeline = render::PathPipeline::wavefront;
+      st = renderer.render(with_model, w, wave, stats);
+      w = settings;
+      w.first_sample = 1000;
+      if (st) st = renderer.render(with_model, w, independent, stats);
+    }
+    std::filesystem::remove(path);
+    ASSERT_TRUE(st) << st.message();
+    EXPECT_EQ(stats.lsnif_instances, 1u);
+  }
+  dump(ref, "uv_reference");
+  dump(with_uv, "uv_cells");
+  dump(without_uv, "uv_learned_colours");
+  flip::FlipSettings fs;
+  fs.heatmap = false;
+  flip::FlipResult f_uv, f_colours, f_wave, f_noise;
+  ASSERT_TRUE(flip::ldr_flip(ref, with_uv, fs, f_uv));
+  ASSERT_TRUE(flip::ldr_flip(ref, without_uv, fs, f_colours));
+  ASSERT_TRUE(flip::ldr_flip(with_uv, wave, fs, f_wave));
+  ASSERT_TRUE(flip::ldr_flip(with_uv, independent, fs, f_noise));
+  const double d_wave = mean_abs_diff(with_uv, wave), d_noise = mean_abs_diff(with_uv, independent);
+  std::printf("textured sphere, LDR-FLIP against the reference: texture coordinates %.4f, learned colours %.4f; "
+              "mean |inline - wavefront| %.4g (FLIP %.4f), independent samples %.4g (FLIP %.4f)\n",
+              f_uv.stats.mean, f_colours.stats.mean, d_wave, f_wave.stats.mean, d_noise, f_noise.stats.mean);
+  // The checkerboard, pixel by pixel: where the reference and a render both show the sphere (the
+  // white sky excluded), whether each shows a yellow or a blue cell (red above blue). The tiny
+  // model's silhouette and holes weigh on FLIP alike with and without coordinates; the cells do not.
+  const auto cells_agree = [&](const image::Image& img) {
+    size_t judged = 0, same = 0;
+    for (uint32_t y = 0; y < settings.height; ++y)
+      for (uint32_t x = 0; x < settings.width; ++x) {
+        const float* a = ref.at(x, y);
+        const float* b = img.at(x, y);
+        const auto on_sphere = [](const float* c) { return std::min({c[0], c[1], c[2]}) < 0.5f; };
+        if (!on_sphere(a) || !on_sphere(b)) continue;
+        ++judged;
+        same += (a[0] > a[2]) == (b[0] > b[2]);
+      }
+    return judged ? double(same) / double(judged) : 0.0;
+  };
+  const double cells_uv = cells_agree(with_uv), cells_colours = cells_agree(without_uv);
+  std::printf("checkerboard cells as the reference's: texture coordinates %.3f, learned colours %.3f of the pixels\n",
+              cells_uv, cells_colours);
+  EXPECT_LT(f_uv.stats.mean, f_colours.stats.mean);
+  EXPECT_GT(cells_uv, 0.8);
+  EXPECT_GT(cells_uv, cells_colours + 0.2);
+  EXPECT_GT(d_noise, 0.0);
+  EXPECT_LT(d_wave, 0.05 * d_noise);
+  EXPECT_LT(f_wave.stats.mean, 0.25 * f_noise.stats.mean);
+}
+
 }  // namespace
 }  // namespace lsnif

@@ -298,12 +298,7 @@ class RtConformance : public ::testing::Test {
     models_[kEightBitIndex].config.grid_bits = 8;
     models_[kEightBitIndex].quantize();
     models_[kSurfaceIndex] = with_surface_channels(models_[kSegmentIndex], 40.0f, 21);
-    if (train_status_) {
-      TrainSettings uv = tiny_settings(HitParam::VoxelSegments);
-      uv.steps = 120;
-      uv.texture_coordinates = kTextureCoordinatesAuto;
-      train_status_ = test::tiny_model("rt_conformance.uv_sphere", test::layout_sphere(24, 48), uv, models_[kUvIndex]);
-    }
+    if (train_status_) train_status_ = uv_sphere_model(models_[kUvIndex]);
     if (!train_status_ || !vk_status_) return;
 
     // Through the plugin, on the Vulkan context's device: model blocks and one AABB BLAS per model, and

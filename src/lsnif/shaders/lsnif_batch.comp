@@ -15,7 +15,8 @@
 //                      LSNIF_MLP_COOPMAT_NV as well: the workgroup's 64 slots together on
 //                      cooperative matrices (lsnif_mlp_coopmat.glsl; unverified, opt-in).
 //  LSNIF_BATCH_DECODE  1 invocation per batch slot: the heads (lsnif_head.glsl) and the acceptance
-//                      against the ray's interval and culling flags; the hit to the ray's record.
+//                      against the ray's interval and culling flags, the texture coordinate of an
+//                      accepted hit that reports one (lsnif_hit_uv); the hit to the ray's record.
 // Layouts: LsnifQueryRay, LsnifQueryHit, LsnifBatchPushConstants and the scratch in
 // src/lsnif/host_device.h; the batch rows and the per-slot steps are lsnif_batch_rows.glsl's (shared
 // with the TLAS query, lsnif_query.comp).
@@ -70,7 +71,11 @@ void lsnif_batch_write_hit(uint ray, LsnifHitInfo h) {
   q.emission_r = h.emission.r;
   q.emission_g = h.emission.g;
   q.emission_b = h.emission.b;
-  q.reserved = 0u;
+  q.reports_uv = h.reports_uv ? 1u : 0u;
+  q.uv_u = h.uv.x;
+  q.uv_v = h.uv.y;
+  q.reserved0 = 0u;
+  q.reserved1 = 0u;
   LsnifQueryHitsRef(lsnif_batch_address(pc.hits_lo, pc.hits_hi)).h[ray] = q;
 }
 
@@ -117,8 +122,11 @@ void main() {
   if (slot >= scratch.w[0]) return;
   const uint ray = lsnif_rows_load_item(rows, slot);
   const LsnifQueryRay q = lsnif_batch_ray(ray);
+  const vec3 origin = vec3(q.origin_x, q.origin_y, q.origin_z);
   const vec3 direction = vec3(q.direction_x, q.direction_y, q.direction_z);
-  lsnif_batch_write_hit(ray, lsnif_rows_decode(rows, m, slot, direction, q.tmin, q.tmax, q.flags));
+  LsnifHitInfo h = lsnif_rows_decode(rows, m, slot, direction, q.tmin, q.tmax, q.flags);
+  lsnif_hit_uv(m, h, origin, direction);
+  lsnif_batch_write_hit(ray, h);
 #else
 #error "compile with one of LSNIF_BATCH_CLEAR, LSNIF_BATCH_NARROW, LSNIF_BATCH_ORDER, LSNIF_BATCH_MLP, LSNIF_BATCH_DECODE"
 #endif

@@ -102,8 +102,8 @@ LsnifHitInfo lsnif_intersect_none() {
 }
 
 // One ray, the whole way: walk -> encode -> MLP -> decode -> accept, and the texture coordinate of
-// an accepted hit that reports one. The batched path (lsnif_batch.comp) runs the same steps in
-// separate passes over many rays (without the texture coordinate so far).
+// an accepted hit that reports one. The batched paths (lsnif_batch.comp, lsnif_query.comp) run the
+// same steps in separate passes over many rays.
 LsnifHitInfo lsnif_intersect(LsnifModel m, vec3 origin, vec3 direction, float tmin, float tmax,
                              uint ray_flags) {
   const uint points = lsnif_intersect_walk(m, origin, direction, tmin, tmax);

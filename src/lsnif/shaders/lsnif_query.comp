@@ -33,7 +33,8 @@
 //  LSNIF_QUERY_ORDER    per run, 1 workgroup: the round's slots by walk length into the order row
 //                       (lsnif_rows_order_by_points), the order the portable MLP takes them in.
 //  LSNIF_QUERY_MLP      per run, 1 invocation per two slots of the round: the MLP (lsnif_rows_mlp_pair).
-//  LSNIF_QUERY_DECODE   per run, 1 invocation per slot of the round: heads and acceptance; an accepted
+//  LSNIF_QUERY_DECODE   per run, 1 invocation per slot of the round: heads, acceptance and the texture
+//                       coordinate of an accepted hit that reports one (lsnif_hit_uv); an accepted
 //                       candidate lowers its ray's best t (atomicMin on the float bits).
 //  LSNIF_QUERY_TIE      1 invocation per candidate: the accepted candidates at their ray's best t
 //                       lower its best instance (atomicMin), so that equal t resolve by instance index;
@@ -348,8 +349,9 @@ void query_decode(uint id) {
   if (id >= batch) return;
   const uint ci = lsnif_rows_load_item(rows, first + id);
   const LsnifQueryCandidate c = candidates.c[ci];
-  const vec3 d = vec3(c.direction_x, c.direction_y, c.direction_z);
-  const LsnifHitInfo h = lsnif_rows_decode(rows, m, first + id, d, c.tmin, c.tmax, c.flags);
+  const vec3 o = vec3(c.origin_x, c.origin_y, c.origin_z), d = vec3(c.direction_x, c.direction_y, c.direction_z);
+  LsnifHitInfo h = lsnif_rows_decode(rows, m, first + id, d, c.tmin, c.tmax, c.flags);
+  lsnif_hit_uv(m, h, o, d);
   mat3 w2o;
   for (int k = 0; k < 9; ++k) w2o[k / 3][k % 3] = c.normal_matrix[k];
   const vec3 n = transpose(w2o) * h.normal;  // A^-T n
@@ -370,6 +372,9 @@ void query_decode(uint id) {
   candidates.c[ci].emission_r = h.emission.r;
   candidates.c[ci].emission_g = h.emission.g;
   candidates.c[ci].emission_b = h.emission.b;
+  candidates.c[ci].reports_uv = h.reports_uv ? 1u : 0u;
+  candidates.c[ci].uv_u = h.uv.x;
+  candidates.c[ci].uv_v = h.uv.y;
   if (h.hit) atomicMin(lsnif_query_states().s[c.ray].best_t, lsnif_query_t_key(h.t));
 }
 #endif
@@ -422,6 +427,10 @@ void query_resolve_hits(uint id) {
   r.emission_r = c.emission_r;
   r.emission_g = c.emission_g;
   r.emission_b = c.emission_b;
+  r.reports_uv = c.reports_uv;
+  r.uv_u = c.uv_u;
+  r.uv_v = c.uv_v;
+  r.reserved = 0u;
   lsnif_query_results().r[c.ray] = r;
 }
 #endif

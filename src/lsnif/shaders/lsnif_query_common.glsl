@@ -98,6 +98,10 @@ LsnifQueryResult lsnif_query_no_hit(uint kind) {
   r.emission_r = 0.0;
   r.emission_g = 0.0;
   r.emission_b = 0.0;
+  r.reports_uv = 0u;
+  r.uv_u = 0.0;
+  r.uv_v = 0.0;
+  r.reserved = 0u;
   return r;
 }
 

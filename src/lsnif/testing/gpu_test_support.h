@@ -16,6 +16,7 @@
 #include "lsnif/core/intersector.h"
 #include "lsnif/core/model.h"
 #include "lsnif/import/mesh.h"
+#include "lsnif/testing/test_models.h"
 #include "lsnif/testing/test_support.h"
 #include "lsnif/train/trainer.h"
 
@@ -31,6 +32,16 @@ inline TrainSettings tiny_settings(HitParam param) {
   s.steps = 200;
   s.seed = 7;
   return s;
+}
+
+// The GPU tests' model with uv cells: test::layout_sphere (a textured sphere whose layout has seams
+// and a mirrored half) trained tiny with texture coordinates (one name: one model prepared for the
+// GPU check).
+inline Status uv_sphere_model(Model& model) {
+  TrainSettings s = tiny_settings(HitParam::VoxelSegments);
+  s.steps = 120;
+  s.texture_coordinates = kTextureCoordinatesAuto;
+  return test::tiny_model("uv_sphere", test::layout_sphere(24, 48), s, model);
 }
 
 struct Instance {

@@ -13,7 +13,7 @@ namespace lsnif::cli::bench_trace {
 
 namespace {
 
-static_assert(sizeof(LsnifQueryRay) == 48 && sizeof(LsnifQueryHit) == 64, "batched query layouts");
+static_assert(sizeof(LsnifQueryRay) == 48 && sizeof(LsnifQueryHit) == 80, "batched query layouts");
 
 // Rays per lsnifCmdIntersectModelRays call: one chunk of the plugin, so that each call's middle
 // timestamps bracket its stages (a call of more rays runs several chunks and times only the first

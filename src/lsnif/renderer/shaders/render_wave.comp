@@ -54,7 +54,7 @@ RenderHit render_result_hit(RenderFrame f, LsnifQueryResult q) {
   return render_lsnif_hit(f, q.instance_custom_index, vec3(q.normal_x, q.normal_y, q.normal_z),
                           vec3(q.albedo_r, q.albedo_g, q.albedo_b), q.material,
                           (q.surface >> 24) == LSNIF_SURFACE_LEARNED, unpackUnorm4x8(q.surface).xyz,
-                          vec3(q.emission_r, q.emission_g, q.emission_b), false, vec2(0.0), w2o,
+                          vec3(q.emission_r, q.emission_g, q.emission_b), q.reports_uv != 0u, vec2(q.uv_u, q.uv_v), w2o,
                           lsnif_leaving_distance(m), q.t);
 }
 
