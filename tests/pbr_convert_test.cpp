@@ -1,10 +1,12 @@
 // A textured PBR material through `lsnif convert` and `lsnif render`: a uv sphere on a ground quad
 // whose material varies metallic and roughness (metallicRoughnessTexture), emission (an sRGB
 // emissiveTexture times emissiveFactor and KHR_materials_emissive_strength), ambient occlusion
-// (occlusionTexture with a strength) and the normal (normalTexture) over its surface. The LSNIF render with the surface channels
-// learned (the default, --surface-maps auto) must lie within a FLIP bound of the triangle reference
-// (the same converted scene with --reference), and clearly closer than a model of base colour only
-// (--surface-maps off), which renders the material's factors and the unmapped normal everywhere.
+// (occlusionTexture with a strength) and the normal (normalTexture) over its surface. The LSNIF render
+// with texture coordinates (the default: the renderer samples the textures) and with the surface
+// channels learned (--texture-coordinates off, --surface-maps auto) must each lie within a FLIP
+// bound of the triangle reference (the same converted scene with --reference, camera rays traced
+// through the models), and clearly closer than a model of base colour only (--surface-maps off as
+// well), which renders the material's factors and the unmapped normal everywhere.
 // Vulkan on lavapipe.
 #include <gtest/gtest.h>
 
@@ -153,38 +155,53 @@ TEST(PbrConvert, LearnedSurfaceChannelsRenderLikeTheTexturedMaterial) {
   lsnif::test::ScopedTestDir dir("lsnif_pbr_convert");
   const std::string scene = write_pbr_scene(dir.path());
   ASSERT_FALSE(HasFailure());
-  // The in-process tests' small model (as ConvertCli.ConvertedSceneRendersLikeTheOriginal).
+  // The in-process tests' small model (as ConvertCli.ConvertedSceneRendersLikeTheOriginal) three
+  // ways: its hits reporting texture coordinates (the default: the renderer samples every texture of
+  // the material itself, docs/convert.md "Textures at full detail"), learned surface channels
+  // instead (--texture-coordinates off), and base colour only (--surface-maps off as well).
   const std::string train = " --keep-meshes --voxels 16 --points 12 --res-min 32 --res-max 64 --table-log2 14"
                             " --width 64 --batch 2048 --steps 600 --eval-rays 4000 --quiet";
-  const std::string render = std::string(LSNIF_CLI) + " render --width 96 --height 64 --spp 32 ";
-  double flip[2] = {0, 0};
-  for (int learned = 1; learned >= 0; --learned) {
-    const std::string out = dir.path(learned ? "on/sphere.gltf" : "off/sphere.gltf");
+  const std::string render = std::string(LSNIF_CLI) + " render --width 96 --height 64 --spp 32 --primary traced ";
+  struct Variant {
+    const char* name;
+    const char* options;
+  };
+  const Variant variants[] = {{"coordinates", ""},
+                              {"learned", " --texture-coordinates off"},
+                              {"base", " --texture-coordinates off --surface-maps off"}};
+  double flip[3] = {0, 0, 0};
+  for (int k = 0; k < 3; ++k) {
+    const std::string name = variants[k].name;
+    const std::string out = dir.path(name + "/sphere.gltf");
     CommandResult r = lsnif::test::run_command(std::string(LSNIF_CLI) + " convert " + scene + " -o " + out + train +
-                                               (learned ? "" : " --surface-maps off") + " 2>&1");
+                                               variants[k].options + " 2>&1");
     ASSERT_EQ(r.code, 0) << r.out;
     // Base colour only: every other texture of the material is named as not learned.
     const bool unlearned = r.out.find("material 'painted_metal': metallic-roughness, emissive, occlusion, normal texture "
                                       "not learned (--surface-maps off)") != std::string::npos;
-    EXPECT_EQ(unlearned, !learned) << r.out;
+    EXPECT_EQ(unlearned, k == 2) << r.out;
     CommandResult v = lsnif::test::validate_gltf({scene, out});  // the Khronos glTF validator: no error
     EXPECT_EQ(v.code, 0) << v.out;
-    const std::string prefix = learned ? "on_" : "off_";
-    for (const auto& [args, image] : {std::pair{out + " --reference", prefix + "reference.png"},
-                                      std::pair{out, prefix + "lsnif.png"}}) {
+    for (const auto& [args, image] : {std::pair{out + " --reference", name + "_reference.png"},
+                                      std::pair{out, name + "_lsnif.png"}}) {
       CommandResult rr = lsnif::test::run_command(render + args + " -o " + dir.path(image) + " 2>&1");
       ASSERT_EQ(rr.code, 0) << args << "\n" << rr.out;
     }
-    flip[learned] = flip_mean(dir.path(prefix + "reference.png"), dir.path(prefix + "lsnif.png"));
+    flip[k] = flip_mean(dir.path(name + "_reference.png"), dir.path(name + "_lsnif.png"));
   }
-  std::printf("mean LDR-FLIP against the triangle reference: surface channels learned %.4f, base colour only %.4f\n",
-              flip[1], flip[0]);
-  // The channels matter: the base-colour-only model is clearly worse.
-  EXPECT_LT(flip[1], 0.6 * flip[0]);
-  // And the textured material converts about as faithfully as untextured geometry does: 0.05 is
-  // three times the herd scene's 0.014-0.017 for untextured elephants (docs/convert.md "Measured",
-  // ConvertCli.ConvertedSceneRendersLikeTheOriginal) and twice the 0.025 measured here.
-  EXPECT_LT(flip[1], 0.05);
+  std::printf("mean LDR-FLIP against the triangle reference: texture coordinates %.4f, surface channels learned "
+              "%.4f, base colour only %.4f\n",
+              flip[0], flip[1], flip[2]);
+  // The channels matter: the base-colour-only model is clearly worse than either.
+  EXPECT_LT(flip[0], 0.6 * flip[2]);
+  EXPECT_LT(flip[1], 0.6 * flip[2]);
+  // The textures sampled where the hits say beat the channels the small network learned of them.
+  EXPECT_LT(flip[0], flip[1]);
+  // Within a bound of the reference: measured 0.054 and 0.088 on lavapipe, most of it the small
+  // model's silhouette (camera rays meet the network, not the kept triangles: --primary traced);
+  // the bound leaves room for other hosts' training.
+  EXPECT_LT(flip[0], 0.12);
+  EXPECT_LT(flip[1], 0.12);
 }
 
 }  // namespace

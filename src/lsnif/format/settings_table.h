@@ -135,7 +135,10 @@ inline constexpr SettingDef kSettingDefs[] = {
                            "what the model learns of the material textures: auto (metallic, roughness, occlusion "
                            "and emission as extra network outputs when a material has such a texture, normal maps "
                            "baked into the normal), on (those outputs always), off (base colour only)"),
-    setting_detail::choice(SettingId::TextureCoordinates, "texture-coordinates", kTextureCoordinatesOff,
+    // auto: on four textured assets made elsewhere (docs/convert.md, "Textures at full detail") the
+    // framed views' FLIP fell from 0.033-0.126 (learned colours) to 0.031-0.105 and close-ups' from
+    // 0.106-0.144 to 0.066-0.070, at 1.5-2x the model's bytes (the textures the hits sample are kept).
+    setting_detail::choice(SettingId::TextureCoordinates, "texture-coordinates", kTextureCoordinatesAuto,
                            kTextureCoordinatesChoices,
                            "auto: hits of every textured material whose uv layout allows it report the texture "
                            "coordinate of the predicted hit point, read from uv cells stored with the model (a "

@@ -190,7 +190,7 @@ TEST(SettingsConfig, JsonAndTrainSettingsRoundTrip) {
           "adam-epsilon": 1e-12, "normal-loss": "cosine", "w-occlusion": 0.5, "w-distance": 2, "w-normal": 0.1,
           "w-albedo": 0, "w-material": 3, "surface-fraction": 0.25, "sphere-scale": 2, "surface-offset": 0.001,
           "grid-init-range": 0.01, "surface-maps": "on", "w-surface": 0.5,
-          "texture-coordinates": "auto", "uv-cells": 3})",
+          "texture-coordinates": "off", "uv-cells": 3})",
       "cfg.json", layer));
   for (bool g : layer.given) EXPECT_TRUE(g);
   SettingValues v;

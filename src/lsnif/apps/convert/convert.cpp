@@ -73,7 +73,7 @@ void print_models(const ConvertSettings& s, const ConvertResult& res, FILE* out)
   for (size_t i = 0; i < plan.models.size(); ++i) {
     const PlannedModel& m = plan.models[i];
     const ModelResult& r = res.models[i];
-    const uint64_t bytes = r.bytes ? r.bytes : estimated_model_bytes(s.train, planned_material_count(plan, m));
+    const uint64_t bytes = r.bytes ? r.bytes : planned_model_bytes(s.train, plan, m);
     if (r.state != ModelState::Failed) total += bytes;
     const std::string what = m.group.empty()
                                  ? format("mesh '%s'", printable(plan.nodes[size_t(m.nodes[0])].mesh_name).c_str())
@@ -108,10 +108,10 @@ void print_groups(const ConvertSettings& s, const ConvertResult& res, FILE* out)
     for (int mesh : meshes) {
       PlannedModel one;
       one.mesh = mesh;
-      separate += estimated_model_bytes(s.train, planned_material_count(plan, one));
+      separate += planned_model_bytes(s.train, plan, one);
     }
     const ModelResult& r = res.models[i];
-    const uint64_t grouped = r.bytes ? r.bytes : estimated_model_bytes(s.train, planned_material_count(plan, m));
+    const uint64_t grouped = r.bytes ? r.bytes : planned_model_bytes(s.train, plan, m);
     std::fprintf(out, "group     '%s': 1 model (%.3f MiB) for %zu nodes instead of %zu models, one per distinct mesh "
                       "(%.3f MiB): %.1fx less memory",
                  printable(m.group).c_str(), mib(grouped), m.nodes.size(), meshes.size(), mib(separate),

@@ -117,7 +117,7 @@ TEST(ConvertMemory, TheRuleConvertsTheMeshesABruteForceFindsBest) {
     meshes.push_back(m);
     PlannedModel one;
     one.mesh = m;
-    model_bytes[m] = estimated_model_bytes(s.settings(1.0).train, planned_material_count(base, one));
+    model_bytes[m] = planned_model_bytes(s.settings(1.0).train, base, one);
   }
   // BLAS bytes: one per primitive, summed; the instanced elephant counted once.
   const int elephant = mesh_index(base, "elephant");
@@ -256,6 +256,49 @@ TEST(ConvertMemory, TexturesTheHitsSampleAreReportedOnBothSides) {
     EXPECT_EQ(log.compare(at, 20, "textures  0.170 MiB "), 0) << log.substr(at);
     EXPECT_NE(log.find("needed with triangles too", at), std::string::npos) << log.substr(at);
   }
+}
+
+// The model estimates count the uv cells of texture-coordinate models: with the mesh (a dry run's,
+// by the voxels and build_uv_cells) exactly the trained model's bytes; the plan's, without the
+// mesh, the cells of a typical surface: BoxTextured's (a cube: about 6 V^2 occupied voxels against
+// the assumed 4 V^2) within a factor of two of the trained model's cells. Without texture
+// coordinates neither counts any.
+TEST(ConvertMemory, TheEstimatesCountTheUvCells) {
+  const std::string box = lsnif::test::data_dir() + "/gltf/BoxTextured-glTF/BoxTextured.gltf";
+  ASSERT_TRUE(std::filesystem::exists(box)) << box << " missing: run scripts/setup.sh";
+  lsnif::test::ScopedTestDir dir("lsnif_convert_uv_estimate");
+  uint64_t planned[2] = {0, 0}, cells = 0;
+  for (const uint32_t coordinates : {kTextureCoordinatesAuto, kTextureCoordinatesOff}) {
+    SCOPED_TRACE(coordinates == kTextureCoordinatesAuto ? "auto" : "off");
+    const bool uv = coordinates == kTextureCoordinatesAuto;
+    ConvertSettings settings = tiny_settings(box, dir.path(uv ? "auto/out.gltf" : "off/out.gltf"));
+    settings.min_triangles = 1;  // the box's 12
+    settings.eval_rays = 0;
+    settings.train.texture_coordinates = coordinates;
+    settings.dry_run = true;
+    ConvertResult dry;
+    std::string log;
+    ASSERT_EQ(run_quiet(settings, dry, &log), 0) << log;
+    ASSERT_EQ(dry.plan.models.size(), 1u);
+    EXPECT_TRUE(planned_textured(dry.plan, dry.plan.models[0]));
+    planned[uv ? 0 : 1] = dry.plan.models[0].model_bytes;
+    settings.dry_run = false;
+    ConvertResult run;
+    ASSERT_EQ(run_quiet(settings, run, &log), 0) << log;
+    Model model;
+    ASSERT_TRUE(load_model(dir.path(uv ? "auto" : "off") + "/" + run.plan.models[0].file, model));
+    const MemoryBreakdown actual = memory_breakdown(model);
+    EXPECT_EQ(dry.models[0].bytes, actual.total()) << "the estimate with the mesh";
+    EXPECT_EQ(actual.uv_cell_bytes > 0, uv);
+    if (uv) cells = actual.uv_cell_bytes;
+  }
+  // The plans differ by the cells alone.
+  ASSERT_GT(planned[0], planned[1]);
+  const double ratio = double(planned[0] - planned[1]) / double(cells);
+  std::printf("BoxTextured: the plan's uv cells %llu bytes, the trained model's %llu (%.2fx)\n",
+              (unsigned long long)(planned[0] - planned[1]), (unsigned long long)cells, ratio);
+  EXPECT_GT(ratio, 0.5);
+  EXPECT_LT(ratio, 2.0);
 }
 
 TEST(ConvertMemory, TheMarginHasARange) {

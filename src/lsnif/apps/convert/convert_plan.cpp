@@ -17,9 +17,14 @@
 #include "lsnif/core/model.h"
 #include "lsnif/import/resolve_path.h"
 #include "lsnif/scene/scene_gltf.h"
+#include "lsnif/train/uv_materials.h"
 
 namespace lsnif::convert {
 namespace fs = std::filesystem;
+
+// Occupied voxels per V^2 the plan assumes for a model's uv cells without its mesh
+// (estimated_model_bytes).
+constexpr uint64_t kPlannedOccupiedVoxels = 4;
 
 namespace {
 
@@ -201,7 +206,7 @@ size_t Plan::failed_models() const {
   return n;
 }
 
-uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_count, const Mesh* mesh) {
+uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_count, bool textured, const Mesh* mesh) {
   Model m;
   m.config = train.config;
   m.config.material_count = std::max(1u, material_count);
@@ -210,12 +215,53 @@ uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_cou
       (mesh ? learns_surface_channels(*mesh, train.surface_maps) : train.surface_maps == kSurfaceMapsOn) ? 1u : 0u;
   bool indexed = false;
   for (uint32_t l = 0; l < m.config.grid_levels && l < LSNIF_MAX_LEVELS; ++l) indexed |= train.indexed[l];
-  if (mesh && indexed && !mesh->triangles.empty()) {
-    // The indexed levels' tables as the trainer sizes them: from the mesh's voxels.
-    Config indexed_config = m.config;
-    if (model_layout(*mesh, train, indexed_config, m.voxels, m.grid_index)) m.config = indexed_config;
+  const uint64_t uv_materials = mesh ? choose_uv_materials(*mesh, train.texture_coordinates).materials
+                                     : textured && train.texture_coordinates == kTextureCoordinatesAuto ? 1u : 0u;
+  if (uv_materials) {
+    m.config.uv_materials = uv_materials;
+    m.config.uv_cells = train.uv_cells;
+  }
+  if (mesh && (indexed || uv_materials) && !mesh->triangles.empty()) {
+    // The indexed levels' tables and the uv cells as the trainer makes them: from the mesh's voxels.
+    Model laid_out = m;
+    if (model_layout(*mesh, train, laid_out.config, laid_out.voxels, laid_out.grid_index) &&
+        build_uv_cells(*mesh, laid_out))
+      m = std::move(laid_out);
+  } else if (uv_materials) {
+    // Per occupied voxel a record and about S^2 maps, for kPlannedOccupiedVoxels x V^2 occupied voxels
+    // (the uv_cell_layout.h sizes; measured on four textured assets made elsewhere at V = 32, S = 2:
+    // 2.6-5.6 V^2 occupied voxels, 3.8-4.3 maps per voxel).
+    const uint64_t V = m.config.voxel_resolution, S = m.config.uv_cells;
+    const uint64_t voxels = std::min(V * V * V, kPlannedOccupiedVoxels * V * V);
+    m.config.uv_cell_voxels = uint32_t(voxels);
+    m.config.uv_cell_maps = uint32_t(std::min<uint64_t>(voxels * S * S, LSNIF_MAX_UV_CELL_MAPS));
   }
   return memory_breakdown(m).total();
+}
+
+uint64_t planned_model_bytes(const TrainSettings& train, const Plan& plan, const PlannedModel& m) {
+  return estimated_model_bytes(train, planned_material_count(plan, m), planned_textured(plan, m));
+}
+
+bool planned_textured(const Plan& plan, const PlannedModel& m) {
+  std::set<int> meshes;
+  if (m.mesh >= 0) meshes.insert(m.mesh);
+  for (int n : m.nodes) meshes.insert(plan.nodes[size_t(n)].mesh);
+  const tinygltf::Model& g = plan.gltf;
+  for (int mesh : meshes) {
+    if (mesh < 0 || size_t(mesh) >= g.meshes.size()) continue;
+    for (const tinygltf::Primitive& p : g.meshes[size_t(mesh)].primitives) {
+      bool uvs = false;
+      for (const auto& [name, accessor] : p.attributes) uvs |= name.rfind("TEXCOORD_", 0) == 0;
+      if (p.material < 0 || size_t(p.material) >= g.materials.size() || !uvs) continue;
+      const tinygltf::Material& mat = g.materials[size_t(p.material)];
+      if (mat.pbrMetallicRoughness.baseColorTexture.index >= 0 ||
+          mat.pbrMetallicRoughness.metallicRoughnessTexture.index >= 0 || mat.normalTexture.index >= 0 ||
+          mat.occlusionTexture.index >= 0 || mat.emissiveTexture.index >= 0)
+        return true;
+    }
+  }
+  return false;
 }
 
 uint32_t planned_material_count(const Plan& plan, const PlannedModel& m) {
@@ -409,7 +455,7 @@ Decision selection(const ConvertSettings& settings, const Rules& rules, const ti
 uint64_t mesh_model_bytes(const ConvertSettings& settings, const Plan& plan, int mesh) {
   PlannedModel one;
   one.mesh = mesh;
-  return estimated_model_bytes(settings.train, planned_material_count(plan, one));
+  return planned_model_bytes(settings.train, plan, one);
 }
 
 // Decides every node of plan.nodes and adds the models they use: one per group (its rule applied
@@ -481,7 +527,7 @@ void settle_models(const ConvertSettings& settings, Plan& plan) {
   std::vector<int> remap(plan.models.size(), -1);
   for (size_t k = 0; k < plan.models.size(); ++k) {
     PlannedModel& m = plan.models[k];
-    m.model_bytes = estimated_model_bytes(settings.train, planned_material_count(plan, m));
+    m.model_bytes = planned_model_bytes(settings.train, plan, m);
     bool tagged = false;
     for (int ni : m.nodes) tagged |= extras_tag(g.nodes[size_t(plan.nodes[size_t(ni)].node)]) == 1;
     const Decision rule = m.group.empty() || tagged ? Decision::Convert
@@ -565,7 +611,7 @@ void fill_memory_table(const ConvertSettings& settings, Plan& plan) {
     } else if (row.group) {
       PlannedModel as_group;
       for (int i : row.nodes) as_group.nodes.push_back(i);
-      row.model_bytes = estimated_model_bytes(settings.train, planned_material_count(plan, as_group));
+      row.model_bytes = planned_model_bytes(settings.train, plan, as_group);
     } else {
       row.model_bytes = mesh_model_bytes(settings, plan, row.mesh);
     }

@@ -48,7 +48,7 @@ struct PlannedModel {
   int mesh = -1;      // the glTF mesh of a mesh model
   std::vector<int> nodes;  // the PlannedNode indices it replaces (its instances / group members)
   uint64_t triangles = 0;  // of the object (a group: all members)
-  uint64_t model_bytes = 0;  // estimated from the settings (estimated_model_bytes without a mesh)
+  uint64_t model_bytes = 0;  // estimated from the settings (planned_model_bytes)
   std::string error;       // non-empty: bad input, the model is not made (names the object)
 };
 
@@ -123,10 +123,19 @@ SceneMemory scene_memory(const Plan& plan, const std::vector<uint64_t>& model_by
 Status make_plan(const ConvertSettings& settings, Plan& plan);
 
 // The model's size on disk and on the GPU, known before training (memory_breakdown of a model with
-// `material_count` materials): from the settings, and for indexed levels (sized to the mesh) from
-// `mesh`'s voxels; without `mesh` an indexed level counts as hashed (2^table-log2 entries: the
-// bunny's indexed coarse level has a third of that).
-uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_count, const Mesh* mesh = nullptr);
+// `material_count` materials): from the settings, and for indexed levels (sized to the mesh) and uv
+// cells from `mesh` (its voxels; the cells build_uv_cells makes). Without `mesh` an indexed level
+// counts as hashed (2^table-log2 entries: the bunny's indexed coarse level has a third of that) and,
+// when `textured` (a material will report texture coordinates) under --texture-coordinates auto,
+// the uv cells of a typical surface (4 V^2 occupied voxels, S^2 maps each: within about 40% of
+// the cells of four textured assets made elsewhere). With `mesh`, its materials decide that.
+uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_count, bool textured,
+                               const Mesh* mesh = nullptr);
+
+// estimated_model_bytes of planned model `m`: its materials (planned_material_count) and whether one
+// of them has a texture and its primitive texture coordinates (planned_textured).
+uint64_t planned_model_bytes(const TrainSettings& train, const Plan& plan, const PlannedModel& m);
+bool planned_textured(const Plan& plan, const PlannedModel& m);
 
 // Distinct materials the model of `m` will have (its primitives' materials, the default counted
 // once), as the mesh importer creates them.

@@ -101,7 +101,7 @@ TEST_F(Convert, ExtensionRoundTripWithInstancesAndMaterials) {
   ASSERT_TRUE(model.config.indexed(0)) << "the default indexes the coarse level";
   Mesh elephant;
   ASSERT_TRUE(load_mesh(kElephant, elephant));
-  const uint64_t estimate = estimated_model_bytes(settings.train, 2, &elephant);
+  const uint64_t estimate = estimated_model_bytes(settings.train, 2, false, &elephant);
   EXPECT_EQ(memory_breakdown(model).total(), estimate);
   // The record's section: its bytes, a section header and alignment padding.
   const uint64_t file = fs::file_size(sc.lsnif_objects[0].resolved_path);

@@ -220,7 +220,7 @@ void prepare_models(const ConvertSettings& settings, const Plan& plan, const std
     const uint64_t mesh = mesh_hash(r.mesh);
     r.mesh_hash = mesh;
     r.hash = content_hash(mesh, settings.train);
-    r.bytes = estimated_model_bytes(settings.train, uint32_t(r.mesh.materials.size()), &r.mesh);
+    r.bytes = estimated_model_bytes(settings.train, uint32_t(r.mesh.materials.size()), false, &r.mesh);
     if (settings.force) continue;
     check_on_disk((fs::path(out_dir) / m.file).string(), settings.train, mesh, r);
     if (r.up_to_date_on_disk && !settings.dry_run) r.state = ModelState::UpToDate;
