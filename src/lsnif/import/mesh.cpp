@@ -177,22 +177,19 @@ glm::vec3 normal_mapped_shading_normal(glm::vec3 n, const glm::vec3 p[3], const 
   return mapped / len;
 }
 
-SurfaceSample Mesh::surface(uint32_t triangle, float u, float v) const {
-  SurfaceSample out;
-  out.albedo = albedo(triangle, u, v);
-  out.normal = shading_normal(triangle, u, v);
-  if (triangle >= triangles.size()) return out;
-  const uint32_t m = triangle < triangle_material.size() ? triangle_material[triangle] : 0u;
-  if (m >= materials.size()) return out;
-  const Material& mat = materials[m];
+namespace {
+
+// Material `mat`'s factors times its metallic-roughness, emission and occlusion textures at `uv`
+// (`uv` null: the factors), into `out` (albedo and normal untouched).
+void material_channels(const Mesh& mesh, const Material& mat, const glm::vec2* uv, SurfaceSample& out) {
   out.metallic = mat.metallic;
   out.roughness = mat.roughness;
   out.emission = mat.emission;
-  const glm::uvec3& t = triangles[triangle];
-  glm::vec2 uv;
-  if (!interpolated_uv(*this, t, u, v, uv)) return out;
-  auto texture = [&](int index) { return index >= 0 && size_t(index) < textures.size() ? &textures[size_t(index)] : nullptr; };
-  auto at = [&](TextureSlot slot) { return apply_uv_transform(mat.uv_transform[slot], uv); };
+  if (!uv) return;
+  auto texture = [&](int index) {
+    return index >= 0 && size_t(index) < mesh.textures.size() ? &mesh.textures[size_t(index)] : nullptr;
+  };
+  auto at = [&](TextureSlot slot) { return apply_uv_transform(mat.uv_transform[slot], *uv); };
   if (const Texture* tex = texture(mat.metallic_roughness_texture)) {
     const glm::vec3 mr = tex->sample(at(kSlotMetallicRoughness), false);
     out.metallic *= mr.b;
@@ -201,14 +198,46 @@ SurfaceSample Mesh::surface(uint32_t triangle, float u, float v) const {
   if (const Texture* tex = texture(mat.emission_texture)) out.emission *= tex->sample(at(kSlotEmission), true);
   if (const Texture* tex = texture(mat.occlusion_texture))
     out.ambient_occlusion = 1.0f + mat.occlusion_strength * (tex->sample(at(kSlotOcclusion), false).r - 1.0f);
-  if (const Texture* tex = texture(mat.normal_texture)) {
+}
+
+}  // namespace
+
+SurfaceSample Mesh::surface(uint32_t triangle, float u, float v) const {
+  SurfaceSample out;
+  out.albedo = albedo(triangle, u, v);
+  out.normal = shading_normal(triangle, u, v);
+  if (triangle >= triangles.size()) return out;
+  const uint32_t m = triangle < triangle_material.size() ? triangle_material[triangle] : 0u;
+  if (m >= materials.size()) return out;
+  const Material& mat = materials[m];
+  const glm::uvec3& t = triangles[triangle];
+  glm::vec2 uv;
+  if (!interpolated_uv(*this, t, u, v, uv)) {
+    material_channels(*this, mat, nullptr, out);
+    return out;
+  }
+  material_channels(*this, mat, &uv, out);
+  if (mat.normal_texture >= 0 && size_t(mat.normal_texture) < textures.size()) {
+    const Texture& tex = textures[size_t(mat.normal_texture)];
     // The tangent frame follows the uvs the normal map is read with.
     const UvTransform& transform = mat.uv_transform[kSlotNormal];
     const glm::vec3 p[3] = {positions[t.x], positions[t.y], positions[t.z]};
     const glm::vec2 uvs3[3] = {apply_uv_transform(transform, uvs[t.x]), apply_uv_transform(transform, uvs[t.y]),
                                apply_uv_transform(transform, uvs[t.z])};
-    out.normal = normal_mapped_shading_normal(out.normal, p, uvs3, tex->sample(at(kSlotNormal), false), mat.normal_scale);
+    out.normal = normal_mapped_shading_normal(out.normal, p, uvs3, tex.sample(apply_uv_transform(transform, uv), false),
+                                              mat.normal_scale);
   }
+  return out;
+}
+
+SurfaceSample Mesh::material_at(uint32_t m, glm::vec2 uv) const {
+  SurfaceSample out;
+  if (m >= materials.size()) return out;
+  const Material& mat = materials[m];
+  out.albedo = mat.base_color;
+  if (mat.base_color_texture >= 0 && size_t(mat.base_color_texture) < textures.size())
+    out.albedo *= textures[size_t(mat.base_color_texture)].sample(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
+  material_channels(*this, mat, &uv, out);
   return out;
 }
 

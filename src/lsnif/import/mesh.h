@@ -137,6 +137,10 @@ struct Mesh {
   bool has_cutouts() const;
   // Every material channel at a hit (the albedo as albedo()), textures sampled at the hit's uv.
   SurfaceSample surface(uint32_t triangle, float u, float v) const;
+  // Material `m`'s channels at texture coordinate `uv` (before its uv transforms): factors times
+  // textures, no vertex colours, the normal left at its default (what a hit that reports its
+  // texture coordinate shades with). Factors only for a material index past the table.
+  SurfaceSample material_at(uint32_t m, glm::vec2 uv) const;
   // The largest emission component any point of the surface can have (factor x texture <= factor).
   float max_emission() const;
   // The texture coordinate at barycentrics (u, v) of `triangle` (where its textures are read, before

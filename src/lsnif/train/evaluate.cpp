@@ -144,6 +144,7 @@ struct UvTruth {
   std::unique_ptr<UvChartMap> map;
   uint32_t texels = 1;
   Accumulator acc;
+  double channels_textures = 0, channels_colours = 0;  // sums of channel_error
 };
 
 // The surface channels a renderer shades an LSNIF hit with: the learned ones, or those of the
@@ -164,6 +165,17 @@ SurfaceSample predicted_surface(const LsnifHit& h, const Mesh& mesh) {
   return s;
 }
 
+// The mean absolute difference of the 9 material channel values (albedo, metallic, roughness,
+// ambient occlusion, emission) of `a` and `b`.
+double channel_error(const SurfaceSample& a, const SurfaceSample& b) {
+  double sum = 0;
+  for (int k = 0; k < 3; ++k) sum += std::fabs(double(a.albedo[k]) - double(b.albedo[k]));
+  for (int k = 0; k < 3; ++k) sum += std::fabs(double(a.emission[k]) - double(b.emission[k]));
+  sum += std::fabs(double(a.metallic) - double(b.metallic)) + std::fabs(double(a.roughness) - double(b.roughness)) +
+         std::fabs(double(a.ambient_occlusion) - double(b.ambient_occlusion));
+  return sum / 9.0;
+}
+
 }  // namespace
 
 std::string EvalReport::to_text() const {
@@ -182,8 +194,9 @@ std::string EvalReport::uv_text() const {
   std::string s;
   for (const UvMaterialEval& u : uv_materials)
     s += format("uv material %u '%s' (%u charts, %u-texel texture): %llu hits, texel err median %.2f p90 %.2f, "
-                "wrong chart %.2f%%\n", u.material, printable(u.name).c_str(), u.charts, u.texture_size,
-                (unsigned long long)u.hits, u.texel_error_median, u.texel_error_p90, 100 * u.wrong_chart);
+                "wrong chart %.2f%%; channels MAE %.4f with its textures, %.4f with learned colours\n", u.material,
+                printable(u.name).c_str(), u.charts, u.texture_size, (unsigned long long)u.hits, u.texel_error_median,
+                u.texel_error_p90, 100 * u.wrong_chart, u.channel_error_textures, u.channel_error_colours);
   return s;
 }
 
@@ -205,7 +218,9 @@ std::string EvalReport::to_json() const {
                   {"hits", u.hits},
                   {"texel_error_median", u.texel_error_median},
                   {"texel_error_p90", u.texel_error_p90},
-                  {"wrong_chart", u.wrong_chart}});
+                  {"wrong_chart", u.wrong_chart},
+                  {"channel_error_textures", u.channel_error_textures},
+                  {"channel_error_colours", u.channel_error_colours}});
   nlohmann::ordered_json out = j;
   out["uv_materials"] = uv;
   return json::dump(out);
@@ -264,6 +279,13 @@ Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& 
       const double error = double(glm::length(h.uv - ref.uv)) * u.texels;
       const bool wrong = !u.map->on_chart(h.uv, u.layout.triangle_chart[ref.triangle], texel);
       for (Accumulator* acc : {&acc_model, &by_origin, &u.acc}) acc->add_uv(error, wrong);
+      // The channels as a renderer shades the hit: the learned ones (colours), and the material's
+      // textures where the hit reports a coordinate.
+      SurfaceSample colours = predicted_surface(h, mesh);
+      colours.albedo = h.albedo;
+      const SurfaceSample textures = h.reports_uv ? mesh.material_at(h.material, h.uv) : colours;
+      u.channels_colours += channel_error(colours, ref.surface);
+      u.channels_textures += channel_error(textures, ref.surface);
     }
     const BaselineHit b = voxel_baseline(model.voxels, rays[i], walks[i]);
     acc_base.add(ref.hit, b.hit, ref.t, b.t, ref.normal, b.normal, ref.albedo, glm::vec3(0.0f), 0, 0,
@@ -277,8 +299,10 @@ Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& 
   for (uint32_t m = 0; m < uv_truth.size(); ++m) {
     if (!uv_truth[m]) continue;
     const EvalMetrics u = uv_truth[m]->acc.finish(false);
+    const double n = double(std::max<uint64_t>(u.uv_hits, 1));
     report.uv_materials.push_back({m, mesh.materials[m].name, uv_truth[m]->texels, uv_truth[m]->layout.charts, u.uv_hits,
-                                   u.uv_texel_error_median, u.uv_texel_error_p90, u.uv_wrong_chart});
+                                   u.uv_texel_error_median, u.uv_texel_error_p90, u.uv_wrong_chart,
+                                   uv_truth[m]->channels_textures / n, uv_truth[m]->channels_colours / n});
   }
   report.reference_hit_fraction = double(ref_hits) / double(samples.size());
   report.truncated_fraction = double(truncated) / double(samples.size());

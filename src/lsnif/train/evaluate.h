@@ -51,6 +51,11 @@ struct UvMaterialEval {
   uint32_t charts = 0;
   uint64_t hits = 0;
   double texel_error_median = 0, texel_error_p90 = 0, wrong_chart = 0;
+  // The mean absolute error of the material channels on those hits (albedo, metallic, roughness,
+  // ambient occlusion, emission: 9 values per hit, against Mesh::surface), shaded as a renderer does:
+  // with the material's own textures at the predicted coordinate (hits that find no piece keep their
+  // learned colours), and with the learned colours alone (--texture-coordinates off's shading).
+  double channel_error_textures = 0, channel_error_colours = 0;
 };
 
 struct EvalReport {

@@ -404,6 +404,7 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   if (Status s = check_fp16_range(model, rep.rays, settings.adam.learning_rate); !s) return s;
   model.quantize();
   if (Status s = build_uv_cells(mesh, model); !s) return s;
+  if (Status s = measure_uv_materials(mesh, model, rep.uv_warnings); !s) return s;
   if (report) *report = rep;
   return model.validate();
 }

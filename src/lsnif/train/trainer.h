@@ -86,6 +86,9 @@ struct TrainReport {
   uint64_t rays = 0;              // training rays used
   uint32_t occupied_voxels = 0;
   LossTerms final_loss;           // mean over the last 10% of steps
+  // Textured materials the measurement after training left on learned colours (measure_uv_materials,
+  // uv_materials.h), one line each: the tools print them as warnings.
+  std::vector<std::string> uv_warnings;
   // With TrainSettings::loss_curve: "step,seconds,total,occlusion,...\n" and one row per step. The
   // trainer writes no file; the caller saves it next to the model.
   std::string loss_curve;

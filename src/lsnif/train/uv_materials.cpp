@@ -11,6 +11,7 @@
 #include "lsnif/format/uv_cell_layout.h"
 #include "lsnif/core/uv_cells.h"
 #include "lsnif/import/uv_layout.h"
+#include "lsnif/train/evaluate.h"
 
 namespace lsnif {
 
@@ -200,6 +201,28 @@ Status build_uv_cells(const Mesh& mesh, Model& model) {
   model.uv_cells.insert(model.uv_cells.end(), maps.begin(), maps.end());
   if (Status s = c.validate(); !s) return s.context("uv cells");
   return check_uv_cells(c, model.uv_cells.data());
+}
+
+Status measure_uv_materials(const Mesh& mesh, Model& model, std::vector<std::string>& warnings) {
+  if (!model.config.texture_coordinates()) return Status::ok();
+  EvalSettings es;
+  es.rays = kUvMaterialRays;
+  EvalReport report;
+  if (Status s = evaluate_model(model, mesh, es, report); !s) return s.context("measuring the texture coordinates");
+  uint64_t kept = model.config.uv_materials;
+  for (const UvMaterialEval& u : report.uv_materials) {
+    if (u.hits < kUvMaterialMinHits || u.channel_error_textures <= kUvMaterialGain * u.channel_error_colours) continue;
+    kept &= ~(uint64_t(1) << u.material);
+    warnings.push_back(format("material %u '%s' keeps learned colours, not its textures: sampled at the predicted "
+                              "texture coordinates they shade further from the reference (channels MAE %.4f, "
+                              "learned colours %.4f, over %llu held-out hits)",
+                              u.material, printable(u.name).c_str(), u.channel_error_textures,
+                              u.channel_error_colours, (unsigned long long)u.hits));
+  }
+  if (kept == model.config.uv_materials) return Status::ok();
+  model.config.uv_materials = kept;
+  if (!kept) model.config.uv_cells = 0;
+  return build_uv_cells(mesh, model);
 }
 
 }  // namespace lsnif

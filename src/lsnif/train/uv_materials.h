@@ -36,4 +36,16 @@ UvMaterialChoice choose_uv_materials(const Mesh& mesh, uint32_t texture_coordina
 // Nothing to do for a model without texture-coordinate materials.
 Status build_uv_cells(const Mesh& mesh, Model& model);
 
+// The measured half of the choice, after training (`model` trained on `mesh`, its uv cells built):
+// each texture-coordinate material keeps its coordinates only where its hits shade at least as
+// close to the reference with its own textures as with the learned colours (EvalReport's channel
+// errors on kUvMaterialRays held-out rays, the textures' at most kUvMaterialGain times the
+// colours'; a mean error favours a blur, so no more is asked); the others are cleared from the
+// config's uv_materials, each named in a warning with both errors, and the cells are rebuilt for
+// the materials left. A material with fewer than kUvMaterialMinHits hits keeps its coordinates.
+inline constexpr size_t kUvMaterialRays = 16384;
+inline constexpr double kUvMaterialGain = 1.0;  // the textures' error at most this times the colours'
+inline constexpr uint64_t kUvMaterialMinHits = 64;
+Status measure_uv_materials(const Mesh& mesh, Model& model, std::vector<std::string>& warnings);
+
 }  // namespace lsnif

@@ -7,11 +7,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <vector>
 
 #include "lsnif/core/rng.h"
 #include "lsnif/core/uv_cells.h"
+#include "lsnif/format/uv_cell_layout.h"
 #include "lsnif/import/uv_layout.h"
 #include "lsnif/testing/test_support.h"
 #include "lsnif/train/evaluate.h"
@@ -121,6 +123,20 @@ TEST(UvMaterials, APointOffAlongTheRayReadsWhereTheRayMeetsTheSurface) {
   EXPECT_LT(glm::length(at - sphere_uv(hit, false)) * 256.0f, 1.0f);
 }
 
+// Trains the tests' small model of `mesh` with texture coordinates (train_model: the measured
+// choice included) and evaluates it on 20,000 held-out rays.
+void train_and_evaluate(const Mesh& mesh, Model& model, TrainReport& rep, EvalReport& report) {
+  TrainSettings s = test::tiny_train_settings();
+  s.steps = 300;
+  s.texture_coordinates = kTextureCoordinatesAuto;
+  const Status trained = train_model(mesh, s, model, &rep);
+  ASSERT_TRUE(trained) << trained.message();
+  EvalSettings es;
+  es.rays = 20000;
+  const Status evaluated = evaluate_model(model, mesh, es, report);
+  ASSERT_TRUE(evaluated) << evaluated.message();
+}
+
 // Trained on the sphere, the model's hits report the texture coordinate of the sphere's layout on
 // both mirrored halves and both caps, within a texel or two of a 256 texture at the median, and land
 // on the right chart nearly always.
@@ -130,17 +146,11 @@ TEST(UvMaterials, TrainedHitsReportTheLayoutsCoordinatesOnSeamsAndMirroredHalves
   EXPECT_EQ(layout.charts, 3u) << layout.describe();
   EXPECT_GT(layout.seam_edges, 0u);
   EXPECT_GT(layout.mirrored_triangles, 0u);
-  TrainSettings s = test::tiny_train_settings();
-  s.steps = 300;
-  s.texture_coordinates = kTextureCoordinatesAuto;
   Model model;
-  const Status trained = train_model(mesh, s, model);
-  ASSERT_TRUE(trained) << trained.message();
-  EXPECT_EQ(model.config.uv_materials, 1u);
-  EvalSettings es;
-  es.rays = 20000;
+  TrainReport rep;
   EvalReport report;
-  ASSERT_TRUE(evaluate_model(model, mesh, es, report));
+  ASSERT_NO_FATAL_FAILURE(train_and_evaluate(mesh, model, rep, report));
+  EXPECT_EQ(model.config.uv_materials, 1u);
   ASSERT_EQ(report.uv_materials.size(), 1u);
   const UvMaterialEval& u = report.uv_materials[0];
   EXPECT_EQ(u.charts, 3u);
@@ -148,6 +158,60 @@ TEST(UvMaterials, TrainedHitsReportTheLayoutsCoordinatesOnSeamsAndMirroredHalves
   EXPECT_GT(u.hits, 1000u);
   EXPECT_LT(u.texel_error_median, 2.0) << report.to_text();
   EXPECT_LT(u.wrong_chart, 0.05) << report.to_text();
+}
+
+// The measured half of the choice (measure_uv_materials, run by train_model): on the sphere painted
+// with a checkerboard of 8 x 8 cells, which a small network's colours blur, the coordinates shade
+// closer to the reference (eval's channel errors: the truth is the mesh's own channels) and are
+// kept without a warning. The same model with every map's coordinate moved by one checker cell
+// samples the opposite colour: measured again, the material falls back to learned colours, with a
+// warning naming it, and the cells are gone (a valid model without texture coordinates).
+TEST(UvMaterials, TheMeasuredChoiceKeepsCoordinatesOnlyWhereTheyShadeCloser) {
+  Mesh mesh = layout_sphere(24, 48);
+  Texture& t = mesh.textures[0];
+  for (uint32_t y = 0; y < t.height; ++y)
+    for (uint32_t x = 0; x < t.width; ++x) {
+      const bool dark = ((x * 8 / t.width) + (y * 8 / t.height)) % 2 == 1;
+      uint8_t* texel = &t.rgba[4 * (size_t(y) * t.width + x)];
+      texel[0] = dark ? 30 : 230;
+      texel[1] = dark ? 60 : 200;
+      texel[2] = dark ? 180 : 40;
+    }
+  Model model;
+  TrainReport rep;
+  EvalReport report;
+  ASSERT_NO_FATAL_FAILURE(train_and_evaluate(mesh, model, rep, report));
+  EXPECT_EQ(model.config.uv_materials, 1u);
+  EXPECT_TRUE(rep.uv_warnings.empty()) << rep.uv_warnings[0];
+  ASSERT_EQ(report.uv_materials.size(), 1u);
+  const UvMaterialEval& u = report.uv_materials[0];
+  std::printf("%s", report.uv_text().c_str());
+  EXPECT_LT(u.channel_error_textures, 0.5 * u.channel_error_colours) << report.uv_text();
+
+  // One checker cell (1/8 in u) off everywhere.
+  Model moved = model;
+  const size_t maps = size_t(kUvVoxelWords) * moved.config.uv_cell_voxels;
+  ASSERT_GT(moved.config.uv_cell_maps, 0u);
+  for (uint32_t i = 0; i < moved.config.uv_cell_maps; ++i) {
+    uint32_t& word = moved.uv_cells[maps + size_t(kUvMapWords) * i];
+    word = std::bit_cast<uint32_t>(std::bit_cast<float>(word) + 0.125f);
+  }
+  ASSERT_TRUE(moved.validate());
+  std::vector<std::string> warnings;
+  ASSERT_TRUE(measure_uv_materials(mesh, moved, warnings));
+  EXPECT_EQ(moved.config.uv_materials, 0u);
+  EXPECT_EQ(moved.config.uv_cells, 0u);
+  EXPECT_TRUE(moved.uv_cells.empty());
+  EXPECT_TRUE(moved.validate());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("material 0 'painted' keeps learned colours"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("learned colours 0."), std::string::npos) << warnings[0];
+  // Measured again, the kept model is left as it is.
+  Model again = model;
+  warnings.clear();
+  ASSERT_TRUE(measure_uv_materials(mesh, again, warnings));
+  EXPECT_TRUE(warnings.empty());
+  EXPECT_EQ(again.uv_cells, model.uv_cells);
 }
 
 }  // namespace

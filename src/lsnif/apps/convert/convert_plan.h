@@ -128,7 +128,9 @@ Status make_plan(const ConvertSettings& settings, Plan& plan);
 // counts as hashed (2^table-log2 entries: the bunny's indexed coarse level has a third of that) and,
 // when `textured` (a material will report texture coordinates) under --texture-coordinates auto,
 // the uv cells of a typical surface (4 V^2 occupied voxels, S^2 maps each: within about 40% of
-// the cells of four textured assets made elsewhere). With `mesh`, its materials decide that.
+// the cells of four textured assets made elsewhere). With `mesh`, its materials decide that. Either
+// counts the cells of every material whose layout allows coordinates: the measurement after
+// training (measure_uv_materials) may drop some, and the model is then smaller.
 uint64_t estimated_model_bytes(const TrainSettings& train, uint32_t material_count, bool textured,
                                const Mesh* mesh = nullptr);
 

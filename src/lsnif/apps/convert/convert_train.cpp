@@ -286,6 +286,7 @@ void train_models(const ConvertSettings& settings, const Plan& plan, const std::
           return true;
         });
         model.training = training_record(train, r.mesh, m.name, omp_get_max_threads());
+        r.warnings.insert(r.warnings.end(), rep.uv_warnings.begin(), rep.uv_warnings.end());
         if (s) s = save_model(model, path);
         if (s) s = record_model(settings, m, model, path, r);
         if (s) {

@@ -284,9 +284,6 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
       return 1;
     }
     for (const std::string& w : warnings) std::fprintf(stderr, "lsnif: warning: %s\n", w.c_str());
-    if (config.texture_coordinates())
-      std::printf("uv        materials 0x%llx report texture coordinates (uv cells: %u per voxel edge)\n",
-                  (unsigned long long)config.uv_materials, config.uv_cells);
   }
   Model model;
   TrainReport rep;
@@ -300,6 +297,10 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
     std::fprintf(stderr, "lsnif: training failed: %s\n", result.message().c_str());
     return 1;
   }
+  for (const std::string& w : rep.uv_warnings) std::fprintf(stderr, "lsnif: warning: %s\n", w.c_str());
+  if (model.config.texture_coordinates())
+    std::printf("uv        materials 0x%llx report texture coordinates (uv cells: %u per voxel edge)\n",
+                (unsigned long long)model.config.uv_materials, model.config.uv_cells);
   // The record names the mesh by its file name; a training mesh file (a cluster job's, written for
   // the object its stem names) by that object, as the converter's own training names it.
   const std::filesystem::path file = std::filesystem::path(label).filename();
