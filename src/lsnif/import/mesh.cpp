@@ -200,6 +200,14 @@ void material_channels(const Mesh& mesh, const Material& mat, const glm::vec2* u
     out.ambient_occlusion = 1.0f + mat.occlusion_strength * (tex->sample(at(kSlotOcclusion), false).r - 1.0f);
 }
 
+// Material `mat`'s base colour factor times its base colour texture at `uv` (`uv` null: the factor).
+glm::vec3 base_colour(const Mesh& mesh, const Material& mat, const glm::vec2* uv) {
+  glm::vec3 colour = mat.base_color;
+  if (uv && mat.base_color_texture >= 0 && size_t(mat.base_color_texture) < mesh.textures.size())
+    colour *= mesh.textures[size_t(mat.base_color_texture)].sample(apply_uv_transform(mat.uv_transform[kSlotBaseColor], *uv));
+  return colour;
+}
+
 }  // namespace
 
 SurfaceSample Mesh::surface(uint32_t triangle, float u, float v) const {
@@ -212,12 +220,9 @@ SurfaceSample Mesh::surface(uint32_t triangle, float u, float v) const {
   const Material& mat = materials[m];
   const glm::uvec3& t = triangles[triangle];
   glm::vec2 uv;
-  if (!interpolated_uv(*this, t, u, v, uv)) {
-    material_channels(*this, mat, nullptr, out);
-    return out;
-  }
-  material_channels(*this, mat, &uv, out);
-  if (mat.normal_texture >= 0 && size_t(mat.normal_texture) < textures.size()) {
+  const bool has_uv = interpolated_uv(*this, t, u, v, uv);
+  material_channels(*this, mat, has_uv ? &uv : nullptr, out);
+  if (has_uv && mat.normal_texture >= 0 && size_t(mat.normal_texture) < textures.size()) {
     const Texture& tex = textures[size_t(mat.normal_texture)];
     // The tangent frame follows the uvs the normal map is read with.
     const UvTransform& transform = mat.uv_transform[kSlotNormal];
@@ -234,9 +239,7 @@ SurfaceSample Mesh::material_at(uint32_t m, glm::vec2 uv) const {
   SurfaceSample out;
   if (m >= materials.size()) return out;
   const Material& mat = materials[m];
-  out.albedo = mat.base_color;
-  if (mat.base_color_texture >= 0 && size_t(mat.base_color_texture) < textures.size())
-    out.albedo *= textures[size_t(mat.base_color_texture)].sample(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
+  out.albedo = base_colour(*this, mat, &uv);
   material_channels(*this, mat, &uv, out);
   return out;
 }
@@ -255,11 +258,9 @@ glm::vec3 Mesh::albedo(uint32_t triangle, float u, float v) const {
   glm::vec3 color(1.0f);
   uint32_t m = triangle < triangle_material.size() ? triangle_material[triangle] : 0u;
   if (m < materials.size()) {
-    const Material& mat = materials[m];
-    color = mat.base_color;
     glm::vec2 uv;
-    if (mat.base_color_texture >= 0 && size_t(mat.base_color_texture) < textures.size() && interpolated_uv(*this, t, u, v, uv))
-      color *= textures[size_t(mat.base_color_texture)].sample(apply_uv_transform(mat.uv_transform[kSlotBaseColor], uv));
+    const bool has_uv = interpolated_uv(*this, t, u, v, uv);
+    color = base_colour(*this, materials[m], has_uv ? &uv : nullptr);
   }
   if (colors.size() == positions.size() && t.x < colors.size() && t.y < colors.size() &&
       t.z < colors.size()) {

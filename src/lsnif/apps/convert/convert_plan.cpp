@@ -243,12 +243,21 @@ uint64_t planned_model_bytes(const TrainSettings& train, const Plan& plan, const
   return estimated_model_bytes(train, planned_material_count(plan, m), planned_textured(plan, m));
 }
 
-bool planned_textured(const Plan& plan, const PlannedModel& m) {
+namespace {
+
+// The glTF meshes of planned model `m`: its own and its nodes'.
+std::set<int> planned_meshes(const Plan& plan, const PlannedModel& m) {
   std::set<int> meshes;
   if (m.mesh >= 0) meshes.insert(m.mesh);
   for (int n : m.nodes) meshes.insert(plan.nodes[size_t(n)].mesh);
+  return meshes;
+}
+
+}  // namespace
+
+bool planned_textured(const Plan& plan, const PlannedModel& m) {
   const tinygltf::Model& g = plan.gltf;
-  for (int mesh : meshes) {
+  for (int mesh : planned_meshes(plan, m)) {
     if (mesh < 0 || size_t(mesh) >= g.meshes.size()) continue;
     for (const tinygltf::Primitive& p : g.meshes[size_t(mesh)].primitives) {
       bool uvs = false;
@@ -265,10 +274,8 @@ bool planned_textured(const Plan& plan, const PlannedModel& m) {
 }
 
 uint32_t planned_material_count(const Plan& plan, const PlannedModel& m) {
-  std::set<int> materials, meshes;
-  if (m.mesh >= 0) meshes.insert(m.mesh);
-  for (int n : m.nodes) meshes.insert(plan.nodes[size_t(n)].mesh);
-  for (int mesh : meshes)
+  std::set<int> materials;
+  for (int mesh : planned_meshes(plan, m))
     for (const tinygltf::Primitive& p : plan.gltf.meshes[size_t(mesh)].primitives)
       materials.insert(p.material >= 0 && size_t(p.material) < plan.gltf.materials.size() ? p.material : -1);
   return std::max<uint32_t>(1, uint32_t(materials.size()));
