@@ -264,6 +264,38 @@ TEST(Cli, BadInputFiles) {
   fs::remove_all(d);
 }
 
+TEST(Cli, TrainWithinATimeBudget) {
+  // The run plans the steps that fit, records them in the model and prints them with the held-out
+  // metrics; out-of-range budgets are refused before any work.
+  if (!fs::exists(kElephant)) GTEST_SKIP() << kElephant << " missing: run scripts/setup.sh";
+  fs::path d = temp_dir();
+  const std::string model = (d / "b.lsnif").string();
+  const std::string base = "train " + kElephant + " -o " + model +
+                           " --voxels 16 --res-min 32 --res-max 64 --table-log2 12 --width 16 --batch 256 --quiet";
+  CliResult r = run_cli(base + " --steps 1000000 --time-budget 1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  unsigned planned = 0, run = 0, most = 0;
+  const size_t at = r.out.find("budget    1.0 s: ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  ASSERT_EQ(std::sscanf(r.out.c_str() + at, "budget    1.0 s: %u steps planned (of at most %u), %u run", &planned,
+                        &most, &run), 3) << r.out;
+  EXPECT_EQ(most, 1000000u);
+  EXPECT_GE(planned, 8u);
+  EXPECT_LT(planned, most);
+  EXPECT_LE(run, planned);
+  EXPECT_NE(r.out.find("eval      occlusion "), std::string::npos) << r.out;
+  // The model's record holds the planned steps (its learning-rate schedule's).
+  r = run_cli("info " + model);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find(" steps=" + std::to_string(planned) + " "), std::string::npos) << r.out;
+  for (const char* bad : {"-1", "1e9", "nan"}) {
+    r = run_cli(base + " --steps 10 --time-budget " + bad);
+    EXPECT_EQ(r.code, 2) << bad << ": " << r.out;
+    EXPECT_NE(r.out.find("--time-budget"), std::string::npos) << bad << ": " << r.out;
+  }
+  fs::remove_all(d);
+}
+
 TEST(Cli, TrainingOptionsReachTheTrainer) {
   // Each option must show up in the settings line the trainer reports (a parsed but dropped
   // option once went unnoticed).

@@ -390,8 +390,9 @@ class RtConformance : public ::testing::Test {
   // a difference of a few ulps that the hash grid amplifies to ~1e-5 in the features: measured
   // maxima ~1e-5 diagonals in t and mostly < 0.1 deg in the normal, but 0.40 deg on one ray of 1,202
   // of a model trained with another gradient summation order: the maximum depends on the model's
-  // steepest point, the mean (< 0.01 deg) does not), plus the unorm8 packing of the hit attributes'
-  // albedo (<= 1/510 = 2e-3). Formula, layout or attribute-packing errors give errors of percent and
+  // steepest point, the mean (< 0.01 deg) does not; the mean t error, ~1e-6 diagonals, reached
+  // 2.07e-6 on the rays leaving the surface of a model trained with AVX-512 GEMMs), plus the unorm8
+  // packing of the hit attributes' albedo (<= 1/510 = 2e-3). Formula, layout or attribute-packing errors give errors of percent and
   // degrees on most hits, which the mean bounds catch. The surface channels: the learned flag on every hit of a model with them
   // (the word 0 without), each unorm8 within one step of the CPU's, the emission within RGBE's step.
   static void expect_agreement(const Comparison& c, uint32_t mode) {
@@ -405,7 +406,7 @@ class RtConformance : public ::testing::Test {
     EXPECT_LE(double(c.walk_mismatch), 5e-4 * double(c.rays));
     EXPECT_EQ(c.instance_mismatch, 0u);
     EXPECT_LT(c.t_err_max, 2e-4);
-    EXPECT_LT(c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, 2e-6);
+    EXPECT_LT(c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, 4e-6);
     EXPECT_LT(c.normal_deg_max, 1.0);
     EXPECT_LT(c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, 0.03);
     EXPECT_LT(c.albedo_max, 0.5 / 255.0 + 1e-4);

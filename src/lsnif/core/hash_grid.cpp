@@ -15,29 +15,6 @@ GridLayout::GridLayout(const Config& config, const uint16_t* grid_index) {
   }
 }
 
-void face_corners(const Config& config, uint32_t level, const glm::vec3& p, uint32_t axis,
-                  FaceCorners& out, const GridLayout& layout) {
-  const uint32_t R = config.grid_resolution[level];
-  const float Rf = float(R);
-  const uint32_t a = axis, b = (axis + 1) % 3, c = (axis + 2) % 3;
-  // The plane coordinate is (up to rounding) an integer: voxel faces lie on grid planes.
-  float xa = std::clamp(p[a] * Rf, 0.0f, Rf);
-  uint32_t ia = uint32_t(std::lround(xa));
-  float xb = std::clamp(p[b] * Rf, 0.0f, Rf), xc = std::clamp(p[c] * Rf, 0.0f, Rf);
-  uint32_t ib = std::min(uint32_t(xb), R - 1), ic = std::min(uint32_t(xc), R - 1);
-  float wb = xb - float(ib), wc = xc - float(ic);
-  const uint32_t offset = layout.level_offset[level], M = config.table_log2[level];
-  const PerfectHashView& indexed = layout.indexed[level];
-  for (uint32_t k = 0; k < 4; ++k) {
-    uint32_t v[3];
-    v[a] = ia;
-    v[b] = ib + (k & 1u);
-    v[c] = ic + (k >> 1);
-    out.entry[k] = offset + (indexed.displacement ? perfect_hash_slot(indexed, v[0], v[1], v[2]) : hash_vertex(v[0], v[1], v[2], M));
-    out.weight[k] = ((k & 1u) ? wb : 1.0f - wb) * ((k >> 1) ? wc : 1.0f - wc);
-  }
-}
-
 void order_by_point_count(const Config& config, const std::vector<RayWalk>& walks, std::vector<size_t>& columns,
                           std::vector<uint32_t>& rows) {
   const uint32_t H = config.max_points;

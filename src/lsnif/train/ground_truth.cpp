@@ -136,13 +136,22 @@ Status GroundTruth::build(const Mesh& mesh) {
   return Status::ok();
 }
 
-// Closest hit with t in [max(ray.tmin, 0), ray.tmax] (t in units of ray.direction, which need not
-// be normalized). Rays with a non-finite origin or direction, a zero direction, a NaN range or
-// tmin > tmax, and any ray traced before a successful build(), miss.
-ReferenceHit GroundTruth::trace(const Ray& ray) const {
-  ReferenceHit result;
-  const Impl& impl = *impl_;
-  if (!impl.scene) return result;
+namespace {
+
+// Embree's closest hit: t, the triangle, its barycentrics and Embree's unnormalized face normal.
+struct EmbreeHit {
+  bool hit = false;
+  float t = 0.0f, u = 0.0f, v = 0.0f;
+  uint32_t triangle = 0;
+  glm::vec3 ng{0.0f};
+};
+
+// The closest hit of `ray` in `scene`; rays with a non-finite origin or direction, a zero
+// direction, a NaN range or tmin > tmax miss, as does any ray when `scene` is null (no successful
+// build()).
+EmbreeHit closest_hit(RTCScene scene, const Ray& ray) {
+  EmbreeHit result;
+  if (!scene) return result;
   const glm::vec3& o = ray.origin;
   const glm::vec3& d = ray.direction;
   if (!std::isfinite(o.x) || !std::isfinite(o.y) || !std::isfinite(o.z) || !std::isfinite(d.x) ||
@@ -170,26 +179,59 @@ ReferenceHit GroundTruth::trace(const Ray& ray) const {
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl.scene, &context, &rh);
+  rtcIntersect1(scene, &context, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return result;
+  result.hit = true;
+  result.t = rh.ray.tfar;
+  result.u = rh.hit.u;
+  result.v = rh.hit.v;
+  result.triangle = rh.hit.primID;
+  result.ng = glm::vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+  return result;
+}
 
-  const Mesh& mesh = *impl.mesh;
-  const uint32_t prim = rh.hit.primID;
+}  // namespace
+
+// Closest hit with t in [max(ray.tmin, 0), ray.tmax] (t in units of ray.direction, which need not
+// be normalized). Rays with a non-finite origin or direction, a zero direction, a NaN range or
+// tmin > tmax, and any ray traced before a successful build(), miss.
+ReferenceHit GroundTruth::trace(const Ray& ray) const {
+  ReferenceHit result;
+  const EmbreeHit h = closest_hit(impl_->scene, ray);
+  if (!h.hit) return result;
+  const Mesh& mesh = *impl_->mesh;
+  const uint32_t prim = h.triangle;
   const glm::uvec3& tri = mesh.triangles[prim];
   const glm::vec3 p0 = mesh.positions[tri.x], p1 = mesh.positions[tri.y], p2 = mesh.positions[tri.z];
   result.hit = true;
-  result.t = rh.ray.tfar;
+  result.t = h.t;
   result.triangle = prim;
   result.material = mesh.triangle_material[prim];
-  result.normal = mesh.shading_normal(prim, rh.hit.u, rh.hit.v);
-  result.surface = mesh.surface(prim, rh.hit.u, rh.hit.v);
-  mesh.uv_at(prim, rh.hit.u, rh.hit.v, result.uv);
+  result.normal = mesh.shading_normal(prim, h.u, h.v);
+  result.surface = mesh.surface(prim, h.u, h.v);
+  mesh.uv_at(prim, h.u, h.v, result.uv);
   result.albedo = result.surface.albedo;
   // Face normal as wound (counter-clockwise p0, p1, p2 seen from its front), independent of
   // Embree's Ng convention. A sliver too thin for float falls back to the shading normal.
   const glm::dvec3 n = glm::cross(glm::dvec3(p1) - glm::dvec3(p0), glm::dvec3(p2) - glm::dvec3(p0));
   const double len = glm::length(n);
   result.geometric_normal = len > 0.0 ? glm::vec3(n / len) : result.normal;
+  return result;
+}
+
+ReferenceHit GroundTruth::trace_geometry(const Ray& ray) const {
+  ReferenceHit result;
+  const EmbreeHit h = closest_hit(impl_->scene, ray);
+  if (!h.hit) return result;
+  result.hit = true;
+  result.t = h.t;
+  result.triangle = h.triangle;
+  const float len = glm::length(h.ng);
+  if (len > 0.0f && std::isfinite(len)) {
+    result.geometric_normal = h.ng / len;
+  } else {  // a sliver: Mesh::shading_normal, as trace() falls back to
+    result.geometric_normal = impl_->mesh->shading_normal(h.triangle, h.u, h.v);
+  }
   return result;
 }
 

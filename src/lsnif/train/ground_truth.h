@@ -34,6 +34,11 @@ class GroundTruth {
   // Closest hit within [ray.tmin, ray.tmax] that passes the alpha test (Mesh::opaque_at: the holes
   // of MASK and BLEND materials are no surface). Thread-safe after build().
   ReferenceHit trace(const Ray& ray) const;
+  // The same hit with only hit, t, triangle and geometric_normal set, the normal facing either way
+  // (Embree's, normalized; no material, shading normal, surface or texture coordinate, so no read
+  // of the mesh's arrays): for rays that only look for a surface point (the ray sampler's finding
+  // rays).
+  ReferenceHit trace_geometry(const Ray& ray) const;
 
  private:
   struct Impl;

@@ -73,7 +73,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     if (rng.next_float() < surface_fraction) {
       for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !from_surface; ++attempt) {
         const Ray finder = sample_outer_ray(rng, centre, radius);
-        const ReferenceHit hit = truth_.trace(finder);
+        const ReferenceHit hit = truth_.trace_geometry(finder);
         if (!hit.hit) continue;
         const glm::vec3 point = finder.origin + hit.t * finder.direction;
         const glm::vec3 n = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal

@@ -14,6 +14,7 @@
 #include "lsnif/train/ground_truth.h"
 #include "lsnif/train/settings_io.h"
 #include "lsnif/core/hash_grid.h"
+#include "lsnif/core/rng.h"
 #include "lsnif/core/head.h"
 #include "lsnif/core/network.h"
 #include "lsnif/train/uv_materials.h"
@@ -57,6 +58,8 @@ Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Co
   config.uv_cells = uv.materials ? settings.uv_cells : 0u;
   if (warnings) warnings->insert(warnings->end(), uv.warnings.begin(), uv.warnings.end());
   if (Status s = check_train_settings(settings); !s) return s;
+  if (!(settings.time_budget >= 0 && settings.time_budget <= kMaxTimeBudget))
+    return Status::error("time budget %g s out of range [0, %g] (0: no limit)", settings.time_budget, kMaxTimeBudget);
   // The config with the mesh's materials and surface channels.
   if (Status s = config.validate(); !s) return s.context("training config");
   return Status::ok();
@@ -74,8 +77,11 @@ struct BatchCorners {
 };
 
 // Encodes a batch into X (input_dim x B), column r from walks[order[r]], and remembers the
-// corners for the backward pass. Per ray, all corners first (their table rows prefetched), then
-// the sums: the table lookups are the encoder's cost, and this lets them overlap.
+// corners for the backward pass. The table lookups are the encoder's cost (cache misses into a
+// table larger than the core's cache), so the work is pipelined across rays: while ray r's
+// features are summed, ray r + 1's corners are computed and their table rows prefetched.
+constexpr long kEncodeBlock = 64;  // rays per block; blocks interleave over the threads (the batch is ordered by point count)
+
 void encode_batch(const Config& config, const GridLayout& layout, const float* table,
                   const std::vector<RayWalk>& walks, const std::vector<size_t>& order, Matrix& X,
                   BatchCorners& corners) {
@@ -86,11 +92,9 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
   corners.entry.resize(size_t(B) * per_ray);
   corners.weight.resize(size_t(B) * per_ray);
   X.resize(config.input_dim(), B);
-#pragma omp parallel for schedule(static, 64)  // interleaved: the batch is ordered by point count
-  for (long r = 0; r < B; ++r) {
+  // Ray r's corners into the corner arrays, its table rows prefetched.
+  auto find_corners = [&](long r) {
     const RayWalk& w = walks[order[size_t(r)]];
-    float* x = X.data() + size_t(r) * config.input_dim();
-    std::fill(x, x + config.input_dim(), 0.0f);
     uint32_t* ce = corners.entry.data() + size_t(r) * per_ray;
     float* cw = corners.weight.data() + size_t(r) * per_ray;
     const uint32_t slots = std::min(w.count, H) * L;
@@ -103,11 +107,35 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
         __builtin_prefetch(table + size_t(fc.entry[k]) * F);
       }
     }
-    for (uint32_t s = 0; s < slots; ++s)
-      for (uint32_t k = 0; k < 4; ++k) {
-        const float* t = table + size_t(ce[s * 4 + k]) * F;
-        for (uint32_t f = 0; f < F; ++f) x[s * F + f] += cw[s * 4 + k] * t[f];
+  };
+  // The lines of a walk that find_corners reads (its count and points; a walk is ~9 cache lines).
+  auto prefetch_walk = [](const RayWalk& w) {
+    const char* at = reinterpret_cast<const char*>(&w);
+    for (size_t b = 0; b < sizeof(RayWalk); b += 64) __builtin_prefetch(at + b);
+  };
+  const long blocks = (B + kEncodeBlock - 1) / kEncodeBlock;
+#pragma omp parallel for schedule(static, 1)
+  for (long blk = 0; blk < blocks; ++blk) {
+    const long r0 = blk * kEncodeBlock, r1 = std::min(B, r0 + kEncodeBlock);
+    find_corners(r0);
+    for (long r = r0; r < r1; ++r) {
+      if (r + 2 < r1) prefetch_walk(walks[order[size_t(r + 2)]]);
+      if (r + 1 < r1) find_corners(r + 1);
+      const RayWalk& w = walks[order[size_t(r)]];
+      float* x = X.data() + size_t(r) * config.input_dim();
+      std::fill(x, x + config.input_dim(), 0.0f);
+      const uint32_t* ce = corners.entry.data() + size_t(r) * per_ray;
+      const float* cw = corners.weight.data() + size_t(r) * per_ray;
+      const uint32_t slots = std::min(w.count, H) * L;
+      for (uint32_t s = 0; s < slots; ++s) {
+        float sum[LSNIF_MAX_FEATURES] = {};  // in registers: x is written once per slot
+        for (uint32_t k = 0; k < 4; ++k) {
+          const float* t = table + size_t(ce[s * 4 + k]) * F;
+          for (uint32_t f = 0; f < F; ++f) sum[f] += cw[s * 4 + k] * t[f];
+        }
+        for (uint32_t f = 0; f < F; ++f) x[s * F + f] = sum[f];
       }
+    }
   }
 }
 
@@ -115,7 +143,9 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
 // owns a contiguous range of table entries and scans all lookups in batch order, so sums are
 // race-free and bit-identical for any thread count. With no more threads than levels the ranges are
 // whole levels (every point has one lookup per level, so the work is even: each of the default 2
-// threads owns one of the 2 levels); with more, equal shares of the entries.
+// threads owns one of the 2 levels); with more, equal shares of the entries. The gradient rows of
+// the next ray's lookups are prefetched while the current ray's are summed (the misses are the
+// cost, as in encode_batch).
 void encode_batch_backward(const Config& config, const std::vector<uint32_t>& rows, const BatchCorners& corners,
                            const Matrix& dX, std::vector<float>& d_table) {
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
@@ -137,7 +167,19 @@ void encode_batch_backward(const Config& config, const std::vector<uint32_t>& ro
     if (lo < hi) {
       // The levels whose entries overlap [lo, hi).
       const uint32_t l_first = config.level_of_entry(lo), l_last = std::min(L - 1, config.level_of_entry(hi - 1));
+      auto prefetch_ray = [&](size_t r) {
+        const uint32_t n = rows[r] / (L * F);
+        const uint32_t* ce = corners.entry.data() + r * per_ray;
+        for (uint32_t j = 0; j < n; ++j)
+          for (uint32_t l = l_first; l <= l_last; ++l)
+            for (uint32_t k = 0; k < 4; ++k) {
+              const uint32_t e = ce[(j * L + l) * 4 + k];
+              if (e >= lo && e < hi) __builtin_prefetch(d_table.data() + size_t(e) * F, 1);
+            }
+      };
+      if (!rows.empty()) prefetch_ray(0);
       for (size_t r = 0; r < rows.size(); ++r) {
+        if (r + 1 < rows.size()) prefetch_ray(r + 1);
         const uint32_t n = rows[r] / (L * F);
         const uint32_t* ce = corners.entry.data() + r * per_ray;
         const float* cw = corners.weight.data() + r * per_ray;
@@ -193,52 +235,70 @@ struct StepState {
         mlp_adam(model.mlp.size(), adam) {}
   std::vector<float> d_grid, d_mlp;
   Adam grid_adam, mlp_adam;
+  // The ray pool (ray_pool_size rays with their walks and ground truth); a step trains on
+  // batch_size of them, st.order indexing the pool.
   std::vector<Sample> samples, fresh_samples;
   std::vector<RayWalk> walks, fresh_walks;
-  std::vector<size_t> order;        // order_batch_by_point_count
+  std::vector<size_t> order;        // draw_batch
   std::vector<uint32_t> batch_rows;
   Matrix X, O, dO, dX;
   MlpTrace trace;
   BatchCorners corners;
 };
 
-// The batch of `step` in st.samples and st.walks, the sampling timed in `rep`; an error when the
-// sampler cannot find enough rays.
+// The batch of `step`: the pool's rays (st.samples, st.walks) it trains on, in st.order, each with
+// its encoded_rows in st.batch_rows, ordered by order_by_point_count (a walk has about 5 of the 18
+// points on the bunny). The sampling is timed in `rep`; an error when the sampler cannot find
+// enough rays.
+//
+// Ground-truth reuse (ray_reuse R > 1): the pool holds ray_pool_size rays, cast on the first step;
+// every later step replaces batch / R of them (the oldest, round robin) with fresh rays and trains
+// on batch rays drawn from the pool without replacement, so that a ray serves R steps on average,
+// spread over its life in the pool instead of consecutive steps (consecutive batches then share
+// about batch / pool of their rays). With R = 1 the pool is the batch: fresh rays every step.
 Status draw_batch(const RaySampler& sampler, const Config& config, const TrainSettings& settings, uint32_t occupied,
                   uint32_t step, StepState& st, TrainReport& rep) {
   const auto t0 = Clock::now();
-  const uint32_t B = settings.batch_size;
-  // Fresh rays: the whole batch on the first step, then one part of it per step (round robin),
-  // so that each ray serves ray_reuse consecutive steps.
-  const uint32_t parts = settings.ray_reuse, part = step == 1 ? 0 : (step - 2) % parts;
-  const size_t first = step == 1 ? 0 : size_t(B) * part / parts;
-  const size_t last = step == 1 ? B : size_t(B) * (part + 1) / parts;
-  sampler.generate(settings.seed, step, last - first, st.fresh_samples, st.fresh_walks);
-  rep.seconds_sampling += since(t0);
-  if (st.fresh_samples.size() != last - first)
+  const uint32_t B = settings.batch_size, R = settings.ray_reuse;
+  const size_t pool = ray_pool_size(B, R);
+  const size_t fresh_per_step = std::max<size_t>(1, B / R);
+  // The pool's slots this step refreshes: all of them on the first step, then fresh_per_step
+  // slots round robin from the oldest.
+  const size_t count = step == 1 ? pool : fresh_per_step;
+  const size_t first = step == 1 ? 0 : (size_t(step - 2) * fresh_per_step) % pool;
+  sampler.generate(settings.seed, step, count, st.fresh_samples, st.fresh_walks);
+  rep.rays_cast += st.fresh_samples.size();
+  if (st.fresh_samples.size() != count) {
+    rep.seconds_sampling += since(t0);
     return Status::error("the ray sampler found only %zu of %zu rays crossing an occupied voxel (%u of %u voxels "
                          "occupied: is the mesh degenerate, or a small part of its bounding box, e.g. beside "
-                         "far-away stray triangles?)", st.fresh_samples.size(), last - first, occupied,
+                         "far-away stray triangles?)", st.fresh_samples.size(), count, occupied,
                          config.voxel_resolution * config.voxel_resolution * config.voxel_resolution);
-  if (first == 0 && last == B) {
+  }
+  if (count == pool) {
     st.samples.swap(st.fresh_samples);
     st.walks.swap(st.fresh_walks);
   } else {
-    st.samples.resize(B);
-    st.walks.resize(B);
-    std::copy(st.fresh_samples.begin(), st.fresh_samples.end(), st.samples.begin() + long(first));
-    std::copy(st.fresh_walks.begin(), st.fresh_walks.end(), st.walks.begin() + long(first));
+    for (size_t k = 0; k < count; ++k) {  // wraps around the pool's end
+      st.samples[(first + k) % pool] = st.fresh_samples[k];
+      st.walks[(first + k) % pool] = st.fresh_walks[k];
+    }
   }
-  return Status::ok();
-}
-
-// The order in which the step's batch (st.samples, st.walks) goes through the network, in
-// st.order, with each column's encoded_rows in st.batch_rows: order_by_point_count (a walk has
-// about 5 of the 18 points on the bunny). Which rays a step trains on is draw_batch's.
-void order_batch_by_point_count(const Config& config, StepState& st) {
-  st.order.resize(st.walks.size());
+  // The batch: the whole pool when it is the batch, else B of its rays without replacement (a
+  // partial Fisher-Yates shuffle of the slots, its random numbers from the seed and the step).
+  st.order.resize(pool);
   std::iota(st.order.begin(), st.order.end(), size_t(0));
+  if (pool > B) {
+    Rng rng(settings.seed ^ 0x5bd1e9955bd1e995ull, step, 0);
+    for (size_t k = 0; k < B; ++k) {
+      const size_t j = k + size_t((uint64_t(rng.next_u32()) * (pool - k)) >> 32);
+      std::swap(st.order[k], st.order[j]);
+    }
+    st.order.resize(B);
+  }
   order_by_point_count(config, st.walks, st.order, st.batch_rows);
+  rep.seconds_sampling += since(t0);
+  return Status::ok();
 }
 
 // The batch's mean loss terms from the outputs st.O; their gradient (scaled by 1 / batch size)
@@ -278,12 +338,11 @@ LossTerms batch_loss(const Config& config, const TrainSettings& settings, StepSt
 // model.mlp, each phase timed in `rep`; `mean` receives the step's mean loss terms. An error when
 // the sampler runs short or the loss is not finite.
 Status train_step(const RaySampler& sampler, const Config& config, const GridLayout& layout,
-                  const TrainSettings& settings, uint32_t occupied, uint32_t step, Model& model, StepState& st,
-                  TrainReport& rep, LossTerms& mean) {
+                  const TrainSettings& settings, uint32_t occupied, uint32_t step, uint32_t steps, Model& model,
+                  StepState& st, TrainReport& rep, LossTerms& mean) {
   if (Status s = draw_batch(sampler, config, settings, occupied, step, st, rep); !s) return s;
 
   auto t0 = Clock::now();
-  order_batch_by_point_count(config, st);
   encode_batch(config, layout, model.grid.data(), st.walks, st.order, st.X, st.corners);
   rep.seconds_encoding += since(t0);
 
@@ -310,7 +369,7 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
   rep.seconds_encoding += since(t0);
 
   t0 = Clock::now();
-  const float lr = scheduled_learning_rate(settings.lr_schedule, settings.adam.learning_rate, step, settings.steps);
+  const float lr = scheduled_learning_rate(settings.lr_schedule, settings.adam.learning_rate, step, steps);
   st.mlp_adam.step(model.mlp.data(), st.d_mlp.data(), lr);
   st.grid_adam.step(model.grid.data(), st.d_grid.data(), lr);
   rep.seconds_optimizer += since(t0);
@@ -335,6 +394,35 @@ void record_step(const TrainSettings& settings, uint32_t step, const LossTerms& 
   if (settings.loss_curve)
     rep.loss_curve += format("%u,%.3f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", step, since(t_start), mean.total(),
                              mean.occlusion, mean.distance, mean.normal, mean.albedo, mean.material, mean.surface);
+}
+
+// The steps of a run under settings.time_budget, planned after `step` steps, `elapsed` seconds into
+// the loop, the steps after the first having taken `per_step` seconds each: as many as the rest of
+// the budget holds at that pace, less a margin (kBudgetMargin) for a host that slows, at least
+// `step`, at most settings.steps. (On the bunny the pace of steps 2-256 foresaw 632 steps in 10 s
+// where 626 ran.)
+// With a decaying schedule never fewer than the steps whose held share covers the `step` steps run
+// (they ran at the full rate), so that a run the budget does not cut equals the run of the planned
+// steps; the budget then stops the run, should those not fit.
+constexpr double kBudgetMargin = 0.05;
+uint32_t budget_steps(const TrainSettings& settings, uint32_t step, double elapsed, double per_step) {
+  const double rest = (1.0 - kBudgetMargin) * settings.time_budget - elapsed;
+  const double more = per_step > 0 ? std::floor(rest / per_step) : 0.0;
+  double least = double(step);
+  const double warm = double(settings.lr_schedule.warm_fraction);
+  if (settings.lr_schedule.schedule != LrSchedule::Constant && warm > 0) {
+    least = std::ceil(double(step) / warm);
+    while (std::floor(warm * least) < double(step)) ++least;
+  }
+  const double planned = std::max(double(step) + std::max(0.0, more), least);
+  return uint32_t(std::clamp(planned, double(step), double(settings.steps)));
+}
+
+// Whether a run of `steps` steps may still change its length after `step` without a jump in its
+// learning rate: always with a constant rate, else while the rate is held (the schedule's warm share).
+bool steps_still_open(const TrainSettings& settings, uint32_t step, uint32_t steps) {
+  if (settings.lr_schedule.schedule == LrSchedule::Constant) return true;
+  return double(step) < std::floor(double(settings.lr_schedule.warm_fraction) * double(steps));
 }
 
 // rep.final_loss: the mean of the tail's steps (left 0 when none ran).
@@ -389,16 +477,36 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   TrainReport rep;
   if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material,surface\n";
   rep.occupied_voxels = occupied;
+  // The run's steps: settings.steps, or under a time budget what it holds (planned after a few steps
+  // from their pace, replanned at steps 8, 16, 32, ... while the learning rate is held, then fixed).
+  uint32_t steps = settings.steps;
   TailLoss tail;
-  tail.start = settings.steps - std::max(1u, settings.steps / 10);
+  tail.start = steps - std::max(1u, steps / 10);
   const auto t_start = Clock::now();
+  Clock::time_point t_first{};  // the end of step 1, which casts the whole ray pool
 
-  for (uint32_t step = 1; step <= settings.steps; ++step) {
+  for (uint32_t step = 1; step <= steps; ++step) {
     LossTerms mean;
-    if (Status s = train_step(sampler, config, layout, settings, occupied, step, model, st, rep, mean); !s) return s;
+    if (Status s = train_step(sampler, config, layout, settings, occupied, step, steps, model, st, rep, mean); !s)
+      return s;
     record_step(settings, step, mean, t_start, tail, rep);
+    rep.steps = step;
     if (callback && !callback(step, mean, model)) break;
+    if (settings.time_budget > 0) {
+      const double elapsed = since(t_start);
+      if (step == 1) t_first = Clock::now();
+      if (step < steps && elapsed >= settings.time_budget) {  // out of time: the model as it stands
+        rep.budget_cut = true;
+        break;
+      }
+      if (step >= 5 && (step & (step - 1)) == 0 && steps_still_open(settings, step, steps)) {
+        steps = budget_steps(settings, step, elapsed, std::chrono::duration<double>(Clock::now() - t_first).count() /
+                                                          double(step - 1));
+        tail.start = steps - std::max(1u, steps / 10);
+      }
+    }
   }
+  rep.planned_steps = steps;
   rep.seconds = since(t_start);
   set_final_loss(tail, rep);
   if (Status s = check_fp16_range(model, rep.rays, settings.adam.learning_rate); !s) return s;

@@ -2,6 +2,8 @@
 // sampler, ground truth from Embree, sparse hash grid and MLP optimized jointly with Adam.
 // Deterministic for a given seed and thread count.
 #pragma once
+#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -42,19 +44,33 @@ struct TrainSettings {
   uint32_t steps = default_u32(SettingId::Steps);
   uint32_t batch_size = default_u32(SettingId::Batch);  // paper: 2^18 on a GPU; see settings_table.h
   uint64_t seed = default_u64(SettingId::Seed);
-  // Each training ray is used in this many consecutive steps: every step replaces 1/ray_reuse of
-  // the batch with fresh rays (round robin). 1 = fresh rays every step (default: on the bunny, 2
-  // saved ~10% of the training time but raised the median normal error from 5.2 to 6.5 degrees
-  // and the t error from 0.39% to 0.57%).
+  // Ground-truth reuse: each training ray serves this many steps on average, drawn at random from
+  // a pool of ray_pool_size rays of which every step replaces batch / ray_reuse (1 = fresh rays
+  // every step; trainer.cpp, draw_batch).
   uint32_t ray_reuse = default_u32(SettingId::RayReuse);
   AdamSettings adam;               // adam.learning_rate: the rate the schedule starts from
   LrScheduleSettings lr_schedule;
   LossSettings loss_settings;
   SamplerSettings sampler;
   float grid_init_range = default_f32(SettingId::GridInitRange);  // hash-table entries start in U(-range, range) (paper)
+  // Seconds the training loop may take (0: no limit, `steps` steps): the run plans as many steps as
+  // fit (at most `steps`) from the pace of its first ones, so that its learning-rate schedule spans
+  // them, and stops at the budget should the pace slow (TrainReport::planned_steps, budget_cut).
+  // At most kMaxTimeBudget.
+  double time_budget = 0;
   bool loss_curve = false;         // true: TrainReport::loss_curve receives the loss curve (CSV)
   std::string describe() const;
 };
+
+// The rays the trainer keeps with their ground truth for `batch` rays per step, each used
+// `ray_reuse` times on average: the batch itself without reuse, else kRayPoolBatches batches (at
+// most kRayPoolMaxRays, at least one batch), so that a ray's uses spread over about
+// kRayPoolBatches * ray_reuse steps.
+inline constexpr size_t kRayPoolBatches = 8, kRayPoolMaxRays = size_t(1) << 19;
+inline size_t ray_pool_size(uint32_t batch, uint32_t ray_reuse) {
+  if (ray_reuse <= 1) return batch;
+  return std::max<size_t>(batch, std::min(kRayPoolBatches * batch, kRayPoolMaxRays));
+}
 
 // Whether a model of `mesh` learns surface channels (Config::surface_channels) under the setting
 // `surface_maps` (kSurfaceMapsAuto: when a material has a metallic-roughness, emission or occlusion
@@ -79,11 +95,17 @@ Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Co
 Status model_layout(const Mesh& mesh, const TrainSettings& settings, Config& config, VoxelGrid& voxels,
                     std::vector<uint16_t>& grid_index);
 
+inline constexpr double kMaxTimeBudget = 7 * 86400.0;  // TrainSettings::time_budget: a week
+
 struct TrainReport {
   double seconds = 0;             // wall time of the training loop
+  uint32_t steps = 0;             // steps run
+  uint32_t planned_steps = 0;     // the steps the learning-rate schedule spanned (settings.steps without a budget)
+  bool budget_cut = false;        // the time budget ran out before planned_steps
   double seconds_sampling = 0, seconds_encoding = 0, seconds_mlp = 0, seconds_loss = 0,
          seconds_optimizer = 0;
-  uint64_t rays = 0;              // training rays used
+  uint64_t rays = 0;              // training rays used (batch x steps)
+  uint64_t rays_cast = 0;         // of which fresh ones, with their ground truth (fewer with ray_reuse > 1)
   uint32_t occupied_voxels = 0;
   LossTerms final_loss;           // mean over the last 10% of steps
   // Textured materials the measurement after training left on learned colours (measure_uv_materials,

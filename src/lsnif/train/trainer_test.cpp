@@ -176,5 +176,63 @@ TEST(Trainer, ReportsThroughTheCallbackAndPrintsNothing) {
   EXPECT_EQ(steps.size(), 2u);
 }
 
+// Ground-truth reuse: the pool is cast on the first step, then every step casts batch / R fresh
+// rays; without reuse every step casts its whole batch. Counted against the schedule itself.
+TEST(Trainer, GroundTruthReuseCastsBatchOverReuseFreshRaysPerStep) {
+  const Mesh mesh = cube();
+  for (uint32_t reuse : {1u, 4u}) {
+    TrainSettings s = small();
+    s.ray_reuse = reuse;
+    Model model;
+    TrainReport rep;
+    ASSERT_TRUE(train_model(mesh, s, model, &rep)) << "ray reuse " << reuse;
+    EXPECT_EQ(rep.rays, uint64_t(s.steps) * s.batch_size);
+    const uint64_t pool = reuse == 1 ? s.batch_size : kRayPoolBatches * s.batch_size;
+    EXPECT_EQ(ray_pool_size(s.batch_size, reuse), pool);
+    EXPECT_EQ(rep.rays_cast, pool + uint64_t(s.steps - 1) * (s.batch_size / reuse)) << "ray reuse " << reuse;
+    EXPECT_TRUE(std::isfinite(rep.final_loss.total()));
+  }
+  // The pool is capped (at most kRayPoolMaxRays, never below one batch).
+  EXPECT_EQ(ray_pool_size(1u << 18, 2), kRayPoolMaxRays);
+  EXPECT_EQ(ray_pool_size(1u << 18, 1), size_t(1) << 18);
+}
+
+// A time budget plans the steps that fit from the pace of the first ones; a run that was not cut
+// short is the run of the steps it planned, bit for bit (the plan changes only while the learning
+// rate is held, so the schedule spans the planned steps exactly).
+TEST(Trainer, ATimeBudgetTrainsTheRunOfTheStepsItPlanned) {
+  TrainSettings budget = small();
+  budget.steps = 1000000;  // far more than fit
+  budget.time_budget = 0.4;
+  std::vector<float> params;
+  Model model;
+  TrainReport rep;
+  ASSERT_TRUE(train_model(cube(), budget, model, &rep, [&](uint32_t, const LossTerms&, const Model& m) {
+    params = m.grid;
+    params.insert(params.end(), m.mlp.begin(), m.mlp.end());
+    return true;
+  }));
+  EXPECT_LE(rep.steps, rep.planned_steps);
+  EXPECT_EQ(rep.rays, uint64_t(rep.steps) * budget.batch_size);
+  EXPECT_LT(rep.seconds, 2.0 * budget.time_budget) << "the loop ran far past its budget";
+  if (rep.budget_cut) {
+    EXPECT_LT(rep.steps, rep.planned_steps);  // a slowed host (a sanitizer build): stopped at the budget
+  } else {
+    EXPECT_GE(rep.planned_steps, 8u);  // planned first after step 8
+    EXPECT_LT(rep.planned_steps, budget.steps);
+    EXPECT_EQ(rep.steps, rep.planned_steps);
+    TrainSettings fixed = small();
+    fixed.steps = rep.planned_steps;
+    EXPECT_EQ(params, trained_parameters(fixed));
+  }
+  // Out of range: refused before any work.
+  budget.time_budget = -1.0;
+  EXPECT_FALSE(train_model(cube(), budget, model));
+  budget.time_budget = kMaxTimeBudget * 2;
+  const Status s = train_model(cube(), budget, model);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("time budget"), std::string::npos) << s.message();
+}
+
 }  // namespace
 }  // namespace lsnif

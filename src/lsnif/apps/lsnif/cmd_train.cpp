@@ -7,6 +7,7 @@
 #include "lsnif/apps/lsnif/args.h"
 #include "lsnif/apps/lsnif/commands.h"
 #include "lsnif/apps/lsnif/train_options.h"
+#include "lsnif/train/trainer.h"
 
 namespace lsnif::cli {
 
@@ -19,6 +20,10 @@ int cmd_train(int argc, char** argv) {
                      "for a 2-core CPU; --paper selects the paper's grid and training, --quality high its network.");
   args.positional("MESH", "input mesh", &mesh_path);
   opts.add_to(args);
+  args.option("time-budget", format("seconds the training loop may take (0: no limit): as many of --steps as fit, "
+                                     "the learning-rate schedule spanning them, then the held-out metrics (%zu rays)",
+                                     kEvalRaysAfterBudget),
+              &opts.time_budget, 0.0f, float(kMaxTimeBudget));
   args.flag("keep-current", "keep -o when it already holds the model of this mesh and these settings (its "
             "training record); one run at a time trains it (a cluster job: docs/cluster.md)", &opts.keep_current);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;

@@ -30,9 +30,35 @@ int run_command(const char* program, const Command& command, int argc, char** ar
   return 1;
 }
 
+// The instruction set this program was compiled for (a native build: -march=native on the build
+// machine, scripts/build.sh) that this CPU lacks, or null. Checked before any command runs, so that
+// a program carried to another machine (the GPU check folder) stops with a message instead of an
+// illegal instruction somewhere in its work.
+const char* missing_cpu_feature() {
+#if defined(__x86_64__) && defined(__GNUC__)
+  __builtin_cpu_init();
+#ifdef __AVX512F__
+  if (!__builtin_cpu_supports("avx512f")) return "avx512f";
+#endif
+#ifdef __AVX2__
+  if (!__builtin_cpu_supports("avx2")) return "avx2";
+#endif
+#ifdef __FMA__
+  if (!__builtin_cpu_supports("fma")) return "fma";
+#endif
+#endif
+  return nullptr;
+}
+
 }  // namespace
 
 int dispatch(int argc, char** argv, const char* program, const char* about, const Command* commands, size_t count) {
+  if (const char* feature = missing_cpu_feature()) {
+    std::fprintf(stderr, "%s: built for CPUs with %s (a native build: -march=native on the build machine), which this "
+                 "CPU lacks; build it without (scripts/build.sh -DLSNIF_AVX512=OFF for AVX-512, -DLSNIF_NATIVE=OFF "
+                 "for any x86-64)\n", program, feature);
+    return 1;
+  }
   if (argc < 2) {
     usage(stderr, program, about, commands, count);
     return 2;

@@ -12,6 +12,7 @@
 #include "lsnif/format/folder_lock.h"
 #include "lsnif/import/mesh.h"
 #include "lsnif/import/training_mesh.h"
+#include "lsnif/train/evaluate.h"
 #include "lsnif/apps/common/progress.h"
 
 namespace lsnif::cli {
@@ -139,6 +140,7 @@ void TrainOptions::add_to(Args& args, const char* output_help) {
 }
 
 bool TrainOptions::to_settings(TrainSettings& s) const {
+  s.time_budget = time_budget;
   SettingLayer command_line = given;
   for (const auto& [option, choice] : presets) {
     const bool flag = find_preset(option, nullptr) != nullptr;
@@ -287,9 +289,15 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
   }
   Model model;
   TrainReport rep;
-  ProgressBar bar("train", settings.steps, !opts.quiet);
+  // Under a time budget the bar counts milliseconds of it (the steps are planned as it runs).
+  const bool budget = settings.time_budget > 0;
+  ProgressBar bar("train", budget ? uint64_t(settings.time_budget * 1000.0) : settings.steps, !opts.quiet);
   const Status result = train_model(mesh, settings, model, &rep, [&](uint32_t step, const LossTerms& loss, const Model&) {
-    bar.update(step, format("loss %.4f", loss.total()));
+    if (budget)
+      bar.update(std::min(uint64_t(bar.elapsed_seconds() * 1000.0), uint64_t(settings.time_budget * 1000.0)),
+                 format("step %u loss %.4f", step, loss.total()));
+    else
+      bar.update(step, format("loss %.4f", loss.total()));
     return true;
   });
   bar.finish(result ? format("%.0f rays/s", rep.rays_per_second()) : std::string("failed"));
@@ -301,6 +309,9 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
   if (model.config.texture_coordinates())
     std::printf("uv        materials 0x%llx report texture coordinates (uv cells: %u per voxel edge)\n",
                 (unsigned long long)model.config.uv_materials, model.config.uv_cells);
+  // A budget's run is the run of the steps it planned (its schedule's): the record says so.
+  const uint32_t max_steps = settings.steps;
+  if (budget) settings.steps = rep.planned_steps;
   // The record names the mesh by its file name; a training mesh file (a cluster job's, written for
   // the object its stem names) by that object, as the converter's own training names it.
   const std::filesystem::path file = std::filesystem::path(label).filename();
@@ -316,9 +327,12 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
   }
   const MemoryBreakdown mem = memory_breakdown(model);
   std::printf("trained   %u steps x %u rays in %.1f s (%.0f rays/s): sampling %.1f s, encoding %.1f s, "
-              "MLP %.1f s, loss %.1f s, Adam %.1f s\n",
-              settings.steps, settings.batch_size, rep.seconds, rep.rays_per_second(), rep.seconds_sampling,
-              rep.seconds_encoding, rep.seconds_mlp, rep.seconds_loss, rep.seconds_optimizer);
+              "MLP %.1f s, loss %.1f s, Adam %.1f s%s\n",
+              rep.steps, settings.batch_size, rep.seconds, rep.rays_per_second(), rep.seconds_sampling,
+              rep.seconds_encoding, rep.seconds_mlp, rep.seconds_loss, rep.seconds_optimizer,
+              rep.rays_cast == rep.rays ? ""
+                  : format("; %llu rays cast, each used %.2f times", (unsigned long long)rep.rays_cast,
+                           double(rep.rays) / double(rep.rays_cast)).c_str());
   std::printf("loss      final %.4f (occlusion %.4f distance %.4f normal %.4f albedo %.4f material %.4f)\n",
               rep.final_loss.total(), rep.final_loss.occlusion, rep.final_loss.distance, rep.final_loss.normal,
               rep.final_loss.albedo, rep.final_loss.material);
@@ -327,6 +341,21 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
               mem.uv_cell_bytes ? format("; uv cells %.3f MiB, %u maps", double(mem.uv_cell_bytes) / 1048576.0,
                                          model.config.uv_cell_maps).c_str() : "",
               opts.csv_path().c_str());
+  if (budget) {
+    std::printf("budget    %.1f s: %u steps planned (of at most %u), %u run%s\n", double(settings.time_budget),
+                rep.planned_steps, max_steps, rep.steps,
+                rep.budget_cut ? "; the budget ran out first (a slower pace than the first steps')" : "");
+    EvalSettings es;
+    es.rays = kEvalRaysAfterBudget;
+    EvalReport ev;
+    if (Status s = evaluate_model(model, mesh, es, ev); !s) {
+      std::fprintf(stderr, "lsnif: evaluating the model: %s\n", s.message().c_str());
+      return 1;
+    }
+    std::printf("eval      occlusion %.2f%%, t error median %.3f%%, normal error median %.2f deg (%zu held-out rays, "
+                "as `lsnif eval --rays %zu`)\n", 100.0 * ev.model.accuracy, 100.0 * ev.model.t_error_median,
+                ev.model.normal_error_median, es.rays, es.rays);
+  }
   std::fflush(stdout);
   if (trained) *trained = std::move(model);
   if (report) *report = rep;

@@ -14,6 +14,9 @@
 
 namespace lsnif::cli {
 
+// Held-out rays of the evaluation `lsnif train --time-budget` prints (a few seconds on 2 cores).
+inline constexpr size_t kEvalRaysAfterBudget = 20000;
+
 struct TrainOptions {
   std::string output;
   std::string config;  // --config FILE.json: settings under those given on the command line
@@ -22,6 +25,9 @@ struct TrainOptions {
   SettingLayer given;
   std::vector<std::pair<std::string, std::string>> presets;
   uint32_t threads = 0;
+  // `lsnif train --time-budget SECONDS` (TrainSettings::time_budget; 0: none): the model reachable in
+  // that time, its held-out metrics printed after training.
+  float time_budget = 0;
   std::string csv;
   bool quiet = false;
   // `lsnif train --keep-current` (a cluster job, docs/cluster.md): keep -o when it already holds the
