@@ -41,11 +41,20 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
       rows[size_t(c)] = std::min(rows[size_t(c)], input.rows());
     }
   if (trace) {
+    // The input may already be trace->layer_input[0] (kept, not copied; moved across the resize,
+    // which may reallocate the vector).
+    const bool in_trace = !trace->layer_input.empty() && &trace->layer_input[0] == &input;
+    Matrix kept;
+    if (in_trace) kept = std::move(trace->layer_input[0]);
     trace->layer_input.resize(layers.size());
-    trace->layer_input[0] = input;
+    if (in_trace)
+      trace->layer_input[0] = std::move(kept);
+    else
+      trace->layer_input[0] = input;
     for (size_t l = 1; l < layers.size(); ++l) trace->layer_input[l].resize(layers[l].in, B);
     trace->chunk_input_rows = rows;
   }
+  const Matrix& x0 = trace ? trace->layer_input[0] : input;  // `input` may have moved (above)
   out.resize(layers.back().out, B);
   const float slope = config.leaky_slope;
 #pragma omp parallel
@@ -62,7 +71,7 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
         Eigen::Map<const Eigen::VectorXf> bias(params + v.bias_offset, v.out);
         const bool last = l + 1 == layers.size();
         // Input of this layer for the chunk.
-        const float* in_ptr = l == 0 ? input.data() + c0 * input.rows()
+        const float* in_ptr = l == 0 ? x0.data() + c0 * x0.rows()
                               : trace ? trace->layer_input[l].data() + c0 * v.in
                                       : a.data();
         Eigen::Map<const Matrix> x(in_ptr, v.in, n);

@@ -26,7 +26,8 @@ struct MlpTrace {
 };
 
 // out = MLP(input): input is input_dim x B, out becomes output_dim x B (raw, pre-activation).
-// When `trace` is given, keeps what mlp_backward needs.
+// When `trace` is given, keeps what mlp_backward needs (the input is copied into
+// trace->layer_input[0] unless it is that matrix already: a caller may write its input there).
 //
 // `input_rows` (optional, B entries): the caller promises that rows input_rows[b] and beyond of
 // column b are zero, as the encoding leaves the slots of the points a walk does not have

@@ -17,6 +17,9 @@ constexpr uint32_t kSurfaceAttempts = 16;
 // Candidates per parallel block (bounds the memory of one block; the output does not depend on it).
 constexpr size_t kMinBlock = 1024;
 constexpr size_t kMaxBlock = 65536;
+// The stream of use_surface_pool's finding rays (generate's streams are the callers', e.g. the
+// training step: far below this).
+constexpr uint64_t kSurfacePoolStream = 0xf1d5'0000'0000'0000ull;
 
 // Ray from a uniform point on the sphere (centre, radius), cosine-weighted about the direction
 // toward the centre.
@@ -65,23 +68,38 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   const float surface_fraction = settings_.surface_fraction;
   const uint64_t max_candidates = (uint64_t(1) << 20) + 1024u * uint64_t(count);
 
+  // One finding ray from the outer sphere: its first hit and the face normal facing it.
+  auto find_surface_point = [&](Rng& rng, const glm::vec3& c, float r, glm::vec3& point, glm::vec3& n) {
+    const Ray finder = sample_outer_ray(rng, c, r);
+    const ReferenceHit hit = truth_.trace_geometry(finder);
+    if (!hit.hit) return false;
+    point = finder.origin + hit.t * finder.direction;
+    n = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal : hit.geometric_normal;
+    return true;
+  };
   // Fills sample/walk for candidate `index`; returns whether it is kept.
   auto make_candidate = [&](uint64_t index, Sample& sample, RayWalk& walk) -> bool {
     Rng rng(seed, stream, index);
     Ray ray;
     bool from_surface = false;
-    if (rng.next_float() < surface_fraction) {
-      for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !from_surface; ++attempt) {
-        const Ray finder = sample_outer_ray(rng, centre, radius);
-        const ReferenceHit hit = truth_.trace_geometry(finder);
-        if (!hit.hit) continue;
-        const glm::vec3 point = finder.origin + hit.t * finder.direction;
-        const glm::vec3 n = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal
-                                                                                   : hit.geometric_normal;
+    const bool surface = rng.next_float() < surface_fraction;
+    if (surface && pool_active_) {
+      if (!pool_point_.empty()) {
+        const size_t k = size_t((uint64_t(rng.next_u32()) * pool_point_.size()) >> 32);
+        const glm::vec3& n = pool_normal_[k];
+        const float u1 = rng.next_float(), u2 = rng.next_float();
+        ray.origin = pool_point_[k] + offset * n;
+        ray.direction = sample_cosine_hemisphere(n, u1, u2);
+        from_surface = true;
+      }
+    } else if (surface) {
+      glm::vec3 point, n;
+      for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !from_surface; ++attempt)
+        from_surface = find_surface_point(rng, centre, radius, point, n);
+      if (from_surface) {
         const float u1 = rng.next_float(), u2 = rng.next_float();
         ray.origin = point + offset * n;
         ray.direction = sample_cosine_hemisphere(n, u1, u2);
-        from_surface = true;
       }
     }
     if (!from_surface) ray = sample_outer_ray(rng, centre, radius);
@@ -133,6 +151,36 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   if (tried) keep_rate_ = std::max(double(kept) / double(tried), 0.02);
   samples.resize(filled);
   walks.resize(filled);
+}
+
+void RaySampler::use_surface_pool(uint64_t seed, size_t count) {
+  pool_point_.clear();
+  pool_normal_.clear();
+  pool_active_ = count > 0;
+  if (!pool_active_) return;
+  const glm::vec3 centre = grid_.bounds.center();
+  const float radius = settings_.sphere_scale * 0.5f * grid_.bounds.diagonal();
+  std::vector<glm::vec3> point(count), normal(count);
+  std::vector<uint8_t> found(count, 0);
+  const int64_t n = int64_t(count);
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int64_t i = 0; i < n; ++i) {
+    Rng rng(seed, kSurfacePoolStream, uint64_t(i));
+    for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !found[size_t(i)]; ++attempt) {
+      const Ray finder = sample_outer_ray(rng, centre, radius);
+      const ReferenceHit hit = truth_.trace_geometry(finder);
+      if (!hit.hit) continue;
+      point[size_t(i)] = finder.origin + hit.t * finder.direction;
+      normal[size_t(i)] = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal
+                                                                                 : hit.geometric_normal;
+      found[size_t(i)] = 1;
+    }
+  }
+  for (size_t i = 0; i < count; ++i)
+    if (found[i]) {
+      pool_point_.push_back(point[i]);
+      pool_normal_.push_back(normal[i]);
+    }
 }
 
 }  // namespace lsnif

@@ -34,8 +34,17 @@ class RaySampler {
   // for a given (seed, stream, count) whatever the thread count. Uses OpenMP.
   void generate(uint64_t seed, uint64_t stream, size_t count, std::vector<Sample>& samples,
                 std::vector<RayWalk>& walks) const;
+  // Surface rays take their origins from `count` surface points found once (each the first hit of
+  // an outer ray, as generate() finds one per surface candidate, from (seed, kSurfacePoolStream))
+  // instead of tracing a finding ray per candidate: ~40% fewer Embree traces in training. Each
+  // candidate draws one point (and a fresh direction); a pool without points (every finding ray
+  // missed) gives outer rays, as generate() does when its finding rays all miss. 0 clears it.
+  void use_surface_pool(uint64_t seed, size_t count);
+  size_t surface_pool_size() const { return pool_point_.size(); }
 
  private:
+  bool pool_active_ = false;                          // use_surface_pool with count > 0
+  std::vector<glm::vec3> pool_point_, pool_normal_;  // use_surface_pool: points, normals facing their finder
   const Mesh& mesh_;
   const GroundTruth& truth_;
   const VoxelGrid& grid_;

@@ -70,6 +70,18 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// The surface-point pool of a training (RaySampler::use_surface_pool): one point per
+// kSurfaceRaysPerPoint surface rays the run may cast, at most kSurfacePoolMaxPoints (the default
+// training's ~4.9M surface rays draw from 2^20 points, each ray with its own direction and offset).
+constexpr double kSurfaceRaysPerPoint = 4.0;
+constexpr size_t kSurfacePoolMaxPoints = size_t(1) << 20;
+size_t surface_pool_points(const TrainSettings& settings) {
+  const double fresh_per_step = std::max(1.0, double(settings.batch_size) / double(settings.ray_reuse));
+  const double rays = double(ray_pool_size(settings.batch_size, settings.ray_reuse)) + double(settings.steps) * fresh_per_step;
+  const double surface_rays = rays * double(settings.sampler.surface_fraction);
+  return size_t(std::min(double(kSurfacePoolMaxPoints), std::ceil(surface_rays / kSurfaceRaysPerPoint)));
+}
+
 // Per ray and input slot (point j, level l): the 4 table entries and weights of its face cell.
 struct BatchCorners {
   std::vector<uint32_t> entry;  // B * H * L * 4
@@ -151,7 +163,6 @@ void encode_batch_backward(const Config& config, const std::vector<uint32_t>& ro
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
   const size_t per_ray = size_t(H) * L * 4;
   const size_t entries = d_table.size() / F;
-  std::fill(d_table.begin(), d_table.end(), 0.0f);
 #pragma omp parallel
   {
     const uint32_t nt = uint32_t(omp_get_num_threads()), t = uint32_t(omp_get_thread_num());
@@ -165,6 +176,8 @@ void encode_batch_backward(const Config& config, const std::vector<uint32_t>& ro
       hi = uint32_t(entries * (t + 1) / nt);
     }
     if (lo < hi) {
+      // The thread's ranges cover the table, so each zeroes its own (into its cache).
+      std::fill(d_table.begin() + ptrdiff_t(size_t(lo) * F), d_table.begin() + ptrdiff_t(size_t(hi) * F), 0.0f);
       // The levels whose entries overlap [lo, hi).
       const uint32_t l_first = config.level_of_entry(lo), l_last = std::min(L - 1, config.level_of_entry(hi - 1));
       auto prefetch_ray = [&](size_t r) {
@@ -232,7 +245,9 @@ void init_parameters(const Config& config, const TrainSettings& settings, Model&
 struct StepState {
   StepState(const Model& model, const AdamSettings& adam)
       : d_grid(model.grid.size()), d_mlp(model.mlp.size()), grid_adam(model.grid.size(), adam),
-        mlp_adam(model.mlp.size(), adam) {}
+        mlp_adam(model.mlp.size(), adam) {
+    trace.layer_input.resize(1);  // the encoder's output, the MLP's input
+  }
   std::vector<float> d_grid, d_mlp;
   Adam grid_adam, mlp_adam;
   // The ray pool (ray_pool_size rays with their walks and ground truth); a step trains on
@@ -241,7 +256,7 @@ struct StepState {
   std::vector<RayWalk> walks, fresh_walks;
   std::vector<size_t> order;        // draw_batch
   std::vector<uint32_t> batch_rows;
-  Matrix X, O, dO, dX;
+  Matrix O, dO, dX;
   MlpTrace trace;
   BatchCorners corners;
 };
@@ -343,11 +358,13 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
   if (Status s = draw_batch(sampler, config, settings, occupied, step, st, rep); !s) return s;
 
   auto t0 = Clock::now();
-  encode_batch(config, layout, model.grid.data(), st.walks, st.order, st.X, st.corners);
+  // Encoded straight into the trace that keeps the MLP's input for the backward pass (no copy).
+  Matrix& X = st.trace.layer_input[0];
+  encode_batch(config, layout, model.grid.data(), st.walks, st.order, X, st.corners);
   rep.seconds_encoding += since(t0);
 
   t0 = Clock::now();
-  mlp_forward(config, model.mlp.data(), st.X, st.O, &st.trace, st.batch_rows.data());
+  mlp_forward(config, model.mlp.data(), X, st.O, &st.trace, st.batch_rows.data());
   rep.seconds_mlp += since(t0);
 
   t0 = Clock::now();
@@ -468,13 +485,21 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
 
   GroundTruth truth;
   if (Status s = truth.build(mesh); !s) return s.context("building the Embree reference");
+  double pool_seconds = 0;
   RaySampler sampler(mesh, truth, model.voxels, config.max_points, settings.sampler);
+  // Surface origins from a pool of surface points found once (RaySampler::use_surface_pool).
+  if (settings.sampler.surface_fraction > 0) {
+    const auto t0 = Clock::now();
+    sampler.use_surface_pool(settings.seed, surface_pool_points(settings));
+    pool_seconds = since(t0);
+  }
 
   // Parameters.
   init_parameters(config, settings, model);
   StepState st(model, settings.adam);
 
   TrainReport rep;
+  rep.seconds_sampling += pool_seconds;
   if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material,surface\n";
   rep.occupied_voxels = occupied;
   // The run's steps: settings.steps, or under a time budget what it holds (planned after a few steps
