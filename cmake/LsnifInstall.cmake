@@ -8,6 +8,7 @@
 # include/lsnif/core/model.h, included as "lsnif/core/model.h", so no installed name can shadow a
 # consumer's own config.h, model.h or host_device.h.
 #   tools      lsnif-tools         bin/lsnif
+#   python     python3-lsnif       lib/python3/dist-packages/lsnif (the Python module, docs/python.md)
 # Every installed file is relocatable: the config and lsnif.pc locate the prefix from their own path.
 include(CMakePackageConfigHelpers)
 
@@ -20,6 +21,10 @@ endif()
 if(LSNIF_BUILD_TOOLS)
   list(APPEND LSNIF_COMPONENTS tools)
   list(APPEND LSNIF_PACKAGES lsnif-tools)
+endif()
+if(LSNIF_BUILD_PYTHON)
+  list(APPEND LSNIF_COMPONENTS python)
+  list(APPEND LSNIF_PACKAGES python3-lsnif)
 endif()
 
 set(LSNIF_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/lsnif)
@@ -80,6 +85,17 @@ if(LSNIF_BUILD_TOOLS)
   install(TARGETS lsnif RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT tools)
   # The OpenImageIO module it opens at its first image call, where it looks for it (src/lsnif/image).
   install(TARGETS lsnif_image_oiio LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/lsnif COMPONENT tools)
+endif()
+
+# ---- the Python module: the package lsnif (its extension finds the installed liblsnif_vk beside it)
+if(LSNIF_BUILD_PYTHON)
+  set(LSNIF_PYTHON_INSTALL_DIR lib/python3/dist-packages CACHE STRING
+    "Where the Python package lsnif is installed, relative to the prefix (Debian's python3 reads /usr/lib/python3/dist-packages)")
+  file(RELATIVE_PATH lsnif_python_to_lib /prefix/${LSNIF_PYTHON_INSTALL_DIR}/lsnif /prefix/${CMAKE_INSTALL_LIBDIR})
+  set_target_properties(lsnif_python PROPERTIES INSTALL_RPATH "$ORIGIN/${lsnif_python_to_lib}")
+  install(TARGETS lsnif_python LIBRARY DESTINATION ${LSNIF_PYTHON_INSTALL_DIR}/lsnif COMPONENT python)
+  install(FILES ${LSNIF_PYTHON_PACKAGE_DIR}/__init__.py ${LSNIF_PYTHON_PACKAGE_DIR}/_build_info.py
+    DESTINATION ${LSNIF_PYTHON_INSTALL_DIR}/lsnif COMPONENT python)
 endif()
 
 # ---- the license in every package, where Debian keeps it
@@ -153,5 +169,12 @@ set(CPACK_DEBIAN_TOOLS_PACKAGE_RECOMMENDS "mesa-vulkan-drivers | vulkan-icd")
 # provides: it runs in the tools component's staging folder, beside the runtime component's
 # (every component is staged before any is packaged). The dependency on liblsnif-vk0 itself is the
 # versioned component dependency above.
+set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
+set(CPACK_COMPONENT_PYTHON_DESCRIPTION "LSNIF for Python 3: train, query and render from NumPy (import lsnif)")
+set(CPACK_COMPONENT_PYTHON_DEPENDS runtime)
+set(CPACK_DEBIAN_PYTHON_PACKAGE_SHLIBDEPS ON)
+# The extension is built for one Python minor version (its file name says which) and NumPy; volk
+# opens libvulkan.so.1 at run time, as the tools' does.
+set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS "${LSNIF_PYTHON_VERSION_RANGE}, python3-numpy, libvulkan1")
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS_PRIVATE_DIRS ../runtime${CPACK_PACKAGING_INSTALL_PREFIX}/${CMAKE_INSTALL_LIBDIR})
 include(CPack)

@@ -73,6 +73,8 @@ packages=(
   xvfb xauth
   nodejs curl  # the Khronos glTF validator (npm's gltf-validator, fetched below) checks the glTF we write
   slurm-wlm munge  # the cluster test: a single-node Slurm job array (tests/cluster/slurm_local.sh)
+  python3-dev pybind11-dev python3-numpy  # the Python module (src/lsnif/python, docs/python.md)
+  python3-pytest python3-matplotlib     # its tests (tests/python) and its example (samples/python)
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -54,6 +54,8 @@ const std::string kLibDir = LSNIF_INSTALL_LIBDIR;  // CMAKE_INSTALL_LIBDIR of th
 const std::string kVersion = LSNIF_VERSION;
 const std::string kBunny = std::string(LSNIF_DATA_DIR) + "/meshes/bunny00.off";
 constexpr bool kTools = LSNIF_PACKAGE_TOOLS;  // this build has the lsnif program (lsnif-tools)
+constexpr bool kPython = LSNIF_PACKAGE_PYTHON;  // this build has the Python module (python3-lsnif)
+const std::string kPythonExecutable = LSNIF_PYTHON_EXECUTABLE;  // the interpreter it is built for
 
 // ---- running things ---------------------------------------------------------------------------
 
@@ -446,6 +448,7 @@ TEST_F(Package, HelloFromTheDebPackages) {
   ASSERT_EQ(r.code, 0) << "cpack failed:\n" << r.out;
   std::set<std::string> want = {"liblsnif-vk0", "liblsnif-dev", "liblsnif-train-dev"};
   if (kTools) want.insert("lsnif-tools");
+  if (kPython) want.insert("python3-lsnif");
   std::set<std::string> got;
   std::vector<fs::path> files;
   for (const auto& entry : fs::directory_iterator(debs))
@@ -471,6 +474,11 @@ TEST_F(Package, HelloFromTheDebPackages) {
       const test::CommandResult contents = sh("dpkg-deb -c " + quote(f));
       EXPECT_TRUE(contains(contents.out, "./usr/" + kLibDir + "/lsnif/liblsnif_image_oiio.so")) << contents.out;
     }
+    if (name == "python3-lsnif") {  // the runtime, NumPy and the Python versions the extension loads in
+      for (const std::string& dep : {"liblsnif-vk0 (= " + kVersion + ")", std::string("python3-numpy"),
+                                     std::string("python3 (>= 3."), std::string("python3 (<< 3.")})
+        EXPECT_TRUE(contains(r.out, dep)) << dep << " missing:\n" << r.out;
+    }
     const test::CommandResult list = sh("dpkg-deb -c " + quote(f));
     if (name == "liblsnif-vk0") {  // the shared library (file and SONAME link) and its license, nothing else
       std::set<std::string> entries;
@@ -493,6 +501,15 @@ TEST_F(Package, HelloFromTheDebPackages) {
   ASSERT_FALSE(exe.empty());
   EXPECT_EQ(real_path(resolved_lsnif_library(exe)), real_path(usr / kLibDir / ("liblsnif_vk.so." + kVersion)));
   run_and_compare(exe, "deb");
+  if (kPython) {  // the extracted module imports, finding the extracted liblsnif_vk beside it
+    const fs::path site = usr / "lib/python3/dist-packages";
+    r = sh("PYTHONPATH=" + quote(site) + " " + quote(kPythonExecutable) +
+           " -c 'import lsnif, os; print(lsnif.__version__, os.path.realpath(lsnif._lsnif.__file__))'");
+    EXPECT_EQ(r.code, 0) << r.out;
+    EXPECT_TRUE(contains(r.out, kVersion + " " + real_path(site / "lsnif"))) << r.out;
+    r = sh("ldd " + quote(site / "lsnif") + "/_lsnif*.so");
+    EXPECT_TRUE(contains(r.out, "liblsnif_vk.so.0 => ") && !contains(r.out, "not found")) << r.out;
+  }
 }
 
 // What a consumer of the installed lsnif::vk gets: Vulkan headers and liblsnif_vk, nothing of the CPU

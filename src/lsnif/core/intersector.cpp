@@ -15,7 +15,14 @@ namespace lsnif {
 namespace {
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
-// The linear part A and translation T of `xf`, and A^-1; fails on a non-finite or singular transform.
+bool facing_culled(const glm::vec3& object_normal, const glm::vec3& object_direction, uint32_t ray_flags) {
+  const float facing = glm::dot(object_normal, object_direction);
+  return ((ray_flags & LSNIF_RAY_FLAG_CULL_BACK_FACING) && facing > 0.0f) ||
+         ((ray_flags & LSNIF_RAY_FLAG_CULL_FRONT_FACING) && facing < 0.0f);
+}
+
+}  // namespace
+
 Status split_transform(const Transform3x4& xf, glm::mat3& A, glm::vec3& T, glm::mat3& A_inv) {
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) {
@@ -30,14 +37,6 @@ Status split_transform(const Transform3x4& xf, glm::mat3& A, glm::vec3& T, glm::
   A_inv = glm::inverse(A);
   return Status::ok();
 }
-
-bool facing_culled(const glm::vec3& object_normal, const glm::vec3& object_direction, uint32_t ray_flags) {
-  const float facing = glm::dot(object_normal, object_direction);
-  return ((ray_flags & LSNIF_RAY_FLAG_CULL_BACK_FACING) && facing > 0.0f) ||
-         ((ray_flags & LSNIF_RAY_FLAG_CULL_FRONT_FACING) && facing < 0.0f);
-}
-
-}  // namespace
 
 float leaving_tmin(const Model& model, const Transform3x4& xf, glm::vec3 world_direction) {
   glm::mat3 A, A_inv;

@@ -38,6 +38,11 @@ struct Transform3x4 {
   float m[3][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
 };
 
+// The linear part A and translation T of an object-to-world transform (world = A object + T), and
+// A^-1 (object = A^-1 (world - T); normals go to world space by transpose(A^-1)). Fails on a
+// non-finite entry or a singular A.
+Status split_transform(const Transform3x4& object_to_world, glm::mat3& A, glm::vec3& T, glm::mat3& A_inv);
+
 // Intersects `count` world-space rays with the instance. Fails (hits untouched) if the transform
 // has a non-finite entry or is singular, or if the model is inconsistent. Rays with non-finite
 // origin or direction, or a zero direction, are misses. `ray_flags` (LSNIF_RAY_FLAG_CULL_*_FACING

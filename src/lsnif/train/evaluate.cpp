@@ -226,20 +226,44 @@ std::string EvalReport::to_json() const {
   return json::dump(out);
 }
 
-Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& settings,
-                      EvalReport& report) {
+namespace {
+
+// The held-out rays with their reference hits and walks (held_out_rays).
+Status draw_held_out(const Model& model, const Mesh& mesh, const GroundTruth& truth, const EvalSettings& settings,
+                     std::vector<Sample>& samples, std::vector<RayWalk>& walks) {
   if (Status s = model.validate(); !s) return s.context("evaluate");
   if (settings.rays == 0) return Status::error("evaluation needs at least one ray");
-  const auto t0 = std::chrono::steady_clock::now();
-  GroundTruth truth;
-  if (Status s = truth.build(mesh); !s) return s.context("building the Embree reference");
+  if (settings.rays > kMaxEvalRays)
+    return Status::error("%zu held-out rays asked, at most %u", settings.rays, kMaxEvalRays);
   RaySampler sampler(mesh, truth, model.voxels, model.config.max_points, settings.sampler);
-  std::vector<Sample> samples;
-  std::vector<RayWalk> walks;
   sampler.generate(settings.seed, 0, settings.rays, samples, walks);
   if (samples.size() != settings.rays)
     return Status::error("found only %zu of %zu held-out rays crossing an occupied voxel", samples.size(),
                          settings.rays);
+  return Status::ok();
+}
+
+}  // namespace
+
+Status held_out_rays(const Model& model, const Mesh& mesh, const EvalSettings& settings, std::vector<Ray>& rays) {
+  GroundTruth truth;
+  if (Status s = truth.build(mesh); !s) return s.context("building the Embree reference");
+  std::vector<Sample> samples;
+  std::vector<RayWalk> walks;
+  if (Status s = draw_held_out(model, mesh, truth, settings, samples, walks); !s) return s;
+  rays.resize(samples.size());
+  for (size_t i = 0; i < samples.size(); ++i) rays[i] = samples[i].ray;
+  return Status::ok();
+}
+
+Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& settings,
+                      EvalReport& report) {
+  const auto t0 = std::chrono::steady_clock::now();
+  GroundTruth truth;
+  if (Status s = truth.build(mesh); !s) return s.context("building the Embree reference");
+  std::vector<Sample> samples;
+  std::vector<RayWalk> walks;
+  if (Status s = draw_held_out(model, mesh, truth, settings, samples, walks); !s) return s;
 
   std::vector<Ray> rays(samples.size());
   for (size_t i = 0; i < samples.size(); ++i) rays[i] = samples[i].ray;

@@ -5,11 +5,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <iterator>
 #include <type_traits>
 
 #include "lsnif/format/file_io.h"
+#include "lsnif/core/grid_usage.h"
 #include "lsnif/import/json_text.h"
+#include "lsnif/import/training_mesh.h"
 
 namespace lsnif {
 
@@ -528,6 +531,69 @@ bool recorded_normal_maps(const std::string& record) {
   for (const SettingChoice& c : kSurfaceMapsChoices)
     if (s[name].get<std::string>() == c.name) return bakes_normal_maps(c.value);
   return false;
+}
+
+Status parse_training_record(const std::string& record, nlohmann::json& out) {
+  out = nullptr;
+  if (record.empty()) return Status::ok();
+  if (Status s = json::parse(record, "training record", out); !s) return s;
+  if (!out.is_object() || !out.contains("settings") || !out["settings"].is_object())
+    return Status::error("training record: not an object with \"settings\"");
+  return Status::ok();
+}
+
+Status model_info_json(const Model& model, bool usage, nlohmann::ordered_json& j) {
+  nlohmann::json training;
+  if (Status s = parse_training_record(model.training, training); !s) return s;
+  const MemoryBreakdown m = memory_breakdown(model);
+  const std::vector<GridLevelUsage> levels = usage ? grid_usage(model.config, model.voxels) : std::vector<GridLevelUsage>();
+  const Config& c = model.config;
+  j = nlohmann::ordered_json::object();
+  nlohmann::ordered_json table_log2 = nlohmann::ordered_json::array(), index_slots = table_log2;
+  for (uint32_t l = 0; l < c.grid_levels; ++l) {
+    // null for an indexed level
+    table_log2.push_back(c.indexed(l) ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(c.table_log2[l]));
+    index_slots.push_back(c.index_slots[l]);
+  }
+  j["config"] = c.describe();
+  j["voxel_resolution"] = c.voxel_resolution;
+  j["max_points"] = c.max_points;
+  j["grid_levels"] = c.grid_levels;
+  j["table_log2"] = table_log2;
+  j["index_slots"] = index_slots;
+  j["index_displacements"] = c.grid_index_count();
+  j["features"] = c.features;
+  j["hidden_width"] = c.hidden_width;
+  j["hidden_layers"] = c.hidden_layers;
+  j["material_count"] = c.material_count;
+  j["hit_param"] = to_string(c.hit_param);
+  j["grid_bits"] = c.grid_bits;
+  j["occupied_voxels"] = model.voxels.count_occupied();
+  j["bytes"] = {{"voxels", m.voxel_bytes},
+                {"grid", m.grid_bytes},
+                {"mlp", m.mlp_bytes},
+                {"header", m.header_bytes},
+                {"uv_cells", m.uv_cell_bytes},
+                {"total", m.total()}};
+  if (usage) {
+    nlohmann::ordered_json& grid_usage = j["grid_usage"] = nlohmann::ordered_json::array();
+    for (const GridLevelUsage& u : levels)
+      grid_usage.push_back({{"resolution", u.resolution},
+                            {"vertices", u.vertices},
+                            {"table_entries", u.table_entries},
+                            {"entries_used", u.entries_used},
+                            {"entries_shared", u.entries_shared},
+                            {"vertices_in_shared", u.vertices_in_shared},
+                            {"indexed_slots", u.indexed_slots},
+                            {"indexed_buckets", u.indexed_buckets}});
+  }
+  j["training"] = training;  // as recorded (null when none is)
+  return Status::ok();
+}
+
+std::string recorded_mesh_name(const std::string& path) {
+  const std::filesystem::path file = std::filesystem::path(path).filename();
+  return file.extension() == kTrainingMeshExtension ? file.stem().string() : file.string();
 }
 
 std::string training_record(const TrainSettings& settings, const Mesh& mesh, const std::string& mesh_name,

@@ -96,6 +96,23 @@ uint64_t fnv1a64(std::string_view bytes);
 // 64-bit FNV-1a of the mesh's contents (geometry, attributes, materials, textures).
 uint64_t mesh_hash(const Mesh& mesh);
 
+// A model's training record (Model::training), parsed: null when none is recorded (a version 1
+// file). The record is untrusted text: one that does not parse, or is not an object with
+// "settings", is an error.
+Status parse_training_record(const std::string& record, nlohmann::json& out);
+
+// What `lsnif info --json` prints of a model (and the Python module's Model.info gives): its
+// configuration ("config" in words, then every field), the occupied voxels, the memory breakdown
+// ("bytes": voxels, grid, mlp, header, uv_cells, total), with `grid_usage` the usage of every grid
+// level (grid_usage.h), and the training record parsed ("training", null when none). Fails only on a
+// training record that does not parse.
+Status model_info_json(const Model& model, bool grid_usage, nlohmann::ordered_json& out);
+
+// The name a training record gives the mesh read from `path`: its file name, or for a training mesh
+// file (training_mesh.h: a cluster job's, written for the object its stem names) that object, as the
+// converter's own training names it.
+std::string recorded_mesh_name(const std::string& path);
+
 // The training record a model stores (Model::training, docs/model-format.md): compact JSON
 // {"settings": {...}, "mesh": {"name", "triangles", "hash"}, "threads": N}.
 std::string training_record(const TrainSettings& settings, const Mesh& mesh, const std::string& mesh_name,

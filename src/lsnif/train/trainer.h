@@ -96,6 +96,10 @@ Status model_layout(const Mesh& mesh, const TrainSettings& settings, Config& con
                     std::vector<uint16_t>& grid_index);
 
 inline constexpr double kMaxTimeBudget = 7 * 86400.0;  // TrainSettings::time_budget: a week
+// The most worker threads a caller may ask for (the tools' --threads, the Python module's threads;
+// 0 = all cores). More than the cores only adds switching; far more exhausts the address space
+// with thread stacks (each reserves megabytes).
+inline constexpr uint32_t kMaxThreads = 256;
 
 struct TrainReport {
   double seconds = 0;             // wall time of the training loop

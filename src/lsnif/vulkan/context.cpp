@@ -124,6 +124,11 @@ void Context::destroy_device() {
   device_ = VK_NULL_HANDLE;
 }
 
+void Context::make_current() const {
+  if (instance_) volkLoadInstance(instance_);
+  if (device_) volkLoadDevice(device_);
+}
+
 Context::~Context() {
   destroy_device();
   if (messenger_) vkDestroyDebugUtilsMessengerEXT(instance_, messenger_, nullptr);

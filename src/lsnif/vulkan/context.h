@@ -196,6 +196,10 @@ class Context {
   // what validation reports at vkDestroyDevice (leaked objects) is counted. init() is not
   // possible afterwards; everything created on the device must be released before.
   void destroy_device();
+  // Points volk's process-wide Vulkan functions at this context's instance and device. The tools
+  // hold one context; a process holding several (the Python module's devices) calls it before using
+  // one, one context at a time.
+  void make_current() const;
   VkPhysicalDevice physical_device() const { return physical_; }
   // Whether the device was created with the scalarBlockLayout feature (enabled when offered).
   bool scalar_block_layout() const { return scalar_block_layout_; }

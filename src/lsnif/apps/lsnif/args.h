@@ -9,18 +9,18 @@
 
 #include "lsnif/format/number_text.h"  // parse_u32 ... for option values
 #include "lsnif/import/mesh.h"
+#include "lsnif/renderer/render_defaults.h"
+#include "lsnif/train/evaluate.h"
+#include "lsnif/train/trainer.h"
 
 namespace lsnif::cli {
 
-// The most worker threads any --threads takes (0 = all cores). More than the cores only adds
-// switching; far more exhausts the address space with thread stacks (each reserves megabytes).
-inline constexpr uint32_t kMaxThreads = 256;
-// Ranges several commands share: an image side (pixels), samples per pixel, path bounces.
-inline constexpr uint32_t kMaxImageSide = 16384, kMaxSpp = 1u << 20, kMaxBounces = 64;
-// Held-out evaluation rays (eval, convert, demo, bench-size): each holds ~1.8 KB of host memory
-// (its reference hit, the model's walk and answer, the per-ray errors; 10^6 rays measured 1.8 GB
-// resident on the elephant).
-inline constexpr uint32_t kMaxEvalRays = 1u << 20;
+// The ranges several commands share, defined where the library takes the values (the Python module
+// checks the same): worker threads (kMaxThreads, trainer.h), an image side, samples per pixel, path
+// bounces (render_defaults.h), held-out evaluation rays (kMaxEvalRays, evaluate.h).
+using render::kMaxBounces;
+using render::kMaxImageSide;
+using render::kMaxSpp;
 
 class Args {
  public:

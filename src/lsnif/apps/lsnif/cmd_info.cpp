@@ -13,17 +13,6 @@ namespace lsnif::cli {
 
 namespace {
 
-// The model's training record, parsed; null when none is recorded (a version 1 file). The record
-// is untrusted text: an unreadable one is an error.
-Status read_training(const Model& model, nlohmann::json& out) {
-  out = nullptr;
-  if (model.training.empty()) return Status::ok();
-  if (Status s = json::parse(model.training, "training record", out); !s) return s;
-  if (!out.is_object() || !out.contains("settings") || !out["settings"].is_object())
-    return Status::error("training record: not an object with \"settings\"");
-  return Status::ok();
-}
-
 // "name=value" of every recorded setting, in table order, wrapped to lines of about 100 columns;
 // keys the table does not know (a newer writer's) after them.
 std::string settings_lines(const nlohmann::json& settings, const char* indent) {
@@ -74,7 +63,7 @@ int cmd_info(int argc, char** argv) {
     return 1;
   }
   nlohmann::json training;
-  if (Status s = read_training(model, training); !s) {
+  if (Status s = parse_training_record(model.training, training); !s) {
     std::fprintf(stderr, "lsnif info: %s: %s\n", printable(path).c_str(), s.message().c_str());
     return 1;
   }
@@ -94,54 +83,19 @@ int cmd_info(int argc, char** argv) {
     std::printf("%s\n", json::dump(ordered).c_str());
     return 0;
   }
+  if (json) {
+    nlohmann::ordered_json j;
+    if (Status s = model_info_json(model, usage, j); !s) {
+      std::fprintf(stderr, "lsnif info: %s: %s\n", printable(path).c_str(), s.message().c_str());
+      return 1;
+    }
+    std::printf("%s\n", json::dump(j).c_str());
+    return 0;
+  }
   const MemoryBreakdown m = memory_breakdown(model);
   const std::vector<GridLevelUsage> levels = usage ? grid_usage(model.config, model.voxels) : std::vector<GridLevelUsage>();
   const Config& c = model.config;
   const Aabb& b = model.bounds();
-  if (json) {
-    nlohmann::ordered_json table_log2 = nlohmann::ordered_json::array(), index_slots = table_log2;
-    for (uint32_t l = 0; l < c.grid_levels; ++l) {
-      // null for an indexed level
-      table_log2.push_back(c.indexed(l) ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(c.table_log2[l]));
-      index_slots.push_back(c.index_slots[l]);
-    }
-    nlohmann::ordered_json j;
-    j["config"] = c.describe();
-    j["voxel_resolution"] = c.voxel_resolution;
-    j["max_points"] = c.max_points;
-    j["grid_levels"] = c.grid_levels;
-    j["table_log2"] = table_log2;
-    j["index_slots"] = index_slots;
-    j["index_displacements"] = c.grid_index_count();
-    j["features"] = c.features;
-    j["hidden_width"] = c.hidden_width;
-    j["hidden_layers"] = c.hidden_layers;
-    j["material_count"] = c.material_count;
-    j["hit_param"] = to_string(c.hit_param);
-    j["grid_bits"] = c.grid_bits;
-    j["occupied_voxels"] = model.voxels.count_occupied();
-    j["bytes"] = {{"voxels", m.voxel_bytes},
-                  {"grid", m.grid_bytes},
-                  {"mlp", m.mlp_bytes},
-                  {"header", m.header_bytes},
-                  {"uv_cells", m.uv_cell_bytes},
-                  {"total", m.total()}};
-    if (usage) {
-      nlohmann::ordered_json& grid_usage = j["grid_usage"] = nlohmann::ordered_json::array();
-      for (const GridLevelUsage& u : levels)
-        grid_usage.push_back({{"resolution", u.resolution},
-                              {"vertices", u.vertices},
-                              {"table_entries", u.table_entries},
-                              {"entries_used", u.entries_used},
-                              {"entries_shared", u.entries_shared},
-                              {"vertices_in_shared", u.vertices_in_shared},
-                              {"indexed_slots", u.indexed_slots},
-                              {"indexed_buckets", u.indexed_buckets}});
-    }
-    j["training"] = training;  // as recorded (null when none is)
-    std::printf("%s\n", json::dump(j).c_str());
-    return 0;
-  }
   // Per level: "2^15 + 2^17" or "43190 (indexed) + 2^17".
   std::string table_entries_text;
   for (uint32_t l = 0; l < c.grid_levels; ++l)

@@ -11,7 +11,6 @@
 #include "lsnif/format/atomic_file.h"
 #include "lsnif/format/folder_lock.h"
 #include "lsnif/import/mesh.h"
-#include "lsnif/import/training_mesh.h"
 #include "lsnif/train/evaluate.h"
 #include "lsnif/apps/common/progress.h"
 
@@ -312,11 +311,7 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
   // A budget's run is the run of the steps it planned (its schedule's): the record says so.
   const uint32_t max_steps = settings.steps;
   if (budget) settings.steps = rep.planned_steps;
-  // The record names the mesh by its file name; a training mesh file (a cluster job's, written for
-  // the object its stem names) by that object, as the converter's own training names it.
-  const std::filesystem::path file = std::filesystem::path(label).filename();
-  const std::string mesh_name = file.extension() == kTrainingMeshExtension ? file.stem().string() : file.string();
-  model.training = training_record(settings, mesh, mesh_name, omp_get_max_threads());
+  model.training = training_record(settings, mesh, recorded_mesh_name(label), omp_get_max_threads());
   if (Status s = save_model(model, opts.output); !s) {
     std::fprintf(stderr, "lsnif: %s\n", s.message().c_str());
     return 1;
