@@ -85,11 +85,15 @@ def test_an_exception_in_progress_stops_the_training_and_is_raised(bunny):
 
 
 def test_a_time_budget_plans_the_steps_that_fit(bunny):
-    model = lsnif.train(bunny, tiny=True, steps=1000000, time_budget=0.5)
+    model = lsnif.train(bunny, tiny=True, steps=1000000, time_budget=1.0)
     rep = model.report
-    assert 8 <= rep["planned_steps"] < 1000000
-    assert rep["steps"] <= rep["planned_steps"]
+    assert rep["seconds"] < 2.0, "the loop ran far past its budget"
     assert model.training_record["settings"]["steps"] == rep["planned_steps"]
+    if rep["budget_cut"]:  # a host too busy to reach the first plan (step 8) in time
+        assert rep["steps"] < rep["planned_steps"]
+    else:
+        assert 8 <= rep["planned_steps"] < 1000000
+        assert rep["steps"] == rep["planned_steps"]
 
 
 def test_ctrl_c_interrupts_a_long_training_cleanly(tmp_path):

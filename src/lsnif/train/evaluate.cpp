@@ -235,6 +235,19 @@ Status draw_held_out(const Model& model, const Mesh& mesh, const GroundTruth& tr
   if (settings.rays == 0) return Status::error("evaluation needs at least one ray");
   if (settings.rays > kMaxEvalRays)
     return Status::error("%zu held-out rays asked, at most %u", settings.rays, kMaxEvalRays);
+  // The mesh must be the one the model was trained on, in the same object space: training spans the
+  // voxels over its padded bounds. Another mesh, or the same moved, scaled or with node transforms
+  // flattened into it, gives numbers that mean nothing.
+  const Aabb padded = pad_aabb(mesh.bounds()), &own = model.bounds();
+  const float tolerance = kEvalBoundsTolerance * own.diagonal();
+  if (glm::any(glm::greaterThan(glm::abs(padded.lo - own.lo), glm::vec3(tolerance))) ||
+      glm::any(glm::greaterThan(glm::abs(padded.hi - own.hi), glm::vec3(tolerance))))
+    return Status::error("the mesh is not the one the model was trained on: its padded bounds (%g %g %g) - (%g %g %g) "
+                         "are not the model's (%g %g %g) - (%g %g %g) (evaluate against the training mesh, in its "
+                         "object space: a converted glTF node's mesh without its node transform)",
+                         double(padded.lo.x), double(padded.lo.y), double(padded.lo.z), double(padded.hi.x),
+                         double(padded.hi.y), double(padded.hi.z), double(own.lo.x), double(own.lo.y),
+                         double(own.lo.z), double(own.hi.x), double(own.hi.y), double(own.hi.z));
   RaySampler sampler(mesh, truth, model.voxels, model.config.max_points, settings.sampler);
   sampler.generate(settings.seed, 0, settings.rays, samples, walks);
   if (samples.size() != settings.rays)

@@ -17,6 +17,10 @@ namespace lsnif {
 // the model's walk and answer, the per-ray errors; 10^6 rays measured 1.8 GB resident on the elephant).
 inline constexpr uint32_t kMaxEvalRays = 1u << 20;
 
+// How far (a fraction of the model's diagonal) the padded bounds of the mesh an evaluation is given
+// may lie from the model's: the same mesh read again gives the same bounds to rounding.
+inline constexpr float kEvalBoundsTolerance = 1e-4f;
+
 struct EvalSettings {
   size_t rays = 100000;
   // The reference normal: the materials' normal maps applied (what a model trained with
@@ -83,7 +87,8 @@ struct EvalReport {
 // object space; the rays evaluate_model measures the model on. Fails as evaluate_model does.
 Status held_out_rays(const Model& model, const Mesh& mesh, const EvalSettings& settings, std::vector<Ray>& rays);
 
-// `mesh` must be the mesh the model was trained on (object space).
+// `mesh` must be the mesh the model was trained on, in its object space: an error otherwise (its
+// padded bounds differ from the model's by more than kEvalBoundsTolerance).
 Status evaluate_model(const Model& model, const Mesh& mesh, const EvalSettings& settings,
                       EvalReport& report);
 

@@ -17,7 +17,7 @@ constexpr uint32_t kSurfaceAttempts = 16;
 // Candidates per parallel block (bounds the memory of one block; the output does not depend on it).
 constexpr size_t kMinBlock = 1024;
 constexpr size_t kMaxBlock = 65536;
-// The stream of use_surface_pool's finding rays (generate's streams are the callers', e.g. the
+// The stream of grow_surface_pool's finding rays (generate's streams are the callers', e.g. the
 // training step: far below this).
 constexpr uint64_t kSurfacePoolStream = 0xf1d5'0000'0000'0000ull;
 
@@ -153,34 +153,33 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   walks.resize(filled);
 }
 
-void RaySampler::use_surface_pool(uint64_t seed, size_t count) {
-  pool_point_.clear();
-  pool_normal_.clear();
-  pool_active_ = count > 0;
-  if (!pool_active_) return;
+void RaySampler::grow_surface_pool(uint64_t seed, size_t count) {
+  pool_active_ = true;
+  if (count <= pool_tried_) return;
   const glm::vec3 centre = grid_.bounds.center();
   const float radius = settings_.sphere_scale * 0.5f * grid_.bounds.diagonal();
-  std::vector<glm::vec3> point(count), normal(count);
-  std::vector<uint8_t> found(count, 0);
-  const int64_t n = int64_t(count);
-#pragma omp parallel for schedule(dynamic, 256)
-  for (int64_t i = 0; i < n; ++i) {
-    Rng rng(seed, kSurfacePoolStream, uint64_t(i));
-    for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !found[size_t(i)]; ++attempt) {
+  const size_t first = pool_tried_, n = count - first;
+  std::vector<glm::vec3> point(n), normal(n);
+  std::vector<uint8_t> found(n, 0);
+#pragma omp parallel for schedule(dynamic, 64)
+  for (int64_t j = 0; j < int64_t(n); ++j) {
+    Rng rng(seed, kSurfacePoolStream, uint64_t(first) + uint64_t(j));
+    for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !found[size_t(j)]; ++attempt) {
       const Ray finder = sample_outer_ray(rng, centre, radius);
       const ReferenceHit hit = truth_.trace_geometry(finder);
       if (!hit.hit) continue;
-      point[size_t(i)] = finder.origin + hit.t * finder.direction;
-      normal[size_t(i)] = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal
+      point[size_t(j)] = finder.origin + hit.t * finder.direction;
+      normal[size_t(j)] = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal
                                                                                  : hit.geometric_normal;
-      found[size_t(i)] = 1;
+      found[size_t(j)] = 1;
     }
   }
-  for (size_t i = 0; i < count; ++i)
-    if (found[i]) {
-      pool_point_.push_back(point[i]);
-      pool_normal_.push_back(normal[i]);
+  for (size_t j = 0; j < n; ++j)
+    if (found[j]) {
+      pool_point_.push_back(point[j]);
+      pool_normal_.push_back(normal[j]);
     }
+  pool_tried_ = count;
 }
 
 }  // namespace lsnif

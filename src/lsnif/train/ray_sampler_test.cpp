@@ -190,8 +190,8 @@ glm::dvec3 closest_point_on_triangle(const glm::dvec3& p, const glm::dvec3& a, c
   return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
-// With a finding ray per candidate, and with origins drawn from a pool of surface points found
-// once (use_surface_pool, as training does): the same geometry either way.
+// With a finding ray per candidate, and with origins drawn from a pool of surface points
+// (grow_surface_pool, as training does): the same geometry either way.
 TEST_F(RaySamplerTest, SurfaceOriginsSitAtTheOffsetWithCosineDirections) {
   for (const size_t pool : {size_t(0), size_t(4096)}) {
     SCOPED_TRACE(pool ? "surface points from a pool" : "a finding ray per candidate");
@@ -199,9 +199,12 @@ TEST_F(RaySamplerTest, SurfaceOriginsSitAtTheOffsetWithCosineDirections) {
     SamplerSettings settings;
     settings.surface_fraction = 1.0f;
     RaySampler sampler(mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
-    sampler.use_surface_pool(5, pool);
-    EXPECT_EQ(sampler.surface_pool_size() > 0, pool > 0);
-    EXPECT_LE(sampler.surface_pool_size(), pool);
+    if (pool) {
+      sampler.grow_surface_pool(5, pool / 4);
+      sampler.grow_surface_pool(5, pool);
+      EXPECT_GT(sampler.surface_pool_size(), pool / 2);
+      EXPECT_LE(sampler.surface_pool_size(), pool);
+    }
     std::vector<Sample> samples;
     std::vector<RayWalk> walks;
     sampler.generate(99, 0, 500, samples, walks);
@@ -258,6 +261,24 @@ TEST_F(RaySamplerTest, SurfaceOriginsSitAtTheOffsetWithCosineDirections) {
     const double mean = cos_sum / cos_count;
     EXPECT_NEAR(mean, 2.0 / 3.0, 4.0 * std::sqrt(1.0 / 18.0 / cos_count));
   }
+}
+
+// The pool's points are those of its finding indices, whatever steps it grew in: the samples drawn
+// from a pool grown at once and from one grown in three steps are the same, bit for bit.
+TEST_F(RaySamplerTest, ASurfacePoolIsTheSameHoweverItGrew) {
+  SamplerSettings settings;
+  settings.surface_fraction = 0.7f;
+  RaySampler at_once(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
+  RaySampler in_steps(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
+  at_once.grow_surface_pool(11, 3000);
+  for (const size_t n : {size_t(100), size_t(1700), size_t(3000), size_t(2000)}) in_steps.grow_surface_pool(11, n);
+  EXPECT_EQ(at_once.surface_pool_size(), in_steps.surface_pool_size());
+  std::vector<Sample> a, b;
+  std::vector<RayWalk> wa, wb;
+  at_once.generate(3, 1, 800, a, wa);
+  in_steps.generate(3, 1, 800, b, wb);
+  ASSERT_EQ(a.size(), 800u);
+  expect_identical(a, wa, b, wb, 800);
 }
 
 // Octahedron subdivided `levels` times onto the unit sphere; `outward` picks the winding (face

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "lsnif/testing/test_support.h"
+#include "lsnif/train/evaluate.h"
 
 namespace lsnif {
 namespace {
@@ -147,6 +148,26 @@ TEST(Trainer, LossCurveComesBackInTheReport) {
   s.loss_curve = false;
   ASSERT_TRUE(train_model(cube(), s, model, &report));
   EXPECT_TRUE(report.loss_curve.empty());
+}
+
+// The evaluation refuses a mesh other than the training mesh (here: moved by a tenth of its size,
+// or scaled): its metrics would mean nothing.
+TEST(Trainer, EvaluationRefusesAMeshTheModelWasNotTrainedOn) {
+  Model model;
+  ASSERT_TRUE(train_model(cube(), small(), model));
+  EvalSettings es;
+  es.rays = 500;
+  EvalReport report;
+  Status st = evaluate_model(model, cube(), es, report);
+  ASSERT_TRUE(st) << st.message();
+  Mesh moved = cube(), scaled = cube();
+  for (glm::vec3& p : moved.positions) p += glm::vec3(0.1f, 0.0f, 0.0f);
+  for (glm::vec3& p : scaled.positions) p *= 2.0f;
+  for (const Mesh* other : {&moved, &scaled}) {
+    st = evaluate_model(model, *other, es, report);
+    ASSERT_FALSE(st);
+    EXPECT_NE(st.message().find("not the one the model was trained on"), std::string::npos) << st.message();
+  }
 }
 
 TEST(Trainer, ReportsThroughTheCallbackAndPrintsNothing) {
