@@ -1,5 +1,7 @@
 #include "lsnif/core/network.h"
 
+#include "lsnif/core/mlp_gemm.h"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -7,23 +9,24 @@
 namespace lsnif {
 
 namespace {
-using RowMajorMap = Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
-using RowMajorMapMut = Eigen::Map<Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
-
-}  // namespace
-
-namespace {
-// The batch is processed in fixed chunks of columns, one single-threaded GEMM per chunk and
-// thread: on 2 cores this beats Eigen's own threaded GEMM several times over for these shapes,
-// and because chunk boundaries depend on the batch size alone, never on the thread count, the
-// summed weight gradients are bit-identical for any number of threads. Chunks are 512 columns, so
-// that the default training batch (4,096 rays) gives every thread work (with 4,096-column chunks it
-// ran on one core: the bunny's default training took 61.2 s with the MLP at 32.7 s; with 512,
-// 42.8 s and 16.5 s; 1,024 and 2,048 the same within noise), and wider for batches beyond 32,768
-// columns, so that there are at most 64 chunks: mlp_backward keeps a gradient per chunk.
-constexpr Eigen::Index kMinChunk = 512, kMaxChunks = 64;
-Eigen::Index chunk_size(Eigen::Index cols) { return std::max(kMinChunk, (cols + kMaxChunks - 1) / kMaxChunks); }
-long chunk_count(Eigen::Index cols) { return long((cols + chunk_size(cols) - 1) / chunk_size(cols)); }
+// The batch is processed in fixed chunks of columns, one single-threaded product per chunk, layer
+// and thread (mlp_gemm): on 2 cores this beat Eigen's own threaded GEMM several times over for these
+// shapes, and because chunk boundaries depend on the batch size alone, never on the thread count,
+// the summed weight gradients are bit-identical for any number of threads. Chunks are at most 512
+// columns, so that the default training batch (4,096 rays: 8 chunks) gives every thread work (with
+// 4,096-column chunks it ran on one core: the bunny's default training took 61.2 s with the MLP at
+// 32.7 s; with 512, 42.8 s and 16.5 s; 1,024 and 2,048 the same within noise), an even number of
+// them beyond 512 columns (two threads get the same share: a batch of 2,560 columns is 6 chunks of
+// 427, not 5 of 512), and at most 64: mlp_backward keeps a gradient per chunk.
+constexpr Eigen::Index kMaxChunkColumns = 512, kMaxChunks = 64;
+long chunk_count(Eigen::Index cols) {
+  if (cols <= kMaxChunkColumns) return 1;
+  return long(std::min<Eigen::Index>(kMaxChunks, 2 * ((cols + 2 * kMaxChunkColumns - 1) / (2 * kMaxChunkColumns))));
+}
+Eigen::Index chunk_size(Eigen::Index cols) {
+  const long count = chunk_count(cols);
+  return std::max<Eigen::Index>(1, (cols + count - 1) / count);
+}
 }  // namespace
 
 void mlp_forward(const Config& config, const float* params, const Matrix& input, Matrix& out,
@@ -31,7 +34,7 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
   const std::vector<LayerView> layers = mlp_layers(config);
   const Eigen::Index B = input.cols();
   const Eigen::Index chunk = chunk_size(B);
-  const long chunks = chunk_count(B);
+  const long chunks = long((B + chunk - 1) / chunk);
   // Per chunk, the leading input rows any of its columns may use.
   std::vector<Eigen::Index> rows(size_t(chunks), input.rows());
   if (input_rows)
@@ -57,6 +60,15 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
   const Matrix& x0 = trace ? trace->layer_input[0] : input;  // `input` may have moved (above)
   out.resize(layers.back().out, B);
   const float slope = config.leaky_slope;
+  // Every layer's W transposed (column-major: each input's weights of all outputs contiguous), the
+  // kernel's left operand.
+  thread_local std::vector<float> transposed;
+  transposed.resize(config.mlp_parameter_count());
+  for (const LayerView& v : layers)
+    for (uint32_t o = 0; o < v.out; ++o)
+      for (uint32_t i = 0; i < v.in; ++i)
+        transposed[v.weight_offset + size_t(i) * v.out + o] = params[v.weight_offset + size_t(o) * v.in + i];
+  const float* weights_t = transposed.data();  // the calling thread's (inside the region it would be each thread's)
 #pragma omp parallel
   {
     Matrix a, b;  // per-thread activations of one chunk when no trace is kept
@@ -67,14 +79,11 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
       const Eigen::Index c0 = c * chunk, n = std::min(chunk, B - c0);
       for (size_t l = 0; l < layers.size(); ++l) {
         const LayerView& v = layers[l];
-        RowMajorMap W(params + v.weight_offset, v.out, v.in);
-        Eigen::Map<const Eigen::VectorXf> bias(params + v.bias_offset, v.out);
         const bool last = l + 1 == layers.size();
         // Input of this layer for the chunk.
         const float* in_ptr = l == 0 ? x0.data() + c0 * x0.rows()
                               : trace ? trace->layer_input[l].data() + c0 * v.in
                                       : a.data();
-        Eigen::Map<const Matrix> x(in_ptr, v.in, n);
         float* out_ptr;
         if (last) {
           out_ptr = out.data() + c0 * v.out;
@@ -84,36 +93,31 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
           b.resize(v.out, n);
           out_ptr = b.data();
         }
-        Eigen::Map<Matrix> y(out_ptr, v.out, n);
-        if (l == 0) {
-          const Eigen::Index k = rows[size_t(c)];
-          if (k > 0)
-            y.noalias() = W.leftCols(k) * x.topRows(k);
-          else
-            y.setZero();
-        } else {
-          y.noalias() = W * x;
-        }
-        y.colwise() += bias;
-        if (!last) {
-          y = y.cwiseMax(slope * y);  // leaky ReLU (0 <= slope < 1)
-          if (!trace) a.swap(b);
-        }
+        // y = W x + bias, then the leaky ReLU (0 <= slope < 1) but after the last layer; the first
+        // layer reads only the chunk's leading `rows` inputs.
+        GemmOperands op;
+        op.M = v.out;
+        op.N = n;
+        op.K = l == 0 ? rows[size_t(c)] : Eigen::Index(v.in);
+        op.A = weights_t + v.weight_offset;
+        op.a_k = v.out;
+        op.B = in_ptr;
+        op.b_k = 1;
+        op.b_n = l == 0 ? x0.rows() : Eigen::Index(v.in);
+        op.C = out_ptr;
+        op.c_n = v.out;
+        GemmEpilogue e;
+        e.bias = params + v.bias_offset;
+        e.leaky = !last;
+        e.slope = slope;
+        mlp_gemm(op, e);
+        if (!last && !trace) a.swap(b);
       }
     }
   }
 }
 
 namespace {
-// dz = dx * leaky'(z), written from the activation x = leaky(z) (x > 0 exactly where z > 0). A
-// separate function with restrict parameters so that GCC vectorizes it.
-void leaky_backward(float* __restrict dz, const float* __restrict dx, const float* __restrict x,
-                    float slope, Eigen::Index n) {
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const float gain = x[i] > 0.0f ? 1.0f : slope;  // this form vectorizes, "? dx : slope*dx" does not
-    dz[i] = dx[i] * gain;
-  }
-}
 // out[r] = sum over columns c of m(r, c), summed in column order for every r. Eigen's
 // rowwise().sum() treats an alignment-dependent head and tail of rows with another summation
 // order, which made gradients depend on where the heap put the buffers (caught by the
@@ -131,51 +135,85 @@ void mlp_backward(const Config& config, const float* params, const MlpTrace& tra
   const Eigen::Index B = d_out.cols();
   const size_t P = config.mlp_parameter_count();
   const Eigen::Index chunk = chunk_size(B);
-  const long chunks = chunk_count(B);
-  std::vector<float> partial(size_t(chunks) * P);
+  const long chunks = long((B + chunk - 1) / chunk);
+  // Each chunk's gradient, every parameter written (kept between calls: no allocation per step).
+  thread_local std::vector<float> partial;
+  partial.resize(size_t(chunks) * P);
+  float* const partial_sums = partial.data();  // the calling thread's (inside the region it would be each thread's)
   const float slope = config.leaky_slope;
   Eigen::Index widest = 0;
   for (const LayerView& v : layers) widest = std::max<Eigen::Index>(widest, std::max(v.in, v.out));
   if (d_input) d_input->resize(config.input_dim(), B);
 #pragma omp parallel
   {
-    // Per-thread scratch, allocated once: the gradient w.r.t. the current layer's pre-activation
-    // (delta) and w.r.t. its input (prev).
-    std::vector<float> delta_buf(size_t(widest * chunk)), prev_buf(size_t(widest * chunk));
+
+    // Per-thread scratch, kept between calls: the gradient w.r.t. the current layer's
+    // pre-activation (delta), two of them used in turn.
+    thread_local std::vector<float> delta_buf[2];
+    for (std::vector<float>& d : delta_buf) d.resize(size_t(widest * chunk));
 #pragma omp for schedule(dynamic, 1)
     for (long c = 0; c < chunks; ++c) {
       const Eigen::Index c0 = c * chunk, n = std::min(chunk, B - c0);
-      float* dp = partial.data() + size_t(c) * P;
+      float* dp = partial_sums + size_t(c) * P;
       const float* delta_ptr = d_out.data() + c0 * d_out.rows();
       for (size_t li = layers.size(); li-- > 0;) {
         const LayerView& v = layers[li];
-        Eigen::Map<const Matrix> delta(delta_ptr, v.out, n);
-        Eigen::Map<const Matrix> x(trace.layer_input[li].data() + c0 * v.in, v.in, n);
-        RowMajorMapMut dW(dp + v.weight_offset, v.out, v.in);
-        RowMajorMap W(params + v.weight_offset, v.out, v.in);
+        const float* x = trace.layer_input[li].data() + c0 * v.in;
+        // The first layer: only the input rows the forward pass read (the others are zero).
+        const Eigen::Index k = li > 0 || trace.chunk_input_rows.empty() ? Eigen::Index(v.in)
+                                                                        : trace.chunk_input_rows[size_t(c)];
         sum_columns(dp + v.bias_offset, delta_ptr, v.out, n);
-        if (li == 0) {  // only the input rows the forward pass read (the others are zero)
-          const Eigen::Index k = trace.chunk_input_rows.empty() ? v.in : trace.chunk_input_rows[size_t(c)];
-          dW.leftCols(k).noalias() = delta * x.topRows(k).transpose();
-          dW.rightCols(v.in - k).setZero();
-          if (d_input) {
-            d_input->middleCols(c0, n).topRows(k).noalias() = W.leftCols(k).transpose() * delta;
-            d_input->middleCols(c0, n).bottomRows(v.in - k).setZero();
-          }
+        // dW^T (in x out, column-major: dW row-major) = x delta^T, summed over the chunk's columns.
+        GemmOperands gw;
+        gw.M = k;
+        gw.N = v.out;
+        gw.K = n;
+        gw.A = x;
+        gw.a_k = v.in;
+        gw.B = delta_ptr;
+        gw.b_k = v.out;
+        gw.b_n = 1;
+        gw.C = dp + v.weight_offset;
+        gw.c_n = v.in;
+        mlp_gemm(gw);
+        if (k < Eigen::Index(v.in))
+          for (uint32_t o = 0; o < v.out; ++o)
+            std::fill(dp + v.weight_offset + size_t(o) * v.in + size_t(k), dp + v.weight_offset + size_t(o + 1) * v.in, 0.0f);
+        if (li == 0 && !d_input) break;
+        // d(input) = W^T delta; below the first layer through the leaky ReLU that made x.
+        GemmOperands gx;
+        gx.M = k;
+        gx.N = n;
+        gx.K = v.out;
+        gx.A = params + v.weight_offset;
+        gx.a_k = v.in;
+        gx.B = delta_ptr;
+        gx.b_k = 1;
+        gx.b_n = v.out;
+        GemmEpilogue e;
+        if (li == 0) {
+          gx.C = d_input->data() + c0 * d_input->rows();
+          gx.c_n = d_input->rows();
+          mlp_gemm(gx);
+          for (Eigen::Index col = 0; col < n; ++col)
+            std::fill(gx.C + col * gx.c_n + k, gx.C + col * gx.c_n + v.in, 0.0f);
           break;
         }
-        dW.noalias() = delta * x.transpose();
-        Eigen::Map<Matrix> prev(prev_buf.data(), v.in, n);
-        prev.noalias() = W.transpose() * delta;
-        leaky_backward(delta_buf.data(), prev_buf.data(), x.data(), slope, v.in * n);
-        delta_ptr = delta_buf.data();
+        float* next = delta_buf[li % 2].data();
+        gx.C = next;
+        gx.c_n = v.in;
+        e.gate = x;
+        e.gate_n = v.in;
+        e.slope = slope;
+        mlp_gemm(gx, e);
+        delta_ptr = next;
       }
     }
     // Sum the chunks' gradients in chunk order (deterministic), split over parameters.
 #pragma omp for schedule(static)
     for (long i = 0; i < long(P); ++i) {
       float sum = 0.0f;
-      for (long c = 0; c < chunks; ++c) sum += partial[size_t(c) * P + size_t(i)];
+      for (long c = 0; c < chunks; ++c) sum += partial_sums[size_t(c) * P + size_t(i)];
       d_params[i] += sum;
     }
   }

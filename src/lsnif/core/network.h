@@ -40,8 +40,8 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
 
 // Given d(loss)/d(out), accumulates d(loss)/d(params) into d_params (same layout, not cleared) and,
 // if d_input is given, writes d(loss)/d(input). After a forward pass given `input_rows`, the
-// gradients equal the full products' to float rounding (Eigen blocks the smaller products
-// differently), and d_input is zero on the rows beyond those the column's chunk used.
+// gradients equal the full products' (to float rounding at most), and d_input is zero on the rows
+// beyond those the column's chunk used.
 void mlp_backward(const Config& config, const float* params, const MlpTrace& trace,
                   const Matrix& d_out, float* d_params, Matrix* d_input);
 

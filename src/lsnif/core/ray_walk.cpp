@@ -153,6 +153,11 @@ uint32_t walk_ray(const VoxelGrid& grid, const Ray& ray, uint32_t max_points, Ra
 
   int cell[3] = {s.cell[0], s.cell[1], s.cell[2]};
   float t_next[3] = {s.t_ahead[0], s.t_ahead[1], s.t_ahead[2]};
+  // The crossing of the plane after each axis's next one, found one step ahead: the division is
+  // then off the chain from one event to the next (the same values, computed earlier).
+  float t_after[3];
+  for (int a = 0; a < 3; ++a)
+    t_after[a] = s.step[a] != 0 ? plane_t(s.o, s.d, a, cell[a] + (s.step[a] > 0 ? 1 : 0) + s.step[a], Vf) : kInf;
   bool occupied_now = grid.occupied(cell[0], cell[1], cell[2]);
   bool on_plane[3];
   int plane[3];
@@ -183,7 +188,8 @@ uint32_t walk_ray(const VoxelGrid& grid, const Ray& ray, uint32_t max_points, Ra
       if (on_plane[a]) {
         cell[a] += s.step[a];
         inside = inside && cell[a] >= 0 && cell[a] < V;
-        t_next[a] = plane_t(s.o, s.d, a, cell[a] + up, Vf);
+        t_next[a] = t_after[a];  // plane_t(s.o, s.d, a, cell[a] + up, Vf)
+        t_after[a] = plane_t(s.o, s.d, a, cell[a] + up + s.step[a], Vf);
       }
     }
     occupied_now = inside && grid.occupied(cell[0], cell[1], cell[2]);

@@ -17,9 +17,6 @@ constexpr uint32_t kSurfaceAttempts = 16;
 // Candidates per parallel block (bounds the memory of one block; the output does not depend on it).
 constexpr size_t kMinBlock = 1024;
 constexpr size_t kMaxBlock = 65536;
-// The stream of grow_surface_pool's finding rays (generate's streams are the callers', e.g. the
-// training step: far below this).
-constexpr uint64_t kSurfacePoolStream = 0xf1d5'0000'0000'0000ull;
 
 // Ray from a uniform point on the sphere (centre, radius), cosine-weighted about the direction
 // toward the centre.
@@ -31,6 +28,19 @@ Ray sample_outer_ray(Rng& rng, const glm::vec3& centre, float radius) {
   ray.origin = centre + radius * outward;
   ray.direction = sample_cosine_hemisphere(-outward, u3, u4);
   return ray;
+}
+
+// dst = src in what a walk holds: its header and its recorded points (the ~5 of a walk's 32 slots
+// that it uses, not the whole 560 bytes).
+void copy_walk(const RayWalk& src, RayWalk& dst) {
+  dst.count = src.count;
+  dst.truncated = src.truncated;
+  dst.hits_aabb = src.hits_aabb;
+  dst.t_enter = src.t_enter;
+  dst.t_exit = src.t_exit;
+  std::copy(src.t, src.t + src.count, dst.t);
+  std::copy(src.p, src.p + src.count, dst.p);
+  std::copy(src.axis, src.axis + src.count, dst.axis);
 }
 
 }  // namespace
@@ -68,38 +78,23 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   const float surface_fraction = settings_.surface_fraction;
   const uint64_t max_candidates = (uint64_t(1) << 20) + 1024u * uint64_t(count);
 
-  // One finding ray from the outer sphere: its first hit and the face normal facing it.
-  auto find_surface_point = [&](Rng& rng, const glm::vec3& c, float r, glm::vec3& point, glm::vec3& n) {
-    const Ray finder = sample_outer_ray(rng, c, r);
-    const ReferenceHit hit = truth_.trace_geometry(finder);
-    if (!hit.hit) return false;
-    point = finder.origin + hit.t * finder.direction;
-    n = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal : hit.geometric_normal;
-    return true;
-  };
   // Fills sample/walk for candidate `index`; returns whether it is kept.
   auto make_candidate = [&](uint64_t index, Sample& sample, RayWalk& walk) -> bool {
     Rng rng(seed, stream, index);
     Ray ray;
     bool from_surface = false;
-    const bool surface = rng.next_float() < surface_fraction;
-    if (surface && pool_active_) {
-      if (!pool_point_.empty()) {
-        const size_t k = size_t((uint64_t(rng.next_u32()) * pool_point_.size()) >> 32);
-        const glm::vec3& n = pool_normal_[k];
-        const float u1 = rng.next_float(), u2 = rng.next_float();
-        ray.origin = pool_point_[k] + offset * n;
-        ray.direction = sample_cosine_hemisphere(n, u1, u2);
-        from_surface = true;
-      }
-    } else if (surface) {
-      glm::vec3 point, n;
-      for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !from_surface; ++attempt)
-        from_surface = find_surface_point(rng, centre, radius, point, n);
-      if (from_surface) {
+    if (rng.next_float() < surface_fraction) {
+      for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !from_surface; ++attempt) {
+        const Ray finder = sample_outer_ray(rng, centre, radius);
+        const ReferenceHit hit = truth_.trace_geometry(finder);
+        if (!hit.hit) continue;
+        const glm::vec3 point = finder.origin + hit.t * finder.direction;
+        const glm::vec3 n = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal
+                                                                                   : hit.geometric_normal;
         const float u1 = rng.next_float(), u2 = rng.next_float();
         ray.origin = point + offset * n;
         ray.direction = sample_cosine_hemisphere(n, u1, u2);
+        from_surface = true;
       }
     }
     if (!from_surface) ray = sample_outer_ray(rng, centre, radius);
@@ -108,8 +103,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     if (walk_ray(grid_, ray, max_points_, walk) == 0) return false;
     sample.ray = ray;
     sample.from_surface = from_surface;
-    sample.reference = truth_.trace(ray);
-    return true;
+    return true;  // its reference hit once it is among the samples (below)
   };
 
   std::vector<Sample> block_samples;
@@ -144,42 +138,17 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
       const size_t at = slot[size_t(j)];
       if (at == SIZE_MAX) continue;
       samples[at] = block_samples[size_t(j)];
-      walks[at] = block_walks[size_t(j)];
+      copy_walk(block_walks[size_t(j)], walks[at]);
     }
     next += block;
   }
+  // The reference hits of the samples alone (not of the kept candidates beyond `count`).
+  const int64_t found = int64_t(filled);
+#pragma omp parallel for schedule(dynamic, 64)
+  for (int64_t j = 0; j < found; ++j) samples[size_t(j)].reference = truth_.trace(samples[size_t(j)].ray);
   if (tried) keep_rate_ = std::max(double(kept) / double(tried), 0.02);
   samples.resize(filled);
   walks.resize(filled);
-}
-
-void RaySampler::grow_surface_pool(uint64_t seed, size_t count) {
-  pool_active_ = true;
-  if (count <= pool_tried_) return;
-  const glm::vec3 centre = grid_.bounds.center();
-  const float radius = settings_.sphere_scale * 0.5f * grid_.bounds.diagonal();
-  const size_t first = pool_tried_, n = count - first;
-  std::vector<glm::vec3> point(n), normal(n);
-  std::vector<uint8_t> found(n, 0);
-#pragma omp parallel for schedule(dynamic, 64)
-  for (int64_t j = 0; j < int64_t(n); ++j) {
-    Rng rng(seed, kSurfacePoolStream, uint64_t(first) + uint64_t(j));
-    for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !found[size_t(j)]; ++attempt) {
-      const Ray finder = sample_outer_ray(rng, centre, radius);
-      const ReferenceHit hit = truth_.trace_geometry(finder);
-      if (!hit.hit) continue;
-      point[size_t(j)] = finder.origin + hit.t * finder.direction;
-      normal[size_t(j)] = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal
-                                                                                 : hit.geometric_normal;
-      found[size_t(j)] = 1;
-    }
-  }
-  for (size_t j = 0; j < n; ++j)
-    if (found[j]) {
-      pool_point_.push_back(point[j]);
-      pool_normal_.push_back(normal[j]);
-    }
-  pool_tried_ = count;
 }
 
 }  // namespace lsnif

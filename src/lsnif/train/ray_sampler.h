@@ -34,20 +34,8 @@ class RaySampler {
   // for a given (seed, stream, count) whatever the thread count. Uses OpenMP.
   void generate(uint64_t seed, uint64_t stream, size_t count, std::vector<Sample>& samples,
                 std::vector<RayWalk>& walks) const;
-  // Surface rays take their origins from a pool of surface points (each the first hit of an outer
-  // ray, as generate() finds one per surface candidate without a pool) instead of tracing a finding
-  // ray per candidate: ~40% fewer Embree traces in training. grow_surface_pool(seed, n) makes the
-  // pool hold the points of the first n finding indices of (seed, kSurfacePoolStream) (growing it,
-  // never shrinking; the points do not depend on how it grew); from the first call on, each surface
-  // candidate draws one point of the pool (and a fresh direction). A pool without points (every
-  // finding ray missed) gives outer rays, as generate() does when its finding rays all miss.
-  void grow_surface_pool(uint64_t seed, size_t count);
-  size_t surface_pool_size() const { return pool_point_.size(); }
 
  private:
-  bool pool_active_ = false;                          // grow_surface_pool was called
-  size_t pool_tried_ = 0;                             // finding indices tried so far
-  std::vector<glm::vec3> pool_point_, pool_normal_;  // points, normals facing their finder
   const Mesh& mesh_;
   const GroundTruth& truth_;
   const VoxelGrid& grid_;

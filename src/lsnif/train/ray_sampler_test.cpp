@@ -190,95 +190,66 @@ glm::dvec3 closest_point_on_triangle(const glm::dvec3& p, const glm::dvec3& a, c
   return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
-// With a finding ray per candidate, and with origins drawn from a pool of surface points
-// (grow_surface_pool, as training does): the same geometry either way.
 TEST_F(RaySamplerTest, SurfaceOriginsSitAtTheOffsetWithCosineDirections) {
-  for (const size_t pool : {size_t(0), size_t(4096)}) {
-    SCOPED_TRACE(pool ? "surface points from a pool" : "a finding ray per candidate");
-    const Mesh& mesh = scene_->mesh;
-    SamplerSettings settings;
-    settings.surface_fraction = 1.0f;
-    RaySampler sampler(mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
-    if (pool) {
-      sampler.grow_surface_pool(5, pool / 4);
-      sampler.grow_surface_pool(5, pool);
-      EXPECT_GT(sampler.surface_pool_size(), pool / 2);
-      EXPECT_LE(sampler.surface_pool_size(), pool);
-    }
-    std::vector<Sample> samples;
-    std::vector<RayWalk> walks;
-    sampler.generate(99, 0, 500, samples, walks);
-    ASSERT_EQ(samples.size(), 500u);
-    const double offset = double(settings.surface_offset) * double(scene_->grid.bounds.diagonal());
-
-    std::vector<Aabb> boxes(mesh.triangles.size());
-    for (size_t t = 0; t < mesh.triangles.size(); ++t)
-      for (int k = 0; k < 3; ++k) boxes[t].grow(mesh.positions[mesh.triangles[t][k]]);
-
-    double cos_sum = 0.0;
-    int cos_count = 0, at_offset = 0, surface = 0;
-    for (size_t i = 0; i < samples.size(); ++i) {
-      const Sample& s = samples[i];
-      if (!s.from_surface) continue;  // an outer fallback (all finding rays missed): rare
-      ++surface;
-      // Brute-force closest triangle to the origin.
-      const glm::dvec3 o(s.ray.origin);
-      double best = std::numeric_limits<double>::infinity();
-      uint32_t best_tri = 0;
-      bool best_interior = false;
-      for (uint32_t t = 0; t < uint32_t(mesh.triangles.size()); ++t) {
-        const glm::dvec3 q = glm::clamp(o, glm::dvec3(boxes[t].lo), glm::dvec3(boxes[t].hi));
-        if (glm::distance(q, o) >= best) continue;
-        const glm::uvec3 tri = mesh.triangles[t];
-        bool interior = false;
-        const glm::dvec3 c = closest_point_on_triangle(o, glm::dvec3(mesh.positions[tri.x]),
-                                                       glm::dvec3(mesh.positions[tri.y]),
-                                                       glm::dvec3(mesh.positions[tri.z]), interior);
-        const double d = glm::distance(c, o);
-        if (d < best) {
-          best = d;
-          best_tri = t;
-          best_interior = interior;
-        }
-      }
-      EXPECT_LE(best, 1.02 * offset) << "sample " << i;
-      if (best < 0.98 * offset || !best_interior) continue;  // near a crease or an edge: normal ambiguous
-      ++at_offset;
-      // The origin lies on the front of the face it was pushed off; the direction is cosine-weighted
-      // about that side's normal.
-      const glm::uvec3 tri = mesh.triangles[best_tri];
-      const glm::dvec3 p0(mesh.positions[tri.x]), p1(mesh.positions[tri.y]), p2(mesh.positions[tri.z]);
-      glm::dvec3 n = glm::normalize(glm::cross(p1 - p0, p2 - p0));
-      if (glm::dot(o - p0, n) < 0) n = -n;
-      const double cos_theta = glm::dot(glm::dvec3(s.ray.direction), n);
-      EXPECT_GT(cos_theta, 0.0) << "sample " << i;
-      cos_sum += cos_theta;
-      ++cos_count;
-    }
-    EXPECT_GT(surface, 490);
-    EXPECT_GT(at_offset, 400);
-    // E[cos] = 2/3 for a cosine-weighted hemisphere; sd of cos is sqrt(1/18), 4 standard errors.
-    const double mean = cos_sum / cos_count;
-    EXPECT_NEAR(mean, 2.0 / 3.0, 4.0 * std::sqrt(1.0 / 18.0 / cos_count));
-  }
-}
-
-// The pool's points are those of its finding indices, whatever steps it grew in: the samples drawn
-// from a pool grown at once and from one grown in three steps are the same, bit for bit.
-TEST_F(RaySamplerTest, ASurfacePoolIsTheSameHoweverItGrew) {
+  const Mesh& mesh = scene_->mesh;
   SamplerSettings settings;
-  settings.surface_fraction = 0.7f;
-  RaySampler at_once(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
-  RaySampler in_steps(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
-  at_once.grow_surface_pool(11, 3000);
-  for (const size_t n : {size_t(100), size_t(1700), size_t(3000), size_t(2000)}) in_steps.grow_surface_pool(11, n);
-  EXPECT_EQ(at_once.surface_pool_size(), in_steps.surface_pool_size());
-  std::vector<Sample> a, b;
-  std::vector<RayWalk> wa, wb;
-  at_once.generate(3, 1, 800, a, wa);
-  in_steps.generate(3, 1, 800, b, wb);
-  ASSERT_EQ(a.size(), 800u);
-  expect_identical(a, wa, b, wb, 800);
+  settings.surface_fraction = 1.0f;
+  const RaySampler sampler(mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
+  std::vector<Sample> samples;
+  std::vector<RayWalk> walks;
+  sampler.generate(99, 0, 500, samples, walks);
+  ASSERT_EQ(samples.size(), 500u);
+  const double offset = double(settings.surface_offset) * double(scene_->grid.bounds.diagonal());
+
+  std::vector<Aabb> boxes(mesh.triangles.size());
+  for (size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) boxes[t].grow(mesh.positions[mesh.triangles[t][k]]);
+
+  double cos_sum = 0.0;
+  int cos_count = 0, at_offset = 0, surface = 0;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const Sample& s = samples[i];
+    if (!s.from_surface) continue;  // an outer fallback (all finding rays missed): rare
+    ++surface;
+    // Brute-force closest triangle to the origin.
+    const glm::dvec3 o(s.ray.origin);
+    double best = std::numeric_limits<double>::infinity();
+    uint32_t best_tri = 0;
+    bool best_interior = false;
+    for (uint32_t t = 0; t < uint32_t(mesh.triangles.size()); ++t) {
+      const glm::dvec3 q = glm::clamp(o, glm::dvec3(boxes[t].lo), glm::dvec3(boxes[t].hi));
+      if (glm::distance(q, o) >= best) continue;
+      const glm::uvec3 tri = mesh.triangles[t];
+      bool interior = false;
+      const glm::dvec3 c = closest_point_on_triangle(o, glm::dvec3(mesh.positions[tri.x]),
+                                                     glm::dvec3(mesh.positions[tri.y]),
+                                                     glm::dvec3(mesh.positions[tri.z]), interior);
+      const double d = glm::distance(c, o);
+      if (d < best) {
+        best = d;
+        best_tri = t;
+        best_interior = interior;
+      }
+    }
+    EXPECT_LE(best, 1.02 * offset) << "sample " << i;
+    if (best < 0.98 * offset || !best_interior) continue;  // near a crease or an edge: normal ambiguous
+    ++at_offset;
+    // The origin lies on the front of the face it was pushed off; the direction is cosine-weighted
+    // about that side's normal.
+    const glm::uvec3 tri = mesh.triangles[best_tri];
+    const glm::dvec3 p0(mesh.positions[tri.x]), p1(mesh.positions[tri.y]), p2(mesh.positions[tri.z]);
+    glm::dvec3 n = glm::normalize(glm::cross(p1 - p0, p2 - p0));
+    if (glm::dot(o - p0, n) < 0) n = -n;
+    const double cos_theta = glm::dot(glm::dvec3(s.ray.direction), n);
+    EXPECT_GT(cos_theta, 0.0) << "sample " << i;
+    cos_sum += cos_theta;
+    ++cos_count;
+  }
+  EXPECT_GT(surface, 490);
+  EXPECT_GT(at_offset, 400);
+  // E[cos] = 2/3 for a cosine-weighted hemisphere; sd of cos is sqrt(1/18), 4 standard errors.
+  const double mean = cos_sum / cos_count;
+  EXPECT_NEAR(mean, 2.0 / 3.0, 4.0 * std::sqrt(1.0 / 18.0 / cos_count));
 }
 
 // Octahedron subdivided `levels` times onto the unit sphere; `outward` picks the winding (face

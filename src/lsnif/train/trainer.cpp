@@ -70,26 +70,13 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// The surface-point pool of a training (RaySampler::grow_surface_pool), found before the first step
-// (inside the timed loop: a time budget pays for it): one finding index per kSurfaceRaysPerPoint of
-// the surface rays kSurfacePoolSteps steps cast, at most kSurfacePoolMaxPoints. The default
-// training's 4.9M surface rays draw from 2^20 points, each ray with its own direction and offset.
-// The size does not depend on the number of steps, so that a run under a time budget is the run of
-// the steps it planned, bit for bit (a pool grown step by step instead, whose early points serve
-// many more rays than its late ones, lost 0.001-0.003 in FLIP with one of two seeds on all three
-// meshes: docs/results.md).
-constexpr double kSurfaceRaysPerPoint = 4.0, kSurfacePoolSteps = 2048.0;
-constexpr size_t kSurfacePoolMaxPoints = size_t(1) << 20;
-size_t surface_pool_points(const TrainSettings& settings) {
-  const double fresh_per_step = std::max(1.0, double(settings.batch_size) / double(settings.ray_reuse));
-  const double surface_rays = fresh_per_step * kSurfacePoolSteps * double(settings.sampler.surface_fraction);
-  return size_t(std::min(double(kSurfacePoolMaxPoints), std::ceil(surface_rays / kSurfaceRaysPerPoint)));
-}
-
-// Per ray and input slot (point j, level l): the 4 table entries and weights of its face cell.
+// Per ray and input slot (point j, level l): the 4 table entries and weights of its face cell,
+// the rays' slots one after another (ray r's from start[r]: a walk has ~5 of the H = 18 points,
+// so the arrays are ~1/4 of H * L * 4 per ray, and the encoder's passes touch that much less memory).
 struct BatchCorners {
-  std::vector<uint32_t> entry;  // B * H * L * 4
+  std::vector<uint32_t> entry;
   std::vector<float> weight;
+  std::vector<size_t> start;  // B + 1 offsets into entry and weight
 };
 
 // Encodes a batch into X (input_dim x B), column r from walks[order[r]], and remembers the
@@ -103,16 +90,19 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
                   BatchCorners& corners) {
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
   const long B = long(order.size());
-  const size_t per_ray = size_t(H) * L * 4;
-  // Only the slots of recorded points are written (and later read); X is zeroed per column.
-  corners.entry.resize(size_t(B) * per_ray);
-  corners.weight.resize(size_t(B) * per_ray);
+  // Only the slots of recorded points are stored (and later read); X is zeroed per column.
+  corners.start.resize(size_t(B) + 1);
+  corners.start[0] = 0;
+  for (long r = 0; r < B; ++r)
+    corners.start[size_t(r) + 1] = corners.start[size_t(r)] + size_t(std::min(walks[order[size_t(r)]].count, H)) * L * 4;
+  corners.entry.resize(corners.start.back());
+  corners.weight.resize(corners.start.back());
   X.resize(config.input_dim(), B);
   // Ray r's corners into the corner arrays, its table rows prefetched.
   auto find_corners = [&](long r) {
     const RayWalk& w = walks[order[size_t(r)]];
-    uint32_t* ce = corners.entry.data() + size_t(r) * per_ray;
-    float* cw = corners.weight.data() + size_t(r) * per_ray;
+    uint32_t* ce = corners.entry.data() + corners.start[size_t(r)];
+    float* cw = corners.weight.data() + corners.start[size_t(r)];
     const uint32_t slots = std::min(w.count, H) * L;
     FaceCorners fc;
     for (uint32_t s = 0; s < slots; ++s) {
@@ -140,8 +130,8 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
       const RayWalk& w = walks[order[size_t(r)]];
       float* x = X.data() + size_t(r) * config.input_dim();
       std::fill(x, x + config.input_dim(), 0.0f);
-      const uint32_t* ce = corners.entry.data() + size_t(r) * per_ray;
-      const float* cw = corners.weight.data() + size_t(r) * per_ray;
+      const uint32_t* ce = corners.entry.data() + corners.start[size_t(r)];
+      const float* cw = corners.weight.data() + corners.start[size_t(r)];
       const uint32_t slots = std::min(w.count, H) * L;
       for (uint32_t s = 0; s < slots; ++s) {
         float sum[LSNIF_MAX_FEATURES] = {};  // in registers: x is written once per slot
@@ -164,8 +154,7 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
 // cost, as in encode_batch).
 void encode_batch_backward(const Config& config, const std::vector<uint32_t>& rows, const BatchCorners& corners,
                            const Matrix& dX, std::vector<float>& d_table) {
-  const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
-  const size_t per_ray = size_t(H) * L * 4;
+  const uint32_t L = config.grid_levels, F = config.features;
   const size_t entries = d_table.size() / F;
 #pragma omp parallel
   {
@@ -186,7 +175,7 @@ void encode_batch_backward(const Config& config, const std::vector<uint32_t>& ro
       const uint32_t l_first = config.level_of_entry(lo), l_last = std::min(L - 1, config.level_of_entry(hi - 1));
       auto prefetch_ray = [&](size_t r) {
         const uint32_t n = rows[r] / (L * F);
-        const uint32_t* ce = corners.entry.data() + r * per_ray;
+        const uint32_t* ce = corners.entry.data() + corners.start[r];
         for (uint32_t j = 0; j < n; ++j)
           for (uint32_t l = l_first; l <= l_last; ++l)
             for (uint32_t k = 0; k < 4; ++k) {
@@ -198,8 +187,8 @@ void encode_batch_backward(const Config& config, const std::vector<uint32_t>& ro
       for (size_t r = 0; r < rows.size(); ++r) {
         if (r + 1 < rows.size()) prefetch_ray(r + 1);
         const uint32_t n = rows[r] / (L * F);
-        const uint32_t* ce = corners.entry.data() + r * per_ray;
-        const float* cw = corners.weight.data() + r * per_ray;
+        const uint32_t* ce = corners.entry.data() + corners.start[r];
+        const float* cw = corners.weight.data() + corners.start[r];
         const float* dx = dX.data() + r * config.input_dim();
         for (uint32_t j = 0; j < n; ++j)
           for (uint32_t l = l_first; l <= l_last; ++l) {
@@ -244,6 +233,13 @@ void init_parameters(const Config& config, const TrainSettings& settings, Model&
   mlp_init_kaiming(config, settings.seed, model.mlp.data());
 }
 
+// Fresh rays are cast for up to this many steps at a time, at most kRaysSampledTogether rays (each
+// step's own rays, as if cast on its own): the sampler's data (Embree's BVH, the voxels) stays in
+// the caches from one step's rays to the next instead of being evicted by the encoding and the
+// network in between (docs/results.md, "Training time").
+constexpr uint32_t kStepsSampledTogether = 8;
+constexpr size_t kRaysSampledTogether = size_t(1) << 15;
+
 // What every step reuses, allocated once: gradients, optimizer moments, the batch (rays and their
 // walks), its encoding, activations and corners.
 struct StepState {
@@ -258,6 +254,10 @@ struct StepState {
   // batch_size of them, st.order indexing the pool.
   std::vector<Sample> samples, fresh_samples;
   std::vector<RayWalk> walks, fresh_walks;
+  // The fresh rays of the steps after the current one, cast together with its own (draw_batch).
+  std::vector<Sample> ahead_samples[kStepsSampledTogether];
+  std::vector<RayWalk> ahead_walks[kStepsSampledTogether];
+  uint32_t ahead_first = 0, ahead_count = 0;  // steps [ahead_first, ahead_first + ahead_count) are in ahead_*
   std::vector<size_t> order;        // draw_batch
   std::vector<uint32_t> batch_rows;
   Matrix O, dO, dX;
@@ -276,7 +276,7 @@ struct StepState {
 // spread over its life in the pool instead of consecutive steps (consecutive batches then share
 // about batch / pool of their rays). With R = 1 the pool is the batch: fresh rays every step.
 Status draw_batch(const RaySampler& sampler, const Config& config, const TrainSettings& settings, uint32_t occupied,
-                  uint32_t step, StepState& st, TrainReport& rep) {
+                  uint32_t step, uint32_t steps, StepState& st, TrainReport& rep) {
   const auto t0 = Clock::now();
   const uint32_t B = settings.batch_size, R = settings.ray_reuse;
   const size_t pool = ray_pool_size(B, R);
@@ -285,7 +285,20 @@ Status draw_batch(const RaySampler& sampler, const Config& config, const TrainSe
   // slots round robin from the oldest.
   const size_t count = step == 1 ? pool : fresh_per_step;
   const size_t first = step == 1 ? 0 : (size_t(step - 2) * fresh_per_step) % pool;
-  sampler.generate(settings.seed, step, count, st.fresh_samples, st.fresh_walks);
+  const uint32_t together =
+      uint32_t(std::clamp<size_t>(kRaysSampledTogether / std::max<size_t>(count, 1), 1, kStepsSampledTogether));
+  if (step == 1 || together == 1) {
+    sampler.generate(settings.seed, step, count, st.fresh_samples, st.fresh_walks);
+  } else {
+    if (step < st.ahead_first || step >= st.ahead_first + st.ahead_count) {
+      st.ahead_first = step;
+      st.ahead_count = std::min(together, steps - step + 1);
+      for (uint32_t k = 0; k < st.ahead_count; ++k)
+        sampler.generate(settings.seed, step + k, count, st.ahead_samples[k], st.ahead_walks[k]);
+    }
+    st.fresh_samples.swap(st.ahead_samples[step - st.ahead_first]);
+    st.fresh_walks.swap(st.ahead_walks[step - st.ahead_first]);
+  }
   rep.rays_cast += st.fresh_samples.size();
   if (st.fresh_samples.size() != count) {
     rep.seconds_sampling += since(t0);
@@ -359,7 +372,7 @@ LossTerms batch_loss(const Config& config, const TrainSettings& settings, StepSt
 Status train_step(const RaySampler& sampler, const Config& config, const GridLayout& layout,
                   const TrainSettings& settings, uint32_t occupied, uint32_t step, uint32_t steps, Model& model,
                   StepState& st, TrainReport& rep, LossTerms& mean) {
-  if (Status s = draw_batch(sampler, config, settings, occupied, step, st, rep); !s) return s;
+  if (Status s = draw_batch(sampler, config, settings, occupied, step, steps, st, rep); !s) return s;
 
   auto t0 = Clock::now();
   // Encoded straight into the trace that keeps the MLP's input for the backward pass (no copy).
@@ -504,10 +517,6 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   TailLoss tail;
   tail.start = steps - std::max(1u, steps / 10);
   const auto t_start = Clock::now();
-  if (settings.sampler.surface_fraction > 0) {
-    sampler.grow_surface_pool(settings.seed, surface_pool_points(settings));
-    rep.seconds_sampling += since(t_start);
-  }
   Clock::time_point t_first{};  // the end of step 1, which casts the whole ray pool
 
   for (uint32_t step = 1; step <= steps; ++step) {
