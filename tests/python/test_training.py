@@ -51,7 +51,7 @@ def test_settings_are_keyword_arguments_named_as_the_options(bunny):
 
 def test_the_settings_table_is_the_tools(bunny):
     table = {s["name"]: s for s in lsnif.settings()}
-    assert table["steps"]["default"] == 2400 and table["steps"]["min"] == 1
+    assert table["steps"]["default"] == 4000 and table["steps"]["min"] == 1
     assert table["hit"]["choices"] == ["segments", "aabb"]
     # One past each end of a range is refused, naming the setting.
     with pytest.raises(ValueError, match="voxels"):

@@ -146,7 +146,6 @@ void mlp_backward(const Config& config, const float* params, const MlpTrace& tra
   if (d_input) d_input->resize(config.input_dim(), B);
 #pragma omp parallel
   {
-
     // Per-thread scratch, kept between calls: the gradient w.r.t. the current layer's
     // pre-activation (delta), two of them used in turn.
     thread_local std::vector<float> delta_buf[2];

@@ -30,6 +30,36 @@ Ray sample_outer_ray(Rng& rng, const glm::vec3& centre, float radius) {
   return ray;
 }
 
+// The same kind of ray among the lines through `box` (inside the sphere): a uniform point on the
+// box's surface (the face by area, `cdf`), a cosine-weighted direction into the box, the origin
+// moved back along the line to where it enters the sphere. Lines through the sphere drawn as in
+// sample_outer_ray are uniform in the measure of lines; those of them that cross a convex body
+// inside it enter that body exactly once, through its surface, with the same point-and-cosine
+// law, so this draws sample_outer_ray's rays conditioned on crossing the box.
+Ray sample_line_through_box(Rng& rng, const Aabb& box, const float cdf[6], const glm::vec3& centre, float radius) {
+  const float u0 = rng.next_float();
+  int face = 0;
+  while (face < 5 && u0 >= cdf[face]) ++face;
+  const int axis = face / 2, a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+  const bool high = (face & 1) != 0;
+  const glm::vec3 extent = box.extent();
+  glm::vec3 point, inward(0.0f);
+  point[axis] = high ? box.hi[axis] : box.lo[axis];
+  point[a1] = box.lo[a1] + rng.next_float() * extent[a1];
+  point[a2] = box.lo[a2] + rng.next_float() * extent[a2];
+  inward[axis] = high ? -1.0f : 1.0f;
+  const float u3 = rng.next_float(), u4 = rng.next_float();
+  Ray ray;
+  ray.direction = sample_cosine_hemisphere(inward, u3, u4);
+  // The line point - s * direction meets the sphere at the roots of s^2 - 2 s (w.d) + |w|^2 - R^2;
+  // `point` lies inside, so one root is <= 0 (ahead) and the other >= 0 (behind: the entry).
+  const glm::vec3 w = point - centre;
+  const float wd = glm::dot(w, ray.direction);
+  const float s = wd + std::sqrt(std::fmax(0.0f, wd * wd - glm::dot(w, w) + radius * radius));
+  ray.origin = point - s * ray.direction;
+  return ray;
+}
+
 // dst = src in what a walk holds: its header and its recorded points (the ~5 of a walk's 32 slots
 // that it uses, not the whole 560 bytes).
 void copy_walk(const RayWalk& src, RayWalk& dst) {
@@ -47,17 +77,66 @@ void copy_walk(const RayWalk& src, RayWalk& dst) {
 
 RaySampler::RaySampler(const Mesh& mesh, const GroundTruth& truth, const VoxelGrid& grid,
                        uint32_t max_points, SamplerSettings settings)
-    : mesh_(mesh), truth_(truth), grid_(grid), max_points_(max_points), settings_(settings) {}
+    : mesh_(mesh), truth_(truth), grid_(grid), max_points_(max_points), settings_(settings) {
+  surface_share_ = settings_.surface_fraction;
+  const uint32_t V = grid_.resolution;
+  if (!settings_.lines_through_box || V == 0) return;
+  // The box: the mesh's bounds and its occupied voxels' (a kept ray crosses an occupied voxel, a
+  // finding ray's hit lies on the mesh), grown by a hair for rounding, within the grid's bounds
+  // (which hold both).
+  glm::uvec3 lo(V), hi(0);
+  bool any = false;
+  for (uint32_t k = 0; k < V; ++k)
+    for (uint32_t j = 0; j < V; ++j)
+      for (uint32_t i = 0; i < V; ++i)
+        if (grid_.occupied(int(i), int(j), int(k))) {
+          lo = glm::min(lo, glm::uvec3(i, j, k));
+          hi = glm::max(hi, glm::uvec3(i, j, k));
+          any = true;
+        }
+  if (!any) return;
+  const glm::vec3 cell = grid_.bounds.extent() / float(V);
+  Aabb box = mesh_.bounds();
+  box.grow(grid_.bounds.lo + glm::vec3(lo) * cell);
+  box.grow(grid_.bounds.lo + glm::vec3(hi + 1u) * cell);
+  const float hair = 1e-5f * grid_.bounds.diagonal();
+  box.lo = glm::max(box.lo - glm::vec3(hair), grid_.bounds.lo);
+  box.hi = glm::min(box.hi + glm::vec3(hair), grid_.bounds.hi);
+  // Only a box inside the sphere (the default sphere passes through the grid's corners; a
+  // --sphere-scale below 1 may cut the box): else the whole sphere.
+  const glm::vec3 centre = grid_.bounds.center();
+  const float radius = settings_.sphere_scale * 0.5f * grid_.bounds.diagonal();
+  for (int c = 0; c < 8; ++c) {
+    const glm::vec3 corner((c & 1) ? box.hi.x : box.lo.x, (c & 2) ? box.hi.y : box.lo.y, (c & 4) ? box.hi.z : box.lo.z);
+    if (!(glm::distance(corner, centre) <= radius * (1.0f + 1e-5f))) return;
+  }
+  const glm::dvec3 e(box.extent());
+  const double face[6] = {e.y * e.z, e.y * e.z, e.x * e.z, e.x * e.z, e.x * e.y, e.x * e.y};
+  const double area = face[0] + face[1] + face[2] + face[3] + face[4] + face[5];
+  double sum = 0;
+  for (int f = 0; f < 6; ++f) {
+    sum += face[f];
+    face_cdf_[f] = float(sum / area);
+  }
+  line_box_ = box;
+  line_box_share_ = std::min(1.0, area / (4.0 * 3.14159265358979323846 * double(radius) * double(radius)));
+  // Surface candidates are (almost) always kept, outer ones now 1 / line_box_share_ times as often:
+  // surface candidates at the share f' whose odds are f's over the box's share keep the kept rays'
+  // mix (f' / (1 - f') = f / (1 - f) / share).
+  const double f = settings_.surface_fraction;
+  if (f > 0 && f < 1) surface_share_ = f / (f + (1.0 - f) * line_box_share_);
+}
 
-// Candidate generation: with probability surface_fraction a surface ray (origin on the first hit
-// of an outer ray, pushed off along the face normal facing that ray, direction cosine-weighted
-// about that normal); otherwise, or if kSurfaceAttempts outer rays all miss the mesh, an outer
-// ray. Candidates whose walk has no boundary point are dropped; kept ones get their reference hit.
+// Candidate generation: with probability surface_share_ (surface_fraction when the outer rays are
+// drawn on the whole sphere) a surface ray (origin on the first hit of an outer ray, pushed off
+// along the face normal facing that ray, direction cosine-weighted about that normal); otherwise,
+// or if kSurfaceAttempts outer rays all miss the mesh, an outer ray. Candidates whose walk has no
+// boundary point are dropped; kept ones get their reference hit.
 //
 // Produces exactly `count` samples, except in the degenerate cases where almost no ray can be kept:
 // an empty grid or max_points == 0 gives none, and generation stops after 2^20 + 1024 * count
-// candidates (fewer than 1 kept per 1024 tried), so it always terminates. Callers check
-// samples.size().
+// candidates (fewer than 1 kept per 1024 tried; counted as lines of the whole sphere), so it always
+// terminates. Callers check samples.size().
 void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vector<Sample>& samples,
                           std::vector<RayWalk>& walks) const {
   if (count == 0 || max_points_ == 0 || grid_.resolution == 0 || grid_.count_occupied() == 0) {
@@ -75,17 +154,27 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   const float diagonal = grid_.bounds.diagonal();
   const float radius = settings_.sphere_scale * 0.5f * diagonal;
   const float offset = settings_.surface_offset * diagonal;
-  const float surface_fraction = settings_.surface_fraction;
-  const uint64_t max_candidates = (uint64_t(1) << 20) + 1024u * uint64_t(count);
+  const float surface_share = float(surface_share_);
+  const bool box_lines = line_box_.valid();
+  // A ray of the first kind (above).
+  auto outer_ray = [&](Rng& rng) {
+    return box_lines ? sample_line_through_box(rng, line_box_, face_cdf_, centre, radius)
+                     : sample_outer_ray(rng, centre, radius);
+  };
+  // The cap counts candidates as the whole sphere's lines they stand for (a line through the box
+  // stands for 1 / line_box_share_ of them), so that what is too little to train on does not depend
+  // on how the rays are drawn.
+  const uint64_t max_candidates = std::max<uint64_t>(
+      kMinBlock, uint64_t(double((uint64_t(1) << 20) + 1024u * uint64_t(count)) * line_box_share_));
 
   // Fills sample/walk for candidate `index`; returns whether it is kept.
   auto make_candidate = [&](uint64_t index, Sample& sample, RayWalk& walk) -> bool {
     Rng rng(seed, stream, index);
     Ray ray;
     bool from_surface = false;
-    if (rng.next_float() < surface_fraction) {
+    if (rng.next_float() < surface_share) {
       for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !from_surface; ++attempt) {
-        const Ray finder = sample_outer_ray(rng, centre, radius);
+        const Ray finder = outer_ray(rng);
         const ReferenceHit hit = truth_.trace_geometry(finder);
         if (!hit.hit) continue;
         const glm::vec3 point = finder.origin + hit.t * finder.direction;
@@ -97,7 +186,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
         from_surface = true;
       }
     }
-    if (!from_surface) ray = sample_outer_ray(rng, centre, radius);
+    if (!from_surface) ray = outer_ray(rng);
     ray.tmin = 0.0f;
     ray.tmax = std::numeric_limits<float>::infinity();
     if (walk_ray(grid_, ray, max_points_, walk) == 0) return false;

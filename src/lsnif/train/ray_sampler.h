@@ -3,6 +3,14 @@
 // of the first kind) with cosine-weighted directions about the surface normal on the side the
 // finding ray came from. Each ray gets its ground truth from Embree and its voxel walk; only rays
 // that cross at least one occupied voxel are kept (the others are misses by construction).
+//
+// Rays of the first kind are uniformly distributed lines through the sphere (a uniform point, a
+// cosine-weighted direction), and only those that cross the box around the mesh and its occupied
+// voxels can be kept or find the surface. The sampler draws them among those lines directly (a
+// uniform point on the box's surface, a cosine-weighted direction into it, the origin moved back
+// to the sphere): the kept rays have the same distribution, fewer candidates are drawn, walked
+// and traced, and the share of surface candidates is raised so that the kept rays hold the same
+// mix of both kinds (RaySampler::surface_share).
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -24,6 +32,10 @@ struct SamplerSettings {  // defaults: settings_table.h
   float surface_fraction = default_f32(SettingId::SurfaceFraction);  // share of rays starting on the surface
   float sphere_scale = default_f32(SettingId::SphereScale);  // sphere radius = scale * half diagonal of the padded AABB
   float surface_offset = default_f32(SettingId::SurfaceOffset);  // surface origins pushed off by this x AABB diagonal
+  // Draw the first kind's rays among the lines through the box (above); false draws them on the
+  // whole sphere, as the paper describes it (the same kept rays in distribution, more candidates:
+  // the tests' reference).
+  bool lines_through_box = true;
 };
 
 class RaySampler {
@@ -34,6 +46,13 @@ class RaySampler {
   // for a given (seed, stream, count) whatever the thread count. Uses OpenMP.
   void generate(uint64_t seed, uint64_t stream, size_t count, std::vector<Sample>& samples,
                 std::vector<RayWalk>& walks) const;
+  // The box the first kind's rays are drawn through (empty when they are drawn on the whole
+  // sphere: lines_through_box off, or a sphere that does not contain the box), the share of the
+  // sphere's lines that cross it (its area over the sphere's, by Cauchy-Crofton) and the share of
+  // candidates that are surface candidates.
+  const Aabb& line_box() const { return line_box_; }
+  double line_box_share() const { return line_box_share_; }
+  double surface_share() const { return surface_share_; }
 
  private:
   const Mesh& mesh_;
@@ -41,6 +60,10 @@ class RaySampler {
   const VoxelGrid& grid_;
   uint32_t max_points_;
   SamplerSettings settings_;
+  Aabb line_box_;
+  double line_box_share_ = 1.0;
+  double surface_share_ = 0.5;
+  float face_cdf_[6] = {};  // the box's faces (-x, +x, -y, +y, -z, +z) by area, cumulative
   // Fraction of candidates kept so far, to size the next call's first block (a performance hint
   // only: which samples come out never depends on it).
   mutable double keep_rate_ = 0.5;

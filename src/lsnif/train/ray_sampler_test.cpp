@@ -165,6 +165,161 @@ TEST_F(RaySamplerTest, ExactCountOfValidSamples) {
   EXPECT_GT(hits, 3000u);
 }
 
+// The paper's rays of the first kind drawn independently of the sampler: a uniform point on the
+// sphere, a cosine-weighted direction toward its centre.
+Ray sphere_line(Rng& rng, const glm::vec3& centre, float radius) {
+  const float u1 = rng.next_float(), u2 = rng.next_float(), u3 = rng.next_float(), u4 = rng.next_float();
+  const glm::vec3 outward = sample_uniform_sphere(u1, u2);
+  Ray ray;
+  ray.origin = centre + radius * outward;
+  ray.direction = sample_cosine_hemisphere(-outward, u3, u4);
+  return ray;
+}
+
+// The share of the sphere's lines that cross the sampler's box is its area over the sphere's
+// (Cauchy-Crofton): counted by brute force over 400,000 of the paper's rays.
+TEST_F(RaySamplerTest, LineBoxShareIsTheCountedShareOfSphereLines) {
+  const RaySampler sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints);
+  ASSERT_TRUE(sampler.line_box().valid());
+  const Aabb box = sampler.line_box();
+  // The box holds the mesh and every occupied voxel, and lies inside the sphere.
+  const Aabb mesh_box = scene_->mesh.bounds();
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_LE(box.lo[a], mesh_box.lo[a]);
+    EXPECT_GE(box.hi[a], mesh_box.hi[a]);
+  }
+  const uint32_t V = scene_->grid.resolution;
+  const glm::vec3 cell = scene_->grid.bounds.extent() / float(V);
+  for (uint32_t k = 0; k < V; ++k)
+    for (uint32_t j = 0; j < V; ++j)
+      for (uint32_t i = 0; i < V; ++i)
+        if (scene_->grid.occupied(int(i), int(j), int(k))) {
+          const glm::vec3 lo = scene_->grid.bounds.lo + glm::vec3(i, j, k) * cell, hi = lo + cell;
+          for (int a = 0; a < 3; ++a) {
+            ASSERT_LE(box.lo[a], lo[a] + 1e-6f * scene_->grid.bounds.diagonal());
+            ASSERT_GE(box.hi[a], hi[a] - 1e-6f * scene_->grid.bounds.diagonal());
+          }
+        }
+  const glm::vec3 centre = scene_->grid.bounds.center();
+  const float radius = 0.5f * scene_->grid.bounds.diagonal();
+  const int n = 400000;
+  int crossing = 0;
+  for (int i = 0; i < n; ++i) {
+    Rng rng(5, 9, uint64_t(i));
+    Ray ray = sphere_line(rng, centre, radius);
+    ray.tmin = 0.0f;
+    ray.tmax = std::numeric_limits<float>::infinity();
+    float t0, t1;
+    crossing += intersect_aabb(box, ray, t0, t1);
+  }
+  const double p = sampler.line_box_share();
+  EXPECT_GT(p, 0.1);
+  EXPECT_LT(p, 1.0);
+  EXPECT_NEAR(double(crossing) / n, p, 4.5 * std::sqrt(p * (1 - p) / n));
+}
+
+// Two-sample chi-square statistic of histograms a and b (bins with no count in either skipped);
+// `dof` receives the degrees of freedom.
+double two_sample_chi2(const std::vector<double>& a, const std::vector<double>& b, int& dof) {
+  double na = 0, nb = 0;
+  for (size_t i = 0; i < a.size(); ++i) { na += a[i]; nb += b[i]; }
+  const double ka = std::sqrt(nb / na), kb = std::sqrt(na / nb);
+  double chi2 = 0;
+  dof = -1;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (a[i] + b[i] == 0) continue;
+    chi2 += (ka * a[i] - kb * b[i]) * (ka * a[i] - kb * b[i]) / (a[i] + b[i]);
+    ++dof;
+  }
+  return chi2;
+}
+
+// Drawing the first kind's rays through the box keeps what the sampler returns: the same mix of
+// surface and outer rays, and each kind's rays with the same law (histograms of where they start
+// and where they head, and whether they hit, against the paper's whole-sphere sampler), while the
+// box is drawn far fewer candidates for.
+TEST_F(RaySamplerTest, LinesThroughTheBoxKeepTheSampledRays) {
+  SamplerSettings sphere_settings;
+  sphere_settings.lines_through_box = false;
+  const RaySampler box_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints);
+  const RaySampler sphere_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, sphere_settings);
+  EXPECT_FALSE(sphere_sampler.line_box().valid());
+  EXPECT_EQ(sphere_sampler.surface_share(), 0.5);
+  EXPECT_GT(box_sampler.surface_share(), 0.5);
+  const size_t n = 60000;
+  std::vector<Sample> a, b;
+  std::vector<RayWalk> wa, wb;
+  box_sampler.generate(11, 0, n, a, wa);
+  sphere_sampler.generate(12, 0, n, b, wb);
+  ASSERT_EQ(a.size(), n);
+  ASSERT_EQ(b.size(), n);
+  const glm::vec3 centre = scene_->grid.bounds.center();
+  // Per kind: direction octant (8) x hit (2) x, for outer rays, the face of the box they enter
+  // (6), for surface rays the octant about the centre they start in (8).
+  const Aabb box = box_sampler.line_box();
+  auto histogram = [&](const std::vector<Sample>& s, bool surface) {
+    std::vector<double> h(128, 0.0);
+    for (const Sample& x : s) {
+      if (x.from_surface != surface) continue;
+      const glm::vec3 o = x.ray.origin - centre, d = x.ray.direction;
+      int where = (o.x > 0) + 2 * (o.y > 0) + 4 * (o.z > 0);
+      if (!surface) {
+        float t_enter = -std::numeric_limits<float>::infinity();
+        for (int ax = 0; ax < 3; ++ax) {
+          const float t = ((d[ax] > 0 ? box.lo[ax] : box.hi[ax]) - x.ray.origin[ax]) / d[ax];
+          if (t > t_enter) {
+            t_enter = t;
+            where = 2 * ax + (d[ax] < 0);
+          }
+        }
+      }
+      const int bin = where + 8 * ((d.x > 0) + 2 * (d.y > 0) + 4 * (d.z > 0)) + 64 * int(x.reference.hit);
+      h[size_t(bin)] += 1;
+    }
+    return h;
+  };
+  for (bool surface : {false, true}) {
+    SCOPED_TRACE(surface ? "surface rays" : "outer rays");
+    int dof = 0;
+    const double chi2 = two_sample_chi2(histogram(a, surface), histogram(b, surface), dof);
+    ASSERT_GT(dof, 20);
+    // Wilson-Hilferty's quantile of chi-square at p = 1e-4.
+    const double q = 2.0 / (9.0 * dof), limit = dof * std::pow(1.0 - q + 3.719 * std::sqrt(q), 3.0);
+    EXPECT_LT(chi2, limit) << dof << " degrees of freedom";
+    std::printf("[ info     ] %s: chi-square %.1f, %d degrees of freedom (limit %.1f)\n",
+                surface ? "surface rays" : "outer rays", chi2, dof, limit);
+  }
+  // The mix: both shares of surface rays agree within 4.5 standard errors of their difference.
+  double sa = 0, sb = 0;
+  for (size_t i = 0; i < n; ++i) { sa += a[i].from_surface; sb += b[i].from_surface; }
+  sa /= double(n);
+  sb /= double(n);
+  const double pooled = 0.5 * (sa + sb);
+  std::printf("[ info     ] box share %.3f, surface candidates %.3f; kept surface rays %.4f (box) and %.4f (sphere)\n",
+              box_sampler.line_box_share(), box_sampler.surface_share(), sa, sb);
+  EXPECT_NEAR(sa, sb, 4.5 * std::sqrt(2.0 * pooled * (1 - pooled) / double(n)));
+}
+
+// A sphere that does not contain the box (--sphere-scale below 1): the rays are drawn on the
+// whole sphere, the surface share is the setting's.
+TEST_F(RaySamplerTest, SmallSphereDrawsOnTheWholeSphere) {
+  SamplerSettings settings;
+  settings.sphere_scale = 0.6f;
+  const RaySampler sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
+  EXPECT_FALSE(sampler.line_box().valid());
+  EXPECT_EQ(sampler.surface_share(), double(settings.surface_fraction));
+  std::vector<Sample> samples;
+  std::vector<RayWalk> walks;
+  sampler.generate(3, 0, 2000, samples, walks);
+  ASSERT_EQ(samples.size(), 2000u);
+  const glm::vec3 centre = scene_->grid.bounds.center();
+  const float radius = settings.sphere_scale * 0.5f * scene_->grid.bounds.diagonal();
+  for (const Sample& s : samples) {
+    if (s.from_surface) continue;
+    ASSERT_NEAR(glm::distance(s.ray.origin, centre), radius, 1e-5f * radius);
+  }
+}
+
 // Closest point of triangle (a, b, c) to p (Ericson, Real-Time Collision Detection 5.1.5); `interior`
 // tells whether it lies strictly inside the face rather than on an edge or a vertex.
 glm::dvec3 closest_point_on_triangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b,
