@@ -267,6 +267,52 @@ TEST(HashGrid, IndexedLevelEqualsPerVertexFeatures) {
   expect_backward_matches_finite_differences(c, layout);
 }
 
+// The trainer's dense slot tables (DenseGridIndex) hold the perfect hash's own slot of every lattice
+// vertex, so face corners and encodings through them equal those through the hash, bit for bit.
+TEST(HashGrid, DenseSlotTableEqualsThePerfectHash) {
+  Config c = small_config(kUnequal);
+  std::mt19937 rng(23);
+  const VoxelGrid voxels = random_voxels(c, rng);
+  const std::vector<GridVertex> keys = readable_vertices(voxels, c.grid_resolution[1]);
+  PerfectHash hash;
+  ASSERT_TRUE(build_perfect_hash(keys, perfect_hash_default_slots(keys.size()), hash).is_ok());
+  c.index_slots[1] = hash.slots;
+  c.index_buckets[1] = uint32_t(hash.displacement.size());
+  ASSERT_TRUE(c.validate().is_ok());
+  const GridLayout hashed(c, hash.displacement.data());
+  GridLayout looked_up(c, hash.displacement.data());
+  const DenseGridIndex dense(c, looked_up);
+  EXPECT_EQ(looked_up.dense_slot[0], nullptr);  // a hashed level has no index
+  ASSERT_NE(looked_up.dense_slot[1], nullptr);
+  EXPECT_EQ(looked_up.dense_slot[2], nullptr);
+  const uint32_t R = c.grid_resolution[1];
+  for (uint32_t z = 0; z <= R; ++z)
+    for (uint32_t y = 0; y <= R; ++y)
+      for (uint32_t x = 0; x <= R; ++x)
+        ASSERT_EQ(looked_up.dense_slot[1][dense_slot_index(x, y, z, R)], perfect_hash_slot(hash, x, y, z))
+            << x << "," << y << "," << z;
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<float> table(c.grid_entry_count() * c.features);
+  for (float& v : table) v = u(rng);
+  std::vector<float> a(c.input_dim()), b(c.input_dim());
+  for (int trial = 0; trial < 500; ++trial) {
+    const RayWalk w = walk_on_occupied_faces(voxels, rng, 1 + uint32_t(trial) % c.max_points);
+    encode(c, table.data(), w, a.data(), hashed);
+    encode(c, table.data(), w, b.data(), looked_up);
+    ASSERT_EQ(a, b) << "trial " << trial;
+    for (uint32_t j = 0; j < w.count; ++j)
+      for (uint32_t l = 0; l < c.grid_levels; ++l) {
+        FaceCorners fa, fb;
+        face_corners(c, l, w.p[j], w.axis[j], fa, hashed);
+        face_corners(c, l, w.p[j], w.axis[j], fb, looked_up);
+        for (int k = 0; k < 4; ++k) {
+          ASSERT_EQ(fa.entry[k], fb.entry[k]);
+          ASSERT_EQ(fa.weight[k], fb.weight[k]);
+        }
+      }
+  }
+}
+
 TEST(HashGrid, DefaultConfigMemoryMatchesPaper) {
   Config c;  // paper defaults
   EXPECT_EQ(c.input_dim(), 108u);

@@ -64,13 +64,21 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
   // kernel's left operand.
   thread_local std::vector<float> transposed;
   transposed.resize(config.mlp_parameter_count());
-  for (const LayerView& v : layers)
-    for (uint32_t o = 0; o < v.out; ++o)
-      for (uint32_t i = 0; i < v.in; ++i)
-        transposed[v.weight_offset + size_t(i) * v.out + o] = params[v.weight_offset + size_t(o) * v.in + i];
-  const float* weights_t = transposed.data();  // the calling thread's (inside the region it would be each thread's)
+  float* weights_t = transposed.data();  // the calling thread's (inside the region it would be each thread's)
+  // The rows of W (layer, output) of which each thread transposes its share.
+  std::vector<uint32_t> row_start(layers.size() + 1, 0);
+  for (size_t l = 0; l < layers.size(); ++l) row_start[l + 1] = row_start[l] + layers[l].out;
+  const long weight_rows = long(row_start.back());
 #pragma omp parallel
   {
+#pragma omp for schedule(static)
+    for (long r = 0; r < weight_rows; ++r) {
+      const size_t l = size_t(std::upper_bound(row_start.begin(), row_start.end(), uint32_t(r)) - row_start.begin()) - 1;
+      const LayerView& v = layers[l];
+      const uint32_t o = uint32_t(r) - row_start[l];
+      for (uint32_t i = 0; i < v.in; ++i)
+        weights_t[v.weight_offset + size_t(i) * v.out + o] = params[v.weight_offset + size_t(o) * v.in + i];
+    }  // (the loop's barrier: every product below reads all of it)
     Matrix a, b;  // per-thread activations of one chunk when no trace is kept
     // Dynamic: chunks of a batch ordered by point count differ in cost; each chunk's result is
     // its own, so which thread runs it changes nothing.

@@ -138,7 +138,7 @@ RaySampler::RaySampler(const Mesh& mesh, const GroundTruth& truth, const VoxelGr
 // candidates (fewer than 1 kept per 1024 tried; counted as lines of the whole sphere), so it always
 // terminates. Callers check samples.size().
 void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vector<Sample>& samples,
-                          std::vector<RayWalk>& walks) const {
+                          std::vector<RayWalk>& walks, SamplerScratch* scratch) const {
   if (count == 0 || max_points_ == 0 || grid_.resolution == 0 || grid_.count_occupied() == 0) {
     samples.clear();
     walks.clear();
@@ -195,10 +195,12 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     return true;  // its reference hit once it is among the samples (below)
   };
 
-  std::vector<Sample> block_samples;
-  std::vector<RayWalk> block_walks;
-  std::vector<uint8_t> block_keep;
-  std::vector<size_t> slot;
+  SamplerScratch own;
+  SamplerScratch& sc = scratch ? *scratch : own;
+  std::vector<Sample>& block_samples = sc.samples;
+  std::vector<RayWalk>& block_walks = sc.walks;
+  std::vector<uint8_t>& block_keep = sc.keep;
+  std::vector<size_t>& slot = sc.slot;
   uint64_t next = 0, tried = 0, kept = 0;
   while (filled < count && next < max_candidates) {
     // Size the block from the keep rate seen so far (a guess of 1/2 at first) so that one or two

@@ -38,14 +38,25 @@ struct SamplerSettings {  // defaults: settings_table.h
   bool lines_through_box = true;
 };
 
+// The candidates of one block of a generate call (their rays, walks and keep flags), kept by a
+// caller that samples again and again (the trainer) so that each call allocates (and faults in)
+// nothing; its contents between calls mean nothing.
+struct SamplerScratch {
+  std::vector<Sample> samples;
+  std::vector<RayWalk> walks;
+  std::vector<uint8_t> keep;
+  std::vector<size_t> slot;
+};
+
 class RaySampler {
  public:
   RaySampler(const Mesh& mesh, const GroundTruth& truth, const VoxelGrid& grid, uint32_t max_points,
              SamplerSettings settings = {});
   // Generates exactly `count` kept samples (with their walks) from (seed, stream), deterministic
-  // for a given (seed, stream, count) whatever the thread count. Uses OpenMP.
+  // for a given (seed, stream, count) whatever the thread count. Uses OpenMP. `scratch` (optional)
+  // holds the candidates between calls.
   void generate(uint64_t seed, uint64_t stream, size_t count, std::vector<Sample>& samples,
-                std::vector<RayWalk>& walks) const;
+                std::vector<RayWalk>& walks, SamplerScratch* scratch = nullptr) const;
   // The box the first kind's rays are drawn through (empty when they are drawn on the whole
   // sphere: lines_through_box off, or a sphere that does not contain the box), the share of the
   // sphere's lines that cross it (its area over the sphere's, by Cauchy-Crofton) and the share of

@@ -79,22 +79,24 @@ struct BatchCorners {
   std::vector<size_t> start;  // B + 1 offsets into entry and weight
 };
 
-// Encodes a batch into X (input_dim x B), column r from walks[order[r]], and remembers the
-// corners for the backward pass. The table lookups are the encoder's cost (cache misses into a
-// table larger than the core's cache), so the work is pipelined across rays: while ray r's
-// features are summed, ray r + 1's corners are computed and their table rows prefetched.
+// Encodes a batch into X (input_dim x B), column r from walks[order[r]] (rows[r] its encoded rows,
+// order_by_point_count's), and remembers the corners for the backward pass. The table lookups are
+// the encoder's cost (cache misses into a table larger than the core's cache), so the work is
+// pipelined across rays: while ray r's features are summed, ray r + 1's corners are computed and
+// their table rows prefetched.
 constexpr long kEncodeBlock = 64;  // rays per block; blocks interleave over the threads (the batch is ordered by point count)
 
 void encode_batch(const Config& config, const GridLayout& layout, const float* table,
-                  const std::vector<RayWalk>& walks, const std::vector<size_t>& order, Matrix& X,
-                  BatchCorners& corners) {
+                  const std::vector<RayWalk>& walks, const std::vector<size_t>& order,
+                  const std::vector<uint32_t>& rows, Matrix& X, BatchCorners& corners) {
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
   const long B = long(order.size());
-  // Only the slots of recorded points are stored (and later read); X is zeroed per column.
+  // Only the slots of recorded points are stored (and later read); X is zeroed per column. The
+  // offsets come from the rays' encoded rows (n points x L x F), not from their walks: those are
+  // scattered in memory, and this pass is serial.
   corners.start.resize(size_t(B) + 1);
   corners.start[0] = 0;
-  for (long r = 0; r < B; ++r)
-    corners.start[size_t(r) + 1] = corners.start[size_t(r)] + size_t(std::min(walks[order[size_t(r)]].count, H)) * L * 4;
+  for (long r = 0; r < B; ++r) corners.start[size_t(r) + 1] = corners.start[size_t(r)] + size_t(rows[size_t(r)] / F) * 4;
   corners.entry.resize(corners.start.back());
   corners.weight.resize(corners.start.back());
   X.resize(config.input_dim(), B);
@@ -119,13 +121,24 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
     const char* at = reinterpret_cast<const char*>(&w);
     for (size_t b = 0; b < sizeof(RayWalk); b += 64) __builtin_prefetch(at + b);
   };
+  // The dense slots find_corners will read for ray r (its walk already in the cache).
+  auto prefetch_slots = [&](long r) {
+    const RayWalk& w = walks[order[size_t(r)]];
+    const uint32_t slots = std::min(w.count, H) * L;
+    for (uint32_t s = 0; s < slots; ++s) prefetch_face_corners(config, s % L, w.p[s / L], w.axis[s / L], layout);
+  };
   const long blocks = (B + kEncodeBlock - 1) / kEncodeBlock;
 #pragma omp parallel for schedule(static, 1)
   for (long blk = 0; blk < blocks; ++blk) {
     const long r0 = blk * kEncodeBlock, r1 = std::min(B, r0 + kEncodeBlock);
+    // A pipeline over the block's rays: ray r + 3's walk is fetched, ray r + 2's dense slots, ray
+    // r + 1's corners found and their table rows fetched while ray r's features are summed.
+    for (long r = r0; r < std::min(r1, r0 + 3); ++r) prefetch_walk(walks[order[size_t(r)]]);
+    if (r0 + 1 < r1) prefetch_slots(r0 + 1);
     find_corners(r0);
     for (long r = r0; r < r1; ++r) {
-      if (r + 2 < r1) prefetch_walk(walks[order[size_t(r + 2)]]);
+      if (r + 3 < r1) prefetch_walk(walks[order[size_t(r + 3)]]);
+      if (r + 2 < r1) prefetch_slots(r + 2);
       if (r + 1 < r1) find_corners(r + 1);
       const RayWalk& w = walks[order[size_t(r)]];
       float* x = X.data() + size_t(r) * config.input_dim();
@@ -258,6 +271,7 @@ struct StepState {
   std::vector<Sample> ahead_samples[kStepsSampledTogether];
   std::vector<RayWalk> ahead_walks[kStepsSampledTogether];
   uint32_t ahead_first = 0, ahead_count = 0;  // steps [ahead_first, ahead_first + ahead_count) are in ahead_*
+  SamplerScratch sampler_scratch;   // the sampler's candidates
   std::vector<size_t> order;        // draw_batch
   std::vector<uint32_t> batch_rows;
   Matrix O, dO, dX;
@@ -288,13 +302,14 @@ Status draw_batch(const RaySampler& sampler, const Config& config, const TrainSe
   const uint32_t together =
       uint32_t(std::clamp<size_t>(kRaysSampledTogether / std::max<size_t>(count, 1), 1, kStepsSampledTogether));
   if (step == 1 || together == 1) {
-    sampler.generate(settings.seed, step, count, st.fresh_samples, st.fresh_walks);
+    sampler.generate(settings.seed, step, count, st.fresh_samples, st.fresh_walks, &st.sampler_scratch);
   } else {
     if (step < st.ahead_first || step >= st.ahead_first + st.ahead_count) {
       st.ahead_first = step;
       st.ahead_count = std::min(together, steps - step + 1);
       for (uint32_t k = 0; k < st.ahead_count; ++k)
-        sampler.generate(settings.seed, step + k, count, st.ahead_samples[k], st.ahead_walks[k]);
+        sampler.generate(settings.seed, step + k, count, st.ahead_samples[k], st.ahead_walks[k],
+                         &st.sampler_scratch);
     }
     st.fresh_samples.swap(st.ahead_samples[step - st.ahead_first]);
     st.fresh_walks.swap(st.ahead_walks[step - st.ahead_first]);
@@ -377,7 +392,7 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
   auto t0 = Clock::now();
   // Encoded straight into the trace that keeps the MLP's input for the backward pass (no copy).
   Matrix& X = st.trace.layer_input[0];
-  encode_batch(config, layout, model.grid.data(), st.walks, st.order, X, st.corners);
+  encode_batch(config, layout, model.grid.data(), st.walks, st.order, st.batch_rows, X, st.corners);
   rep.seconds_encoding += since(t0);
 
   t0 = Clock::now();
@@ -498,7 +513,8 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
   if (Status s = check_training_inputs(mesh, settings, config); !s) return s;
   uint32_t occupied = 0;
   if (Status s = build_model_frame(mesh, settings, config, model, occupied); !s) return s;
-  const GridLayout layout = model.layout();
+  GridLayout layout = model.layout();
+  const DenseGridIndex dense_index(config, layout);
 
   GroundTruth truth;
   if (Status s = truth.build(mesh); !s) return s.context("building the Embree reference");
