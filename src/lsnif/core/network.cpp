@@ -2,6 +2,8 @@
 
 #include "lsnif/core/mlp_gemm.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -19,13 +21,16 @@ namespace {
 // them beyond 512 columns (two threads get the same share: a batch of 2,560 columns is 6 chunks of
 // 427, not 5 of 512), and at most 64: mlp_backward keeps a gradient per chunk.
 constexpr Eigen::Index kMaxChunkColumns = 512, kMaxChunks = 64;
-long chunk_count(Eigen::Index cols) {
-  if (cols <= kMaxChunkColumns) return 1;
-  return long(std::min<Eigen::Index>(kMaxChunks, 2 * ((cols + 2 * kMaxChunkColumns - 1) / (2 * kMaxChunkColumns))));
-}
-Eigen::Index chunk_size(Eigen::Index cols) {
-  const long count = chunk_count(cols);
-  return std::max<Eigen::Index>(1, (cols + count - 1) / count);
+struct ChunkLayout {
+  Eigen::Index size;  // columns per chunk (the last may have fewer)
+  long count;         // chunks: ceil(cols / size), which may be below the count asked for
+};
+ChunkLayout chunk_layout(Eigen::Index cols) {
+  const long asked = cols <= kMaxChunkColumns
+                         ? 1
+                         : long(std::min<Eigen::Index>(kMaxChunks, 2 * ((cols + 2 * kMaxChunkColumns - 1) / (2 * kMaxChunkColumns))));
+  const Eigen::Index size = std::max<Eigen::Index>(1, (cols + asked - 1) / asked);
+  return {size, long((cols + size - 1) / size)};
 }
 }  // namespace
 
@@ -33,8 +38,7 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
                  MlpTrace* trace, const uint32_t* input_rows) {
   const std::vector<LayerView> layers = mlp_layers(config);
   const Eigen::Index B = input.cols();
-  const Eigen::Index chunk = chunk_size(B);
-  const long chunks = long((B + chunk - 1) / chunk);
+  const auto [chunk, chunks] = chunk_layout(B);
   // Per chunk, the leading input rows any of its columns may use.
   std::vector<Eigen::Index> rows(size_t(chunks), input.rows());
   if (input_rows)
@@ -61,10 +65,11 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
   out.resize(layers.back().out, B);
   const float slope = config.leaky_slope;
   // Every layer's W transposed (column-major: each input's weights of all outputs contiguous), the
-  // kernel's left operand.
-  thread_local std::vector<float> transposed;
+  // kernel's left operand: in the trace's workspace, else for this call.
+  std::vector<float> own_weights_t;
+  std::vector<float>& transposed = trace ? trace->weights_t : own_weights_t;
   transposed.resize(config.mlp_parameter_count());
-  float* weights_t = transposed.data();  // the calling thread's (inside the region it would be each thread's)
+  float* weights_t = transposed.data();
   // The rows of W (layer, output) of which each thread transposes its share.
   std::vector<uint32_t> row_start(layers.size() + 1, 0);
   for (size_t l = 0; l < layers.size(); ++l) row_start[l + 1] = row_start[l] + layers[l].out;
@@ -137,27 +142,26 @@ void sum_columns(float* __restrict out, const float* __restrict m, Eigen::Index 
 }
 }  // namespace
 
-void mlp_backward(const Config& config, const float* params, const MlpTrace& trace,
-                  const Matrix& d_out, float* d_params, Matrix* d_input) {
+void mlp_backward(const Config& config, const float* params, MlpTrace& trace, const Matrix& d_out,
+                  float* d_params, Matrix* d_input) {
   const std::vector<LayerView> layers = mlp_layers(config);
   const Eigen::Index B = d_out.cols();
   const size_t P = config.mlp_parameter_count();
-  const Eigen::Index chunk = chunk_size(B);
-  const long chunks = long((B + chunk - 1) / chunk);
-  // Each chunk's gradient, every parameter written (kept between calls: no allocation per step).
-  thread_local std::vector<float> partial;
-  partial.resize(size_t(chunks) * P);
-  float* const partial_sums = partial.data();  // the calling thread's (inside the region it would be each thread's)
+  const auto [chunk, chunks] = chunk_layout(B);
+  // Each chunk's gradient, every parameter written.
+  trace.chunk_gradients.resize(size_t(chunks) * P);
+  float* const partial_sums = trace.chunk_gradients.data();
+  // Per thread, the gradient w.r.t. the current layer's pre-activation (delta), two of them used in
+  // turn (a region has at most omp_get_max_threads() threads).
+  trace.deltas.resize(2 * size_t(omp_get_max_threads()));
   const float slope = config.leaky_slope;
   Eigen::Index widest = 0;
   for (const LayerView& v : layers) widest = std::max<Eigen::Index>(widest, std::max(v.in, v.out));
   if (d_input) d_input->resize(config.input_dim(), B);
 #pragma omp parallel
   {
-    // Per-thread scratch, kept between calls: the gradient w.r.t. the current layer's
-    // pre-activation (delta), two of them used in turn.
-    thread_local std::vector<float> delta_buf[2];
-    for (std::vector<float>& d : delta_buf) d.resize(size_t(widest * chunk));
+    std::vector<float>* delta_buf = &trace.deltas[2 * size_t(omp_get_thread_num())];
+    for (int i = 0; i < 2; ++i) delta_buf[i].resize(size_t(widest * chunk));
 #pragma omp for schedule(dynamic, 1)
     for (long c = 0; c < chunks; ++c) {
       const Eigen::Index c0 = c * chunk, n = std::min(chunk, B - c0);

@@ -19,10 +19,15 @@ using Matrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMa
 
 // Activations kept by the forward pass for the backward pass: layer_input[l] is the input of
 // layer l (layer_input[0] is the encoded features); chunk_input_rows[c] the leading input rows the
-// first layer read for column chunk c (the rest are zero: see mlp_forward's `input_rows`).
+// first layer read for column chunk c (the rest are zero: see mlp_forward's `input_rows`). The
+// rest is the two passes' workspace, kept with the trace so that a training step allocates
+// nothing; its contents between calls mean nothing.
 struct MlpTrace {
   std::vector<Matrix> layer_input;
   std::vector<Eigen::Index> chunk_input_rows;
+  std::vector<float> weights_t;             // every layer's W transposed (the products' left operand)
+  std::vector<float> chunk_gradients;       // each column chunk's parameter gradient
+  std::vector<std::vector<float>> deltas;   // per thread, two gradients of a layer's pre-activation
 };
 
 // out = MLP(input): input is input_dim x B, out becomes output_dim x B (raw, pre-activation).
@@ -42,8 +47,8 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
 // if d_input is given, writes d(loss)/d(input). After a forward pass given `input_rows`, the
 // gradients equal the full products' (to float rounding at most), and d_input is zero on the rows
 // beyond those the column's chunk used.
-void mlp_backward(const Config& config, const float* params, const MlpTrace& trace,
-                  const Matrix& d_out, float* d_params, Matrix* d_input);
+void mlp_backward(const Config& config, const float* params, MlpTrace& trace, const Matrix& d_out,
+                  float* d_params, Matrix* d_input);
 
 // Kaiming-normal weights for leaky ReLU (std = sqrt(2 / (1 + a^2)) / sqrt(fan_in)), zero biases.
 void mlp_init_kaiming(const Config& config, uint64_t seed, float* params);

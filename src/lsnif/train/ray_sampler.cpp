@@ -14,9 +14,16 @@ namespace {
 
 // Surface candidates retry their finding ray this many times before falling back to an outer ray.
 constexpr uint32_t kSurfaceAttempts = 16;
-// Candidates per parallel block (bounds the memory of one block; the output does not depend on it).
-constexpr size_t kMinBlock = 1024;
+// Candidates per parallel block: at most kMaxBlock (bounds a block's memory), at least kMinBlock
+// (one scheduling chunk). A call's first block is sized to fall a little short of the samples asked
+// for (kFirstBlockShare of the candidates the keep rate predicts they need), later ones to what is
+// missing with a margin (kLaterBlockMargin), so that few kept candidates beyond the last sample
+// are drawn, walked and traced in vain. The output does not depend on the sizes.
+constexpr size_t kMinBlock = 32;
 constexpr size_t kMaxBlock = 65536;
+constexpr double kFirstBlockShare = 0.98, kLaterBlockMargin = 1.25;
+// The least number of candidates tried before a call gives up (see generate).
+constexpr uint64_t kMinCandidateCap = 1024;
 
 // Ray from a uniform point on the sphere (centre, radius), cosine-weighted about the direction
 // toward the centre.
@@ -165,7 +172,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   // stands for 1 / line_box_share_ of them), so that what is too little to train on does not depend
   // on how the rays are drawn.
   const uint64_t max_candidates = std::max<uint64_t>(
-      kMinBlock, uint64_t(double((uint64_t(1) << 20) + 1024u * uint64_t(count)) * line_box_share_));
+      kMinCandidateCap, uint64_t(double((uint64_t(1) << 20) + 1024u * uint64_t(count)) * line_box_share_));
 
   // Fills sample/walk for candidate `index`; returns whether it is kept.
   auto make_candidate = [&](uint64_t index, Sample& sample, RayWalk& walk) -> bool {
@@ -203,12 +210,15 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   std::vector<size_t>& slot = sc.slot;
   uint64_t next = 0, tried = 0, kept = 0;
   while (filled < count && next < max_candidates) {
-    // Size the block from the keep rate seen so far (a guess of 1/2 at first) so that one or two
-    // blocks usually suffice. The samples kept are always the first `count` kept candidates in
-    // index order, whatever the block sizes, so the result does not depend on this heuristic.
+    // Size the block from the keep rate seen so far (the previous call's at first) so that two
+    // blocks usually suffice (above). The samples kept are always the first `count` kept
+    // candidates in index order, whatever the block sizes, so the result does not depend on this
+    // heuristic.
     const size_t remaining = count - filled;
     const double rate = tried ? std::max(double(kept) / double(tried), 0.02) : keep_rate_;
-    const size_t block = std::clamp(size_t(double(remaining) / rate * 1.05) + 64, kMinBlock, kMaxBlock);
+    const double want = double(remaining) / rate;
+    const size_t block = std::clamp(size_t(tried ? want * kLaterBlockMargin + double(kMinBlock) / 2 : want * kFirstBlockShare),
+                                    kMinBlock, kMaxBlock);
     block_samples.resize(block);
     block_walks.resize(block);
     block_keep.assign(block, 0);

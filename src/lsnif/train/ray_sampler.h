@@ -33,8 +33,8 @@ struct SamplerSettings {  // defaults: settings_table.h
   float sphere_scale = default_f32(SettingId::SphereScale);  // sphere radius = scale * half diagonal of the padded AABB
   float surface_offset = default_f32(SettingId::SurfaceOffset);  // surface origins pushed off by this x AABB diagonal
   // Draw the first kind's rays among the lines through the box (above); false draws them on the
-  // whole sphere, as the paper describes it (the same kept rays in distribution, more candidates:
-  // the tests' reference).
+  // whole sphere, as the paper describes it (the same kept rays in distribution, more candidates):
+  // the tests' reference, and evaluation's held-out rays (draw_held_out: those of every version).
   bool lines_through_box = true;
 };
 
