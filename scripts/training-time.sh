@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# scripts/training-time.sh [--ref REV] [--seeds LIST] [--steps N] [--meshes LIST] [--report-only] [OUT]
+# scripts/training-time.sh [--ref REV] [--seeds LIST] [--steps N] [--meshes LIST] [--repeat N] [--report-only] [OUT]
 # Training time and quality of the default model against an earlier build's default, measured side
 # by side in one run on this machine (OUT, default out/training-time):
 #   1. builds `lsnif` of revision REV (default 6b426c3, the default before the training-time work of
@@ -11,8 +11,13 @@
 #      (data/meshes/bunny00.off, armadillo.off, ChineseDragon-10kv.off), times its training loop,
 #      evaluates it on 100,000 held-out rays (the same seed in both builds) and renders it against
 #      its triangles (FLIP; the same renderer in both builds).
+#   3. with --repeat N (0-10, default 0), N more trainings of each mesh per build (`lsnif train`,
+#      the first seed, timed only), the builds alternating, so that the ratio of the medians of
+#      the N + seeds timings holds against a host whose pace drifts (2-3x between hosts of this
+#      kind, 10-20% within minutes on one).
 # Writes OUT/training-time.md (per mesh, build and seed: the training loop's seconds, the ratio to
-# REV's, model size, held-out metrics, FLIP; then the means over the seeds) and OUT/log.txt.
+# REV's, model size, held-out metrics, FLIP; then the means over the seeds; with --repeat, the
+# medians of all timings) and OUT/log.txt.
 # --report-only rewrites OUT/training-time.md from an earlier run's outputs. Measure on a quiet
 # host: nothing else running.
 set -euo pipefail
@@ -24,7 +29,8 @@ steps=
 meshes=bunny,armadillo,dragon
 out=out/training-time
 report_only=
-usage() { sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; }
+repeat=0
+usage() { sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; }
 die() { echo "training-time.sh: $*" >&2; exit 2; }
 in_range() { [[ $1 =~ ^[0-9]+$ ]] && (( 10#$1 >= $2 && 10#$1 <= $3 )); }
 while (($#)); do
@@ -33,6 +39,7 @@ while (($#)); do
     --seeds) (($# >= 2)) || die "--seeds needs a list"; seeds=$2; shift 2 ;;
     --steps) (($# >= 2)) && in_range "$2" 1 100000 || die "--steps takes a whole number in [1, 100000]"; steps=$2; shift 2 ;;
     --meshes) (($# >= 2)) || die "--meshes needs a list"; meshes=$2; shift 2 ;;
+    --repeat) (($# >= 2)) && in_range "$2" 0 10 || die "--repeat takes a whole number in [0, 10]"; repeat=$2; shift 2 ;;
     --report-only) report_only=1; shift ;;
     -h|--help) usage; exit 0 ;;
     -*) die "unknown option '$1' (--help lists them)" ;;
@@ -96,6 +103,28 @@ for ((i = 0; i < ${#seed_list[@]} && !report_only; ++i)); do
   done
 done
 
+# 2b. --repeat: timing-only trainings, the builds alternating (and which goes first turning round).
+timing=$out/timing
+[[ -n $report_only ]] || rm -rf "$timing"  # no earlier run's timings in this run's report
+if ((repeat && !report_only)); then
+  mkdir -p "$timing"
+  for ((r = 0; r < repeat; ++r)); do
+    for m in "${mesh_list[@]}"; do
+      order=(ref this)
+      ((r % 2)) && order=(this ref)
+      for b in "${order[@]}"; do
+        bin=$lsnif
+        [[ $b == ref ]] && bin=$ref_build/bin/lsnif
+        echo "== timing $r: $b, $m" | tee -a "$log" >&2
+        "$bin" train "data/meshes/${mesh_file[$m]}" -o "$timing/$m-$b-$r.lsnif" --seed "${seed_list[0]}" \
+          ${steps:+--steps "$steps"} > "$timing/$m-$b-$r.txt" 2>&1 ||
+          { tail -20 "$timing/$m-$b-$r.txt" >&2; echo "training-time.sh: timing training of $m by $b failed" >&2; exit 1; }
+        grep '^trained ' "$timing/$m-$b-$r.txt" >> "$log"
+      done
+    done
+  done
+fi
+
 # 3. The table: per mesh, build and seed, from bench-size's output.
 section() {  # section TEXT MESH: the lines of MESH's '-- MESH, setting default' block
   awk -v m="-- $2, setting default" '$0 == m { on = 1; next } /^(-- |== )/ { on = 0 } on' "$1"
@@ -147,6 +176,24 @@ declare -A sum
         "$(mean "${sum[$m.$b.terr]}")" "$(mean "${sum[$m.$b.nerr]}")" "$(mean "${sum[$m.$b.flip]}")"
     done
   done
+  # The medians of every timing of a mesh (the seeds' and the repeated ones), when there are repeats.
+  median() { tr ' ' '\n' <<< "$1" | sed '/^$/d' | sort -g | awk '{ v[NR] = $1 } END { printf "%.1f", NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
+  if compgen -G "$timing/*-ref-*.txt" > /dev/null; then
+    echo
+    echo "All timings (the seeds' above and \`$timing\`'s repeats, the builds alternating), medians:"
+    echo
+    echo "| mesh | ${rev:0:7}'s default (s) | this build's default (s) | timings each | / ${rev:0:7}, medians |"
+    echo "|---|---:|---:|---:|---:|"
+    for m in "${mesh_list[@]}"; do
+      all_ref=${sum[$m.ref.sec]} all_this=${sum[$m.this.sec]}
+      for f in "$timing/$m"-ref-*.txt; do all_ref+="$(sed -n 's/^trained .* in \([0-9.]*\) s .*/\1/p' "$f") "; done
+      for f in "$timing/$m"-this-*.txt; do all_this+="$(sed -n 's/^trained .* in \([0-9.]*\) s .*/\1/p' "$f") "; done
+      n=$(wc -w <<< "$all_ref")
+      mr=$(median "$all_ref") mt=$(median "$all_this")
+      printf '| %s | %s (%s) | %s (%s) | %s | %.2fx |\n' "$m" "$mr" "$(xargs <<< "$all_ref")" "$mt" "$(xargs <<< "$all_this")" \
+        "$n" "$(awk -v a="$mt" -v b="$mr" 'BEGIN { print a / b }')"
+    done
+  fi
 } > "$md.tmp"
 mv "$md.tmp" "$md"
 cat "$md"
