@@ -18,17 +18,16 @@ GridLayout::GridLayout(const Config& config, const uint16_t* grid_index) {
 DenseGridIndex::DenseGridIndex(const Config& config, GridLayout& layout) {
   for (uint32_t l = 0; l < config.grid_levels && l < LSNIF_MAX_LEVELS; ++l) {
     const PerfectHashView& hash = layout.indexed[l];
-    const uint64_t n = uint64_t(config.grid_resolution[l]) + 1;
+    const uint32_t R = config.grid_resolution[l];
+    const uint64_t n = uint64_t(R) + 1;
     if (!hash.displacement || hash.slots > 65536u || n * n * n > kMaxVertices) continue;
     std::vector<uint16_t>& slots = slots_[l];
     slots.resize(size_t(n * n * n));
-    const long planes = long(n);
 #pragma omp parallel for schedule(static)
-    for (long z = 0; z < planes; ++z)
-      for (uint64_t y = 0; y < n; ++y)
-        for (uint64_t x = 0; x < n; ++x)
-          slots[size_t((uint64_t(z) * n + y) * n + x)] =
-              uint16_t(perfect_hash_slot(hash, uint32_t(x), uint32_t(y), uint32_t(z)));
+    for (long z = 0; z <= long(R); ++z)
+      for (uint32_t y = 0; y <= R; ++y)
+        for (uint32_t x = 0; x <= R; ++x)
+          slots[dense_slot_index(x, y, uint32_t(z), R)] = uint16_t(perfect_hash_slot(hash, x, y, uint32_t(z)));
     layout.dense_slot[l] = slots.data();
   }
 }

@@ -219,20 +219,36 @@ RayWalk walk_on_occupied_faces(const VoxelGrid& g, std::mt19937& rng, uint32_t c
   return w;
 }
 
+// small_config(kUnequal) with level 1 indexed: the perfect hash of the readable vertices of
+// random voxels (drawn from `rng`).
+struct IndexedLevel {
+  Config config;
+  VoxelGrid voxels;
+  std::vector<GridVertex> keys;
+  PerfectHash hash;
+};
+void index_level_one(std::mt19937& rng, IndexedLevel& out) {
+  out.config = small_config(kUnequal);
+  out.voxels = random_voxels(out.config, rng);
+  out.keys = readable_vertices(out.voxels, out.config.grid_resolution[1]);
+  ASSERT_TRUE(build_perfect_hash(out.keys, perfect_hash_default_slots(out.keys.size()), out.hash).is_ok());
+  out.config.index_slots[1] = out.hash.slots;
+  out.config.index_buckets[1] = uint32_t(out.hash.displacement.size());
+  ASSERT_TRUE(out.config.validate().is_ok());
+}
+
 // An indexed level against brute force: each readable vertex's features kept in a map keyed by the
 // vertex (no hashing), the table filled from the map through the perfect hash. The encoding of points
 // on faces of occupied voxels must equal trilinear interpolation over the map, which holds only when
 // no two readable vertices share a slot and every corner read with a non-zero weight is readable.
 TEST(HashGrid, IndexedLevelEqualsPerVertexFeatures) {
-  Config c = small_config(kUnequal);
   std::mt19937 rng(21);
-  const VoxelGrid voxels = random_voxels(c, rng);
-  const std::vector<GridVertex> keys = readable_vertices(voxels, c.grid_resolution[1]);
-  PerfectHash hash;
-  ASSERT_TRUE(build_perfect_hash(keys, perfect_hash_default_slots(keys.size()), hash).is_ok());
-  c.index_slots[1] = hash.slots;
-  c.index_buckets[1] = uint32_t(hash.displacement.size());
-  ASSERT_TRUE(c.validate().is_ok());
+  IndexedLevel level;
+  ASSERT_NO_FATAL_FAILURE(index_level_one(rng, level));
+  const Config& c = level.config;
+  const VoxelGrid& voxels = level.voxels;
+  const std::vector<GridVertex>& keys = level.keys;
+  const PerfectHash& hash = level.hash;
   const GridLayout layout(c, hash.displacement.data());
   ASSERT_EQ(c.grid_entry_count(), 512u + hash.slots + 2048u);
   EXPECT_LT(hash.slots, 17u * 17u * 17u);  // below the dense grid's vertices
@@ -270,15 +286,12 @@ TEST(HashGrid, IndexedLevelEqualsPerVertexFeatures) {
 // The trainer's dense slot tables (DenseGridIndex) hold the perfect hash's own slot of every lattice
 // vertex, so face corners and encodings through them equal those through the hash, bit for bit.
 TEST(HashGrid, DenseSlotTableEqualsThePerfectHash) {
-  Config c = small_config(kUnequal);
   std::mt19937 rng(23);
-  const VoxelGrid voxels = random_voxels(c, rng);
-  const std::vector<GridVertex> keys = readable_vertices(voxels, c.grid_resolution[1]);
-  PerfectHash hash;
-  ASSERT_TRUE(build_perfect_hash(keys, perfect_hash_default_slots(keys.size()), hash).is_ok());
-  c.index_slots[1] = hash.slots;
-  c.index_buckets[1] = uint32_t(hash.displacement.size());
-  ASSERT_TRUE(c.validate().is_ok());
+  IndexedLevel level;
+  ASSERT_NO_FATAL_FAILURE(index_level_one(rng, level));
+  const Config& c = level.config;
+  const VoxelGrid& voxels = level.voxels;
+  const PerfectHash& hash = level.hash;
   const GridLayout hashed(c, hash.displacement.data());
   GridLayout looked_up(c, hash.displacement.data());
   const DenseGridIndex dense(c, looked_up);

@@ -70,20 +70,16 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
   std::vector<float>& transposed = trace ? trace->weights_t : own_weights_t;
   transposed.resize(config.mlp_parameter_count());
   float* weights_t = transposed.data();
-  // The rows of W (layer, output) of which each thread transposes its share.
-  std::vector<uint32_t> row_start(layers.size() + 1, 0);
-  for (size_t l = 0; l < layers.size(); ++l) row_start[l + 1] = row_start[l] + layers[l].out;
-  const long weight_rows = long(row_start.back());
 #pragma omp parallel
   {
-#pragma omp for schedule(static)
-    for (long r = 0; r < weight_rows; ++r) {
-      const size_t l = size_t(std::upper_bound(row_start.begin(), row_start.end(), uint32_t(r)) - row_start.begin()) - 1;
-      const LayerView& v = layers[l];
-      const uint32_t o = uint32_t(r) - row_start[l];
-      for (uint32_t i = 0; i < v.in; ++i)
-        weights_t[v.weight_offset + size_t(i) * v.out + o] = params[v.weight_offset + size_t(o) * v.in + i];
-    }  // (the loop's barrier: every product below reads all of it)
+    // Each thread transposes its share of every layer's rows; every product below reads all of it.
+    for (const LayerView& v : layers) {
+#pragma omp for schedule(static) nowait
+      for (long o = 0; o < long(v.out); ++o)
+        for (uint32_t i = 0; i < v.in; ++i)
+          weights_t[v.weight_offset + size_t(i) * v.out + size_t(o)] = params[v.weight_offset + size_t(o) * v.in + i];
+    }
+#pragma omp barrier
     Matrix a, b;  // per-thread activations of one chunk when no trace is kept
     // Dynamic: chunks of a batch ordered by point count differ in cost; each chunk's result is
     // its own, so which thread runs it changes nothing.
