@@ -34,7 +34,7 @@ enum class SettingId : uint32_t {
   SurfaceMaps, TextureCoordinates, UvCells,
   Steps, Batch, Seed, RayReuse, Lr, LrSchedule, LrFinal, LrWarm, AdamBeta1, AdamBeta2, AdamEpsilon, NormalLoss,
   WOcclusion, WDistance, WNormal, WAlbedo, WMaterial, WSurface,
-  SurfaceFraction, SphereScale, SurfaceOffset, GridInitRange,
+  SurfaceFraction, SphereScale, SurfaceOffset, SurfaceRays, GridInitRange,
   Count
 };
 inline constexpr size_t kSettingCount = static_cast<size_t>(SettingId::Count);
@@ -199,6 +199,12 @@ inline constexpr SettingDef kSettingDefs[] = {
                         "radius of the sphere other training rays start on, in half diagonals of the padded AABB"),
     setting_detail::f32(SettingId::SurfaceOffset, "surface-offset", 1e-4, 0, false, 1, false, "",
                         "surface ray origins pushed off by this times the AABB diagonal"),
+    // 2: half the finding rays per surface ray (the sampler's traces were the largest share of a
+    // training's time) at the same held-out metrics and FLIP within the seeds' spread
+    // (docs/results.md, "Two surface rays from each found point").
+    setting_detail::u32(SettingId::SurfaceRays, "surface-rays", 2, 1, 16,
+                        "surface rays cast from each surface point a finding ray hits, each in its own "
+                        "direction (their share of all rays stays --surface-fraction's)"),
     setting_detail::f32(SettingId::GridInitRange, "grid-init-range", 1e-4, 0, false, 1, false, "",
                         "hash-table entries start uniform in (-range, range)"),
 };

@@ -85,7 +85,7 @@ void copy_walk(const RayWalk& src, RayWalk& dst) {
 RaySampler::RaySampler(const Mesh& mesh, const GroundTruth& truth, const VoxelGrid& grid,
                        uint32_t max_points, SamplerSettings settings)
     : mesh_(mesh), truth_(truth), grid_(grid), max_points_(max_points), settings_(settings) {
-  surface_share_ = settings_.surface_fraction;
+  set_surface_share();
   const uint32_t V = grid_.resolution;
   if (!settings_.lines_through_box || V == 0) return;
   // The box: the mesh's bounds and its occupied voxels' (a kept ray crosses an occupied voxel, a
@@ -127,18 +127,26 @@ RaySampler::RaySampler(const Mesh& mesh, const GroundTruth& truth, const VoxelGr
   }
   line_box_ = box;
   line_box_share_ = std::min(1.0, area / (4.0 * 3.14159265358979323846 * double(radius) * double(radius)));
-  // Surface candidates are (almost) always kept, outer ones now 1 / line_box_share_ times as often:
-  // surface candidates at the share f' whose odds are f's over the box's share keep the kept rays'
-  // mix (f' / (1 - f') = f / (1 - f) / share).
+  set_surface_share();
+}
+
+// Surface candidates are (almost) always kept and give settings_.surface_rays rays each; outer ones are kept
+// 1 / line_box_share_ times as often through the box as on the whole sphere. Surface candidates at
+// the share f' whose odds are f's over (share x rays per hit) keep the kept rays' mix that the
+// paper's candidates (one ray each, on the whole sphere, surface_fraction f) give:
+// f' / (1 - f') = f / (1 - f) / (share x rays per hit).
+void RaySampler::set_surface_share() {
   const double f = settings_.surface_fraction;
-  if (f > 0 && f < 1) surface_share_ = f / (f + (1.0 - f) * line_box_share_);
+  surface_share_ = f;
+  if (f > 0 && f < 1) surface_share_ = f / (f + (1.0 - f) * line_box_share_ * double(settings_.surface_rays));
 }
 
 // Candidate generation: with probability surface_share_ (surface_fraction when the outer rays are
-// drawn on the whole sphere) a surface ray (origin on the first hit of an outer ray, pushed off
-// along the face normal facing that ray, direction cosine-weighted about that normal); otherwise,
-// or if kSurfaceAttempts outer rays all miss the mesh, an outer ray. Candidates whose walk has no
-// boundary point are dropped; kept ones get their reference hit.
+// drawn on the whole sphere, one surface ray per point) surface_rays surface rays (origin on the
+// first hit of an outer ray, pushed off along the face normal facing that ray, directions
+// cosine-weighted about that normal, one after another); otherwise, or if kSurfaceAttempts outer
+// rays all miss the mesh, an outer ray. Rays whose walk has no boundary point are dropped; kept
+// ones get their reference hit.
 //
 // Produces exactly `count` samples, except in the degenerate cases where almost no ray can be kept:
 // an empty grid or max_points == 0 gives none, and generation stops after 2^20 + 1024 * count
@@ -174,32 +182,43 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   const uint64_t max_candidates = std::max<uint64_t>(
       kMinCandidateCap, uint64_t(double((uint64_t(1) << 20) + 1024u * uint64_t(count)) * line_box_share_));
 
-  // Fills sample/walk for candidate `index`; returns whether it is kept.
-  auto make_candidate = [&](uint64_t index, Sample& sample, RayWalk& walk) -> bool {
+  // Fills the k = surface_rays slots of candidate `index` (samples, walks and keep flags): a
+  // surface candidate whose finding ray hits gives k surface rays from that hit, each with its own
+  // direction; any other candidate one outer ray in its first slot.
+  const uint32_t k = settings_.surface_rays;
+  auto make_candidate = [&](uint64_t index, Sample* sample, RayWalk* walk, uint8_t* keep) {
     Rng rng(seed, stream, index);
-    Ray ray;
-    bool from_surface = false;
+    for (uint32_t r = 0; r < k; ++r) keep[r] = 0;
     if (rng.next_float() < surface_share) {
-      for (uint32_t attempt = 0; attempt < kSurfaceAttempts && !from_surface; ++attempt) {
+      for (uint32_t attempt = 0; attempt < kSurfaceAttempts; ++attempt) {
         const Ray finder = outer_ray(rng);
         const ReferenceHit hit = truth_.trace_geometry(finder);
         if (!hit.hit) continue;
         const glm::vec3 point = finder.origin + hit.t * finder.direction;
         const glm::vec3 n = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal
                                                                                    : hit.geometric_normal;
-        const float u1 = rng.next_float(), u2 = rng.next_float();
-        ray.origin = point + offset * n;
-        ray.direction = sample_cosine_hemisphere(n, u1, u2);
-        from_surface = true;
+        for (uint32_t r = 0; r < k; ++r) {
+          const float u1 = rng.next_float(), u2 = rng.next_float();
+          Ray ray;
+          ray.origin = point + offset * n;
+          ray.direction = sample_cosine_hemisphere(n, u1, u2);
+          ray.tmin = 0.0f;
+          ray.tmax = std::numeric_limits<float>::infinity();
+          if (walk_ray(grid_, ray, max_points_, walk[r]) == 0) continue;
+          sample[r].ray = ray;
+          sample[r].from_surface = true;
+          keep[r] = 1;  // its reference hit once it is among the samples (below)
+        }
+        return;
       }
     }
-    if (!from_surface) ray = outer_ray(rng);
+    Ray ray = outer_ray(rng);
     ray.tmin = 0.0f;
     ray.tmax = std::numeric_limits<float>::infinity();
-    if (walk_ray(grid_, ray, max_points_, walk) == 0) return false;
-    sample.ray = ray;
-    sample.from_surface = from_surface;
-    return true;  // its reference hit once it is among the samples (below)
+    if (walk_ray(grid_, ray, max_points_, walk[0]) == 0) return;
+    sample[0].ray = ray;
+    sample[0].from_surface = false;
+    keep[0] = 1;
   };
 
   SamplerScratch own;
@@ -219,23 +238,25 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     const double want = double(remaining) / rate;
     const size_t block = std::clamp(size_t(tried ? want * kLaterBlockMargin + double(kMinBlock) / 2 : want * kFirstBlockShare),
                                     kMinBlock, kMaxBlock);
-    block_samples.resize(block);
-    block_walks.resize(block);
-    block_keep.assign(block, 0);
+    const size_t slots = block * k;
+    block_samples.resize(slots);
+    block_walks.resize(slots);
+    block_keep.resize(slots);
     const int64_t n = int64_t(block);
 #pragma omp parallel for schedule(dynamic, 32)
     for (int64_t j = 0; j < n; ++j)
-      block_keep[size_t(j)] = make_candidate(next + uint64_t(j), block_samples[size_t(j)],
-                                             block_walks[size_t(j)]) ? 1 : 0;
-    // Compact the kept candidates in order (positions serially, copies in parallel).
-    slot.assign(block, SIZE_MAX);
-    for (size_t j = 0; j < block; ++j) {
+      make_candidate(next + uint64_t(j), &block_samples[size_t(j) * k], &block_walks[size_t(j) * k],
+                     &block_keep[size_t(j) * k]);
+    // Compact the kept slots in order (positions serially, copies in parallel).
+    slot.assign(slots, SIZE_MAX);
+    for (size_t j = 0; j < slots; ++j) {
       kept += block_keep[j];
       if (block_keep[j] && filled < count) slot[j] = filled++;
     }
     tried += block;
+    const int64_t m = int64_t(slots);
 #pragma omp parallel for schedule(static)
-    for (int64_t j = 0; j < n; ++j) {
+    for (int64_t j = 0; j < m; ++j) {
       const size_t at = slot[size_t(j)];
       if (at == SIZE_MAX) continue;
       samples[at] = block_samples[size_t(j)];

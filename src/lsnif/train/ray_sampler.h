@@ -11,6 +11,11 @@
 // to the sphere): the kept rays have the same distribution, fewer candidates are drawn, walked
 // and traced, and the share of surface candidates is raised so that the kept rays hold the same
 // mix of both kinds (RaySampler::surface_share).
+//
+// A finding ray's hit (the sampler's costliest trace) serves SamplerSettings::surface_rays surface
+// rays, each with its own cosine-weighted direction; the share of surface candidates is lowered by
+// that factor's odds, so that the kept rays hold the same mix and each ray the same law. The rays
+// from one point are not independent of each other: evaluation draws one per point.
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -36,6 +41,7 @@ struct SamplerSettings {  // defaults: settings_table.h
   // whole sphere, as the paper describes it (the same kept rays in distribution, more candidates):
   // the tests' reference, and evaluation's held-out rays (draw_held_out: those of every version).
   bool lines_through_box = true;
+  uint32_t surface_rays = default_u32(SettingId::SurfaceRays);  // surface rays per found surface point
 };
 
 // The candidates of one block of a generate call (their rays, walks and keep flags), kept by a
@@ -78,6 +84,7 @@ class RaySampler {
   // Fraction of candidates kept so far, to size the next call's first block (a performance hint
   // only: which samples come out never depends on it).
   mutable double keep_rate_ = 0.5;
+  void set_surface_share();
 };
 
 }  // namespace lsnif

@@ -234,80 +234,150 @@ double two_sample_chi2(const std::vector<double>& a, const std::vector<double>& 
   return chi2;
 }
 
+// Histogram of one kind of ray: direction octant (8) x hit (2) x where it starts: the octant about
+// `centre` (8), or for outer rays with an `entry_box`, the face of the box they enter (6).
+std::vector<double> ray_histogram(const std::vector<Sample>& samples, bool surface, const glm::vec3& centre,
+                                  const Aabb* entry_box = nullptr) {
+  std::vector<double> h(128, 0.0);
+  for (const Sample& x : samples) {
+    if (x.from_surface != surface) continue;
+    const glm::vec3 o = x.ray.origin - centre, d = x.ray.direction;
+    int where = (o.x > 0) + 2 * (o.y > 0) + 4 * (o.z > 0);
+    if (!surface && entry_box) {
+      float t_enter = -std::numeric_limits<float>::infinity();
+      for (int ax = 0; ax < 3; ++ax) {
+        const float t = ((d[ax] > 0 ? entry_box->lo[ax] : entry_box->hi[ax]) - x.ray.origin[ax]) / d[ax];
+        if (t > t_enter) {
+          t_enter = t;
+          where = 2 * ax + (d[ax] < 0);
+        }
+      }
+    }
+    const int bin = where + 8 * ((d.x > 0) + 2 * (d.y > 0) + 4 * (d.z > 0)) + 64 * int(x.reference.hit);
+    h[size_t(bin)] += 1;
+  }
+  return h;
+}
+
+// n samples from each of two samplers (seeds `seed` and seed + 1).
+void generate_both(const RaySampler& x, const RaySampler& y, uint64_t seed, size_t n, std::vector<Sample>& a,
+                   std::vector<Sample>& b) {
+  std::vector<RayWalk> wa, wb;
+  x.generate(seed, 0, n, a, wa);
+  y.generate(seed + 1, 0, n, b, wb);
+  ASSERT_EQ(a.size(), n);
+  ASSERT_EQ(b.size(), n);
+}
+
+// Histograms a and b of one kind of ray come from the same law: their two-sample chi-square, over
+// `inflation` (b's counts vary up to that many times as much as independent rays'), below
+// Wilson-Hilferty's quantile at p = 1e-4.
+void expect_same_histograms(const std::vector<double>& a, const std::vector<double>& b, double inflation,
+                            const char* what) {
+  SCOPED_TRACE(what);
+  int dof = 0;
+  const double chi2 = two_sample_chi2(a, b, dof) / inflation;
+  ASSERT_GT(dof, 20);
+  const double q = 2.0 / (9.0 * dof), limit = dof * std::pow(1.0 - q + 3.719 * std::sqrt(q), 3.0);
+  EXPECT_LT(chi2, limit) << dof << " degrees of freedom";
+  std::printf("[ info     ] %s: chi-square %.1f, %d degrees of freedom (limit %.1f)\n", what, chi2, dof, limit);
+}
+
+// The shares of surface rays in a and b (as many each) agree within 4.5 standard errors of their
+// difference (b's variance up to `inflation` times a binomial's); returns them.
+std::pair<double, double> expect_same_surface_share(const std::vector<Sample>& a, const std::vector<Sample>& b,
+                                                    double inflation) {
+  double sa = 0, sb = 0;
+  for (const Sample& x : a) sa += x.from_surface;
+  for (const Sample& x : b) sb += x.from_surface;
+  const double n = double(a.size());
+  sa /= n;
+  sb /= n;
+  const double pooled = 0.5 * (sa + sb);
+  EXPECT_NEAR(sa, sb, 4.5 * std::sqrt((1.0 + inflation) * pooled * (1 - pooled) / n));
+  return {sa, sb};
+}
+
 // Drawing the first kind's rays through the box keeps what the sampler returns: the same mix of
 // surface and outer rays, and each kind's rays with the same law (histograms of where they start
 // and where they head, and whether they hit, against the paper's whole-sphere sampler), while the
 // box is drawn far fewer candidates for.
 TEST_F(RaySamplerTest, LinesThroughTheBoxKeepTheSampledRays) {
-  SamplerSettings sphere_settings;
+  SamplerSettings box_settings, sphere_settings;
+  box_settings.surface_rays = sphere_settings.surface_rays = 1;  // independent rays (the test below: more)
   sphere_settings.lines_through_box = false;
-  const RaySampler box_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints);
+  const RaySampler box_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, box_settings);
   const RaySampler sphere_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, sphere_settings);
   EXPECT_FALSE(sphere_sampler.line_box().valid());
   EXPECT_EQ(sphere_sampler.surface_share(), 0.5);
   EXPECT_GT(box_sampler.surface_share(), 0.5);
-  const size_t n = 60000;
   std::vector<Sample> a, b;
-  std::vector<RayWalk> wa, wb;
-  box_sampler.generate(11, 0, n, a, wa);
-  sphere_sampler.generate(12, 0, n, b, wb);
-  ASSERT_EQ(a.size(), n);
-  ASSERT_EQ(b.size(), n);
+  ASSERT_NO_FATAL_FAILURE(generate_both(box_sampler, sphere_sampler, 11, 60000, a, b));
   const glm::vec3 centre = scene_->grid.bounds.center();
-  // Per kind: direction octant (8) x hit (2) x, for outer rays, the face of the box they enter
-  // (6), for surface rays the octant about the centre they start in (8).
+  // Outer rays by the face of the box they enter, surface rays by where they start.
   const Aabb box = box_sampler.line_box();
-  auto histogram = [&](const std::vector<Sample>& s, bool surface) {
-    std::vector<double> h(128, 0.0);
-    for (const Sample& x : s) {
-      if (x.from_surface != surface) continue;
-      const glm::vec3 o = x.ray.origin - centre, d = x.ray.direction;
-      int where = (o.x > 0) + 2 * (o.y > 0) + 4 * (o.z > 0);
-      if (!surface) {
-        float t_enter = -std::numeric_limits<float>::infinity();
-        for (int ax = 0; ax < 3; ++ax) {
-          const float t = ((d[ax] > 0 ? box.lo[ax] : box.hi[ax]) - x.ray.origin[ax]) / d[ax];
-          if (t > t_enter) {
-            t_enter = t;
-            where = 2 * ax + (d[ax] < 0);
-          }
-        }
-      }
-      const int bin = where + 8 * ((d.x > 0) + 2 * (d.y > 0) + 4 * (d.z > 0)) + 64 * int(x.reference.hit);
-      h[size_t(bin)] += 1;
-    }
-    return h;
-  };
-  for (bool surface : {false, true}) {
-    SCOPED_TRACE(surface ? "surface rays" : "outer rays");
-    int dof = 0;
-    const double chi2 = two_sample_chi2(histogram(a, surface), histogram(b, surface), dof);
-    ASSERT_GT(dof, 20);
-    // Wilson-Hilferty's quantile of chi-square at p = 1e-4.
-    const double q = 2.0 / (9.0 * dof), limit = dof * std::pow(1.0 - q + 3.719 * std::sqrt(q), 3.0);
-    EXPECT_LT(chi2, limit) << dof << " degrees of freedom";
-    std::printf("[ info     ] %s: chi-square %.1f, %d degrees of freedom (limit %.1f)\n",
-                surface ? "surface rays" : "outer rays", chi2, dof, limit);
-  }
-  // The mix: both shares of surface rays agree within 4.5 standard errors of their difference.
-  double sa = 0, sb = 0;
-  for (size_t i = 0; i < n; ++i) { sa += a[i].from_surface; sb += b[i].from_surface; }
-  sa /= double(n);
-  sb /= double(n);
-  const double pooled = 0.5 * (sa + sb);
+  expect_same_histograms(ray_histogram(a, false, centre, &box), ray_histogram(b, false, centre, &box), 1.0,
+                         "outer rays");
+  expect_same_histograms(ray_histogram(a, true, centre), ray_histogram(b, true, centre), 1.0, "surface rays");
+  // The mix: both shares of surface rays agree.
+  const auto [sa, sb] = expect_same_surface_share(a, b, 1.0);
   std::printf("[ info     ] box share %.3f, surface candidates %.3f; kept surface rays %.4f (box) and %.4f (sphere)\n",
               box_sampler.line_box_share(), box_sampler.surface_share(), sa, sb);
-  EXPECT_NEAR(sa, sb, 4.5 * std::sqrt(2.0 * pooled * (1 - pooled) / double(n)));
+}
+
+// Several surface rays from each found point (--surface-rays): they come in runs of that many with
+// one origin and their own directions, and the sampler returns the same mix of surface and outer
+// rays and each kind's rays with the same law as with one ray per point. The rays of a run share
+// their origin, so a histogram's counts vary up to k times as much as independent rays': the
+// surface rays' chi-square is divided by k (a bound of that inflation).
+TEST_F(RaySamplerTest, SeveralSurfaceRaysPerFoundPointKeepTheSampledRays) {
+  SamplerSettings one, several;
+  one.surface_rays = 1;
+  several.surface_rays = 3;
+  const RaySampler one_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, one);
+  const RaySampler several_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, several);
+  EXPECT_LT(several_sampler.surface_share(), one_sampler.surface_share());
+  const size_t n = 60000;
+  std::vector<Sample> a, b;
+  ASSERT_NO_FATAL_FAILURE(generate_both(one_sampler, several_sampler, 21, n, a, b));
+  // Runs: a surface ray's origin is its run's; a run holds at most 3 rays, all surface rays, and
+  // every direction of a run differs. (A ray whose walk crosses no occupied voxel is dropped, so a
+  // run may be shorter; the last run may be cut by the count.)
+  size_t runs = 0, in_runs = 0;
+  for (size_t i = 0; i < n;) {
+    size_t j = i + 1;
+    while (j < n && b[j].from_surface && b[i].from_surface && b[j].ray.origin == b[i].ray.origin) ++j;
+    if (b[i].from_surface) {
+      ASSERT_LE(j - i, 3u) << i;
+      for (size_t x = i; x < j; ++x)
+        for (size_t y = x + 1; y < j; ++y) EXPECT_NE(b[x].ray.direction, b[y].ray.direction) << x << " " << y;
+      ++runs;
+      in_runs += j - i;
+    }
+    i = j;
+  }
+  std::printf("[ info     ] %zu surface rays in %zu runs (%.2f a found point)\n", in_runs, runs,
+              double(in_runs) / double(runs));
+  EXPECT_GT(double(in_runs) / double(runs), 2.5);  // a surface ray's walk almost always crosses a voxel
+  const glm::vec3 centre = scene_->grid.bounds.center();
+  expect_same_histograms(ray_histogram(a, false, centre), ray_histogram(b, false, centre), 1.0, "outer rays");
+  expect_same_histograms(ray_histogram(a, true, centre), ray_histogram(b, true, centre), 3.0, "surface rays (over 3)");
+  // The mix (runs inflate the variance of the share by at most 3).
+  const auto [sa, sb] = expect_same_surface_share(a, b, 3.0);
+  std::printf("[ info     ] kept surface rays %.4f (one a point) and %.4f (three)\n", sa, sb);
 }
 
 // A sphere that does not contain the box (--sphere-scale below 1): the rays are drawn on the
-// whole sphere, the surface share is the setting's.
+// whole sphere, the surface share is the setting's (its odds over the surface rays per point).
 TEST_F(RaySamplerTest, SmallSphereDrawsOnTheWholeSphere) {
   SamplerSettings settings;
   settings.sphere_scale = 0.6f;
   const RaySampler sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
   EXPECT_FALSE(sampler.line_box().valid());
-  EXPECT_EQ(sampler.surface_share(), double(settings.surface_fraction));
+  const double f = settings.surface_fraction, k = settings.surface_rays;
+  EXPECT_NEAR(sampler.surface_share(), f / (f + (1.0 - f) * k), 1e-12);
+  settings.surface_rays = 1;
+  EXPECT_EQ(RaySampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, settings).surface_share(), f);
   std::vector<Sample> samples;
   std::vector<RayWalk> walks;
   sampler.generate(3, 0, 2000, samples, walks);

@@ -139,6 +139,7 @@ constexpr std::array<SettingField, kSettingCount> setting_fields() {
       field<SurfaceFraction, &T::sampler, &SamplerSettings::surface_fraction>("surface fraction"),
       field<SphereScale, &T::sampler, &SamplerSettings::sphere_scale>("sphere scale"),
       field<SurfaceOffset, &T::sampler, &SamplerSettings::surface_offset>("surface offset"),
+      field<SurfaceRays, &T::sampler, &SamplerSettings::surface_rays>("surface rays"),
       field<GridInitRange, &T::grid_init_range>("grid init range"),
   }};
 }
