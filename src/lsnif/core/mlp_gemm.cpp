@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstring>
 #include <type_traits>
 #include <utility>
 
@@ -198,11 +199,63 @@ inline void store_tile(Vec (&acc)[MV][NR], float* C, int64_t c_n, const GemmEpil
     }
 }
 
-// C's tile of rows [m0, m0 + 16 (MV - 1) + last_lanes) and columns [n0, n0 + NR), summed over
-// k in [k0, k1): the sum is C's when `first`, else added to C; the epilogue when `last`.
-template <int MV, int NR>
-void gemm_tile(const GemmOperands& op, const GemmEpilogue& e, int64_t m0, int last_lanes, int64_t n0, int64_t k0,
-               int64_t k1, bool first, bool last) {
+// How a tile sums, for the two operand kinds. Fp32Sum: one k per step, A's 16 rows a vector, B's
+// value broadcast, a fused multiply-add. Bf16Sum (AVX512_BF16): one pair of k per step, A's 16 rows
+// of pairs a vector, B's pair broadcast, a two-pair dot product into the fp32 sums.
+struct Fp32Sum {
+  using Operands = GemmOperands;
+  using Word = float;
+  using AVec = Vec;
+  using BVec = Vec;
+  static constexpr int64_t kBlock = kKBlock;  // k per pass over a tile: 64 x 128 floats of A, 32 KB
+  static int64_t steps(const Operands& op) { return op.K; }
+  static int64_t a_step(const Operands& op) { return op.a_k; }
+  static int64_t b_step(const Operands& op) { return op.b_k; }
+  static AVec load(const float* p) { return vload(p); }
+  static AVec load(const float* p, Mask m) { return vload(p, m); }
+  static BVec broadcast(const float* p) { return vbroadcast(p); }
+  static Vec madd(AVec a, BVec b, Vec acc) { return vfma(a, b, acc); }
+};
+
+// mlp_gemm's operands rounded to bf16 and packed in pairs of k (pack_bf16_*): A's pair (m, p) =
+// A[m + p * a_p], B's pair (p, n) = B[p * b_p + n * b_n].
+struct PairOperands {
+  int64_t M = 0, N = 0, P = 0;
+  const uint32_t* A = nullptr;
+  int64_t a_p = 0;
+  const uint32_t* B = nullptr;
+  int64_t b_p = 0, b_n = 0;
+  float* C = nullptr;
+  int64_t c_n = 0;
+};
+
+#if defined(__AVX512BF16__) && defined(__AVX512F__)
+constexpr bool kBf16Native = true;
+struct Bf16Sum {
+  using Operands = PairOperands;
+  using Word = uint32_t;
+  using AVec = __m512bh;
+  using BVec = __m512bh;
+  static constexpr int64_t kBlock = 128;  // pairs per pass: 64 x 128 words of A, 32 KB
+  static int64_t steps(const Operands& op) { return op.P; }
+  static int64_t a_step(const Operands& op) { return op.a_p; }
+  static int64_t b_step(const Operands& op) { return op.b_p; }
+  static AVec load(const uint32_t* p) { return (__m512bh)_mm512_loadu_si512(p); }
+  static AVec load(const uint32_t* p, Mask m) { return (__m512bh)_mm512_maskz_loadu_epi32(m.k, p); }
+  static BVec broadcast(const uint32_t* p) { return (__m512bh)_mm512_set1_epi32(int(*p)); }
+  static Vec madd(AVec a, BVec b, Vec acc) { return {_mm512_dpbf16_ps(acc.v, a, b)}; }
+};
+#else
+constexpr bool kBf16Native = false;
+#endif
+
+// C's tile of rows [m0, m0 + 16 (MV - 1) + last_lanes) and columns [n0, n0 + NR), summed over the
+// steps (k, or pairs of k) [s0, s1): the sum is C's when `first`, else added to C; the epilogue
+// when `last`. Per step, the tile's MV vectors of A are loaded once and each of the NR values of B
+// broadcast once, for MV x NR multiply-adds.
+template <class S, int MV, int NR>
+void gemm_tile(const typename S::Operands& op, const GemmEpilogue& e, int64_t m0, int last_lanes, int64_t n0,
+               int64_t s0, int64_t s1, bool first, bool last) {
   Vec acc[MV][NR];
 #pragma GCC unroll 4
   for (int v = 0; v < MV; ++v)
@@ -210,18 +263,18 @@ void gemm_tile(const GemmOperands& op, const GemmEpilogue& e, int64_t m0, int la
     for (int j = 0; j < NR; ++j) acc[v][j] = vzero();
   const Mask tail = lanes_mask(last_lanes);
   auto sum = [&](auto whole) {  // whole: the last vector of rows is whole (no masked loads)
-    const float* a = op.A + m0 + k0 * op.a_k;
-    const float* b = op.B + k0 * op.b_k + n0 * op.b_n;
-    for (int64_t k = k0; k < k1; ++k, a += op.a_k, b += op.b_k) {
-      Vec av[MV];
+    const typename S::Word* a = op.A + m0 + s0 * S::a_step(op);
+    const typename S::Word* b = op.B + s0 * S::b_step(op) + n0 * op.b_n;
+    for (int64_t k = s0; k < s1; ++k, a += S::a_step(op), b += S::b_step(op)) {
+      typename S::AVec av[MV];
 #pragma GCC unroll 4
       for (int v = 0; v < MV; ++v)
-        av[v] = decltype(whole)::value || v + 1 < MV ? vload(a + v * kLanes) : vload(a + v * kLanes, tail);
+        av[v] = decltype(whole)::value || v + 1 < MV ? S::load(a + v * kLanes) : S::load(a + v * kLanes, tail);
 #pragma GCC unroll 6
       for (int j = 0; j < NR; ++j) {
-        const Vec bj = vbroadcast(b + j * op.b_n);
+        const typename S::BVec bj = S::broadcast(b + j * op.b_n);
 #pragma GCC unroll 4
-        for (int v = 0; v < MV; ++v) acc[v][j] = vfma(av[v], bj, acc[v][j]);
+        for (int v = 0; v < MV; ++v) acc[v][j] = S::madd(av[v], bj, acc[v][j]);
       }
     }
   };
@@ -232,40 +285,168 @@ void gemm_tile(const GemmOperands& op, const GemmEpilogue& e, int64_t m0, int la
   store_tile<MV, NR>(acc, op.C, op.c_n, e, m0, tail, n0, first, last);
 }
 
-using TileFn = void (*)(const GemmOperands&, const GemmEpilogue&, int64_t, int, int64_t, int64_t, int64_t, bool, bool);
-
-template <int MV, int... NR>
+template <class S>
+using TileFn = void (*)(const typename S::Operands&, const GemmEpilogue&, int64_t, int, int64_t, int64_t, int64_t,
+                        bool, bool);
+template <class S, int MV, int... NR>
 constexpr auto tile_row(std::integer_sequence<int, NR...>) {
-  return std::array<TileFn, sizeof...(NR)>{&gemm_tile<MV, NR + 1>...};
+  return std::array<TileFn<S>, sizeof...(NR)>{&gemm_tile<S, MV, NR + 1>...};
 }
-template <int... MV>
+template <class S, int... MV>
 constexpr auto tile_table(std::integer_sequence<int, MV...>) {
-  return std::array<std::array<TileFn, kTileColumns>, sizeof...(MV)>{
-      tile_row<MV + 1>(std::make_integer_sequence<int, kTileColumns>{})...};
+  return std::array<std::array<TileFn<S>, kTileColumns>, sizeof...(MV)>{
+      tile_row<S, MV + 1>(std::make_integer_sequence<int, kTileColumns>{})...};
 }
-// kTiles[vectors - 1][columns - 1]: the tile of that many vectors of rows and columns.
-const auto kTiles = tile_table(std::make_integer_sequence<int, kTileVectors>{});
 
-}  // namespace
-
-void mlp_gemm(const GemmOperands& op, const GemmEpilogue& epilogue) {
-  if (op.M <= 0 || op.N <= 0 || op.K < 0) return;
+// The product of `op`: tiles of up to kTileVectors x 16 rows and kTileColumns columns, the steps
+// in blocks of S::kBlock so that a tile's slice of A stays in the L1 cache while the tile moves
+// along the columns (partial sums of a block go through C).
+template <class S>
+void run_gemm(const typename S::Operands& op, const GemmEpilogue& epilogue) {
+  // kTiles[vectors - 1][columns - 1]: the tile of that many vectors of rows and columns.
+  static constexpr auto kTiles = tile_table<S>(std::make_integer_sequence<int, kTileVectors>{});
   constexpr int64_t tile_rows = int64_t(kTileVectors) * kLanes;
-  int64_t k0 = 0;
-  do {  // one pass with an empty sum when K == 0
-    const int64_t k1 = std::min(op.K, k0 + kKBlock);
-    const bool first = k0 == 0, last = k1 >= op.K;
+  const int64_t steps = S::steps(op);
+  int64_t s0 = 0;
+  do {  // one pass with an empty sum when there are no steps
+    const int64_t s1 = std::min(steps, s0 + S::kBlock);
+    const bool first = s0 == 0, last = s1 >= steps;
     for (int64_t m0 = 0; m0 < op.M; m0 += tile_rows) {
       const int64_t rows = std::min(tile_rows, op.M - m0);
       const int vectors = int((rows + kLanes - 1) / kLanes);
       const int last_lanes = int(rows - int64_t(vectors - 1) * kLanes);
       for (int64_t n0 = 0; n0 < op.N; n0 += kTileColumns) {
         const int cols = int(std::min<int64_t>(kTileColumns, op.N - n0));
-        kTiles[size_t(vectors - 1)][size_t(cols - 1)](op, epilogue, m0, last_lanes, n0, k0, k1, first, last);
+        kTiles[size_t(vectors - 1)][size_t(cols - 1)](op, epilogue, m0, last_lanes, n0, s0, s1, first, last);
       }
     }
-    k0 = k1;
-  } while (k0 < op.K);
+    s0 = s1;
+  } while (s0 < steps);
+}
+
+}  // namespace
+
+uint16_t bf16_from_float(float x) {
+  uint32_t u;
+  std::memcpy(&u, &x, 4);
+  if ((u & 0x7FFFFFFFu) > 0x7F800000u) return uint16_t((u >> 16) | 0x40u);  // NaN: quiet, stays NaN
+  return uint16_t((u + 0x7FFFu + ((u >> 16) & 1u)) >> 16);
+}
+
+float float_from_bf16(uint16_t h) {
+  const uint32_t u = uint32_t(h) << 16;
+  float x;
+  std::memcpy(&x, &u, 4);
+  return x;
+}
+
+void pack_bf16_column_pairs(const float* src, int64_t ld, int64_t R, int64_t C, uint32_t* dst) {
+  const int64_t P = (C + 1) / 2;
+  for (int64_t p = 0; p < P; ++p) {
+    const float* lo = src + 2 * p * ld;
+    const float* hi = 2 * p + 1 < C ? lo + ld : nullptr;
+    uint32_t* out = dst + p * R;
+    int64_t r = 0;
+#if defined(__AVX512BF16__) && defined(__AVX512F__)
+    for (; r < R; r += kLanes) {
+      const __mmask16 m = R - r >= kLanes ? __mmask16(0xFFFF) : __mmask16((1u << (R - r)) - 1u);
+      const __m512 x0 = _mm512_maskz_loadu_ps(m, lo + r);
+      const __m512 x1 = hi ? _mm512_maskz_loadu_ps(m, hi + r) : _mm512_setzero_ps();
+      // Zero-masked forms: GCC 12 warns falsely inside the unmasked ones (_mm512_undefined_epi32).
+      const __m512i w0 = _mm512_maskz_cvtepu16_epi32(0xFFFF, (__m256i)_mm512_cvtneps_pbh(x0));
+      const __m512i w1 = _mm512_maskz_cvtepu16_epi32(0xFFFF, (__m256i)_mm512_cvtneps_pbh(x1));
+      _mm512_mask_storeu_epi32(out + r, m, _mm512_or_si512(w0, _mm512_maskz_slli_epi32(0xFFFF, w1, 16)));
+    }
+#endif
+    for (; r < R; ++r)
+      out[r] = uint32_t(bf16_from_float(lo[r])) | (hi ? uint32_t(bf16_from_float(hi[r])) << 16 : 0u);
+  }
+}
+
+void pack_bf16_row_pairs(const float* src, int64_t ld, int64_t R, int64_t C, uint32_t* dst) {
+  const int64_t P = (R + 1) / 2;
+  for (int64_t c = 0; c < C; ++c) {
+    const float* in = src + c * ld;
+    uint32_t* out = dst + c * P;
+    int64_t p = 0;
+#if defined(__AVX512BF16__) && defined(__AVX512F__)
+    for (; 2 * p < R; p += kLanes) {  // 32 values (16 pairs) at a time
+      const int64_t left = R - 2 * p;
+      const __mmask16 m0 = left >= kLanes ? __mmask16(0xFFFF) : __mmask16((1u << left) - 1u);
+      const __mmask16 m1 = left >= 2 * kLanes ? __mmask16(0xFFFF)
+                           : left > kLanes    ? __mmask16((1u << (left - kLanes)) - 1u)
+                                              : __mmask16(0);
+      const __m512 x0 = _mm512_maskz_loadu_ps(m0, in + 2 * p), x1 = _mm512_maskz_loadu_ps(m1, in + 2 * p + kLanes);
+      const int64_t pairs = std::min<int64_t>(kLanes, P - p);
+      const __mmask16 mp = pairs >= kLanes ? __mmask16(0xFFFF) : __mmask16((1u << pairs) - 1u);
+      _mm512_mask_storeu_epi32(out + p, mp, (__m512i)_mm512_cvtne2ps_pbh(x1, x0));
+    }
+#endif
+    for (; p < P; ++p)
+      out[p] = uint32_t(bf16_from_float(in[2 * p])) | (2 * p + 1 < R ? uint32_t(bf16_from_float(in[2 * p + 1])) << 16 : 0u);
+  }
+}
+
+void pack_bf16_a(const GemmOperands& op, uint32_t* dst) { pack_bf16_column_pairs(op.A, op.a_k, op.M, op.K, dst); }
+
+size_t mlp_gemm_bf16_scratch(const GemmOperands& op) { return size_t(op.N) * size_t((op.K + 1) / 2); }
+
+void mlp_gemm_bf16(const GemmOperands& op, const GemmEpilogue& e, const uint32_t* packed_a, uint32_t* scratch) {
+  if (op.M <= 0 || op.N <= 0 || op.K < 0) return;
+  PairOperands q;
+  q.M = op.M;
+  q.N = op.N;
+  q.P = (op.K + 1) / 2;
+  q.A = packed_a;
+  q.a_p = op.M;
+  q.C = op.C;
+  q.c_n = op.c_n;
+  q.B = scratch;
+  if (op.b_n == 1) {  // B's rows contiguous (a row per k): pairs of those rows, N words a pair
+    pack_bf16_column_pairs(op.B, op.b_k, op.N, op.K, scratch);
+    q.b_p = op.N;
+    q.b_n = 1;
+  } else {  // pairs within each column, ceil(K / 2) words a column
+    if (op.b_k == 1)
+      pack_bf16_row_pairs(op.B, op.b_n, op.K, op.N, scratch);
+    else
+      for (int64_t n = 0; n < op.N; ++n)
+        for (int64_t p = 0; p < q.P; ++p) {
+          const float lo = op.B[2 * p * op.b_k + n * op.b_n];
+          const float hi = 2 * p + 1 < op.K ? op.B[(2 * p + 1) * op.b_k + n * op.b_n] : 0.0f;
+          scratch[p + n * q.P] = uint32_t(bf16_from_float(lo)) | uint32_t(bf16_from_float(hi)) << 16;
+        }
+    q.b_p = 1;
+    q.b_n = q.P;
+  }
+#if defined(__AVX512BF16__) && defined(__AVX512F__)
+  run_gemm<Bf16Sum>(q, e);
+#else
+  // The instructions' arithmetic in plain loops: per pair, the high halves' product added first,
+  // then the low halves' (each product exact in fp32, each sum rounded).
+  auto low = [](uint32_t w) { return float_from_bf16(uint16_t(w & 0xFFFFu)); };
+  auto high = [](uint32_t w) { return float_from_bf16(uint16_t(w >> 16)); };
+  for (int64_t n = 0; n < q.N; ++n)
+    for (int64_t m = 0; m < q.M; ++m) {
+      float sum = 0.0f;
+      for (int64_t p = 0; p < q.P; ++p) {
+        const uint32_t a = q.A[m + p * q.a_p], b = q.B[p * q.b_p + n * q.b_n];
+        sum += high(a) * high(b);
+        sum += low(a) * low(b);
+      }
+      if (e.bias) sum += e.bias[m];
+      if (e.leaky && !(sum > 0.0f)) sum *= e.slope;
+      if (e.gate && !(e.gate[m + n * e.gate_n] > 0.0f)) sum *= e.slope;
+      q.C[m + n * q.c_n] = sum;
+    }
+#endif
+}
+
+bool mlp_gemm_bf16_native() { return kBf16Native; }
+
+void mlp_gemm(const GemmOperands& op, const GemmEpilogue& epilogue) {
+  if (op.M <= 0 || op.N <= 0 || op.K < 0) return;
+  run_gemm<Fp32Sum>(op, epilogue);
 }
 
 const char* mlp_gemm_isa() { return kIsa; }

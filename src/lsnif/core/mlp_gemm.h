@@ -7,6 +7,7 @@
 // Every operand is a strided view, so that one kernel serves the forward product (W x X), the
 // input gradient (W^T x dY) and the weight gradient (dW^T = X x dY^T) without copies.
 #pragma once
+#include <cstddef>
 #include <cstdint>
 
 namespace lsnif {
@@ -37,6 +38,29 @@ void mlp_gemm(const GemmOperands& op, const GemmEpilogue& epilogue = {});
 
 // The instruction set the kernel was built for: "avx512", "avx2", "sse2" or "generic" (not x86-64).
 const char* mlp_gemm_isa();
+
+// The same product with A and B rounded to bf16 (8 bits of mantissa; the products exact, the sums,
+// C and the epilogue fp32): twice the multiply-adds per instruction where the CPU has AVX512_BF16.
+// `packed_a` holds A as pack_bf16_a wrote it (M x ceil(K / 2) words: a caller that multiplies by
+// the same A again packs it once); B is packed into `scratch` (mlp_gemm_bf16_scratch(op) words).
+void mlp_gemm_bf16(const GemmOperands& op, const GemmEpilogue& epilogue, const uint32_t* packed_a, uint32_t* scratch);
+void pack_bf16_a(const GemmOperands& op, uint32_t* dst);
+size_t mlp_gemm_bf16_scratch(const GemmOperands& op);
+// Whether mlp_gemm_bf16 runs on bf16 instructions (AVX512_BF16 builds); elsewhere it emulates
+// them in plain loops (the same sums up to denormals, far slower: for tests).
+bool mlp_gemm_bf16_native();
+
+// The bf16 value nearest to x (ties to even), as the bf16 instructions round; NaN stays NaN.
+uint16_t bf16_from_float(float x);
+float float_from_bf16(uint16_t h);
+
+// The packing, from an fp32 matrix S(r, c) = src[r + c * ld], r < R, c < C, into words of two bf16
+// (the even k in the low half): pairs of adjacent columns, dst[r + p * R] = (S(r, 2p), S(r, 2p + 1))
+// for p < ceil(C / 2) (A with k = c; B whose rows are contiguous) ...
+void pack_bf16_column_pairs(const float* src, int64_t ld, int64_t R, int64_t C, uint32_t* dst);
+// ... or pairs of adjacent rows, dst[p + c * ceil(R / 2)] = (S(2p, c), S(2p + 1, c)) (B whose
+// columns are contiguous, k = r). A missing last column or row gives 0.
+void pack_bf16_row_pairs(const float* src, int64_t ld, int64_t R, int64_t C, uint32_t* dst);
 
 
 }  // namespace lsnif

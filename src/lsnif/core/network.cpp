@@ -32,7 +32,45 @@ ChunkLayout chunk_layout(Eigen::Index cols) {
   const Eigen::Index size = std::max<Eigen::Index>(1, (cols + asked - 1) / asked);
   return {size, long((cols + size - 1) / size)};
 }
+
+// The offsets in MlpTrace::weights_bf16 of each layer's packed W (forward: pairs of inputs, out x
+// ceil(in / 2) words; backward: pairs of outputs, in x ceil(out / 2)); the total in `size`.
+struct Bf16Weights {
+  std::vector<size_t> forward, backward;
+  size_t size = 0;
+};
+Bf16Weights bf16_weight_layout(const Config& config, const std::vector<LayerView>& layers) {
+  Bf16Weights w;
+  for (size_t l = 0; l < layers.size(); ++l) {
+    const LayerView& v = layers[l];
+    w.forward.push_back(w.size);
+    if (mlp_layer_bf16(config, l)) w.size += size_t(v.out) * ((v.in + 1) / 2);
+    w.backward.push_back(w.size);
+    if (mlp_layer_bf16(config, l)) w.size += size_t(v.in) * ((v.out + 1) / 2);
+  }
+  return w;
+}
+
+// A product whose left operand is a layer's weights as an M x K column-major matrix `a` (M values
+// per k contiguous): W transposed for the forward product (M outputs, K inputs), W as stored
+// (row-major [out][in]) for the input gradient W^T delta (M inputs, K outputs). The caller sets B,
+// N and C, and may cut M or K.
+GemmOperands weight_product(const float* a, uint32_t M, uint32_t K) {
+  return GemmOperands{.M = M, .N = 0, .K = K, .A = a, .a_k = M};
+}
+
+// The calling thread's packed operands, two buffers of `words` each (trace.packed holds one entry
+// per thread of the region: sized before it).
+uint32_t* packed_buffers(MlpTrace& trace, size_t words) {
+  std::vector<uint32_t>& b = trace.packed[size_t(omp_get_thread_num())];
+  if (b.size() < 2 * words) b.resize(2 * words);
+  return b.data();
+}
 }  // namespace
+
+bool mlp_layer_bf16(const Config& config, size_t layer) {
+  return layer > 0 && layer < config.hidden_layers;  // from one hidden layer to the next
+}
 
 void mlp_forward(const Config& config, const float* params, const Matrix& input, Matrix& out,
                  MlpTrace* trace, const uint32_t* input_rows) {
@@ -70,6 +108,14 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
   std::vector<float>& transposed = trace ? trace->weights_t : own_weights_t;
   transposed.resize(config.mlp_parameter_count());
   float* weights_t = transposed.data();
+  const Bf16Weights bf16_layout = bf16_weight_layout(config, layers);
+  Eigen::Index bf16_words = 0;  // the largest packed input of a chunk
+  if (trace && trace->bf16_hidden) {
+    trace->weights_bf16.resize(bf16_layout.size);
+    trace->packed.resize(size_t(omp_get_max_threads()));
+    for (size_t l = 0; l < layers.size(); ++l)
+      if (mlp_layer_bf16(config, l)) bf16_words = std::max<Eigen::Index>(bf16_words, (layers[l].in + 1) / 2 * chunk);
+  }
 #pragma omp parallel
   {
     // Each thread transposes its share of every layer's rows; every product below reads all of it.
@@ -80,6 +126,16 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
           weights_t[v.weight_offset + size_t(i) * v.out + size_t(o)] = params[v.weight_offset + size_t(o) * v.in + i];
     }
 #pragma omp barrier
+    const bool bf16 = trace && trace->bf16_hidden;
+    if (bf16) {  // the bf16 layers' W as pairs of inputs, a layer per thread
+#pragma omp for schedule(static)
+      for (long l = 0; l < long(layers.size()); ++l)
+        if (mlp_layer_bf16(config, size_t(l))) {
+          pack_bf16_a(weight_product(weights_t + layers[size_t(l)].weight_offset, layers[size_t(l)].out, layers[size_t(l)].in),
+                      trace->weights_bf16.data() + bf16_layout.forward[size_t(l)]);
+        }
+    }
+    uint32_t* packed_x = bf16 ? packed_buffers(*trace, size_t(bf16_words)) : nullptr;
     Matrix a, b;  // per-thread activations of one chunk when no trace is kept
     // Dynamic: chunks of a batch ordered by point count differ in cost; each chunk's result is
     // its own, so which thread runs it changes nothing.
@@ -104,12 +160,9 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
         }
         // y = W x + bias, then the leaky ReLU (0 <= slope < 1) but after the last layer; the first
         // layer reads only the chunk's leading `rows` inputs.
-        GemmOperands op;
-        op.M = v.out;
+        GemmOperands op = weight_product(weights_t + v.weight_offset, v.out, v.in);
         op.N = n;
         op.K = l == 0 ? rows[size_t(c)] : Eigen::Index(v.in);
-        op.A = weights_t + v.weight_offset;
-        op.a_k = v.out;
         op.B = in_ptr;
         op.b_k = 1;
         op.b_n = l == 0 ? x0.rows() : Eigen::Index(v.in);
@@ -119,7 +172,10 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
         e.bias = params + v.bias_offset;
         e.leaky = !last;
         e.slope = slope;
-        mlp_gemm(op, e);
+        if (bf16 && mlp_layer_bf16(config, l))
+          mlp_gemm_bf16(op, e, trace->weights_bf16.data() + bf16_layout.forward[l], packed_x);
+        else
+          mlp_gemm(op, e);
         if (!last && !trace) a.swap(b);
       }
     }
@@ -154,10 +210,29 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
   Eigen::Index widest = 0;
   for (const LayerView& v : layers) widest = std::max<Eigen::Index>(widest, std::max(v.in, v.out));
   if (d_input) d_input->resize(config.input_dim(), B);
+  const bool bf16 = trace.bf16_hidden;
+  const Bf16Weights bf16_layout = bf16_weight_layout(config, layers);
+  // A chunk's packed operands (two buffers): x as pairs of rays and delta as the weight gradient's
+  // B, or delta as the input gradient's B.
+  const size_t bf16_words = size_t(widest) * size_t((chunk + 1) / 2) + size_t(chunk);
+  if (bf16) {
+    trace.weights_bf16.resize(bf16_layout.size);
+    trace.packed.resize(size_t(omp_get_max_threads()));
+  }
 #pragma omp parallel
   {
     std::vector<float>* delta_buf = &trace.deltas[2 * size_t(omp_get_thread_num())];
     for (int i = 0; i < 2; ++i) delta_buf[i].resize(size_t(widest * chunk));
+    uint32_t* packed = nullptr;
+    if (bf16) {  // the bf16 layers' W as pairs of outputs (W^T's left operand), a layer per thread
+      packed = packed_buffers(trace, bf16_words);
+#pragma omp for schedule(static)
+      for (long l = 0; l < long(layers.size()); ++l)
+        if (mlp_layer_bf16(config, size_t(l))) {
+          pack_bf16_a(weight_product(params + layers[size_t(l)].weight_offset, layers[size_t(l)].in, layers[size_t(l)].out),
+                      trace.weights_bf16.data() + bf16_layout.backward[size_t(l)]);
+        }
+    }
 #pragma omp for schedule(dynamic, 1)
     for (long c = 0; c < chunks; ++c) {
       const Eigen::Index c0 = c * chunk, n = std::min(chunk, B - c0);
@@ -182,18 +257,21 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
         gw.b_n = 1;
         gw.C = dp + v.weight_offset;
         gw.c_n = v.in;
-        mlp_gemm(gw);
+        const bool in_bf16 = bf16 && mlp_layer_bf16(config, li);  // both products of this layer
+        if (in_bf16) {
+          pack_bf16_a(gw, packed);
+          mlp_gemm_bf16(gw, {}, packed, packed + bf16_words);
+        } else {
+          mlp_gemm(gw);
+        }
         if (k < Eigen::Index(v.in))
           for (uint32_t o = 0; o < v.out; ++o)
             std::fill(dp + v.weight_offset + size_t(o) * v.in + size_t(k), dp + v.weight_offset + size_t(o + 1) * v.in, 0.0f);
         if (li == 0 && !d_input) break;
         // d(input) = W^T delta; below the first layer through the leaky ReLU that made x.
-        GemmOperands gx;
+        GemmOperands gx = weight_product(params + v.weight_offset, v.in, v.out);
         gx.M = k;
         gx.N = n;
-        gx.K = v.out;
-        gx.A = params + v.weight_offset;
-        gx.a_k = v.in;
         gx.B = delta_ptr;
         gx.b_k = 1;
         gx.b_n = v.out;
@@ -212,7 +290,10 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
         e.gate = x;
         e.gate_n = v.in;
         e.slope = slope;
-        mlp_gemm(gx, e);
+        if (in_bf16)
+          mlp_gemm_bf16(gx, e, trace.weights_bf16.data() + bf16_layout.backward[li], packed);
+        else
+          mlp_gemm(gx, e);
         delta_ptr = next;
       }
     }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -269,6 +270,74 @@ TEST(Network, FlopsPerEvaluationMatchThePaperAndTheLayerShapes) {
   c.hidden_layers = 1;
   c.material_count = 3;  // 60 -> 64 -> 11
   EXPECT_EQ(mlp_flops_per_evaluation(c), 2u * (60 * 64 + 64 * 11));
+}
+
+// The hidden layers in bf16 (MlpTrace::bf16_hidden): exactly the layers between two hidden ones,
+// and outputs, activations, weight and input gradients within bf16's rounding of the fp32 passes'
+// (which the tests above check against naive loops and finite differences), over several column
+// chunks, an odd width and an odd chunk (pairs padded with zero) and the first layer's skipped
+// input rows.
+TEST(Network, Bf16HiddenLayersMatchFp32WithinTheirRounding) {
+  Config c = tiny_config();
+  c.hidden_width = 21;
+  c.hidden_layers = 3;
+  EXPECT_FALSE(mlp_layer_bf16(c, 0));
+  EXPECT_TRUE(mlp_layer_bf16(c, 1));
+  EXPECT_TRUE(mlp_layer_bf16(c, 2));
+  EXPECT_FALSE(mlp_layer_bf16(c, 3));
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> u(-1, 1);
+  const std::vector<float> p = perturbed_params(c, 3, rng);
+  const int B = 1201;  // 4 chunks of 301 (the last 298)
+  Matrix X(c.input_dim(), B), G(c.output_dim(), B);
+  std::vector<uint32_t> rows(B);
+  for (int b = 0; b < B; ++b) {
+    rows[size_t(b)] = 1 + uint32_t(b) % c.input_dim();
+    for (uint32_t i = 0; i < c.input_dim(); ++i) X(i, b) = i < rows[size_t(b)] ? u(rng) : 0.0f;
+  }
+  for (int i = 0; i < G.size(); ++i) G.data()[i] = u(rng);
+  // The forward pass in fp32 and in bf16; the backward pass in both over the bf16 forward's trace
+  // (the same activations, so the same leaky ReLU slopes: between two forward passes an activation
+  // near zero may change sign, and its unit's gradient by the slope, which no tolerance covers).
+  Matrix O, O_bf16;
+  MlpTrace fp32_trace, trace;
+  mlp_forward(c, p.data(), X, O, &fp32_trace, rows.data());
+  trace.bf16_hidden = true;
+  mlp_forward(c, p.data(), X, O_bf16, &trace, rows.data());
+  struct Pass {
+    Matrix dX;
+    std::vector<float> dp;
+  };
+  auto backward = [&](bool bf16) {
+    Pass r;
+    MlpTrace t = trace;
+    t.bf16_hidden = bf16;
+    r.dp.assign(p.size(), 0.0f);
+    mlp_backward(c, p.data(), t, G, r.dp.data(), &r.dX);
+    return r;
+  };
+  const Pass f = backward(false), h = backward(true);
+  // Each value within 2% of the largest magnitude of its kind (bf16 keeps 8 significant bits: 0.4%
+  // per operand, through two layers and sums), and not bit-identical where bf16 products led to it.
+  auto expect_close = [](const float* a, const float* b, size_t n, const char* what, bool bf16_before = true) {
+    double scale = 0.0;
+    bool differ = false;
+    for (size_t i = 0; i < n; ++i) scale = std::max(scale, std::fabs(double(a[i])));
+    for (size_t i = 0; i < n; ++i) {
+      ASSERT_NEAR(b[i], a[i], 0.02 * scale) << what << " " << i;
+      differ = differ || a[i] != b[i];
+    }
+    EXPECT_EQ(differ, bf16_before) << what;
+  };
+  expect_close(O.data(), O_bf16.data(), size_t(O.size()), "output");
+  for (size_t l = 2; l < trace.layer_input.size(); ++l)
+    expect_close(fp32_trace.layer_input[l].data(), trace.layer_input[l].data(), size_t(O.cols()) * c.hidden_width,
+                 "activation");
+  expect_close(f.dX.data(), h.dX.data(), size_t(f.dX.size()), "input gradient");
+  const std::vector<LayerView> layers = mlp_layers(c);
+  for (size_t l = 0; l < layers.size(); ++l)  // the output layer's gradient comes before any bf16 product
+    expect_close(f.dp.data() + layers[l].weight_offset, h.dp.data() + layers[l].weight_offset,
+                 size_t(layers[l].in) * layers[l].out + layers[l].out, "layer gradient", l + 1 < layers.size());
 }
 
 }  // namespace

@@ -121,6 +121,7 @@ constexpr std::array<SettingField, kSettingCount> setting_fields() {
       field<Batch, &T::batch_size>("batch size"),
       field<Seed, &T::seed>("seed"),
       field<RayReuse, &T::ray_reuse>("ray reuse"),
+      field<MlpPrecision, &T::mlp_precision>("MLP precision"),
       field<Lr, &T::adam, &AdamSettings::learning_rate>("learning rate"),
       field<LrSchedule, &T::lr_schedule, &LrScheduleSettings::schedule>("learning-rate schedule"),
       field<LrFinal, &T::lr_schedule, &LrScheduleSettings::final_fraction>(

@@ -16,6 +16,7 @@
 #include "lsnif/core/hash_grid.h"
 #include "lsnif/core/rng.h"
 #include "lsnif/core/head.h"
+#include "lsnif/core/mlp_gemm.h"
 #include "lsnif/core/network.h"
 #include "lsnif/train/uv_materials.h"
 #include "lsnif/train/voxelizer.h"
@@ -39,6 +40,10 @@ Status model_layout(const Mesh& mesh, const TrainSettings& settings, Config& con
 Status check_training_inputs(const Mesh& mesh, const TrainSettings& settings, Config& config,
                              std::vector<std::string>* warnings) {
   config = settings.config;
+  if (settings.mlp_precision == kMlpPrecisionBf16 && !mlp_gemm_bf16_native())
+    return Status::error("mlp-precision bf16: this build's MLP kernel (%s) has no bf16 instructions (AVX512_BF16); "
+                         "use auto or fp32",
+                         mlp_gemm_isa());
   if (mesh.materials.empty()) return Status::error("mesh has no material table");
   if (mesh.materials.size() > LSNIF_MAX_MATERIALS)
     return Status::error("mesh has %zu materials; an LSNIF model supports at most %u",
@@ -256,10 +261,12 @@ constexpr size_t kRaysSampledTogether = size_t(1) << 15;
 // What every step reuses, allocated once: gradients, optimizer moments, the batch (rays and their
 // walks), its encoding, activations and corners.
 struct StepState {
-  StepState(const Model& model, const AdamSettings& adam)
-      : d_grid(model.grid.size()), d_mlp(model.mlp.size()), grid_adam(model.grid.size(), adam),
-        mlp_adam(model.mlp.size(), adam) {
+  StepState(const Model& model, const TrainSettings& settings)
+      : d_grid(model.grid.size()), d_mlp(model.mlp.size()), grid_adam(model.grid.size(), settings.adam),
+        mlp_adam(model.mlp.size(), settings.adam) {
     trace.layer_input.resize(1);  // the encoder's output, the MLP's input
+    trace.bf16_hidden = settings.mlp_precision == kMlpPrecisionBf16 ||
+                        (settings.mlp_precision == kMlpPrecisionAuto && mlp_gemm_bf16_native());
   }
   std::vector<float> d_grid, d_mlp;
   Adam grid_adam, mlp_adam;
@@ -522,7 +529,7 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
 
   // Parameters.
   init_parameters(config, settings, model);
-  StepState st(model, settings.adam);
+  StepState st(model, settings);
 
   TrainReport rep;
   if (settings.loss_curve) rep.loss_curve = "step,seconds,total,occlusion,distance,normal,albedo,material,surface\n";

@@ -48,6 +48,7 @@ struct TrainSettings {
   // a pool of ray_pool_size rays of which every step replaces batch / ray_reuse (1 = fresh rays
   // every step; trainer.cpp, draw_batch).
   uint32_t ray_reuse = default_u32(SettingId::RayReuse);
+  uint32_t mlp_precision = default_u32(SettingId::MlpPrecision);  // kMlpPrecisionAuto / Bf16 / Fp32
   AdamSettings adam;               // adam.learning_rate: the rate the schedule starts from
   LrScheduleSettings lr_schedule;
   LossSettings loss_settings;

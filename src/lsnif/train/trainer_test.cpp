@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "lsnif/core/mlp_gemm.h"
 #include "lsnif/testing/test_support.h"
 #include "lsnif/train/evaluate.h"
 
@@ -216,6 +217,31 @@ TEST(Trainer, GroundTruthReuseCastsBatchOverReuseFreshRaysPerStep) {
   // The pool is capped (at most kRayPoolMaxRays, never below one batch).
   EXPECT_EQ(ray_pool_size(1u << 18, 2), kRayPoolMaxRays);
   EXPECT_EQ(ray_pool_size(1u << 18, 1), size_t(1) << 18);
+}
+
+// --mlp-precision: auto trains what bf16 trains where the CPU has bf16 instructions (else what
+// fp32 trains), the two precisions train different models, and bf16 is refused with a message
+// naming the instructions where the kernel has none.
+TEST(Trainer, MlpPrecisionAutoIsBf16WhereTheCpuHasIt) {
+  const Mesh mesh = cube();
+  auto train = [&](uint32_t precision, Model& model) {
+    TrainSettings s = small();
+    s.mlp_precision = precision;
+    return train_model(mesh, s, model);
+  };
+  Model automatic, fp32, bf16;
+  ASSERT_TRUE(train(kMlpPrecisionAuto, automatic));
+  ASSERT_TRUE(train(kMlpPrecisionFp32, fp32));
+  const Status s = train(kMlpPrecisionBf16, bf16);
+  if (mlp_gemm_bf16_native()) {
+    ASSERT_TRUE(s) << s.message();
+    EXPECT_EQ(automatic.mlp, bf16.mlp);
+    EXPECT_NE(automatic.mlp, fp32.mlp);
+  } else {
+    ASSERT_FALSE(s);
+    EXPECT_NE(s.message().find("AVX512_BF16"), std::string::npos) << s.message();
+    EXPECT_EQ(automatic.mlp, fp32.mlp);
+  }
 }
 
 // A time budget plans the steps that fit from the pace of the first ones; a run that was not cut
