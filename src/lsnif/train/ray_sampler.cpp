@@ -85,6 +85,9 @@ void copy_walk(const RayWalk& src, RayWalk& dst) {
 RaySampler::RaySampler(const Mesh& mesh, const GroundTruth& truth, const VoxelGrid& grid,
                        uint32_t max_points, SamplerSettings settings)
     : mesh_(mesh), truth_(truth), grid_(grid), max_points_(max_points), settings_(settings) {
+  // The settings table checks --surface-rays where it enters (1-16); a caller that fills the
+  // struct itself with 0 gets one ray a point, never an empty candidate.
+  settings_.surface_rays = std::max(1u, settings_.surface_rays);
   set_surface_share();
   const uint32_t V = grid_.resolution;
   if (!settings_.lines_through_box || V == 0) return;

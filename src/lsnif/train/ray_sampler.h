@@ -81,8 +81,8 @@ class RaySampler {
   double line_box_share_ = 1.0;
   double surface_share_ = 0.5;
   float face_cdf_[6] = {};  // the box's faces (-x, +x, -y, +y, -z, +z) by area, cumulative
-  // Fraction of candidates kept so far, to size the next call's first block (a performance hint
-  // only: which samples come out never depends on it).
+  // Rays kept per candidate so far (up to surface_rays), to size the next call's first block (a
+  // performance hint only: which samples come out never depends on it).
   mutable double keep_rate_ = 0.5;
   void set_surface_share();
 };
