@@ -14,13 +14,14 @@ namespace {
 
 // Surface candidates retry their finding ray this many times before falling back to an outer ray.
 constexpr uint32_t kSurfaceAttempts = 16;
-// Candidates per parallel block: at most kMaxBlock (bounds a block's memory), at least kMinBlock
+// Candidates per parallel block: at most kMaxSlots / surface_rays (a candidate holds surface_rays
+// rays and walks: bounds a block's memory), at least kMinBlock
 // (one scheduling chunk). A call's first block is sized to fall a little short of the samples asked
 // for (kFirstBlockShare of the candidates the keep rate predicts they need), later ones to what is
 // missing with a margin (kLaterBlockMargin), so that few kept candidates beyond the last sample
 // are drawn, walked and traced in vain. The output does not depend on the sizes.
 constexpr size_t kMinBlock = 32;
-constexpr size_t kMaxBlock = 65536;
+constexpr size_t kMaxSlots = 65536;
 constexpr double kFirstBlockShare = 0.98, kLaterBlockMargin = 1.25;
 // The least number of candidates tried before a call gives up (see generate).
 constexpr uint64_t kMinCandidateCap = 1024;
@@ -240,7 +241,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     const double rate = tried ? std::max(double(kept) / double(tried), 0.02) : keep_rate_;
     const double want = double(remaining) / rate;
     const size_t block = std::clamp(size_t(tried ? want * kLaterBlockMargin + double(kMinBlock) / 2 : want * kFirstBlockShare),
-                                    kMinBlock, kMaxBlock);
+                                    kMinBlock, std::max(kMinBlock, kMaxSlots / k));
     const size_t slots = block * k;
     block_samples.resize(slots);
     block_walks.resize(slots);
