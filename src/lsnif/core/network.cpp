@@ -46,7 +46,7 @@ Bf16Weights bf16_weight_layout(const Config& config, const std::vector<LayerView
     w.forward.push_back(w.size);
     if (mlp_layer_bf16(config, l)) w.size += size_t(v.out) * ((v.in + 1) / 2);
     w.backward.push_back(w.size);
-    if (mlp_layer_bf16(config, l)) w.size += size_t(v.in) * ((v.out + 1) / 2);
+    if (mlp_layer_bf16(config, l) && l > 0) w.size += size_t(v.in) * ((v.out + 1) / 2);  // (the first layer's per chunk)
   }
   return w;
 }
@@ -69,7 +69,7 @@ uint32_t* packed_buffers(MlpTrace& trace, size_t words) {
 }  // namespace
 
 bool mlp_layer_bf16(const Config& config, size_t layer) {
-  return layer > 0 && layer < config.hidden_layers;  // from one hidden layer to the next
+  return layer < config.hidden_layers;  // every layer that feeds a hidden layer: all but the output layer
 }
 
 void mlp_forward(const Config& config, const float* params, const Matrix& input, Matrix& out,
@@ -110,7 +110,7 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
   float* weights_t = transposed.data();
   const Bf16Weights bf16_layout = bf16_weight_layout(config, layers);
   Eigen::Index bf16_words = 0;  // the largest packed input of a chunk
-  if (trace && trace->bf16_hidden) {
+  if (trace && trace->bf16_layers) {
     trace->weights_bf16.resize(bf16_layout.size);
     trace->packed.resize(size_t(omp_get_max_threads()));
     for (size_t l = 0; l < layers.size(); ++l)
@@ -126,7 +126,7 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
           weights_t[v.weight_offset + size_t(i) * v.out + size_t(o)] = params[v.weight_offset + size_t(o) * v.in + i];
     }
 #pragma omp barrier
-    const bool bf16 = trace && trace->bf16_hidden;
+    const bool bf16 = trace && trace->bf16_layers;
     if (bf16) {  // the bf16 layers' W as pairs of inputs, a layer per thread
 #pragma omp for schedule(static)
       for (long l = 0; l < long(layers.size()); ++l)
@@ -210,11 +210,12 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
   Eigen::Index widest = 0;
   for (const LayerView& v : layers) widest = std::max<Eigen::Index>(widest, std::max(v.in, v.out));
   if (d_input) d_input->resize(config.input_dim(), B);
-  const bool bf16 = trace.bf16_hidden;
+  const bool bf16 = trace.bf16_layers;
   const Bf16Weights bf16_layout = bf16_weight_layout(config, layers);
   // A chunk's packed operands (two buffers): x as pairs of rays and delta as the weight gradient's
-  // B, or delta as the input gradient's B.
-  const size_t bf16_words = size_t(widest) * size_t((chunk + 1) / 2) + size_t(chunk);
+  // B; the first layer's W as pairs of outputs (its input gradient's A, cut to the chunk's rows)
+  // and delta as an input gradient's B.
+  const size_t bf16_words = size_t(widest) * size_t(std::max<Eigen::Index>(chunk + 1, widest + 1) / 2) + size_t(chunk);
   if (bf16) {
     trace.weights_bf16.resize(bf16_layout.size);
     trace.packed.resize(size_t(omp_get_max_threads()));
@@ -224,10 +225,11 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
     std::vector<float>* delta_buf = &trace.deltas[2 * size_t(omp_get_thread_num())];
     for (int i = 0; i < 2; ++i) delta_buf[i].resize(size_t(widest * chunk));
     uint32_t* packed = nullptr;
-    if (bf16) {  // the bf16 layers' W as pairs of outputs (W^T's left operand), a layer per thread
+    if (bf16) {  // the bf16 layers' W as pairs of outputs (W^T's left operand), a layer per thread;
+                 // the first layer's per chunk (below)
       packed = packed_buffers(trace, bf16_words);
 #pragma omp for schedule(static)
-      for (long l = 0; l < long(layers.size()); ++l)
+      for (long l = 1; l < long(layers.size()); ++l)
         if (mlp_layer_bf16(config, size_t(l))) {
           pack_bf16_a(weight_product(params + layers[size_t(l)].weight_offset, layers[size_t(l)].in, layers[size_t(l)].out),
                       trace.weights_bf16.data() + bf16_layout.backward[size_t(l)]);
@@ -279,7 +281,12 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
         if (li == 0) {
           gx.C = d_input->data() + c0 * d_input->rows();
           gx.c_n = d_input->rows();
-          mlp_gemm(gx);
+          if (in_bf16) {  // W's rows cut to the chunk's k inputs, packed for this product
+            pack_bf16_a(gx, packed);
+            mlp_gemm_bf16(gx, {}, packed, packed + bf16_words);
+          } else {
+            mlp_gemm(gx);
+          }
           for (Eigen::Index col = 0; col < n; ++col)
             std::fill(gx.C + col * gx.c_n + k, gx.C + col * gx.c_n + v.in, 0.0f);
           break;

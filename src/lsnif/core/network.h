@@ -28,16 +28,16 @@ struct MlpTrace {
   std::vector<float> weights_t;             // every layer's W transposed (the products' left operand)
   std::vector<float> chunk_gradients;       // each column chunk's parameter gradient
   std::vector<std::vector<float>> deltas;   // per thread, two gradients of a layer's pre-activation
-  // The products of the layers between two hidden ones (width x width, ~3/4 of the multiply-adds)
-  // in bf16 (mlp_gemm_bf16: 8-bit mantissas, exact products, fp32 sums and activations) instead of
-  // fp32: a trainer's choice (set before mlp_forward) where the CPU has the instructions; the first
-  // and the output layer, and every product without a trace, stay fp32.
-  bool bf16_hidden = false;
+  // The products of every layer but the output layer (the first layer and those between two hidden
+  // ones: ~9/10 of the multiply-adds) in bf16 (mlp_gemm_bf16: 8-bit mantissas, exact products, fp32
+  // sums and activations) instead of fp32: a trainer's choice (set before mlp_forward) where the CPU
+  // has the instructions; the output layer, and every product without a trace, stay fp32.
+  bool bf16_layers = false;
   std::vector<uint32_t> weights_bf16;          // those layers' W packed for the forward and backward products
   std::vector<std::vector<uint32_t>> packed;   // per thread, two packed operands of a chunk
 };
 
-// Whether layer `layer` of the network is one that MlpTrace::bf16_hidden computes in bf16.
+// Whether layer `layer` of the network is one that MlpTrace::bf16_layers computes in bf16.
 bool mlp_layer_bf16(const Config& config, size_t layer);
 
 // out = MLP(input): input is input_dim x B, out becomes output_dim x B (raw, pre-activation).

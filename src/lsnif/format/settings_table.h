@@ -56,7 +56,7 @@ inline constexpr SettingChoice kHitChoices[] = {{"segments", LSNIF_HIT_PARAM_VOX
                                                 {"aabb", LSNIF_HIT_PARAM_AABB_INTERVAL}};
 // Bits per stored hash-grid feature: fp16, or int8 codes times one fp32 scale per level.
 inline constexpr SettingChoice kGridBitsChoices[] = {{"16", 16}, {"8", 8}};
-// The precision of the training's products between two hidden layers (MlpTrace::bf16_hidden,
+// The precision of the training's products of every layer but the output layer (MlpTrace::bf16_layers,
 // src/lsnif/core/network.h): auto: bf16 where the CPU has bf16 instructions (AVX512_BF16 in the
 // build's kernel), else fp32; bf16: an error where it has not; fp32 everywhere. Inference is fp32.
 inline constexpr uint32_t kMlpPrecisionAuto = 0, kMlpPrecisionBf16 = 1, kMlpPrecisionFp32 = 2;

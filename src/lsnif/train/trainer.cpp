@@ -265,7 +265,7 @@ struct StepState {
       : d_grid(model.grid.size()), d_mlp(model.mlp.size()), grid_adam(model.grid.size(), settings.adam),
         mlp_adam(model.mlp.size(), settings.adam) {
     trace.layer_input.resize(1);  // the encoder's output, the MLP's input
-    trace.bf16_hidden = settings.mlp_precision == kMlpPrecisionBf16 ||
+    trace.bf16_layers = settings.mlp_precision == kMlpPrecisionBf16 ||
                         (settings.mlp_precision == kMlpPrecisionAuto && mlp_gemm_bf16_native());
   }
   std::vector<float> d_grid, d_mlp;
