@@ -176,9 +176,10 @@ inline constexpr SettingDef kSettingDefs[] = {
                         "steps each training ray is used in on average, drawn at random from a pool of recent rays "
                         "(1 = fresh rays every step)"),
     // bf16 trains in ~0.9x the time at the same held-out metrics and FLIP within the seeds' spread
-    // (docs/results.md, "Two surface rays from each found point; the hidden layers in bf16").
+    // (docs/results.md, "Two surface rays from each found point; the hidden layers in bf16" and
+    // "The first layer in bf16 too").
     setting_detail::choice(SettingId::MlpPrecision, "mlp-precision", kMlpPrecisionAuto, kMlpPrecisionChoices,
-                           "precision of the training's products between hidden layers: auto (bf16 where the "
+                           "precision of the training's products in all but the output layer: auto (bf16 where the "
                            "CPU has AVX512_BF16, else fp32), bf16 or fp32; inference is always fp32"),
     setting_detail::f32(SettingId::Lr, "lr", 0.01, 0, true, kF32Max, false, "learning rate", "Adam learning rate"),
     setting_detail::choice(SettingId::LrSchedule, "lr-schedule", kLrScheduleChoices[1].value, kLrScheduleChoices,
