@@ -391,14 +391,15 @@ void pack_bf16_a(const GemmOperands& op, uint32_t* dst) { pack_bf16_column_pairs
 
 size_t mlp_gemm_bf16_scratch(const GemmOperands& op) { return size_t(op.N) * size_t((op.K + 1) / 2); }
 
-void mlp_gemm_bf16(const GemmOperands& op, const GemmEpilogue& e, const uint32_t* packed_a, uint32_t* scratch) {
+void mlp_gemm_bf16(const GemmOperands& op, const GemmEpilogue& e, const uint32_t* packed_a, uint32_t* scratch,
+                   int64_t packed_m) {
   if (op.M <= 0 || op.N <= 0 || op.K < 0) return;
   PairOperands q;
   q.M = op.M;
   q.N = op.N;
   q.P = (op.K + 1) / 2;
   q.A = packed_a;
-  q.a_p = op.M;
+  q.a_p = std::max(op.M, packed_m);
   q.C = op.C;
   q.c_n = op.c_n;
   q.B = scratch;

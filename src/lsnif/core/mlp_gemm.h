@@ -41,10 +41,11 @@ const char* mlp_gemm_isa();
 
 // The same product with A and B rounded to bf16 (8 bits of mantissa; the products exact, the sums,
 // C and the epilogue fp32): twice the multiply-adds per instruction where the CPU has AVX512_BF16.
-// `packed_a` holds A as pack_bf16_a wrote it for an op of the same A, a_k, M and K (M x ceil(K / 2)
-// words: a caller that multiplies by the same A again packs it once); B is packed into `scratch`
-// (mlp_gemm_bf16_scratch(op) words).
-void mlp_gemm_bf16(const GemmOperands& op, const GemmEpilogue& epilogue, const uint32_t* packed_a, uint32_t* scratch);
+// `packed_a` holds A as pack_bf16_a wrote it for an op of the same A, a_k and K and `packed_m` rows
+// (0: op.M; packed_m x ceil(K / 2) words: a caller that multiplies by the same A again packs it
+// once, and may cut M or K of it); B is packed into `scratch` (mlp_gemm_bf16_scratch(op) words).
+void mlp_gemm_bf16(const GemmOperands& op, const GemmEpilogue& epilogue, const uint32_t* packed_a, uint32_t* scratch,
+                   int64_t packed_m = 0);
 void pack_bf16_a(const GemmOperands& op, uint32_t* dst);
 size_t mlp_gemm_bf16_scratch(const GemmOperands& op);
 // Whether mlp_gemm_bf16 runs on bf16 instructions (AVX512_BF16 builds); elsewhere it emulates

@@ -46,7 +46,7 @@ Bf16Weights bf16_weight_layout(const Config& config, const std::vector<LayerView
     w.forward.push_back(w.size);
     if (mlp_layer_bf16(config, l)) w.size += size_t(v.out) * ((v.in + 1) / 2);
     w.backward.push_back(w.size);
-    if (mlp_layer_bf16(config, l) && l > 0) w.size += size_t(v.in) * ((v.out + 1) / 2);  // (the first layer's per chunk)
+    if (mlp_layer_bf16(config, l)) w.size += size_t(v.in) * ((v.out + 1) / 2);
   }
   return w;
 }
@@ -213,9 +213,8 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
   const bool bf16 = trace.bf16_layers;
   const Bf16Weights bf16_layout = bf16_weight_layout(config, layers);
   // A chunk's packed operands (two buffers): x as pairs of rays and delta as the weight gradient's
-  // B; the first layer's W as pairs of outputs (its input gradient's A, cut to the chunk's rows)
-  // and delta as an input gradient's B.
-  const size_t bf16_words = size_t(widest) * size_t(std::max<Eigen::Index>(chunk + 1, widest + 1) / 2) + size_t(chunk);
+  // B, or delta as the input gradient's B.
+  const size_t bf16_words = size_t(widest) * size_t((chunk + 1) / 2) + size_t(chunk);
   if (bf16) {
     trace.weights_bf16.resize(bf16_layout.size);
     trace.packed.resize(size_t(omp_get_max_threads()));
@@ -225,11 +224,10 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
     std::vector<float>* delta_buf = &trace.deltas[2 * size_t(omp_get_thread_num())];
     for (int i = 0; i < 2; ++i) delta_buf[i].resize(size_t(widest * chunk));
     uint32_t* packed = nullptr;
-    if (bf16) {  // the bf16 layers' W as pairs of outputs (W^T's left operand), a layer per thread;
-                 // the first layer's per chunk (below)
+    if (bf16) {  // the bf16 layers' W as pairs of outputs (W^T's left operand), a layer per thread
       packed = packed_buffers(trace, bf16_words);
 #pragma omp for schedule(static)
-      for (long l = 1; l < long(layers.size()); ++l)
+      for (long l = 0; l < long(layers.size()); ++l)
         if (mlp_layer_bf16(config, size_t(l))) {
           pack_bf16_a(weight_product(params + layers[size_t(l)].weight_offset, layers[size_t(l)].in, layers[size_t(l)].out),
                       trace.weights_bf16.data() + bf16_layout.backward[size_t(l)]);
@@ -278,29 +276,26 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
         gx.b_k = 1;
         gx.b_n = v.out;
         GemmEpilogue e;
+        float* next = delta_buf[li % 2].data();
         if (li == 0) {
           gx.C = d_input->data() + c0 * d_input->rows();
           gx.c_n = d_input->rows();
-          if (in_bf16) {  // W's rows cut to the chunk's k inputs, packed for this product
-            pack_bf16_a(gx, packed);
-            mlp_gemm_bf16(gx, {}, packed, packed + bf16_words);
-          } else {
-            mlp_gemm(gx);
-          }
+        } else {
+          gx.C = next;
+          gx.c_n = v.in;
+          e.gate = x;
+          e.gate_n = v.in;
+          e.slope = slope;
+        }
+        if (in_bf16)  // W packed whole (v.in rows), the first layer's cut to the chunk's k
+          mlp_gemm_bf16(gx, e, trace.weights_bf16.data() + bf16_layout.backward[li], packed, v.in);
+        else
+          mlp_gemm(gx, e);
+        if (li == 0) {
           for (Eigen::Index col = 0; col < n; ++col)
             std::fill(gx.C + col * gx.c_n + k, gx.C + col * gx.c_n + v.in, 0.0f);
           break;
         }
-        float* next = delta_buf[li % 2].data();
-        gx.C = next;
-        gx.c_n = v.in;
-        e.gate = x;
-        e.gate_n = v.in;
-        e.slope = slope;
-        if (in_bf16)
-          mlp_gemm_bf16(gx, e, trace.weights_bf16.data() + bf16_layout.backward[li], packed);
-        else
-          mlp_gemm(gx, e);
         delta_ptr = next;
       }
     }
