@@ -254,11 +254,11 @@ Status check_held_out(const Model& model, const Mesh& mesh, const EvalSettings& 
 // The held-out rays with their reference hits and walks (held_out_rays), after check_held_out.
 Status draw_held_out(const Model& model, const Mesh& mesh, const GroundTruth& truth, const EvalSettings& settings,
                      std::vector<Sample>& samples, std::vector<RayWalk>& walks) {
-  // Drawn on the whole sphere (the same law as through the box, fewer candidates there), one
+  // Drawn on the whole sphere (the same law as through the body, fewer candidates there), one
   // surface ray per found point (independent rays): the held-out rays stay those of every earlier
   // version, so metrics compare ray for ray.
   SamplerSettings held_out = settings.sampler;
-  held_out.lines_through_box = false;
+  held_out.lines_through_body = false;
   held_out.surface_rays = 1;
   RaySampler sampler(mesh, truth, model.voxels, model.config.max_points, held_out);
   sampler.generate(settings.seed, 0, settings.rays, samples, walks);

@@ -38,27 +38,22 @@ Ray sample_outer_ray(Rng& rng, const glm::vec3& centre, float radius) {
   return ray;
 }
 
-// The same kind of ray among the lines through `box` (inside the sphere): a uniform point on the
-// box's surface (the face by area, `cdf`), a cosine-weighted direction into the box, the origin
-// moved back along the line to where it enters the sphere. Lines through the sphere drawn as in
-// sample_outer_ray are uniform in the measure of lines; those of them that cross a convex body
-// inside it enter that body exactly once, through its surface, with the same point-and-cosine
-// law, so this draws sample_outer_ray's rays conditioned on crossing the box.
-Ray sample_line_through_box(Rng& rng, const Aabb& box, const float cdf[6], const glm::vec3& centre, float radius) {
+// The same kind of ray among the lines through `body` (inside the sphere): a uniform point on the
+// body's surface (a face by area, a uniform point on it), a cosine-weighted direction into the
+// body, the origin moved back along the line to where it enters the sphere. Lines through the
+// sphere drawn as in sample_outer_ray are uniform in the measure of lines; those of them that cross
+// a convex body inside it enter that body exactly once, through its surface, with the same
+// point-and-cosine law, so this draws sample_outer_ray's rays conditioned on crossing the body.
+Ray sample_line_through_body(Rng& rng, const LineBody& body, const glm::vec3& centre, float radius) {
   const float u0 = rng.next_float();
-  int face = 0;
-  while (face < 5 && u0 >= cdf[face]) ++face;
-  const int axis = face / 2, a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
-  const bool high = (face & 1) != 0;
-  const glm::vec3 extent = box.extent();
-  glm::vec3 point, inward(0.0f);
-  point[axis] = high ? box.hi[axis] : box.lo[axis];
-  point[a1] = box.lo[a1] + rng.next_float() * extent[a1];
-  point[a2] = box.lo[a2] + rng.next_float() * extent[a2];
-  inward[axis] = high ? -1.0f : 1.0f;
+  const size_t f = std::min(size_t(std::upper_bound(body.cdf.begin(), body.cdf.end(), u0) - body.cdf.begin()),
+                            body.faces.size() - 1);
+  const LineBody::Face& face = body.faces[f];
+  const float r = std::sqrt(rng.next_float()), u2 = rng.next_float();
+  const glm::vec3 point = face.p0 + (r * (1.0f - u2)) * face.e1 + (r * u2) * face.e2;
   const float u3 = rng.next_float(), u4 = rng.next_float();
   Ray ray;
-  ray.direction = sample_cosine_hemisphere(inward, u3, u4);
+  ray.direction = sample_cosine_hemisphere(face.inward, u3, u4);
   // The line point - s * direction meets the sphere at the roots of s^2 - 2 s (w.d) + |w|^2 - R^2;
   // `point` lies inside, so one root is <= 0 (ahead) and the other >= 0 (behind: the entry).
   const glm::vec3 w = point - centre;
@@ -83,6 +78,122 @@ void copy_walk(const RayWalk& src, RayWalk& dst) {
 
 }  // namespace
 
+LineBody::LineBody() {
+  // The axes, the face diagonals and the body diagonals, one of each pair of opposite directions.
+  const int d[kDirections][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},  {1, 1, 0},  {1, -1, 0},  {0, 1, 1}, {0, 1, -1},
+                                 {1, 0, 1}, {1, 0, -1}, {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {-1, 1, 1}};
+  for (int k = 0; k < kDirections; ++k) direction[k] = glm::normalize(glm::vec3(d[k][0], d[k][1], d[k][2]));
+}
+
+bool LineBody::contains(const glm::vec3& p, float tolerance) const {
+  for (int k = 0; k < kDirections; ++k) {
+    const float x = glm::dot(direction[k], p);
+    if (!(x >= lo[k] - tolerance && x <= hi[k] + tolerance)) return false;
+  }
+  return true;
+}
+
+bool LineBody::crossed_by(const Ray& ray) const {
+  float t0 = ray.tmin, t1 = ray.tmax;
+  for (int k = 0; k < kDirections; ++k) {
+    const float o = glm::dot(direction[k], ray.origin), v = glm::dot(direction[k], ray.direction);
+    if (v == 0.0f) {
+      if (o < lo[k] || o > hi[k]) return false;
+      continue;
+    }
+    const float ta = (lo[k] - o) / v, tb = (hi[k] - o) / v;
+    t0 = std::max(t0, std::min(ta, tb));
+    t1 = std::min(t1, std::max(ta, tb));
+  }
+  return t0 <= t1;
+}
+
+// Each slab from the points' extent along its direction; each of the 2 x kDirections planes' face
+// as a square on the plane clipped by every other plane's half-space (in double precision), then
+// cut into a fan of triangles.
+void LineBody::build(const std::vector<glm::vec3>& points, float margin, const Aabb& clip) {
+  faces.clear();
+  cdf.clear();
+  corners.clear();
+  area = 0;
+  bounds = Aabb{};
+  if (points.empty()) return;
+  for (int k = 0; k < kDirections; ++k) {
+    lo[k] = std::numeric_limits<float>::infinity();
+    hi[k] = -lo[k];
+    for (const glm::vec3& p : points) {
+      const float x = glm::dot(direction[k], p);
+      lo[k] = std::min(lo[k], x);
+      hi[k] = std::max(hi[k], x);
+    }
+    lo[k] -= margin;
+    hi[k] += margin;
+  }
+  for (int a = 0; a < 3; ++a) {  // the axis slabs (directions 0-2) within `clip`
+    lo[a] = std::max(lo[a], clip.lo[a]);
+    hi[a] = std::min(hi[a], clip.hi[a]);
+    bounds.lo[a] = lo[a];
+    bounds.hi[a] = hi[a];
+  }
+  if (!bounds.valid()) return;
+  // Plane j: dot(normal_j, x) <= offset_j.
+  glm::dvec3 normal[2 * kDirections];
+  double offset[2 * kDirections];
+  for (int k = 0; k < kDirections; ++k) {
+    normal[2 * k] = glm::dvec3(direction[k]);
+    offset[2 * k] = double(hi[k]);
+    normal[2 * k + 1] = -glm::dvec3(direction[k]);
+    offset[2 * k + 1] = -double(lo[k]);
+  }
+  const glm::dvec3 middle(bounds.center());
+  const double size = 4.0 * double(bounds.diagonal()) + 1.0;
+  const double eps = 1e-9 * (double(bounds.diagonal()) + 1e-30);
+  std::vector<double> face_area;
+  for (int j = 0; j < 2 * kDirections; ++j) {
+    const glm::dvec3 n = normal[j];
+    const glm::dvec3 q = middle + (offset[j] - glm::dot(n, middle)) * n;  // on the plane
+    glm::vec3 tf, bf;
+    orthonormal_basis(glm::vec3(n), tf, bf);
+    glm::dvec3 t(tf), b(bf);
+    t = glm::normalize(t - glm::dot(t, n) * n);
+    b = glm::normalize(glm::cross(n, t));
+    std::vector<glm::dvec3> poly = {q - size * t - size * b, q + size * t - size * b, q + size * t + size * b,
+                                    q - size * t + size * b};
+    for (int i = 0; i < 2 * kDirections && poly.size() >= 3; ++i) {
+      if (i == j) continue;
+      std::vector<glm::dvec3> kept;
+      for (size_t v = 0; v < poly.size(); ++v) {
+        const glm::dvec3& p0 = poly[v];
+        const glm::dvec3& p1 = poly[(v + 1) % poly.size()];
+        const double d0 = glm::dot(normal[i], p0) - offset[i], d1 = glm::dot(normal[i], p1) - offset[i];
+        if (d0 <= eps) kept.push_back(p0);
+        if ((d0 < -eps && d1 > eps) || (d0 > eps && d1 < -eps)) kept.push_back(p0 + (d0 / (d0 - d1)) * (p1 - p0));
+      }
+      poly.swap(kept);
+    }
+    if (poly.size() < 3) continue;
+    for (size_t v = 1; v + 1 < poly.size(); ++v) {
+      const glm::dvec3 e1 = poly[v] - poly[0], e2 = poly[v + 1] - poly[0];
+      const double a = 0.5 * glm::length(glm::cross(e1, e2));
+      if (!(a > 0.0)) continue;
+      faces.push_back({glm::vec3(poly[0]), glm::vec3(e1), glm::vec3(e2), glm::vec3(-n)});
+      face_area.push_back(a);
+      area += a;
+    }
+    for (const glm::dvec3& p : poly) corners.push_back(glm::vec3(p));
+  }
+  if (!(area > 0.0)) {
+    faces.clear();
+    return;
+  }
+  double sum = 0;
+  for (const double a : face_area) {
+    sum += a;
+    cdf.push_back(float(sum / area));
+  }
+  cdf.back() = 1.0f;
+}
+
 RaySampler::RaySampler(const Mesh& mesh, const GroundTruth& truth, const VoxelGrid& grid,
                        uint32_t max_points, SamplerSettings settings)
     : mesh_(mesh), truth_(truth), grid_(grid), max_points_(max_points), settings_(settings) {
@@ -91,58 +202,45 @@ RaySampler::RaySampler(const Mesh& mesh, const GroundTruth& truth, const VoxelGr
   settings_.surface_rays = std::max(1u, settings_.surface_rays);
   set_surface_share();
   const uint32_t V = grid_.resolution;
-  if (!settings_.lines_through_box || V == 0) return;
-  // The box: the mesh's bounds and its occupied voxels' (a kept ray crosses an occupied voxel, a
-  // finding ray's hit lies on the mesh), grown by a hair for rounding, within the grid's bounds
-  // (which hold both).
-  glm::uvec3 lo(V), hi(0);
+  if (!settings_.lines_through_body || V == 0) return;
+  // The body holds the mesh and every occupied voxel (a kept ray crosses an occupied voxel, a
+  // finding ray's hit lies on the mesh): their vertices, grown by a hair for rounding, its axis
+  // slabs within the grid's bounds (which hold both).
+  std::vector<glm::vec3> points(mesh_.positions.begin(), mesh_.positions.end());
+  const glm::vec3 cell = grid_.bounds.extent() / float(V);
   bool any = false;
   for (uint32_t k = 0; k < V; ++k)
     for (uint32_t j = 0; j < V; ++j)
       for (uint32_t i = 0; i < V; ++i)
         if (grid_.occupied(int(i), int(j), int(k))) {
-          lo = glm::min(lo, glm::uvec3(i, j, k));
-          hi = glm::max(hi, glm::uvec3(i, j, k));
           any = true;
+          for (uint32_t c = 0; c < 8; ++c)
+            points.push_back(grid_.bounds.lo + glm::vec3(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)) * cell);
         }
   if (!any) return;
-  const glm::vec3 cell = grid_.bounds.extent() / float(V);
-  Aabb box = mesh_.bounds();
-  box.grow(grid_.bounds.lo + glm::vec3(lo) * cell);
-  box.grow(grid_.bounds.lo + glm::vec3(hi + 1u) * cell);
-  const float hair = 1e-5f * grid_.bounds.diagonal();
-  box.lo = glm::max(box.lo - glm::vec3(hair), grid_.bounds.lo);
-  box.hi = glm::min(box.hi + glm::vec3(hair), grid_.bounds.hi);
-  // Only a box inside the sphere (the default sphere passes through the grid's corners; a
-  // --sphere-scale below 1 may cut the box): else the whole sphere.
+  LineBody body;
+  body.build(points, 1e-5f * grid_.bounds.diagonal(), grid_.bounds);
+  if (!body.valid()) return;
+  // Only a body inside the sphere (the default sphere passes through the grid's corners; a
+  // --sphere-scale below 1 may cut it): else the whole sphere.
   const glm::vec3 centre = grid_.bounds.center();
   const float radius = settings_.sphere_scale * 0.5f * grid_.bounds.diagonal();
-  for (int c = 0; c < 8; ++c) {
-    const glm::vec3 corner((c & 1) ? box.hi.x : box.lo.x, (c & 2) ? box.hi.y : box.lo.y, (c & 4) ? box.hi.z : box.lo.z);
+  for (const glm::vec3& corner : body.corners)
     if (!(glm::distance(corner, centre) <= radius * (1.0f + 1e-5f))) return;
-  }
-  const glm::dvec3 e(box.extent());
-  const double face[6] = {e.y * e.z, e.y * e.z, e.x * e.z, e.x * e.z, e.x * e.y, e.x * e.y};
-  const double area = face[0] + face[1] + face[2] + face[3] + face[4] + face[5];
-  double sum = 0;
-  for (int f = 0; f < 6; ++f) {
-    sum += face[f];
-    face_cdf_[f] = float(sum / area);
-  }
-  line_box_ = box;
-  line_box_share_ = std::min(1.0, area / (4.0 * 3.14159265358979323846 * double(radius) * double(radius)));
+  line_body_share_ = std::min(1.0, body.area / (4.0 * 3.14159265358979323846 * double(radius) * double(radius)));
+  line_body_ = std::move(body);
   set_surface_share();
 }
 
 // Surface candidates are (almost) always kept and give settings_.surface_rays rays each; outer ones are kept
-// 1 / line_box_share_ times as often through the box as on the whole sphere. Surface candidates at
+// 1 / line_body_share_ times as often through the body as on the whole sphere. Surface candidates at
 // the share f' whose odds are f's over (share x rays per hit) keep the kept rays' mix that the
 // paper's candidates (one ray each, on the whole sphere, surface_fraction f) give:
 // f' / (1 - f') = f / (1 - f) / (share x rays per hit).
 void RaySampler::set_surface_share() {
   const double f = settings_.surface_fraction;
   surface_share_ = f;
-  if (f > 0 && f < 1) surface_share_ = f / (f + (1.0 - f) * line_box_share_ * double(settings_.surface_rays));
+  if (f > 0 && f < 1) surface_share_ = f / (f + (1.0 - f) * line_body_share_ * double(settings_.surface_rays));
 }
 
 // Candidate generation: with probability surface_share_ (surface_fraction when the outer rays are
@@ -174,17 +272,17 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   const float radius = settings_.sphere_scale * 0.5f * diagonal;
   const float offset = settings_.surface_offset * diagonal;
   const float surface_share = float(surface_share_);
-  const bool box_lines = line_box_.valid();
+  const bool body_lines = line_body_.valid();
   // A ray of the first kind (above).
   auto outer_ray = [&](Rng& rng) {
-    return box_lines ? sample_line_through_box(rng, line_box_, face_cdf_, centre, radius)
-                     : sample_outer_ray(rng, centre, radius);
+    return body_lines ? sample_line_through_body(rng, line_body_, centre, radius)
+                      : sample_outer_ray(rng, centre, radius);
   };
-  // The cap counts candidates as the whole sphere's lines they stand for (a line through the box
-  // stands for 1 / line_box_share_ of them), so that what is too little to train on does not depend
+  // The cap counts candidates as the whole sphere's lines they stand for (a line through the body
+  // stands for 1 / line_body_share_ of them), so that what is too little to train on does not depend
   // on how the rays are drawn.
   const uint64_t max_candidates = std::max<uint64_t>(
-      kMinCandidateCap, uint64_t(double((uint64_t(1) << 20) + 1024u * uint64_t(count)) * line_box_share_));
+      kMinCandidateCap, uint64_t(double((uint64_t(1) << 20) + 1024u * uint64_t(count)) * line_body_share_));
 
   // Fills the k = surface_rays slots of candidate `index` (samples, walks and keep flags): a
   // surface candidate whose finding ray hits gives k surface rays from that hit, each with its own

@@ -176,30 +176,39 @@ Ray sphere_line(Rng& rng, const glm::vec3& centre, float radius) {
   return ray;
 }
 
-// The share of the sphere's lines that cross the sampler's box is its area over the sphere's
-// (Cauchy-Crofton): counted by brute force over 400,000 of the paper's rays.
-TEST_F(RaySamplerTest, LineBoxShareIsTheCountedShareOfSphereLines) {
+// The sampler's body holds the mesh and every occupied voxel, lies in the grid's bounds and is
+// tighter than their bounding box; the share of the sphere's lines that cross it is its area (the
+// sum of its boundary triangles') over the sphere's (Cauchy-Crofton): counted by brute force over
+// 400,000 of the paper's rays with the body's own slab test.
+TEST_F(RaySamplerTest, LineBodyShareIsTheCountedShareOfSphereLines) {
   const RaySampler sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints);
-  ASSERT_TRUE(sampler.line_box().valid());
-  const Aabb box = sampler.line_box();
-  // The box holds the mesh and every occupied voxel, and lies inside the sphere.
-  const Aabb mesh_box = scene_->mesh.bounds();
-  for (int a = 0; a < 3; ++a) {
-    EXPECT_LE(box.lo[a], mesh_box.lo[a]);
-    EXPECT_GE(box.hi[a], mesh_box.hi[a]);
-  }
+  const LineBody& body = sampler.line_body();
+  ASSERT_TRUE(body.valid());
+  const float tolerance = 1e-6f * scene_->grid.bounds.diagonal();
+  for (const glm::vec3& p : scene_->mesh.positions) ASSERT_TRUE(body.contains(p, tolerance)) << p.x << " " << p.y << " " << p.z;
   const uint32_t V = scene_->grid.resolution;
   const glm::vec3 cell = scene_->grid.bounds.extent() / float(V);
+  Aabb voxels;
   for (uint32_t k = 0; k < V; ++k)
     for (uint32_t j = 0; j < V; ++j)
       for (uint32_t i = 0; i < V; ++i)
-        if (scene_->grid.occupied(int(i), int(j), int(k))) {
-          const glm::vec3 lo = scene_->grid.bounds.lo + glm::vec3(i, j, k) * cell, hi = lo + cell;
-          for (int a = 0; a < 3; ++a) {
-            ASSERT_LE(box.lo[a], lo[a] + 1e-6f * scene_->grid.bounds.diagonal());
-            ASSERT_GE(box.hi[a], hi[a] - 1e-6f * scene_->grid.bounds.diagonal());
+        if (scene_->grid.occupied(int(i), int(j), int(k)))
+          for (uint32_t c = 0; c < 8; ++c) {
+            const glm::vec3 corner =
+                scene_->grid.bounds.lo + glm::vec3(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)) * cell;
+            ASSERT_TRUE(body.contains(corner, tolerance)) << i << " " << j << " " << k;
+            voxels.grow(corner);
           }
-        }
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_GE(body.bounds.lo[a], scene_->grid.bounds.lo[a]);
+    EXPECT_LE(body.bounds.hi[a], scene_->grid.bounds.hi[a]);
+  }
+  for (const glm::vec3& p : body.corners) EXPECT_TRUE(body.contains(p, tolerance)) << p.x << " " << p.y << " " << p.z;
+  // Tighter than the box around the occupied voxels (whose area the body's would equal were the
+  // diagonal planes no cut).
+  const glm::dvec3 e(voxels.extent());
+  const double box_area = 2.0 * (e.x * e.y + e.y * e.z + e.z * e.x);
+  EXPECT_LT(body.area, 0.95 * box_area);
   const glm::vec3 centre = scene_->grid.bounds.center();
   const float radius = 0.5f * scene_->grid.bounds.diagonal();
   const int n = 400000;
@@ -209,13 +218,14 @@ TEST_F(RaySamplerTest, LineBoxShareIsTheCountedShareOfSphereLines) {
     Ray ray = sphere_line(rng, centre, radius);
     ray.tmin = 0.0f;
     ray.tmax = std::numeric_limits<float>::infinity();
-    float t0, t1;
-    crossing += intersect_aabb(box, ray, t0, t1);
+    crossing += body.crossed_by(ray);
   }
-  const double p = sampler.line_box_share();
+  const double p = sampler.line_body_share();
   EXPECT_GT(p, 0.1);
   EXPECT_LT(p, 1.0);
   EXPECT_NEAR(double(crossing) / n, p, 4.5 * std::sqrt(p * (1 - p) / n));
+  std::printf("[ info     ] body area %.4f = %.3f of the voxels' box; share of sphere lines %.4f, counted %.4f\n",
+              body.area, body.area / box_area, p, double(crossing) / n);
 }
 
 // Two-sample chi-square statistic of histograms a and b (bins with no count in either skipped);
@@ -298,31 +308,31 @@ std::pair<double, double> expect_same_surface_share(const std::vector<Sample>& a
   return {sa, sb};
 }
 
-// Drawing the first kind's rays through the box keeps what the sampler returns: the same mix of
+// Drawing the first kind's rays through the body keeps what the sampler returns: the same mix of
 // surface and outer rays, and each kind's rays with the same law (histograms of where they start
 // and where they head, and whether they hit, against the paper's whole-sphere sampler), while the
-// box is drawn far fewer candidates for.
-TEST_F(RaySamplerTest, LinesThroughTheBoxKeepTheSampledRays) {
-  SamplerSettings box_settings, sphere_settings;
-  box_settings.surface_rays = sphere_settings.surface_rays = 1;  // independent rays (the test below: more)
-  sphere_settings.lines_through_box = false;
-  const RaySampler box_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, box_settings);
+// body is drawn far fewer candidates for.
+TEST_F(RaySamplerTest, LinesThroughTheBodyKeepTheSampledRays) {
+  SamplerSettings body_settings, sphere_settings;
+  body_settings.surface_rays = sphere_settings.surface_rays = 1;  // independent rays (the test below: more)
+  sphere_settings.lines_through_body = false;
+  const RaySampler body_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, body_settings);
   const RaySampler sphere_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, sphere_settings);
-  EXPECT_FALSE(sphere_sampler.line_box().valid());
+  EXPECT_FALSE(sphere_sampler.line_body().valid());
   EXPECT_EQ(sphere_sampler.surface_share(), 0.5);
-  EXPECT_GT(box_sampler.surface_share(), 0.5);
+  EXPECT_GT(body_sampler.surface_share(), 0.5);
   std::vector<Sample> a, b;
-  ASSERT_NO_FATAL_FAILURE(generate_both(box_sampler, sphere_sampler, 11, 60000, a, b));
+  ASSERT_NO_FATAL_FAILURE(generate_both(body_sampler, sphere_sampler, 11, 60000, a, b));
   const glm::vec3 centre = scene_->grid.bounds.center();
-  // Outer rays by the face of the box they enter, surface rays by where they start.
-  const Aabb box = box_sampler.line_box();
+  // Outer rays by the face of the body's bounding box they enter, surface rays by where they start.
+  const Aabb box = body_sampler.line_body().bounds;
   expect_same_histograms(ray_histogram(a, false, centre, &box), ray_histogram(b, false, centre, &box), 1.0,
                          "outer rays");
   expect_same_histograms(ray_histogram(a, true, centre), ray_histogram(b, true, centre), 1.0, "surface rays");
   // The mix: both shares of surface rays agree.
   const auto [sa, sb] = expect_same_surface_share(a, b, 1.0);
-  std::printf("[ info     ] box share %.3f, surface candidates %.3f; kept surface rays %.4f (box) and %.4f (sphere)\n",
-              box_sampler.line_box_share(), box_sampler.surface_share(), sa, sb);
+  std::printf("[ info     ] body share %.3f, surface candidates %.3f; kept surface rays %.4f (body) and %.4f (sphere)\n",
+              body_sampler.line_body_share(), body_sampler.surface_share(), sa, sb);
 }
 
 // Several surface rays from each found point (--surface-rays): they come in runs of that many with
@@ -367,13 +377,13 @@ TEST_F(RaySamplerTest, SeveralSurfaceRaysPerFoundPointKeepTheSampledRays) {
   std::printf("[ info     ] kept surface rays %.4f (one a point) and %.4f (three)\n", sa, sb);
 }
 
-// A sphere that does not contain the box (--sphere-scale below 1): the rays are drawn on the
+// A sphere that does not contain the body (--sphere-scale below 1): the rays are drawn on the
 // whole sphere, the surface share is the setting's (its odds over the surface rays per point).
 TEST_F(RaySamplerTest, SmallSphereDrawsOnTheWholeSphere) {
   SamplerSettings settings;
   settings.sphere_scale = 0.6f;
   const RaySampler sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
-  EXPECT_FALSE(sampler.line_box().valid());
+  EXPECT_FALSE(sampler.line_body().valid());
   const double f = settings.surface_fraction, k = settings.surface_rays;
   EXPECT_NEAR(sampler.surface_share(), f / (f + (1.0 - f) * k), 1e-12);
   settings.surface_rays = 1;
