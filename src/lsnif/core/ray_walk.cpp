@@ -34,6 +34,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
+
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
 
 namespace lsnif {
 namespace {
@@ -129,6 +134,43 @@ bool push_point(RayWalk& walk, uint32_t H, const WalkStart& s, float t, const bo
   return true;
 }
 
+// The walk up to its DDA: clears `walk`, clips the ray to the box, finds the start voxel and records
+// the AABB entry. False when the walk is complete already (no box, or H points at the entry).
+bool begin_walk(const VoxelGrid& grid, const Ray& ray, uint32_t H, RayWalk& walk, WalkStart& s,
+                bool& occupied_now) {
+  s = WalkStart{};  // start_walk leaves an axis that never steps as initialized here
+  walk.count = 0;
+  walk.truncated = false;
+  walk.hits_aabb = false;
+  walk.t_enter = 0.0f;
+  walk.t_exit = 0.0f;
+  if (!start_walk(grid, ray, s)) return false;
+  walk.hits_aabb = true;
+  walk.t_enter = s.t_enter;
+  walk.t_exit = s.t_exit;
+  occupied_now = grid.occupied(s.cell[0], s.cell[1], s.cell[2]);
+  // The AABB entry: a crossing from outside into the start voxel. The planes through the entry
+  // point are the start voxel's faces behind it at t_enter and, for a ray that only grazes the box,
+  // faces ahead of it at t_enter (the walk leaves again at once; that crossing merges with this one).
+  if (s.from_outside && occupied_now) {
+    bool on_plane[3];
+    int plane[3];
+    for (int a = 0; a < 3; ++a) {
+      const int up = s.step[a] > 0 ? 1 : 0;
+      on_plane[a] = s.t_behind[a] == s.t_enter || s.t_ahead[a] == s.t_enter;
+      plane[a] = s.t_behind[a] == s.t_enter ? s.cell[a] + 1 - up : s.cell[a] + up;
+    }
+    if (!push_point(walk, H, s, s.t_enter, on_plane, plane, static_cast<float>(grid.resolution))) return false;
+  }
+  return true;
+}
+
+// A grid with voxels and all their bits.
+bool walkable(const VoxelGrid& grid) {
+  const uint64_t V = grid.resolution;
+  return V >= 1 && uint64_t(grid.bits.size()) * 32u >= V * V * V;
+}
+
 }  // namespace
 
 // Contract: fills `walk` for `ray` (object space) against `grid` as defined in ray_walk.h and the
@@ -140,16 +182,14 @@ uint32_t walk_ray(const VoxelGrid& grid, const Ray& ray, uint32_t max_points, Ra
   walk.hits_aabb = false;
   walk.t_enter = 0.0f;
   walk.t_exit = 0.0f;
+  if (!walkable(grid)) return 0;
   const int V = static_cast<int>(grid.resolution);
-  if (V < 1 || uint64_t(grid.bits.size()) * 32u < uint64_t(V) * uint64_t(V) * uint64_t(V)) return 0;
   const uint32_t H = std::min(max_points, LSNIF_MAX_POINTS);
   const float Vf = static_cast<float>(V);
 
   WalkStart s;
-  if (!start_walk(grid, ray, s)) return 0;
-  walk.hits_aabb = true;
-  walk.t_enter = s.t_enter;
-  walk.t_exit = s.t_exit;
+  bool occupied_now = false;
+  if (!begin_walk(grid, ray, H, walk, s, occupied_now)) return walk.count;
 
   int cell[3] = {s.cell[0], s.cell[1], s.cell[2]};
   float t_next[3] = {s.t_ahead[0], s.t_ahead[1], s.t_ahead[2]};
@@ -158,21 +198,8 @@ uint32_t walk_ray(const VoxelGrid& grid, const Ray& ray, uint32_t max_points, Ra
   float t_after[3];
   for (int a = 0; a < 3; ++a)
     t_after[a] = s.step[a] != 0 ? plane_t(s.o, s.d, a, cell[a] + (s.step[a] > 0 ? 1 : 0) + s.step[a], Vf) : kInf;
-  bool occupied_now = grid.occupied(cell[0], cell[1], cell[2]);
   bool on_plane[3];
   int plane[3];
-
-  // The AABB entry: a crossing from outside into the start voxel. The planes through the entry
-  // point are the start voxel's faces behind it at t_enter and, for a ray that only grazes the box,
-  // faces ahead of it at t_enter (the walk leaves again at once; that crossing merges with this one).
-  if (s.from_outside && occupied_now) {
-    for (int a = 0; a < 3; ++a) {
-      const int up = s.step[a] > 0 ? 1 : 0;
-      on_plane[a] = s.t_behind[a] == s.t_enter || s.t_ahead[a] == s.t_enter;
-      plane[a] = s.t_behind[a] == s.t_enter ? cell[a] + 1 - up : cell[a] + up;
-    }
-    if (!push_point(walk, H, s, s.t_enter, on_plane, plane, Vf)) return walk.count;
-  }
 
   // The DDA. Every event steps at least one axis by one voxel, so 3V events end any walk.
   float t_last = s.t_enter;  // points are recorded only after t_enter (and once per t)
@@ -200,6 +227,192 @@ uint32_t walk_ray(const VoxelGrid& grid, const Ray& ray, uint32_t max_points, Ra
     if (!inside) break;
   }
   return walk.count;
+}
+
+#if defined(__AVX512F__)
+namespace {
+
+// n / V for the planes n = -1 .. V + 1 a step can reach, as plane_t computes it, 16 lanes at a time.
+// For V <= 32 the planes a lane still inside the grid can reach next, n = 0 .. V, come from two
+// registers (n = 0 .. 31; n = 32 only as V / V = 1; a lane leaving the grid ends, whatever its
+// value); otherwise from the table (index n + 1).
+struct PlaneValues {
+  std::vector<float> table;
+  bool in_registers;
+  __m512 low, high;
+  explicit PlaneValues(int V) : table(size_t(V) + 3), in_registers(V <= 32) {
+    for (int n = -1; n <= V + 1; ++n) table[size_t(n + 1)] = static_cast<float>(n) / static_cast<float>(V);
+    alignas(64) float first[32] = {};
+    for (int n = 0; n < std::min(V + 1, 32); ++n) first[n] = table[size_t(n + 1)];
+    low = _mm512_load_ps(first);
+    high = _mm512_load_ps(first + 16);
+  }
+  // The planes n of the lanes in `wanted` (others: any value).
+  __m512 operator()(__m512i n, __mmask16 wanted) const {
+    if (!in_registers)
+      return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), wanted, _mm512_add_epi32(n, _mm512_set1_epi32(1)),
+                                      table.data(), 4);
+    return _mm512_mask_mov_ps(_mm512_permutex2var_ps(low, n, high), _mm512_cmpeq_epi32_mask(n, _mm512_set1_epi32(32)),
+                              _mm512_set1_ps(1.0f));
+  }
+};
+
+// walk_rays in the 16 lanes of AVX-512 registers: each lane runs walk_ray's DDA for one ray, event
+// by event, with the same operations on the same floats (the crossing (n/V - o) / d, the minimum of
+// the three axes' next crossings in walk_ray's order, the same comparisons), so a lane's walk is
+// walk_ray's bit for bit. A walk starts through the scalar code (begin_walk); the events at which a
+// lane records a point go into a log, without a branch, and are replayed through push_point (so
+// the points are the scalar code's too) before lanes whose walks ended take the next rays, which
+// happens once kRefill lanes are idle.
+void walk_rays_avx512(const VoxelGrid& grid, const Ray* rays, size_t count, uint32_t H, RayWalk* walks) {
+  constexpr int L = 16, kRefill = 3, kLog = 256;
+  const int V = static_cast<int>(grid.resolution);
+  const float Vf = static_cast<float>(V);
+  const PlaneValues plane_of(V);
+
+  // The lanes' walks, one ray per lane.
+  alignas(64) float o[3][L], d[3][L], t_next[3][L], t_exit[L], t_last[L];
+  alignas(64) int32_t cell[3][L], step[3][L], up[3][L], events[L], points[L];
+  WalkStart start[L];
+  size_t ray_of[L];
+  __mmask16 live = 0, occupied = 0;
+  // The log of recorded events: the lane, t, and the planes before the step (each + 1, a byte
+  // each) with the axes that stepped (bits 24-26); room for one more event's 16 lanes at any time.
+  alignas(64) int32_t log_lane[kLog + L], log_info[kLog + L];
+  alignas(64) float log_t[kLog + L];
+  int logged = 0;
+  auto replay = [&] {
+    for (int e = 0; e < logged; ++e) {
+      const int lane = log_lane[e];
+      const uint32_t info = uint32_t(log_info[e]);
+      const bool on_plane[3] = {(info >> 24 & 1u) != 0, (info >> 25 & 1u) != 0, (info >> 26 & 1u) != 0};
+      const int plane[3] = {int(info & 0xFFu) - 1, int(info >> 8 & 0xFFu) - 1, int(info >> 16 & 0xFFu) - 1};
+      push_point(walks[ray_of[lane]], H, start[lane], log_t[e], on_plane, plane, Vf);
+    }
+    logged = 0;
+  };
+  size_t next = 0;
+  // Puts the next ray whose walk has a DDA to run into `lane`; false when none is left.
+  auto load = [&](int lane) {
+    while (next < count) {
+      const size_t i = next++;
+      WalkStart& s = start[lane];
+      bool occupied_now = false;
+      if (!begin_walk(grid, rays[i], H, walks[i], s, occupied_now)) continue;
+      for (int a = 0; a < 3; ++a) {
+        o[a][lane] = s.o[a];
+        d[a][lane] = s.d[a];
+        t_next[a][lane] = s.t_ahead[a];
+        cell[a][lane] = s.cell[a];
+        step[a][lane] = s.step[a];
+        up[a][lane] = s.step[a] > 0 ? 1 : 0;
+      }
+      t_exit[lane] = s.t_exit;
+      t_last[lane] = s.t_enter;
+      events[lane] = 0;
+      points[lane] = int32_t(walks[i].count);
+      ray_of[lane] = i;
+      const __mmask16 bit = __mmask16(1u << lane);
+      occupied = occupied_now ? __mmask16(occupied | bit) : __mmask16(occupied & ~bit);
+      return true;
+    }
+    return false;
+  };
+
+  constexpr __mmask16 all = 0xFFFF;
+  const __m512 inf = _mm512_set1_ps(kInf);
+  const __m512i v_count = _mm512_set1_epi32(V), one = _mm512_set1_epi32(1), h = _mm512_set1_epi32(int32_t(H));
+  const __m512i max_events = _mm512_set1_epi32(3 * V + 3);
+  const __m512i lane_index = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const int* bits = reinterpret_cast<const int*>(grid.bits.data());
+  for (;;) {
+    const __mmask16 idle = __mmask16(~live);
+    if (live == 0 || (next < count && __builtin_popcount(idle) >= kRefill)) {
+      replay();
+      for (__mmask16 free_lanes = idle; free_lanes; free_lanes = __mmask16(free_lanes & (free_lanes - 1))) {
+        const int lane = __builtin_ctz(free_lanes);
+        if (load(lane)) live = __mmask16(live | (1u << lane));
+      }
+      if (live == 0) break;
+    }
+    __m512 tn[3];
+    __m512i c[3];
+    for (int a = 0; a < 3; ++a) {
+      tn[a] = _mm512_load_ps(t_next[a]);
+      c[a] = _mm512_load_si512(cell[a]);
+    }
+    // std::min(t0, std::min(t1, t2)): min(x, y) is (y < x) ? y : x, vminps(y, x). (The zero-masked
+    // forms with every lane set: GCC 12's unmasked ones warn of their undefined pass-through.)
+    const __m512 t = _mm512_maskz_min_ps(all, _mm512_maskz_min_ps(all, tn[2], tn[1]), tn[0]);
+    const __m512i ev = _mm512_load_si512(events);
+    const __mmask16 go = live & _mm512_cmp_ps_mask(t, _mm512_load_ps(t_exit), _CMP_LE_OQ) &
+                         _mm512_cmp_ps_mask(t, inf, _CMP_NEQ_OQ) & _mm512_cmplt_epi32_mask(ev, max_events);
+    __mmask16 inside = go, on[3];
+    __m512 numerator[3];
+    __m512i info = _mm512_setzero_si512();
+    for (int a = 0; a < 3; ++a) {
+      on[a] = go & _mm512_cmp_ps_mask(tn[a], t, _CMP_EQ_OQ);
+      const __m512i u = _mm512_load_si512(up[a]);
+      const __m512i plane = _mm512_add_epi32(_mm512_add_epi32(c[a], u), one);  // plane + 1 >= 0
+      info = _mm512_or_si512(info, _mm512_maskz_slli_epi32(all, plane, unsigned(8 * a)));
+      info = _mm512_mask_or_epi32(info, on[a], info, _mm512_set1_epi32(1 << (24 + a)));
+      c[a] = _mm512_mask_add_epi32(c[a], on[a], c[a], _mm512_load_si512(step[a]));
+      inside &= _mm512_cmplt_epu32_mask(c[a], v_count);
+      numerator[a] = _mm512_sub_ps(plane_of(_mm512_add_epi32(c[a], u), on[a]), _mm512_load_ps(o[a]));
+      _mm512_store_si512(cell[a], c[a]);
+    }
+    // The next crossing of each axis that stepped, (n/V - o) / d: one division for a lane's lowest
+    // such axis, a second pass only where a lane stepped several axes at once (an edge or a corner).
+    const __mmask16 first1 = on[1] & ~on[0], first2 = on[2] & ~(on[0] | on[1]);
+    const __m512 quotient = _mm512_div_ps(
+        _mm512_mask_mov_ps(_mm512_mask_mov_ps(numerator[0], first1, numerator[1]), first2, numerator[2]),
+        _mm512_mask_mov_ps(_mm512_mask_mov_ps(_mm512_load_ps(d[0]), first1, _mm512_load_ps(d[1])), first2,
+                           _mm512_load_ps(d[2])));
+    tn[0] = _mm512_mask_mov_ps(tn[0], on[0], quotient);
+    tn[1] = _mm512_mask_mov_ps(tn[1], first1, quotient);
+    tn[2] = _mm512_mask_mov_ps(tn[2], first2, quotient);
+    const __mmask16 more1 = on[1] & on[0], more2 = on[2] & (on[0] | on[1]);
+    if (more1 | more2) {
+      tn[1] = _mm512_mask_div_ps(tn[1], more1, numerator[1], _mm512_load_ps(d[1]));
+      tn[2] = _mm512_mask_div_ps(tn[2], more2, numerator[2], _mm512_load_ps(d[2]));
+    }
+    for (int a = 0; a < 3; ++a) _mm512_store_ps(t_next[a], tn[a]);
+    // The voxel entered: voxel index i + V (j + V k), bit (index & 31) of word index >> 5.
+    const __m512i index =
+        _mm512_add_epi32(c[0], _mm512_mullo_epi32(v_count, _mm512_add_epi32(c[1], _mm512_mullo_epi32(v_count, c[2]))));
+    const __m512i word =
+        _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), inside, _mm512_maskz_srli_epi32(all, index, 5), bits, 4);
+    const __m512i bit = _mm512_maskz_srlv_epi32(all, word, _mm512_and_si512(index, _mm512_set1_epi32(31)));
+    const __mmask16 occupied_now = inside & _mm512_test_epi32_mask(bit, one);
+    const __m512 last = _mm512_load_ps(t_last);
+    const __mmask16 record = go & (occupied | occupied_now) & _mm512_cmp_ps_mask(t, last, _CMP_GT_OQ);
+    occupied = occupied_now;
+    _mm512_store_si512(events, _mm512_mask_add_epi32(ev, go, ev, one));
+    _mm512_store_ps(t_last, _mm512_mask_mov_ps(last, record, t));
+    // The log; a record beyond the H-th point is the one that sets `truncated` and ends the walk.
+    _mm512_storeu_si512(log_lane + logged, _mm512_maskz_compress_epi32(record, lane_index));
+    _mm512_storeu_ps(log_t + logged, _mm512_maskz_compress_ps(record, t));
+    _mm512_storeu_si512(log_info + logged, _mm512_maskz_compress_epi32(record, info));
+    logged += __builtin_popcount(record);
+    const __m512i recorded = _mm512_load_si512(points);
+    const __mmask16 full = record & _mm512_cmpge_epi32_mask(recorded, h);
+    _mm512_store_si512(points, _mm512_mask_add_epi32(recorded, record, recorded, one));
+    live = __mmask16(live & go & inside & ~full);
+    if (logged > kLog - L) replay();
+  }
+}
+
+}  // namespace
+#endif
+
+void walk_rays(const VoxelGrid& grid, const Ray* rays, size_t count, uint32_t max_points, RayWalk* walks) {
+#if defined(__AVX512F__)
+  if (walkable(grid)) {
+    walk_rays_avx512(grid, rays, count, std::min(max_points, LSNIF_MAX_POINTS), walks);
+    return;
+  }
+#endif
+  for (size_t i = 0; i < count; ++i) walk_ray(grid, rays[i], max_points, walks[i]);
 }
 
 // Contract: the voxel-only baseline of ray_walk.h. hit = walk.count > 0; t = walk.t[0], or

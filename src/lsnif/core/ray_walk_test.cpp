@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -555,6 +556,60 @@ TEST(RayWalk, MatchesBruteForceOnRandomGridsAndRays) {
   EXPECT_GT(ties, 100);
 }
 
+// walk_rays against walk_ray, every field bit for bit, on the random grids and rays above (lattice
+// rays with their ties, rays along axes, tmin/tmax, every H) in batches of every size from none to
+// more than a register's 16 lanes many times over; the walks start out filled with garbage.
+bool same_walk(const RayWalk& a, const RayWalk& b) {
+  if (a.count != b.count || a.truncated != b.truncated || a.hits_aabb != b.hits_aabb) return false;
+  if (std::memcmp(&a.t_enter, &b.t_enter, sizeof(float)) != 0 || std::memcmp(&a.t_exit, &b.t_exit, sizeof(float)) != 0)
+    return false;
+  return std::memcmp(a.t, b.t, a.count * sizeof(float)) == 0 && std::memcmp(a.p, b.p, a.count * sizeof(glm::vec3)) == 0 &&
+         std::memcmp(a.axis, b.axis, a.count) == 0;
+}
+
+TEST(RayWalk, WalkRaysIsWalkRayBitForBit) {
+  std::mt19937 rng(5151);
+  const uint32_t any_V[] = {1, 2, 3, 5, 7, 13, 32, 64};
+  const uint32_t dyadic_V[] = {1, 2, 4, 8, 16, 32};
+  const uint32_t Hs[] = {0, 1, 2, 3, 5, 18, 32};
+  const size_t batches[] = {0, 1, 5, 16, 17, 40, 333, 2000};
+  size_t rays_walked = 0, points = 0, ties = 0;
+  for (int grid_id = 0; grid_id < 28; ++grid_id) {
+    const bool dyadic = grid_id % 2 == 1;
+    const uint32_t V = dyadic ? dyadic_V[(grid_id / 2) % 6] : any_V[(grid_id / 2) % 8];
+    const RandomGrid rg = random_grid(rng, V, dyadic);
+    for (const size_t n : batches) {
+      const uint32_t H = Hs[rng() % 7];
+      std::vector<Ray> rays(n);
+      for (size_t i = 0; i < n; ++i) rays[i] = random_ray(rng, rg, int(i % 8));
+      std::vector<RayWalk> batch(n), single(n);
+      for (RayWalk& w : batch) std::memset(static_cast<void*>(&w), 0xA5, sizeof(RayWalk));
+      walk_rays(rg.grid, rays.data(), n, H, batch.data());
+      for (size_t i = 0; i < n; ++i) {
+        walk_ray(rg.grid, rays[i], H, single[i]);
+        ASSERT_TRUE(same_walk(batch[i], single[i])) << "ray " << i << " of " << n << ": " << describe(rg.grid, rays[i], H)
+                                                   << " walk_rays: " << batch[i].count << " points, walk_ray: " << single[i].count;
+        points += single[i].count;
+        for (uint32_t j = 0; j < single[i].count; ++j) {
+          const glm::vec3 q = single[i].p[j] * float(V);
+          ties += (q.x == std::floor(q.x)) + (q.y == std::floor(q.y)) + (q.z == std::floor(q.z)) > 1;
+        }
+      }
+      rays_walked += n;
+    }
+  }
+  // A grid without voxels: every walk empty, as walk_ray's.
+  VoxelGrid none;
+  std::vector<Ray> rays(20, make_ray({-1, 0.5f, 0.5f}, {1, 0, 0}));
+  std::vector<RayWalk> walks(20);
+  for (RayWalk& w : walks) std::memset(static_cast<void*>(&w), 0xA5, sizeof(RayWalk));
+  walk_rays(none, rays.data(), rays.size(), 18, walks.data());
+  for (const RayWalk& w : walks) EXPECT_TRUE(w.count == 0 && !w.hits_aabb && !w.truncated);
+  std::printf("[ info   ] %zu rays, %zu points, %zu on edges/corners\n", rays_walked, points, ties);
+  EXPECT_GT(points, rays_walked / 2);
+  EXPECT_GT(ties, 100u);
+}
+
 // Starts within a few ulps of a voxel plane (at the origin or at tmin) and far-away origins: the
 // floor guess of the start voxel is then often on the wrong side of the plane and must be
 // corrected to agree with the crossing times.
@@ -680,6 +735,15 @@ TEST(RayWalk, BunnyThroughputAndConsistency) {
               double(rays.size()) / seconds * 1e-6, double(total_points) / double(rays.size()),
               100.0 * double(with_points) / double(rays.size()));
   EXPECT_GT(with_points, rays.size() / 10);
+  std::vector<RayWalk> walks(rays.size());
+  t0 = std::chrono::steady_clock::now();
+  walk_rays(g, rays.data(), rays.size(), 18, walks.data());
+  const double batch_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("[ timing ] walk_rays: %.2f Mrays/s single thread, %.2fx walk_ray's\n",
+              double(rays.size()) / batch_seconds * 1e-6, seconds / batch_seconds);
+  uint64_t batch_points = 0;
+  for (const RayWalk& bw : walks) batch_points += bw.count;
+  EXPECT_EQ(batch_points, total_points);
   // A sample of these rays against the reference too (real occupancy rather than random).
   for (size_t i = 0; i < 2000; ++i) ASSERT_TRUE(matches_reference(g, rays[i], 18));
 }

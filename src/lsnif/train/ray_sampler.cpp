@@ -21,6 +21,10 @@ constexpr uint32_t kSurfaceAttempts = 16;
 // missing with a margin (kLaterBlockMargin), so that few kept candidates beyond the last sample
 // are drawn, walked and traced in vain. The output does not depend on the sizes.
 constexpr size_t kMinBlock = 32;
+// Candidates whose rays are walked together (one scheduling chunk).
+constexpr size_t kChunk = 64;
+// A ray that walk_rays cannot walk (no points, at once).
+const Ray kNoRay{glm::vec3(std::numeric_limits<float>::quiet_NaN()), glm::vec3(0.0f), 0.0f, 0.0f};
 constexpr size_t kMaxSlots = 65536;
 constexpr double kFirstBlockShare = 0.98, kLaterBlockMargin = 1.25;
 // The least number of candidates tried before a call gives up (see generate).
@@ -45,9 +49,13 @@ Ray sample_outer_ray(Rng& rng, const glm::vec3& centre, float radius) {
 // a convex body inside it enter that body exactly once, through its surface, with the same
 // point-and-cosine law, so this draws sample_outer_ray's rays conditioned on crossing the body.
 Ray sample_line_through_body(Rng& rng, const LineBody& body, const glm::vec3& centre, float radius) {
+  // The face: std::upper_bound's index in the cdf (the first entry > u0), searched without branches
+  // (the halving's comparisons are a coin toss each, their mispredictions dearer than the search).
   const float u0 = rng.next_float();
-  const size_t f = std::min(size_t(std::upper_bound(body.cdf.begin(), body.cdf.end(), u0) - body.cdf.begin()),
-                            body.faces.size() - 1);
+  const float* cdf = body.cdf.data();
+  size_t base = 0;
+  for (size_t n = body.cdf.size(); n > 1; n -= n / 2) base = cdf[base + n / 2] <= u0 ? base + n / 2 : base;
+  const size_t f = std::min(base + size_t(cdf[base] <= u0), body.faces.size() - 1);
   const LineBody::Face& face = body.faces[f];
   const float r = std::sqrt(rng.next_float()), u2 = rng.next_float();
   const glm::vec3 point = face.p0 + (r * (1.0f - u2)) * face.e1 + (r * u2) * face.e2;
@@ -284,11 +292,12 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   const uint64_t max_candidates = std::max<uint64_t>(
       kMinCandidateCap, uint64_t(double((uint64_t(1) << 20) + 1024u * uint64_t(count)) * line_body_share_));
 
-  // Fills the k = surface_rays slots of candidate `index` (samples, walks and keep flags): a
-  // surface candidate whose finding ray hits gives k surface rays from that hit, each with its own
-  // direction; any other candidate one outer ray in its first slot.
+  // Fills the k = surface_rays slots of candidate `index` (their samples' rays, and flags for the
+  // rays to walk): a surface candidate whose finding ray hits gives k surface rays from that hit,
+  // each with its own direction; any other candidate one outer ray in its first slot. A ray is kept
+  // when its walk (below) has a boundary point.
   const uint32_t k = settings_.surface_rays;
-  auto make_candidate = [&](uint64_t index, Sample* sample, RayWalk* walk, uint8_t* keep) {
+  auto make_candidate = [&](uint64_t index, Sample* sample, uint8_t* keep) {
     Rng rng(seed, stream, index);
     for (uint32_t r = 0; r < k; ++r) keep[r] = 0;
     if (rng.next_float() < surface_share) {
@@ -306,10 +315,9 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
           ray.direction = sample_cosine_hemisphere(n, u1, u2);
           ray.tmin = 0.0f;
           ray.tmax = std::numeric_limits<float>::infinity();
-          if (walk_ray(grid_, ray, max_points_, walk[r]) == 0) continue;
           sample[r].ray = ray;
           sample[r].from_surface = true;
-          keep[r] = 1;  // its reference hit once it is among the samples (below)
+          keep[r] = 1;
         }
         return;
       }
@@ -317,7 +325,6 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     Ray ray = outer_ray(rng);
     ray.tmin = 0.0f;
     ray.tmax = std::numeric_limits<float>::infinity();
-    if (walk_ray(grid_, ray, max_points_, walk[0]) == 0) return;
     sample[0].ray = ray;
     sample[0].from_surface = false;
     keep[0] = 1;
@@ -344,11 +351,23 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     block_samples.resize(slots);
     block_walks.resize(slots);
     block_keep.resize(slots);
-    const int64_t n = int64_t(block);
-#pragma omp parallel for schedule(dynamic, 32)
-    for (int64_t j = 0; j < n; ++j)
-      make_candidate(next + uint64_t(j), &block_samples[size_t(j) * k], &block_walks[size_t(j) * k],
-                     &block_keep[size_t(j) * k]);
+    // Chunks of kChunk candidates: their rays drawn, then walked together (walk_rays, 16 at a
+    // time where the build has AVX-512); a slot without a ray gets one that cannot be walked.
+    const int64_t chunks = int64_t((block + kChunk - 1) / kChunk);
+#pragma omp parallel
+    {
+      std::vector<Ray> rays(kChunk * k);
+#pragma omp for schedule(dynamic, 1)
+      for (int64_t c = 0; c < chunks; ++c) {
+        const size_t first = size_t(c) * kChunk, last = std::min(block, first + kChunk);
+        for (size_t j = first; j < last; ++j)
+          make_candidate(next + j, &block_samples[j * k], &block_keep[j * k]);
+        const size_t n = (last - first) * k;
+        for (size_t r = 0; r < n; ++r) rays[r] = block_keep[first * k + r] ? block_samples[first * k + r].ray : kNoRay;
+        walk_rays(grid_, rays.data(), n, max_points_, &block_walks[first * k]);
+        for (size_t r = 0; r < n; ++r) block_keep[first * k + r] = block_walks[first * k + r].count > 0;
+      }
+    }
     // Compact the kept slots in order (positions serially, copies in parallel).
     slot.assign(slots, SIZE_MAX);
     for (size_t j = 0; j < slots; ++j) {
