@@ -134,17 +134,9 @@ bool push_point(RayWalk& walk, uint32_t H, const WalkStart& s, float t, const bo
   return true;
 }
 
-// The walk up to its DDA: clears `walk`, clips the ray to the box, finds the start voxel and records
-// the AABB entry. False when the walk is complete already (no box, or H points at the entry).
-bool begin_walk(const VoxelGrid& grid, const Ray& ray, uint32_t H, RayWalk& walk, WalkStart& s,
-                bool& occupied_now) {
-  s = WalkStart{};  // start_walk leaves an axis that never steps as initialized here
-  walk.count = 0;
-  walk.truncated = false;
-  walk.hits_aabb = false;
-  walk.t_enter = 0.0f;
-  walk.t_exit = 0.0f;
-  if (!start_walk(grid, ray, s)) return false;
+// The walk after start_walk: its header and the AABB entry. False when the walk is complete already
+// (H points at the entry).
+bool enter_walk(const VoxelGrid& grid, uint32_t H, RayWalk& walk, const WalkStart& s, bool& occupied_now) {
   walk.hits_aabb = true;
   walk.t_enter = s.t_enter;
   walk.t_exit = s.t_exit;
@@ -165,6 +157,24 @@ bool begin_walk(const VoxelGrid& grid, const Ray& ray, uint32_t H, RayWalk& walk
   return true;
 }
 
+// A walk with no points yet.
+void clear_walk(RayWalk& walk) {
+  walk.count = 0;
+  walk.truncated = false;
+  walk.hits_aabb = false;
+  walk.t_enter = 0.0f;
+  walk.t_exit = 0.0f;
+}
+
+// The walk up to its DDA: clears `walk`, clips the ray to the box, finds the start voxel and records
+// the AABB entry. False when the walk is complete already (no box, or H points at the entry).
+bool begin_walk(const VoxelGrid& grid, const Ray& ray, uint32_t H, RayWalk& walk, WalkStart& s,
+                bool& occupied_now) {
+  s = WalkStart{};  // start_walk leaves an axis that never steps as initialized here
+  clear_walk(walk);
+  return start_walk(grid, ray, s) && enter_walk(grid, H, walk, s, occupied_now);
+}
+
 // A grid with voxels and all their bits.
 bool walkable(const VoxelGrid& grid) {
   const uint64_t V = grid.resolution;
@@ -177,11 +187,7 @@ bool walkable(const VoxelGrid& grid) {
 // file comment above; returns walk.count. A grid without voxels (resolution 0 or too few bits) or a
 // non-finite ray gives hits_aabb = false and no points. max_points is clamped to LSNIF_MAX_POINTS.
 uint32_t walk_ray(const VoxelGrid& grid, const Ray& ray, uint32_t max_points, RayWalk& walk) {
-  walk.count = 0;
-  walk.truncated = false;
-  walk.hits_aabb = false;
-  walk.t_enter = 0.0f;
-  walk.t_exit = 0.0f;
+  clear_walk(walk);
   if (!walkable(grid)) return 0;
   const int V = static_cast<int>(grid.resolution);
   const uint32_t H = std::min(max_points, LSNIF_MAX_POINTS);
@@ -257,6 +263,102 @@ struct PlaneValues {
   }
 };
 
+// start_walk for up to 16 rays at once, one per lane, with the same operations on the same floats
+// (std::min(x, y) is vminps(y, x) and std::max(x, y) vmaxps(y, x); the start point's product and
+// sum fused as GCC fuses start_walk's): starts[k] = start_walk's WalkStart of rays[k] for the lanes
+// of the mask returned, where start_walk returns true.
+__mmask16 start_walks(const VoxelGrid& grid, const PlaneValues& plane_of, const Ray* rays, int n, WalkStart* starts) {
+  constexpr int L = 16;
+  constexpr __mmask16 all = 0xFFFF;
+  const int V = static_cast<int>(grid.resolution);
+  const float Vf = static_cast<float>(V);
+  alignas(64) float in[8][L];  // origin, direction, tmin, tmax of each lane's ray
+  for (int k = 0; k < L; ++k) {
+    const Ray& ray = rays[k < n ? k : 0];
+    for (int a = 0; a < 3; ++a) {
+      in[a][k] = ray.origin[a];
+      in[3 + a][k] = ray.direction[a];
+    }
+    in[6][k] = ray.tmin;
+    in[7][k] = ray.tmax;
+  }
+  const glm::vec3 extent = grid.bounds.extent();
+  const __m512 zero = _mm512_setzero_ps(), unit = _mm512_set1_ps(1.0f), inf = _mm512_set1_ps(kInf);
+  const __m512 tmin = _mm512_load_ps(in[6]), tmax = _mm512_load_ps(in[7]);
+  __mmask16 ok = __mmask16((1u << n) - 1u);
+  __m512 o[3], d[3];
+  __mmask16 moves[3];
+  __m512 t_near = _mm512_set1_ps(-kInf), t_far = inf;
+  for (int a = 0; a < 3; ++a) {
+    const __m512 e = _mm512_set1_ps(extent[a]);
+    o[a] = _mm512_div_ps(_mm512_sub_ps(_mm512_load_ps(in[a]), _mm512_set1_ps(grid.bounds.lo[a])), e);
+    d[a] = _mm512_div_ps(_mm512_load_ps(in[3 + a]), e);
+    // Not finite: NaN, +inf, -inf.
+    ok &= __mmask16(~(_mm512_fpclass_ps_mask(o[a], 0x99) | _mm512_fpclass_ps_mask(d[a], 0x99)));
+  }
+  for (int a = 0; a < 3; ++a) {
+    moves[a] = _mm512_cmp_ps_mask(d[a], zero, _CMP_NEQ_UQ);
+    const __m512 t0 = _mm512_div_ps(_mm512_sub_ps(zero, o[a]), d[a]), t1 = _mm512_div_ps(_mm512_sub_ps(unit, o[a]), d[a]);
+    const __m512 nearer = _mm512_maskz_min_ps(all, t1, t0), farther = _mm512_maskz_max_ps(all, t1, t0);
+    t_near = _mm512_mask_max_ps(t_near, moves[a], nearer, t_near);
+    t_far = _mm512_mask_min_ps(t_far, moves[a], farther, t_far);
+    ok &= __mmask16(moves[a] | (_mm512_cmp_ps_mask(o[a], zero, _CMP_GE_OQ) & _mm512_cmp_ps_mask(o[a], unit, _CMP_LE_OQ)));
+  }
+  const __m512 t_enter = _mm512_maskz_max_ps(all, t_near, tmin), t_exit = _mm512_maskz_min_ps(all, t_far, tmax);
+  ok &= __mmask16(_mm512_cmp_ps_mask(t_enter, t_exit, _CMP_LE_OQ) & ~_mm512_fpclass_ps_mask(t_enter, 0x99));
+  const __mmask16 from_outside = _mm512_cmp_ps_mask(t_near, tmin, _CMP_GE_OQ);
+  alignas(64) float f_out[8][L];
+  alignas(64) int32_t i_out[6][L];
+  const __m512i v_count = _mm512_set1_epi32(V), one = _mm512_set1_epi32(1);
+  for (int a = 0; a < 3; ++a) {
+    const __m512 coord = _mm512_mask_mov_ps(o[a], moves[a], _mm512_fmadd_ps(t_enter, d[a], o[a]));
+    const __m512 below = _mm512_maskz_roundscale_ps(all, _mm512_mul_ps(coord, _mm512_set1_ps(Vf)), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    __m512i c = _mm512_maskz_cvttps_epi32(all, _mm512_maskz_min_ps(all, _mm512_set1_ps(Vf - 1.0f), _mm512_maskz_max_ps(all, below, zero)));
+    const __mmask16 ahead_up = _mm512_cmp_ps_mask(d[a], zero, _CMP_GT_OQ);
+    const __m512i st = _mm512_mask_mov_epi32(_mm512_set1_epi32(-1), ahead_up, one);
+    const __m512i up = _mm512_maskz_mov_epi32(ahead_up, one), down = _mm512_sub_epi32(one, up);
+    auto plane_t = [&](__m512i plane, __mmask16 wanted) {
+      return _mm512_div_ps(_mm512_sub_ps(plane_of(plane, wanted), o[a]), d[a]);
+    };
+    // The corrections of start_walk, the first before the second.
+    __m512i moved = _mm512_add_epi32(c, st);
+    __mmask16 fix = moves[a] & _mm512_cmplt_epu32_mask(moved, v_count);
+    fix &= _mm512_cmp_ps_mask(plane_t(_mm512_add_epi32(c, up), fix), t_enter, _CMP_LE_OQ);
+    c = _mm512_mask_mov_epi32(c, fix, moved);
+    moved = _mm512_sub_epi32(c, st);
+    fix = moves[a] & _mm512_cmplt_epu32_mask(moved, v_count);
+    fix &= _mm512_cmp_ps_mask(plane_t(_mm512_add_epi32(c, down), fix), t_enter, _CMP_GT_OQ);
+    c = _mm512_mask_mov_epi32(c, fix, moved);
+    _mm512_store_ps(f_out[a], _mm512_mask_mov_ps(inf, moves[a], plane_t(_mm512_add_epi32(c, up), moves[a])));
+    _mm512_store_ps(f_out[3 + a], _mm512_mask_mov_ps(_mm512_set1_ps(-kInf), moves[a], plane_t(_mm512_add_epi32(c, down), moves[a])));
+    _mm512_store_si512(i_out[a], c);
+    _mm512_store_si512(i_out[3 + a], _mm512_maskz_mov_epi32(moves[a], st));
+    _mm512_store_ps(in[a], o[a]);
+    _mm512_store_ps(in[3 + a], d[a]);
+  }
+  _mm512_store_ps(f_out[6], t_enter);
+  _mm512_store_ps(f_out[7], t_exit);
+  alignas(64) float near_out[L];
+  _mm512_store_ps(near_out, t_near);
+  for (int k = 0; k < n; ++k) {
+    if (!((ok >> k) & 1)) continue;
+    WalkStart& s = starts[k];
+    for (int a = 0; a < 3; ++a) {
+      s.o[a] = in[a][k];
+      s.d[a] = in[3 + a][k];
+      s.t_ahead[a] = f_out[a][k];
+      s.t_behind[a] = f_out[3 + a][k];
+      s.cell[a] = i_out[a][k];
+      s.step[a] = i_out[3 + a][k];
+    }
+    s.t_near = near_out[k];
+    s.t_enter = f_out[6][k];
+    s.t_exit = f_out[7][k];
+    s.from_outside = ((from_outside >> k) & 1) != 0;
+  }
+  return ok;
+}
+
 // walk_rays in the 16 lanes of AVX-512 registers: each lane runs walk_ray's DDA for one ray, event
 // by event, with the same operations on the same floats (the crossing (n/V - o) / d, the minimum of
 // the three axes' next crossings in walk_ray's order, the same comparisons), so a lane's walk is
@@ -291,14 +393,29 @@ void walk_rays_avx512(const VoxelGrid& grid, const Ray* rays, size_t count, uint
     }
     logged = 0;
   };
-  size_t next = 0;
-  // Puts the next ray whose walk has a DDA to run into `lane`; false when none is left.
+  // Puts the next ray whose walk has a DDA to run into `lane`; false when none is left. Rays are
+  // started 16 at a time (start_walks) into `staged`.
+  WalkStart staged[L];
+  __mmask16 staged_ok = 0;
+  size_t staged_first = 0, next = 0;  // the first ray staged, the first not staged yet
+  int staged_count = 0, staged_next = 0;
   auto load = [&](int lane) {
-    while (next < count) {
-      const size_t i = next++;
-      WalkStart& s = start[lane];
+    for (;;) {
+      if (staged_next == staged_count) {
+        if (next == count) return false;
+        staged_first = next;
+        staged_count = int(std::min<size_t>(L, count - next));
+        staged_next = 0;
+        next += size_t(staged_count);
+        staged_ok = start_walks(grid, plane_of, rays + staged_first, staged_count, staged);
+      }
+      const int k = staged_next++;
+      const size_t i = staged_first + size_t(k);
+      clear_walk(walks[i]);
+      if (!((staged_ok >> k) & 1)) continue;
+      const WalkStart& s = start[lane] = staged[k];
       bool occupied_now = false;
-      if (!begin_walk(grid, rays[i], H, walks[i], s, occupied_now)) continue;
+      if (!enter_walk(grid, H, walks[i], s, occupied_now)) continue;
       for (int a = 0; a < 3; ++a) {
         o[a][lane] = s.o[a];
         d[a][lane] = s.d[a];
@@ -312,11 +429,9 @@ void walk_rays_avx512(const VoxelGrid& grid, const Ray* rays, size_t count, uint
       events[lane] = 0;
       points[lane] = int32_t(walks[i].count);
       ray_of[lane] = i;
-      const __mmask16 bit = __mmask16(1u << lane);
-      occupied = occupied_now ? __mmask16(occupied | bit) : __mmask16(occupied & ~bit);
+      occupied = __mmask16((occupied & ~(1u << lane)) | (unsigned(occupied_now) << lane));
       return true;
     }
-    return false;
   };
 
   constexpr __mmask16 all = 0xFFFF;
@@ -327,7 +442,7 @@ void walk_rays_avx512(const VoxelGrid& grid, const Ray* rays, size_t count, uint
   const int* bits = reinterpret_cast<const int*>(grid.bits.data());
   for (;;) {
     const __mmask16 idle = __mmask16(~live);
-    if (live == 0 || (next < count && __builtin_popcount(idle) >= kRefill)) {
+    if (live == 0 || ((next < count || staged_next < staged_count) && __builtin_popcount(idle) >= kRefill)) {
       replay();
       for (__mmask16 free_lanes = idle; free_lanes; free_lanes = __mmask16(free_lanes & (free_lanes - 1))) {
         const int lane = __builtin_ctz(free_lanes);

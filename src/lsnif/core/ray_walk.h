@@ -22,6 +22,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 
 #include "lsnif/host_device.h"
 #include "lsnif/core/geometry.h"
@@ -47,6 +48,9 @@ uint32_t walk_ray(const VoxelGrid& grid, const Ray& ray, uint32_t max_points, Ra
 // builds with AVX-512, 16 rays at a time in the lanes of its registers (one thread; callers split
 // the rays among threads).
 void walk_rays(const VoxelGrid& grid, const Ray* rays, size_t count, uint32_t max_points, RayWalk* walks);
+
+// A ray without a walk (its origin is not finite): for the slots of a walk_rays batch that hold no ray.
+inline const Ray kNoWalkRay{glm::vec3(std::numeric_limits<float>::quiet_NaN()), glm::vec3(0.0f), 0.0f, 0.0f};
 
 // Voxel-only baseline at a walk: hit = at least one boundary point; t = the first point (entry into
 // the first occupied voxel, or t_enter if the ray starts inside an occupied voxel); normal = the

@@ -621,6 +621,7 @@ TEST(RayWalk, StartVoxelNearPlanesAndFarOrigins) {
   for (uint32_t V : Vs) {
     RandomGrid rg = random_grid(rng, V, false);
     const VoxelGrid& g = rg.grid;
+    std::vector<Ray> rays;
     for (int it = 0; it < 1500 && failures < 10; ++it) {
       Ray ray;
       ray.direction = random_unit_vector(rng) * std::exp2(4.0f * u(rng) - 2.0f);
@@ -643,6 +644,14 @@ TEST(RayWalk, StartVoxelNearPlanesAndFarOrigins) {
         }
       }
       if (!matches_reference(g, ray, 32)) ++failures;
+      rays.push_back(ray);
+    }
+    // walk_rays starts these walks as walk_ray does, bit for bit.
+    std::vector<RayWalk> batch(rays.size()), single(rays.size());
+    walk_rays(g, rays.data(), rays.size(), 32, batch.data());
+    for (size_t i = 0; i < rays.size(); ++i) {
+      walk_ray(g, rays[i], 32, single[i]);
+      ASSERT_TRUE(same_walk(batch[i], single[i])) << describe(g, rays[i], 32);
     }
   }
   EXPECT_EQ(failures, 0);

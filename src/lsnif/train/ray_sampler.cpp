@@ -23,8 +23,6 @@ constexpr uint32_t kSurfaceAttempts = 16;
 constexpr size_t kMinBlock = 32;
 // Candidates whose rays are walked together (one scheduling chunk).
 constexpr size_t kChunk = 64;
-// A ray that walk_rays cannot walk (no points, at once).
-const Ray kNoRay{glm::vec3(std::numeric_limits<float>::quiet_NaN()), glm::vec3(0.0f), 0.0f, 0.0f};
 constexpr size_t kMaxSlots = 65536;
 constexpr double kFirstBlockShare = 0.98, kLaterBlockMargin = 1.25;
 // The least number of candidates tried before a call gives up (see generate).
@@ -352,7 +350,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     block_walks.resize(slots);
     block_keep.resize(slots);
     // Chunks of kChunk candidates: their rays drawn, then walked together (walk_rays, 16 at a
-    // time where the build has AVX-512); a slot without a ray gets one that cannot be walked.
+    // time where the build has AVX-512); a slot without a ray holds kNoWalkRay.
     const int64_t chunks = int64_t((block + kChunk - 1) / kChunk);
 #pragma omp parallel
     {
@@ -363,7 +361,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
         for (size_t j = first; j < last; ++j)
           make_candidate(next + j, &block_samples[j * k], &block_keep[j * k]);
         const size_t n = (last - first) * k;
-        for (size_t r = 0; r < n; ++r) rays[r] = block_keep[first * k + r] ? block_samples[first * k + r].ray : kNoRay;
+        for (size_t r = 0; r < n; ++r) rays[r] = block_keep[first * k + r] ? block_samples[first * k + r].ray : kNoWalkRay;
         walk_rays(grid_, rays.data(), n, max_points_, &block_walks[first * k]);
         for (size_t r = 0; r < n; ++r) block_keep[first * k + r] = block_walks[first * k + r].count > 0;
       }
