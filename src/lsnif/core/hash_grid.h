@@ -79,7 +79,10 @@ inline FaceCell face_cell(const Config& config, uint32_t level, const glm::vec3&
   // The plane coordinate is (up to rounding) an integer: voxel faces lie on grid planes.
   const float xa = std::clamp(p[a] * Rf, 0.0f, Rf);
   const float xb = std::clamp(p[b] * Rf, 0.0f, Rf), xc = std::clamp(p[c] * Rf, 0.0f, Rf);
-  const uint32_t ia = uint32_t(std::lround(xa));
+  // std::lround of the non-negative xa (halves away from zero), written out as the shader's
+  // lsnif_encoding.glsl does: inline, where the library call was not.
+  uint32_t ia = uint32_t(xa);
+  if (xa - float(ia) >= 0.5f) ++ia;
   const uint32_t ib = std::min(uint32_t(xb), R - 1), ic = std::min(uint32_t(xc), R - 1);
   FaceCell cell;
   cell.wb = xb - float(ib);

@@ -6,6 +6,7 @@
 #include <embree3/rtcore.h>
 
 #include <cmath>
+#include <algorithm>
 #include <cstring>
 #include <mutex>
 #include <string>
@@ -149,17 +150,25 @@ struct EmbreeHit {
 // The closest hit of `ray` in `scene`; rays with a non-finite origin or direction, a zero
 // direction, a NaN range or tmin > tmax miss, as does any ray when `scene` is null (no successful
 // build()).
-EmbreeHit closest_hit(RTCScene scene, const Ray& ray) {
-  EmbreeHit result;
-  if (!scene) return result;
+// Whether `ray` can be traced (a finite origin and direction, a direction not zero, a range
+// [max(tmin, 0), tmax] that is not empty or NaN); `tnear` receives max(tmin, 0).
+bool traceable(const Ray& ray, float& tnear) {
   const glm::vec3& o = ray.origin;
   const glm::vec3& d = ray.direction;
   if (!std::isfinite(o.x) || !std::isfinite(o.y) || !std::isfinite(o.z) || !std::isfinite(d.x) ||
       !std::isfinite(d.y) || !std::isfinite(d.z))
-    return result;
-  if (d.x == 0.0f && d.y == 0.0f && d.z == 0.0f) return result;
-  const float tmin = std::fmax(ray.tmin, 0.0f);
-  if (std::isnan(ray.tmin) || std::isnan(ray.tmax) || !(tmin <= ray.tmax) || std::isinf(tmin)) return result;
+    return false;
+  if (d.x == 0.0f && d.y == 0.0f && d.z == 0.0f) return false;
+  tnear = std::fmax(ray.tmin, 0.0f);
+  return !(std::isnan(ray.tmin) || std::isnan(ray.tmax) || !(tnear <= ray.tmax) || std::isinf(tnear));
+}
+
+EmbreeHit closest_hit(RTCScene scene, const Ray& ray) {
+  EmbreeHit result;
+  float tmin = 0.0f;
+  if (!scene || !traceable(ray, tmin)) return result;
+  const glm::vec3& o = ray.origin;
+  const glm::vec3& d = ray.direction;
 
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
@@ -195,11 +204,12 @@ EmbreeHit closest_hit(RTCScene scene, const Ray& ray) {
 // Closest hit with t in [max(ray.tmin, 0), ray.tmax] (t in units of ray.direction, which need not
 // be normalized). Rays with a non-finite origin or direction, a zero direction, a NaN range or
 // tmin > tmax, and any ray traced before a successful build(), miss.
-ReferenceHit GroundTruth::trace(const Ray& ray) const {
+namespace {
+
+// trace()'s hit from Embree's.
+ReferenceHit reference_hit(const Mesh& mesh, const EmbreeHit& h) {
   ReferenceHit result;
-  const EmbreeHit h = closest_hit(impl_->scene, ray);
   if (!h.hit) return result;
-  const Mesh& mesh = *impl_->mesh;
   const uint32_t prim = h.triangle;
   const glm::uvec3& tri = mesh.triangles[prim];
   const glm::vec3 p0 = mesh.positions[tri.x], p1 = mesh.positions[tri.y], p2 = mesh.positions[tri.z];
@@ -217,6 +227,61 @@ ReferenceHit GroundTruth::trace(const Ray& ray) const {
   const double len = glm::length(n);
   result.geometric_normal = len > 0.0 ? glm::vec3(n / len) : result.normal;
   return result;
+}
+
+}  // namespace
+
+ReferenceHit GroundTruth::trace(const Ray& ray) const {
+  if (!impl_->scene) return ReferenceHit();
+  return reference_hit(*impl_->mesh, closest_hit(impl_->scene, ray));
+}
+
+void GroundTruth::trace(const Ray* rays, size_t count, ReferenceHit* hits) const {
+  constexpr size_t L = 16;
+  for (size_t first = 0; first < count; first += L) {
+    const size_t n = std::min(L, count - first);
+    if (!impl_->scene) {
+      for (size_t k = 0; k < n; ++k) hits[first + k] = ReferenceHit();
+      continue;
+    }
+    alignas(64) int valid[L] = {};
+    alignas(64) RTCRayHit16 rh;
+    for (size_t k = 0; k < L; ++k) {
+      float tnear = 0.0f;
+      const Ray& ray = rays[first + std::min(k, n - 1)];
+      valid[k] = k < n && traceable(ray, tnear) ? -1 : 0;
+      rh.ray.org_x[k] = ray.origin.x;
+      rh.ray.org_y[k] = ray.origin.y;
+      rh.ray.org_z[k] = ray.origin.z;
+      rh.ray.dir_x[k] = ray.direction.x;
+      rh.ray.dir_y[k] = ray.direction.y;
+      rh.ray.dir_z[k] = ray.direction.z;
+      rh.ray.tnear[k] = tnear;
+      rh.ray.tfar[k] = valid[k] ? ray.tmax : 0.0f;
+      rh.ray.mask[k] = 0xFFFFFFFFu;
+      rh.ray.flags[k] = 0;
+      rh.ray.time[k] = 0.0f;
+      rh.ray.id[k] = 0;
+      rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.primID[k] = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+    }
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    rtcIntersect16(valid, impl_->scene, &context, &rh);
+    for (size_t k = 0; k < n; ++k) {
+      EmbreeHit h;
+      if (valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) {
+        h.hit = true;
+        h.t = rh.ray.tfar[k];
+        h.u = rh.hit.u[k];
+        h.v = rh.hit.v[k];
+        h.triangle = rh.hit.primID[k];
+        h.ng = glm::vec3(rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]);
+      }
+      hits[first + k] = reference_hit(*impl_->mesh, h);
+    }
+  }
 }
 
 ReferenceHit GroundTruth::trace_geometry(const Ray& ray) const {

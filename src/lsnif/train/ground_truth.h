@@ -39,6 +39,8 @@ class GroundTruth {
   // of the mesh's arrays): for rays that only look for a surface point (the ray sampler's finding
   // rays).
   ReferenceHit trace_geometry(const Ray& ray) const;
+  // hits[i] = trace(rays[i]) for i < count, the rays traced 16 at a time in Embree's packets.
+  void trace(const Ray* rays, size_t count, ReferenceHit* hits) const;
 
  private:
   struct Impl;

@@ -465,5 +465,77 @@ TEST(GroundTruth, CutoutsAreAlphaTested) {
   EXPECT_FALSE(make_unit_triangle().has_cutouts());
 }
 
+// The packet form traces as one ray at a time does, every field of every hit, on the bunny (rays
+// from around it and from inside its box), with invalid rays mixed in and batches that do not fill
+// the last packet, and on the checkerboard of cut-outs (the alpha test's filter on 16 rays at once).
+void expect_same_hits(const GroundTruth& truth, const std::vector<Ray>& rays) {
+  for (const size_t n : {size_t(0), size_t(1), size_t(15), size_t(16), size_t(17), rays.size()}) {
+    if (n > rays.size()) continue;
+    std::vector<ReferenceHit> packed(n);
+    truth.trace(rays.data(), n, packed.data());
+    for (size_t i = 0; i < n; ++i) {
+      const ReferenceHit one = truth.trace(rays[i]);
+      const ReferenceHit& h = packed[i];
+      ASSERT_EQ(h.hit, one.hit) << "ray " << i << " of " << n;
+      EXPECT_EQ(h.t, one.t) << i;
+      EXPECT_EQ(h.triangle, one.triangle) << i;
+      EXPECT_EQ(h.material, one.material) << i;
+      EXPECT_EQ(h.normal, one.normal) << i;
+      EXPECT_EQ(h.geometric_normal, one.geometric_normal) << i;
+      EXPECT_EQ(h.albedo, one.albedo) << i;
+      EXPECT_EQ(h.uv, one.uv) << i;
+    }
+  }
+}
+
+TEST(GroundTruth, PacketsTraceAsOneRayAtATime) {
+  Mesh mesh;
+  const Status load = load_mesh(std::string(LSNIF_DATA_DIR) + "/meshes/bunny00.off", mesh);
+  ASSERT_TRUE(load.is_ok()) << load.message();
+  GroundTruth truth;
+  ASSERT_TRUE(truth.build(mesh).is_ok());
+  const Aabb box = mesh.bounds();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<Ray> rays;
+  int hits = 0;
+  for (uint64_t i = 0; i < 3000; ++i) {
+    Rng rng(11, 4, i);
+    Ray ray;
+    const glm::vec3 in_box = box.lo + glm::vec3(rng.next_float(), rng.next_float(), rng.next_float()) * box.extent();
+    ray.origin = i % 2 ? in_box : box.center() + box.diagonal() * sample_uniform_sphere(rng.next_float(), rng.next_float());
+    ray.direction = i % 2 ? sample_uniform_sphere(rng.next_float(), rng.next_float()) : in_box - ray.origin;
+    switch (i % 23) {  // invalid or limited rays among the others
+      case 3: ray.origin.y = nan; break;
+      case 7: ray.direction = glm::vec3(0.0f); break;
+      case 11: ray.tmax = nan; break;
+      case 13: ray.tmin = 2.0f; ray.tmax = 1.0f; break;
+      case 17: ray.tmin = -1.0f; ray.tmax = 0.5f; break;
+      case 19: ray.direction.x = kInf; break;
+      default: break;
+    }
+    hits += truth.trace(ray).hit;
+    rays.push_back(ray);
+  }
+  EXPECT_GT(hits, 1000);
+  expect_same_hits(truth, rays);
+  // Before a successful build every ray misses, in packets too.
+  GroundTruth unbuilt;
+  std::vector<ReferenceHit> none(20);
+  unbuilt.trace(rays.data(), none.size(), none.data());
+  for (const ReferenceHit& h : none) EXPECT_FALSE(h.hit);
+
+  GroundTruth cutouts;
+  const Mesh board = checkerboard_over_backing(AlphaMode::Mask, 0.5f, 0, 1.0f);
+  ASSERT_TRUE(cutouts.build(board).is_ok());
+  std::vector<Ray> down;
+  for (uint32_t k = 0; k < 40; ++k) {
+    Ray r;
+    r.origin = {(float(k % 8) + 0.5f) / 8.0f, (float(k / 8 % 4) + 0.5f) / 4.0f, 1.0f};
+    r.direction = {0, 0, -1};
+    down.push_back(r);
+  }
+  expect_same_hits(cutouts, down);
+}
+
 }  // namespace
 }  // namespace lsnif

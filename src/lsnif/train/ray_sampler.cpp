@@ -384,9 +384,19 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     next += block;
   }
   // The reference hits of the samples alone (not of the kept candidates beyond `count`).
-  const int64_t found = int64_t(filled);
-#pragma omp parallel for schedule(dynamic, 64)
-  for (int64_t j = 0; j < found; ++j) samples[size_t(j)].reference = truth_.trace(samples[size_t(j)].ray);
+  const int64_t packets = int64_t((filled + 15) / 16);
+#pragma omp parallel
+  {
+    Ray rays[16];
+    ReferenceHit hits[16];
+#pragma omp for schedule(dynamic, 4)
+    for (int64_t p = 0; p < packets; ++p) {
+      const size_t first = size_t(p) * 16, n = std::min<size_t>(16, filled - first);
+      for (size_t i = 0; i < n; ++i) rays[i] = samples[first + i].ray;
+      truth_.trace(rays, n, hits);
+      for (size_t i = 0; i < n; ++i) samples[first + i].reference = hits[i];
+    }
+  }
   if (tried) keep_rate_ = std::max(double(kept) / double(tried), 0.02);
   samples.resize(filled);
   walks.resize(filled);

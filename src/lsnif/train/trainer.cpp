@@ -96,9 +96,9 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
                   const std::vector<uint32_t>& rows, Matrix& X, BatchCorners& corners) {
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
   const long B = long(order.size());
-  // Only the slots of recorded points are stored (and later read); X is zeroed per column. The
-  // offsets come from the rays' encoded rows (n points x L x F), not from their walks: those are
-  // scattered in memory, and this pass is serial.
+  // Only the slots of recorded points are stored (and later read); each column of X is zeroed
+  // beyond them. The offsets come from the rays' encoded rows (n points x L x F), not from their
+  // walks: those are scattered in memory, and this pass is serial.
   corners.start.resize(size_t(B) + 1);
   corners.start[0] = 0;
   for (long r = 0; r < B; ++r) corners.start[size_t(r) + 1] = corners.start[size_t(r)] + size_t(rows[size_t(r)] / F) * 4;
@@ -147,10 +147,10 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
       if (r + 1 < r1) find_corners(r + 1);
       const RayWalk& w = walks[order[size_t(r)]];
       float* x = X.data() + size_t(r) * config.input_dim();
-      std::fill(x, x + config.input_dim(), 0.0f);
       const uint32_t* ce = corners.entry.data() + corners.start[size_t(r)];
       const float* cw = corners.weight.data() + corners.start[size_t(r)];
       const uint32_t slots = std::min(w.count, H) * L;
+      std::fill(x + size_t(slots) * F, x + config.input_dim(), 0.0f);  // the slots are written below
       for (uint32_t s = 0; s < slots; ++s) {
         float sum[LSNIF_MAX_FEATURES] = {};  // in registers: x is written once per slot
         for (uint32_t k = 0; k < 4; ++k) {
