@@ -359,6 +359,10 @@ __mmask16 start_walks(const VoxelGrid& grid, const PlaneValues& plane_of, const 
   return ok;
 }
 
+// The largest V whose planes the lanes' event log holds (a plane n + 1 <= V + 2 in 9 bits); a larger
+// grid is walked one ray at a time.
+constexpr uint32_t kMaxLaneResolution = 509;
+
 // walk_rays in the 16 lanes of AVX-512 registers: each lane runs walk_ray's DDA for one ray, event
 // by event, with the same operations on the same floats (the crossing (n/V - o) / d, the minimum of
 // the three axes' next crossings in walk_ray's order, the same comparisons), so a lane's walk is
@@ -378,8 +382,8 @@ void walk_rays_avx512(const VoxelGrid& grid, const Ray* rays, size_t count, uint
   WalkStart start[L];
   size_t ray_of[L];
   __mmask16 live = 0, occupied = 0;
-  // The log of recorded events: the lane, t, and the planes before the step (each + 1, a byte
-  // each) with the axes that stepped (bits 24-26); room for one more event's 16 lanes at any time.
+  // The log of recorded events: the lane, t, the planes before the step (each + 1 in 9 bits) and the
+  // axes that stepped (bits 27-29); room for one more event's 16 lanes at any time.
   alignas(64) int32_t log_lane[kLog + L], log_info[kLog + L];
   alignas(64) float log_t[kLog + L];
   int logged = 0;
@@ -387,8 +391,8 @@ void walk_rays_avx512(const VoxelGrid& grid, const Ray* rays, size_t count, uint
     for (int e = 0; e < logged; ++e) {
       const int lane = log_lane[e];
       const uint32_t info = uint32_t(log_info[e]);
-      const bool on_plane[3] = {(info >> 24 & 1u) != 0, (info >> 25 & 1u) != 0, (info >> 26 & 1u) != 0};
-      const int plane[3] = {int(info & 0xFFu) - 1, int(info >> 8 & 0xFFu) - 1, int(info >> 16 & 0xFFu) - 1};
+      const bool on_plane[3] = {(info >> 27 & 1u) != 0, (info >> 28 & 1u) != 0, (info >> 29 & 1u) != 0};
+      const int plane[3] = {int(info & 0x1FFu) - 1, int(info >> 9 & 0x1FFu) - 1, int(info >> 18 & 0x1FFu) - 1};
       push_point(walks[ray_of[lane]], H, start[lane], log_t[e], on_plane, plane, Vf);
     }
     logged = 0;
@@ -469,8 +473,8 @@ void walk_rays_avx512(const VoxelGrid& grid, const Ray* rays, size_t count, uint
       on[a] = go & _mm512_cmp_ps_mask(tn[a], t, _CMP_EQ_OQ);
       const __m512i u = _mm512_load_si512(up[a]);
       const __m512i plane = _mm512_add_epi32(_mm512_add_epi32(c[a], u), one);  // plane + 1 >= 0
-      info = _mm512_or_si512(info, _mm512_maskz_slli_epi32(all, plane, unsigned(8 * a)));
-      info = _mm512_mask_or_epi32(info, on[a], info, _mm512_set1_epi32(1 << (24 + a)));
+      info = _mm512_or_si512(info, _mm512_maskz_slli_epi32(all, plane, unsigned(9 * a)));
+      info = _mm512_mask_or_epi32(info, on[a], info, _mm512_set1_epi32(1 << (27 + a)));
       c[a] = _mm512_mask_add_epi32(c[a], on[a], c[a], _mm512_load_si512(step[a]));
       inside &= _mm512_cmplt_epu32_mask(c[a], v_count);
       numerator[a] = _mm512_sub_ps(plane_of(_mm512_add_epi32(c[a], u), on[a]), _mm512_load_ps(o[a]));
@@ -522,7 +526,7 @@ void walk_rays_avx512(const VoxelGrid& grid, const Ray* rays, size_t count, uint
 
 void walk_rays(const VoxelGrid& grid, const Ray* rays, size_t count, uint32_t max_points, RayWalk* walks) {
 #if defined(__AVX512F__)
-  if (walkable(grid)) {
+  if (walkable(grid) && grid.resolution <= kMaxLaneResolution) {
     walk_rays_avx512(grid, rays, count, std::min(max_points, LSNIF_MAX_POINTS), walks);
     return;
   }

@@ -45,8 +45,8 @@ struct RayWalk {
 uint32_t walk_ray(const VoxelGrid& grid, const Ray& ray, uint32_t max_points, RayWalk& walk);
 
 // walks[i] = walk_ray(grid, rays[i], max_points) for i < count, the same walks bit for bit; in
-// builds with AVX-512, 16 rays at a time in the lanes of its registers (one thread; callers split
-// the rays among threads).
+// builds with AVX-512 and for V <= 509, 16 rays at a time in the lanes of its registers (one thread;
+// callers split the rays among threads).
 void walk_rays(const VoxelGrid& grid, const Ray* rays, size_t count, uint32_t max_points, RayWalk* walks);
 
 // A ray without a walk (its origin is not finite): for the slots of a walk_rays batch that hold no ray.

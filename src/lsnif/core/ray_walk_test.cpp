@@ -598,6 +598,35 @@ TEST(RayWalk, WalkRaysIsWalkRayBitForBit) {
       rays_walked += n;
     }
   }
+  // The largest grids: points on the far planes (n = V), whose index the lanes' log keeps in 9 bits.
+  for (const uint32_t V : {256u, 509u}) {
+    VoxelGrid big = empty_grid(V, glm::vec3(0.0f), glm::vec3(1.0f));
+    std::vector<Ray> rays;
+    for (uint32_t i = 0; i < 40; ++i) {
+      const uint32_t a = V - 1 - i % 3, b = (i * 37u) % V, c = (i * 101u) % V;
+      big.set(a, b, c);  // near the high x face; rays through it along x, then along y and z
+      big.set(b, a, c);
+      big.set(c, b, a);
+      const glm::vec3 centres[3] = {glm::vec3(float(a), float(b), float(c)), glm::vec3(float(b), float(a), float(c)),
+                                    glm::vec3(float(c), float(b), float(a))};
+      for (int axis = 0; axis < 3; ++axis) {
+        const glm::vec3 p = (centres[axis] + 0.5f) / float(V);
+        glm::vec3 d(0.0f);
+        d[axis] = 1.0f;
+        rays.push_back(make_ray(p - 2.0f * d, d));
+        rays.push_back(make_ray(p - 2.0f * d + glm::vec3(0.0f, 0.1f, 0.2f) / float(V), d + glm::vec3(0.01f, 0.02f, 0.03f)));
+      }
+    }
+    std::vector<RayWalk> batch(rays.size()), single(rays.size());
+    walk_rays(big, rays.data(), rays.size(), 18, batch.data());
+    size_t far = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      walk_ray(big, rays[i], 18, single[i]);
+      ASSERT_TRUE(same_walk(batch[i], single[i])) << "V=" << V << " ray " << i;
+      for (uint32_t j = 0; j < single[i].count; ++j) far += glm::any(glm::equal(single[i].p[j], glm::vec3(1.0f)));
+    }
+    EXPECT_GT(far, 40u) << "V=" << V;  // exits through the far planes were recorded
+  }
   // A grid without voxels: every walk empty, as walk_ray's.
   VoxelGrid none;
   std::vector<Ray> rays(20, make_ray({-1, 0.5f, 0.5f}, {1, 0, 0}));

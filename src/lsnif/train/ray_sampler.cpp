@@ -21,8 +21,8 @@ constexpr uint32_t kSurfaceAttempts = 16;
 // missing with a margin (kLaterBlockMargin), so that few kept candidates beyond the last sample
 // are drawn, walked and traced in vain. The output does not depend on the sizes.
 constexpr size_t kMinBlock = 32;
-// Candidates whose rays are walked together (one scheduling chunk).
-constexpr size_t kChunk = 64;
+// Candidates whose rays are walked together (one scheduling chunk), and kept rays traced together.
+constexpr size_t kChunk = 64, kTraceChunk = 64;
 constexpr size_t kMaxSlots = 65536;
 constexpr double kFirstBlockShare = 0.98, kLaterBlockMargin = 1.25;
 // The least number of candidates tried before a call gives up (see generate).
@@ -384,14 +384,15 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     next += block;
   }
   // The reference hits of the samples alone (not of the kept candidates beyond `count`).
-  const int64_t packets = int64_t((filled + 15) / 16);
+  // (kTraceChunk rays at a time: GroundTruth traces them in Embree's packets.)
+  const int64_t chunks = int64_t((filled + kTraceChunk - 1) / kTraceChunk);
 #pragma omp parallel
   {
-    Ray rays[16];
-    ReferenceHit hits[16];
-#pragma omp for schedule(dynamic, 4)
-    for (int64_t p = 0; p < packets; ++p) {
-      const size_t first = size_t(p) * 16, n = std::min<size_t>(16, filled - first);
+    Ray rays[kTraceChunk];
+    ReferenceHit hits[kTraceChunk];
+#pragma omp for schedule(dynamic, 1)
+    for (int64_t c = 0; c < chunks; ++c) {
+      const size_t first = size_t(c) * kTraceChunk, n = std::min(kTraceChunk, filled - first);
       for (size_t i = 0; i < n; ++i) rays[i] = samples[first + i].ray;
       truth_.trace(rays, n, hits);
       for (size_t i = 0; i < n; ++i) samples[first + i].reference = hits[i];
