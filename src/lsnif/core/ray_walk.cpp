@@ -1,7 +1,8 @@
 // ray_walk.cpp -- the LSNIF ray walk (paper 3.1): AABB clipping and a 3D DDA through the voxel
 // grid, collecting the points where the ray crosses a face of an occupied voxel. This is the CPU
 // reference; src/lsnif/shaders/lsnif_walk.glsl copies it line by line, hence float math only, rolled loops with
-// fixed bounds, no recursion and few branches.
+// fixed bounds, no recursion and few branches. walk_rays (at the end) runs the same walks 16 rays at
+// a time in AVX-512 lanes, for the CPU's batches.
 //
 // Conventions that ray_walk.h leaves open, fixed here:
 //  * The slab test runs in the unit cube with the same plane formula as every other crossing,
@@ -366,10 +367,10 @@ constexpr uint32_t kMaxLaneResolution = 509;
 // walk_rays in the 16 lanes of AVX-512 registers: each lane runs walk_ray's DDA for one ray, event
 // by event, with the same operations on the same floats (the crossing (n/V - o) / d, the minimum of
 // the three axes' next crossings in walk_ray's order, the same comparisons), so a lane's walk is
-// walk_ray's bit for bit. A walk starts through the scalar code (begin_walk); the events at which a
-// lane records a point go into a log, without a branch, and are replayed through push_point (so
-// the points are the scalar code's too) before lanes whose walks ended take the next rays, which
-// happens once kRefill lanes are idle.
+// walk_ray's bit for bit. Walks start 16 at a time (start_walks), their AABB entries through the
+// scalar code (enter_walk); the events at which a lane records a point go into a log, without a
+// branch, and are replayed through push_point (so the points are the scalar code's too) before
+// lanes whose walks ended take the next rays, which happens once kRefill lanes are idle.
 void walk_rays_avx512(const VoxelGrid& grid, const Ray* rays, size_t count, uint32_t H, RayWalk* walks) {
   constexpr int L = 16, kRefill = 3, kLog = 256;
   const int V = static_cast<int>(grid.resolution);
