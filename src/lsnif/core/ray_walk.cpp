@@ -188,8 +188,10 @@ bool walkable(const VoxelGrid& grid) {
 // file comment above; returns walk.count. A grid without voxels (resolution 0 or too few bits) or a
 // non-finite ray gives hits_aabb = false and no points. max_points is clamped to LSNIF_MAX_POINTS.
 uint32_t walk_ray(const VoxelGrid& grid, const Ray& ray, uint32_t max_points, RayWalk& walk) {
-  clear_walk(walk);
-  if (!walkable(grid)) return 0;
+  if (!walkable(grid)) {
+    clear_walk(walk);
+    return 0;
+  }
   const int V = static_cast<int>(grid.resolution);
   const uint32_t H = std::min(max_points, LSNIF_MAX_POINTS);
   const float Vf = static_cast<float>(V);

@@ -238,12 +238,12 @@ ReferenceHit GroundTruth::trace(const Ray& ray) const {
 
 void GroundTruth::trace(const Ray* rays, size_t count, ReferenceHit* hits) const {
   constexpr size_t L = 16;
+  if (!impl_->scene) {  // before a successful build(): misses, as trace()
+    std::fill(hits, hits + count, ReferenceHit());
+    return;
+  }
   for (size_t first = 0; first < count; first += L) {
     const size_t n = std::min(L, count - first);
-    if (!impl_->scene) {
-      for (size_t k = 0; k < n; ++k) hits[first + k] = ReferenceHit();
-      continue;
-    }
     alignas(64) int valid[L] = {};
     alignas(64) RTCRayHit16 rh;
     for (size_t k = 0; k < L; ++k) {
