@@ -654,6 +654,42 @@ TEST(MutationCampaign, SettingsFiles) {
   std::printf("[ info ] settings files: %zu runs\n", runs);
 }
 
+// An exception cannot leave an OpenMP parallel region: a failed allocation inside one would end the
+// program in std::terminate on a machine short of memory (as MemoryCappedRuns below found on one
+// host) instead of in "out of memory". parallel_allocation_guard, preloaded, fails every allocation
+// the program makes inside a region, on every host: training, evaluation and FLIP, whose loops run
+// in regions, must not notice. The probe shows the guard at work: refused in a region, not outside.
+TEST(MutationCampaign, NothingIsAllocatedInsideParallelRegions) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer replaces the allocator the guard stands in front of";
+#else
+  const std::vector<std::string> env = {"LD_PRELOAD=" LSNIF_PARALLEL_ALLOCATION_GUARD, "OMP_NUM_THREADS=2",
+                                        "MESA_SHADER_CACHE_DISABLE=true"};
+  const test::ProcessResult control = test::run_process({LSNIF_PARALLEL_ALLOCATION_PROBE}, 30.0, 0, env);
+  ASSERT_EQ(control.exit_code, 0) << control.output;
+  EXPECT_NE(control.output.find("threads 2 refused 2 outside ok"), std::string::npos) << control.output;
+  EXPECT_NE(control.output.find("parallel_allocation_guard: "), std::string::npos) << control.output;
+  const test::ProcessResult unguarded = test::run_process({LSNIF_PARALLEL_ALLOCATION_PROBE}, 30.0);
+  EXPECT_NE(unguarded.output.find("threads 2 refused 0 outside ok"), std::string::npos) << unguarded.output;
+
+  const std::string data = LSNIF_DATA_DIR;
+  test::ScopedTestDir dir("lsnif_campaign_regions");
+  const std::string model = dir.path("bunny.lsnif");
+  const std::vector<std::vector<std::string>> runs = {
+      {"train", data + "/meshes/bunny00.off", "-o", model, "--steps", "40", "--quiet"},  // default network
+      {"eval", model, data + "/meshes/bunny00.off", "--rays", "20000"},
+      {"flip", data + "/hdr/city.exr", data + "/hdr/courtyard.exr", "--num-exposures", "2"},
+  };
+  for (const std::vector<std::string>& args : runs) {
+    std::vector<std::string> argv = args;
+    argv.insert(argv.begin(), LSNIF_CLI);
+    const test::ProcessResult r = test::run_process(argv, 120.0, 0, env);
+    EXPECT_EQ(r.exit_code, 0) << describe(args) << "\n" << r.output;
+    EXPECT_EQ(r.output.find("parallel_allocation_guard: "), std::string::npos) << describe(args) << "\n" << r.output;
+  }
+#endif
+}
+
 // Runs under an address-space limit (`prlimit --as`, util-linux): sizes in range that do not fit
 // the memory the process may have end with "out of memory" and exit 1, never an abort. (Not under
 // AddressSanitizer: it reserves terabytes of address space for its shadow memory.)

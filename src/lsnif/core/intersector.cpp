@@ -60,31 +60,29 @@ Status intersect(const Model& model, const Transform3x4& xf, const Ray* rays, si
   const Config& config = model.config;
   std::vector<RayWalk> walks(count);
   std::vector<size_t> active;
-  // The rays in object space, walked together (walk_rays) a chunk at a time.
+  // The rays in object space, walked together (walk_rays) a chunk at a time. (Every buffer is
+  // allocated here: an allocation failing inside the parallel region could not reach the caller.)
+  std::vector<Ray> object_rays(count);
   constexpr size_t kChunk = 256;
   const long chunks = long((count + kChunk - 1) / kChunk);
-#pragma omp parallel
-  {
-    std::vector<Ray> object_rays(kChunk);
-#pragma omp for schedule(dynamic, 1)
-    for (long c = 0; c < chunks; ++c) {
-      const size_t first = size_t(c) * kChunk, last = std::min(count, first + kChunk);
-      for (size_t i = first; i < last; ++i) {
-        const Ray& ray = rays[i];
-        Ray& o = object_rays[i - first];
-        hits[i] = LsnifHit();
-        if (!finite(ray.origin) || !finite(ray.direction) || ray.direction == glm::vec3(0.0f) ||
-            std::isnan(ray.tmin) || std::isnan(ray.tmax)) {
-          o = kNoWalkRay;
-          continue;
-        }
-        o.origin = A_inv * (ray.origin - T);
-        o.direction = A_inv * ray.direction;
-        o.tmin = ray.tmin;
-        o.tmax = std::numeric_limits<float>::infinity();
+#pragma omp parallel for schedule(dynamic, 1)
+  for (long c = 0; c < chunks; ++c) {
+    const size_t first = size_t(c) * kChunk, last = std::min(count, first + kChunk);
+    for (size_t i = first; i < last; ++i) {
+      const Ray& ray = rays[i];
+      Ray& o = object_rays[i];
+      hits[i] = LsnifHit();
+      if (!finite(ray.origin) || !finite(ray.direction) || ray.direction == glm::vec3(0.0f) ||
+          std::isnan(ray.tmin) || std::isnan(ray.tmax)) {
+        o = kNoWalkRay;
+        continue;
       }
-      walk_rays(model.voxels, object_rays.data(), last - first, config.max_points, walks.data() + first);
+      o.origin = A_inv * (ray.origin - T);
+      o.direction = A_inv * ray.direction;
+      o.tmin = ray.tmin;
+      o.tmax = std::numeric_limits<float>::infinity();
     }
+    walk_rays(model.voxels, object_rays.data() + first, last - first, config.max_points, walks.data() + first);
   }
   for (size_t i = 0; i < count; ++i)
     if (walks[i].count > 0) active.push_back(i);

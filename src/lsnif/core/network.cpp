@@ -59,13 +59,15 @@ GemmOperands weight_product(const float* a, uint32_t M, uint32_t K) {
   return GemmOperands{.M = M, .N = 0, .K = K, .A = a, .a_k = M};
 }
 
-// The calling thread's packed operands, two buffers of `words` each (trace.packed holds one entry
-// per thread of the region: sized before it).
-uint32_t* packed_buffers(MlpTrace& trace, size_t words) {
-  std::vector<uint32_t>& b = trace.packed[size_t(omp_get_thread_num())];
-  if (b.size() < 2 * words) b.resize(2 * words);
-  return b.data();
+// Two packed operands of `words` each per thread of a parallel region, allocated before the region
+// (an allocation failing inside it could not reach the caller).
+void reserve_packed(MlpTrace& trace, size_t words) {
+  trace.packed.resize(size_t(omp_get_max_threads()));
+  for (std::vector<uint32_t>& b : trace.packed)
+    if (b.size() < 2 * words) b.resize(2 * words);
 }
+// The calling thread's two packed operands (reserve_packed sized them).
+uint32_t* packed_buffers(MlpTrace& trace) { return trace.packed[size_t(omp_get_thread_num())].data(); }
 }  // namespace
 
 bool mlp_layer_bf16(const Config& config, size_t layer) {
@@ -112,10 +114,14 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
   Eigen::Index bf16_words = 0;  // the largest packed input of a chunk
   if (trace && trace->bf16_layers) {
     trace->weights_bf16.resize(bf16_layout.size);
-    trace->packed.resize(size_t(omp_get_max_threads()));
     for (size_t l = 0; l < layers.size(); ++l)
       if (mlp_layer_bf16(config, l)) bf16_words = std::max<Eigen::Index>(bf16_words, (layers[l].in + 1) / 2 * chunk);
+    reserve_packed(*trace, size_t(bf16_words));
   }
+  // Without a trace, two activations of a chunk per thread (the hidden layers' outputs in turn).
+  size_t activation_size = 0;
+  for (size_t l = 0; l + 1 < layers.size(); ++l) activation_size = std::max(activation_size, size_t(layers[l].out) * size_t(chunk));
+  std::vector<float> activations(trace ? 0 : 2 * activation_size * size_t(omp_get_max_threads()));
 #pragma omp parallel
   {
     // Each thread transposes its share of every layer's rows; every product below reads all of it.
@@ -135,8 +141,10 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
                       trace->weights_bf16.data() + bf16_layout.forward[size_t(l)]);
         }
     }
-    uint32_t* packed_x = bf16 ? packed_buffers(*trace, size_t(bf16_words)) : nullptr;
-    Matrix a, b;  // per-thread activations of one chunk when no trace is kept
+    uint32_t* packed_x = bf16 ? packed_buffers(*trace) : nullptr;
+    // This thread's activations of one chunk when no trace is kept.
+    float* a = trace ? nullptr : activations.data() + 2 * activation_size * size_t(omp_get_thread_num());
+    float* b = trace ? nullptr : a + activation_size;
     // Dynamic: chunks of a batch ordered by point count differ in cost; each chunk's result is
     // its own, so which thread runs it changes nothing.
 #pragma omp for schedule(dynamic, 1)
@@ -148,15 +156,14 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
         // Input of this layer for the chunk.
         const float* in_ptr = l == 0 ? x0.data() + c0 * x0.rows()
                               : trace ? trace->layer_input[l].data() + c0 * v.in
-                                      : a.data();
+                                      : a;
         float* out_ptr;
         if (last) {
           out_ptr = out.data() + c0 * v.out;
         } else if (trace) {
           out_ptr = trace->layer_input[l + 1].data() + c0 * v.out;
         } else {
-          b.resize(v.out, n);
-          out_ptr = b.data();
+          out_ptr = b;
         }
         // y = W x + bias, then the leaky ReLU (0 <= slope < 1) but after the last layer; the first
         // layer reads only the chunk's leading `rows` inputs.
@@ -176,7 +183,7 @@ void mlp_forward(const Config& config, const float* params, const Matrix& input,
           mlp_gemm_bf16(op, e, trace->weights_bf16.data() + bf16_layout.forward[l], packed_x);
         else
           mlp_gemm(op, e);
-        if (!last && !trace) a.swap(b);
+        if (!last && !trace) std::swap(a, b);
       }
     }
   }
@@ -215,17 +222,17 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
   // A chunk's packed operands (two buffers): x as pairs of rays and delta as the weight gradient's
   // B, or delta as the input gradient's B.
   const size_t bf16_words = size_t(widest) * size_t((chunk + 1) / 2) + size_t(chunk);
+  for (std::vector<float>& d : trace.deltas) d.resize(size_t(widest * chunk));
   if (bf16) {
     trace.weights_bf16.resize(bf16_layout.size);
-    trace.packed.resize(size_t(omp_get_max_threads()));
+    reserve_packed(trace, bf16_words);
   }
 #pragma omp parallel
   {
     std::vector<float>* delta_buf = &trace.deltas[2 * size_t(omp_get_thread_num())];
-    for (int i = 0; i < 2; ++i) delta_buf[i].resize(size_t(widest * chunk));
     uint32_t* packed = nullptr;
     if (bf16) {  // the bf16 layers' W as pairs of outputs (W^T's left operand), a layer per thread
-      packed = packed_buffers(trace, bf16_words);
+      packed = packed_buffers(trace);
 #pragma omp for schedule(static)
       for (long l = 0; l < long(layers.size()); ++l)
         if (mlp_layer_bf16(config, size_t(l))) {

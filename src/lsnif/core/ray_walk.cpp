@@ -35,7 +35,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <vector>
 
 #if defined(__AVX512F__)
 #include <immintrin.h>
@@ -241,18 +240,23 @@ uint32_t walk_ray(const VoxelGrid& grid, const Ray& ray, uint32_t max_points, Ra
 #if defined(__AVX512F__)
 namespace {
 
+// The largest V whose planes the lanes' event log holds (a plane n + 1 <= V + 2 in 9 bits); a larger
+// grid is walked one ray at a time.
+constexpr uint32_t kMaxLaneResolution = 509;
+
 // n / V for the planes n = -1 .. V + 1 a step can reach, as plane_t computes it, 16 lanes at a time.
 // For V <= 32 the planes a lane still inside the grid can reach next, n = 0 .. V, come from two
 // registers (n = 0 .. 31; n = 32 only as V / V = 1; a lane leaving the grid ends, whatever its
-// value); otherwise from the table (index n + 1).
+// value); otherwise from the table (index n + 1). Nothing is allocated: walks run inside parallel
+// regions, where a failed allocation could not reach the caller.
 struct PlaneValues {
-  std::vector<float> table;
+  float table[kMaxLaneResolution + 3];
   bool in_registers;
   __m512 low, high;
-  explicit PlaneValues(int V) : table(size_t(V) + 3), in_registers(V <= 32) {
-    for (int n = -1; n <= V + 1; ++n) table[size_t(n + 1)] = static_cast<float>(n) / static_cast<float>(V);
+  explicit PlaneValues(int V) : in_registers(V <= 32) {
+    for (int n = -1; n <= V + 1; ++n) table[n + 1] = static_cast<float>(n) / static_cast<float>(V);
     alignas(64) float first[32] = {};
-    for (int n = 0; n < std::min(V + 1, 32); ++n) first[n] = table[size_t(n + 1)];
+    for (int n = 0; n < std::min(V + 1, 32); ++n) first[n] = table[n + 1];
     low = _mm512_load_ps(first);
     high = _mm512_load_ps(first + 16);
   }
@@ -260,7 +264,7 @@ struct PlaneValues {
   __m512 operator()(__m512i n, __mmask16 wanted) const {
     if (!in_registers)
       return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), wanted, _mm512_add_epi32(n, _mm512_set1_epi32(1)),
-                                      table.data(), 4);
+                                      table, 4);
     return _mm512_mask_mov_ps(_mm512_permutex2var_ps(low, n, high), _mm512_cmpeq_epi32_mask(n, _mm512_set1_epi32(32)),
                               _mm512_set1_ps(1.0f));
   }
@@ -361,10 +365,6 @@ __mmask16 start_walks(const VoxelGrid& grid, const PlaneValues& plane_of, const 
   }
   return ok;
 }
-
-// The largest V whose planes the lanes' event log holds (a plane n + 1 <= V + 2 in 9 bits); a larger
-// grid is walked one ray at a time.
-constexpr uint32_t kMaxLaneResolution = 509;
 
 // walk_rays in the 16 lanes of AVX-512 registers: each lane runs walk_ray's DDA for one ray, event
 // by event, with the same operations on the same floats (the crossing (n/V - o) / d, the minimum of

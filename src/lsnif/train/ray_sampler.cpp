@@ -334,6 +334,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   std::vector<RayWalk>& block_walks = sc.walks;
   std::vector<uint8_t>& block_keep = sc.keep;
   std::vector<size_t>& slot = sc.slot;
+  std::vector<Ray>& block_rays = sc.rays;
   uint64_t next = 0, tried = 0, kept = 0;
   while (filled < count && next < max_candidates) {
     // Size the block from the keep rate seen so far (the previous call's at first) so that two
@@ -349,22 +350,18 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     block_samples.resize(slots);
     block_walks.resize(slots);
     block_keep.resize(slots);
+    block_rays.resize(slots);  // (allocated here: a failure inside the parallel region would abort)
     // Chunks of kChunk candidates: their rays drawn, then walked together (walk_rays, 16 at a
     // time where the build has AVX-512); a slot without a ray holds kNoWalkRay.
     const int64_t chunks = int64_t((block + kChunk - 1) / kChunk);
-#pragma omp parallel
-    {
-      std::vector<Ray> rays(kChunk * k);
-#pragma omp for schedule(dynamic, 1)
-      for (int64_t c = 0; c < chunks; ++c) {
-        const size_t first = size_t(c) * kChunk, last = std::min(block, first + kChunk);
-        for (size_t j = first; j < last; ++j)
-          make_candidate(next + j, &block_samples[j * k], &block_keep[j * k]);
-        const size_t n = (last - first) * k;
-        for (size_t r = 0; r < n; ++r) rays[r] = block_keep[first * k + r] ? block_samples[first * k + r].ray : kNoWalkRay;
-        walk_rays(grid_, rays.data(), n, max_points_, &block_walks[first * k]);
-        for (size_t r = 0; r < n; ++r) block_keep[first * k + r] = block_walks[first * k + r].count > 0;
-      }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t c = 0; c < chunks; ++c) {
+      const size_t first = size_t(c) * kChunk, last = std::min(block, first + kChunk);
+      for (size_t j = first; j < last; ++j)
+        make_candidate(next + j, &block_samples[j * k], &block_keep[j * k]);
+      for (size_t r = first * k; r < last * k; ++r) block_rays[r] = block_keep[r] ? block_samples[r].ray : kNoWalkRay;
+      walk_rays(grid_, &block_rays[first * k], (last - first) * k, max_points_, &block_walks[first * k]);
+      for (size_t r = first * k; r < last * k; ++r) block_keep[r] = block_walks[r].count > 0;
     }
     // Compact the kept slots in order (positions serially, copies in parallel).
     slot.assign(slots, SIZE_MAX);

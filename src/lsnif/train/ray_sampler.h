@@ -53,6 +53,7 @@ struct SamplerScratch {
   std::vector<RayWalk> walks;
   std::vector<uint8_t> keep;
   std::vector<size_t> slot;
+  std::vector<Ray> rays;  // the block's rays to walk (kNoWalkRay where a slot has none)
 };
 
 // A convex body around a mesh and its occupied voxels for the first kind's rays: the polytope cut

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <omp.h>
+
 #include "lsnif/apps/flip/flip_detail.h"
 
 namespace lsnif::flip::detail {
@@ -13,17 +15,20 @@ void filter_rows(const Plane& in, const std::vector<float>& kernel, Plane& out) 
   const int r = int(kernel.size() / 2);
   const int w = int(in.width), h = int(in.height);
   out = Plane(in.width, in.height);
+  // A padded row per thread, allocated before the region (a failure inside it would abort).
+  const size_t row = size_t(w + 2 * r);
+  std::vector<float> rows(row * size_t(omp_get_max_threads()));
 #pragma omp parallel
   {
-    std::vector<float> padded(size_t(w + 2 * r));
+    float* padded = rows.data() + row * size_t(omp_get_thread_num());
 #pragma omp for schedule(static)
     for (int y = 0; y < h; ++y) {
       const float* src = in.v.data() + size_t(y) * size_t(w);
-      for (int i = 0; i < w + 2 * r; ++i) padded[size_t(i)] = src[std::clamp(i - r, 0, w - 1)];
+      for (int i = 0; i < w + 2 * r; ++i) padded[i] = src[std::clamp(i - r, 0, w - 1)];
       float* dst = out.v.data() + size_t(y) * size_t(w);
       for (int x = 0; x < w; ++x) {
         float sum = 0.0f;
-        const float* p = padded.data() + x;
+        const float* p = padded + x;
         for (int k = 0; k <= 2 * r; ++k) sum += kernel[size_t(k)] * p[k];
         dst[x] = sum;
       }

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <new>
 #include <random>
 #include <vector>
 
@@ -34,7 +35,7 @@ GemmReport run_gemm(const Model& model, uint32_t batch, double min_seconds) {
     g.widths.push_back(v.out);
     g.flops_per_column += 2.0 * double(in) * double(v.out);
   }
-  // Per thread: the input and one output per layer, allocated once (no allocation in the passes).
+  // Per thread: the input and one output per layer, allocated once (the passes allocate only Eigen's workspace).
   std::vector<std::vector<Matrix>> acts(g.threads);
   std::mt19937 rng(1);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
@@ -43,16 +44,25 @@ GemmReport run_gemm(const Model& model, uint32_t batch, double min_seconds) {
     for (Eigen::Index i = 0; i < a[0].size(); ++i) a[0].data()[i] = u(rng);
   }
   const float slope = config.leaky_slope;
+  // Eigen's products allocate their blocking workspace on the heap: a failure there is caught in
+  // its thread (an exception cannot leave the parallel region) and thrown again after it.
   auto pass = [&]() {
+    bool out_of_memory = false;
 #pragma omp parallel num_threads(int(g.threads))
     {
-      std::vector<Matrix>& a = acts[size_t(omp_get_thread_num())];
-      for (size_t l = 0; l < weights.size(); ++l) {
-        a[l + 1].noalias() = weights[l] * a[l];
-        a[l + 1].colwise() += biases[l];
-        if (l + 1 < weights.size()) a[l + 1] = a[l + 1].cwiseMax(slope * a[l + 1]);
+      try {
+        std::vector<Matrix>& a = acts[size_t(omp_get_thread_num())];
+        for (size_t l = 0; l < weights.size(); ++l) {
+          a[l + 1].noalias() = weights[l] * a[l];
+          a[l + 1].colwise() += biases[l];
+          if (l + 1 < weights.size()) a[l + 1] = a[l + 1].cwiseMax(slope * a[l + 1]);
+        }
+      } catch (const std::bad_alloc&) {
+#pragma omp atomic write
+        out_of_memory = true;
       }
     }
+    if (out_of_memory) throw std::bad_alloc();
   };
   pass();
   const double cpu0 = process_cpu_seconds();
