@@ -311,7 +311,7 @@ void mlp_backward(const Config& config, const float* params, MlpTrace& trace, co
     for (long i = 0; i < long(P); ++i) {
       float sum = 0.0f;
       for (long c = 0; c < chunks; ++c) sum += partial_sums[size_t(c) * P + size_t(i)];
-      d_params[i] += sum;
+      d_params[i] = 0.0f + sum;  // (as summed into a cleared d_params: -0 becomes +0)
     }
   }
 }

@@ -53,7 +53,7 @@ bool mlp_layer_bf16(const Config& config, size_t layer);
 void mlp_forward(const Config& config, const float* params, const Matrix& input, Matrix& out,
                  MlpTrace* trace = nullptr, const uint32_t* input_rows = nullptr);
 
-// Given d(loss)/d(out), accumulates d(loss)/d(params) into d_params (same layout, not cleared) and,
+// Given d(loss)/d(out), writes d(loss)/d(params) into d_params (same layout; nothing read) and,
 // if d_input is given, writes d(loss)/d(input). After a forward pass given `input_rows`, the
 // gradients equal the full products' (to float rounding at most), and d_input is zero on the rows
 // beyond those the column's chunk used.

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "lsnif/core/network.h"
@@ -205,7 +206,7 @@ TEST(Network, InputRowsSkipTheZeroSlotsAndChangeNoResult) {
   auto run = [&](const Matrix& input, const uint32_t* input_rows, std::vector<float>& dp, Matrix& O, Matrix& dX) {
     MlpTrace trace;
     mlp_forward(c, p.data(), input, O, &trace, input_rows);
-    dp.assign(p.size(), 0.0f);
+    dp.assign(p.size(), std::numeric_limits<float>::quiet_NaN());  // written, not accumulated
     mlp_backward(c, p.data(), trace, G, dp.data(), &dX);
     return trace.chunk_input_rows;
   };

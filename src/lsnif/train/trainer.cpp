@@ -132,9 +132,8 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
     const uint32_t slots = std::min(w.count, H) * L;
     for (uint32_t s = 0; s < slots; ++s) prefetch_face_corners(config, s % L, w.p[s / L], w.axis[s / L], layout);
   };
-  const long blocks = (B + kEncodeBlock - 1) / kEncodeBlock;
-#pragma omp parallel for schedule(static, 1)
-  for (long blk = 0; blk < blocks; ++blk) {
+  // The block's rays into their columns of X.
+  auto encode_block = [&](long blk) {
     const long r0 = blk * kEncodeBlock, r1 = std::min(B, r0 + kEncodeBlock);
     // A pipeline over the block's rays: ray r + 3's walk is fetched, ray r + 2's dense slots, ray
     // r + 1's corners found and their table rows fetched while ray r's features are summed.
@@ -159,6 +158,19 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
         }
         for (uint32_t f = 0; f < F; ++f) x[s * F + f] = sum[f];
       }
+    }
+  };
+  // The blocks dealt out in rounds of one per thread, in serpentine order (thread 0 takes the first
+  // block of even rounds and the last of odd ones): the batch is ordered by decreasing point count,
+  // so plain round robin gave thread 0 the costlier block of every round. Each column is its own,
+  // so which thread encodes it changes nothing.
+  const long blocks = (B + kEncodeBlock - 1) / kEncodeBlock;
+#pragma omp parallel
+  {
+    const long nt = omp_get_num_threads(), t = omp_get_thread_num();
+    for (long round = 0; round * nt < blocks; ++round) {
+      const long blk = round * nt + (round % 2 == 0 ? t : nt - 1 - t);
+      if (blk < blocks) encode_block(blk);
     }
   }
 }
@@ -362,7 +374,7 @@ LossTerms batch_loss(const Config& config, const TrainSettings& settings, StepSt
   st.dO.resize(out_dim, B);
   const float scale = 1.0f / float(B);
   double lo = 0, ld = 0, ln = 0, la = 0, lm = 0, ls = 0;
-#pragma omp parallel for schedule(static, 64) reduction(+ : lo, ld, ln, la, lm, ls)  // interleaved, as encode_batch
+#pragma omp parallel for schedule(static, 64) reduction(+ : lo, ld, ln, la, lm, ls)  // interleaved: the batch is ordered by point count
   for (long r = 0; r < long(B); ++r) {
     const size_t i = st.order[size_t(r)];
     const Sample& smp = st.samples[i];
@@ -416,7 +428,6 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
                          mean.material, mean.surface, double(settings.adam.learning_rate));
 
   t0 = Clock::now();
-  std::fill(st.d_mlp.begin(), st.d_mlp.end(), 0.0f);
   mlp_backward(config, model.mlp.data(), st.trace, st.dO, st.d_mlp.data(), &st.dX);
   rep.seconds_mlp += since(t0);
 
