@@ -2,6 +2,7 @@
 // brute force: all plane crossings of every axis in [t_enter, t_exit], sorted and merged by t, each
 // classified by the voxels before and after it, found by counting the planes already crossed.
 #include "lsnif/core/ray_walk.h"
+#include "lsnif/testing/off_reader.h"
 #include "lsnif/train/voxelizer.h"
 
 #include <gtest/gtest.h>
@@ -727,24 +728,7 @@ TEST(Baseline, MatchesDefinitionOnRandomRays) {
 // ---------------------------------------------------------------------------------------------
 // Throughput on the bunny (reported, not asserted).
 
-bool read_off(const std::string& path, Mesh& mesh) {
-  std::ifstream in(path);
-  std::string magic;
-  size_t nv = 0, nf = 0, ne = 0;
-  if (!(in >> magic >> nv >> nf >> ne) || magic != "OFF") return false;
-  mesh.positions.resize(nv);
-  for (auto& p : mesh.positions)
-    if (!(in >> p.x >> p.y >> p.z)) return false;
-  for (size_t f = 0; f < nf; ++f) {
-    size_t k = 0;
-    if (!(in >> k) || k < 3) return false;
-    std::vector<uint32_t> idx(k);
-    for (auto& i : idx)
-      if (!(in >> i)) return false;
-    for (size_t i = 1; i + 1 < k; ++i) mesh.triangles.push_back({idx[0], idx[i], idx[i + 1]});
-  }
-  return true;
-}
+using test::read_off;  // lsnif/testing/off_reader.h
 
 TEST(RayWalk, BunnyThroughputAndConsistency) {
   Mesh mesh;

@@ -3,6 +3,7 @@
 // non-empty exactly when the triangle meets the closed box. Near-touching configurations are either
 // excluded (an epsilon band, decided by clipping against a slightly shrunk and a slightly grown box)
 // or built on a dyadic lattice, where touching is exact in float and separation is far above eps.
+#include "lsnif/testing/off_reader.h"
 #include "lsnif/train/voxelizer.h"
 
 #include <gtest/gtest.h>
@@ -319,25 +320,7 @@ TEST(Voxelize, InvalidInputs) {
   EXPECT_EQ(voxelize(mesh, 10, bounds).count_occupied(), 0u);
 }
 
-// Minimal OFF reader (kept here so the voxelizer's tests do not depend on the mesh importers).
-bool read_off(const std::string& path, Mesh& mesh) {
-  std::ifstream in(path);
-  std::string magic;
-  size_t nv = 0, nf = 0, ne = 0;
-  if (!(in >> magic >> nv >> nf >> ne) || magic != "OFF") return false;
-  mesh.positions.resize(nv);
-  for (auto& p : mesh.positions)
-    if (!(in >> p.x >> p.y >> p.z)) return false;
-  for (size_t f = 0; f < nf; ++f) {
-    size_t k = 0;
-    if (!(in >> k) || k < 3) return false;
-    std::vector<uint32_t> idx(k);
-    for (auto& i : idx)
-      if (!(in >> i)) return false;
-    for (size_t i = 1; i + 1 < k; ++i) mesh.triangles.push_back({idx[0], idx[i], idx[i + 1]});
-  }
-  return true;
-}
+using test::read_off;  // lsnif/testing/off_reader.h
 
 TEST(Voxelize, BunnyAt32) {
   Mesh mesh;
