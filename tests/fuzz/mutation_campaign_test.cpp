@@ -411,9 +411,12 @@ TEST(MutationCampaign, Scenes) {
 
 // ---- the program: option lists and mutated files ----------------------------------------------
 
-test::ProcessResult lsnif_run(std::vector<std::string> args, double timeout = 120.0) {
+// `env`: entries added to the child's environment ("NAME=value").
+test::ProcessResult lsnif_run(std::vector<std::string> args, double timeout = 120.0,
+                              std::vector<std::string> env = {}) {
   args.insert(args.begin(), LSNIF_CLI);
-  return test::run_process(args, timeout, 0, {"MESA_SHADER_CACHE_DISABLE=true"});
+  env.push_back("MESA_SHADER_CACHE_DISABLE=true");
+  return test::run_process(args, timeout, 0, env);
 }
 
 std::string describe(const std::vector<std::string>& args) {
@@ -663,8 +666,7 @@ TEST(MutationCampaign, NothingIsAllocatedInsideParallelRegions) {
 #if defined(__SANITIZE_ADDRESS__)
   GTEST_SKIP() << "AddressSanitizer replaces the allocator the guard stands in front of";
 #else
-  const std::vector<std::string> env = {"LD_PRELOAD=" LSNIF_PARALLEL_ALLOCATION_GUARD, "OMP_NUM_THREADS=2",
-                                        "MESA_SHADER_CACHE_DISABLE=true"};
+  const std::vector<std::string> env = {"LD_PRELOAD=" LSNIF_PARALLEL_ALLOCATION_GUARD, "OMP_NUM_THREADS=2"};
   const test::ProcessResult control = test::run_process({LSNIF_PARALLEL_ALLOCATION_PROBE}, 30.0, 0, env);
   ASSERT_EQ(control.exit_code, 0) << control.output;
   EXPECT_NE(control.output.find("threads 2 refused 2 outside ok"), std::string::npos) << control.output;
@@ -681,9 +683,7 @@ TEST(MutationCampaign, NothingIsAllocatedInsideParallelRegions) {
       {"flip", data + "/hdr/city.exr", data + "/hdr/courtyard.exr", "--num-exposures", "2"},
   };
   for (const std::vector<std::string>& args : runs) {
-    std::vector<std::string> argv = args;
-    argv.insert(argv.begin(), LSNIF_CLI);
-    const test::ProcessResult r = test::run_process(argv, 120.0, 0, env);
+    const test::ProcessResult r = lsnif_run(args, 120.0, env);
     EXPECT_EQ(r.exit_code, 0) << describe(args) << "\n" << r.output;
     EXPECT_EQ(r.output.find("parallel_allocation_guard: "), std::string::npos) << describe(args) << "\n" << r.output;
   }
