@@ -1,7 +1,5 @@
 // lsnif convert IN.gltf -o OUT.gltf: train LSNIF models for a glTF scene's heavy objects and write
 // the scene with LSNIF_neural_object on them (src/lsnif/apps/convert, docs/convert.md).
-#include <omp.h>
-
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -115,7 +113,7 @@ int cmd_convert(int argc, char** argv) {
     return 2;
   }
   if (!opts.to_settings(cs.train)) return 2;
-  if (opts.threads) omp_set_num_threads(int(opts.threads));
+  start_threads(opts.threads);
   cs.output = opts.output;
   cs.memory_margin = double(margin);
   if (!device.empty() && !blas_on_device) {

@@ -1,6 +1,4 @@
 // lsnif eval MODEL MESH: accuracy of a model against exact ray casting, with the voxel baseline.
-#include <omp.h>
-
 #include <cstdio>
 #include <string>
 
@@ -31,7 +29,7 @@ int cmd_eval(int argc, char** argv) {
   args.flag("json", "print JSON instead of text", &json);
   add_import_flags(args, &import_options);
   if (int r = args.parse(argc, argv)) return r == 1 ? 0 : 2;
-  if (threads) omp_set_num_threads(int(threads));
+  start_threads(threads);
   Model model;
   if (Status s = load_model(model_path, model); !s) {
     std::fprintf(stderr, "lsnif eval: %s\n", s.message().c_str());

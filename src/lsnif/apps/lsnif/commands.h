@@ -2,6 +2,7 @@
 // process exit code (0 ok, 1 failure, 2 usage error).
 #pragma once
 #include <cstddef>
+#include <cstdint>
 
 namespace lsnif::cli {
 
@@ -16,6 +17,14 @@ struct Command {
 // usage ("usage: PROGRAM COMMAND ...", `about`, the commands) for --help (exit 0), no command or an
 // unknown one (exit 2).
 int dispatch(int argc, char** argv, const char* program, const char* about, const Command* commands, size_t count);
+
+// Sets the OpenMP threads of the command's loops (`threads`; 0 keeps the current number, every core
+// by default) and starts them now, before the command allocates its large buffers: a thread that
+// cannot be created later, its stack no longer fitting in the memory left, ends the program with
+// libgomp's own message instead of the command's "out of memory". dispatch calls it with 0 before
+// every command; commands with a --threads option call it again with theirs. Returns the threads
+// of the region that started them.
+int start_threads(uint32_t threads);
 
 int cmd_train(int argc, char** argv);
 int cmd_eval(int argc, char** argv);

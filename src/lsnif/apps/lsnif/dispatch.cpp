@@ -1,4 +1,6 @@
 // dispatch.cpp -- the main of the lsnif programs (commands.h dispatch).
+#include <omp.h>
+
 #include <cstdio>
 #include <cstring>
 #include <new>
@@ -52,6 +54,14 @@ const char* missing_cpu_feature() {
 
 }  // namespace
 
+int start_threads(uint32_t threads) {
+  if (threads) omp_set_num_threads(int(threads));
+  int started = 0;  // (a region with an empty body is compiled away)
+#pragma omp parallel reduction(+ : started)
+  started += 1;
+  return started;
+}
+
 int dispatch(int argc, char** argv, const char* program, const char* about, const Command* commands, size_t count) {
   if (const char* feature = missing_cpu_feature()) {
     std::fprintf(stderr, "%s: built for CPUs with %s (a native build: -march=native on the build machine), which this "
@@ -68,7 +78,10 @@ int dispatch(int argc, char** argv, const char* program, const char* about, cons
     return 0;
   }
   for (size_t i = 0; i < count; ++i)
-    if (!std::strcmp(argv[1], commands[i].name)) return run_command(program, commands[i], argc - 2, argv + 2);
+    if (!std::strcmp(argv[1], commands[i].name)) {
+      start_threads(0);
+      return run_command(program, commands[i], argc - 2, argv + 2);
+    }
   std::fprintf(stderr, "%s: unknown command '%s'\n", program, argv[1]);
   usage(stderr, program, about, commands, count);
   return 2;

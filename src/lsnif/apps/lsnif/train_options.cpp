@@ -8,6 +8,7 @@
 #include <thread>
 #include <utility>
 
+#include "lsnif/apps/lsnif/commands.h"
 #include "lsnif/format/atomic_file.h"
 #include "lsnif/format/folder_lock.h"
 #include "lsnif/import/mesh.h"
@@ -272,7 +273,7 @@ int train_mesh(const Mesh& mesh, const std::string& label, const TrainOptions& o
   TrainSettings settings;
   if (!opts.to_settings(settings)) return 2;
   if (int r = check_outputs(opts, "")) return r;
-  if (opts.threads) omp_set_num_threads(int(opts.threads));
+  start_threads(opts.threads);
   std::printf("mesh      %s: %zu triangles, %zu materials\n", label.c_str(), mesh.triangles.size(),
               mesh.materials.size());
   std::printf("settings  %s (%d threads)\n", settings.describe().c_str(), omp_get_max_threads());
