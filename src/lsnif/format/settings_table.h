@@ -214,7 +214,8 @@ inline constexpr SettingDef kSettingDefs[] = {
                         "surface ray origins pushed off by this times the AABB diagonal"),
     // 2: half the finding rays per surface ray (the sampler's traces were the largest share of a
     // training's time) at the same held-out metrics and FLIP within the seeds' spread
-    // (docs/results.md, "Two surface rays from each found point").
+    // (docs/results.md, "Two surface rays from each found point"); 3 trained the dragon worse on
+    // every seed ("Surface points from the outer rays' own hits").
     setting_detail::u32(SettingId::SurfaceRays, "surface-rays", 2, 1, 16,
                         "surface rays cast from each surface point a finding ray hits, each in its own "
                         "direction (their share of all rays stays --surface-fraction's)"),

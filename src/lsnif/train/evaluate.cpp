@@ -255,11 +255,12 @@ Status check_held_out(const Model& model, const Mesh& mesh, const EvalSettings& 
 Status draw_held_out(const Model& model, const Mesh& mesh, const GroundTruth& truth, const EvalSettings& settings,
                      std::vector<Sample>& samples, std::vector<RayWalk>& walks) {
   // Drawn on the whole sphere (the same law as through the body, fewer candidates there), one
-  // surface ray per found point (independent rays): the held-out rays stay those of every earlier
+  // surface ray per found point and each point found by its own ray (independent rays): the held-out rays stay those of every earlier
   // version, so metrics compare ray for ray.
   SamplerSettings held_out = settings.sampler;
   held_out.lines_through_body = false;
   held_out.surface_rays = 1;
+  held_out.surface_points_from_outer_hits = false;
   RaySampler sampler(mesh, truth, model.voxels, model.config.max_points, held_out);
   sampler.generate(settings.seed, 0, settings.rays, samples, walks);
   if (samples.size() != settings.rays)

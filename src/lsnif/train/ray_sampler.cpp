@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 
+#include <omp.h>
+
 #include "lsnif/core/rng.h"
 
 namespace lsnif {
@@ -22,7 +24,7 @@ constexpr uint32_t kSurfaceAttempts = 16;
 // are drawn, walked and traced in vain. The output does not depend on the sizes.
 constexpr size_t kMinBlock = 32;
 // Candidates whose rays are walked together (one scheduling chunk), and kept rays traced together.
-constexpr size_t kChunk = 64, kTraceChunk = 64;
+constexpr size_t kChunk = 64;
 constexpr size_t kMaxSlots = 65536;
 constexpr double kFirstBlockShare = 0.98, kLaterBlockMargin = 1.25;
 // The least number of candidates tried before a call gives up (see generate).
@@ -81,6 +83,90 @@ void copy_walk(const RayWalk& src, RayWalk& dst) {
   std::copy(src.p, src.p + src.count, dst.p);
   std::copy(src.axis, src.axis + src.count, dst.axis);
 }
+
+// The reference hits of samples[i] for i in `which` (kChunk rays at a time: GroundTruth traces
+// them in Embree's packets). Uses OpenMP.
+void trace_references(const GroundTruth& truth, const std::vector<size_t>& which, std::vector<Sample>& samples) {
+  const size_t count = which.size();
+  const int64_t chunks = int64_t((count + kChunk - 1) / kChunk);
+#pragma omp parallel
+  {
+    Ray rays[kChunk];
+    ReferenceHit hits[kChunk];
+#pragma omp for schedule(dynamic, 1)
+    for (int64_t c = 0; c < chunks; ++c) {
+      const size_t first = size_t(c) * kChunk, n = std::min(kChunk, count - first);
+      for (size_t i = 0; i < n; ++i) rays[i] = samples[which[first + i]].ray;
+      truth.trace(rays, n, hits);
+      for (size_t i = 0; i < n; ++i) samples[which[first + i]].reference = hits[i];
+    }
+  }
+}
+
+// The random draws of one generate call's candidates: candidate `index` draws from
+// Rng(seed, stream, index) and fills its k = surface_rays slots.
+struct CandidateDraws {
+  CandidateDraws(uint64_t seed_, uint64_t stream_, const SamplerSettings& settings, const LineBody& body_,
+                 const GroundTruth& truth_, const Aabb& bounds, float surface_share_)
+      : seed(seed_), stream(stream_), body(body_), truth(truth_), centre(bounds.center()),
+        radius(settings.sphere_scale * 0.5f * bounds.diagonal()), offset(settings.surface_offset * bounds.diagonal()),
+        surface_share(surface_share_), k(settings.surface_rays) {}
+  uint64_t seed, stream;
+  const LineBody& body;  // valid: the first kind's rays drawn through it, else on the whole sphere
+  const GroundTruth& truth;
+  glm::vec3 centre;
+  float radius, offset, surface_share;
+  uint32_t k;
+
+  // A ray of the first kind (tmin = 0, tmax = inf).
+  Ray outer_ray(Rng& rng) const {
+    return body.valid() ? sample_line_through_body(rng, body, centre, radius) : sample_outer_ray(rng, centre, radius);
+  }
+  // Pass 1 (generate): the candidate's kind from its first number (1: a surface candidate); an
+  // outer candidate's ray into its first slot.
+  uint8_t first_pass(uint64_t index, Sample* sample, uint8_t* keep) const {
+    Rng rng(seed, stream, index);
+    for (uint32_t r = 0; r < k; ++r) keep[r] = 0;
+    if (rng.next_float() < surface_share) return 1;
+    sample[0].ray = outer_ray(rng);
+    sample[0].from_surface = false;
+    keep[0] = 1;
+    return 0;
+  }
+  // Pass 3, a surface candidate: k surface rays from `given` (a hit of an earlier candidate's ray)
+  // or else from the first hit of its own finding rays, each with its own direction; an outer ray
+  // in its first slot when kSurfaceAttempts finding rays all miss.
+  void surface_pass(uint64_t index, const SurfacePoint* given, Sample* sample, uint8_t* keep) const {
+    Rng rng(seed, stream, index);
+    rng.next_float();  // the kind's number (pass 1)
+    SurfacePoint at{};
+    bool found = given != nullptr;
+    if (given) at = *given;
+    for (uint32_t attempt = 0; !found && attempt < kSurfaceAttempts; ++attempt) {
+      const Ray finder = outer_ray(rng);
+      const ReferenceHit hit = truth.trace_geometry(finder);
+      if (hit.hit) {
+        at = SurfacePoint::of(finder, hit);
+        found = true;
+      }
+    }
+    if (!found) {
+      sample[0].ray = outer_ray(rng);
+      sample[0].from_surface = false;
+      keep[0] = 1;
+      return;
+    }
+    for (uint32_t r = 0; r < k; ++r) {
+      const float u1 = rng.next_float(), u2 = rng.next_float();
+      Ray ray;
+      ray.origin = at.point + offset * at.normal;
+      ray.direction = sample_cosine_hemisphere(at.normal, u1, u2);
+      sample[r].ray = ray;
+      sample[r].from_surface = true;
+      keep[r] = 1;
+    }
+  }
+};
 
 }  // namespace
 
@@ -256,6 +342,16 @@ void RaySampler::set_surface_share() {
 // rays all miss the mesh, an outer ray. Rays whose walk has no boundary point are dropped; kept
 // ones get their reference hit.
 //
+// The outer ray a surface candidate needs a hit of (a finding ray) may be an earlier outer
+// candidate's own ray (SamplerSettings::surface_points_from_outer_hits): an outer candidate is kept
+// whenever its ray hits (a hit lies in an occupied voxel), so its reference hit, traced anyway, is
+// a finding ray's hit with the same law. A block of candidates therefore goes through three passes:
+// (1, parallel) each candidate's kind, the outer candidates' rays drawn, walked and traced; (2,
+// serial, in candidate order) each surface candidate takes the oldest unused hit of the outer
+// candidates before it, if any; (3, parallel) the surface candidates' rays, from that hit or from
+// their own finding rays, walked. Which hit serves which candidate depends on the candidate order
+// alone, so the output still does not depend on the block sizes or the thread count.
+//
 // Produces exactly `count` samples, except in the degenerate cases where almost no ray can be kept:
 // an empty grid or max_points == 0 gives none, and generation stops after 2^20 + 1024 * count
 // candidates (fewer than 1 kept per 1024 tried; counted as lines of the whole sphere), so it always
@@ -273,68 +369,20 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
   walks.resize(count);
   size_t filled = 0;
 
-  const glm::vec3 centre = grid_.bounds.center();
-  const float diagonal = grid_.bounds.diagonal();
-  const float radius = settings_.sphere_scale * 0.5f * diagonal;
-  const float offset = settings_.surface_offset * diagonal;
-  const float surface_share = float(surface_share_);
-  const bool body_lines = line_body_.valid();
-  // A ray of the first kind (above).
-  auto outer_ray = [&](Rng& rng) {
-    return body_lines ? sample_line_through_body(rng, line_body_, centre, radius)
-                      : sample_outer_ray(rng, centre, radius);
-  };
+  const CandidateDraws draw{seed, stream, settings_, line_body_, truth_, grid_.bounds, float(surface_share_)};
+  const uint32_t k = settings_.surface_rays;
   // The cap counts candidates as the whole sphere's lines they stand for (a line through the body
   // stands for 1 / line_body_share_ of them), so that what is too little to train on does not depend
   // on how the rays are drawn.
   const uint64_t max_candidates = std::max<uint64_t>(
       kMinCandidateCap, uint64_t(double((uint64_t(1) << 20) + 1024u * uint64_t(count)) * line_body_share_));
 
-  // Fills the k = surface_rays slots of candidate `index` (their samples' rays, and flags for the
-  // rays to walk): a surface candidate whose finding ray hits gives k surface rays from that hit,
-  // each with its own direction; any other candidate one outer ray in its first slot. A ray is kept
-  // when its walk (below) has a boundary point.
-  const uint32_t k = settings_.surface_rays;
-  auto make_candidate = [&](uint64_t index, Sample* sample, uint8_t* keep) {
-    Rng rng(seed, stream, index);
-    for (uint32_t r = 0; r < k; ++r) keep[r] = 0;
-    if (rng.next_float() < surface_share) {
-      for (uint32_t attempt = 0; attempt < kSurfaceAttempts; ++attempt) {
-        const Ray finder = outer_ray(rng);
-        const ReferenceHit hit = truth_.trace_geometry(finder);
-        if (!hit.hit) continue;
-        const glm::vec3 point = finder.origin + hit.t * finder.direction;
-        const glm::vec3 n = glm::dot(hit.geometric_normal, finder.direction) > 0.0f ? -hit.geometric_normal
-                                                                                   : hit.geometric_normal;
-        for (uint32_t r = 0; r < k; ++r) {
-          const float u1 = rng.next_float(), u2 = rng.next_float();
-          Ray ray;
-          ray.origin = point + offset * n;
-          ray.direction = sample_cosine_hemisphere(n, u1, u2);
-          ray.tmin = 0.0f;
-          ray.tmax = std::numeric_limits<float>::infinity();
-          sample[r].ray = ray;
-          sample[r].from_surface = true;
-          keep[r] = 1;
-        }
-        return;
-      }
-    }
-    Ray ray = outer_ray(rng);
-    ray.tmin = 0.0f;
-    ray.tmax = std::numeric_limits<float>::infinity();
-    sample[0].ray = ray;
-    sample[0].from_surface = false;
-    keep[0] = 1;
-  };
-
   SamplerScratch own;
   SamplerScratch& sc = scratch ? *scratch : own;
-  std::vector<Sample>& block_samples = sc.samples;
-  std::vector<RayWalk>& block_walks = sc.walks;
-  std::vector<uint8_t>& block_keep = sc.keep;
-  std::vector<size_t>& slot = sc.slot;
-  std::vector<Ray>& block_rays = sc.rays;
+  const bool reuse = settings_.surface_points_from_outer_hits;
+  sc.unused.clear();  // pass 2's hits of outer candidates not yet taken (oldest at sc.next_unused)
+  sc.next_unused = 0;
+  sc.to_trace.clear();
   uint64_t next = 0, tried = 0, kept = 0;
   while (filled < count && next < max_candidates) {
     // Size the block from the keep rate seen so far (the previous call's at first) so that two
@@ -347,54 +395,100 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     const size_t block = std::clamp(size_t(tried ? want * kLaterBlockMargin + double(kMinBlock) / 2 : want * kFirstBlockShare),
                                     kMinBlock, std::max(kMinBlock, kMaxSlots / k));
     const size_t slots = block * k;
-    block_samples.resize(slots);
-    block_walks.resize(slots);
-    block_keep.resize(slots);
-    block_rays.resize(slots);  // (allocated here: a failure inside the parallel region would abort)
-    // Chunks of kChunk candidates: their rays drawn, then walked together (walk_rays, 16 at a
-    // time where the build has AVX-512); a slot without a ray holds kNoWalkRay.
+    // (Allocated here: a failure inside a parallel region would abort.)
+    sc.samples.resize(slots);
+    sc.walks.resize(slots);
+    sc.keep.resize(slots);
+    sc.rays.resize(slots);
+    sc.kind.resize(block);
+    sc.given.resize(block);
+    sc.unused.reserve(sc.unused.size() + block);
+    sc.chunk_walks.resize(size_t(omp_get_max_threads()) * kChunk * k);
+    sc.to_trace.reserve(count);
+    Sample* bs = sc.samples.data();
+    RayWalk* bw = sc.walks.data();
+    uint8_t* keep = sc.keep.data();
+    Ray* rays = sc.rays.data();
+    // Walks the chunk's slots [from, to) of the candidates of kind `kind` that hold a ray (16 at a
+    // time where the build has AVX-512; the others hold kNoWalkRay) into `into` (`into[r - from]`
+    // for slot r); such a slot is kept when its walk has a boundary point.
+    auto walk_slots = [&](size_t from, size_t to, uint8_t kind, RayWalk* into) {
+      for (size_t r = from; r < to; ++r) rays[r] = sc.kind[r / k] == kind && keep[r] ? bs[r].ray : kNoWalkRay;
+      walk_rays(grid_, rays + from, to - from, max_points_, into);
+      for (size_t r = from; r < to; ++r)
+        if (sc.kind[r / k] == kind) keep[r] = keep[r] && into[r - from].count > 0;
+    };
     const int64_t chunks = int64_t((block + kChunk - 1) / kChunk);
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int64_t c = 0; c < chunks; ++c) {
-      const size_t first = size_t(c) * kChunk, last = std::min(block, first + kChunk);
-      for (size_t j = first; j < last; ++j)
-        make_candidate(next + j, &block_samples[j * k], &block_keep[j * k]);
-      for (size_t r = first * k; r < last * k; ++r) block_rays[r] = block_keep[r] ? block_samples[r].ray : kNoWalkRay;
-      walk_rays(grid_, &block_rays[first * k], (last - first) * k, max_points_, &block_walks[first * k]);
-      for (size_t r = first * k; r < last * k; ++r) block_keep[r] = block_walks[r].count > 0;
+    // Pass 1: kinds; the outer candidates' rays walked and the kept ones traced.
+#pragma omp parallel
+    {
+      Ray trace_rays[kChunk];
+      ReferenceHit hits[kChunk];
+      size_t at[kChunk];
+#pragma omp for schedule(dynamic, 1)
+      for (int64_t c = 0; c < chunks; ++c) {
+        const size_t first = size_t(c) * kChunk, last = std::min(block, first + kChunk);
+        for (size_t j = first; j < last; ++j) sc.kind[j] = draw.first_pass(next + j, &bs[j * k], &keep[j * k]);
+        walk_slots(first * k, last * k, 0, &bw[first * k]);
+        size_t n = 0;
+        for (size_t j = first; j < last; ++j)
+          if (sc.kind[j] == 0 && keep[j * k]) {
+            at[n] = j * k;
+            trace_rays[n++] = bs[j * k].ray;
+          }
+        truth_.trace(trace_rays, n, hits);
+        for (size_t i = 0; i < n; ++i) bs[at[i]].reference = hits[i];
+      }
     }
-    // Compact the kept slots in order (positions serially, copies in parallel).
-    slot.assign(slots, SIZE_MAX);
+    // Pass 2: the hits of earlier outer candidates handed to surface candidates, oldest first.
+    for (size_t j = 0; j < block; ++j) {
+      sc.given[j] = SIZE_MAX;
+      if (!reuse) continue;
+      if (sc.kind[j] == 0) {
+        if (keep[j * k] && bs[j * k].reference.hit) sc.unused.push_back(SurfacePoint::of(bs[j * k].ray, bs[j * k].reference));
+      } else if (sc.next_unused < sc.unused.size()) {
+        sc.given[j] = sc.next_unused++;
+      }
+    }
+    // Pass 3: the surface candidates' rays, walked into each thread's chunk of sc.chunk_walks
+    // (walking into the block's walks would clear the outer candidates' slots), the kept ones
+    // copied into the block's.
+#pragma omp parallel
+    {
+      RayWalk* chunk_walks = sc.chunk_walks.data() + size_t(omp_get_thread_num()) * kChunk * k;
+#pragma omp for schedule(dynamic, 1)
+      for (int64_t c = 0; c < chunks; ++c) {
+        const size_t first = size_t(c) * kChunk, last = std::min(block, first + kChunk);
+        for (size_t j = first; j < last; ++j)
+          if (sc.kind[j] == 1)
+            draw.surface_pass(next + j, sc.given[j] == SIZE_MAX ? nullptr : &sc.unused[sc.given[j]], &bs[j * k], &keep[j * k]);
+        walk_slots(first * k, last * k, 1, chunk_walks);
+        for (size_t r = first * k; r < last * k; ++r)
+          if (sc.kind[r / k] == 1 && keep[r]) copy_walk(chunk_walks[r - first * k], bw[r]);
+      }
+    }
+    // Compact the kept slots in order (positions serially, copies in parallel); the surface
+    // candidates' samples still need their reference hits (traced at the end: not those of the
+    // kept candidates beyond `count`).
+    sc.slot.assign(slots, SIZE_MAX);
     for (size_t j = 0; j < slots; ++j) {
-      kept += block_keep[j];
-      if (block_keep[j] && filled < count) slot[j] = filled++;
+      kept += keep[j];
+      if (!keep[j] || filled >= count) continue;
+      if (sc.kind[j / k] == 1) sc.to_trace.push_back(filled);
+      sc.slot[j] = filled++;
     }
     tried += block;
     const int64_t m = int64_t(slots);
 #pragma omp parallel for schedule(static)
     for (int64_t j = 0; j < m; ++j) {
-      const size_t at = slot[size_t(j)];
-      if (at == SIZE_MAX) continue;
-      samples[at] = block_samples[size_t(j)];
-      copy_walk(block_walks[size_t(j)], walks[at]);
+      const size_t to = sc.slot[size_t(j)];
+      if (to == SIZE_MAX) continue;
+      samples[to] = bs[size_t(j)];
+      copy_walk(bw[size_t(j)], walks[to]);
     }
     next += block;
   }
-  // The reference hits of the samples alone (not of the kept candidates beyond `count`).
-  // (kTraceChunk rays at a time: GroundTruth traces them in Embree's packets.)
-  const int64_t chunks = int64_t((filled + kTraceChunk - 1) / kTraceChunk);
-#pragma omp parallel
-  {
-    Ray rays[kTraceChunk];
-    ReferenceHit hits[kTraceChunk];
-#pragma omp for schedule(dynamic, 1)
-    for (int64_t c = 0; c < chunks; ++c) {
-      const size_t first = size_t(c) * kTraceChunk, n = std::min(kTraceChunk, filled - first);
-      for (size_t i = 0; i < n; ++i) rays[i] = samples[first + i].ray;
-      truth_.trace(rays, n, hits);
-      for (size_t i = 0; i < n; ++i) samples[first + i].reference = hits[i];
-    }
-  }
+  trace_references(truth_, sc.to_trace, samples);
   if (tried) keep_rate_ = std::max(double(kept) / double(tried), 0.02);
   samples.resize(filled);
   walks.resize(filled);

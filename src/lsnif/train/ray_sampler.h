@@ -17,6 +17,12 @@
 // rays, each with its own cosine-weighted direction; the share of surface candidates is lowered by
 // that factor's odds, so that the kept rays hold the same mix and each ray the same law. The rays
 // from one point are not independent of each other: evaluation draws one per point.
+//
+// A finding ray's hit has the law of an outer ray's hit, and every outer ray that hits is kept and
+// traced for its reference: a surface candidate takes the hit of an earlier outer candidate when
+// one is unused (SamplerSettings::surface_points_from_outer_hits), and casts its own finding rays
+// only when none is. Each ray keeps its law; a surface ray may start where an outer ray of the same
+// call ends (evaluation draws independent rays).
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -43,6 +49,19 @@ struct SamplerSettings {  // defaults: settings_table.h
   // the tests' reference, and evaluation's held-out rays (draw_held_out: those of every version).
   bool lines_through_body = true;
   uint32_t surface_rays = default_u32(SettingId::SurfaceRays);  // surface rays per found surface point
+  // A surface candidate takes its point from an earlier outer candidate's reference hit when one is
+  // unused (the same law as its own finding ray's hit, without tracing one); false: always its own
+  // finding ray, as the paper describes it (the tests' reference, and evaluation's held-out rays).
+  bool surface_points_from_outer_hits = true;
+};
+
+// Where a surface ray starts from: a finding ray's hit and the face normal turned toward that ray.
+struct SurfacePoint {
+  glm::vec3 point{0.0f}, normal{0.0f};
+  static SurfacePoint of(const Ray& finder, const ReferenceHit& hit) {
+    const glm::vec3 n = hit.geometric_normal;
+    return {finder.origin + hit.t * finder.direction, glm::dot(n, finder.direction) > 0.0f ? -n : n};
+  }
 };
 
 // The candidates of one block of a generate call (their rays, walks and keep flags), kept by a
@@ -54,6 +73,12 @@ struct SamplerScratch {
   std::vector<uint8_t> keep;
   std::vector<size_t> slot;
   std::vector<Ray> rays;  // the block's rays to walk (kNoWalkRay where a slot has none)
+  std::vector<uint8_t> kind;       // per candidate: 1 a surface candidate, 0 an outer one
+  std::vector<size_t> given;       // per surface candidate: its point in `unused`, or SIZE_MAX
+  std::vector<SurfacePoint> unused;  // the outer candidates' hits, in candidate order
+  size_t next_unused = 0;          // the oldest hit not yet given
+  std::vector<RayWalk> chunk_walks;  // each thread's walks of one chunk's surface rays
+  std::vector<size_t> to_trace;    // the samples without their reference hit yet
 };
 
 // A convex body around a mesh and its occupied voxels for the first kind's rays: the polytope cut

@@ -52,6 +52,10 @@ class RaySamplerTest : public ::testing::Test {
   }
   void SetUp() override { ASSERT_TRUE(ready_) << "loading, tracing or voxelizing bunny00.off failed"; }
   void TearDown() override { omp_set_num_threads(2); }
+  // A sampler of the bunny with `settings`.
+  static RaySampler sampler_of(const SamplerSettings& settings) {
+    return RaySampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, settings);
+  }
   static Scene* scene_;
   static bool ready_;
 };
@@ -344,8 +348,7 @@ TEST_F(RaySamplerTest, SeveralSurfaceRaysPerFoundPointKeepTheSampledRays) {
   SamplerSettings one, several;
   one.surface_rays = 1;
   several.surface_rays = 3;
-  const RaySampler one_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, one);
-  const RaySampler several_sampler(scene_->mesh, scene_->truth, scene_->grid, kMaxPoints, several);
+  const RaySampler one_sampler = sampler_of(one), several_sampler = sampler_of(several);
   EXPECT_LT(several_sampler.surface_share(), one_sampler.surface_share());
   const size_t n = 60000;
   std::vector<Sample> a, b;
@@ -375,6 +378,64 @@ TEST_F(RaySamplerTest, SeveralSurfaceRaysPerFoundPointKeepTheSampledRays) {
   // The mix (runs inflate the variance of the share by at most 3).
   const auto [sa, sb] = expect_same_surface_share(a, b, 3.0);
   std::printf("[ info     ] kept surface rays %.4f (one a point) and %.4f (three)\n", sa, sb);
+}
+
+// Surface points taken from earlier outer candidates' reference hits (the default) keep what the
+// sampler returns: the same mix and each kind's rays with the same law (histograms, as above) as
+// when every surface candidate casts its own finding ray. And the points are so taken: a run of
+// surface rays that starts a push-off from an outer sample's hit comes after that sample, and no
+// hit serves two runs; most outer hits serve one.
+TEST_F(RaySamplerTest, SurfacePointsFromOuterHitsKeepTheSampledRays) {
+  SamplerSettings reuse, own;
+  own.surface_points_from_outer_hits = false;
+  ASSERT_TRUE(reuse.surface_points_from_outer_hits);
+  const uint32_t k = reuse.surface_rays;
+  const RaySampler reuse_sampler = sampler_of(reuse), own_sampler = sampler_of(own);
+  EXPECT_EQ(reuse_sampler.surface_share(), own_sampler.surface_share());
+  const size_t n = 60000;
+  std::vector<Sample> a, b;
+  ASSERT_NO_FATAL_FAILURE(generate_both(own_sampler, reuse_sampler, 31, n, a, b));
+  const glm::vec3 centre = scene_->grid.bounds.center();
+  const Aabb box = own_sampler.line_body().bounds;
+  expect_same_histograms(ray_histogram(a, false, centre, &box), ray_histogram(b, false, centre, &box), 1.0,
+                         "outer rays");
+  // A run's rays vary together (up to k times a histogram's variance), as in the test above.
+  expect_same_histograms(ray_histogram(a, true, centre), ray_histogram(b, true, centre), double(k),
+                         "surface rays (over k)");
+  const auto [sa, sb] = expect_same_surface_share(a, b, double(k));
+  // Where each outer sample's hit would start a surface ray (the offset along the face normal
+  // turned toward the ray), matched against the runs' origins within a hair (the sampler's
+  // arithmetic may be contracted otherwise than this test's), by x through a sorted list.
+  const float offset = reuse.surface_offset * scene_->grid.bounds.diagonal();
+  const float hair = 1e-5f * scene_->grid.bounds.diagonal();
+  std::vector<std::pair<glm::vec3, size_t>> starts;  // (origin, outer sample), by x
+  for (size_t i = 0; i < n; ++i)
+    if (!b[i].from_surface && b[i].reference.hit) {
+      const SurfacePoint at = SurfacePoint::of(b[i].ray, b[i].reference);
+      starts.push_back({at.point + offset * at.normal, i});
+    }
+  std::sort(starts.begin(), starts.end(), [](const auto& x, const auto& y) { return x.first.x < y.first.x; });
+  std::vector<int> served(n, 0);
+  size_t runs = 0, from_outer = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!b[i].from_surface || (i > 0 && b[i - 1].from_surface && b[i - 1].ray.origin == b[i].ray.origin)) continue;
+    ++runs;
+    const glm::vec3 o = b[i].ray.origin;
+    auto it = std::lower_bound(starts.begin(), starts.end(), o.x - hair,
+                               [](const auto& x, float v) { return x.first.x < v; });
+    for (; it != starts.end() && it->first.x <= o.x + hair; ++it)
+      if (glm::distance(it->first, o) <= hair) {
+        EXPECT_LT(it->second, i) << "the run at " << i << " starts at a later sample's hit";
+        EXPECT_EQ(++served[it->second], 1) << "outer sample " << it->second << " serves two runs";
+        ++from_outer;
+        break;
+      }
+  }
+  const size_t outer_hits = starts.size();
+  std::printf("[ info     ] surface rays %.4f (own finding rays) and %.4f; %zu of %zu runs from %zu outer hits\n",
+              sa, sb, from_outer, runs, outer_hits);
+  EXPECT_GT(double(from_outer), 0.9 * double(outer_hits));
+  EXPECT_LT(from_outer, runs);  // the others find their own points
 }
 
 // A sphere that does not contain the body (--sphere-scale below 1): the rays are drawn on the
