@@ -88,7 +88,7 @@ uint32_t walk_points(const Model& model, const Instance& in, const Ray& w, bool 
 
 struct Comparison {
   size_t rays = 0, cpu_hits = 0, gpu_hits = 0, hit_agree = 0, walk_mismatch = 0;
-  size_t flips_threshold = 0, flips_interval = 0, flips_walk = 0, flips_other = 0;
+  size_t flips_threshold = 0, flips_interval = 0, flips_walk = 0, flips_facing = 0, flips_other = 0;
   size_t both_hit = 0, material_mismatch = 0, instance_mismatch = 0, instance_ties = 0;
   size_t hits_per_kind[kKinds] = {}, gpu_hits_per_instance[2] = {};
   size_t closest_hit_ran = 0;  // results written by the closest-hit shader (instance != ~0u)
@@ -112,6 +112,10 @@ constexpr double kLogitEps = 1e-3;
 constexpr double kIntervalEps = 1e-4;
 // Normals within this cosine of perpendicular to the ray may round to either facing.
 constexpr double kFacingEps = 1e-4;
+// With a culling flag, a flip is also explained when the hitting side's normal lies within this
+// cosine of perpendicular to the ray: the GPU's normal differs from the CPU's by up to ~0.4 deg
+// (expect_agreement's bounds), so such a hit may face either way on the two sides (sin 0.5 deg).
+constexpr double kCullFacingEps = 8.7e-3;
 
 double logit_of(float occlusion) {
   const double p = std::clamp(double(occlusion), 1e-30, 1.0 - 1e-16);
@@ -123,7 +127,7 @@ double logit_of(float occlusion) {
 // Shadow mode compares only hit / miss.
 Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, const std::vector<Ray>& world,
                    const std::vector<int>& kinds, const std::vector<std::vector<LsnifHit>>& cpu,
-                   const std::vector<LsnifReferenceHit>& gpu, uint32_t mode) {
+                   const std::vector<LsnifReferenceHit>& gpu, uint32_t mode, uint32_t ray_flags) {
   Comparison c;
   c.rays = world.size();
   c.surface_channels = model.config.surface_channels != 0;
@@ -157,7 +161,13 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
       ++c.hit_agree;
     } else {
       bool threshold = gpu_hit && mode == kModeClosest && std::fabs(double(g.occlusion_logit)) < kLogitEps;
-      bool interval = false, walk = false;
+      bool interval = false, walk = false, facing = false;
+      const bool culling = (ray_flags & (LSNIF_RAY_FLAG_CULL_BACK_FACING | LSNIF_RAY_FLAG_CULL_FRONT_FACING)) != 0;
+      const auto near_perpendicular = [&](const glm::vec3& n) {
+        return culling && std::fabs(double(glm::dot(glm::normalize(n), glm::normalize(w.direction)))) < kCullFacingEps;
+      };
+      if (gpu_hit) facing |= near_perpendicular(glm::vec3(g.normal_x, g.normal_y, g.normal_z));
+      if (cpu_hit) facing |= near_perpendicular(cpu[size_t(best)][i].normal);
       for (size_t k = 0; k < xfs.size(); ++k) {
         const LsnifHit& h = cpu[k][i];
         const double span = diag / double(glm::length(ins[k].A_inv * w.direction));
@@ -173,6 +183,7 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
       if (walk) ++c.flips_walk;
       else if (threshold) ++c.flips_threshold;
       else if (interval) ++c.flips_interval;
+      else if (facing) ++c.flips_facing;
       else {
         ++c.flips_other;
         if (c.flips_other <= 5)
@@ -238,7 +249,7 @@ Comparison compare(const Model& model, const std::vector<Transform3x4>& xfs, con
 void print(const char* name, const Comparison& c) {
   std::printf(
       "%s: %zu rays, cpu hits %zu, gpu hits %zu, hit agreement %.4f%% (flips: %zu threshold, %zu interval, "
-      "%zu walk, %zu other), gpu walk mismatches %zu, gpu hits per instance %zu/%zu\n"
+      "%zu walk, %zu facing, %zu other), gpu walk mismatches %zu, gpu hits per instance %zu/%zu\n"
       "  both hit %zu (per kind %zu/%zu/%zu/%zu): t error / diagonal max %.3g mean %.3g, normal angle max "
       "%.3g deg mean %.3g deg, albedo max %.3g, material mismatches %zu, instance mismatches %zu (ties %zu), "
       "leaving tmin relative error max %.3g, back-facing hits %zu, hit kinds against the normal's facing "
@@ -247,7 +258,7 @@ void print(const char* name, const Comparison& c) {
       "emission max error / scale %.3g\n"
       "  texture coordinates: %zu hits on both sides, %zu on one side, %zu apart beyond the packing, max %.3g\n",
       name, c.rays, c.cpu_hits, c.gpu_hits, 100.0 * double(c.hit_agree) / double(c.rays), c.flips_threshold,
-      c.flips_interval, c.flips_walk, c.flips_other, c.walk_mismatch, c.gpu_hits_per_instance[0],
+      c.flips_interval, c.flips_walk, c.flips_facing, c.flips_other, c.walk_mismatch, c.gpu_hits_per_instance[0],
       c.gpu_hits_per_instance[1], c.both_hit, c.hits_per_kind[0], c.hits_per_kind[1], c.hits_per_kind[2],
       c.hits_per_kind[3], c.t_err_max, c.both_hit ? c.t_err_sum / double(c.both_hit) : 0.0, c.normal_deg_max,
       c.both_hit ? c.normal_deg_sum / double(c.both_hit) : 0.0, c.albedo_max, c.material_mismatch,
@@ -370,7 +381,7 @@ class RtConformance : public ::testing::Test {
     vk_.destroy_buffer(hit_buf);
     tracer_.destroy(tlas);
 
-    const Comparison c = compare(model, xfs, world, kinds, cpu, gpu, mode);
+    const Comparison c = compare(model, xfs, world, kinds, cpu, gpu, mode, ray_flags);
     std::printf("[%s] trace %.3f s (%.0f rays/s, includes the first-use compile), CPU reference %.3f s\n", name,
                 gpu_seconds, double(count) / gpu_seconds, cpu_seconds);
     print(name, c);
