@@ -1,5 +1,7 @@
 #include "lsnif/train/optimizer.h"
 
+#include <omp.h>
+
 #include <cmath>
 
 #include "lsnif/format/status.h"
@@ -14,21 +16,30 @@ std::string AdamSettings::describe() const {
 Adam::Adam(size_t parameter_count, AdamSettings settings)
     : s_(settings), m_(parameter_count, 0.0f), v_(parameter_count, 0.0f) {}
 
-void Adam::step(float* params, const float* gradients, float learning_rate) {
+Adam::Step Adam::begin_step(float learning_rate) {
   ++t_;
-  const float b1 = s_.beta1, b2 = s_.beta2;
-  const float c1 = 1.0f / (1.0f - std::pow(b1, float(t_)));
-  const float c2 = 1.0f / (1.0f - std::pow(b2, float(t_)));
-  const float lr = learning_rate, eps = s_.epsilon;
-  const long n = long(m_.size());
+  return {learning_rate, 1.0f / (1.0f - std::pow(s_.beta1, float(t_))), 1.0f / (1.0f - std::pow(s_.beta2, float(t_)))};
+}
+
+void Adam::update(const Step& step, float* params, const float* gradients, size_t begin, size_t end) {
+  const float b1 = s_.beta1, b2 = s_.beta2, c1 = step.c1, c2 = step.c2, lr = step.learning_rate, eps = s_.epsilon;
   float* m = m_.data();
   float* v = v_.data();
-#pragma omp parallel for schedule(static)
-  for (long i = 0; i < n; ++i) {
+  for (size_t i = begin; i < end; ++i) {
     const float g = gradients[i];
     m[i] = b1 * m[i] + (1.0f - b1) * g;
     v[i] = b2 * v[i] + (1.0f - b2) * g * g;
     params[i] -= lr * (m[i] * c1) / (std::sqrt(v[i] * c2) + eps);
+  }
+}
+
+void Adam::step(float* params, const float* gradients, float learning_rate) {
+  const Step s = begin_step(learning_rate);
+  const size_t n = m_.size();
+#pragma omp parallel
+  {
+    const size_t nt = size_t(omp_get_num_threads()), t = size_t(omp_get_thread_num());
+    update(s, params, gradients, n * t / nt, n * (t + 1) / nt);
   }
 }
 

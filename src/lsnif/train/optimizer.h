@@ -26,6 +26,17 @@ class Adam {
   void step(float* params, const float* gradients, float learning_rate);
   size_t steps_taken() const { return t_; }
 
+  // A step in pieces, for a caller that updates ranges as their gradients complete:
+  // begin_step counts the step, then update() moves parameters [begin, end) with it. Every
+  // parameter must be updated once per step; ranges may go to any threads in any order, and the
+  // result is step()'s bit for bit (the update is per parameter).
+  struct Step {
+    float learning_rate, c1, c2;  // c1, c2: the bias corrections 1 / (1 - beta^t)
+  };
+  Step begin_step(float learning_rate);
+  void update(const Step& step, float* params, const float* gradients, size_t begin, size_t end);
+  size_t size() const { return m_.size(); }
+
  private:
   AdamSettings s_;
   std::vector<float> m_, v_;

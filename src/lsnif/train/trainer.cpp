@@ -3,12 +3,14 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <memory>
 #include <numeric>
 #include <random>
+#include <thread>
 
 #include "lsnif/core/grid_usage.h"
 #include "lsnif/train/ground_truth.h"
@@ -89,11 +91,11 @@ struct BatchCorners {
 // the encoder's cost (cache misses into a table larger than the core's cache), so the work is
 // pipelined across rays: while ray r's features are summed, ray r + 1's corners are computed and
 // their table rows prefetched.
-constexpr long kEncodeBlock = 64;  // rays per block; blocks interleave over the threads (the batch is ordered by point count)
+constexpr long kEncodeBlock = 64;  // rays per block; the blocks go to the threads as they come free
 
 void encode_batch(const Config& config, const GridLayout& layout, const float* table,
                   const std::vector<RayWalk>& walks, const std::vector<size_t>& order,
-                  const std::vector<uint32_t>& rows, Matrix& X, BatchCorners& corners) {
+                  const std::vector<uint32_t>& rows, Matrix& X, BatchCorners& corners, std::vector<double>& pace) {
   const uint32_t H = config.max_points, L = config.grid_levels, F = config.features;
   const long B = long(order.size());
   // Only the slots of recorded points are stored (and later read); each column of X is zeroed
@@ -160,82 +162,85 @@ void encode_batch(const Config& config, const GridLayout& layout, const float* t
       }
     }
   };
-  // The blocks dealt out in rounds of one per thread, in serpentine order (thread 0 takes the first
-  // block of even rounds and the last of odd ones): the batch is ordered by decreasing point count,
-  // so plain round robin gave thread 0 the costlier block of every round. Each column is its own,
-  // so which thread encodes it changes nothing.
+  // The blocks go to the threads as they come free: a host's cores may differ in pace (on one
+  // 2-core host one took 1.3x the other's time for the same work), which a fixed deal (it was
+  // round robin in serpentine order) left the faster waiting for. Each column is its own, so which
+  // thread encodes it changes nothing. Each thread's pace (table lookups a second) goes to `pace`.
   const long blocks = (B + kEncodeBlock - 1) / kEncodeBlock;
 #pragma omp parallel
   {
-    const long nt = omp_get_num_threads(), t = omp_get_thread_num();
-    for (long round = 0; round * nt < blocks; ++round) {
-      const long blk = round * nt + (round % 2 == 0 ? t : nt - 1 - t);
-      if (blk < blocks) encode_block(blk);
+    const auto start = Clock::now();
+    size_t lookups = 0;
+#pragma omp for schedule(dynamic, 1) nowait
+    for (long blk = 0; blk < blocks; ++blk) {
+      encode_block(blk);
+      lookups += corners.start[size_t(std::min(B, (blk + 1) * kEncodeBlock))] - corners.start[size_t(blk * kEncodeBlock)];
     }
+    const double seconds = since(start);
+    const size_t t = size_t(omp_get_thread_num());
+    if (t < pace.size()) pace[t] = seconds > 0 ? double(lookups) / seconds : 0.0;
   }
 }
 
-// Scatters dX into d_table; column r has rows[r] / (L * F) points (its encoded_rows). Each thread
-// owns a contiguous range of table entries and scans all lookups in batch order, so sums are
-// race-free and bit-identical for any thread count. With no more threads than levels the ranges are
-// whole levels (every point has one lookup per level, so the work is even: each of the default 2
-// threads owns one of the 2 levels); with more, equal shares of the entries. The gradient rows of
-// the next ray's lookups are prefetched while the current ray's are summed (the misses are the
-// cost, as in encode_batch).
+// Range q of the nt ranges of table entries [lo, hi) the backward scatter splits the table into: whole
+// levels when there are no more threads than levels (every point has one lookup per level, so the
+// counts of lookups are even: each of the default 2 threads owns one of the 2 levels), else equal
+// shares of the entries.
+void scatter_range(const Config& config, size_t entries, uint32_t q, uint32_t nt, uint32_t& lo, uint32_t& hi) {
+  const uint32_t L = config.grid_levels;
+  if (nt <= L) {
+    const uint32_t first = q * L / nt, last = (q + 1) * L / nt;  // levels [first, last)
+    lo = uint32_t(config.level_entry_offset(first));
+    hi = last < L ? uint32_t(config.level_entry_offset(last)) : uint32_t(entries);
+  } else {
+    lo = uint32_t(entries * q / nt);
+    hi = uint32_t(entries * (q + 1) / nt);
+  }
+}
+
+// Scatters dX into the entries [lo, hi) of d_table (zeroed first); column r has rows[r] / (L * F)
+// points (its encoded_rows). The calling thread owns the range and scans all lookups in batch
+// order, so sums are race-free and bit-identical for any thread count. The gradient rows of the
+// next ray's lookups are prefetched while the current ray's are summed (the misses are the cost,
+// as in encode_batch).
 void encode_batch_backward(const Config& config, const std::vector<uint32_t>& rows, const BatchCorners& corners,
-                           const Matrix& dX, std::vector<float>& d_table) {
+                           const Matrix& dX, std::vector<float>& d_table, uint32_t lo, uint32_t hi) {
   const uint32_t L = config.grid_levels, F = config.features;
-  const size_t entries = d_table.size() / F;
-#pragma omp parallel
-  {
-    const uint32_t nt = uint32_t(omp_get_num_threads()), t = uint32_t(omp_get_thread_num());
-    uint32_t lo, hi;
-    if (nt <= L) {
-      const uint32_t first = t * L / nt, last = (t + 1) * L / nt;  // levels [first, last)
-      lo = uint32_t(config.level_entry_offset(first));
-      hi = last < L ? uint32_t(config.level_entry_offset(last)) : uint32_t(entries);
-    } else {
-      lo = uint32_t(entries * t / nt);
-      hi = uint32_t(entries * (t + 1) / nt);
-    }
-    if (lo < hi) {
-      // The thread's ranges cover the table, so each zeroes its own (into its cache).
-      std::fill(d_table.begin() + ptrdiff_t(size_t(lo) * F), d_table.begin() + ptrdiff_t(size_t(hi) * F), 0.0f);
-      // The levels whose entries overlap [lo, hi).
-      const uint32_t l_first = config.level_of_entry(lo), l_last = std::min(L - 1, config.level_of_entry(hi - 1));
-      auto prefetch_ray = [&](size_t r) {
-        const uint32_t n = rows[r] / (L * F);
-        const uint32_t* ce = corners.entry.data() + corners.start[r];
-        for (uint32_t j = 0; j < n; ++j)
-          for (uint32_t l = l_first; l <= l_last; ++l)
-            for (uint32_t k = 0; k < 4; ++k) {
-              const uint32_t e = ce[(j * L + l) * 4 + k];
-              if (e >= lo && e < hi) __builtin_prefetch(d_table.data() + size_t(e) * F, 1);
-            }
-      };
-      if (!rows.empty()) prefetch_ray(0);
-      for (size_t r = 0; r < rows.size(); ++r) {
-        if (r + 1 < rows.size()) prefetch_ray(r + 1);
-        const uint32_t n = rows[r] / (L * F);
-        const uint32_t* ce = corners.entry.data() + corners.start[r];
-        const float* cw = corners.weight.data() + corners.start[r];
-        const float* dx = dX.data() + r * config.input_dim();
-        for (uint32_t j = 0; j < n; ++j)
-          for (uint32_t l = l_first; l <= l_last; ++l) {
-            const uint32_t s = j * L + l;
-            for (uint32_t k = 0; k < 4; ++k) {
-              const uint32_t e = ce[s * 4 + k];
-              if (e < lo || e >= hi) continue;
-              const float w = cw[s * 4 + k];
-              float* d = d_table.data() + size_t(e) * F;
-              for (uint32_t f = 0; f < F; ++f) d[f] += w * dx[s * F + f];
-            }
-          }
+  // The range is its thread's alone, so the thread zeroes it (into its cache).
+  std::fill(d_table.begin() + ptrdiff_t(size_t(lo) * F), d_table.begin() + ptrdiff_t(size_t(hi) * F), 0.0f);
+  if (lo >= hi) return;
+  // The levels whose entries overlap [lo, hi).
+  const uint32_t l_first = config.level_of_entry(lo), l_last = std::min(L - 1, config.level_of_entry(hi - 1));
+  auto prefetch_ray = [&](size_t r) {
+    const uint32_t n = rows[r] / (L * F);
+    const uint32_t* ce = corners.entry.data() + corners.start[r];
+    for (uint32_t j = 0; j < n; ++j)
+      for (uint32_t l = l_first; l <= l_last; ++l)
+        for (uint32_t k = 0; k < 4; ++k) {
+          const uint32_t e = ce[(j * L + l) * 4 + k];
+          if (e >= lo && e < hi) __builtin_prefetch(d_table.data() + size_t(e) * F, 1);
+        }
+  };
+  if (!rows.empty()) prefetch_ray(0);
+  for (size_t r = 0; r < rows.size(); ++r) {
+    if (r + 1 < rows.size()) prefetch_ray(r + 1);
+    const uint32_t n = rows[r] / (L * F);
+    const uint32_t* ce = corners.entry.data() + corners.start[r];
+    const float* cw = corners.weight.data() + corners.start[r];
+    const float* dx = dX.data() + r * config.input_dim();
+    for (uint32_t j = 0; j < n; ++j)
+      for (uint32_t l = l_first; l <= l_last; ++l) {
+        const uint32_t s = j * L + l;
+        for (uint32_t k = 0; k < 4; ++k) {
+          const uint32_t e = ce[s * 4 + k];
+          if (e < lo || e >= hi) continue;
+          const float w = cw[s * 4 + k];
+          float* d = d_table.data() + size_t(e) * F;
+          for (uint32_t f = 0; f < F; ++f) d[f] += w * dx[s * F + f];
+        }
       }
-    }
   }
 }
-
 
 // Starts `model` afresh with `config`, the mesh's voxels (in its padded bounds), its materials and
 // the grid index of the indexed levels (which completes `config`); `occupied` receives the number
@@ -296,7 +301,97 @@ struct StepState {
   Matrix O, dO, dX;
   MlpTrace trace;
   BatchCorners corners;
+  std::vector<LossTerms> loss_blocks;  // batch_loss's sums per block
+  // Per thread: its pace in this step's encoding (encode_batch), the range of entries it scatters
+  // (backward_and_update). Per range (scatter_range): whether it is scattered, the counter of its
+  // update chunks (one more counter for the MLP's), when it was done, and its cost (seconds times
+  // the pace of the thread that took it, averaged over the steps).
+  uint32_t threads = uint32_t(std::max(1, omp_get_max_threads()));
+  std::vector<double> pace = std::vector<double>(threads);
+  std::vector<uint32_t> range_of_thread = std::vector<uint32_t>(threads);
+  std::unique_ptr<std::atomic<bool>[]> scattered{new std::atomic<bool>[threads]};
+  std::unique_ptr<std::atomic<size_t>[]> next_chunk{new std::atomic<size_t>[threads + 1]};
+  std::vector<double> scatter_done = std::vector<double>(threads), range_cost = std::vector<double>(threads);
+  std::vector<uint32_t> by_pace = std::vector<uint32_t>(threads), by_cost = std::vector<uint32_t>(threads);
 };
+
+// Which thread scatters which range: the costliest range to the thread that encoded fastest in
+// this step, and so on down (threads keep their cores between regions, so the encoding's pace
+// foretells the scatter's). With the default two levels the hashed level's rows miss the cache
+// where the indexed level's do not (its range costs ~2.3x the other's on the bunny); on a host
+// whose second core ran single-threaded training at 0.75-0.8x the first's pace, the hashed level
+// on the slower core took 0.86 s of 1,500 bunny steps, the indexed level on the other 0.28 s.
+void assign_scatter_ranges(StepState& st) {
+  const uint32_t n = st.threads;
+  std::iota(st.by_pace.begin(), st.by_pace.end(), 0u);
+  std::iota(st.by_cost.begin(), st.by_cost.end(), 0u);
+  std::stable_sort(st.by_pace.begin(), st.by_pace.end(), [&](uint32_t a, uint32_t b) { return st.pace[a] > st.pace[b]; });
+  std::stable_sort(st.by_cost.begin(), st.by_cost.end(), [&](uint32_t a, uint32_t b) { return st.range_cost[a] > st.range_cost[b]; });
+  for (uint32_t i = 0; i < n; ++i) st.range_of_thread[st.by_pace[i]] = st.by_cost[i];
+}
+
+// The encoder's backward scatter and the Adam updates of model.mlp and model.grid in one parallel
+// region. The threads scatter their ranges of entries (scatter_range: one level each by default)
+// at different paces: a hashed level's gradient rows miss the cache while an indexed level's lie
+// in a dense table, so the indexed level's thread used to finish first and wait (on the bunny it
+// took 0.6x the other's time). Now a thread that is done updates what is ready: its own entries
+// (still in its cache), then the MLP's parameters (their gradient is complete before the region),
+// then the other threads' entries as soon as each is marked scattered. The updates go out in
+// chunks of kUpdateChunk parameters from per-range counters; each parameter is updated once by
+// Adam::update, so the model is the same bit for bit as after a scatter and two Adam steps. The
+// report books the region until the last scatter as encoding, the rest as the optimizer.
+constexpr size_t kUpdateChunk = 8192;
+constexpr double kCostMemory = 0.9;  // a range's cost: the weight of the steps before in its average
+
+void backward_and_update(const Config& config, float lr, Model& model, StepState& st, TrainReport& rep) {
+  const auto t0 = Clock::now();
+  const uint32_t F = config.features, max_threads = st.threads;
+  const size_t entries = st.d_grid.size() / F;
+  assign_scatter_ranges(st);
+  const Adam::Step grid_step = st.grid_adam.begin_step(lr), mlp_step = st.mlp_adam.begin_step(lr);
+  for (uint32_t q = 0; q < max_threads; ++q) {
+    st.scattered[q].store(false);
+    st.next_chunk[q].store(0);
+    st.scatter_done[q] = 0;
+  }
+  std::atomic<size_t>& mlp_next = st.next_chunk[max_threads];
+  mlp_next.store(0);
+  // The chunks of parameters [begin, end) that `next` hands out, updated with `step` of `adam`.
+  auto update = [](Adam& adam, const Adam::Step& step, float* params, const float* grads, size_t begin, size_t end,
+                   std::atomic<size_t>& next) {
+    for (size_t c = next.fetch_add(1); c < (end - begin + kUpdateChunk - 1) / kUpdateChunk; c = next.fetch_add(1))
+      adam.update(step, params, grads, begin + c * kUpdateChunk, std::min(end, begin + (c + 1) * kUpdateChunk));
+  };
+#pragma omp parallel num_threads(max_threads)
+  {
+    const uint32_t nt = uint32_t(omp_get_num_threads()), t = uint32_t(omp_get_thread_num());
+    auto update_entries_of = [&](uint32_t q) {
+      uint32_t lo, hi;
+      scatter_range(config, entries, q, nt, lo, hi);
+      update(st.grid_adam, grid_step, model.grid.data(), st.d_grid.data(), size_t(lo) * F, size_t(hi) * F,
+             st.next_chunk[q]);
+    };
+    // The range of this thread (its own number should the region have fewer threads than planned).
+    const uint32_t own = nt == max_threads ? st.range_of_thread[t] : t;
+    uint32_t lo, hi;
+    scatter_range(config, entries, own, nt, lo, hi);
+    const auto start = Clock::now();
+    encode_batch_backward(config, st.batch_rows, st.corners, st.dX, st.d_grid, lo, hi);
+    st.scatter_done[own] = since(t0);
+    if (nt == max_threads) st.range_cost[own] = kCostMemory * st.range_cost[own] + (1.0 - kCostMemory) * since(start) * st.pace[t];
+    st.scattered[own].store(true, std::memory_order_release);
+    update_entries_of(own);
+    update(st.mlp_adam, mlp_step, model.mlp.data(), st.d_mlp.data(), 0, model.mlp.size(), mlp_next);
+    for (uint32_t i = 1; i < nt; ++i) {
+      const uint32_t q = (own + i) % nt;
+      while (!st.scattered[q].load(std::memory_order_acquire)) std::this_thread::yield();
+      update_entries_of(q);
+    }
+  }
+  const double scatter = *std::max_element(st.scatter_done.begin(), st.scatter_done.end());
+  rep.seconds_encoding += scatter;
+  rep.seconds_optimizer += since(t0) - scatter;
+}
 
 // The batch of `step`: the pool's rays (st.samples, st.walks) it trains on, in st.order, each with
 // its encoded_rows in st.batch_rows, ordered by order_by_point_count (a walk has about 5 of the 18
@@ -368,35 +463,45 @@ Status draw_batch(const RaySampler& sampler, const Config& config, const TrainSe
 }
 
 // The batch's mean loss terms from the outputs st.O; their gradient (scaled by 1 / batch size)
-// goes to st.dO.
+// goes to st.dO. Blocks of kLossBlock rays go to the threads as they come free (a host's cores may
+// differ in pace); each block's sum lands in st.loss_blocks, summed in block order, so the mean does
+// not depend on which thread took which block.
+constexpr long kLossBlock = 64;
+
 LossTerms batch_loss(const Config& config, const TrainSettings& settings, StepState& st) {
   const uint32_t B = settings.batch_size, out_dim = config.output_dim();
   st.dO.resize(out_dim, B);
   const float scale = 1.0f / float(B);
-  double lo = 0, ld = 0, ln = 0, la = 0, lm = 0, ls = 0;
-#pragma omp parallel for schedule(static, 64) reduction(+ : lo, ld, ln, la, lm, ls)  // interleaved: the batch is ordered by point count
-  for (long r = 0; r < long(B); ++r) {
-    const size_t i = st.order[size_t(r)];
-    const Sample& smp = st.samples[i];
-    LossTarget target;
-    target.hit = smp.reference.hit;
-    if (target.hit) {
-      target.s = unit_from_distance(config, st.walks[i], smp.reference.t);
-      target.normal = bakes_normal_maps(settings.surface_maps) ? smp.reference.surface.normal : smp.reference.normal;
-      target.albedo = smp.reference.albedo;
-      target.material = smp.reference.material;
-      target.metallic = smp.reference.surface.metallic;
-      target.roughness = smp.reference.surface.roughness;
-      target.ambient_occlusion = smp.reference.surface.ambient_occlusion;
-      target.emission = smp.reference.surface.emission;
+  const long blocks = (long(B) + kLossBlock - 1) / kLossBlock;
+  st.loss_blocks.resize(size_t(blocks));
+#pragma omp parallel for schedule(dynamic, 1)
+  for (long b = 0; b < blocks; ++b) {
+    LossTerms sum;
+    for (long r = b * kLossBlock; r < std::min(long(B), (b + 1) * kLossBlock); ++r) {
+      const size_t i = st.order[size_t(r)];
+      const Sample& smp = st.samples[i];
+      LossTarget target;
+      target.hit = smp.reference.hit;
+      if (target.hit) {
+        target.s = unit_from_distance(config, st.walks[i], smp.reference.t);
+        target.normal = bakes_normal_maps(settings.surface_maps) ? smp.reference.surface.normal : smp.reference.normal;
+        target.albedo = smp.reference.albedo;
+        target.material = smp.reference.material;
+        target.metallic = smp.reference.surface.metallic;
+        target.roughness = smp.reference.surface.roughness;
+        target.ambient_occlusion = smp.reference.surface.ambient_occlusion;
+        target.emission = smp.reference.surface.emission;
+      }
+      sum += ray_loss(config, st.O.data() + size_t(r) * out_dim, target, settings.loss_settings, scale,
+                      st.dO.data() + size_t(r) * out_dim);
     }
-    LossTerms t = ray_loss(config, st.O.data() + size_t(r) * out_dim, target, settings.loss_settings,
-                           scale, st.dO.data() + size_t(r) * out_dim);
-    lo += t.occlusion; ld += t.distance; ln += t.normal; la += t.albedo; lm += t.material; ls += t.surface;
+    st.loss_blocks[size_t(b)] = sum;
   }
+  LossTerms total;
+  for (const LossTerms& t : st.loss_blocks) total += t;
   LossTerms mean;
-  mean.occlusion = lo / B; mean.distance = ld / B; mean.normal = ln / B;
-  mean.albedo = la / B; mean.material = lm / B; mean.surface = ls / B;
+  mean.occlusion = total.occlusion / B; mean.distance = total.distance / B; mean.normal = total.normal / B;
+  mean.albedo = total.albedo / B; mean.material = total.material / B; mean.surface = total.surface / B;
   return mean;
 }
 
@@ -411,7 +516,7 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
   auto t0 = Clock::now();
   // Encoded straight into the trace that keeps the MLP's input for the backward pass (no copy).
   Matrix& X = st.trace.layer_input[0];
-  encode_batch(config, layout, model.grid.data(), st.walks, st.order, st.batch_rows, X, st.corners);
+  encode_batch(config, layout, model.grid.data(), st.walks, st.order, st.batch_rows, X, st.corners, st.pace);
   rep.seconds_encoding += since(t0);
 
   t0 = Clock::now();
@@ -431,15 +536,8 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
   mlp_backward(config, model.mlp.data(), st.trace, st.dO, st.d_mlp.data(), &st.dX);
   rep.seconds_mlp += since(t0);
 
-  t0 = Clock::now();
-  encode_batch_backward(config, st.batch_rows, st.corners, st.dX, st.d_grid);
-  rep.seconds_encoding += since(t0);
-
-  t0 = Clock::now();
   const float lr = scheduled_learning_rate(settings.lr_schedule, settings.adam.learning_rate, step, steps);
-  st.mlp_adam.step(model.mlp.data(), st.d_mlp.data(), lr);
-  st.grid_adam.step(model.grid.data(), st.d_grid.data(), lr);
-  rep.seconds_optimizer += since(t0);
+  backward_and_update(config, lr, model, st, rep);
   return Status::ok();
 }
 

@@ -2,10 +2,12 @@
 // first non-finite loss with an error naming the step (instead of training to the end and failing
 // at the save), invalid settings are refused before any work, and the loss curve comes back in the
 // report, one row per step, without any file being written; the trainer prints nothing (progress
-// goes to the caller's callback, step by step); each step runs at the learning-rate schedule's rate.
+// goes to the caller's callback, step by step); each step runs at the learning-rate schedule's rate;
+// the model does not depend on the number of threads.
 #include "lsnif/train/trainer.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <cmath>
 #include <string>
@@ -217,6 +219,26 @@ TEST(Trainer, GroundTruthReuseCastsBatchOverReuseFreshRaysPerStep) {
   // The pool is capped (at most kRayPoolMaxRays, never below one batch).
   EXPECT_EQ(ray_pool_size(1u << 18, 2), kRayPoolMaxRays);
   EXPECT_EQ(ray_pool_size(1u << 18, 1), size_t(1) << 18);
+}
+
+// Which thread does which share of a step (the encoder's blocks and the loss's as threads come
+// free, the backward scatter's ranges by the threads' pace, the Adam updates in chunks as ranges
+// complete, the sampler's chunks) never changes the model: 1, 2 and 3 threads (more threads than
+// levels: equal shares of the entries) train the same parameters bit for bit.
+TEST(Trainer, TheModelIsTheSameForAnyThreadCount) {
+  TrainSettings s = small();
+  s.batch_size = 2048;  // several blocks of the encoder and chunks of the network a step
+  s.steps = 12;
+  const int before = omp_get_max_threads();
+  std::vector<std::vector<float>> params;
+  for (int threads : {1, 2, 3}) {
+    omp_set_num_threads(threads);
+    params.push_back(trained_parameters(s));
+  }
+  omp_set_num_threads(before);
+  ASSERT_FALSE(params[0].empty());
+  EXPECT_EQ(params[0], params[1]);
+  EXPECT_EQ(params[0], params[2]);
 }
 
 // --mlp-precision: auto trains what bf16 trains where the CPU has bf16 instructions (else what
