@@ -84,22 +84,24 @@ void copy_walk(const RayWalk& src, RayWalk& dst) {
   std::copy(src.axis, src.axis + src.count, dst.axis);
 }
 
-// The reference hits of samples[i] for i in `which` (kChunk rays at a time: GroundTruth traces
-// them in Embree's packets). Uses OpenMP.
+// The reference hits of the samples at `slots[0, n)` (n <= kChunk), traced in one call
+// (GroundTruth traces them in Embree's packets).
+void trace_chunk(const GroundTruth& truth, const size_t* slots, size_t n, Sample* samples) {
+  Ray rays[kChunk];
+  ReferenceHit hits[kChunk];
+  for (size_t i = 0; i < n; ++i) rays[i] = samples[slots[i]].ray;
+  truth.trace(rays, n, hits);
+  for (size_t i = 0; i < n; ++i) samples[slots[i]].reference = hits[i];
+}
+
+// The reference hits of samples[i] for i in `which`, kChunk at a time. Uses OpenMP.
 void trace_references(const GroundTruth& truth, const std::vector<size_t>& which, std::vector<Sample>& samples) {
   const size_t count = which.size();
   const int64_t chunks = int64_t((count + kChunk - 1) / kChunk);
-#pragma omp parallel
-  {
-    Ray rays[kChunk];
-    ReferenceHit hits[kChunk];
-#pragma omp for schedule(dynamic, 1)
-    for (int64_t c = 0; c < chunks; ++c) {
-      const size_t first = size_t(c) * kChunk, n = std::min(kChunk, count - first);
-      for (size_t i = 0; i < n; ++i) rays[i] = samples[which[first + i]].ray;
-      truth.trace(rays, n, hits);
-      for (size_t i = 0; i < n; ++i) samples[which[first + i]].reference = hits[i];
-    }
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t c = 0; c < chunks; ++c) {
+    const size_t first = size_t(c) * kChunk;
+    trace_chunk(truth, which.data() + first, std::min(kChunk, count - first), samples.data());
   }
 }
 
@@ -122,16 +124,16 @@ struct CandidateDraws {
   Ray outer_ray(Rng& rng) const {
     return body.valid() ? sample_line_through_body(rng, body, centre, radius) : sample_outer_ray(rng, centre, radius);
   }
-  // Pass 1 (generate): the candidate's kind from its first number (1: a surface candidate); an
-  // outer candidate's ray into its first slot.
-  uint8_t first_pass(uint64_t index, Sample* sample, uint8_t* keep) const {
+  // Pass 1 (generate): the candidate's kind from its first number; an outer candidate's ray into
+  // its first slot.
+  CandidateKind first_pass(uint64_t index, Sample* sample, uint8_t* keep) const {
     Rng rng(seed, stream, index);
     for (uint32_t r = 0; r < k; ++r) keep[r] = 0;
-    if (rng.next_float() < surface_share) return 1;
+    if (rng.next_float() < surface_share) return kSurfaceCandidate;
     sample[0].ray = outer_ray(rng);
     sample[0].from_surface = false;
     keep[0] = 1;
-    return 0;
+    return kOuterCandidate;
   }
   // Pass 3, a surface candidate: k surface rays from `given` (a hit of an earlier candidate's ray)
   // or else from the first hit of its own finding rays, each with its own direction; an outer ray
@@ -402,7 +404,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     sc.rays.resize(slots);
     sc.kind.resize(block);
     sc.given.resize(block);
-    sc.unused.reserve(sc.unused.size() + block);
+    if (sc.unused.capacity() < sc.unused.size() + block) sc.unused.reserve(2 * (sc.unused.size() + block));  // grows geometrically
     sc.chunk_walks.resize(size_t(omp_get_max_threads()) * kChunk * k);
     sc.to_trace.reserve(count);
     Sample* bs = sc.samples.data();
@@ -412,7 +414,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     // Walks the chunk's slots [from, to) of the candidates of kind `kind` that hold a ray (16 at a
     // time where the build has AVX-512; the others hold kNoWalkRay) into `into` (`into[r - from]`
     // for slot r); such a slot is kept when its walk has a boundary point.
-    auto walk_slots = [&](size_t from, size_t to, uint8_t kind, RayWalk* into) {
+    auto walk_slots = [&](size_t from, size_t to, CandidateKind kind, RayWalk* into) {
       for (size_t r = from; r < to; ++r) rays[r] = sc.kind[r / k] == kind && keep[r] ? bs[r].ray : kNoWalkRay;
       walk_rays(grid_, rays + from, to - from, max_points_, into);
       for (size_t r = from; r < to; ++r)
@@ -420,31 +422,21 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     };
     const int64_t chunks = int64_t((block + kChunk - 1) / kChunk);
     // Pass 1: kinds; the outer candidates' rays walked and the kept ones traced.
-#pragma omp parallel
-    {
-      Ray trace_rays[kChunk];
-      ReferenceHit hits[kChunk];
-      size_t at[kChunk];
-#pragma omp for schedule(dynamic, 1)
-      for (int64_t c = 0; c < chunks; ++c) {
-        const size_t first = size_t(c) * kChunk, last = std::min(block, first + kChunk);
-        for (size_t j = first; j < last; ++j) sc.kind[j] = draw.first_pass(next + j, &bs[j * k], &keep[j * k]);
-        walk_slots(first * k, last * k, 0, &bw[first * k]);
-        size_t n = 0;
-        for (size_t j = first; j < last; ++j)
-          if (sc.kind[j] == 0 && keep[j * k]) {
-            at[n] = j * k;
-            trace_rays[n++] = bs[j * k].ray;
-          }
-        truth_.trace(trace_rays, n, hits);
-        for (size_t i = 0; i < n; ++i) bs[at[i]].reference = hits[i];
-      }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t c = 0; c < chunks; ++c) {
+      const size_t first = size_t(c) * kChunk, last = std::min(block, first + kChunk);
+      for (size_t j = first; j < last; ++j) sc.kind[j] = draw.first_pass(next + j, &bs[j * k], &keep[j * k]);
+      walk_slots(first * k, last * k, kOuterCandidate, &bw[first * k]);
+      size_t kept_outer[kChunk], n = 0;
+      for (size_t j = first; j < last; ++j)
+        if (sc.kind[j] == kOuterCandidate && keep[j * k]) kept_outer[n++] = j * k;
+      trace_chunk(truth_, kept_outer, n, bs);
     }
     // Pass 2: the hits of earlier outer candidates handed to surface candidates, oldest first.
     for (size_t j = 0; j < block; ++j) {
       sc.given[j] = SIZE_MAX;
       if (!reuse) continue;
-      if (sc.kind[j] == 0) {
+      if (sc.kind[j] == kOuterCandidate) {
         if (keep[j * k] && bs[j * k].reference.hit) sc.unused.push_back(SurfacePoint::of(bs[j * k].ray, bs[j * k].reference));
       } else if (sc.next_unused < sc.unused.size()) {
         sc.given[j] = sc.next_unused++;
@@ -460,11 +452,11 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
       for (int64_t c = 0; c < chunks; ++c) {
         const size_t first = size_t(c) * kChunk, last = std::min(block, first + kChunk);
         for (size_t j = first; j < last; ++j)
-          if (sc.kind[j] == 1)
+          if (sc.kind[j] == kSurfaceCandidate)
             draw.surface_pass(next + j, sc.given[j] == SIZE_MAX ? nullptr : &sc.unused[sc.given[j]], &bs[j * k], &keep[j * k]);
-        walk_slots(first * k, last * k, 1, chunk_walks);
+        walk_slots(first * k, last * k, kSurfaceCandidate, chunk_walks);
         for (size_t r = first * k; r < last * k; ++r)
-          if (sc.kind[r / k] == 1 && keep[r]) copy_walk(chunk_walks[r - first * k], bw[r]);
+          if (sc.kind[r / k] == kSurfaceCandidate && keep[r]) copy_walk(chunk_walks[r - first * k], bw[r]);
       }
     }
     // Compact the kept slots in order (positions serially, copies in parallel); the surface
@@ -474,7 +466,7 @@ void RaySampler::generate(uint64_t seed, uint64_t stream, size_t count, std::vec
     for (size_t j = 0; j < slots; ++j) {
       kept += keep[j];
       if (!keep[j] || filled >= count) continue;
-      if (sc.kind[j / k] == 1) sc.to_trace.push_back(filled);
+      if (sc.kind[j / k] == kSurfaceCandidate) sc.to_trace.push_back(filled);
       sc.slot[j] = filled++;
     }
     tried += block;

@@ -64,6 +64,10 @@ struct SurfacePoint {
   }
 };
 
+// A candidate's kind (SamplerScratch::kind): an outer candidate holds one ray of the first kind, a
+// surface candidate surface_rays rays from a surface point.
+enum CandidateKind : uint8_t { kOuterCandidate = 0, kSurfaceCandidate = 1 };
+
 // The candidates of one block of a generate call (their rays, walks and keep flags), kept by a
 // caller that samples again and again (the trainer) so that each call allocates (and faults in)
 // nothing; its contents between calls mean nothing.
@@ -73,7 +77,7 @@ struct SamplerScratch {
   std::vector<uint8_t> keep;
   std::vector<size_t> slot;
   std::vector<Ray> rays;  // the block's rays to walk (kNoWalkRay where a slot has none)
-  std::vector<uint8_t> kind;       // per candidate: 1 a surface candidate, 0 an outer one
+  std::vector<CandidateKind> kind;  // per candidate
   std::vector<size_t> given;       // per surface candidate: its point in `unused`, or SIZE_MAX
   std::vector<SurfacePoint> unused;  // the outer candidates' hits, in candidate order
   size_t next_unused = 0;          // the oldest hit not yet given
