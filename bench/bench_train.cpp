@@ -141,12 +141,11 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
     const auto start = Clock::now();
     double eval_seconds = 0;
-    auto callback = [&](uint32_t step, const LossTerms&, const Model& current) {
-      if (step % eval_every != 0 && step != r.settings.steps) return true;
+    // A row per snapshot: the step's parameters quantized (every eval_every steps), and after the
+    // last step the model the trainer keeps (with ema-decay, the average of the last steps').
+    auto eval_row = [&](uint32_t step, const Model& snapshot) {
       const auto e0 = Clock::now();
       const double train_s = std::chrono::duration<double>(e0 - start).count() - eval_seconds;
-      Model snapshot = current;
-      snapshot.quantize();
       EvalReport e;
       if (Status s = evaluate_model(snapshot, mesh, es, e); !s) fail(s.message());
       eval_seconds += std::chrono::duration<double>(Clock::now() - e0).count();
@@ -155,10 +154,20 @@ int main(int argc, char** argv) {
       std::printf("%6u %9.1f %9.3f %9.3f %9.3f %9.2f %9.2f\n", step, train_s, 100 * m.accuracy,
                   100 * m.t_error_median, 100 * m.t_error_p90, m.normal_error_median, m.normal_error_p90);
       std::fflush(stdout);
+    };
+    uint32_t last_step = 0;
+    auto callback = [&](uint32_t step, const LossTerms&, const Model& current) {
+      last_step = step;
+      if (step % eval_every != 0 || step == r.settings.steps) return true;
+      Model snapshot = current;
+      snapshot.quantize();
+      eval_row(step, snapshot);
       return true;
     };
     Model model;
-    if (Status s = train_model(mesh, r.settings, model, &r.report, callback); !s) {
+    Status trained_ok = train_model(mesh, r.settings, model, &r.report, callback);
+    if (trained_ok) eval_row(last_step, model);
+    if (Status s = trained_ok; !s) {
       if (&r == &recipes.front()) fail(s.message());
       std::printf("%s failed: %s\n", r.name.c_str(), s.message().c_str());  // the other recipes still run
       r.evals.clear();

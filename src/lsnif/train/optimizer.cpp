@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "lsnif/format/status.h"
@@ -41,6 +42,16 @@ void Adam::step(float* params, const float* gradients, float learning_rate) {
     const size_t nt = size_t(omp_get_num_threads()), t = size_t(omp_get_thread_num());
     update(s, params, gradients, n * t / nt, n * (t + 1) / nt);
   }
+}
+
+void ParameterAverage::update(const float* params, size_t begin, size_t end, float decay, bool first) {
+  float* a = values_.data();
+  if (first) {
+    std::copy(params + begin, params + end, a + begin);
+    return;
+  }
+  const float w = 1.0f - decay;
+  for (size_t i = begin; i < end; ++i) a[i] += w * (params[i] - a[i]);
 }
 
 }  // namespace lsnif

@@ -1,5 +1,7 @@
 // optimizer.h -- Adam (Kingma & Ba) over a flat parameter array, as used for both the MLP and the
 // hash tables (paper 5.2: lr 0.01). Dense update: entries without gradient still move with momentum.
+// ParameterAverage: an exponential moving average of the parameters over the steps (the model the
+// trainer keeps, TrainSettings::ema_decay).
 #pragma once
 #include <cstddef>
 #include <string>
@@ -41,6 +43,22 @@ class Adam {
   AdamSettings s_;
   std::vector<float> m_, v_;
   size_t t_ = 0;
+};
+
+// The exponential moving average of a flat parameter array over the steps: the first update copies
+// the parameters, each later one moves the average by (1 - decay) toward them. Like Adam::update,
+// per parameter and in ranges: every parameter updated once per step, in any order and on any
+// thread, gives the same average bit for bit.
+class ParameterAverage {
+ public:
+  explicit ParameterAverage(size_t parameter_count = 0) : values_(parameter_count) {}
+  // first: this step starts the average (the range's values become the parameters').
+  void update(const float* params, size_t begin, size_t end, float decay, bool first);
+  std::vector<float>& values() { return values_; }
+  size_t size() const { return values_.size(); }
+
+ private:
+  std::vector<float> values_;
 };
 
 }  // namespace lsnif

@@ -1,7 +1,8 @@
 // optimizer_test.cpp -- Adam's first step moves every parameter with a gradient by the learning
 // rate against the gradient's sign (m_hat = g, v_hat = g^2), with the settings' rate or the rate
 // given for the step (a schedule's), and a parameter without gradient stays; a step taken in
-// ranges, in any order, is the whole step bit for bit and follows Adam's update in double precision.
+// ranges, in any order, is the whole step bit for bit and follows Adam's update in double precision;
+// the parameters' average likewise, against the moving average in double precision.
 #include "lsnif/train/optimizer.h"
 
 #include <gtest/gtest.h>
@@ -67,6 +68,30 @@ TEST(Adam, AStepInRangesIsTheWholeStep) {
   double worst = 0;
   for (size_t i = 0; i < n; ++i) worst = std::max(worst, std::abs(double(pp[i]) - ref[i]));
   EXPECT_LT(worst, 1e-5) << "against Adam in double precision";
+}
+
+TEST(ParameterAverage, RangesInAnyOrderGiveTheMovingAverage) {
+  const size_t n = 30001;
+  const float decay = 0.75f;
+  std::mt19937 rng(11);
+  std::normal_distribution<float> normal(0.0f, 1.0f);
+  ParameterAverage whole(n), pieces(n);
+  std::vector<double> ref(n);
+  std::vector<size_t> bounds = {0, 5, 8192, 8200, 16384, 29999, n};
+  std::vector<size_t> order(bounds.size() - 1);
+  std::iota(order.begin(), order.end(), size_t(0));
+  for (int step = 0; step < 6; ++step) {
+    std::vector<float> p(n);
+    for (float& x : p) x = normal(rng) + float(step);
+    whole.update(p.data(), 0, n, decay, step == 0);
+    std::shuffle(order.begin(), order.end(), rng);
+    for (size_t r : order) pieces.update(p.data(), bounds[r], bounds[r + 1], decay, step == 0);
+    ASSERT_EQ(whole.values(), pieces.values()) << "step " << step;
+    for (size_t i = 0; i < n; ++i) ref[i] = step == 0 ? p[i] : decay * ref[i] + (1.0 - decay) * p[i];
+  }
+  double worst = 0;
+  for (size_t i = 0; i < n; ++i) worst = std::max(worst, std::abs(double(whole.values()[i]) - ref[i]));
+  EXPECT_LT(worst, 1e-5) << "against the moving average in double precision";
 }
 
 }  // namespace

@@ -130,6 +130,7 @@ constexpr std::array<SettingField, kSettingCount> setting_fields() {
       field<AdamBeta1, &T::adam, &AdamSettings::beta1>("Adam beta1"),
       field<AdamBeta2, &T::adam, &AdamSettings::beta2>("Adam beta2"),
       field<AdamEpsilon, &T::adam, &AdamSettings::epsilon>("Adam epsilon"),
+      field<EmaDecay, &T::ema_decay>("parameter average decay"),
       field<NormalLoss, &T::loss_settings, &LossSettings::normal_loss>("normal loss"),
       field<WOcclusion, &T::loss_settings, &LossSettings::occlusion>("loss weights: occlusion"),
       field<WDistance, &T::loss_settings, &LossSettings::distance>("loss weights: distance"),

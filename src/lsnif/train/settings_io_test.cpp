@@ -187,7 +187,7 @@ TEST(SettingsConfig, JsonAndTrainSettingsRoundTrip) {
           "width": 24, "layers": 3, "hit": "aabb", "leaky-slope": 0.02, "grid-bits": "16", "steps": 3, "batch": 100,
           "seed": 18446744073709551615, "ray-reuse": 2, "lr": 0.0033333333, "lr-schedule": "cosine",
           "lr-final": 0.05, "lr-warm": 0.3, "adam-beta1": 0.8, "adam-beta2": 0.95,
-          "adam-epsilon": 1e-12, "normal-loss": "cosine", "mlp-precision": "fp32", "w-occlusion": 0.5, "w-distance": 2, "w-normal": 0.1,
+          "adam-epsilon": 1e-12, "ema-decay": 0.95, "normal-loss": "cosine", "mlp-precision": "fp32", "w-occlusion": 0.5, "w-distance": 2, "w-normal": 0.1,
           "w-albedo": 0, "w-material": 3, "surface-fraction": 0.25, "sphere-scale": 2, "surface-offset": 0.001, "surface-rays": 3,
           "grid-init-range": 0.01, "surface-maps": "on", "w-surface": 0.5,
           "texture-coordinates": "off", "uv-cells": 3})",

@@ -277,10 +277,28 @@ constexpr size_t kRaysSampledTogether = size_t(1) << 15;
 
 // What every step reuses, allocated once: gradients, optimizer moments, the batch (rays and their
 // walks), its encoding, activations and corners.
+// Who scatters and updates which range of grid entries in backward_and_update. Per thread: its
+// pace in this step's encoding (table lookups a second, from encode_batch) and the range it
+// scatters. Per range (scatter_range): whether it is scattered, the counter of its update chunks
+// (one more counter for the MLP's), when it was done, and its cost (seconds times the pace of the
+// thread that took it, averaged over the steps).
+struct ScatterPlan {
+  uint32_t threads = uint32_t(std::max(1, omp_get_max_threads()));
+  std::vector<double> pace = std::vector<double>(threads);
+  std::vector<uint32_t> range_of_thread = std::vector<uint32_t>(threads);
+  std::unique_ptr<std::atomic<bool>[]> scattered{new std::atomic<bool>[threads]};
+  std::unique_ptr<std::atomic<size_t>[]> next_chunk{new std::atomic<size_t>[threads + 1]};
+  std::vector<double> scatter_done = std::vector<double>(threads), range_cost = std::vector<double>(threads);
+  std::vector<uint32_t> by_pace = std::vector<uint32_t>(threads), by_cost = std::vector<uint32_t>(threads);  // assign's sort scratch
+  void assign();
+};
+
 struct StepState {
   StepState(const Model& model, const TrainSettings& settings)
       : d_grid(model.grid.size()), d_mlp(model.mlp.size()), grid_adam(model.grid.size(), settings.adam),
-        mlp_adam(model.mlp.size(), settings.adam) {
+        mlp_adam(model.mlp.size(), settings.adam),
+        grid_average(settings.ema_decay > 0 ? model.grid.size() : 0),
+        mlp_average(settings.ema_decay > 0 ? model.mlp.size() : 0) {
     trace.layer_input.resize(1);  // the encoder's output, the MLP's input
     trace.bf16_layers = settings.mlp_precision == kMlpPrecisionBf16 ||
                         (settings.mlp_precision == kMlpPrecisionAuto && mlp_gemm_bf16_native());
@@ -302,17 +320,11 @@ struct StepState {
   MlpTrace trace;
   BatchCorners corners;
   std::vector<LossTerms> loss_blocks;  // batch_loss's sums per block
-  // Per thread: its pace in this step's encoding (encode_batch), the range of entries it scatters
-  // (backward_and_update). Per range (scatter_range): whether it is scattered, the counter of its
-  // update chunks (one more counter for the MLP's), when it was done, and its cost (seconds times
-  // the pace of the thread that took it, averaged over the steps).
-  uint32_t threads = uint32_t(std::max(1, omp_get_max_threads()));
-  std::vector<double> pace = std::vector<double>(threads);
-  std::vector<uint32_t> range_of_thread = std::vector<uint32_t>(threads);
-  std::unique_ptr<std::atomic<bool>[]> scattered{new std::atomic<bool>[threads]};
-  std::unique_ptr<std::atomic<size_t>[]> next_chunk{new std::atomic<size_t>[threads + 1]};
-  std::vector<double> scatter_done = std::vector<double>(threads), range_cost = std::vector<double>(threads);
-  std::vector<uint32_t> by_pace = std::vector<uint32_t>(threads), by_cost = std::vector<uint32_t>(threads);
+  ScatterPlan plan;
+  // The parameters' average (settings.ema_decay > 0), what this step does with it and whether any
+  // step has.
+  ParameterAverage grid_average, mlp_average;
+  enum class Averaging { kNone, kStart, kUpdate } averaging = Averaging::kNone, averaged = Averaging::kNone;
 };
 
 // Which thread scatters which range: the costliest range to the thread that encoded fastest in
@@ -321,13 +333,12 @@ struct StepState {
 // where the indexed level's do not (its range costs ~2.3x the other's on the bunny); on a host
 // whose second core ran single-threaded training at 0.75-0.8x the first's pace, the hashed level
 // on the slower core took 0.86 s of 1,500 bunny steps, the indexed level on the other 0.28 s.
-void assign_scatter_ranges(StepState& st) {
-  const uint32_t n = st.threads;
-  std::iota(st.by_pace.begin(), st.by_pace.end(), 0u);
-  std::iota(st.by_cost.begin(), st.by_cost.end(), 0u);
-  std::stable_sort(st.by_pace.begin(), st.by_pace.end(), [&](uint32_t a, uint32_t b) { return st.pace[a] > st.pace[b]; });
-  std::stable_sort(st.by_cost.begin(), st.by_cost.end(), [&](uint32_t a, uint32_t b) { return st.range_cost[a] > st.range_cost[b]; });
-  for (uint32_t i = 0; i < n; ++i) st.range_of_thread[st.by_pace[i]] = st.by_cost[i];
+void ScatterPlan::assign() {
+  std::iota(by_pace.begin(), by_pace.end(), 0u);
+  std::iota(by_cost.begin(), by_cost.end(), 0u);
+  std::stable_sort(by_pace.begin(), by_pace.end(), [&](uint32_t a, uint32_t b) { return pace[a] > pace[b]; });
+  std::stable_sort(by_cost.begin(), by_cost.end(), [&](uint32_t a, uint32_t b) { return range_cost[a] > range_cost[b]; });
+  for (uint32_t i = 0; i < threads; ++i) range_of_thread[by_pace[i]] = by_cost[i];
 }
 
 // The encoder's backward scatter and the Adam updates of model.mlp and model.grid in one parallel
@@ -339,28 +350,38 @@ void assign_scatter_ranges(StepState& st) {
 // then the other threads' entries as soon as each is marked scattered. The updates go out in
 // chunks of kUpdateChunk parameters from per-range counters; each parameter is updated once by
 // Adam::update, so the model is the same bit for bit as after a scatter and two Adam steps. The
-// report books the region until the last scatter as encoding, the rest as the optimizer.
+// report books the region until the last scatter as encoding, the rest as the optimizer. The
+// parameters' average (st.averaging) is updated chunk by chunk right after Adam's update, while the
+// chunk is in the cache.
 constexpr size_t kUpdateChunk = 8192;
 constexpr double kCostMemory = 0.9;  // a range's cost: the weight of the steps before in its average
 
-void backward_and_update(const Config& config, float lr, Model& model, StepState& st, TrainReport& rep) {
+void backward_and_update(const Config& config, float lr, float average_decay, Model& model, StepState& st,
+                         TrainReport& rep) {
   const auto t0 = Clock::now();
-  const uint32_t F = config.features, max_threads = st.threads;
+  ScatterPlan& plan = st.plan;
+  const uint32_t F = config.features, max_threads = plan.threads;
   const size_t entries = st.d_grid.size() / F;
-  assign_scatter_ranges(st);
+  plan.assign();
   const Adam::Step grid_step = st.grid_adam.begin_step(lr), mlp_step = st.mlp_adam.begin_step(lr);
   for (uint32_t q = 0; q < max_threads; ++q) {
-    st.scattered[q].store(false);
-    st.next_chunk[q].store(0);
-    st.scatter_done[q] = 0;
+    plan.scattered[q].store(false);
+    plan.next_chunk[q].store(0);
+    plan.scatter_done[q] = 0;
   }
-  std::atomic<size_t>& mlp_next = st.next_chunk[max_threads];
+  std::atomic<size_t>& mlp_next = plan.next_chunk[max_threads];
   mlp_next.store(0);
-  // The chunks of parameters [begin, end) that `next` hands out, updated with `step` of `adam`.
-  auto update = [](Adam& adam, const Adam::Step& step, float* params, const float* grads, size_t begin, size_t end,
-                   std::atomic<size_t>& next) {
-    for (size_t c = next.fetch_add(1); c < (end - begin + kUpdateChunk - 1) / kUpdateChunk; c = next.fetch_add(1))
-      adam.update(step, params, grads, begin + c * kUpdateChunk, std::min(end, begin + (c + 1) * kUpdateChunk));
+  // The chunks of parameters [begin, end) that `next` hands out, updated with `step` of `adam`,
+  // then averaged into `average`.
+  const StepState::Averaging averaging = st.averaging;
+  auto update = [averaging, average_decay](Adam& adam, const Adam::Step& step, float* params, const float* grads,
+                                       size_t begin, size_t end, std::atomic<size_t>& next, ParameterAverage& average) {
+    for (size_t c = next.fetch_add(1); c < (end - begin + kUpdateChunk - 1) / kUpdateChunk; c = next.fetch_add(1)) {
+      const size_t b = begin + c * kUpdateChunk, e = std::min(end, begin + (c + 1) * kUpdateChunk);
+      adam.update(step, params, grads, b, e);
+      if (averaging != StepState::Averaging::kNone)
+        average.update(params, b, e, average_decay, averaging == StepState::Averaging::kStart);
+    }
   };
 #pragma omp parallel num_threads(max_threads)
   {
@@ -369,26 +390,26 @@ void backward_and_update(const Config& config, float lr, Model& model, StepState
       uint32_t lo, hi;
       scatter_range(config, entries, q, nt, lo, hi);
       update(st.grid_adam, grid_step, model.grid.data(), st.d_grid.data(), size_t(lo) * F, size_t(hi) * F,
-             st.next_chunk[q]);
+             plan.next_chunk[q], st.grid_average);
     };
     // The range of this thread (its own number should the region have fewer threads than planned).
-    const uint32_t own = nt == max_threads ? st.range_of_thread[t] : t;
+    const uint32_t own = nt == max_threads ? plan.range_of_thread[t] : t;
     uint32_t lo, hi;
     scatter_range(config, entries, own, nt, lo, hi);
     const auto start = Clock::now();
     encode_batch_backward(config, st.batch_rows, st.corners, st.dX, st.d_grid, lo, hi);
-    st.scatter_done[own] = since(t0);
-    if (nt == max_threads) st.range_cost[own] = kCostMemory * st.range_cost[own] + (1.0 - kCostMemory) * since(start) * st.pace[t];
-    st.scattered[own].store(true, std::memory_order_release);
+    plan.scatter_done[own] = since(t0);
+    if (nt == max_threads) plan.range_cost[own] = kCostMemory * plan.range_cost[own] + (1.0 - kCostMemory) * since(start) * plan.pace[t];
+    plan.scattered[own].store(true, std::memory_order_release);
     update_entries_of(own);
-    update(st.mlp_adam, mlp_step, model.mlp.data(), st.d_mlp.data(), 0, model.mlp.size(), mlp_next);
+    update(st.mlp_adam, mlp_step, model.mlp.data(), st.d_mlp.data(), 0, model.mlp.size(), mlp_next, st.mlp_average);
     for (uint32_t i = 1; i < nt; ++i) {
       const uint32_t q = (own + i) % nt;
-      while (!st.scattered[q].load(std::memory_order_acquire)) std::this_thread::yield();
+      while (!plan.scattered[q].load(std::memory_order_acquire)) std::this_thread::yield();
       update_entries_of(q);
     }
   }
-  const double scatter = *std::max_element(st.scatter_done.begin(), st.scatter_done.end());
+  const double scatter = *std::max_element(plan.scatter_done.begin(), plan.scatter_done.end());
   rep.seconds_encoding += scatter;
   rep.seconds_optimizer += since(t0) - scatter;
 }
@@ -505,8 +526,20 @@ LossTerms batch_loss(const Config& config, const TrainSettings& settings, StepSt
   return mean;
 }
 
+// What step `step` of a run of `steps` steps does with the parameters' average
+// (TrainSettings::ema_decay): every kAverageInterval-th step counted back from the last goes into it,
+// from the first after the learning rate's held share (the whole run when that share is 0),
+// whatever the schedule.
+StepState::Averaging averaging_of_step(const TrainSettings& settings, uint32_t step, uint32_t steps) {
+  const uint32_t after_held = uint32_t(std::floor(double(settings.lr_schedule.warm_fraction) * double(steps))) + 1;
+  const uint32_t first = after_held + (steps - after_held) % kAverageInterval;
+  if (settings.ema_decay <= 0 || step < first || (steps - step) % kAverageInterval != 0)
+    return StepState::Averaging::kNone;
+  return step == first ? StepState::Averaging::kStart : StepState::Averaging::kUpdate;
+}
+
 // One training step: the batch, forward, loss, backward and the Adam updates of model.grid and
-// model.mlp, each phase timed in `rep`; `mean` receives the step's mean loss terms. An error when
+// model.mlp (and of their average), each phase timed in `rep`; `mean` receives the step's mean loss terms. An error when
 // the sampler runs short or the loss is not finite.
 Status train_step(const RaySampler& sampler, const Config& config, const GridLayout& layout,
                   const TrainSettings& settings, uint32_t occupied, uint32_t step, uint32_t steps, Model& model,
@@ -516,7 +549,7 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
   auto t0 = Clock::now();
   // Encoded straight into the trace that keeps the MLP's input for the backward pass (no copy).
   Matrix& X = st.trace.layer_input[0];
-  encode_batch(config, layout, model.grid.data(), st.walks, st.order, st.batch_rows, X, st.corners, st.pace);
+  encode_batch(config, layout, model.grid.data(), st.walks, st.order, st.batch_rows, X, st.corners, st.plan.pace);
   rep.seconds_encoding += since(t0);
 
   t0 = Clock::now();
@@ -537,7 +570,9 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
   rep.seconds_mlp += since(t0);
 
   const float lr = scheduled_learning_rate(settings.lr_schedule, settings.adam.learning_rate, step, steps);
-  backward_and_update(config, lr, model, st, rep);
+  st.averaging = averaging_of_step(settings, step, steps);
+  if (st.averaging != StepState::Averaging::kNone) st.averaged = st.averaging;
+  backward_and_update(config, lr, std::pow(settings.ema_decay, float(kAverageInterval)), model, st, rep);
   return Status::ok();
 }
 
@@ -673,6 +708,10 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
     }
   }
   rep.planned_steps = steps;
+  if (st.averaged != StepState::Averaging::kNone) {  // the average kept
+    model.grid.swap(st.grid_average.values());
+    model.mlp.swap(st.mlp_average.values());
+  }
   rep.seconds = since(t_start);
   set_final_loss(tail, rep);
   if (Status s = check_fp16_range(model, rep.rays, settings.adam.learning_rate); !s) return s;

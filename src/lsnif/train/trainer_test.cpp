@@ -3,7 +3,8 @@
 // at the save), invalid settings are refused before any work, and the loss curve comes back in the
 // report, one row per step, without any file being written; the trainer prints nothing (progress
 // goes to the caller's callback, step by step); each step runs at the learning-rate schedule's rate;
-// the model does not depend on the number of threads.
+// the model does not depend on the number of threads; the model kept is the quantized average of the
+// parameters of the steps after the learning rate's held share.
 #include "lsnif/train/trainer.h"
 
 #include <gtest/gtest.h>
@@ -231,15 +232,76 @@ TEST(Trainer, TheModelIsTheSameForAnyThreadCount) {
   s.batch_size = 2048;  // several blocks of the encoder and chunks of the network a step
   s.steps = 12;
   const int before = omp_get_max_threads();
-  std::vector<std::vector<float>> params;
+  std::vector<std::vector<float>> params, kept;
   for (int threads : {1, 2, 3}) {
     omp_set_num_threads(threads);
     params.push_back(trained_parameters(s));
+    Model model;
+    EXPECT_TRUE(train_model(cube(), s, model));  // the average of the last steps, quantized
+    kept.push_back(model.grid);
+    kept.back().insert(kept.back().end(), model.mlp.begin(), model.mlp.end());
   }
   omp_set_num_threads(before);
   ASSERT_FALSE(params[0].empty());
   EXPECT_EQ(params[0], params[1]);
   EXPECT_EQ(params[0], params[2]);
+  EXPECT_EQ(kept[0], kept[1]);
+  EXPECT_EQ(kept[0], kept[2]);
+}
+
+// The model kept against the moving average of the parameters the callback saw, taken in double
+// precision every kAverageInterval-th step back from the last, from the first after the held share
+// (steps 16, 20 and 24 of 24 with lr-warm 0.5), with the decay to that power: within the
+// quantization's rounding (half an int8 step of the level's scale for the grid, half an fp16 unit
+// for the network), where the last step's parameters are not; with decay 0, the last step's.
+TEST(Trainer, TheModelKeptIsTheAverageOfTheLastSteps) {
+  ASSERT_EQ(kAverageInterval, 4u) << "the steps below";
+  TrainSettings s = small();
+  s.steps = 24;
+  s.lr_schedule.schedule = LrSchedule::Exponential;
+  s.lr_schedule.warm_fraction = 0.5f;
+  s.ema_decay = 0.9f;
+  const double decay = std::pow(double(s.ema_decay), 4.0);
+  std::vector<double> average;
+  std::vector<float> last;
+  Model model;
+  ASSERT_TRUE(train_model(cube(), s, model, nullptr, [&](uint32_t step, const LossTerms&, const Model& m) {
+    last = m.grid;
+    last.insert(last.end(), m.mlp.begin(), m.mlp.end());
+    if (step == 16) average.assign(last.begin(), last.end());
+    if (step == 20 || step == 24)
+      for (size_t i = 0; i < last.size(); ++i) average[i] = decay * average[i] + (1.0 - decay) * double(last[i]);
+    return true;
+  }));
+  ASSERT_EQ(average.size(), model.grid.size() + model.mlp.size());
+  const Config& c = model.config;
+  ASSERT_EQ(c.grid_bits, 8u);
+  auto rounding = [&](size_t i) {  // how far quantization may move parameter i of the average
+    if (i < model.grid.size()) return 0.5 * double(model.grid_scales[c.level_of_entry(uint32_t(i / c.features))]) * 1.001 + 1e-7;
+    return std::abs(average[i]) * std::ldexp(1.0, -11) * 1.001 + 1e-7;
+  };
+  size_t off_average = 0, off_last = 0;
+  for (size_t i = 0; i < average.size(); ++i) {
+    const double kept = i < model.grid.size() ? model.grid[i] : model.mlp[i - model.grid.size()];
+    off_average += std::abs(kept - average[i]) > rounding(i);
+    off_last += std::abs(kept - double(last[i])) > rounding(i);
+  }
+  EXPECT_EQ(off_average, 0u) << "of " << average.size() << " parameters";
+  EXPECT_GT(off_last, average.size() / 10) << "the average should differ from the last step";
+
+  s.ema_decay = 0.0f;  // the last step's parameters, quantized
+  Model plain;
+  ASSERT_TRUE(train_model(cube(), s, plain, nullptr, [&](uint32_t, const LossTerms&, const Model& m) {
+    last = m.grid;
+    last.insert(last.end(), m.mlp.begin(), m.mlp.end());
+    return true;
+  }));
+  Model expected = plain;
+  expected.grid.assign(last.begin(), last.begin() + std::ptrdiff_t(plain.grid.size()));
+  expected.mlp.assign(last.begin() + std::ptrdiff_t(plain.grid.size()), last.end());
+  expected.quantize();
+  EXPECT_EQ(expected.grid, plain.grid);
+  EXPECT_EQ(expected.mlp, plain.mlp);
 }
 
 // --mlp-precision: auto trains what bf16 trains where the CPU has bf16 instructions (else what
