@@ -275,8 +275,6 @@ void init_parameters(const Config& config, const TrainSettings& settings, Model&
 constexpr uint32_t kStepsSampledTogether = 8;
 constexpr size_t kRaysSampledTogether = size_t(1) << 15;
 
-// What every step reuses, allocated once: gradients, optimizer moments, the batch (rays and their
-// walks), its encoding, activations and corners.
 // Who scatters and updates which range of grid entries in backward_and_update. Per thread: its
 // pace in this step's encoding (table lookups a second, from encode_batch) and the range it
 // scatters. Per range (scatter_range): whether it is scattered, the counter of its update chunks
@@ -293,6 +291,8 @@ struct ScatterPlan {
   void assign();
 };
 
+// What every step reuses, allocated once: gradients, optimizer moments, the batch (rays and their
+// walks), its encoding, activations and corners.
 struct StepState {
   StepState(const Model& model, const TrainSettings& settings)
       : d_grid(model.grid.size()), d_mlp(model.mlp.size()), grid_adam(model.grid.size(), settings.adam),
@@ -324,7 +324,8 @@ struct StepState {
   // The parameters' average (settings.ema_decay > 0), what this step does with it and whether any
   // step has.
   ParameterAverage grid_average, mlp_average;
-  enum class Averaging { kNone, kStart, kUpdate } averaging = Averaging::kNone, averaged = Averaging::kNone;
+  enum class Averaging { kNone, kStart, kUpdate } averaging = Averaging::kNone;
+  bool averaged = false;
 };
 
 // Which thread scatters which range: the costliest range to the thread that encoded fastest in
@@ -571,7 +572,7 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
 
   const float lr = scheduled_learning_rate(settings.lr_schedule, settings.adam.learning_rate, step, steps);
   st.averaging = averaging_of_step(settings, step, steps);
-  if (st.averaging != StepState::Averaging::kNone) st.averaged = st.averaging;
+  st.averaged = st.averaged || st.averaging != StepState::Averaging::kNone;
   backward_and_update(config, lr, std::pow(settings.ema_decay, float(kAverageInterval)), model, st, rep);
   return Status::ok();
 }
@@ -708,7 +709,7 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
     }
   }
   rep.planned_steps = steps;
-  if (st.averaged != StepState::Averaging::kNone) {  // the average kept
+  if (st.averaged) {  // the average kept
     model.grid.swap(st.grid_average.values());
     model.mlp.swap(st.mlp_average.values());
   }
