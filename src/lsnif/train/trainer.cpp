@@ -321,11 +321,9 @@ struct StepState {
   BatchCorners corners;
   std::vector<LossTerms> loss_blocks;  // batch_loss's sums per block
   ScatterPlan plan;
-  // The parameters' average (settings.ema_decay > 0), what this step does with it and whether any
-  // step has.
+  // The parameters' average (settings.ema_decay > 0) and what this step does with it.
   ParameterAverage grid_average, mlp_average;
   enum class Averaging { kNone, kStart, kUpdate } averaging = Averaging::kNone;
-  bool averaged = false;
   uint32_t average_updates = 0;  // steps that went into the average so far
 };
 
@@ -582,7 +580,6 @@ Status train_step(const RaySampler& sampler, const Config& config, const GridLay
 
   const float lr = scheduled_learning_rate(settings.lr_schedule, settings.adam.learning_rate, step, steps);
   st.averaging = averaging_of_step(settings, step, steps);
-  st.averaged = st.averaged || st.averaging != StepState::Averaging::kNone;
   const float decay = average_decay(settings.ema_decay, st.average_updates);
   if (st.averaging != StepState::Averaging::kNone) ++st.average_updates;
   backward_and_update(config, lr, decay, model, st, rep);
@@ -721,7 +718,7 @@ Status train_model(const Mesh& mesh, const TrainSettings& settings, Model& model
     }
   }
   rep.planned_steps = steps;
-  if (st.averaged) {  // the average kept
+  if (st.average_updates > 0) {  // the average kept
     model.grid.swap(st.grid_average.values());
     model.mlp.swap(st.mlp_average.values());
   }
